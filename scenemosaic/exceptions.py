@@ -1,0 +1,195 @@
+"""The one exception tree of scenemosaic.
+
+Every error the library raises on purpose derives from :class:`SceneMosaicError`.
+Usage errors (the caller gave us something wrong) are kept apart from run errors
+(something failed while working on valid input)::
+
+    SceneMosaicError
+    ├── UsageError                      the caller's input or configuration is wrong
+    │   ├── SceneValidationError        a scene breaks the model's rules (NaN pose, duplicate id, ...)
+    │   ├── ImportFormatError           an input file is malformed (names file and field)
+    │   ├── AssetError                  a mesh cannot be loaded or is degenerate
+    │   ├── GraphDefinitionError        a task graph has a cycle, a missing dependency, a duplicate name
+    │   ├── ModelConfigError            a model string or model setting is wrong (e.g. vision on a text-only server)
+    │   └── MissingExtraError           an optional dependency is not installed (names the pip command)
+    └── RunError                        something failed while running on valid input
+        ├── NodeFailedError             a task-graph node failed after its retries
+        ├── NodeTimeoutError            a node ran past its timeout
+        ├── RunCancelledError           a run was cancelled; carries the partial results
+        ├── UsageLimitExceeded          a usage limit (requests, tokens, cost) stopped the run
+        ├── ModelError                  a model request failed
+        │   ├── ModelHTTPError          non-200 reply; carries status code and body
+        │   ├── OutputValidationError   reply not JSON / breaks the schema; carries raw reply and errors
+        │   └── ReplayMissError         replay mode found no cassette entry; names the differing part
+        ├── AgentOutputError            a validated agent output is inconsistent with the scene
+        │                               (unknown object id, parent cycle, support by a leaf)
+        └── PhysicsError                simulation failed (blow-up that no fallback could fix)
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = [
+    "AgentOutputError",
+    "AssetError",
+    "GraphDefinitionError",
+    "ImportFormatError",
+    "MissingExtraError",
+    "ModelConfigError",
+    "ModelError",
+    "ModelHTTPError",
+    "NodeFailedError",
+    "NodeTimeoutError",
+    "OutputValidationError",
+    "PhysicsError",
+    "ReplayMissError",
+    "RunCancelledError",
+    "RunError",
+    "SceneMosaicError",
+    "SceneValidationError",
+    "UsageError",
+    "UsageLimitExceeded",
+]
+
+
+class SceneMosaicError(Exception):
+    """Root of every error scenemosaic raises on purpose."""
+
+
+class UsageError(SceneMosaicError):
+    """The caller's input or configuration is wrong; fixing the input fixes the error."""
+
+
+class SceneValidationError(UsageError):
+    """A scene (or part of one) breaks the scene model's rules.
+
+    Deliberately not a ``ValueError``: raised inside a pydantic validator it propagates
+    as itself instead of being folded into a ``pydantic.ValidationError``.
+
+    ``object_id`` names the offending object when there is one.
+    """
+
+    def __init__(self, message: str, *, object_id: str | None = None) -> None:
+        super().__init__(message)
+        self.object_id = object_id
+
+
+class ImportFormatError(UsageError, ValueError):
+    """An input file is malformed. The message names the file and the field."""
+
+    def __init__(self, message: str, *, path: str | None = None, field: str | None = None) -> None:
+        parts = [p for p in (path, field) if p]
+        prefix = ": ".join(parts)
+        super().__init__(f"{prefix}: {message}" if prefix else message)
+        self.path = path
+        self.field = field
+
+
+class AssetError(UsageError):
+    """A mesh cannot be loaded, is degenerate, or cannot be decomposed."""
+
+
+class GraphDefinitionError(UsageError):
+    """A task graph is malformed: a cycle, a missing dependency or a duplicate node name."""
+
+
+class ModelConfigError(UsageError):
+    """A model string or model setting is wrong (unknown scheme, vision on a text-only server...)."""
+
+
+class MissingExtraError(UsageError, ImportError):
+    """An optional dependency is missing; the message names the ``pip install`` to run."""
+
+
+class RunError(SceneMosaicError):
+    """Something failed while working on valid input."""
+
+
+class NodeFailedError(RunError):
+    """A task-graph node failed after exhausting its retry policy."""
+
+    def __init__(self, node: str, cause: BaseException) -> None:
+        super().__init__(f"node {node!r} failed: {type(cause).__name__}: {cause}")
+        self.node = node
+        self.cause = cause
+
+
+class NodeTimeoutError(RunError, TimeoutError):
+    """A node ran longer than its timeout policy allows."""
+
+    def __init__(self, node: str, timeout_s: float) -> None:
+        super().__init__(f"node {node!r} timed out after {timeout_s:g} s")
+        self.node = node
+        self.timeout_s = timeout_s
+
+
+class RunCancelledError(RunError):
+    """A run was cancelled. ``partial`` holds every node output computed before the cancel."""
+
+    def __init__(self, message: str, *, partial: dict[str, Any] | None = None) -> None:
+        super().__init__(message)
+        self.partial: dict[str, Any] = dict(partial or {})
+
+
+class UsageLimitExceeded(RunError):
+    """A usage limit (requests, tokens, cost) was reached; the run stopped cleanly."""
+
+    def __init__(self, message: str, *, partial: dict[str, Any] | None = None) -> None:
+        super().__init__(message)
+        self.partial: dict[str, Any] = dict(partial or {})
+
+
+class ModelError(RunError):
+    """A model request failed."""
+
+
+class ModelHTTPError(ModelError):
+    """An HTTP reply other than 200 (or a 200 carrying an error object)."""
+
+    def __init__(self, message: str, *, status_code: int, body: str) -> None:
+        super().__init__(f"HTTP {status_code}: {message}")
+        self.status_code = status_code
+        self.body = body
+
+
+class OutputValidationError(ModelError):
+    """A model reply was not JSON or broke the output schema, after every repair attempt."""
+
+    def __init__(self, message: str, *, raw_reply: str, errors: list[str] | None = None) -> None:
+        super().__init__(message)
+        self.raw_reply = raw_reply
+        self.errors = list(errors or [])
+
+
+class ReplayMissError(ModelError, KeyError):
+    """Replay mode found no recorded reply for a request; ``differing`` names what changed."""
+
+    def __init__(self, message: str, *, differing: list[str] | None = None) -> None:
+        super().__init__(message)
+        self.differing = list(differing or [])
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else ""
+
+
+class AgentOutputError(RunError):
+    """An agent's schema-valid output is inconsistent with the scene.
+
+    Examples: it names an object id that does not exist, it would create a parent
+    cycle, it puts an object on a leaf that cannot support it. ``problems`` lists
+    each issue in words a model can act on (they are sent back in repair requests).
+    """
+
+    def __init__(self, message: str, *, agent: str | None = None, problems: list[str] | None = None) -> None:
+        super().__init__(message)
+        self.agent = agent
+        self.problems = list(problems or [])
+
+
+class PhysicsError(RunError):
+    """A simulation failed in a way no fallback could fix."""
+
+    def __init__(self, message: str, *, object_ids: list[str] | None = None) -> None:
+        super().__init__(message)
+        self.object_ids = list(object_ids or [])

@@ -1,0 +1,141 @@
+"""The one seam for language/vision models: :class:`Model` with a single abstract ``request``.
+
+Retry, rate limits, replay/record and usage accounting are *wrappers* around a model,
+not flags on it. The offline default (``rules``) answers each request with the asking
+agent's own deterministic solver, which it finds in the :class:`RequestContext`.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Literal, TypeVar
+
+from pydantic import BaseModel
+
+__all__ = [
+    "ImagePart",
+    "Message",
+    "Model",
+    "ModelSettings",
+    "RequestContext",
+    "TextPart",
+    "Usage",
+]
+
+OutputT = TypeVar("OutputT", bound=BaseModel)
+
+
+@dataclass(frozen=True)
+class TextPart:
+    """A piece of text in a message."""
+
+    text: str
+
+
+@dataclass(frozen=True)
+class ImagePart:
+    """A PNG image in a message (sent as a base64 data URL on the wire)."""
+
+    png: bytes
+    label: str | None = None
+    """Short caption; text-only models receive the agent's text rendering instead of the image."""
+
+
+@dataclass(frozen=True)
+class Message:
+    """One chat message: a role and an ordered list of text and image parts."""
+
+    role: Literal["system", "user", "assistant"]
+    parts: tuple[TextPart | ImagePart, ...]
+
+    @classmethod
+    def text(cls, role: Literal["system", "user", "assistant"], text: str) -> Message:
+        return cls(role=role, parts=(TextPart(text),))
+
+    @property
+    def has_images(self) -> bool:
+        return any(isinstance(p, ImagePart) for p in self.parts)
+
+
+@dataclass(frozen=True)
+class ModelSettings:
+    """Per-request settings. ``None`` means "the model's own default"."""
+
+    temperature: float | None = 0.0
+    """Sampling temperature; 0 for reproducible structured answers."""
+    max_tokens: int | None = 2048
+    """Cap on output tokens. A reply cut at this cap is treated as truncated, never as valid."""
+    timeout_s: float | None = 120.0
+    """Per-request timeout in seconds (connect + read)."""
+    seed: int | None = None
+    """Sampling seed where the server honours one."""
+
+
+@dataclass
+class Usage:
+    """Token and request counts of one call or an aggregate of calls."""
+
+    requests: int = 0
+    input_tokens: int = 0
+    output_tokens: int = 0
+    image_tokens: int = 0
+    images: int = 0
+
+    def __add__(self, other: Usage) -> Usage:
+        return Usage(
+            requests=self.requests + other.requests,
+            input_tokens=self.input_tokens + other.input_tokens,
+            output_tokens=self.output_tokens + other.output_tokens,
+            image_tokens=self.image_tokens + other.image_tokens,
+            images=self.images + other.images,
+        )
+
+    @property
+    def total_tokens(self) -> int:
+        return self.input_tokens + self.output_tokens + self.image_tokens
+
+
+@dataclass(frozen=True)
+class RequestContext:
+    """What the asking agent tells a model besides the messages.
+
+    The rules model answers with ``solve(evidence)``; other models ignore ``solve`` and
+    use ``agent`` for usage accounting, rate-limit keys and cassette names.
+    """
+
+    agent: str
+    """Name of the asking agent (e.g. ``"support"``)."""
+    node: str | None = None
+    """Task-graph node running the request, when there is one."""
+    evidence: Any = None
+    """The structured evidence the messages were rendered from (a pydantic model)."""
+    solve: Callable[[Any], BaseModel] | None = None
+    """The agent's deterministic solver, used by the rules model."""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+class Model(abc.ABC):
+    """A model that turns messages into a validated pydantic output.
+
+    Subclasses implement :meth:`request`. ``vision`` says whether image parts may be
+    sent; agents send a text rendering of the same facts when it is false.
+    """
+
+    name: str = "model"
+    vision: bool = True
+
+    @abc.abstractmethod
+    async def request(
+        self,
+        messages: list[Message],
+        output_type: type[OutputT],
+        settings: ModelSettings | None = None,
+        *,
+        context: RequestContext | None = None,
+    ) -> tuple[OutputT, Usage]:
+        """Send ``messages`` and return the reply validated as ``output_type`` plus its usage."""
+
+    async def aclose(self) -> None:  # noqa: B027 - optional hook, most models hold nothing
+        """Release connections; a no-op unless the model holds any."""

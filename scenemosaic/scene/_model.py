@@ -1,0 +1,508 @@
+"""The scene model: pydantic types for rooms, objects, poses, relations and structure.
+
+Frames and units (the full statement is ``docs/conventions.md``):
+
+* World frame: right-handed, **Z up**, metres.
+* An object's local frame has its origin at the **bottom centre of its footprint**,
+  +Z up, and its **front along local -Y**. ``yaw = 0`` therefore faces world -Y.
+* Quaternions are scalar-first ``(w, x, y, z)``. A quaternion whose norm is off by more
+  than ``QUAT_NORM_TOLERANCE`` is normalized and a warning is logged; a zero or
+  non-finite quaternion is rejected.
+* ``Pose.scale`` multiplies the asset's canonical extents (``AssetRef.extents``), so
+  an object's size in its own frame is ``asset.extents * pose.scale``.
+* Anchor ids: ``"floor"``, ``"ceiling"``, each wall's id, or an object id. Object ids may
+  not collide with them.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, Literal
+
+import numpy as np
+import structlog
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from scenemosaic.exceptions import SceneValidationError
+from scenemosaic.scene._geometry import FloatArray, quat_from_yaw, quat_to_matrix, yaw_from_quat
+
+__all__ = [
+    "FLOOR",
+    "CEILING",
+    "QUAT_NORM_TOLERANCE",
+    "AssetRef",
+    "ConstraintClause",
+    "CrossUnitConstraint",
+    "LocalUnit",
+    "Opening",
+    "Pose",
+    "Provenance",
+    "Relation",
+    "Room",
+    "Scene",
+    "SceneObject",
+    "SceneStructure",
+    "SimAttributes",
+    "Wall",
+]
+
+log = structlog.get_logger(__name__)
+
+FLOOR = "floor"
+"""Anchor id of the floor."""
+CEILING = "ceiling"
+"""Anchor id of the ceiling."""
+QUAT_NORM_TOLERANCE = 1e-6
+"""Largest accepted deviation of a quaternion's norm from 1 before it is normalized (with a warning)."""
+
+ObjectId = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.\-]+$")]
+Vec2 = tuple[float, float]
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+
+
+def _check_finite(values: tuple[float, ...], what: str) -> None:
+    if not all(math.isfinite(v) for v in values):
+        raise ValueError(f"{what} must be finite, got {list(values)}")
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+class Pose(BaseModel):
+    """Where an object is: position of its local origin, orientation and anisotropic scale.
+
+    Immutable; use :meth:`model_copy` with ``update=`` or :meth:`with_yaw` to change it.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    position: Vec3 = Field(description="World position of the object's local origin (bottom centre), metres.")
+    quaternion: Quat = Field(default=(1.0, 0.0, 0.0, 0.0), description="Unit quaternion (w, x, y, z).")
+    scale: Vec3 = Field(default=(1.0, 1.0, 1.0), description="Positive per-axis scale of the canonical asset.")
+
+    @field_validator("position")
+    @classmethod
+    def _finite_position(cls, v: Vec3) -> Vec3:
+        _check_finite(v, "position")
+        return v
+
+    @field_validator("scale")
+    @classmethod
+    def _positive_scale(cls, v: Vec3) -> Vec3:
+        _check_finite(v, "scale")
+        if min(v) <= 0:
+            raise ValueError(f"scale must be positive on every axis, got {list(v)}")
+        return v
+
+    @field_validator("quaternion")
+    @classmethod
+    def _unit_quaternion(cls, v: Quat) -> Quat:
+        _check_finite(v, "quaternion")
+        norm = math.sqrt(sum(c * c for c in v))
+        if norm < 1e-9:
+            raise ValueError("quaternion has zero norm")
+        if abs(norm - 1.0) > QUAT_NORM_TOLERANCE:
+            log.warning("quaternion_normalized", norm=norm, quaternion=list(v))
+        q = tuple(c / norm for c in v)
+        if q[0] < 0:  # canonical sign: w >= 0, so equal rotations serialize equally
+            q = tuple(-c for c in q)
+        return (q[0], q[1], q[2], q[3])
+
+    @classmethod
+    def from_yaw(cls, position: Vec3, yaw: float, scale: Vec3 = (1.0, 1.0, 1.0)) -> Pose:
+        """An upright pose rotated ``yaw`` radians about +Z."""
+        return cls(position=position, quaternion=quat_from_yaw(yaw), scale=scale)
+
+    @property
+    def yaw(self) -> float:
+        """Heading about +Z in radians (0 = front faces world -Y)."""
+        return yaw_from_quat(self.quaternion)
+
+    @property
+    def rotation(self) -> FloatArray:
+        """3x3 rotation matrix."""
+        return quat_to_matrix(self.quaternion)
+
+    def with_yaw(self, yaw: float) -> Pose:
+        """The same position and scale, upright, facing ``yaw``."""
+        return Pose(position=self.position, quaternion=quat_from_yaw(yaw), scale=self.scale)
+
+    def matrix(self, *, with_scale: bool = True) -> FloatArray:
+        """4x4 local-to-world transform ``T @ R @ S`` (``S`` omitted when ``with_scale`` is false)."""
+        m = np.eye(4)
+        r = self.rotation
+        m[:3, :3] = r @ np.diag(self.scale) if with_scale else r
+        m[:3, 3] = self.position
+        return m
+
+
+class AssetRef(_Model):
+    """What an object looks like: a mesh file, a procedural furniture model, or a plain box.
+
+    ``extents`` is the canonical asset's size in its local frame (x width, y depth,
+    z height) in metres, before ``Pose.scale``; it is known without loading any mesh.
+    """
+
+    kind: Literal["mesh", "procedural", "box"] = "procedural"
+    uri: str | None = Field(default=None, description="Mesh path relative to the scene folder (kind 'mesh').")
+    category: str | None = Field(default=None, description="Procedural model to build (kind 'procedural').")
+    extents: Vec3 = Field(description="Canonical local size (x, y, z) in metres, before pose scale.")
+    sha256: str | None = Field(default=None, description="Content hash of the canonical mesh, when known.")
+    source_transform: list[float] | None = Field(
+        default=None,
+        description="Row-major 4x4 mapping the source file's coordinates to the canonical frame.",
+    )
+
+    @field_validator("extents")
+    @classmethod
+    def _positive_extents(cls, v: Vec3) -> Vec3:
+        _check_finite(v, "extents")
+        if min(v) <= 0:
+            raise ValueError(f"asset extents must be positive, got {list(v)}")
+        return v
+
+    @model_validator(mode="after")
+    def _kind_fields(self) -> AssetRef:
+        if self.kind == "mesh" and not self.uri:
+            raise ValueError("a mesh asset needs a uri")
+        if self.source_transform is not None and len(self.source_transform) != 16:
+            raise ValueError("source_transform must hold 16 numbers (row-major 4x4)")
+        return self
+
+
+class SimAttributes(_Model):
+    """Simulation properties. ``mass_kg`` wins over ``density_kg_m3`` when both are set."""
+
+    mass_kg: float | None = Field(default=None, gt=0, description="Total mass in kilograms.")
+    density_kg_m3: float | None = Field(default=None, gt=0, description="Density used when mass is unset.")
+    friction: float = Field(default=0.6, ge=0, le=5, description="Sliding friction coefficient.")
+    static: bool = Field(default=False, description="True for fixtures that never move in simulation.")
+    source: str | None = Field(default=None, description="Where the figures came from (agent, file, table).")
+
+    @field_validator("mass_kg", "density_kg_m3", "friction")
+    @classmethod
+    def _finite(cls, v: float | None) -> float | None:
+        if v is not None and not math.isfinite(v):
+            raise ValueError("must be finite")
+        return v
+
+
+class SceneObject(_Model):
+    """One object of the scene, with a stable id that survives every stage."""
+
+    id: ObjectId
+    category: str = Field(min_length=1, max_length=64, description="Normalized category, e.g. 'dining_chair'.")
+    description: str = Field(default="", max_length=500)
+    asset: AssetRef
+    pose: Pose
+    sim: SimAttributes = Field(default_factory=SimAttributes)
+
+    @property
+    def size(self) -> FloatArray:
+        """Size in the object's own frame: asset extents times pose scale (metres)."""
+        return np.asarray(self.asset.extents, dtype=np.float64) * np.asarray(self.pose.scale)
+
+    def corners(self) -> FloatArray:
+        """World coordinates of the 8 corners of the object's oriented bounding box, shape (8, 3)."""
+        sx, sy, sz = self.asset.extents
+        local = np.array(
+            [[x, y, z] for x in (-sx / 2, sx / 2) for y in (-sy / 2, sy / 2) for z in (0.0, sz)],
+            dtype=np.float64,
+        )
+        m = self.pose.matrix()
+        return local @ m[:3, :3].T + m[:3, 3]
+
+    def footprint(self) -> FloatArray:
+        """World XY corners (4, 2) of the oriented footprint, counter-clockwise, for upright objects."""
+        sx, sy, _ = self.asset.extents
+        local = np.array([[-sx / 2, -sy / 2, 0], [sx / 2, -sy / 2, 0], [sx / 2, sy / 2, 0], [-sx / 2, sy / 2, 0]])
+        m = self.pose.matrix()
+        return (local @ m[:3, :3].T + m[:3, 3])[:, :2]
+
+    def aabb(self) -> tuple[FloatArray, FloatArray]:
+        """World axis-aligned bounds (min xyz, max xyz) of the oriented box."""
+        c = self.corners()
+        return c.min(axis=0), c.max(axis=0)
+
+
+class Opening(_Model):
+    """A door or window in a wall, in (distance along the wall, height) coordinates."""
+
+    kind: Literal["door", "window", "opening"] = "door"
+    center: float = Field(description="Distance from the wall's start to the opening's centre, metres.")
+    width: float = Field(gt=0)
+    bottom: float = Field(default=0.0, ge=0, description="Sill height above the floor, metres.")
+    height: float = Field(gt=0)
+
+
+class Wall(_Model):
+    """A straight wall segment. Its inward normal points left of ``start -> end`` (floor is CCW)."""
+
+    id: ObjectId
+    start: Vec2
+    end: Vec2
+    height: float = Field(gt=0)
+    thickness: float = Field(default=0.1, gt=0)
+    openings: list[Opening] = Field(default_factory=list)
+
+    @property
+    def length(self) -> float:
+        return float(math.dist(self.start, self.end))
+
+    @property
+    def direction(self) -> FloatArray:
+        d = np.subtract(self.end, self.start)
+        return d / max(float(np.linalg.norm(d)), 1e-12)
+
+    @property
+    def inward_normal(self) -> FloatArray:
+        """Unit normal pointing into the room."""
+        d = self.direction
+        return np.array([-d[1], d[0]])
+
+    @property
+    def outward_normal(self) -> FloatArray:
+        return -self.inward_normal
+
+
+class Room(_Model):
+    """A room: floor polygon (counter-clockwise, metres, z = 0), walls and ceiling height."""
+
+    id: ObjectId = "room"
+    floor: list[Vec2] = Field(min_length=3, description="Floor polygon, counter-clockwise seen from above.")
+    walls: list[Wall] = Field(default_factory=list)
+    ceiling_height: float = Field(default=2.8, gt=0)
+
+    @field_validator("floor")
+    @classmethod
+    def _ccw_polygon(cls, v: list[Vec2]) -> list[Vec2]:
+        for p in v:
+            _check_finite(p, "floor point")
+        pts = np.asarray(v, dtype=np.float64)
+        x, y = pts[:, 0], pts[:, 1]
+        area2 = float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+        if abs(area2) < 1e-9:
+            raise ValueError("floor polygon has zero area")
+        return v if area2 > 0 else list(reversed(v))
+
+    @classmethod
+    def from_polygon(cls, floor: list[Vec2], *, ceiling_height: float = 2.8, room_id: str = "room") -> Room:
+        """A room with one wall per polygon edge (``wall_0`` ...), wall height = ceiling height."""
+        room = cls(id=room_id, floor=floor, ceiling_height=ceiling_height)
+        pts = room.floor
+        room.walls = [
+            Wall(id=f"wall_{i}", start=pts[i], end=pts[(i + 1) % len(pts)], height=ceiling_height)
+            for i in range(len(pts))
+        ]
+        return room
+
+    @classmethod
+    def rectangle(cls, xmin: float, ymin: float, xmax: float, ymax: float, *, ceiling_height: float = 2.8) -> Room:
+        """An axis-aligned rectangular room."""
+        return cls.from_polygon(
+            [(xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax)], ceiling_height=ceiling_height
+        )
+
+    def wall(self, wall_id: str) -> Wall:
+        for w in self.walls:
+            if w.id == wall_id:
+                return w
+        raise KeyError(wall_id)
+
+
+SupportKind = Literal["attach", "contain"]
+
+
+class Relation(_Model):
+    """A relation between an object (``child``) and an anchor (``parent``).
+
+    * ``attach``: the child rests on / hangs from / is mounted on the parent (its support).
+    * ``contain``: the child is inside the parent (also its support); ``opening`` gives the
+      side the container opens to, in the container's frame.
+    * ``against``: the child stands flush against a wall (not a support); ``distance`` is
+      the gap to the wall in metres.
+
+    ``parent`` is an anchor id: ``"floor"``, ``"ceiling"``, a wall id, or an object id.
+    """
+
+    kind: Literal["attach", "contain", "against"]
+    child: ObjectId
+    parent: ObjectId
+    opening: Literal["front", "top", "back", "left", "right"] | None = None
+    distance: float | None = Field(default=None, ge=0)
+    source: str | None = Field(default=None, description="Agent or importer that stated the relation.")
+
+    @property
+    def is_support(self) -> bool:
+        return self.kind in ("attach", "contain")
+
+
+class ConstraintClause(_Model):
+    """One unit's share of a cross-unit constraint; mentions only that unit's anchor and objects."""
+
+    anchor_id: ObjectId
+    related_objects: list[ObjectId] = Field(default_factory=list, max_length=32)
+    layout_note: str = Field(max_length=400)
+
+
+class CrossUnitConstraint(_Model):
+    """A strong functional relation spanning two units, split into two per-unit clauses."""
+
+    id: ObjectId
+    kind: Literal["orientation", "placement"]
+    description: str = Field(max_length=400)
+    anchor_a: ConstraintClause
+    anchor_b: ConstraintClause
+
+    @model_validator(mode="after")
+    def _different_anchors(self) -> CrossUnitConstraint:
+        if self.anchor_a.anchor_id == self.anchor_b.anchor_id:
+            raise ValueError("a cross-unit constraint needs two different anchors")
+        return self
+
+
+class LocalUnit(_Model):
+    """An anchor with its immediate children: the unit that evolves independently.
+
+    ``frame`` is the row-major 4x4 anchor frame in world coordinates; children poses in the
+    unit frame are ``inv(frame) @ world``. ``projection`` is the view the unit is shown in.
+    """
+
+    anchor_id: ObjectId
+    anchor_kind: Literal["floor", "wall", "ceiling", "object"]
+    children: list[ObjectId] = Field(min_length=1)
+    contained: bool = Field(default=False, description="True when the children are inside the anchor.")
+    projection: Literal["top_down", "bottom_up", "wall_normal", "anchor_front"]
+    frame: list[float] = Field(min_length=16, max_length=16)
+    clauses: list[ConstraintClause] = Field(default_factory=list)
+
+
+class SceneStructure(_Model):
+    """Output of the structuring stage: local units in top-down order (parents before children)."""
+
+    units: list[LocalUnit] = Field(default_factory=list)
+
+
+class Provenance(_Model):
+    """Where a scene came from and what has been done to it."""
+
+    source_format: str | None = None
+    source_path: str | None = None
+    importer: str | None = None
+    steps: list[str] = Field(default_factory=list, description="Pipeline stages applied, in order.")
+    notes: list[str] = Field(default_factory=list, description="Repairs and fallbacks worth knowing about.")
+
+
+class Scene(_Model):
+    """A whole scene: room, objects, relations, structure, metadata and provenance.
+
+    Construction validates the cross-references: unique object ids that do not collide with
+    anchor ids, relation endpoints that exist, at most one support relation per object,
+    constraints that name existing anchors and objects. Call :meth:`validate_references`
+    again after editing a scene in place.
+    """
+
+    id: ObjectId = "scene"
+    room: Room | None = None
+    objects: list[SceneObject] = Field(default_factory=list)
+    relations: list[Relation] = Field(default_factory=list)
+    constraints: list[CrossUnitConstraint] = Field(default_factory=list)
+    structure: SceneStructure | None = None
+    metadata: dict[str, Any] = Field(default_factory=dict)
+    provenance: Provenance = Field(default_factory=Provenance)
+
+    @model_validator(mode="after")
+    def _references(self) -> Scene:
+        self.validate_references()
+        return self
+
+    # -- lookups -----------------------------------------------------------------------------
+    def anchor_ids(self) -> set[str]:
+        """Every id a relation may point to: floor, ceiling, walls and objects."""
+        ids = {FLOOR, CEILING} | {o.id for o in self.objects}
+        if self.room is not None:
+            ids |= {w.id for w in self.room.walls}
+        return ids
+
+    def anchor_kind(self, anchor_id: str) -> Literal["floor", "wall", "ceiling", "object"]:
+        """What kind of anchor an id names; raises ``KeyError`` for unknown ids."""
+        if anchor_id == FLOOR:
+            return "floor"
+        if anchor_id == CEILING:
+            return "ceiling"
+        if self.room is not None and any(w.id == anchor_id for w in self.room.walls):
+            return "wall"
+        if any(o.id == anchor_id for o in self.objects):
+            return "object"
+        raise KeyError(anchor_id)
+
+    def get(self, object_id: str) -> SceneObject:
+        """The object with this id; raises ``KeyError`` naming it."""
+        for o in self.objects:
+            if o.id == object_id:
+                return o
+        raise KeyError(f"no object with id {object_id!r}")
+
+    def support_of(self, object_id: str) -> Relation | None:
+        """The object's support relation (attach or contain), if it has one."""
+        for r in self.relations:
+            if r.child == object_id and r.is_support:
+                return r
+        return None
+
+    def children_of(self, anchor_id: str) -> list[str]:
+        """Ids of objects whose support relation points at ``anchor_id``, in object order."""
+        kids = {r.child for r in self.relations if r.is_support and r.parent == anchor_id}
+        return [o.id for o in self.objects if o.id in kids]
+
+    # -- validation --------------------------------------------------------------------------
+    def validate_references(self) -> None:
+        """Check ids and cross-references; raise :class:`SceneValidationError` naming the culprit."""
+        seen: set[str] = set()
+        reserved = {FLOOR, CEILING} | ({w.id for w in self.room.walls} if self.room else set())
+        for o in self.objects:
+            if o.id in seen:
+                raise SceneValidationError(f"duplicate object id {o.id!r}", object_id=o.id)
+            if o.id in reserved:
+                raise SceneValidationError(f"object id {o.id!r} collides with an anchor id", object_id=o.id)
+            seen.add(o.id)
+        anchors = seen | reserved
+        supported: set[str] = set()
+        for r in self.relations:
+            if r.child not in seen:
+                raise SceneValidationError(f"relation names unknown child {r.child!r}", object_id=r.child)
+            if r.parent not in anchors:
+                raise SceneValidationError(
+                    f"object {r.child!r}: relation {r.kind!r} points at unknown anchor {r.parent!r}",
+                    object_id=r.child,
+                )
+            if r.parent == r.child:
+                raise SceneValidationError(f"object {r.child!r} cannot relate to itself", object_id=r.child)
+            if r.is_support:
+                if r.child in supported:
+                    raise SceneValidationError(
+                        f"object {r.child!r} has more than one support relation", object_id=r.child
+                    )
+                supported.add(r.child)
+        for c in self.constraints:
+            for clause in (c.anchor_a, c.anchor_b):
+                if clause.anchor_id not in anchors:
+                    raise SceneValidationError(
+                        f"constraint {c.id!r} names unknown anchor {clause.anchor_id!r}", object_id=clause.anchor_id
+                    )
+                for oid in clause.related_objects:
+                    if oid not in seen:
+                        raise SceneValidationError(
+                            f"constraint {c.id!r} names unknown object {oid!r}", object_id=oid
+                        )
+
+    def to_json(self, *, indent: int | None = 2) -> str:
+        """Canonical JSON text (stable key order, so equal scenes give identical bytes)."""
+        return self.model_dump_json(indent=indent)
+
+    @classmethod
+    def from_json(cls, text: str | bytes) -> Scene:
+        """Parse and validate a scene from JSON text."""
+        return cls.model_validate_json(text)

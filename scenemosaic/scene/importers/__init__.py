@@ -1,0 +1,1 @@
+"""Importers behind load_scene."""
