@@ -1,0 +1,42 @@
+"""structlog configuration: human-readable on a terminal, JSON lines otherwise."""
+
+from __future__ import annotations
+
+import logging
+import sys
+from typing import Literal
+
+import structlog
+
+__all__ = ["configure_logging"]
+
+LogLevel = Literal["debug", "info", "warning", "error"]
+
+
+def configure_logging(level: LogLevel | str = "warning", *, json_lines: bool | None = None) -> None:
+    """Configure structlog for the process.
+
+    ``json_lines=None`` picks JSON lines when stderr is not a terminal (CI, batch jobs, log
+    collectors) and coloured console output when it is. Logs go to stderr so that stdout stays
+    free for command output.
+    """
+    numeric = logging.getLevelNamesMapping().get(str(level).upper())
+    if numeric is None:
+        raise ValueError(f"unknown log level {level!r}; use debug, info, warning or error")
+    if json_lines is None:
+        json_lines = not sys.stderr.isatty()
+    renderer: structlog.types.Processor = (
+        structlog.processors.JSONRenderer(sort_keys=True) if json_lines else structlog.dev.ConsoleRenderer()
+    )
+    structlog.configure(
+        processors=[
+            structlog.contextvars.merge_contextvars,
+            structlog.processors.add_log_level,
+            structlog.processors.TimeStamper(fmt="iso", utc=True),
+            structlog.processors.format_exc_info,
+            renderer,
+        ],
+        wrapper_class=structlog.make_filtering_bound_logger(numeric),
+        logger_factory=structlog.PrintLoggerFactory(file=sys.stderr),
+        cache_logger_on_first_use=False,
+    )

@@ -1,0 +1,46 @@
+"""``WrapperModel``: the base of models that add behaviour around another model."""
+
+from __future__ import annotations
+
+from scenemosaic.models._base import Message, Model, ModelSettings, OutputT, RequestContext, Usage
+
+__all__ = ["WrapperModel"]
+
+
+class WrapperModel(Model):
+    """Delegates to ``wrapped``; subclasses override :meth:`request` to add behaviour.
+
+    ``name`` and ``vision`` are the wrapped model's, so agents and cassettes see through
+    wrappers; :meth:`aclose` closes the wrapped model.
+    """
+
+    def __init__(self, wrapped: Model) -> None:
+        self.wrapped = wrapped
+
+    @property  # type: ignore[override]
+    def name(self) -> str:
+        """The wrapped model's name."""
+        return self.wrapped.name
+
+    @property  # type: ignore[override]
+    def vision(self) -> bool:
+        """Whether the wrapped model takes images."""
+        return self.wrapped.vision
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.wrapped!r})"
+
+    async def request(
+        self,
+        messages: list[Message],
+        output_type: type[OutputT],
+        settings: ModelSettings | None = None,
+        *,
+        context: RequestContext | None = None,
+    ) -> tuple[OutputT, Usage]:
+        """Forward to the wrapped model."""
+        return await self.wrapped.request(messages, output_type, settings, context=context)
+
+    async def aclose(self) -> None:
+        """Close the wrapped model."""
+        await self.wrapped.aclose()

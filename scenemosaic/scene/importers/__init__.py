@@ -1,1 +1,0 @@
-"""Importers behind load_scene."""
