@@ -27,8 +27,17 @@ app = typer.Typer(
 _err = Console(stderr=True)
 _out = Console()
 
+def _log_level(value: str) -> str:
+    try:
+        configure_logging(value)
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc)) from exc
+    return value
+
+
 LogLevelOpt = Annotated[
-    str, typer.Option("--log-level", help="Log level: debug, info, warning, error. Logs go to stderr.")
+    str,
+    typer.Option("--log-level", callback=_log_level, help="Log level: debug, info, warning, error. Logs go to stderr."),
 ]
 
 
@@ -85,7 +94,6 @@ def generate(
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Turn INPUT into a stabilized, simulation-ready scene in the output layout under --out."""
-    configure_logging(log_level)
     config = GenerateConfig(format=format, variants=variants, model=model, seed=seed, room=room, vision=vision)
     try:
         result = _run_with_progress(input_path, out, config)
@@ -106,7 +114,6 @@ def demo(
     from scenemosaic._demo import demo_scene
     from scenemosaic.importers import save_scene
 
-    configure_logging(log_level)
     source = out / "input"
     save_scene(demo_scene(), source)
     try:
@@ -127,7 +134,6 @@ def inspect(
     from scenemosaic.importers import read_scene
     from scenemosaic.scene import format_tree
 
-    configure_logging(log_level)
     try:
         scene = read_scene(scene_path)
     except SceneMosaicError as exc:

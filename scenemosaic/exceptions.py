@@ -10,6 +10,7 @@ Usage errors (the caller gave us something wrong) are kept apart from run errors
     │   ├── ImportFormatError           an input file is malformed (names file and field)
     │   ├── AssetError                  a mesh cannot be loaded or is degenerate
     │   ├── GraphDefinitionError        a task graph has a cycle, a missing dependency, a duplicate name
+    │   │   └── GraphChangedError       a run store belongs to another graph definition
     │   ├── ModelConfigError            a model string or model setting is wrong (e.g. vision on a text-only server)
     │   └── MissingExtraError           an optional dependency is not installed (names the pip command)
     └── RunError                        something failed while running on valid input
@@ -33,6 +34,7 @@ from typing import Any
 __all__ = [
     "AgentOutputError",
     "AssetError",
+    "GraphChangedError",
     "GraphDefinitionError",
     "ImportFormatError",
     "MissingExtraError",
@@ -94,6 +96,14 @@ class GraphDefinitionError(UsageError):
     """A task graph is malformed: a cycle, a missing dependency or a duplicate node name."""
 
 
+class GraphChangedError(GraphDefinitionError):
+    """A run store holds outputs of a different graph definition; ``differences`` lists the changes."""
+
+    def __init__(self, message: str, *, differences: list[str]) -> None:
+        super().__init__(message)
+        self.differences = list(differences)
+
+
 class ModelConfigError(UsageError):
     """A model string or model setting is wrong (unknown scheme, vision on a text-only server...)."""
 
@@ -109,19 +119,21 @@ class RunError(SceneMosaicError):
 class NodeFailedError(RunError):
     """A task-graph node failed after exhausting its retry policy."""
 
-    def __init__(self, node: str, cause: BaseException) -> None:
+    def __init__(self, node: str, cause: BaseException, *, partial: dict[str, Any] | None = None) -> None:
         super().__init__(f"node {node!r} failed: {type(cause).__name__}: {cause}")
         self.node = node
         self.cause = cause
+        self.partial: dict[str, Any] = dict(partial or {})
 
 
 class NodeTimeoutError(RunError, TimeoutError):
     """A node ran longer than its timeout policy allows."""
 
-    def __init__(self, node: str, timeout_s: float) -> None:
+    def __init__(self, node: str, timeout_s: float, *, partial: dict[str, Any] | None = None) -> None:
         super().__init__(f"node {node!r} timed out after {timeout_s:g} s")
         self.node = node
         self.timeout_s = timeout_s
+        self.partial: dict[str, Any] = dict(partial or {})
 
 
 class RunCancelledError(RunError):

@@ -72,7 +72,7 @@ class InstrumentedModel(WrapperModel):
         started = self._clock()
         try:
             output, usage = await self.wrapped.request(messages, output_type, settings, context=context)
-        except Exception as exc:
+        except BaseException as exc:  # cancellations are reported too, then re-raised
             self._report(
                 ModelCall(
                     agent=agent,
@@ -85,7 +85,9 @@ class InstrumentedModel(WrapperModel):
                 )
             )
             raise
-        self._report(ModelCall(agent=agent, node=node, model=self.name, usage=usage, latency_s=self._clock() - started))
+        self._report(
+            ModelCall(agent=agent, node=node, model=self.name, usage=usage, latency_s=self._clock() - started)
+        )
         return output, usage
 
     def _report(self, call: ModelCall) -> None:

@@ -161,7 +161,9 @@ class OpenAIChatModel(CompletionModel):
         * ``sleep`` — the coroutine used to wait between retries (tests replace it).
         """
         if structured not in ("json_schema", "json_object", "none"):
-            raise ModelConfigError(f"structured must be 'json_schema', 'json_object' or 'none', not {structured!r}")
+            raise ModelConfigError(
+                f"structured must be 'json_schema', 'json_object' or 'none', not {structured!r}"
+            )
         self.model = model
         self.name = f"openai:{model}"
         self.base_url = base_url.rstrip("/")
@@ -174,7 +176,9 @@ class OpenAIChatModel(CompletionModel):
         self.max_tokens_field = max_tokens_field
         key = api_key if api_key is not None else os.environ.get(api_key_env)
         if not key and httpx.URL(self.base_url).host == "api.openai.com":
-            raise ModelConfigError(f"no API key for {self.base_url}: set the environment variable {api_key_env}")
+            raise ModelConfigError(
+                f"no API key for {self.base_url}: set the environment variable {api_key_env}"
+            )
         self._api_key = key or None
         self._client = client
         self._owns_client = client is None
@@ -284,21 +288,28 @@ class OpenAIChatModel(CompletionModel):
         doubled = False
         while True:
             started = time.perf_counter()
-            data = await self._post(body, timeout=timeout, has_images=images > 0)
+            data = await self._post(body, timeout_s=timeout, has_images=images > 0)
             latency = time.perf_counter() - started
             text, finish = self._read_choice(data)
             usage = usage + self._read_usage(data, images)
-            log.debug("chat completion", model=self.model, agent=agent, latency_s=round(latency, 3), finish=finish)
+            log.debug(
+                "chat completion", model=self.model, agent=agent, latency_s=round(latency, 3), finish=finish
+            )
             if finish != "length":
                 return Completion(text=text, usage=usage)
             cap = body.get(self.max_tokens_field)
             if cap is None or doubled:
                 return Completion(text=text, usage=usage, truncated=True)
-            log.info("reply truncated; retrying with a doubled token cap", model=self.model, agent=agent, max_tokens=cap)
+            log.info(
+                "reply truncated; retrying with a doubled token cap",
+                model=self.model,
+                agent=agent,
+                max_tokens=cap,
+            )
             body = {**body, self.max_tokens_field: int(cap) * 2}
             doubled = True
 
-    async def _post(self, body: dict[str, Any], *, timeout: float, has_images: bool) -> dict[str, Any]:
+    async def _post(self, body: dict[str, Any], *, timeout_s: float, has_images: bool) -> dict[str, Any]:
         retrying = AsyncRetrying(
             stop=stop_after_attempt(max(1, self.retry.max_attempts)),
             wait=self._wait,
@@ -310,28 +321,30 @@ class OpenAIChatModel(CompletionModel):
         try:
             async for attempt in retrying:
                 with attempt:
-                    return await self._post_once(body, timeout=timeout, has_images=has_images)
+                    return await self._post_once(body, timeout_s=timeout_s, has_images=has_images)
         except httpx.TimeoutException as exc:
             raise ModelError(
-                f"{self.name}: request timed out ({timeout:g} s) {self.retry.max_attempts} times: {exc!r}"
+                f"{self.name}: request timed out ({timeout_s:g} s) {self.retry.max_attempts} times: {exc!r}"
             ) from exc
         except httpx.HTTPError as exc:
-            raise ModelError(f"{self.name}: request to {self.base_url} failed: {type(exc).__name__}: {exc}") from exc
+            raise ModelError(
+                f"{self.name}: request to {self.base_url} failed: {type(exc).__name__}: {exc}"
+            ) from exc
         raise AssertionError("unreachable")  # pragma: no cover
 
-    async def _post_once(self, body: dict[str, Any], *, timeout: float, has_images: bool) -> dict[str, Any]:
+    async def _post_once(self, body: dict[str, Any], *, timeout_s: float, has_images: bool) -> dict[str, Any]:
         headers = {"Accept": "application/json"}
         if self._api_key:
             headers["Authorization"] = f"Bearer {self._api_key}"
         url = f"{self.base_url}/chat/completions"
         client = self._http()
         try:
-            response = await client.post(url, json=body, headers=headers, timeout=timeout)
+            response = await client.post(url, json=body, headers=headers, timeout=timeout_s)
         except httpx.RemoteProtocolError as exc:
             # A server may drop a pooled keep-alive connection (llama-server does after a
             # streamed reply); the pool has discarded it, so one immediate re-send suffices.
             log.warning("connection dropped by server; re-sending once", model=self.model, error=str(exc))
-            response = await client.post(url, json=body, headers=headers, timeout=timeout)
+            response = await client.post(url, json=body, headers=headers, timeout=timeout_s)
         text = response.text
         if response.status_code != 200:
             message = _error_message(text)
@@ -368,7 +381,7 @@ class OpenAIChatModel(CompletionModel):
         exc = state.outcome.exception() if state.outcome else None
         if isinstance(exc, _TransientHTTPError) and exc.retry_after_s is not None:
             return min(exc.retry_after_s, self.retry.max_retry_after_s)
-        backoff = self.retry.initial_backoff_s * 2 ** max(0, state.attempt_number - 1)
+        backoff: float = self.retry.initial_backoff_s * 2.0 ** max(0, state.attempt_number - 1)
         return min(backoff, self.retry.max_backoff_s) + self._rng.uniform(0.0, self.retry.jitter_s)
 
     def _log_retry(self, state: RetryCallState) -> None:

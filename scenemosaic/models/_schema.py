@@ -111,4 +111,6 @@ def extract_json(text: str) -> Any:
             return value
         except json.JSONDecodeError:
             start = stripped.find("{", start + 1)
-    raise ValueError(f"reply is not JSON ({first_error.msg} at char {first_error.pos}) and holds no JSON object")
+    raise ValueError(
+        f"reply is not JSON ({first_error.msg} at char {first_error.pos}) and holds no JSON object"
+    )

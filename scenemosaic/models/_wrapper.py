@@ -16,16 +16,26 @@ class WrapperModel(Model):
 
     def __init__(self, wrapped: Model) -> None:
         self.wrapped = wrapped
+        self._name_override: str | None = None
+        self._vision_override: bool | None = None
 
-    @property  # type: ignore[override]
+    @property
     def name(self) -> str:
-        """The wrapped model's name."""
-        return self.wrapped.name
+        """The wrapped model's name (unless set on the wrapper)."""
+        return self._name_override if self._name_override is not None else self.wrapped.name
 
-    @property  # type: ignore[override]
+    @name.setter
+    def name(self, value: str) -> None:
+        self._name_override = value
+
+    @property
     def vision(self) -> bool:
-        """Whether the wrapped model takes images."""
-        return self.wrapped.vision
+        """Whether the wrapped model takes images (unless set on the wrapper)."""
+        return self._vision_override if self._vision_override is not None else self.wrapped.vision
+
+    @vision.setter
+    def vision(self, value: bool) -> None:
+        self._vision_override = value
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.wrapped!r})"

@@ -1,1 +1,61 @@
-"""physics sub-package."""
+"""Physics: MuJoCo unit worlds, containment correction, gravity settling, collision and bounds checks.
+
+Entry points: :func:`stabilize_scene` (per local unit, top-down), :func:`check_collisions`,
+:func:`check_out_of_bounds` and :func:`validate_scene`. Tolerances are named constants in
+:mod:`scenemosaic.physics._settings`; the frames and settings are described in ``docs/physics.md``.
+"""
+
+from scenemosaic.physics._checks import check_collisions, check_out_of_bounds
+from scenemosaic.physics._hulls import ObjectShape, object_shape
+from scenemosaic.physics._reports import (
+    CollisionPair,
+    CollisionReport,
+    ObjectMotion,
+    OutOfBoundsObject,
+    OutOfBoundsReport,
+    StabilizationReport,
+    UnitReport,
+    ValidationReport,
+)
+from scenemosaic.physics._settings import (
+    COLLISION_TOLERANCE_M,
+    FELL_DROP_M,
+    OOB_MIN_INSIDE_FRACTION,
+    THIN_RATIO,
+    TIPPED_TILT_DEG,
+    SettleSettings,
+    SimSettings,
+)
+from scenemosaic.physics._settle import is_thin
+from scenemosaic.physics._stabilize import stabilize_scene, stabilize_scene_sync
+from scenemosaic.physics._units import UnitPlan, plan_units
+from scenemosaic.physics._validate import support_gaps, validate_scene
+
+__all__ = [
+    "COLLISION_TOLERANCE_M",
+    "FELL_DROP_M",
+    "OOB_MIN_INSIDE_FRACTION",
+    "THIN_RATIO",
+    "TIPPED_TILT_DEG",
+    "CollisionPair",
+    "CollisionReport",
+    "ObjectMotion",
+    "ObjectShape",
+    "OutOfBoundsObject",
+    "OutOfBoundsReport",
+    "SettleSettings",
+    "SimSettings",
+    "StabilizationReport",
+    "UnitPlan",
+    "UnitReport",
+    "ValidationReport",
+    "check_collisions",
+    "check_out_of_bounds",
+    "is_thin",
+    "object_shape",
+    "plan_units",
+    "stabilize_scene",
+    "stabilize_scene_sync",
+    "support_gaps",
+    "validate_scene",
+]

@@ -65,4 +65,5 @@ def yaw_from_quat(q: Sequence[float]) -> float:
 
 def front_vector(q: Sequence[float]) -> FloatArray:
     """World direction of the object's front (local -Y)."""
-    return quat_to_matrix(q) @ np.array([0.0, -1.0, 0.0])
+    front: FloatArray = quat_to_matrix(q) @ np.array([0.0, -1.0, 0.0])
+    return front

@@ -202,7 +202,8 @@ class SceneObject(_Model):
     @property
     def size(self) -> FloatArray:
         """Size in the object's own frame: asset extents times pose scale (metres)."""
-        return np.asarray(self.asset.extents, dtype=np.float64) * np.asarray(self.pose.scale)
+        size: FloatArray = np.asarray(self.asset.extents, dtype=np.float64) * np.asarray(self.pose.scale)
+        return size
 
     def corners(self) -> FloatArray:
         """World coordinates of the 8 corners of the object's oriented bounding box, shape (8, 3)."""

@@ -1,0 +1,145 @@
+"""Adapter from :class:`~scenemosaic.agents.TaskAgent` to scheduler nodes.
+
+* :func:`agent_node` — one agent as a :class:`~scenemosaic.dag.Node`.
+* :func:`run_agents` — a graph from the agents' ``name`` / ``depends_on``, run to the end.
+* :func:`add_agent_nodes` — from inside a running node (a manager agent), schedule more agents.
+
+An agent writes its output into the shared :class:`~scenemosaic.agents.SceneState`. When a
+run store supplies a stored output instead of running the agent, the node's ``restore`` hook
+applies that output to the state again, so a resumed run ends in the same state.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Iterable, Sequence
+from typing import Any, cast
+
+import structlog
+from pydantic import BaseModel
+
+from scenemosaic.agents._base import SceneState, TaskAgent
+from scenemosaic.dag import (
+    EventListener,
+    Node,
+    NodeContext,
+    NodePolicy,
+    Runner,
+    RunStore,
+    UsageTracker,
+    current_context,
+)
+from scenemosaic.models._base import Model, ModelSettings
+
+__all__ = ["add_agent_nodes", "agent_node", "run_agents"]
+
+_log = structlog.get_logger(__name__)
+
+
+def _definition_key(agent: TaskAgent[Any, Any]) -> str:
+    cls = type(agent)
+    version = getattr(agent, "version", None)
+    key = f"{cls.__module__}:{cls.__qualname__}"
+    return f"{key}@{version}" if version is not None else key
+
+
+def agent_node(
+    agent: TaskAgent[Any, Any],
+    state: SceneState,
+    model: Model,
+    settings: ModelSettings | None = None,
+    policy: NodePolicy | None = None,
+) -> Node:
+    """A node named ``agent.name``, depending on ``agent.depends_on``, that runs
+    ``agent.run(state, model, settings, node=name)`` and outputs the agent's validated output.
+
+    The definition key (part of the run store's input hash) is the agent's class path plus its
+    ``version`` attribute when it has one: bump ``version`` when a prompt or solver changes.
+    """
+
+    async def run_agent(ctx: NodeContext) -> BaseModel:
+        output, usage = await agent.run(state, model, settings, node=ctx.name)
+        # Token accounting belongs to the instrumented model; this is only a trace.
+        _log.debug("agent_done", agent=agent.name, node=ctx.name, requests=usage.requests)
+        return cast(BaseModel, output)
+
+    async def restore(output: Any) -> None:
+        async with state.lock:
+            agent.apply(output, state)
+            state.outputs[agent.name] = output
+
+    run_agent.__qualname__ = f"agent_node[{agent.name}]"
+    return Node(
+        agent.name,
+        run_agent,
+        depends_on=tuple(agent.depends_on),
+        policy=policy or NodePolicy(),
+        version=_definition_key(agent),
+        restore=restore,
+    )
+
+
+def add_agent_nodes(
+    agents: Iterable[TaskAgent[Any, Any]],
+    state: SceneState,
+    model: Model,
+    settings: ModelSettings | None = None,
+    policy: NodePolicy | None = None,
+) -> None:
+    """Add ``agents`` as nodes to the run of the node calling this (e.g. a manager agent).
+
+    Dependencies may name agents already in the graph or among ``agents``.
+    """
+    current_context().add_nodes(agent_node(a, state, model, settings, policy) for a in agents)
+
+
+def _config_key(state: SceneState, model: Model, settings: ModelSettings | None) -> str:
+    h = hashlib.sha256()
+    h.update(state.scene.model_dump_json().encode())
+    h.update(f"\x00{model.name}\x00{settings!r}\x00{state.seed}".encode())
+    return h.hexdigest()
+
+
+async def run_agents(
+    agents: Sequence[TaskAgent[Any, Any]],
+    state: SceneState,
+    model: Model,
+    *,
+    settings: ModelSettings | None = None,
+    store: RunStore | None = None,
+    max_concurrency: int | None = 8,
+    events: EventListener | None = None,
+    usage: UsageTracker | None = None,
+    defaults: NodePolicy | None = None,
+) -> dict[str, BaseModel]:
+    """Run ``agents`` as a task graph over ``state``; return each agent's output by name.
+
+    Args:
+        agents: the agents; each one's ``depends_on`` must name agents in this list.
+        state: the shared scene state the agents read and write (its ``seed`` is the run seed).
+        model: the model every agent asks.
+        settings: per-request model settings.
+        store: run store for resuming; the config key covers the input scene, model name,
+            settings and seed, so a different input never reuses stored outputs.
+        max_concurrency: most agents running at once.
+        events: callback receiving every run event.
+        usage: usage tracker (also pass it to the instrumented model as ``on_call``).
+        defaults: graph-wide node policies.
+
+    Raises the run errors of :class:`~scenemosaic.dag.Runner` (``NodeFailedError`` whose
+    ``cause`` is, e.g., an ``AgentOutputError``; ``RunCancelledError``; ``UsageLimitExceeded``)
+    and ``GraphDefinitionError`` for duplicate names, unknown dependencies or cycles.
+    """
+    nodes = [agent_node(agent, state, model, settings) for agent in agents]
+    runner = Runner(
+        nodes,
+        max_concurrency=max_concurrency,
+        defaults=defaults,
+        store=store,
+        config_key=_config_key(state, model, settings) if store is not None else "",
+        seed=state.seed,
+        usage=usage,
+        listeners=(events,) if events is not None else (),
+    )
+    outputs = await runner.run()
+    return cast(dict[str, BaseModel], outputs)

@@ -1,0 +1,121 @@
+"""Whole-scene GLB export: one node per object, named by its id, plus the room under ``room/``.
+
+Frames (the full statement is ``docs/exports.md``). glTF is Y-up, so the file has a single
+root node, :data:`GLB_ROOT_NODE`, whose matrix is :data:`Z_UP_TO_Y_UP` (a -90° rotation about
+X). Everything below it is in our world frame: Z up, metres, objects facing their local -Y.
+A glTF viewer therefore shows the scene upright; a reader that wants our Z-up frame back
+either reads each child node's matrix relative to the root (it *is* the Z-up pose) or maps
+Y-up world points with ``(x, y, z) -> (x, -z, y)`` (:data:`Y_UP_TO_Z_UP`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import structlog
+import trimesh
+from trimesh.visual.material import PBRMaterial
+
+from scenemosaic.render import ceiling_mesh, floor_mesh, object_local_mesh, wall_mesh
+from scenemosaic.render._palette import CEILING_COLOR, FLOOR_COLOR, RGB, WALL_COLOR, category_color
+from scenemosaic.scene import Scene
+
+__all__ = [
+    "GLB_ROOT_NODE",
+    "ROOM_NODE_PREFIX",
+    "Y_UP_TO_Z_UP",
+    "Z_UP_TO_Y_UP",
+    "build_glb_scene",
+    "export_glb",
+]
+
+log = structlog.get_logger(__name__)
+
+GLB_ROOT_NODE = "scenemosaic:z_up"
+"""Name of the root node carrying the Z-up -> Y-up rotation (a ':' never occurs in object ids)."""
+ROOM_NODE_PREFIX = "room/"
+"""Room geometry nodes are ``room/floor``, ``room/<wall id>`` (``room/wall_0`` ...) and ``room/ceiling``."""
+
+Z_UP_TO_Y_UP = np.array(
+    [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+)
+"""Rotation of -90° about X: our (x, y, z) -> glTF (x, z, -y). Up +Z -> +Y, front -Y -> +Z."""
+Y_UP_TO_Z_UP = Z_UP_TO_Y_UP.T.copy()
+"""The inverse: glTF (x, y, z) -> our (x, -z, y)."""
+
+CEILING_ALPHA = 0.25
+"""Opacity of the ceiling slab, so viewers can look into the room from above."""
+
+
+def _material(color: RGB, *, alpha: float = 1.0, name: str) -> PBRMaterial:
+    return PBRMaterial(  # type: ignore[no-untyped-call]
+        name=name,
+        baseColorFactor=[color[0], color[1], color[2], round(alpha * 255)],
+        metallicFactor=0.0,
+        roughnessFactor=0.8,
+        alphaMode="BLEND" if alpha < 1.0 else "OPAQUE",
+        doubleSided=alpha < 1.0,
+    )
+
+
+def paint_mesh(mesh: trimesh.Trimesh, color: RGB, *, name: str, alpha: float = 1.0) -> trimesh.Trimesh:
+    """(Package-internal.) A copy of ``mesh`` carrying one PBR material (its own texture visuals are dropped)."""
+    out = trimesh.Trimesh(vertices=mesh.vertices.copy(), faces=mesh.faces.copy(), process=False)
+    out.visual = trimesh.visual.TextureVisuals(  # type: ignore[no-untyped-call]
+        material=_material(color, alpha=alpha, name=name)
+    )
+    return out
+
+
+def with_visual(mesh: trimesh.Trimesh, category: str) -> trimesh.Trimesh:
+    """(Package-internal.) ``mesh`` itself when it carries a UV texture, else a copy painted in the category colour."""
+    if isinstance(mesh.visual, trimesh.visual.TextureVisuals) and mesh.visual.uv is not None:
+        return mesh
+    return paint_mesh(mesh, category_color(category), name=category)
+
+
+def build_glb_scene(scene: Scene, base_dir: Path | None = None) -> trimesh.Scene:
+    """The trimesh scene :func:`export_glb` writes (root node, object nodes, room nodes)."""
+    out = trimesh.Scene()
+    out.graph.update(  # type: ignore[no-untyped-call]
+        frame_from=out.graph.base_frame, frame_to=GLB_ROOT_NODE, matrix=Z_UP_TO_Y_UP
+    )
+    for obj in scene.objects:
+        mesh = with_visual(object_local_mesh(obj, base_dir), obj.category)
+        out.add_geometry(
+            mesh, node_name=obj.id, geom_name=obj.id, parent_node_name=GLB_ROOT_NODE,
+            transform=obj.pose.matrix(with_scale=False),
+        )  # fmt: skip
+    room = scene.room
+    if room is None:
+        log.warning("glb_without_room", scene=scene.id)
+        return out
+    room_meshes: list[tuple[str, trimesh.Trimesh]] = [
+        ("floor", paint_mesh(floor_mesh(room), FLOOR_COLOR, name="floor"))
+    ]
+    room_meshes += [(w.id, paint_mesh(wall_mesh(w), WALL_COLOR, name="wall")) for w in room.walls]
+    room_meshes.append(
+        ("ceiling", paint_mesh(ceiling_mesh(room), CEILING_COLOR, name="ceiling", alpha=CEILING_ALPHA))
+    )
+    for name, mesh in room_meshes:
+        node = ROOM_NODE_PREFIX + name
+        out.add_geometry(mesh, node_name=node, geom_name=node, parent_node_name=GLB_ROOT_NODE)
+    return out
+
+
+def export_glb(scene: Scene, path: str | Path, base_dir: Path | None = None) -> Path:
+    """Write the scene as a binary glTF file and return its path.
+
+    One node per object, named by the object's id, whose matrix is the object's rigid pose
+    (``pose.matrix(with_scale=False)``) applied to its already-scaled local mesh; the room as
+    ``room/floor``, ``room/<wall id>`` and ``room/ceiling``; all under the root node
+    :data:`GLB_ROOT_NODE` that turns our Z-up world into glTF's Y-up. ``base_dir`` is the
+    scene folder that relative mesh paths resolve against. Equal scenes give identical bytes.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data: bytes = build_glb_scene(scene, base_dir).export(file_type="glb")  # type: ignore[no-untyped-call]
+    path.write_bytes(data)
+    log.info("glb_exported", path=str(path), objects=len(scene.objects), bytes=len(data))
+    return path

@@ -1,0 +1,138 @@
+"""Collision and out-of-bounds checks, counted the way SceneEval counts them."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+from shapely.geometry import Polygon
+
+from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
+from scenemosaic.physics._planar import convex_hull_2d
+from scenemosaic.physics._reports import CollisionPair, CollisionReport, OutOfBoundsObject, OutOfBoundsReport
+from scenemosaic.physics._settings import COLLISION_TOLERANCE_M, OOB_MIN_INSIDE_FRACTION
+from scenemosaic.physics._settle import is_thin
+from scenemosaic.physics._world import WorldBuilder
+from scenemosaic.physics._settings import SimSettings
+from scenemosaic.scene import CEILING, FLOOR, Scene, SceneObject
+from scenemosaic.scene._geometry import FloatArray
+
+__all__ = ["check_collisions", "check_out_of_bounds", "collision_report_for", "support_polygon"]
+
+
+def collision_report_for(
+    scene: Scene, shapes: Mapping[str, ObjectShape], *, tolerance_m: float = COLLISION_TOLERANCE_M
+) -> CollisionReport:
+    """Pairwise hull penetration of every non-thin object pair whose bounds overlap."""
+    objs = [o for o in scene.objects]
+    thin = [o.id for o in objs if is_thin(o)]
+    solid = [o for o in objs if o.id not in thin]
+    builder = WorldBuilder(SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
+    for o in solid:
+        builder.add_static(o, shapes[o.id])
+    report = CollisionReport(tolerance_m=tolerance_m, thin_excluded=thin, checked_objects=len(solid))
+    if len(solid) < 2:
+        return report
+    world = builder.compile()
+    m, d = world.model, world.data
+    geoms = world.object_geoms
+    # per-geom world AABBs from the hull vertices, for a cheap broad phase
+    boxes: dict[str, list[tuple[FloatArray, FloatArray]]] = {}
+    obj_box: dict[str, tuple[FloatArray, FloatArray]] = {}
+    for o in solid:
+        mat = o.pose.matrix(with_scale=False)
+        verts = shapes[o.id].world_vertices(mat)
+        boxes[o.id] = [(v.min(axis=0), v.max(axis=0)) for v in verts]
+        allv = np.concatenate(verts)
+        obj_box[o.id] = (allv.min(axis=0), allv.max(axis=0))
+    reach = tolerance_m + 0.002
+    for i, a in enumerate(solid):
+        alo, ahi = obj_box[a.id]
+        for b in solid[i + 1 :]:
+            blo, bhi = obj_box[b.id]
+            if np.any(alo > bhi + reach) or np.any(blo > ahi + reach):
+                continue
+            deepest: float | None = None
+            for ga, (galo, gahi) in zip(geoms[a.id], boxes[a.id], strict=True):
+                for gb, (gblo, gbhi) in zip(geoms[b.id], boxes[b.id], strict=True):
+                    if np.any(galo > gbhi + reach) or np.any(gblo > gahi + reach):
+                        continue
+                    dist = float(mujoco.mj_geomDistance(m, d, ga, gb, reach, None))
+                    if dist < reach and (deepest is None or -dist > deepest):
+                        deepest = -dist
+            if deepest is None or deepest < 0:
+                continue
+            pair = CollisionPair(a=a.id, b=b.id, depth_m=round(deepest, 6))
+            (report.pairs if deepest > tolerance_m else report.shallow).append(pair)
+    return report
+
+
+def check_collisions(
+    scene: Scene,
+    base_dir: str | Path | None = None,
+    *,
+    hull_cache: Any = None,
+    hulls: HullInput | None = None,
+    tolerance_m: float = COLLISION_TOLERANCE_M,
+) -> CollisionReport:
+    """Object pairs whose convex hulls interpenetrate deeper than ``tolerance_m`` (default 5 mm).
+
+    Depth is the largest penetration over all hull-piece pairs (MuJoCo's signed geom distance).
+    Thin objects (rugs, paper) are excluded, as in the method. Touching pairs at or under the
+    tolerance are listed separately in ``shallow``.
+    """
+    shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
+    return collision_report_for(scene, shapes, tolerance_m=tolerance_m)
+
+
+def _footprint(obj: SceneObject) -> Polygon:
+    return Polygon(convex_hull_2d(obj.corners()[:, :2]))
+
+
+def support_polygon(scene: Scene, anchor_id: str) -> Polygon | None:
+    """The surface an anchor offers its children, seen along gravity (XY; wall: along-wall, height)."""
+    room = scene.room
+    if anchor_id in (FLOOR, CEILING):
+        return Polygon(room.floor) if room is not None else None
+    kind = scene.anchor_kind(anchor_id)
+    if kind == "wall":
+        assert room is not None
+        w = room.wall(anchor_id)
+        u0 = float(np.dot(w.start, w.direction))
+        return Polygon([(u0, 0.0), (u0 + w.length, 0.0), (u0 + w.length, w.height), (u0, w.height)])
+    return _footprint(scene.get(anchor_id))
+
+
+def check_out_of_bounds(scene: Scene, *, min_inside_fraction: float = OOB_MIN_INSIDE_FRACTION) -> OutOfBoundsReport:
+    """Objects with less than ``min_inside_fraction`` of their footprint over their support surface.
+
+    Floor, ceiling and unsupported objects are judged against the floor polygon (SceneEval's
+    rule); objects on objects against the anchor's footprint; wall objects against the wall
+    rectangle, in the wall's plane. Footprints are the objects' oriented boxes.
+    """
+    report = OutOfBoundsReport(min_inside_fraction=min_inside_fraction)
+    for obj in scene.objects:
+        rel = scene.support_of(obj.id)
+        anchor = rel.parent if rel is not None else FLOOR
+        surface = support_polygon(scene, anchor)
+        if surface is None:
+            report.skipped.append(obj.id)
+            continue
+        if scene.anchor_kind(anchor) == "wall":
+            assert scene.room is not None
+            w = scene.room.wall(anchor)
+            c = obj.corners()
+            e1 = np.array([w.direction[0], w.direction[1], 0.0])
+            uv = np.stack([c @ e1, c[:, 2]], axis=1)
+            foot = Polygon(convex_hull_2d(uv))
+        else:
+            foot = _footprint(obj)
+        report.checked_objects += 1
+        area = float(foot.area)
+        inside = float(foot.intersection(surface).area) / area if area > 1e-12 else 1.0
+        if inside < min_inside_fraction:
+            report.objects.append(OutOfBoundsObject(object_id=obj.id, anchor_id=anchor, inside_fraction=round(inside, 6)))
+    return report

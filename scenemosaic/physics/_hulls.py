@@ -1,0 +1,148 @@
+"""Collision shapes of scene objects: convex pieces in the object's local frame.
+
+Pieces come from ``scenemosaic.assets.object_hulls`` when that is available (procedural
+furniture gives exact convex primitives, mesh assets CoACD pieces from the disk cache);
+otherwise, and for ``box`` assets, one box of the object's size. Callers may also pass
+precomputed pieces per object id.
+
+Each piece is reduced once to its convex-hull vertices, volume and centroid and kept in an
+in-process cache keyed by the hash of its vertex bytes, so rebuilding a unit world for the
+same objects costs no geometry work. Axis-aligned box pieces are recognized so that the
+world builder can use MuJoCo's box primitive (much cheaper contacts than a mesh).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import threading
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import structlog
+from scipy.spatial import ConvexHull, QhullError
+
+from scenemosaic.scene import SceneObject
+from scenemosaic.scene._geometry import FloatArray
+
+__all__ = ["HullPiece", "ObjectShape", "box_vertices", "object_shape", "piece_from_vertices"]
+
+log = structlog.get_logger(__name__)
+
+HullInput = Mapping[str, Sequence[Any]]
+"""Precomputed pieces per object id: arrays of (n, 3) vertices or objects with ``.vertices``."""
+
+
+@dataclass(frozen=True)
+class HullPiece:
+    """One convex piece in the object's local frame (already scaled)."""
+
+    key: str
+    """Hash of the piece's hull vertices (hex); names the MuJoCo mesh asset."""
+    vertices: FloatArray
+    """Convex-hull vertices, shape (n, 3)."""
+    volume: float
+    """Volume in m^3."""
+    box: tuple[FloatArray, FloatArray] | None
+    """``(centre, half_extents)`` when the piece is an axis-aligned box, else ``None``."""
+
+
+@dataclass(frozen=True)
+class ObjectShape:
+    """All convex pieces of one object, with the local bounds they span."""
+
+    pieces: tuple[HullPiece, ...]
+    lower: FloatArray
+    upper: FloatArray
+
+    @property
+    def volume(self) -> float:
+        return float(sum(p.volume for p in self.pieces))
+
+    def world_vertices(self, matrix: FloatArray) -> list[FloatArray]:
+        """Each piece's vertices under a 4x4 local-to-world transform (rotation + translation)."""
+        r, t = matrix[:3, :3], matrix[:3, 3]
+        return [p.vertices @ r.T + t for p in self.pieces]
+
+
+_CACHE: dict[str, HullPiece] = {}
+_CACHE_LOCK = threading.Lock()
+
+
+def box_vertices(size: Sequence[float]) -> FloatArray:
+    """Corners (8, 3) of a box of ``size`` in the object frame (x, y centred, z from 0 up)."""
+    sx, sy, sz = (float(v) for v in size)
+    return np.array(
+        [[x, y, z] for x in (-sx / 2, sx / 2) for y in (-sy / 2, sy / 2) for z in (0.0, sz)], dtype=np.float64
+    )
+
+
+def _as_box(v: FloatArray) -> tuple[FloatArray, FloatArray] | None:
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    if len(v) != 8 or np.any(hi - lo < 1e-9):
+        return None
+    on_faces = (np.abs(v - lo) < 1e-7) | (np.abs(v - hi) < 1e-7)
+    if not bool(on_faces.all()):
+        return None
+    corners = {tuple(np.round((p - lo) / (hi - lo)).astype(int)) for p in v}
+    if len(corners) != 8:
+        return None
+    return (lo + hi) / 2, (hi - lo) / 2
+
+
+def piece_from_vertices(vertices: Any) -> HullPiece:
+    """Reduce raw vertices to a cached convex piece (hull vertices, volume, box detection)."""
+    v = np.ascontiguousarray(np.asarray(vertices, dtype=np.float64).reshape(-1, 3))
+    key = hashlib.sha1(v.tobytes()).hexdigest()[:16]
+    with _CACHE_LOCK:
+        hit = _CACHE.get(key)
+    if hit is not None:
+        return hit
+    try:
+        hull = ConvexHull(v)
+        hv = v[hull.vertices]
+        volume = float(hull.volume)
+    except (QhullError, ValueError):  # flat or degenerate piece: keep its points, no volume
+        hv = v
+        volume = 0.0
+    box = _as_box(hv)
+    if box is not None:
+        volume = float(np.prod(2 * box[1]))
+    piece = HullPiece(key=key, vertices=hv, volume=volume, box=box)
+    with _CACHE_LOCK:
+        _CACHE[key] = piece
+    return piece
+
+
+def _assets_hulls() -> Callable[..., Any] | None:
+    try:
+        module = importlib.import_module("scenemosaic.assets")
+    except ImportError:  # pragma: no cover - the assets package always exists in the tree
+        return None
+    fn = getattr(module, "object_hulls", None)
+    return fn if callable(fn) else None
+
+
+def object_shape(
+    obj: SceneObject,
+    base_dir: str | Path | None = None,
+    *,
+    cache: Any = None,
+    hulls: HullInput | None = None,
+) -> ObjectShape:
+    """The convex pieces of ``obj`` (local frame, scaled), from ``hulls``, the assets layer, or a box."""
+    raw: Sequence[Any] | None = None
+    if hulls is not None and obj.id in hulls:
+        raw = hulls[obj.id]
+    elif obj.asset.kind != "box":
+        fn = _assets_hulls()
+        if fn is not None:
+            raw = fn(obj, base_dir, cache=cache)
+    if not raw:
+        raw = [box_vertices(obj.size)]
+    pieces = tuple(piece_from_vertices(getattr(r, "vertices", r)) for r in raw)
+    allv = np.concatenate([p.vertices for p in pieces])
+    return ObjectShape(pieces=pieces, lower=allv.min(axis=0), upper=allv.max(axis=0))

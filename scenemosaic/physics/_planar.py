@@ -1,0 +1,164 @@
+"""Geometry in a unit's support plane: frames, footprints, containment and sibling separation.
+
+A unit is seen along its gravity axis (the orthographic projection of the method): ``n`` is
+"up" (opposite gravity), ``(e1, e2)`` span the support plane. Footprints are convex polygons of
+projected hull vertices; ``h = p . n`` is the height above the plane's origin.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely import affinity
+from shapely.geometry import Point, Polygon
+from shapely.ops import nearest_points
+
+from scenemosaic.scene import Scene
+from scenemosaic.scene._geometry import FloatArray
+
+__all__ = [
+    "UnitFrame",
+    "convex_hull_2d",
+    "minimal_containing_shift",
+    "sat_overlap",
+    "unit_frame",
+]
+
+
+@dataclass(frozen=True)
+class UnitFrame:
+    """The support plane of a unit: up axis, in-plane axes, support height and allowed region."""
+
+    up: FloatArray
+    e1: FloatArray
+    e2: FloatArray
+    support_h: float | None
+    """Height of the support surface along ``up`` (``None`` for object anchors: read from the anchor)."""
+    region: Polygon | None
+    """Where children's footprints must lie, in (e1, e2) coordinates; ``None`` when unbounded."""
+
+    def uv(self, points: FloatArray) -> FloatArray:
+        """Plane coordinates (n, 2) of world points (n, 3)."""
+        return np.stack([points @ self.e1, points @ self.e2], axis=1)
+
+    def h(self, points: FloatArray) -> FloatArray:
+        """Heights along ``up`` of world points."""
+        return points @ self.up
+
+    def lift(self, shift_uv: Sequence[float]) -> FloatArray:
+        """World vector of an in-plane shift."""
+        return float(shift_uv[0]) * self.e1 + float(shift_uv[1]) * self.e2
+
+
+_Z = np.array([0.0, 0.0, 1.0])
+_X = np.array([1.0, 0.0, 0.0])
+_Y = np.array([0.0, 1.0, 0.0])
+
+
+def unit_frame(scene: Scene, anchor_id: str, anchor_kind: str, anchor_footprint: FloatArray | None) -> UnitFrame:
+    """The frame of the unit anchored at ``anchor_id``.
+
+    ``anchor_footprint`` (world XY polygon) is required for object anchors: it is the anchor's
+    support surface seen from above.
+    """
+    room = scene.room
+    floor_poly = Polygon(room.floor) if room is not None else None
+    if anchor_kind == "floor":
+        return UnitFrame(_Z, _X, _Y, 0.0, floor_poly)
+    if anchor_kind == "ceiling":
+        height = room.ceiling_height if room is not None else 2.8
+        return UnitFrame(-_Z, _X, _Y, -height, floor_poly)
+    if anchor_kind == "wall":
+        if room is None:
+            raise KeyError(anchor_id)
+        wall = room.wall(anchor_id)
+        n2 = wall.inward_normal
+        d2 = wall.direction
+        up = np.array([n2[0], n2[1], 0.0])
+        e1 = np.array([d2[0], d2[1], 0.0])
+        start = np.array([wall.start[0], wall.start[1], 0.0])
+        u0 = float(start @ e1)
+        region = Polygon([(u0, 0.0), (u0 + wall.length, 0.0), (u0 + wall.length, wall.height), (u0, wall.height)])
+        return UnitFrame(up, e1, _Z, float(start @ up), region)
+    if anchor_footprint is None:
+        raise ValueError("an object anchor needs its footprint")
+    return UnitFrame(_Z, _X, _Y, None, Polygon(anchor_footprint).convex_hull)
+
+
+def convex_hull_2d(points: FloatArray) -> FloatArray:
+    """Counter-clockwise convex hull (monotone chain) of 2D points, shape (k, 2)."""
+    pts = np.unique(np.round(points, 9), axis=0)
+    if len(pts) <= 2:
+        return pts
+
+    def cross(o: FloatArray, a: FloatArray, b: FloatArray) -> float:
+        return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+
+    lower: list[FloatArray] = []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    upper: list[FloatArray] = []
+    for p in pts[::-1]:
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _axes(poly: FloatArray) -> FloatArray:
+    edges = np.roll(poly, -1, axis=0) - poly
+    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+    lengths = np.linalg.norm(normals, axis=1)
+    keep = lengths > 1e-12
+    return normals[keep] / lengths[keep, None]
+
+
+def sat_overlap(a: FloatArray, b: FloatArray) -> tuple[float, FloatArray]:
+    """Separating-axis test of two convex polygons.
+
+    Returns ``(depth, axis)``: the smallest overlap over all edge normals (negative when the
+    polygons are apart: the gap along the best separating axis) and the unit axis along which
+    moving ``b`` by ``+depth`` (or ``a`` by ``-depth``) separates them.
+    """
+    axes = np.concatenate([_axes(a), _axes(b)]) if len(a) > 2 and len(b) > 2 else np.array([[1.0, 0.0], [0.0, 1.0]])
+    pa = a @ axes.T
+    pb = b @ axes.T
+    amin, amax = pa.min(axis=0), pa.max(axis=0)
+    bmin, bmax = pb.min(axis=0), pb.max(axis=0)
+    push_pos = amax - bmin  # move b along +axis by this much
+    push_neg = bmax - amin  # move b along -axis by this much
+    need = np.minimum(push_pos, push_neg)
+    k = int(np.argmin(need))
+    axis = axes[k] if push_pos[k] <= push_neg[k] else -axes[k]
+    return float(need[k]), axis
+
+
+def minimal_containing_shift(footprint: FloatArray, region: Polygon, inset: float = 0.002) -> FloatArray | None:
+    """Smallest 2D shift that puts the convex ``footprint`` inside ``region`` (shrunk by ``inset``).
+
+    The feasible shifts are the intersection of the region translated by minus each footprint
+    corner; its point nearest the origin is the minimal move. ``None`` when no shift fits (the
+    object is larger than its support).
+    """
+    inner = region.buffer(-inset, join_style="mitre") if inset > 0 else region
+    if inner.is_empty:
+        return None
+    if shapely.contains(inner, Polygon(footprint)):
+        return np.zeros(2)
+    feasible = None
+    for px, py in footprint:
+        moved = affinity.translate(inner, -float(px), -float(py))
+        feasible = moved if feasible is None else feasible.intersection(moved)
+        if feasible.is_empty:
+            return None
+    assert feasible is not None
+    origin = Point(0.0, 0.0)
+    if feasible.contains(origin):
+        return np.zeros(2)
+    nearest = nearest_points(feasible, origin)[0]
+    return np.array([nearest.x, nearest.y])

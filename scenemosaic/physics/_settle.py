@@ -1,0 +1,352 @@
+"""Stabilizing one local unit: containment, snapping, separation, then gravity settling.
+
+The steps, in order (all in the unit's support plane, see :mod:`._planar`):
+
+1. **Containment** — each child's box footprint is moved by the smallest shift that puts it
+   inside the anchor's surface (floor polygon, wall rectangle, anchor top). Children that
+   cannot fit are centred on the surface and reported as larger than their anchor.
+2. **Snap** — each child is moved along the gravity axis so it just touches its support:
+   bottom on the floor or on the anchor's top (``contain``: the highest anchor piece below the
+   child's centre), top against the ceiling, back against the wall.
+3. **Separation** — deep interpenetrations between siblings, and with already-settled
+   neighbours, are resolved in the plane (yaw kept) by pushing pairs apart along the
+   separating axis of minimal overlap, re-projecting into the surface after every sweep.
+4. **Settling** — the unit in MuJoCo with anchor-dependent gravity; the anchor, the room and
+   the neighbours are static. Blow-ups fall back to a halved step with doubled iterations,
+   then to rolling the culprits back to their pre-simulation pose.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import structlog
+from shapely.geometry import Polygon
+
+from scenemosaic.physics._hulls import ObjectShape
+from scenemosaic.physics._planar import UnitFrame, convex_hull_2d, minimal_containing_shift, sat_overlap, unit_frame
+from scenemosaic.physics._reports import UnitReport
+from scenemosaic.physics._settings import (
+    COLLISION_TOLERANCE_M,
+    SEPARATION_GAP_M,
+    THIN_RATIO,
+    SettleSettings,
+    SimSettings,
+)
+from scenemosaic.physics._simulate import SimOutcome, run_until_settled
+from scenemosaic.physics._units import UnitPlan
+from scenemosaic.physics._world import BuiltWorld, JointMode, WorldBuilder
+from scenemosaic.scene import Pose, Scene, SceneObject
+from scenemosaic.scene._geometry import FloatArray, quat_multiply
+
+__all__ = ["is_thin", "settle_unit"]
+
+log = structlog.get_logger(__name__)
+
+_VERTICAL_EPS = 0.004
+"""Pieces overlapping by less than this along the gravity axis cannot collide beyond tolerance."""
+_MAX_SWEEPS = 80
+
+
+def is_thin(obj: SceneObject) -> bool:
+    """Vertical extent below ``THIN_RATIO`` of the larger planar extent (rugs, paper)."""
+    sx, sy, sz = (float(v) for v in obj.size)
+    return sz < THIN_RATIO * max(sx, sy)
+
+
+@dataclass
+class _Piece:
+    uv: FloatArray  # convex polygon, CCW
+    lo: float  # extent along the unit's up axis
+    hi: float
+
+
+@dataclass
+class _Body:
+    obj: SceneObject
+    shape: ObjectShape
+    matrix: FloatArray  # local-to-world, no scale, after containment + snap
+    pieces: list[_Piece]
+    box_uv: FloatArray
+    shift: FloatArray  # accumulated in-plane shift during separation
+    area: float
+    movable: bool
+
+    def bounds(self) -> tuple[FloatArray, FloatArray]:
+        allp = np.concatenate([p.uv for p in self.pieces]) + self.shift
+        return allp.min(axis=0), allp.max(axis=0)
+
+
+def _world_pieces(shape: ObjectShape, matrix: FloatArray, frame: UnitFrame) -> list[_Piece]:
+    out: list[_Piece] = []
+    for v in shape.world_vertices(matrix):
+        h = frame.h(v)
+        out.append(_Piece(convex_hull_2d(frame.uv(v)), float(h.min()), float(h.max())))
+    return out
+
+
+def _box_uv(obj: SceneObject, matrix: FloatArray, frame: UnitFrame) -> FloatArray:
+    sx, sy, sz = (float(v) for v in obj.size)
+    corners = np.array([[x, y, z] for x in (-sx / 2, sx / 2) for y in (-sy / 2, sy / 2) for z in (0.0, sz)])
+    world = corners @ matrix[:3, :3].T + matrix[:3, 3]
+    return convex_hull_2d(frame.uv(world))
+
+
+def _translate(matrix: FloatArray, delta: FloatArray) -> FloatArray:
+    out = matrix.copy()
+    out[:3, 3] += delta
+    return out
+
+
+def _support_height(
+    child_uv: FloatArray, child_lo: float, child_hi: float, anchor: list[_Piece], contained: bool
+) -> float:
+    poly = Polygon(child_uv) if len(child_uv) >= 3 else Polygon(child_uv).buffer(1e-4)
+    under = [p for p in anchor if len(p.uv) >= 3 and Polygon(p.uv).intersects(poly)]
+    if not under:
+        under = anchor
+    if contained:
+        centre = (child_lo + child_hi) / 2
+        below = [p.hi for p in under if p.hi <= centre]
+        if below:
+            return max(below)
+    return max(p.hi for p in under)
+
+
+def _pair_push(a: _Body, b: _Body, gap: float) -> tuple[float, FloatArray] | None:
+    """Largest in-plane push needed to part two bodies' vertically overlapping pieces."""
+    best: tuple[float, FloatArray] | None = None
+    for pa in a.pieces:
+        for pb in b.pieces:
+            if min(pa.hi, pb.hi) - max(pa.lo, pb.lo) <= _VERTICAL_EPS:
+                continue
+            depth, axis = sat_overlap(pa.uv + a.shift, pb.uv + b.shift)
+            need = depth + gap
+            if need > 1e-5 and (best is None or need > best[0]):
+                best = (need, axis)
+    return best
+
+
+def _contain_shift(body: _Body, region: Polygon | None) -> FloatArray | None:
+    if region is None:
+        return np.zeros(2)
+    return minimal_containing_shift(body.box_uv + body.shift, region)
+
+
+def _separate(
+    movers: list[_Body], obstacles: list[_Body], region: Polygon | None, rng: np.random.Generator
+) -> list[tuple[str, str]]:
+    """Push overlapping bodies apart in the plane; returns pairs still overlapping beyond tolerance."""
+    everyone = movers + obstacles
+    for _ in range(_MAX_SWEEPS):
+        worst = 0.0
+        bounds = [b.bounds() for b in everyone]
+        for i, a in enumerate(movers):
+            for j in range(i + 1, len(everyone)):
+                b = everyone[j]
+                (alo, ahi), (blo, bhi) = bounds[i], bounds[j]
+                if np.any(alo > bhi + SEPARATION_GAP_M) or np.any(blo > ahi + SEPARATION_GAP_M):
+                    continue
+                push = _pair_push(a, b, SEPARATION_GAP_M)
+                if push is None:
+                    continue
+                need, axis = push
+                ca, cb = (alo + ahi) / 2, (blo + bhi) / 2
+                if float(np.linalg.norm(cb - ca)) < 1e-9:  # coincident: the push direction is a coin flip
+                    axis = axis * (1.0 if rng.random() < 0.5 else -1.0)
+                step = need + 1e-4
+                if b.movable:
+                    wa = b.area / (a.area + b.area)
+                    a.shift = a.shift - axis * step * wa
+                    b.shift = b.shift + axis * step * (1.0 - wa)
+                else:
+                    a.shift = a.shift - axis * step
+                worst = max(worst, need)
+        for body in movers:
+            fix = _contain_shift(body, region)
+            if fix is not None:
+                body.shift = body.shift + fix
+        if worst <= 1e-4:
+            break
+    left: list[tuple[str, str]] = []
+    for i, a in enumerate(movers):
+        for j in range(i + 1, len(everyone)):
+            push = _pair_push(a, everyone[j], -COLLISION_TOLERANCE_M)
+            if push is not None:
+                left.append((a.obj.id, everyone[j].obj.id))
+    return left
+
+
+def _simulate(
+    scene: Scene,
+    plan: UnitPlan,
+    frame: UnitFrame,
+    anchor: tuple[SceneObject, ObjectShape] | None,
+    movers: list[_Body],
+    statics: list[tuple[SceneObject, ObjectShape]],
+    sim: SimSettings,
+    settle: SettleSettings,
+) -> tuple[BuiltWorld, SimOutcome]:
+    builder = WorldBuilder(sim, gravity_dir=-frame.up)
+    builder.add_room(scene.room)
+    if anchor is not None:
+        builder.add_static(*anchor)
+    for obj, shape in statics:
+        builder.add_static(obj, shape)
+    mode: JointMode = "tilt" if plan.anchor_kind in ("floor", "object") else "slide"
+    for body in movers:
+        posed = body.obj.model_copy(update={"pose": _pose_from_matrix(body.matrix, body.obj.pose)})
+        builder.add_dynamic(posed, body.shape, mode=mode, tilt_axes=(frame.e1, frame.e2))
+    world = builder.compile()
+    return world, run_until_settled(world, settle)
+
+
+def _pose_from_matrix(matrix: FloatArray, like: Pose) -> Pose:
+    return Pose(position=tuple(float(v) for v in matrix[:3, 3]), quaternion=like.quaternion, scale=like.scale)  # type: ignore[arg-type]
+
+
+def settle_unit(
+    scene: Scene,
+    plan: UnitPlan,
+    shapes: Mapping[str, ObjectShape],
+    neighbours: Sequence[str],
+    *,
+    sim: SimSettings,
+    settle: SettleSettings,
+    seed: int,
+) -> tuple[dict[str, Pose], UnitReport]:
+    """Stabilize one unit of ``scene`` (read-only) and return the children's new poses and a report.
+
+    ``neighbours`` are ids of objects already stabilized elsewhere: they stay where they are and
+    act as obstacles for separation and as static bodies in the simulation.
+    """
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    report = UnitReport(anchor_id=plan.anchor_id, anchor_kind=plan.anchor_kind, depth=plan.depth, children=list(plan.children))
+    anchor_obj = scene.get(plan.anchor_id) if plan.anchor_kind == "object" else None
+    frame = unit_frame(scene, plan.anchor_id, plan.anchor_kind, anchor_obj.footprint() if anchor_obj else None)
+    anchor_pieces = (
+        _world_pieces(shapes[anchor_obj.id], anchor_obj.pose.matrix(with_scale=False), frame) if anchor_obj else []
+    )
+
+    bodies: list[_Body] = []
+    for cid in plan.children:
+        obj = scene.get(cid)
+        shape = shapes[cid]
+        matrix = obj.pose.matrix(with_scale=False)
+        movable = not obj.sim.static
+        box_uv = _box_uv(obj, matrix, frame)
+        if movable and frame.region is not None:
+            shift = minimal_containing_shift(box_uv, frame.region)
+            if shift is None:
+                report.larger_than_anchor.append(cid)
+                centre = np.asarray(frame.region.centroid.coords[0])
+                shift = centre - box_uv.mean(axis=0)
+            if float(np.linalg.norm(shift)) > 1e-6:
+                report.containment_moves[cid] = round(float(np.linalg.norm(shift)), 6)
+                matrix = _translate(matrix, frame.lift(shift))
+        pieces = _world_pieces(shape, matrix, frame)
+        if movable:
+            lo = min(p.lo for p in pieces)
+            hi = max(p.hi for p in pieces)
+            if frame.support_h is not None:
+                target = frame.support_h
+            else:
+                rel = scene.support_of(cid)
+                contained = rel is not None and rel.kind == "contain"
+                foot = convex_hull_2d(np.concatenate([p.uv for p in pieces]))
+                target = _support_height(foot, lo, hi, anchor_pieces, contained)
+            matrix = _translate(matrix, frame.up * (target - lo))
+            pieces = _world_pieces(shape, matrix, frame)
+        area = max(float(Polygon(box_uv).area) if len(box_uv) >= 3 else 0.0, 1e-4)
+        bodies.append(_Body(obj, shape, matrix, pieces, _box_uv(obj, matrix, frame), np.zeros(2), area, movable))
+
+    movers = [b for b in bodies if b.movable and not is_thin(b.obj)]
+    obstacles = [b for b in bodies if not b.movable and not is_thin(b.obj)]
+    for nid in neighbours:
+        nobj = scene.get(nid)
+        if is_thin(nobj):
+            continue
+        m = nobj.pose.matrix(with_scale=False)
+        obstacles.append(_Body(nobj, shapes[nid], m, _world_pieces(shapes[nid], m, frame), _box_uv(nobj, m, frame), np.zeros(2), 1.0, False))
+    if anchor_obj is not None:
+        am = anchor_obj.pose.matrix(with_scale=False)
+        obstacles.append(_Body(anchor_obj, shapes[anchor_obj.id], am, anchor_pieces, _box_uv(anchor_obj, am, frame), np.zeros(2), 1.0, False))
+    report.unresolved_overlaps = _separate(movers, obstacles, frame.region, rng)
+    for b in movers:
+        dist = float(np.linalg.norm(b.shift))
+        if dist > 1e-6:
+            report.separation_moves[b.obj.id] = round(dist, 6)
+            b.matrix = _translate(b.matrix, frame.lift(b.shift))
+            if frame.support_h is None:  # the anchor's top may differ under the new footprint
+                pieces = _world_pieces(b.shape, b.matrix, frame)
+                lo, hi = min(p.lo for p in pieces), max(p.hi for p in pieces)
+                rel = scene.support_of(b.obj.id)
+                target = _support_height(convex_hull_2d(np.concatenate([p.uv for p in pieces])), lo, hi, anchor_pieces, rel is not None and rel.kind == "contain")
+                b.matrix = _translate(b.matrix, frame.up * (target - lo))
+
+    # the world: dynamic children, static anchor / neighbours / fixed children nearby
+    dyn = [b for b in bodies if b.movable]
+    near = _nearby(dyn, [o for o in obstacles if o.obj.id != plan.anchor_id])
+    anchor = (anchor_obj, shapes[anchor_obj.id]) if anchor_obj is not None else None
+    attempts: list[tuple[str, SimSettings]] = [
+        ("default", sim),
+        ("half_step", SimSettings(**{**sim.__dict__, "timestep": sim.timestep / 2, "iterations": sim.iterations * 2})),
+    ]
+    rolled: list[str] = []
+    outcome = SimOutcome()
+    world: BuiltWorld | None = None
+    for label, settings in attempts:
+        world, outcome = _simulate(scene, plan, frame, anchor, dyn, near, settings, settle)
+        report.steps += outcome.steps
+        report.simulated_s += outcome.simulated_s
+        if not outcome.blown_up:
+            break
+        report.fallbacks.append(f"{label}: blow-up of {sorted(outcome.blown_up)}")
+    if outcome.blown_up:
+        rolled = sorted(outcome.blown_up)
+        keep = [b for b in dyn if b.obj.id not in rolled]
+        frozen = near + [(b.obj.model_copy(update={"pose": _pose_from_matrix(b.matrix, b.obj.pose)}), b.shape) for b in dyn if b.obj.id in rolled]
+        world, outcome = _simulate(scene, plan, frame, anchor, keep, frozen, attempts[-1][1], settle)
+        report.steps += outcome.steps
+        report.simulated_s += outcome.simulated_s
+        if outcome.blown_up:
+            rolled = sorted(b.obj.id for b in dyn)
+            world = None
+        dyn = keep if world is not None else []
+        report.fallbacks.append("rollback")
+    report.rolled_back = rolled
+    report.converged = outcome.converged and not rolled
+
+    poses: dict[str, Pose] = {}
+    for b in bodies:
+        if b.movable:
+            poses[b.obj.id] = _pose_from_matrix(b.matrix, b.obj.pose)
+    if world is not None:
+        for wb in world.bodies:
+            obj = scene.get(wb.object_id)
+            xq = world.data.xquat[wb.body_id]
+            quat = quat_multiply(xq, obj.pose.quaternion)
+            pos = world.data.xpos[wb.body_id]
+            poses[wb.object_id] = Pose(position=(float(pos[0]), float(pos[1]), float(pos[2])), quaternion=quat, scale=obj.pose.scale)
+    report.simulated_s = round(report.simulated_s, 6)
+    report.wall_s = round(time.perf_counter() - t0, 6)
+    log.debug("unit_settled", anchor=plan.anchor_id, steps=report.steps, converged=report.converged, wall_s=report.wall_s)
+    return poses, report
+
+
+def _nearby(dyn: list[_Body], candidates: list[_Body], margin: float = 0.3) -> list[tuple[SceneObject, ObjectShape]]:
+    """Static bodies whose plane bounds come within ``margin`` of any dynamic child."""
+    if not dyn:
+        return []
+    lo = np.min([b.bounds()[0] for b in dyn], axis=0) - margin
+    hi = np.max([b.bounds()[1] for b in dyn], axis=0) + margin
+    out: list[tuple[SceneObject, ObjectShape]] = []
+    for c in candidates:
+        clo, chi = c.bounds()
+        if np.all(clo <= hi) and np.all(chi >= lo):
+            out.append((c.obj.model_copy(update={"pose": _pose_from_matrix(c.matrix, c.obj.pose)}) if c.movable else c.obj, c.shape))
+    return out

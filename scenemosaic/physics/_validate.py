@@ -1,0 +1,147 @@
+"""Final validation of a whole scene: checks plus one short gravity run of every unit together."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from scenemosaic.physics._checks import check_out_of_bounds, collision_report_for
+from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
+from scenemosaic.physics._reports import ObjectMotion, ValidationReport
+from scenemosaic.physics._settings import FELL_DROP_M, TIPPED_TILT_DEG, SettleSettings, SimSettings
+from scenemosaic.physics._simulate import run_until_settled
+from scenemosaic.physics._world import WorldBuilder
+from scenemosaic.scene import CEILING, FLOOR, Pose, Scene, SceneObject
+from scenemosaic.scene._geometry import quat_multiply, quat_to_matrix, yaw_from_quat
+
+__all__ = ["is_fixed", "motion_between", "support_gaps", "validate_scene"]
+
+_VALIDATION_SETTLE = SettleSettings(max_time_s=1.0)
+_VALIDATION_MIN_S = 0.3
+
+
+def is_fixed(scene: Scene, obj: SceneObject) -> bool:
+    """Objects held in place in whole-scene simulation: static ones, and those hung from the ceiling or a wall."""
+    if obj.sim.static:
+        return True
+    rel = scene.support_of(obj.id)
+    if rel is None:
+        return False
+    return rel.parent == CEILING or scene.anchor_kind(rel.parent) == "wall"
+
+
+def motion_between(object_id: str, before: Pose, after: Pose) -> ObjectMotion:
+    """Displacement, yaw change and tilt between two poses of one object."""
+    disp = float(np.linalg.norm(np.subtract(after.position, before.position)))
+    dyaw = (yaw_from_quat(after.quaternion) - yaw_from_quat(before.quaternion) + math.pi) % (2 * math.pi) - math.pi
+    up_before = quat_to_matrix(before.quaternion)[:, 2]
+    up_after = quat_to_matrix(after.quaternion)[:, 2]
+    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(up_before @ up_after)))))
+    return ObjectMotion(
+        object_id=object_id,
+        displacement_m=round(disp, 6),
+        yaw_change_deg=round(abs(math.degrees(dyaw)), 4),
+        tilt_deg=round(tilt, 4),
+    )
+
+
+def support_gaps(scene: Scene, shapes: Mapping[str, ObjectShape]) -> dict[str, float]:
+    """Per object, the distance to its support along gravity (negative = sunk in), metres.
+
+    Floor: lowest hull point above z = 0. Ceiling: ceiling height minus the highest point.
+    Wall: distance of the hull from the wall's inner face. Object: signed hull distance to the anchor.
+    """
+    gaps: dict[str, float] = {}
+    builder = WorldBuilder(SimSettings())
+    for o in scene.objects:
+        builder.add_static(o, shapes[o.id])
+    world = builder.compile()
+    room = scene.room
+    for o in scene.objects:
+        rel = scene.support_of(o.id)
+        anchor = rel.parent if rel is not None else FLOOR
+        verts = np.concatenate(shapes[o.id].world_vertices(o.pose.matrix(with_scale=False)))
+        if anchor == FLOOR:
+            gap = float(verts[:, 2].min())
+        elif anchor == CEILING:
+            height = room.ceiling_height if room is not None else 2.8
+            gap = height - float(verts[:, 2].max())
+        elif scene.anchor_kind(anchor) == "wall":
+            assert room is not None
+            w = room.wall(anchor)
+            n = np.array([w.inward_normal[0], w.inward_normal[1], 0.0])
+            start = np.array([w.start[0], w.start[1], 0.0])
+            gap = float((verts @ n).min() - start @ n)
+        else:
+            gap = min(
+                float(mujoco.mj_geomDistance(world.model, world.data, ga, gb, 1.0, None))
+                for ga in world.object_geoms[o.id]
+                for gb in world.object_geoms[anchor]
+            )
+        gaps[o.id] = round(gap, 6)
+    return gaps
+
+
+def validate_scene(
+    scene: Scene,
+    base_dir: str | Path | None = None,
+    *,
+    hull_cache: Any = None,
+    hulls: HullInput | None = None,
+    sim: SimSettings | None = None,
+) -> ValidationReport:
+    """Check a composed scene as a whole.
+
+    Counts residual collisions (above ``COLLISION_TOLERANCE_M``) and out-of-bounds objects on the
+    given poses, measures each object's gap to its support, then simulates every unit together
+    with gravity down (ceiling and wall objects and ``static`` ones held fixed, the rest on free
+    joints) and reports displacement, objects that tipped (tilt above ``TIPPED_TILT_DEG``) and
+    objects that fell (dropped more than ``FELL_DROP_M``).
+    """
+    shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
+    collisions = collision_report_for(scene, shapes)
+    oob = check_out_of_bounds(scene)
+    gaps = support_gaps(scene, shapes) if scene.objects else {}
+
+    builder = WorldBuilder(sim or SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
+    builder.add_room(scene.room)
+    for o in scene.objects:
+        if is_fixed(scene, o):
+            builder.add_static(o, shapes[o.id])
+        else:
+            builder.add_dynamic(o, shapes[o.id], mode="free")
+    world = builder.compile()
+    outcome = run_until_settled(world, _VALIDATION_SETTLE, min_time_s=_VALIDATION_MIN_S)
+    motions: list[ObjectMotion] = []
+    tipped: list[str] = []
+    fell: list[str] = []
+    for wb in world.bodies:
+        before = scene.get(wb.object_id).pose
+        pos = world.data.xpos[wb.body_id]
+        quat = tuple(float(v) for v in world.data.xquat[wb.body_id])
+        if not all(math.isfinite(v) for v in (*pos, *quat)):
+            fell.append(wb.object_id)
+            continue
+        after = Pose(position=(float(pos[0]), float(pos[1]), float(pos[2])), quaternion=quat_multiply(quat, (1.0, 0.0, 0.0, 0.0)), scale=before.scale)
+        mot = motion_between(wb.object_id, before, after)
+        motions.append(mot)
+        if mot.tilt_deg > TIPPED_TILT_DEG:
+            tipped.append(wb.object_id)
+        if before.position[2] - after.position[2] > FELL_DROP_M:
+            fell.append(wb.object_id)
+    fell.extend(oid for oid in outcome.blown_up if oid not in fell)
+    return ValidationReport(
+        collisions=collisions,
+        out_of_bounds=oob,
+        tipped=tipped,
+        fell=fell,
+        motions=motions,
+        max_displacement_m=max((m.displacement_m for m in motions), default=0.0),
+        support_gaps_m=gaps,
+        simulated_s=round(outcome.simulated_s, 6),
+    )

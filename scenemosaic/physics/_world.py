@@ -1,0 +1,257 @@
+"""MuJoCo worlds for units and whole scenes, built with ``MjSpec``.
+
+Static parts (room slabs, the anchor, already-settled neighbours) go straight into the world
+body; dynamic objects get their own body. Two joint layouts:
+
+* ``"tilt"`` (unit settling): three world-axis slides plus two hinges about the in-plane axes,
+  so an object can drop, slide and rock onto its support but never spins about the gravity axis
+  (the layout's yaw is kept exactly). Ceiling units use ``"slide"`` (no hinges): a hanging
+  lamp pushed against the ceiling by reversed gravity would otherwise balance on its cord.
+* ``"free"`` (validation and export): a free joint, nothing locked.
+
+Bodies of dynamic objects are placed at the object's origin (bottom centre of the footprint).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import mujoco
+import numpy as np
+
+from scenemosaic.physics._hulls import ObjectShape
+from scenemosaic.physics._settings import DEFAULT_DENSITY_KG_M3, SimSettings
+from scenemosaic.scene import Room, SceneObject
+from scenemosaic.scene._geometry import FloatArray
+
+__all__ = ["BuiltWorld", "DynamicBody", "JointMode", "WorldBuilder", "object_mass"]
+
+JointMode = Literal["tilt", "slide", "free"]
+
+_SOLVERS = {"Newton": mujoco.mjtSolver.mjSOL_NEWTON, "CG": mujoco.mjtSolver.mjSOL_CG, "PGS": mujoco.mjtSolver.mjSOL_PGS}
+_CONES = {"elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC, "pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL}
+_INTEGRATORS = {
+    "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+    "implicit": mujoco.mjtIntegrator.mjINT_IMPLICIT,
+    "Euler": mujoco.mjtIntegrator.mjINT_EULER,
+    "RK4": mujoco.mjtIntegrator.mjINT_RK4,
+}
+
+
+def object_mass(obj: SceneObject, shape: ObjectShape) -> float:
+    """``mass_kg``, else density times hull volume, else the default density; clamped to [0.05, 500] kg."""
+    if obj.sim.mass_kg is not None:
+        return float(obj.sim.mass_kg)
+    density = obj.sim.density_kg_m3 or DEFAULT_DENSITY_KG_M3
+    volume = shape.volume if shape.volume > 0 else float(np.prod(shape.upper - shape.lower))
+    return float(min(max(density * volume, 0.05), 500.0))
+
+
+def _quat_from_matrix(r: FloatArray) -> list[float]:
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(r, dtype=np.float64).reshape(9))
+    return [float(v) for v in q]
+
+
+@dataclass
+class DynamicBody:
+    """A dynamic object in a built world."""
+
+    object_id: str
+    body_id: int
+    joint_mode: JointMode
+    dof_slice: slice
+    qpos_slice: slice
+    axis_aligned: bool
+    """True when the body frame is world-aligned at build time (tilt/slide); geoms carry the object's rotation."""
+
+
+@dataclass
+class BuiltWorld:
+    """A compiled world and where its dynamic objects live."""
+
+    model: mujoco.MjModel
+    data: mujoco.MjData
+    bodies: list[DynamicBody] = field(default_factory=list)
+    object_geoms: dict[str, list[int]] = field(default_factory=dict)
+
+
+class WorldBuilder:
+    """Accumulates static and dynamic parts, then compiles one MuJoCo model."""
+
+    def __init__(self, settings: SimSettings, gravity_dir: Sequence[float] = (0.0, 0.0, -1.0)) -> None:
+        self.settings = settings
+        self.spec = mujoco.MjSpec()
+        self.spec.modelname = "scenemosaic_unit"
+        opt = self.spec.option
+        opt.timestep = settings.timestep
+        opt.solver = _SOLVERS[settings.solver]
+        opt.iterations = settings.iterations
+        opt.ls_iterations = settings.ls_iterations
+        opt.cone = _CONES[settings.cone]
+        opt.impratio = settings.impratio
+        opt.integrator = _INTEGRATORS[settings.integrator]
+        g = np.asarray(gravity_dir, dtype=np.float64)
+        opt.gravity = (settings.gravity * g / max(float(np.linalg.norm(g)), 1e-12)).tolist()
+        self.spec.compiler.autolimits = True
+        self._meshes: set[str] = set()
+        self._dynamic: list[tuple[str, str, JointMode, bool]] = []
+        self._geom_names: dict[str, list[str]] = {}
+        self._count = 0
+
+    # -- helpers ---------------------------------------------------------------------------
+    def _name(self, prefix: str) -> str:
+        self._count += 1
+        return f"{prefix}_{self._count}"
+
+    def _add_shape(
+        self,
+        body: mujoco.MjsBody,
+        object_id: str,
+        shape: ObjectShape,
+        local_r: FloatArray,
+        local_t: FloatArray,
+        friction: float,
+        rgba: Sequence[float] = (0.7, 0.7, 0.7, 1.0),
+    ) -> None:
+        names = self._geom_names.setdefault(object_id, [])
+        quat = _quat_from_matrix(local_r)
+        for piece in shape.pieces:
+            name = self._name(f"g_{object_id}")
+            g = body.add_geom()
+            g.name = name
+            g.friction = [friction, 0.005, 0.0001]
+            g.rgba = list(rgba)
+            g.margin = self.settings.margin
+            if piece.box is not None:
+                centre, half = piece.box
+                g.type = mujoco.mjtGeom.mjGEOM_BOX
+                g.size = [float(v) for v in half]
+                g.pos = (local_r @ centre + local_t).tolist()
+            else:
+                mesh_name = f"hull_{piece.key}"
+                if mesh_name not in self._meshes:
+                    self.spec.add_mesh(name=mesh_name, uservert=piece.vertices.reshape(-1).tolist())
+                    self._meshes.add(mesh_name)
+                g.type = mujoco.mjtGeom.mjGEOM_MESH
+                g.meshname = mesh_name
+                g.pos = local_t.tolist()
+            g.quat = quat
+            names.append(name)
+
+    # -- public ----------------------------------------------------------------------------
+    def add_room(self, room: Room | None, *, floor: bool = True, walls: bool = True, ceiling: bool = True) -> None:
+        """Static room slabs: a floor slab under z = 0, wall slabs outside each edge, a ceiling slab."""
+        wb = self.spec.worldbody
+        if room is None:
+            if floor:
+                g = wb.add_geom()
+                g.name = "floor"
+                g.type = mujoco.mjtGeom.mjGEOM_PLANE
+                g.size = [0.0, 0.0, 0.05]
+            return
+        pts = np.asarray(room.floor)
+        lo, hi = pts.min(axis=0) - 1.0, pts.max(axis=0) + 1.0
+        centre = (lo + hi) / 2
+        half = (hi - lo) / 2
+        if floor:
+            g = wb.add_geom()
+            g.name = "floor"
+            g.type = mujoco.mjtGeom.mjGEOM_BOX
+            g.size = [float(half[0]), float(half[1]), 0.05]
+            g.pos = [float(centre[0]), float(centre[1]), -0.05]
+        if ceiling:
+            g = wb.add_geom()
+            g.name = "ceiling"
+            g.type = mujoco.mjtGeom.mjGEOM_BOX
+            g.size = [float(half[0]), float(half[1]), 0.05]
+            g.pos = [float(centre[0]), float(centre[1]), room.ceiling_height + 0.05]
+        if walls:
+            for w in room.walls:
+                mid = (np.asarray(w.start) + np.asarray(w.end)) / 2 + w.outward_normal * (w.thickness / 2)
+                angle = math.atan2(float(w.direction[1]), float(w.direction[0]))
+                g = wb.add_geom()
+                g.name = f"wall_{w.id}"
+                g.type = mujoco.mjtGeom.mjGEOM_BOX
+                g.size = [w.length / 2 + w.thickness, w.thickness / 2, w.height / 2]
+                g.pos = [float(mid[0]), float(mid[1]), w.height / 2]
+                g.quat = [math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)]
+
+    def add_static(self, obj: SceneObject, shape: ObjectShape) -> None:
+        """An object that never moves, at its current pose."""
+        m = obj.pose.matrix(with_scale=False)
+        self._add_shape(self.spec.worldbody, obj.id, shape, m[:3, :3], m[:3, 3], obj.sim.friction, (0.5, 0.5, 0.6, 1))
+
+    def add_dynamic(
+        self,
+        obj: SceneObject,
+        shape: ObjectShape,
+        *,
+        mode: JointMode,
+        tilt_axes: Sequence[FloatArray] = (),
+    ) -> None:
+        """A moving object with its mass, friction and the joints of ``mode``."""
+        m = obj.pose.matrix(with_scale=False)
+        mass = object_mass(obj, shape)
+        body = self.spec.worldbody.add_body()
+        body.name = f"b_{obj.id}"
+        body.pos = m[:3, 3].tolist()
+        size = shape.upper - shape.lower
+        inertia = mass / 12.0 * np.array(
+            [size[1] ** 2 + size[2] ** 2, size[0] ** 2 + size[2] ** 2, size[0] ** 2 + size[1] ** 2]
+        )
+        centre_local = (shape.lower + shape.upper) / 2
+        body.mass = mass
+        body.explicitinertial = True
+        axis_aligned = mode != "free"
+        if axis_aligned:
+            # body frame = world axes; the object's rotation lives in the geoms and in the inertia
+            r = m[:3, :3]
+            body.ipos = (r @ centre_local).tolist()
+            body.iquat = _quat_from_matrix(r)
+            body.inertia = np.maximum(inertia, 1e-6).tolist()
+            self._add_shape(body, obj.id, shape, r, np.zeros(3), obj.sim.friction)
+        else:
+            body.quat = list(obj.pose.quaternion)
+            body.ipos = centre_local.tolist()
+            body.inertia = np.maximum(inertia, 1e-6).tolist()
+            self._add_shape(body, obj.id, shape, np.eye(3), np.zeros(3), obj.sim.friction)
+        damping = self.settings.damping_per_kg * mass
+        if mode == "free":
+            j = body.add_freejoint()
+            j.name = f"j_{obj.id}"
+        else:
+            for k, axis in enumerate(np.eye(3)):
+                j = body.add_joint()
+                j.name = f"s{k}_{obj.id}"
+                j.type = mujoco.mjtJoint.mjJNT_SLIDE
+                j.axis = axis.tolist()
+                j.damping = [damping, 0.0, 0.0]
+            if mode == "tilt":
+                for k, axis in enumerate(tilt_axes):
+                    j = body.add_joint()
+                    j.name = f"h{k}_{obj.id}"
+                    j.type = mujoco.mjtJoint.mjJNT_HINGE
+                    j.axis = np.asarray(axis, dtype=np.float64).tolist()
+                    j.damping = [self.settings.damping_per_kg * float(inertia.mean()), 0.0, 0.0]
+        self._dynamic.append((obj.id, body.name, mode, axis_aligned))
+
+    def compile(self) -> BuiltWorld:
+        """Compile the model, create its data and locate the dynamic bodies' dofs."""
+        model = self.spec.compile()
+        data = mujoco.MjData(model)
+        bodies: list[DynamicBody] = []
+        for oid, bname, mode, aligned in self._dynamic:
+            bid = model.body(bname).id
+            dof0 = int(model.body_dofadr[bid])
+            ndof = int(model.body_dofnum[bid])
+            jnt0 = int(model.body_jntadr[bid])
+            q0 = int(model.jnt_qposadr[jnt0])
+            nq = 7 if mode == "free" else ndof
+            bodies.append(DynamicBody(oid, bid, mode, slice(dof0, dof0 + ndof), slice(q0, q0 + nq), aligned))
+        geoms = {oid: [model.geom(n).id for n in names] for oid, names in self._geom_names.items()}
+        mujoco.mj_forward(model, data)
+        return BuiltWorld(model=model, data=data, bodies=bodies, object_geoms=geoms)

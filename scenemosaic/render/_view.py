@@ -1,0 +1,365 @@
+"""Orthographic views of a scene drawn with Pillow (no GL context needed).
+
+A view is a plane: an ``origin``, a unit ``u`` axis drawn to the right and a unit ``v`` axis
+drawn up (the orthographic-view convention of the method's prompts). Points are projected
+onto the plane; their *depth* is their coordinate along ``u x v``, which points toward the
+viewer, so surfaces with larger depth are drawn later (painter's order) and brighter.
+
+:func:`render_view` draws any such view of any subset of objects; the floor plan
+(:func:`scenemosaic.render.render_topdown`) is the case ``u = +X``, ``v = +Y`` (depth = height).
+Per-unit views of later stages (a wall seen along its outward normal, a container seen from
+its front) are the same call with another :class:`OrthoView` and the unit's object ids.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import structlog
+from PIL import Image, ImageDraw, ImageFont
+
+from scenemosaic.exceptions import SceneValidationError
+from scenemosaic.render._geometry import object_world_mesh
+from scenemosaic.render._palette import (
+    BACKGROUND,
+    DOOR_COLOR,
+    FLOOR_COLOR,
+    GRID_COLOR,
+    INK_COLOR,
+    RGB,
+    WALL_COLOR,
+    WINDOW_COLOR,
+    category_color,
+    shade,
+)
+from scenemosaic.scene import Scene, SceneObject
+from scenemosaic.scene._geometry import FloatArray
+
+__all__ = ["GRID_STEPS_M", "OrthoView", "PixelMap", "render_view"]
+
+log = structlog.get_logger(__name__)
+
+Vec3 = tuple[float, float, float]
+
+GRID_STEPS_M = (0.1, 0.2, 0.25, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0)
+"""Candidate grid spacings in metres; the smallest giving at most :data:`MAX_GRID_LINES` lines wins."""
+MAX_GRID_LINES = 12
+ARROW_HEAD_M = 0.1
+"""Largest length of a facing arrow's head, metres."""
+MIN_AREA_M2 = 1e-10
+"""Triangles whose projection is smaller than this (edge-on to the view) are not drawn, m²."""
+
+
+@dataclass(frozen=True)
+class OrthoView:
+    """An orthographic view: which plane to project on and which part of it to show.
+
+    ``extent`` is ``(u_min, u_max, v_min, v_max)`` in metres of plane coordinates
+    ``((p - origin)·u, (p - origin)·v)``. ``depth_range`` maps depth (along ``u x v``, toward
+    the viewer) to shading: surfaces at its low end are darkest, at its high end brightest.
+    """
+
+    origin: Vec3
+    u: Vec3
+    v: Vec3
+    extent: tuple[float, float, float, float]
+    depth_range: tuple[float, float] = (0.0, 3.0)
+
+    def __post_init__(self) -> None:
+        u, v = np.asarray(self.u, dtype=np.float64), np.asarray(self.v, dtype=np.float64)
+        if abs(np.linalg.norm(u) - 1) > 1e-6 or abs(np.linalg.norm(v) - 1) > 1e-6 or abs(u @ v) > 1e-6:
+            raise SceneValidationError(f"view axes must be orthonormal, got u={self.u}, v={self.v}")
+        u0, u1, v0, v1 = self.extent
+        if not (u1 > u0 and v1 > v0) or not all(math.isfinite(x) for x in self.extent):
+            raise SceneValidationError(f"view extent must be finite and non-empty, got {self.extent}")
+
+    @classmethod
+    def top_down(
+        cls, xmin: float, ymin: float, xmax: float, ymax: float, *, z_range: tuple[float, float] = (0.0, 3.0)
+    ) -> OrthoView:
+        """Looking down -Z at the world rectangle ``[xmin, xmax] x [ymin, ymax]``: u = +X, v = +Y."""
+        return cls(
+            origin=(0.0, 0.0, 0.0), u=(1.0, 0.0, 0.0), v=(0.0, 1.0, 0.0),
+            extent=(xmin, xmax, ymin, ymax), depth_range=z_range,
+        )  # fmt: skip
+
+    @property
+    def normal(self) -> FloatArray:
+        """Unit vector toward the viewer, ``u x v``."""
+        return np.cross(np.asarray(self.u, dtype=np.float64), np.asarray(self.v, dtype=np.float64))
+
+    @property
+    def is_top_down(self) -> bool:
+        """True when the view looks straight down (its normal is world +Z)."""
+        return bool(self.normal[2] > 1.0 - 1e-9)
+
+    def project(self, points: FloatArray) -> FloatArray:
+        """Plane coordinates (N, 2) of world points (N, 3)."""
+        p = np.asarray(points, dtype=np.float64) - np.asarray(self.origin, dtype=np.float64)
+        return np.stack(
+            [p @ np.asarray(self.u, dtype=np.float64), p @ np.asarray(self.v, dtype=np.float64)], axis=-1
+        )
+
+    def depth(self, points: FloatArray) -> FloatArray:
+        """Depth (N,) of world points (N, 3) along the normal toward the viewer."""
+        p = np.asarray(points, dtype=np.float64) - np.asarray(self.origin, dtype=np.float64)
+        return np.asarray(p @ self.normal, dtype=np.float64)
+
+    def shade_fraction(self, depth: FloatArray) -> FloatArray:
+        """Where each depth lies in ``depth_range``, clipped to [0, 1]."""
+        lo, hi = self.depth_range
+        return np.clip((np.asarray(depth, dtype=np.float64) - lo) / max(hi - lo, 1e-9), 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class PixelMap:
+    """Maps plane coordinates (metres) to pixel coordinates of a square image, keeping aspect."""
+
+    view: OrthoView
+    size_px: int
+    margin_px: int
+
+    @classmethod
+    def for_size(cls, view: OrthoView, size_px: int) -> PixelMap:
+        """The map :func:`render_view` uses for a ``size_px`` image (margin: 5 %, at least 24 px)."""
+        return cls(view=view, size_px=size_px, margin_px=max(24, size_px // 20))
+
+    @property
+    def scale(self) -> float:
+        """Pixels per metre."""
+        u0, u1, v0, v1 = self.view.extent
+        avail = self.size_px - 2 * self.margin_px
+        return min(avail / (u1 - u0), avail / (v1 - v0))
+
+    def to_px(self, ab: FloatArray) -> FloatArray:
+        """Pixel coordinates (N, 2) (x right, y down) of plane coordinates (N, 2)."""
+        u0, u1, v0, v1 = self.view.extent
+        s = self.scale
+        ox = self.margin_px + (self.size_px - 2 * self.margin_px - (u1 - u0) * s) / 2.0
+        oy = self.margin_px + (self.size_px - 2 * self.margin_px - (v1 - v0) * s) / 2.0
+        ab = np.asarray(ab, dtype=np.float64).reshape(-1, 2)
+        return np.stack([ox + (ab[:, 0] - u0) * s, oy + (v1 - ab[:, 1]) * s], axis=-1)
+
+    def world_to_px(self, points: FloatArray) -> FloatArray:
+        """Pixel coordinates (N, 2) of world points (N, 3)."""
+        return self.to_px(self.view.project(np.asarray(points, dtype=np.float64).reshape(-1, 3)))
+
+
+def _font(size: int) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
+    try:
+        return ImageFont.load_default(size=size)
+    except (OSError, ValueError, ImportError):  # Pillow without FreeType: the fixed bitmap font
+        return ImageFont.load_default()
+
+
+def _poly(points: FloatArray) -> list[tuple[float, float]]:
+    return [(float(x), float(y)) for x, y in points]
+
+
+def _hull_2d(points: FloatArray) -> FloatArray:
+    """Convex hull (monotone chain) of 2D points, counter-clockwise."""
+    pts = sorted({(round(float(x), 12), round(float(y), 12)) for x, y in points})
+    if len(pts) <= 2:
+        return np.asarray(pts, dtype=np.float64)
+
+    def cross(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower: list[tuple[float, float]] = []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    upper: list[tuple[float, float]] = []
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.asarray(lower[:-1] + upper[:-1], dtype=np.float64)
+
+
+def _grid_step(span: float) -> float:
+    for step in GRID_STEPS_M:
+        if span / step <= MAX_GRID_LINES:
+            return step
+    return GRID_STEPS_M[-1] * math.ceil(span / (GRID_STEPS_M[-1] * MAX_GRID_LINES))
+
+
+def _draw_plan_room(draw: ImageDraw.ImageDraw, scene: Scene, pm: PixelMap) -> None:
+    """Floor polygon, wall footprints and opening footprints of a top-down view."""
+    room = scene.room
+    if room is None:
+        return
+    floor = np.array([[x, y, 0.0] for x, y in room.floor])
+    draw.polygon(_poly(pm.world_to_px(floor)), fill=FLOOR_COLOR)
+
+
+def _draw_plan_walls(draw: ImageDraw.ImageDraw, scene: Scene, pm: PixelMap) -> None:
+    room = scene.room
+    if room is None:
+        return
+    for wall in room.walls:
+        d = np.array([*wall.direction, 0.0])
+        out = np.array([*wall.outward_normal, 0.0])
+        start = np.array([wall.start[0], wall.start[1], 0.0])
+
+        def rect(s0: float, s1: float, w0: float, w1: float) -> FloatArray:
+            corners = [start + d * s + out * w for s, w in ((s0, w0), (s1, w0), (s1, w1), (s0, w1))]  # noqa: B023
+            return pm.world_to_px(np.asarray(corners))
+
+        t = wall.thickness
+        draw.polygon(_poly(rect(-t, wall.length + t, 0.0, t)), fill=WALL_COLOR)
+        for op in wall.openings:
+            a = max(op.center - op.width / 2.0, 0.0)
+            b = min(op.center + op.width / 2.0, wall.length)
+            if b <= a:
+                continue
+            color = WINDOW_COLOR if op.kind == "window" else DOOR_COLOR
+            draw.polygon(_poly(rect(a, b, 0.0, t)), fill=color, outline=INK_COLOR)
+
+
+def _draw_grid(
+    draw: ImageDraw.ImageDraw, pm: PixelMap, font: ImageFont.FreeTypeFont | ImageFont.ImageFont
+) -> None:
+    """Grid lines over the drawing area and tick labels (metres) in the margins."""
+    u0, u1, v0, v1 = pm.view.extent
+    step = _grid_step(max(u1 - u0, v1 - v0))
+    lo_px = pm.to_px(np.array([[u0, v0]]))[0]
+    hi_px = pm.to_px(np.array([[u1, v1]]))[0]
+    x_lo, y_hi, x_hi, y_lo = lo_px[0], lo_px[1], hi_px[0], hi_px[1]
+    tick = max(3, pm.margin_px // 6)
+    digits = 0 if step >= 1 else (1 if step * 10 == round(step * 10) else 2)
+    for k in range(math.ceil(u0 / step - 1e-9), math.floor(u1 / step + 1e-9) + 1):
+        x = float(pm.to_px(np.array([[k * step, v0]]))[0][0])
+        draw.line([(x, y_lo), (x, y_hi)], fill=GRID_COLOR, width=1)
+        draw.line([(x, y_hi), (x, y_hi + tick)], fill=INK_COLOR, width=1)
+        draw.text((x, y_hi + tick + 1), f"{k * step:.{digits}f}", fill=INK_COLOR, font=font, anchor="ma")
+    for k in range(math.ceil(v0 / step - 1e-9), math.floor(v1 / step + 1e-9) + 1):
+        y = float(pm.to_px(np.array([[u0, k * step]]))[0][1])
+        draw.line([(x_lo, y), (x_hi, y)], fill=GRID_COLOR, width=1)
+        draw.line([(x_lo - tick, y), (x_lo, y)], fill=INK_COLOR, width=1)
+        draw.text((x_lo - tick - 2, y), f"{k * step:.{digits}f}", fill=INK_COLOR, font=font, anchor="rm")
+    draw.rectangle([x_lo, y_lo, x_hi, y_hi], outline=INK_COLOR, width=1)
+
+
+def _object_triangles(
+    objects: Sequence[SceneObject], view: OrthoView, pm: PixelMap, base_dir: Path | None
+) -> tuple[FloatArray, FloatArray, list[RGB]]:
+    """Every drawable triangle: pixel coordinates (T, 3, 2), sort keys (T, 3) and colours."""
+    px_all, keys_all, colors = [], [], []
+    for oi, obj in enumerate(objects):
+        mesh = object_world_mesh(obj, base_dir)
+        tris = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]  # (F, 3, 3)
+        if len(tris) == 0:
+            continue
+        ab = view.project(tris.reshape(-1, 3)).reshape(-1, 3, 2)
+        e1, e2 = ab[:, 1] - ab[:, 0], ab[:, 2] - ab[:, 0]
+        keep = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) * 0.5 > MIN_AREA_M2
+        if not keep.any():
+            continue
+        depth = view.depth(tris[keep].mean(axis=1))
+        base = category_color(obj.category)
+        shades = view.shade_fraction(depth)
+        colors += [shade(base, float(t)) for t in shades]
+        px_all.append(pm.to_px(ab[keep].reshape(-1, 2)).reshape(-1, 3, 2))
+        idx = np.flatnonzero(keep).astype(np.float64)
+        keys_all.append(np.stack([depth, np.full(len(idx), float(oi)), idx], axis=-1))
+    if not px_all:
+        return np.zeros((0, 3, 2)), np.zeros((0, 3)), []
+    return np.concatenate(px_all), np.concatenate(keys_all), colors
+
+
+def _draw_annotations(
+    draw: ImageDraw.ImageDraw,
+    objects: Sequence[SceneObject],
+    pm: PixelMap,
+    font: ImageFont.FreeTypeFont | ImageFont.ImageFont,
+    show_labels: bool,
+) -> None:
+    """Each object's projected box outline, facing arrow (its local -Y) and id label."""
+    view = pm.view
+    for obj in objects:
+        corners = obj.corners()
+        hull = _hull_2d(view.project(corners))
+        if len(hull) >= 3:
+            draw.polygon(_poly(pm.to_px(hull)), outline=INK_COLOR, width=1)
+        centre = corners.mean(axis=0)
+        front = obj.pose.rotation @ np.array([0.0, -1.0, 0.0])
+        f2 = np.array([front @ np.asarray(view.u), front @ np.asarray(view.v)])
+        if np.linalg.norm(f2) > 0.2:
+            size = obj.size
+            length = max(0.12, 0.45 * float(max(size[0], size[1])))
+            c2 = view.project(centre[None])[0]
+            tip = c2 + f2 / np.linalg.norm(f2) * length
+            side = np.array([-f2[1], f2[0]]) / np.linalg.norm(f2)
+            head = min(0.25 * length, ARROW_HEAD_M)
+            back = tip - f2 / np.linalg.norm(f2) * head
+            p = pm.to_px(np.array([c2, tip, back + side * head * 0.5, back - side * head * 0.5]))
+            draw.line([tuple(p[0]), tuple(p[1])], fill=INK_COLOR, width=2)
+            draw.polygon(_poly(p[[1, 2, 3]]), fill=INK_COLOR)
+        if show_labels:
+            c = pm.world_to_px(centre[None])[0]
+            draw.text(
+                (float(c[0]), float(c[1])), obj.id, fill=INK_COLOR, font=font, anchor="mm",
+                stroke_width=2, stroke_fill=BACKGROUND,
+            )  # fmt: skip
+
+
+def render_view(
+    scene: Scene,
+    view: OrthoView,
+    *,
+    object_ids: Sequence[str] | None = None,
+    base_dir: Path | None = None,
+    size_px: int = 1024,
+    show_labels: bool = True,
+    show_room: bool = True,
+    show_grid: bool = True,
+) -> bytes:
+    """Draw an orthographic view of a scene and return it as PNG bytes (``size_px`` square).
+
+    Objects (all, or those in ``object_ids``, in scene order) are drawn as silhouettes of their
+    visual meshes' triangles in painter's order by depth, each shaded from its category colour
+    by depth (see :func:`scenemosaic.render.shade`), then outlined by their projected oriented
+    box, with an arrow along their front (local -Y) and their id. In a top-down view the room
+    is drawn as a plan (floor polygon, wall footprints, doors green, windows blue) and a metric
+    grid with tick labels in metres frames the plane coordinates; other views draw no room yet.
+    Equal inputs give identical bytes.
+    """
+    if size_px < 64:
+        raise SceneValidationError(f"size_px must be at least 64, got {size_px}")
+    if object_ids is None:
+        objects = list(scene.objects)
+    else:
+        wanted = set(object_ids)
+        unknown = wanted - {o.id for o in scene.objects}
+        if unknown:
+            raise SceneValidationError(
+                f"unknown object ids in view: {sorted(unknown)}", object_id=sorted(unknown)[0]
+            )
+        objects = [o for o in scene.objects if o.id in wanted]
+    pm = PixelMap.for_size(view, size_px)
+    image = Image.new("RGB", (size_px, size_px), BACKGROUND)
+    draw = ImageDraw.Draw(image)
+    font = _font(max(10, size_px // 80))
+    plan = view.is_top_down and show_room
+    if plan:
+        _draw_plan_room(draw, scene, pm)
+    if show_grid:
+        _draw_grid(draw, pm, font)
+    if plan:
+        _draw_plan_walls(draw, scene, pm)
+    px, keys, colors = _object_triangles(objects, view, pm, base_dir)
+    order = np.lexsort((keys[:, 2], keys[:, 1], keys[:, 0])) if len(keys) else np.zeros(0, dtype=np.int64)
+    for i in order:
+        draw.polygon(_poly(px[i]), fill=colors[i])
+    _draw_annotations(draw, objects, pm, font, show_labels)
+    buf = io.BytesIO()
+    image.save(buf, format="PNG")
+    log.debug("view_rendered", objects=len(objects), triangles=len(order), size_px=size_px)
+    return buf.getvalue()

@@ -1,0 +1,144 @@
+"""The TaskAgent adapter: agents as nodes, run_agents, resume restoring state, run-time scheduling."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import ClassVar
+
+import pytest
+from pydantic import BaseModel
+
+from scenemosaic.agents._base import SceneState, TaskAgent
+from scenemosaic.agents._node import add_agent_nodes, agent_node, run_agents
+from scenemosaic.dag import FileRunStore, Node, NodeContext, NodePolicy, RetryPolicy, RunEvent, Runner
+from scenemosaic.exceptions import AgentOutputError, GraphDefinitionError, NodeFailedError
+from scenemosaic.models._base import Message, Model, ModelSettings, OutputT, RequestContext, Usage
+from scenemosaic.scene import Scene
+
+
+class CountEvidence(BaseModel):
+    count: int
+
+
+class CountOutput(BaseModel):
+    value: int
+
+
+class SolverModel(Model):
+    """A fake model answering with the asking agent's own solver, counting requests per agent."""
+
+    name = "fake-solver"
+    vision = False
+
+    def __init__(self, *, bad_for: str | None = None) -> None:
+        self.requests: dict[str, int] = {}
+        self.bad_for = bad_for
+
+    async def request(
+        self,
+        messages: list[Message],
+        output_type: type[OutputT],
+        settings: ModelSettings | None = None,
+        *,
+        context: RequestContext | None = None,
+    ) -> tuple[OutputT, Usage]:
+        assert context is not None and context.solve is not None
+        self.requests[context.agent] = self.requests.get(context.agent, 0) + 1
+        answer = context.solve(context.evidence)
+        if context.agent == self.bad_for:
+            answer = output_type.model_validate({"value": -1})
+        return output_type.model_validate(answer.model_dump()), Usage(requests=1, input_tokens=3)
+
+
+class _CountingAgent(TaskAgent[CountEvidence, CountOutput]):
+    prompt: ClassVar[str] = "unused"
+    output_type: ClassVar[type[BaseModel]] = CountOutput
+    max_repairs: ClassVar[int] = 0
+
+    def messages(self, evidence: CountEvidence, state: SceneState, *, vision: bool) -> list[Message]:
+        return [Message.text("user", evidence.model_dump_json())]
+
+    def check(self, output: CountOutput, state: SceneState) -> list[str]:
+        return [] if output.value >= 0 else [f"value {output.value} is negative"]
+
+    def apply(self, output: CountOutput, state: SceneState) -> None:
+        state.artifacts[self.name] = output.value
+
+
+class RoomAgent(_CountingAgent):
+    name: ClassVar[str] = "room"
+
+    def gather(self, state: SceneState) -> CountEvidence:
+        return CountEvidence(count=int(state.scene.metadata["objects"]))
+
+    def solve(self, evidence: CountEvidence) -> CountOutput:
+        return CountOutput(value=evidence.count)
+
+
+class DoubleAgent(_CountingAgent):
+    name: ClassVar[str] = "double"
+    depends_on: ClassVar[tuple[str, ...]] = ("room",)
+
+    def gather(self, state: SceneState) -> CountEvidence:
+        return CountEvidence(count=state.artifacts["room"])
+
+    def solve(self, evidence: CountEvidence) -> CountOutput:
+        return CountOutput(value=2 * evidence.count)
+
+
+def make_state(objects: int = 3) -> SceneState:
+    return SceneState(scene=Scene(id="t", metadata={"objects": objects}), seed=5)
+
+
+def test_agent_node_carries_name_dependencies_and_policy() -> None:
+    policy = NodePolicy(retry=RetryPolicy(attempts=2))
+    node = agent_node(DoubleAgent(), make_state(), SolverModel(), policy=policy)
+    assert (node.name, node.depends_on, node.policy) == ("double", ("room",), policy)
+    assert node.definition_key.endswith(":DoubleAgent") and node.restore is not None
+
+
+async def test_run_agents_runs_in_dependency_order_and_applies_outputs() -> None:
+    state, model = make_state(3), SolverModel()
+    events: list[RunEvent] = []
+    out = await run_agents([DoubleAgent(), RoomAgent()], state, model, events=events.append)
+    assert out == {"room": CountOutput(value=3), "double": CountOutput(value=6)}
+    assert state.outputs == out and state.artifacts == {"room": 3, "double": 6}
+    assert model.requests == {"room": 1, "double": 1}
+    assert type(events[-1]).__name__ == "RunFinished"
+
+
+async def test_run_agents_resumes_from_a_store_and_restores_state(tmp_path: Path) -> None:
+    store = FileRunStore(tmp_path / "agents")
+    await run_agents([RoomAgent(), DoubleAgent()], make_state(3), SolverModel(), store=store)
+    state, model = make_state(3), SolverModel()
+    out = await run_agents([RoomAgent(), DoubleAgent()], state, model, store=store)
+    assert model.requests == {}  # nothing asked again
+    assert out == {"room": CountOutput(value=3), "double": CountOutput(value=6)}
+    assert state.artifacts == {"room": 3, "double": 6}  # restored by replaying apply
+    other, model = make_state(4), SolverModel()
+    again = await run_agents([RoomAgent(), DoubleAgent()], other, model, store=store)
+    assert again["double"] == CountOutput(value=8)
+    assert model.requests == {"room": 1, "double": 1}  # a different scene is a different config key
+
+
+async def test_unusable_agent_output_fails_the_node() -> None:
+    with pytest.raises(NodeFailedError) as info:
+        await run_agents([RoomAgent(), DoubleAgent()], make_state(), SolverModel(bad_for="double"))
+    assert isinstance(info.value.cause, AgentOutputError) and info.value.node == "double"
+    assert info.value.partial == {"room": CountOutput(value=3)}  # type: ignore[attr-defined]
+
+
+async def test_missing_agent_dependency_is_a_graph_error() -> None:
+    with pytest.raises(GraphDefinitionError, match=r"'room' \(needed by 'double'\)"):
+        await run_agents([DoubleAgent()], make_state(), SolverModel())
+
+
+async def test_a_manager_node_schedules_agents_at_run_time() -> None:
+    state, model = make_state(2), SolverModel()
+
+    async def manager(ctx: NodeContext) -> list[str]:
+        add_agent_nodes([DoubleAgent(), RoomAgent()], state, model)
+        return ["room", "double"]
+
+    out = await Runner([Node("manager", manager)]).run()
+    assert out["double"] == CountOutput(value=4) and state.artifacts == {"room": 2, "double": 4}

@@ -1,0 +1,119 @@
+"""Fixtures for the export tests: a small hand-built scene and one real 3D-FRONT room."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from scenemosaic.scene import AssetRef, Opening, Pose, Relation, Room, Scene, SceneObject, quat_multiply
+
+PHYSCENE_DINING = (
+    Path(__file__).resolve().parents[2].parent
+    / "shared/data/layouts/physcene/DiningRoom-19325_diningroom.json"
+)
+
+
+def _physcene_scene(path: Path) -> Scene:
+    """A minimal stand-in for ``load_scene`` on a PhyScene layout (until the importer lands).
+
+    Half extents, Y-up: (x, y, z) -> (x, -z, y); theta about +Y is yaw about +Z; position is
+    the bottom centre. Room: the objects' XY bounds plus a 0.5 m margin.
+    """
+    data = json.loads(path.read_text())
+    objects = []
+    for group in data["ThreedFront"].values():
+        for item in group:
+            sx, sy, sz = item["size"]
+            px, py, pz = item["position"]
+            objects.append(
+                SceneObject(
+                    id=f"{item['label']}_{len(objects)}",
+                    category=item["label"],
+                    asset=AssetRef(
+                        kind="procedural", category=item["label"], extents=(2 * sx, 2 * sz, 2 * sy)
+                    ),
+                    pose=Pose.from_yaw((px, -pz, py), item["theta"]),
+                )
+            )
+    xs = [c for o in objects for c in o.footprint()[:, 0]]
+    ys = [c for o in objects for c in o.footprint()[:, 1]]
+    room = Room.rectangle(min(xs) - 0.5, min(ys) - 0.5, max(xs) + 0.5, max(ys) + 0.5, ceiling_height=2.8)
+    return Scene(id="dining", room=room, objects=objects)
+
+
+@pytest.fixture(scope="session")
+def dining_scene() -> Scene:
+    """The real PhyScene dining room (3D-FRONT vocabulary), 4 objects."""
+    assert PHYSCENE_DINING.is_file(), PHYSCENE_DINING
+    return _physcene_scene(PHYSCENE_DINING)
+
+
+@pytest.fixture()
+def small_scene() -> Scene:
+    """See :func:`build_small_scene`."""
+    return build_small_scene()
+
+
+def build_small_scene() -> Scene:
+    """A 4 x 3 m room with a door and a window, and objects on every kind of support.
+
+    Includes a rotated box table, a non-uniformly scaled procedural chair, a ceiling lamp,
+    a wall TV, a mug on the table and a book lying on its side (a non-upright pose).
+    """
+    room = Room.rectangle(0.0, 0.0, 4.0, 3.0, ceiling_height=2.7)
+    room.walls[0].openings = [Opening(kind="door", center=1.0, width=0.9, height=2.1)]
+    room.walls[1].openings = [Opening(kind="window", center=1.5, width=1.2, bottom=0.9, height=1.1)]
+    lying = quat_multiply(
+        (math.cos(math.pi / 6), 0.0, 0.0, math.sin(math.pi / 6)),
+        (math.cos(math.pi / 4), math.sin(math.pi / 4), 0.0, 0.0),
+    )
+    objects = [
+        SceneObject(
+            id="table",
+            category="dining_table",
+            asset=AssetRef(kind="box", extents=(1.4, 0.8, 0.75)),
+            pose=Pose.from_yaw((2.0, 1.5, 0.0), math.radians(30)),
+        ),
+        SceneObject(
+            id="chair",
+            category="dining_chair",
+            asset=AssetRef(kind="procedural", category="dining_chair", extents=(0.45, 0.5, 0.9)),
+            pose=Pose.from_yaw((0.9, 1.2, 0.0), math.pi / 2, scale=(1.1, 1.0, 1.2)),
+        ),
+        SceneObject(
+            id="lamp",
+            category="pendant_lamp",
+            asset=AssetRef(kind="box", extents=(0.4, 0.4, 0.5)),
+            pose=Pose.from_yaw((2.0, 1.5, 2.2), 0.0),
+        ),
+        SceneObject(
+            id="tv",
+            category="tv",
+            asset=AssetRef(kind="box", extents=(1.0, 0.06, 0.6)),
+            pose=Pose.from_yaw((2.0, 2.97, 1.2), 0.0),  # faces the room (-Y)
+        ),
+        SceneObject(
+            id="mug",
+            category="mug",
+            asset=AssetRef(kind="box", extents=(0.08, 0.08, 0.1)),
+            pose=Pose.from_yaw((2.1, 1.6, 0.75), 0.3),
+        ),
+        SceneObject(
+            id="book",
+            category="book",
+            asset=AssetRef(kind="box", extents=(0.15, 0.22, 0.03)),
+            pose=Pose(position=(1.8, 1.4, 0.86), quaternion=lying),
+        ),
+    ]
+    relations = [
+        Relation(kind="attach", child="table", parent="floor"),
+        Relation(kind="attach", child="chair", parent="floor"),
+        Relation(kind="attach", child="lamp", parent="ceiling"),
+        Relation(kind="attach", child="tv", parent="wall_2"),
+        Relation(kind="attach", child="mug", parent="table"),
+        Relation(kind="attach", child="book", parent="table"),
+    ]
+    return Scene(id="small", room=room, objects=objects, relations=relations)

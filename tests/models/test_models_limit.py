@@ -1,0 +1,138 @@
+"""RateLimiter / LimitedModel: concurrency bound under load, evenly spaced rates on a fake clock."""
+
+from __future__ import annotations
+
+import asyncio
+
+import pytest
+from llm_fakes import VALID, Verdict, user_messages
+
+from scenemosaic.exceptions import ModelConfigError
+from scenemosaic.models import (
+    FunctionModel,
+    LimitedModel,
+    Message,
+    ModelSettings,
+    RateLimiter,
+    RequestContext,
+    TokenBucket,
+    Usage,
+)
+
+
+class FakeClock:
+    """A clock that only moves when someone sleeps on it."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+        self.sleeps: list[float] = []
+
+    def __call__(self) -> float:
+        return self.now
+
+    async def sleep(self, seconds: float) -> None:
+        self.sleeps.append(seconds)
+        self.now += seconds
+        await asyncio.sleep(0)
+
+
+class InFlight:
+    """An async model function that measures how many calls overlap."""
+
+    def __init__(self, clock: FakeClock | None = None) -> None:
+        self.current = 0
+        self.peak = 0
+        self.calls = 0
+        self.started_at: list[float] = []
+        self.clock = clock
+
+    async def __call__(self, messages: list[Message], context: RequestContext | None) -> dict[str, object]:
+        self.current += 1
+        self.calls += 1
+        self.peak = max(self.peak, self.current)
+        if self.clock is not None:
+            self.started_at.append(self.clock())
+        for _ in range(3):  # stay in flight across several loop turns
+            await asyncio.sleep(0)
+        self.current -= 1
+        return VALID
+
+
+async def test_concurrency_never_exceeds_its_bound_under_100_requests() -> None:
+    fn = InFlight()
+    model = LimitedModel(FunctionModel(fn), max_concurrency=5)
+    results = await asyncio.gather(*[model.request(user_messages(), Verdict) for _ in range(100)])
+    assert len(results) == 100 and fn.calls == 100
+    assert fn.peak == 5  # reached, never exceeded
+    assert model.limiter.max_in_flight == 5
+    assert model.limiter.in_flight == 0
+
+
+async def test_models_sharing_a_limiter_share_the_bound() -> None:
+    fn = InFlight()
+    limiter = RateLimiter(max_concurrency=3)
+    a = LimitedModel(FunctionModel(fn, name="a"), limiter)
+    b = LimitedModel(FunctionModel(fn, name="b"), limiter)
+    await asyncio.gather(*[(a if i % 2 else b).request(user_messages(), Verdict) for i in range(40)])
+    assert fn.peak == 3
+    assert (a.name, b.name) == ("a", "b")
+
+
+async def test_requests_per_minute_are_evenly_spaced() -> None:
+    clock = FakeClock()
+    fn = InFlight(clock)
+    limiter = RateLimiter(requests_per_minute=120, clock=clock, sleep=clock.sleep)
+    model = LimitedModel(FunctionModel(fn), limiter)
+    await asyncio.gather(*[model.request(user_messages(), Verdict) for _ in range(6)])
+    starts = sorted(fn.started_at)
+    assert starts == pytest.approx([0.0, 0.5, 1.0, 1.5, 2.0, 2.5])
+    # Waiting is computed, not polled: one sleep per waiting request.
+    assert len(clock.sleeps) == 5
+
+
+async def test_request_burst_lets_a_few_through_at_once() -> None:
+    clock = FakeClock()
+    fn = InFlight(clock)
+    limiter = RateLimiter(requests_per_minute=60, request_burst=3, clock=clock, sleep=clock.sleep)
+    model = LimitedModel(FunctionModel(fn), limiter)
+    await asyncio.gather(*[model.request(user_messages(), Verdict) for _ in range(5)])
+    assert sorted(fn.started_at) == pytest.approx([0.0, 0.0, 0.0, 1.0, 2.0])
+
+
+async def test_tokens_per_minute_books_estimates_and_settles_actual_usage() -> None:
+    clock = FakeClock()
+    bucket = TokenBucket(rate_per_s=10.0, capacity=100.0, clock=clock, sleep=clock.sleep)
+    await bucket.acquire(100)
+    assert clock.now == 0.0
+    await bucket.acquire(30)  # 30 tokens at 10/s
+    assert clock.now == pytest.approx(3.0)
+    bucket.adjust(20)  # the reply used 20 more than booked: an overdraft
+    assert bucket.level == pytest.approx(-20.0)
+    await bucket.acquire(10)
+    assert clock.now == pytest.approx(6.0)
+    bucket.adjust(-1000)  # a refund never fills past capacity
+    assert bucket.level == pytest.approx(100.0)
+
+
+async def test_limited_model_charges_token_usage_to_the_bucket() -> None:
+    clock = FakeClock()
+
+    class Costly(FunctionModel):
+        async def request(self, messages, output_type, settings=None, *, context=None):  # type: ignore[no-untyped-def]
+            out, _ = await super().request(messages, output_type, settings, context=context)
+            return out, Usage(requests=1, input_tokens=500, output_tokens=100)
+
+    limiter = RateLimiter(tokens_per_minute=6000, clock=clock, sleep=clock.sleep)  # 100 tokens/s
+    model = LimitedModel(Costly(lambda m, c: VALID), limiter)
+    settings = ModelSettings(max_tokens=1000)
+    await model.request(user_messages(), Verdict, settings)
+    assert clock.now == 0.0
+    assert limiter.tokens is not None
+    assert limiter.tokens.level == pytest.approx(6000 - 600)  # booked ~1000+prompt, settled to 600
+
+
+def test_bad_limits_are_config_errors() -> None:
+    with pytest.raises(ModelConfigError):
+        RateLimiter(max_concurrency=0)
+    with pytest.raises(ModelConfigError):
+        TokenBucket(rate_per_s=0.0, capacity=1.0)
