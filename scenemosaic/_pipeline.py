@@ -49,6 +49,9 @@ class GenerateConfig:
     """Run the physics stabilization stage."""
     cache_dir: Path | None = None
     """Hull cache folder; default ``$SCENEMOSAIC_CACHE`` or ``~/.cache/scenemosaic``."""
+    priors_dir: Path | None = None
+    """ProcTHOR priors folder (receptacles, placement annotations, asset groups); default
+    ``$SCENEMOSAIC_PRIORS_DIR``, else the small table bundled with the agents."""
 
 
 @dataclass
@@ -125,7 +128,9 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     assert run.scene is not None
     model = parse_model(run.config.model, vision=run.config.vision)
     try:
-        run.scene = await structure_scene(run.scene, model, seed=run.config.seed)
+        run.scene = await structure_scene(
+            run.scene, model, seed=run.config.seed, priors_dir=run.config.priors_dir
+        )
     finally:
         await model.aclose()
     structure = run.scene.structure

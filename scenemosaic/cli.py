@@ -91,10 +91,16 @@ def generate(
     vision: Annotated[
         bool | None, typer.Option("--vision/--no-vision", help="Send images to the model (off for text-only servers).")
     ] = None,
+    priors: Annotated[
+        Path | None,
+        typer.Option("--priors", help="ProcTHOR priors folder (default: $SCENEMOSAIC_PRIORS_DIR or the bundled table)."),
+    ] = None,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Turn INPUT into a stabilized, simulation-ready scene in the output layout under --out."""
-    config = GenerateConfig(format=format, variants=variants, model=model, seed=seed, room=room, vision=vision)
+    config = GenerateConfig(
+        format=format, variants=variants, model=model, seed=seed, room=room, vision=vision, priors_dir=priors
+    )
     try:
         result = _run_with_progress(input_path, out, config)
     except SceneMosaicError as exc:

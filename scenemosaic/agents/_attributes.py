@@ -68,7 +68,7 @@ ATTRIBUTE_TABLE: dict[str, AttributeRow] = {
     "mirror": _R((2, 15), 150, 0.4),
     "television": _R((4, 25), 120, 0.5),
     "monitor": _R((2.5, 8), 100, 0.5),
-    "printer": _R((4, 30), 120, 0.5),
+    "printer": _R((4, 80), 120, 0.5),
     "laptop": _R((1, 3), 500, 0.4),
     "mug": _R((0.2, 0.5), 400, 0.4),
     "book": _R((0.15, 1.5), 600, 0.4),

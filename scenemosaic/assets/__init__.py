@@ -1,1 +1,36 @@
-"""assets sub-package."""
+"""Assets: mesh loading and canonicalization, content hashes, the CoACD hull cache and the
+procedural furniture library.
+
+The canonical asset frame is the object's local frame: Z up, metres, origin at the bottom
+centre of the footprint, front along -Y (``docs/assets.md``). This layer imports only
+:mod:`scenemosaic.scene` and :mod:`scenemosaic.exceptions`.
+"""
+
+from scenemosaic.assets._canonical import CanonicalMesh, load_mesh, mesh_hash
+from scenemosaic.assets._hulls import CoacdParams, HullCache, default_cache_dir, shutdown_workers
+from scenemosaic.assets._objects import default_hull_cache, object_hulls, object_mesh
+from scenemosaic.assets._procedural import (
+    MAX_PARTS,
+    known_categories,
+    normalize_category,
+    procedural_mesh,
+    procedural_parts,
+)
+
+__all__ = [
+    "MAX_PARTS",
+    "CanonicalMesh",
+    "CoacdParams",
+    "HullCache",
+    "default_cache_dir",
+    "default_hull_cache",
+    "known_categories",
+    "load_mesh",
+    "mesh_hash",
+    "normalize_category",
+    "object_hulls",
+    "object_mesh",
+    "procedural_mesh",
+    "procedural_parts",
+    "shutdown_workers",
+]

@@ -205,11 +205,15 @@ def load_mesh(
         raise AssetError(f"{file}: unit_scale must be a positive number, got {unit_scale!r}")
     axis = _resolve_up_axis(file, up_axis)
     source = load_source_mesh(file)
-    transform = canonical_transform(np.asarray(source.vertices, dtype=np.float64), up_axis=axis, unit_scale=unit_scale)
+    transform = canonical_transform(
+        np.asarray(source.vertices, dtype=np.float64), up_axis=axis, unit_scale=unit_scale
+    )
     mesh = source.copy()
     mesh.apply_transform(transform)
     extents = mesh.extents
-    log.debug("mesh_loaded", path=str(file), up_axis=axis, faces=len(mesh.faces), extents=extents.round(4).tolist())
+    log.debug(
+        "mesh_loaded", path=str(file), up_axis=axis, faces=len(mesh.faces), extents=extents.round(4).tolist()
+    )
     return CanonicalMesh(
         mesh=mesh,
         transform=transform,

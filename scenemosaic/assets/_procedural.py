@@ -67,7 +67,8 @@ def _place(mesh: trimesh.Trimesh, x: Interval, y: Interval, z: Interval) -> trim
 
 @functools.cache
 def _unit_box() -> trimesh.Trimesh:
-    return trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    box: trimesh.Trimesh = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    return box
 
 
 def _ring(radius: float, z: float) -> FloatArray:
@@ -80,13 +81,14 @@ def _unit_profile(radii: tuple[float, ...]) -> trimesh.Trimesh:
     """Convex solid of revolution (few-sided) through rings of the given radii, evenly spaced in z."""
     zs = np.linspace(0.0, 1.0, len(radii))
     points = np.vstack([_ring(r, z) for r, z in zip(radii, zs, strict=True)])
-    hull = trimesh.convex.convex_hull(points)
+    hull: trimesh.Trimesh = trimesh.convex.convex_hull(points)
     return hull
 
 
 @functools.cache
 def _unit_blob() -> trimesh.Trimesh:
-    return trimesh.creation.icosphere(subdivisions=1, radius=1.0)
+    blob: trimesh.Trimesh = trimesh.creation.icosphere(subdivisions=1, radius=1.0)
+    return blob
 
 
 def _box(x: Interval, y: Interval, z: Interval) -> trimesh.Trimesh:
@@ -111,7 +113,8 @@ def _blob(x: Interval, y: Interval, z: Interval) -> trimesh.Trimesh:
 
 
 def _hull(points: Sequence[Sequence[float]]) -> trimesh.Trimesh:
-    return trimesh.convex.convex_hull(np.asarray(points, dtype=np.float64))
+    hull: trimesh.Trimesh = trimesh.convex.convex_hull(np.asarray(points, dtype=np.float64))
+    return hull
 
 
 def _cap(size: float, fraction: float, limit: float) -> float:
@@ -169,7 +172,9 @@ def _bed(w: float, d: float, h: float) -> Parts:
     foot_y = (-hy, hy - head_t)
     parts = _legs((-hx, hx), foot_y, (0.0, leg_h), _cap(w, 0.08, 0.08), _cap(d, 0.06, 0.08))
     parts.append(_box((-hx, hx), foot_y, (leg_h, frame_top)))
-    parts.append(_box((-hx + 0.02 * w, hx - 0.02 * w), (-hy + 0.02 * d, hy - head_t), (frame_top, mattress_top)))
+    parts.append(
+        _box((-hx + 0.02 * w, hx - 0.02 * w), (-hy + 0.02 * d, hy - head_t), (frame_top, mattress_top))
+    )
     parts.append(_box((-hx, hx), (hy - head_t, hy), (0.0, h)))  # headboard at the back (+Y)
     pillow_y = (hy - head_t - 0.18 * d, hy - head_t - 0.03 * d)
     pillow_z = (mattress_top, mattress_top + 0.08 * h)
@@ -195,8 +200,13 @@ def _nightstand(w: float, d: float, h: float) -> Parts:
     parts, body_z = _case(w, d, h, plinth=0.08 * h, top=_cap(h, 0.06, 0.03), front=handle + front)
     inset = 0.05 * w
     parts += _drawer_fronts(
-        (-hx + inset, hx - inset), (body_z[0] + 0.04 * h, body_z[1] - 0.04 * h), -hy, 2, 1,
-        handle=handle, thickness=front,
+        (-hx + inset, hx - inset),
+        (body_z[0] + 0.04 * h, body_z[1] - 0.04 * h),
+        -hy,
+        2,
+        1,
+        handle=handle,
+        thickness=front,
     )
     return parts
 
@@ -207,8 +217,13 @@ def _dresser(w: float, d: float, h: float) -> Parts:
     parts, body_z = _case(w, d, h, plinth=0.07 * h, top=_cap(h, 0.05, 0.03), front=handle + front)
     cols = 2 if w > 0.9 else 1
     parts += _drawer_fronts(
-        (-hx + 0.04 * w, hx - 0.04 * w), (body_z[0] + 0.03 * h, body_z[1] - 0.03 * h), -hy, 3, cols,
-        handle=handle, thickness=front,
+        (-hx + 0.04 * w, hx - 0.04 * w),
+        (body_z[0] + 0.03 * h, body_z[1] - 0.03 * h),
+        -hy,
+        3,
+        cols,
+        handle=handle,
+        thickness=front,
     )
     return parts
 
@@ -243,8 +258,11 @@ def _table(w: float, d: float, h: float) -> Parts:
     top = _cap(h, 0.05, 0.04)
     inset_x, inset_y = 0.04 * w, 0.04 * d
     legs = _legs(
-        (-hx + inset_x, hx - inset_x), (-hy + inset_y, hy - inset_y), (0.0, h - top),
-        _cap(w, 0.06, 0.06), _cap(d, 0.06, 0.06),
+        (-hx + inset_x, hx - inset_x),
+        (-hy + inset_y, hy - inset_y),
+        (0.0, h - top),
+        _cap(w, 0.06, 0.06),
+        _cap(d, 0.06, 0.06),
     )
     apron_z = (h - top - 0.1 * h, h - top)
     aprons = [
@@ -290,11 +308,20 @@ def _desk(w: float, d: float, h: float) -> Parts:
         _box((-hx, hx), (-hy, hy), (h - top, h)),
         _box((-hx + 0.01 * w, -hx + 0.01 * w + panel), (-hy + 0.03 * d, hy - 0.03 * d), under),
         _box((hx - 0.01 * w - ped_w, hx - 0.01 * w), (-hy + 0.03 * d + handle + front, hy - 0.03 * d), under),
-        _box((-hx + 0.01 * w + panel, hx - 0.01 * w - ped_w), (hy - 0.03 * d - panel, hy - 0.03 * d), (0.35 * h, h - top)),
+        _box(
+            (-hx + 0.01 * w + panel, hx - 0.01 * w - ped_w),
+            (hy - 0.03 * d - panel, hy - 0.03 * d),
+            (0.35 * h, h - top),
+        ),
     ]
     parts += _drawer_fronts(
-        (hx - 0.01 * w - ped_w + 0.01 * w, hx - 0.02 * w), (0.03 * h, h - top - 0.02 * h),
-        -hy + 0.03 * d, 3, 1, handle=handle, thickness=front,
+        (hx - 0.01 * w - ped_w + 0.01 * w, hx - 0.02 * w),
+        (0.03 * h, h - top - 0.02 * h),
+        -hy + 0.03 * d,
+        3,
+        1,
+        handle=handle,
+        thickness=front,
     )
     return parts
 
@@ -305,9 +332,20 @@ def _dressing_table(w: float, d: float, h: float) -> Parts:
     table_h = 0.55 * h
     top = _cap(h, 0.03, 0.03)
     parts = [_box((-hx, hx), (-hy, hy), (table_h - top, table_h))]
-    parts += _legs((-hx + 0.03 * w, hx - 0.03 * w), (-hy + 0.03 * d, hy - 0.03 * d), (0.0, table_h - top),
-                   _cap(w, 0.06, 0.04), _cap(d, 0.08, 0.04))
-    parts.append(_box((-hx + 0.15 * w, hx - 0.15 * w), (-hy + 0.03 * d, hy - 0.1 * d), (table_h - top - 0.12 * h, table_h - top)))
+    parts += _legs(
+        (-hx + 0.03 * w, hx - 0.03 * w),
+        (-hy + 0.03 * d, hy - 0.03 * d),
+        (0.0, table_h - top),
+        _cap(w, 0.06, 0.04),
+        _cap(d, 0.08, 0.04),
+    )
+    parts.append(
+        _box(
+            (-hx + 0.15 * w, hx - 0.15 * w),
+            (-hy + 0.03 * d, hy - 0.1 * d),
+            (table_h - top - 0.12 * h, table_h - top),
+        )
+    )
     mirror_t = _cap(d, 0.08, 0.03)
     parts.append(_box((-hx + 0.1 * w, hx - 0.1 * w), (hy - mirror_t, hy), (table_h, h)))
     return parts
@@ -358,8 +396,13 @@ def _upholstered(w: float, d: float, h: float, *, seats: int) -> Parts:
     leg_h, base_top, seat_top = 0.1 * h, 0.38 * h, 0.48 * h
     back_t = _cap(d, 0.18, 0.2)
     arm_w = _cap(w, 0.12, 0.18)
-    parts = _legs((-hx + 0.02 * w, hx - 0.02 * w), (-hy + 0.02 * d, hy - 0.02 * d), (0.0, leg_h),
-                  _cap(w, 0.05, 0.05), _cap(d, 0.05, 0.05))
+    parts = _legs(
+        (-hx + 0.02 * w, hx - 0.02 * w),
+        (-hy + 0.02 * d, hy - 0.02 * d),
+        (0.0, leg_h),
+        _cap(w, 0.05, 0.05),
+        _cap(d, 0.05, 0.05),
+    )
     parts.append(_box((-hx, hx), (-hy, hy - back_t), (leg_h, base_top)))
     parts.append(_box((-hx, hx), (hy - back_t, hy), (leg_h, 0.8 * h)))
     for xr in ((-hx, -hx + arm_w), (hx - arm_w, hx)):
@@ -451,8 +494,13 @@ def _tv_stand(w: float, d: float, h: float) -> Parts:
     parts, body_z = _case(w, d, h, plinth=0.12 * h, top=_cap(h, 0.08, 0.03), front=handle + front)
     cols = int(np.clip(round(w / 0.6), 1, 4))
     parts += _drawer_fronts(
-        (-hx + 0.03 * w, hx - 0.03 * w), (body_z[0] + 0.05 * h, body_z[1] - 0.05 * h), -hy, 1, cols,
-        handle=handle, thickness=front,
+        (-hx + 0.03 * w, hx - 0.03 * w),
+        (body_z[0] + 0.05 * h, body_z[1] - 0.05 * h),
+        -hy,
+        1,
+        cols,
+        handle=handle,
+        thickness=front,
     )
     return parts
 
@@ -471,7 +519,9 @@ def _tv(w: float, d: float, h: float) -> Parts:
     return [
         _box((-hx, hx), (-screen_t / 2, screen_t / 2), screen_z),
         _box(_centered(hx, 0.35), (-hy, hy), (0.0, _cap(h, 0.04, 0.03))),
-        _box(_centered(hx, 0.08), (-screen_t / 2 + 0.3 * screen_t, screen_t / 2), (0.0, screen_z[0] + 0.2 * h)),
+        _box(
+            _centered(hx, 0.08), (-screen_t / 2 + 0.3 * screen_t, screen_t / 2), (0.0, screen_z[0] + 0.2 * h)
+        ),
     ]
 
 
@@ -593,7 +643,9 @@ def _laptop(w: float, d: float, h: float) -> Parts:
             ]
         )
     )
-    parts.append(_box(_centered(hx, 0.85), (-hy + 0.45 * d, hinge - 0.05 * d), (base_t, base_t + _cap(h, 0.02, 0.003))))
+    parts.append(
+        _box(_centered(hx, 0.85), (-hy + 0.45 * d, hinge - 0.05 * d), (base_t, base_t + _cap(h, 0.02, 0.003)))
+    )
     return parts
 
 
@@ -606,7 +658,9 @@ def _printer(w: float, d: float, h: float) -> Parts:
         _box((-hx, hx), (-hy + out_tray, hy - in_tray), (0.72 * h, 0.82 * h)),
         _box(_centered(hx, 0.7), (-hy, -hy + out_tray), (0.2 * h, 0.25 * h)),
         _box(_centered(hx, 0.7), (hy - in_tray, hy), (0.5 * h, h)),
-        _box((hx - 0.3 * w, hx - 0.05 * w), (-hy + out_tray, -hy + out_tray + 0.15 * d), (0.82 * h, 0.86 * h)),
+        _box(
+            (hx - 0.3 * w, hx - 0.05 * w), (-hy + out_tray, -hy + out_tray + 0.15 * d), (0.82 * h, 0.86 * h)
+        ),
     ]
 
 
@@ -662,50 +716,58 @@ _BUILDERS: dict[str, Builder] = {
     "wardrobe": _wardrobe,
 }
 
-# Labels of 3D-FRONT, AI2-THOR/ProcTHOR and common synonyms, after ``_snake`` -> builder key.
-_ALIASES: dict[str, str] = {
-    # beds
-    "double_bed": "bed", "single_bed": "bed", "kids_bed": "bed", "king_bed": "bed", "queen_bed": "bed",
-    "bunk_bed": "bed", "dog_bed": "bed",
-    # storage
-    "bookcase": "bookshelf", "shelf": "bookshelf", "shelving_unit": "bookshelf", "shelves": "bookshelf",
-    "wine_cabinet": "cabinet", "children_cabinet": "cabinet", "sideboard": "cabinet", "cupboard": "cabinet",
-    "counter_top": "cabinet", "countertop": "cabinet", "kitchen_cabinet": "cabinet", "safe": "cabinet",
-    "closet": "wardrobe", "drawer_chest": "dresser", "chest_of_drawers": "dresser",
-    "bedside_table": "nightstand", "night_stand": "nightstand", "nightstand_table": "nightstand",
-    "vanity": "dressing_table", "makeup_table": "dressing_table",
-    "tv_cabinet": "tv_stand", "media_console": "tv_stand", "t_v_stand": "tv_stand",
-    # tables
-    "dining_table": "table", "kitchen_table": "table", "round_table": "table",
-    "corner_side_table": "side_table", "console_table": "side_table", "round_end_table": "side_table",
-    "end_table": "side_table", "tea_table": "coffee_table",
-    "work_desk": "desk", "writing_desk": "desk", "computer_desk": "desk", "office_desk": "desk",
-    # seating
-    "dining_chair": "chair", "chinese_chair": "chair", "dressing_chair": "chair", "side_chair": "chair",
-    "desk_chair": "office_chair", "swivel_chair": "office_chair", "gaming_chair": "office_chair",
-    "arm_chair": "armchair", "lounge_chair": "armchair", "lazy_sofa": "armchair", "accent_chair": "armchair",
-    "multi_seat_sofa": "sofa", "loveseat_sofa": "sofa", "loveseat": "sofa", "couch": "sofa",
-    "chaise_longue_sofa": "sofa", "three_seat_sofa": "sofa", "two_seat_sofa": "sofa",
-    "l_sofa": "l_shaped_sofa", "sectional_sofa": "l_shaped_sofa", "corner_sofa": "l_shaped_sofa",
-    "barstool": "stool", "bar_stool": "stool", "footstool": "stool", "foot_stool": "stool", "ottoman": "stool",
-    # electronics
-    "television": "tv", "tv_set": "tv", "t_v": "tv", "monitor": "tv", "desktop": "tv", "computer_monitor": "tv",
-    "screen": "tv", "notebook_computer": "laptop",
-    # lamps
-    "pendant_lamp": "ceiling_lamp", "pendant_light": "ceiling_lamp", "ceiling_light": "ceiling_lamp",
-    "chandelier": "ceiling_lamp", "floor_light": "floor_lamp", "standing_lamp": "floor_lamp",
-    "desk_lamp": "table_lamp", "lamp": "table_lamp", "bedside_lamp": "table_lamp",
-    # decor and small objects
-    "house_plant": "plant", "houseplant": "plant", "potted_plant": "plant", "flower_pot": "plant",
-    "carpet": "rug", "mat": "rug", "floor_mat": "rug",
-    "cup": "mug", "coffee_mug": "mug", "teacup": "mug",
-    "notebook": "book", "newspaper": "book", "magazine": "book",
-    "flower_vase": "vase",
-    "picture": "painting", "picture_frame": "painting", "poster": "painting", "mirror": "painting",
-    "wall_art": "painting", "artwork": "painting", "photo_frame": "painting",
-    "cushion": "pillow", "throw_pillow": "pillow",
-    "cardboard_box": "box", "storage_box": "box", "crate": "box",
+# Labels of 3D-FRONT, AI2-THOR/ProcTHOR and common synonyms (as ``_snake`` writes them), per builder key.
+_SYNONYMS: dict[str, tuple[str, ...]] = {
+    "bed": ("double_bed", "single_bed", "kids_bed", "king_bed", "queen_bed", "bunk_bed", "dog_bed"),
+    "bookshelf": ("bookcase", "shelf", "shelving_unit", "shelves"),
+    "cabinet": (
+        "wine_cabinet",
+        "children_cabinet",
+        "sideboard",
+        "cupboard",
+        "counter_top",
+        "countertop",
+        "kitchen_cabinet",
+        "safe",
+    ),
+    "wardrobe": ("closet",),
+    "dresser": ("drawer_chest", "chest_of_drawers"),
+    "nightstand": ("bedside_table", "night_stand", "nightstand_table"),
+    "dressing_table": ("vanity", "makeup_table"),
+    "tv_stand": ("tv_cabinet", "media_console", "t_v_stand"),
+    "table": ("dining_table", "kitchen_table", "round_table"),
+    "side_table": ("corner_side_table", "console_table", "round_end_table", "end_table"),
+    "coffee_table": ("tea_table",),
+    "desk": ("work_desk", "writing_desk", "computer_desk", "office_desk"),
+    "chair": ("dining_chair", "chinese_chair", "dressing_chair", "side_chair"),
+    "office_chair": ("desk_chair", "swivel_chair", "gaming_chair"),
+    "armchair": ("arm_chair", "lounge_chair", "lazy_sofa", "accent_chair"),
+    "sofa": (
+        "multi_seat_sofa",
+        "loveseat_sofa",
+        "loveseat",
+        "couch",
+        "chaise_longue_sofa",
+        "three_seat_sofa",
+        "two_seat_sofa",
+    ),
+    "l_shaped_sofa": ("l_sofa", "sectional_sofa", "corner_sofa"),
+    "stool": ("barstool", "bar_stool", "footstool", "foot_stool", "ottoman"),
+    "tv": ("television", "tv_set", "t_v", "monitor", "desktop", "computer_monitor", "screen"),
+    "laptop": ("notebook_computer",),
+    "ceiling_lamp": ("pendant_lamp", "pendant_light", "ceiling_light", "chandelier"),
+    "floor_lamp": ("floor_light", "standing_lamp"),
+    "table_lamp": ("desk_lamp", "lamp", "bedside_lamp"),
+    "plant": ("house_plant", "houseplant", "potted_plant", "flower_pot"),
+    "rug": ("carpet", "mat", "floor_mat"),
+    "mug": ("cup", "coffee_mug", "teacup"),
+    "book": ("notebook", "newspaper", "magazine"),
+    "vase": ("flower_vase",),
+    "painting": ("picture", "picture_frame", "poster", "mirror", "wall_art", "artwork", "photo_frame"),
+    "pillow": ("cushion", "throw_pillow"),
+    "box": ("cardboard_box", "storage_box", "crate"),
 }
+_ALIASES: dict[str, str] = {synonym: key for key, names in _SYNONYMS.items() for synonym in names}
 
 
 def _snake(label: str) -> str:

@@ -16,7 +16,7 @@ Layout (``docs/importers.md`` has the full statement)::
       "objects": [
         {"id": "bed", "label": "bed", "mesh": "meshes/bed.glb",
          "position": [x, y, z], "quaternion": [w, x, y, z], "scale": [sx, sy, sz],
-         "frame": "z_up", "up_axis": "auto", "description": "...",
+         "frame": "z_up", "up_axis": "auto", "front": "-y", "description": "...",
          "sim": {"mass_kg": 100, "friction": 0.6}}
       ]
     }
@@ -27,7 +27,9 @@ points, read as (x, z)) are turned to Z-up by (x, y, z) -> (x, -z, y). The impor
 mesh with :func:`scenemosaic.assets.load_mesh`, which gives the transform ``C`` from the file
 to the canonical frame (bottom centre at the origin, Z up, front -Y), and composes
 ``world * C^-1``: the canonical object's pose. The mesh's world placement is preserved exactly
-whatever ``C`` is.
+whatever ``C`` is. ``front`` names the canonical axis the mesh's front points along (default
+``-y``, our convention); another value adds a turn about +Z to ``C`` so that the object's front
+is -Y as everywhere else.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ import os
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import structlog
@@ -70,6 +72,10 @@ IMPORTER = "scenemosaic.importers.sam3d"
 _FRAMES = ("z_up", "y_up")
 _Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 _ROTATION_TOL = 1e-6
+UpAxis = Literal["auto", "y", "z"]
+_UP_AXES: tuple[UpAxis, ...] = ("auto", "y", "z")
+_FRONT_TURNS = {"-y": 0.0, "+y": math.pi, "+x": -math.pi / 2, "-x": math.pi / 2}
+"""Turn about +Z that brings each canonical axis onto our front (-Y)."""
 
 
 def looks_like_sam3d(data: Any) -> bool:
@@ -93,7 +99,7 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
     copies them and makes them relative). Without ``room`` (argument or file) the room is
     recovered from the objects like a 3D-FRONT layout's.
     """
-    from scenemosaic.assets import load_mesh  # importers sit above assets
+    from scenemosaic.assets import load_mesh, mesh_hash  # importers sit above assets
 
     r = FieldReader(path)
     top = r.mapping(data, "")
@@ -111,7 +117,7 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
     counters: dict[str, int] = {}
     objects: list[SceneObject] = []
     notes: list[str] = []
-    meshes: dict[tuple[Path, str], Any] = {}
+    meshes: dict[tuple[Path, str, str], tuple[FloatArray, tuple[float, float, float], str]] = {}
     for i, raw in enumerate(items):
         f = f"objects[{i}]"
         item = r.mapping(raw, f)
@@ -129,17 +135,23 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
         if scale.min() <= 0:
             r.fail(f"{f}.scale", f"scale must be positive on every axis, got {scale.tolist()}")
         frame = _frame(r, item.get("frame", default_frame), f"{f}.frame")
-        up_axis = item.get("up_axis", "auto")
-        if not isinstance(up_axis, str):
-            r.fail(f"{f}.up_axis", "expected a string such as 'auto', 'y' or 'z'")
+        up_raw = item.get("up_axis", "auto")
+        if up_raw not in _UP_AXES:
+            r.fail(f"{f}.up_axis", f"unknown up axis {up_raw!r}; use 'auto', 'y' or 'z'")
+        up_axis: UpAxis = up_raw
 
-        key = (mesh_path, up_axis)
+        front = item.get("front", "-y")
+        if front not in _FRONT_TURNS:
+            r.fail(f"{f}.front", f"unknown front axis {front!r}; use one of {sorted(_FRONT_TURNS)}")
+
+        key = (mesh_path, up_axis, front)
         if key not in meshes:
             try:
-                meshes[key] = load_mesh(mesh_path, up_axis=up_axis, unit_scale=unit)
+                loaded = load_mesh(mesh_path, up_axis=up_axis, unit_scale=unit)
             except AssetError as exc:
                 raise AssetError(f"{path}: {f}.mesh: {exc}") from exc
-        canonical = meshes[key]
+            meshes[key] = _turn_to_front(loaded, _FRONT_TURNS[front], mesh_hash)
+        transform, extents, digest = meshes[key]
 
         w, qx, qy, qz = (c / norm for c in quat)
         source_to_world = np.eye(4)
@@ -147,7 +159,6 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
         source_to_world[:3, 3] = position
         to_z_up = np.eye(4)
         to_z_up[:3, :3] = unit * (_Y_UP_TO_Z_UP if frame == "y_up" else np.eye(3))
-        transform = np.asarray(canonical.transform, dtype=np.float64)
         placed = to_z_up @ source_to_world @ np.linalg.inv(transform)
         pose, exact = _pose_from_matrix(placed)
         if not exact:
@@ -171,8 +182,8 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
                 asset=AssetRef(
                     kind="mesh",
                     uri=mesh_path.as_posix(),
-                    extents=tuple(float(v) for v in canonical.extents),
-                    sha256=canonical.sha256,
+                    extents=extents,
+                    sha256=digest,
                     source_transform=[float(v) for v in transform.reshape(-1)],
                 ),
                 pose=pose,
@@ -193,6 +204,24 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
             source_format="sam3d", source_path=path.as_posix(), importer=IMPORTER, notes=notes
         ),
     )
+
+
+def _turn_to_front(
+    canonical: Any, turn: float, mesh_hash: Any
+) -> tuple[FloatArray, tuple[float, float, float], str]:
+    """The canonical transform, extents and hash after turning the mesh's front onto -Y."""
+    transform = np.asarray(canonical.transform, dtype=np.float64)
+    extents = tuple(float(v) for v in canonical.extents)
+    if turn == 0.0:
+        return transform, (extents[0], extents[1], extents[2]), str(canonical.sha256)
+    spin = np.eye(4)
+    spin[:3, :3] = Rotation.from_euler("z", turn).as_matrix()
+    spin[np.abs(spin) < 1e-15] = 0.0  # exact quarter turns
+    mesh = canonical.mesh.copy()
+    mesh.apply_transform(spin)
+    quarter = abs(abs(turn) - math.pi / 2) < 1e-12
+    size = (extents[1], extents[0], extents[2]) if quarter else (extents[0], extents[1], extents[2])
+    return spin @ transform, size, str(mesh_hash(mesh))
 
 
 def _frame(r: FieldReader, value: Any, field: str) -> str:
@@ -320,6 +349,9 @@ _EXAMPLE_MESHES = {
     "printer": ("generated_assets/sdf/printer_*/printer.gltf", "printer"),
     "coffee_mug": ("generated_assets/manipulands/sdf/coffee_mug_*/coffee_mug.gltf", "coffee_mug"),
 }
+_EXAMPLE_FRONT = "+y"
+"""The shared SAM3D meshes face glTF -Z (the bed's headboard and the chair's backrest are on +Z),
+i.e. canonical +Y after the Y-up -> Z-up turn: the example says so with ``"front": "+y"``."""
 
 
 def write_sam3d_example(
@@ -334,7 +366,7 @@ def write_sam3d_example(
     friction come from each mesh's ``.sdf``. Meshes are referenced (relative paths), not
     copied. ``frame`` picks the frame the poses are written in (``z_up`` or ``y_up``).
     """
-    from scenemosaic.assets import load_mesh
+    from scenemosaic.assets import load_mesh, mesh_hash
 
     if frame not in _FRAMES:
         raise ImportFormatError(f"unknown frame {frame!r}; use 'z_up' or 'y_up'", field="frame")
@@ -344,7 +376,7 @@ def write_sam3d_example(
     room_info = _sdf_room(shared / "room_geometry.sdf")
     (xmin, ymin, xmax, ymax), ceiling = room_info or ((-2.5, -2.5, 2.5, 2.5), 2.5)
 
-    found: dict[str, tuple[Path, Any, SimAttributes]] = {}
+    found: dict[str, tuple[Path, tuple[FloatArray, tuple[float, float, float], str], SimAttributes]] = {}
     for key, (pattern, _) in _EXAMPLE_MESHES.items():
         matches = sorted(shared.glob(pattern))
         if not matches:
@@ -352,10 +384,10 @@ def write_sam3d_example(
         mesh = matches[0]
         sdfs = sorted(mesh.parent.glob("*.sdf"))
         sim = read_sdf_sim(sdfs[0]) if sdfs else SimAttributes()
-        found[key] = (mesh, load_mesh(mesh), sim)
+        found[key] = (mesh, _turn_to_front(load_mesh(mesh), _FRONT_TURNS[_EXAMPLE_FRONT], mesh_hash), sim)
 
     def ext(key: str) -> FloatArray:
-        return np.asarray(found[key][1].extents, dtype=np.float64)
+        return np.asarray(found[key][1][1], dtype=np.float64)
 
     gap = 0.05
     bed, desk, chair = ext("bed"), ext("work_desk"), ext("office_chair")
@@ -380,7 +412,7 @@ def write_sam3d_example(
         placed = np.eye(4)
         placed[:3, :3] = Rotation.from_euler("z", yaw).as_matrix()
         placed[:3, 3] = position
-        source_to_world = to_file @ placed @ np.asarray(canonical.transform, dtype=np.float64)
+        source_to_world = to_file @ placed @ canonical[0]
         linear = source_to_world[:3, :3]
         scale = np.linalg.norm(linear, axis=0)
         qx, qy, qz, qw = Rotation.from_matrix(linear / scale).as_quat()
@@ -392,6 +424,7 @@ def write_sam3d_example(
                 "position": [round(float(v), 9) for v in source_to_world[:3, 3]],
                 "quaternion": [round(float(v), 12) for v in (qw, qx, qy, qz)],
                 "scale": [round(float(v), 12) for v in scale],
+                "front": _EXAMPLE_FRONT,
                 "sim": sim.model_dump(exclude_none=True),
             }
         )

@@ -186,6 +186,7 @@ class OpenAIChatModel(CompletionModel):
         self._transport = transport
         self._sleep: Callable[[float], Awaitable[None]] = sleep or asyncio.sleep
         self._rng = random.Random()
+        self._schemas: dict[type[BaseModel], dict[str, Any]] = {}
 
     def __repr__(self) -> str:
         return f"OpenAIChatModel({self.model!r}, base_url={self.base_url!r}, vision={self.vision})"
@@ -250,10 +251,17 @@ class OpenAIChatModel(CompletionModel):
             "type": "json_schema",
             "json_schema": {
                 "name": name,
-                "schema": strict_json_schema(output_type, self.schema_bounds),
+                "schema": self._strict_schema(output_type),
                 "strict": True,
             },
         }
+
+    def _strict_schema(self, output_type: type[BaseModel]) -> dict[str, Any]:
+        # Schemas are built once per output type; the body only reads them.
+        schema = self._schemas.get(output_type)
+        if schema is None:
+            schema = self._schemas[output_type] = strict_json_schema(output_type, self.schema_bounds)
+        return schema
 
     def payload(
         self, messages: list[Message], output_type: type[BaseModel], settings: ModelSettings

@@ -13,10 +13,9 @@ from shapely.geometry import Polygon
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._planar import convex_hull_2d
 from scenemosaic.physics._reports import CollisionPair, CollisionReport, OutOfBoundsObject, OutOfBoundsReport
-from scenemosaic.physics._settings import COLLISION_TOLERANCE_M, OOB_MIN_INSIDE_FRACTION
+from scenemosaic.physics._settings import COLLISION_TOLERANCE_M, OOB_MIN_INSIDE_FRACTION, SimSettings
 from scenemosaic.physics._settle import is_thin
 from scenemosaic.physics._world import WorldBuilder
-from scenemosaic.physics._settings import SimSettings
 from scenemosaic.scene import CEILING, FLOOR, Scene, SceneObject
 from scenemosaic.scene._geometry import FloatArray
 
@@ -106,7 +105,9 @@ def support_polygon(scene: Scene, anchor_id: str) -> Polygon | None:
     return _footprint(scene.get(anchor_id))
 
 
-def check_out_of_bounds(scene: Scene, *, min_inside_fraction: float = OOB_MIN_INSIDE_FRACTION) -> OutOfBoundsReport:
+def check_out_of_bounds(
+    scene: Scene, *, min_inside_fraction: float = OOB_MIN_INSIDE_FRACTION
+) -> OutOfBoundsReport:
     """Objects with less than ``min_inside_fraction`` of their footprint over their support surface.
 
     Floor, ceiling and unsupported objects are judged against the floor polygon (SceneEval's
@@ -134,5 +135,7 @@ def check_out_of_bounds(scene: Scene, *, min_inside_fraction: float = OOB_MIN_IN
         area = float(foot.area)
         inside = float(foot.intersection(surface).area) / area if area > 1e-12 else 1.0
         if inside < min_inside_fraction:
-            report.objects.append(OutOfBoundsObject(object_id=obj.id, anchor_id=anchor, inside_fraction=round(inside, 6)))
+            report.objects.append(
+                OutOfBoundsObject(object_id=obj.id, anchor_id=anchor, inside_fraction=round(inside, 6))
+            )
     return report

@@ -72,7 +72,7 @@ _CACHE: dict[str, HullPiece] = {}
 _CACHE_LOCK = threading.Lock()
 
 
-def box_vertices(size: Sequence[float]) -> FloatArray:
+def box_vertices(size: Sequence[float] | FloatArray) -> FloatArray:
     """Corners (8, 3) of a box of ``size`` in the object frame (x, y centred, z from 0 up)."""
     sx, sy, sz = (float(v) for v in size)
     return np.array(

@@ -22,6 +22,7 @@ from scenemosaic.scene._geometry import FloatArray
 __all__ = [
     "UnitFrame",
     "convex_hull_2d",
+    "edge_axes",
     "minimal_containing_shift",
     "sat_overlap",
     "unit_frame",
@@ -48,7 +49,7 @@ class UnitFrame:
         """Heights along ``up`` of world points."""
         return points @ self.up
 
-    def lift(self, shift_uv: Sequence[float]) -> FloatArray:
+    def lift(self, shift_uv: Sequence[float] | FloatArray) -> FloatArray:
         """World vector of an in-plane shift."""
         return float(shift_uv[0]) * self.e1 + float(shift_uv[1]) * self.e2
 
@@ -58,7 +59,9 @@ _X = np.array([1.0, 0.0, 0.0])
 _Y = np.array([0.0, 1.0, 0.0])
 
 
-def unit_frame(scene: Scene, anchor_id: str, anchor_kind: str, anchor_footprint: FloatArray | None) -> UnitFrame:
+def unit_frame(
+    scene: Scene, anchor_id: str, anchor_kind: str, anchor_footprint: FloatArray | None
+) -> UnitFrame:
     """The frame of the unit anchored at ``anchor_id``.
 
     ``anchor_footprint`` (world XY polygon) is required for object anchors: it is the anchor's
@@ -81,7 +84,9 @@ def unit_frame(scene: Scene, anchor_id: str, anchor_kind: str, anchor_footprint:
         e1 = np.array([d2[0], d2[1], 0.0])
         start = np.array([wall.start[0], wall.start[1], 0.0])
         u0 = float(start @ e1)
-        region = Polygon([(u0, 0.0), (u0 + wall.length, 0.0), (u0 + wall.length, wall.height), (u0, wall.height)])
+        region = Polygon(
+            [(u0, 0.0), (u0 + wall.length, 0.0), (u0 + wall.length, wall.height), (u0, wall.height)]
+        )
         return UnitFrame(up, e1, _Z, float(start @ up), region)
     if anchor_footprint is None:
         raise ValueError("an object anchor needs its footprint")
@@ -110,22 +115,26 @@ def convex_hull_2d(points: FloatArray) -> FloatArray:
     return np.array(lower[:-1] + upper[:-1])
 
 
-def _axes(poly: FloatArray) -> FloatArray:
+def edge_axes(poly: FloatArray) -> FloatArray:
+    """Unit outward edge normals of a convex polygon (the candidate separating axes)."""
     edges = np.roll(poly, -1, axis=0) - poly
     normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
     lengths = np.linalg.norm(normals, axis=1)
     keep = lengths > 1e-12
-    return normals[keep] / lengths[keep, None]
+    out: FloatArray = normals[keep] / lengths[keep, None]
+    return out
 
 
-def sat_overlap(a: FloatArray, b: FloatArray) -> tuple[float, FloatArray]:
+def sat_overlap(a: FloatArray, b: FloatArray, axes: FloatArray | None = None) -> tuple[float, FloatArray]:
     """Separating-axis test of two convex polygons.
 
     Returns ``(depth, axis)``: the smallest overlap over all edge normals (negative when the
     polygons are apart: the gap along the best separating axis) and the unit axis along which
-    moving ``b`` by ``+depth`` (or ``a`` by ``-depth``) separates them.
+    moving ``b`` by ``+depth`` (or ``a`` by ``-depth``) separates them. ``axes`` may carry the
+    precomputed edge normals of both polygons (they do not change under translation).
     """
-    axes = np.concatenate([_axes(a), _axes(b)]) if len(a) > 2 and len(b) > 2 else np.array([[1.0, 0.0], [0.0, 1.0]])
+    if axes is None:
+        axes = np.concatenate([edge_axes(a), edge_axes(b)]) if len(a) > 2 and len(b) > 2 else np.eye(2)
     pa = a @ axes.T
     pb = b @ axes.T
     amin, amax = pa.min(axis=0), pa.max(axis=0)
@@ -138,7 +147,9 @@ def sat_overlap(a: FloatArray, b: FloatArray) -> tuple[float, FloatArray]:
     return float(need[k]), axis
 
 
-def minimal_containing_shift(footprint: FloatArray, region: Polygon, inset: float = 0.002) -> FloatArray | None:
+def minimal_containing_shift(
+    footprint: FloatArray, region: Polygon, inset: float = 0.002
+) -> FloatArray | None:
     """Smallest 2D shift that puts the convex ``footprint`` inside ``region`` (shrunk by ``inset``).
 
     The feasible shifts are the intersection of the region translated by minus each footprint
@@ -161,4 +172,4 @@ def minimal_containing_shift(footprint: FloatArray, region: Polygon, inset: floa
     if feasible.contains(origin):
         return np.zeros(2)
     nearest = nearest_points(feasible, origin)[0]
-    return np.array([nearest.x, nearest.y])
+    return np.array([nearest.x, nearest.y], dtype=np.float64)

@@ -94,7 +94,8 @@ class UnitReport(_Report):
     )
     larger_than_anchor: list[str] = Field(default_factory=list)
     separation_moves: dict[str, float] = Field(
-        default_factory=dict, description="Objects moved to resolve initial interpenetration, and by how far (m)."
+        default_factory=dict,
+        description="Objects moved to resolve initial interpenetration, and by how far (m).",
     )
     unresolved_overlaps: list[tuple[str, str]] = Field(default_factory=list)
     steps: int = 0
@@ -102,7 +103,9 @@ class UnitReport(_Report):
     wall_s: float = 0.0
     converged: bool = True
     fallbacks: list[str] = Field(default_factory=list, description="Fallbacks taken after a blow-up.")
-    rolled_back: list[str] = Field(default_factory=list, description="Objects kept at their pre-simulation pose.")
+    rolled_back: list[str] = Field(
+        default_factory=list, description="Objects kept at their pre-simulation pose."
+    )
 
 
 class StabilizationReport(_Report):
@@ -112,7 +115,8 @@ class StabilizationReport(_Report):
     units: list[UnitReport] = Field(default_factory=list)
     motions: list[ObjectMotion] = Field(default_factory=list)
     unsupported_defaulted: list[str] = Field(
-        default_factory=list, description="Objects with no support relation, treated as standing on the floor."
+        default_factory=list,
+        description="Objects with no support relation, treated as standing on the floor.",
     )
     wall_s: float = 0.0
 

@@ -18,16 +18,24 @@ The steps, in order (all in the unit's support plane, see :mod:`._planar`):
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import structlog
 from shapely.geometry import Polygon
 
 from scenemosaic.physics._hulls import ObjectShape
-from scenemosaic.physics._planar import UnitFrame, convex_hull_2d, minimal_containing_shift, sat_overlap, unit_frame
+from scenemosaic.physics._planar import (
+    UnitFrame,
+    convex_hull_2d,
+    edge_axes,
+    minimal_containing_shift,
+    sat_overlap,
+    unit_frame,
+)
 from scenemosaic.physics._reports import UnitReport
 from scenemosaic.physics._settings import (
     COLLISION_TOLERANCE_M,
@@ -49,6 +57,8 @@ log = structlog.get_logger(__name__)
 _VERTICAL_EPS = 0.004
 """Pieces overlapping by less than this along the gravity axis cannot collide beyond tolerance."""
 _MAX_SWEEPS = 80
+_MAX_SETTLE_TILT_DEG = 6.0
+"""A child rocking further than this while settling is settled again with its tilt locked."""
 
 
 def is_thin(obj: SceneObject) -> bool:
@@ -62,6 +72,14 @@ class _Piece:
     uv: FloatArray  # convex polygon, CCW
     lo: float  # extent along the unit's up axis
     hi: float
+    axes: FloatArray = field(init=False)  # edge normals, translation-invariant
+    uv_lo: FloatArray = field(init=False)
+    uv_hi: FloatArray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.axes = edge_axes(self.uv) if len(self.uv) > 2 else np.eye(2)
+        self.uv_lo = self.uv.min(axis=0)
+        self.uv_hi = self.uv.max(axis=0)
 
 
 @dataclass
@@ -119,11 +137,22 @@ def _support_height(
 def _pair_push(a: _Body, b: _Body, gap: float) -> tuple[float, FloatArray] | None:
     """Largest in-plane push needed to part two bodies' vertically overlapping pieces."""
     best: tuple[float, FloatArray] | None = None
+    reach = max(gap, 0.0) + 1e-6
     for pa in a.pieces:
+        alo, ahi = pa.uv_lo + a.shift, pa.uv_hi + a.shift
         for pb in b.pieces:
             if min(pa.hi, pb.hi) - max(pa.lo, pb.lo) <= _VERTICAL_EPS:
                 continue
-            depth, axis = sat_overlap(pa.uv + a.shift, pb.uv + b.shift)
+            blo, bhi = pb.uv_lo + b.shift, pb.uv_hi + b.shift
+            if (
+                alo[0] > bhi[0] + reach
+                or blo[0] > ahi[0] + reach
+                or alo[1] > bhi[1] + reach
+                or blo[1] > ahi[1] + reach
+            ):
+                continue
+            axes = np.concatenate([pa.axes, pb.axes])
+            depth, axis = sat_overlap(pa.uv + a.shift, pb.uv + b.shift, axes)
             need = depth + gap
             if need > 1e-5 and (best is None or need > best[0]):
                 best = (need, axis)
@@ -180,15 +209,26 @@ def _separate(
     return left
 
 
+def _posed(b: _Body) -> SceneObject:
+    return b.obj.model_copy(update={"pose": _pose_from_matrix(b.matrix, b.obj.pose)})
+
+
+def _tilt_deg(quat: FloatArray) -> float:
+    """Angle between a rotation's image of +Z and +Z, degrees."""
+    _, x, y, _ = (float(v) for v in quat)
+    cos_tilt = 1.0 - 2.0 * (x * x + y * y)
+    return math.degrees(math.acos(max(-1.0, min(1.0, cos_tilt))))
+
+
 def _simulate(
     scene: Scene,
-    plan: UnitPlan,
     frame: UnitFrame,
     anchor: tuple[SceneObject, ObjectShape] | None,
     movers: list[_Body],
     statics: list[tuple[SceneObject, ObjectShape]],
     sim: SimSettings,
     settle: SettleSettings,
+    mode: JointMode,
 ) -> tuple[BuiltWorld, SimOutcome]:
     builder = WorldBuilder(sim, gravity_dir=-frame.up)
     builder.add_room(scene.room)
@@ -196,16 +236,15 @@ def _simulate(
         builder.add_static(*anchor)
     for obj, shape in statics:
         builder.add_static(obj, shape)
-    mode: JointMode = "tilt" if plan.anchor_kind in ("floor", "object") else "slide"
     for body in movers:
-        posed = body.obj.model_copy(update={"pose": _pose_from_matrix(body.matrix, body.obj.pose)})
-        builder.add_dynamic(posed, body.shape, mode=mode, tilt_axes=(frame.e1, frame.e2))
+        builder.add_dynamic(_posed(body), body.shape, mode=mode, tilt_axes=(frame.e1, frame.e2))
     world = builder.compile()
     return world, run_until_settled(world, settle)
 
 
 def _pose_from_matrix(matrix: FloatArray, like: Pose) -> Pose:
-    return Pose(position=tuple(float(v) for v in matrix[:3, 3]), quaternion=like.quaternion, scale=like.scale)  # type: ignore[arg-type]
+    position = (float(matrix[0, 3]), float(matrix[1, 3]), float(matrix[2, 3]))
+    return Pose(position=position, quaternion=like.quaternion, scale=like.scale)
 
 
 def settle_unit(
@@ -225,11 +264,17 @@ def settle_unit(
     """
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
-    report = UnitReport(anchor_id=plan.anchor_id, anchor_kind=plan.anchor_kind, depth=plan.depth, children=list(plan.children))
+    report = UnitReport(
+        anchor_id=plan.anchor_id, anchor_kind=plan.anchor_kind, depth=plan.depth, children=list(plan.children)
+    )
     anchor_obj = scene.get(plan.anchor_id) if plan.anchor_kind == "object" else None
-    frame = unit_frame(scene, plan.anchor_id, plan.anchor_kind, anchor_obj.footprint() if anchor_obj else None)
+    frame = unit_frame(
+        scene, plan.anchor_id, plan.anchor_kind, anchor_obj.footprint() if anchor_obj else None
+    )
     anchor_pieces = (
-        _world_pieces(shapes[anchor_obj.id], anchor_obj.pose.matrix(with_scale=False), frame) if anchor_obj else []
+        _world_pieces(shapes[anchor_obj.id], anchor_obj.pose.matrix(with_scale=False), frame)
+        if anchor_obj
+        else []
     )
 
     bodies: list[_Body] = []
@@ -262,7 +307,9 @@ def settle_unit(
             matrix = _translate(matrix, frame.up * (target - lo))
             pieces = _world_pieces(shape, matrix, frame)
         area = max(float(Polygon(box_uv).area) if len(box_uv) >= 3 else 0.0, 1e-4)
-        bodies.append(_Body(obj, shape, matrix, pieces, _box_uv(obj, matrix, frame), np.zeros(2), area, movable))
+        bodies.append(
+            _Body(obj, shape, matrix, pieces, _box_uv(obj, matrix, frame), np.zeros(2), area, movable)
+        )
 
     movers = [b for b in bodies if b.movable and not is_thin(b.obj)]
     obstacles = [b for b in bodies if not b.movable and not is_thin(b.obj)]
@@ -271,10 +318,32 @@ def settle_unit(
         if is_thin(nobj):
             continue
         m = nobj.pose.matrix(with_scale=False)
-        obstacles.append(_Body(nobj, shapes[nid], m, _world_pieces(shapes[nid], m, frame), _box_uv(nobj, m, frame), np.zeros(2), 1.0, False))
+        obstacles.append(
+            _Body(
+                nobj,
+                shapes[nid],
+                m,
+                _world_pieces(shapes[nid], m, frame),
+                _box_uv(nobj, m, frame),
+                np.zeros(2),
+                1.0,
+                False,
+            )
+        )
     if anchor_obj is not None:
         am = anchor_obj.pose.matrix(with_scale=False)
-        obstacles.append(_Body(anchor_obj, shapes[anchor_obj.id], am, anchor_pieces, _box_uv(anchor_obj, am, frame), np.zeros(2), 1.0, False))
+        obstacles.append(
+            _Body(
+                anchor_obj,
+                shapes[anchor_obj.id],
+                am,
+                anchor_pieces,
+                _box_uv(anchor_obj, am, frame),
+                np.zeros(2),
+                1.0,
+                False,
+            )
+        )
     report.unresolved_overlaps = _separate(movers, obstacles, frame.region, rng)
     for b in movers:
         dist = float(np.linalg.norm(b.shift))
@@ -285,22 +354,29 @@ def settle_unit(
                 pieces = _world_pieces(b.shape, b.matrix, frame)
                 lo, hi = min(p.lo for p in pieces), max(p.hi for p in pieces)
                 rel = scene.support_of(b.obj.id)
-                target = _support_height(convex_hull_2d(np.concatenate([p.uv for p in pieces])), lo, hi, anchor_pieces, rel is not None and rel.kind == "contain")
+                target = _support_height(
+                    convex_hull_2d(np.concatenate([p.uv for p in pieces])),
+                    lo,
+                    hi,
+                    anchor_pieces,
+                    rel is not None and rel.kind == "contain",
+                )
                 b.matrix = _translate(b.matrix, frame.up * (target - lo))
 
     # the world: dynamic children, static anchor / neighbours / fixed children nearby
     dyn = [b for b in bodies if b.movable]
     near = _nearby(dyn, [o for o in obstacles if o.obj.id != plan.anchor_id])
     anchor = (anchor_obj, shapes[anchor_obj.id]) if anchor_obj is not None else None
+    mode: JointMode = "tilt" if plan.anchor_kind in ("floor", "object") else "slide"
     attempts: list[tuple[str, SimSettings]] = [
         ("default", sim),
-        ("half_step", SimSettings(**{**sim.__dict__, "timestep": sim.timestep / 2, "iterations": sim.iterations * 2})),
+        ("half_step", replace(sim, timestep=sim.timestep / 2, iterations=sim.iterations * 2)),
     ]
     rolled: list[str] = []
     outcome = SimOutcome()
     world: BuiltWorld | None = None
     for label, settings in attempts:
-        world, outcome = _simulate(scene, plan, frame, anchor, dyn, near, settings, settle)
+        world, outcome = _simulate(scene, frame, anchor, dyn, near, settings, settle, mode)
         report.steps += outcome.steps
         report.simulated_s += outcome.simulated_s
         if not outcome.blown_up:
@@ -309,15 +385,30 @@ def settle_unit(
     if outcome.blown_up:
         rolled = sorted(outcome.blown_up)
         keep = [b for b in dyn if b.obj.id not in rolled]
-        frozen = near + [(b.obj.model_copy(update={"pose": _pose_from_matrix(b.matrix, b.obj.pose)}), b.shape) for b in dyn if b.obj.id in rolled]
-        world, outcome = _simulate(scene, plan, frame, anchor, keep, frozen, attempts[-1][1], settle)
+        frozen = near + [(_posed(b), b.shape) for b in dyn if b.obj.id in rolled]
+        world, outcome = _simulate(scene, frame, anchor, keep, frozen, attempts[-1][1], settle, mode)
         report.steps += outcome.steps
         report.simulated_s += outcome.simulated_s
         if outcome.blown_up:
             rolled = sorted(b.obj.id for b in dyn)
             world = None
-        dyn = keep if world is not None else []
         report.fallbacks.append("rollback")
+    if world is not None and mode == "tilt":
+        tilted = [
+            wb.object_id
+            for wb in world.bodies
+            if _tilt_deg(world.data.xquat[wb.body_id]) > _MAX_SETTLE_TILT_DEG
+        ]
+        if tilted:  # rocking onto an unstable resting pose: settle again upright
+            report.fallbacks.append(f"tilt_locked: {sorted(tilted)} tilted over {_MAX_SETTLE_TILT_DEG:g} deg")
+            keep = [b for b in dyn if b.obj.id not in rolled]
+            frozen = near + [(_posed(b), b.shape) for b in dyn if b.obj.id in rolled]
+            world, outcome = _simulate(scene, frame, anchor, keep, frozen, sim, settle, "slide")
+            report.steps += outcome.steps
+            report.simulated_s += outcome.simulated_s
+            if outcome.blown_up:
+                rolled = sorted(b.obj.id for b in dyn)
+                world = None
     report.rolled_back = rolled
     report.converged = outcome.converged and not rolled
 
@@ -331,14 +422,24 @@ def settle_unit(
             xq = world.data.xquat[wb.body_id]
             quat = quat_multiply(xq, obj.pose.quaternion)
             pos = world.data.xpos[wb.body_id]
-            poses[wb.object_id] = Pose(position=(float(pos[0]), float(pos[1]), float(pos[2])), quaternion=quat, scale=obj.pose.scale)
+            poses[wb.object_id] = Pose(
+                position=(float(pos[0]), float(pos[1]), float(pos[2])), quaternion=quat, scale=obj.pose.scale
+            )
     report.simulated_s = round(report.simulated_s, 6)
     report.wall_s = round(time.perf_counter() - t0, 6)
-    log.debug("unit_settled", anchor=plan.anchor_id, steps=report.steps, converged=report.converged, wall_s=report.wall_s)
+    log.debug(
+        "unit_settled",
+        anchor=plan.anchor_id,
+        steps=report.steps,
+        converged=report.converged,
+        wall_s=report.wall_s,
+    )
     return poses, report
 
 
-def _nearby(dyn: list[_Body], candidates: list[_Body], margin: float = 0.3) -> list[tuple[SceneObject, ObjectShape]]:
+def _nearby(
+    dyn: list[_Body], candidates: list[_Body], margin: float = 0.3
+) -> list[tuple[SceneObject, ObjectShape]]:
     """Static bodies whose plane bounds come within ``margin`` of any dynamic child."""
     if not dyn:
         return []
@@ -348,5 +449,5 @@ def _nearby(dyn: list[_Body], candidates: list[_Body], margin: float = 0.3) -> l
     for c in candidates:
         clo, chi = c.bounds()
         if np.all(clo <= hi) and np.all(chi >= lo):
-            out.append((c.obj.model_copy(update={"pose": _pose_from_matrix(c.matrix, c.obj.pose)}) if c.movable else c.obj, c.shape))
+            out.append((_posed(c) if c.movable else c.obj, c.shape))
     return out

@@ -29,7 +29,11 @@ def _pose_of(matrix: FloatArray, scale: tuple[float, float, float]) -> Pose:
     from scenemosaic.physics._world import _quat_from_matrix
 
     q = _quat_from_matrix(matrix[:3, :3])
-    return Pose(position=(float(matrix[0, 3]), float(matrix[1, 3]), float(matrix[2, 3])), quaternion=(q[0], q[1], q[2], q[3]), scale=scale)
+    return Pose(
+        position=(float(matrix[0, 3]), float(matrix[1, 3]), float(matrix[2, 3])),
+        quaternion=(q[0], q[1], q[2], q[3]),
+        scale=scale,
+    )
 
 
 def _descendants(scene: Scene, object_id: str) -> list[str]:
@@ -104,7 +108,14 @@ async def stabilize_scene(
         results: list[tuple[dict[str, Pose], UnitReport]] = await asyncio.gather(
             *(
                 asyncio.to_thread(
-                    settle_unit, snapshot, u, shapes, neighbours, sim=sim, settle=settle, seed=_unit_seed(seed, u)
+                    settle_unit,
+                    snapshot,
+                    u,
+                    shapes,
+                    neighbours,
+                    sim=sim,
+                    settle=settle,
+                    seed=_unit_seed(seed, u),
                 )
                 for u in level
             )
@@ -116,7 +127,9 @@ async def stabilize_scene(
     report.motions = [motion_between(o.id, scene.get(o.id).pose, o.pose) for o in out.objects]
     out.provenance.steps.append("stabilize")
     if defaulted:
-        out.provenance.notes.append(f"stabilize: no support relation, treated as on the floor: {', '.join(defaulted)}")
+        out.provenance.notes.append(
+            f"stabilize: no support relation, treated as on the floor: {', '.join(defaulted)}"
+        )
     report.wall_s = round(time.perf_counter() - t0, 6)
     log.info("scene_stabilized", scene=scene.id, units=len(report.units), wall_s=report.wall_s)
     return out, report

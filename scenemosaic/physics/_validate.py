@@ -38,7 +38,9 @@ def is_fixed(scene: Scene, obj: SceneObject) -> bool:
 def motion_between(object_id: str, before: Pose, after: Pose) -> ObjectMotion:
     """Displacement, yaw change and tilt between two poses of one object."""
     disp = float(np.linalg.norm(np.subtract(after.position, before.position)))
-    dyaw = (yaw_from_quat(after.quaternion) - yaw_from_quat(before.quaternion) + math.pi) % (2 * math.pi) - math.pi
+    dyaw = (yaw_from_quat(after.quaternion) - yaw_from_quat(before.quaternion) + math.pi) % (
+        2 * math.pi
+    ) - math.pi
     up_before = quat_to_matrix(before.quaternion)[:, 2]
     up_after = quat_to_matrix(after.quaternion)[:, 2]
     tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(up_before @ up_after)))))
@@ -127,7 +129,11 @@ def validate_scene(
         if not all(math.isfinite(v) for v in (*pos, *quat)):
             fell.append(wb.object_id)
             continue
-        after = Pose(position=(float(pos[0]), float(pos[1]), float(pos[2])), quaternion=quat_multiply(quat, (1.0, 0.0, 0.0, 0.0)), scale=before.scale)
+        after = Pose(
+            position=(float(pos[0]), float(pos[1]), float(pos[2])),
+            quaternion=quat_multiply(quat, (1.0, 0.0, 0.0, 0.0)),
+            scale=before.scale,
+        )
         mot = motion_between(wb.object_id, before, after)
         motions.append(mot)
         if mot.tilt_deg > TIPPED_TILT_DEG:

@@ -31,7 +31,11 @@ __all__ = ["BuiltWorld", "DynamicBody", "JointMode", "WorldBuilder", "object_mas
 
 JointMode = Literal["tilt", "slide", "free"]
 
-_SOLVERS = {"Newton": mujoco.mjtSolver.mjSOL_NEWTON, "CG": mujoco.mjtSolver.mjSOL_CG, "PGS": mujoco.mjtSolver.mjSOL_PGS}
+_SOLVERS = {
+    "Newton": mujoco.mjtSolver.mjSOL_NEWTON,
+    "CG": mujoco.mjtSolver.mjSOL_CG,
+    "PGS": mujoco.mjtSolver.mjSOL_PGS,
+}
 _CONES = {"elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC, "pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL}
 _INTEGRATORS = {
     "implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
@@ -82,7 +86,9 @@ class BuiltWorld:
 class WorldBuilder:
     """Accumulates static and dynamic parts, then compiles one MuJoCo model."""
 
-    def __init__(self, settings: SimSettings, gravity_dir: Sequence[float] = (0.0, 0.0, -1.0)) -> None:
+    def __init__(
+        self, settings: SimSettings, gravity_dir: Sequence[float] | FloatArray = (0.0, 0.0, -1.0)
+    ) -> None:
         self.settings = settings
         self.spec = mujoco.MjSpec()
         self.spec.modelname = "scenemosaic_unit"
@@ -143,7 +149,9 @@ class WorldBuilder:
             names.append(name)
 
     # -- public ----------------------------------------------------------------------------
-    def add_room(self, room: Room | None, *, floor: bool = True, walls: bool = True, ceiling: bool = True) -> None:
+    def add_room(
+        self, room: Room | None, *, floor: bool = True, walls: bool = True, ceiling: bool = True
+    ) -> None:
         """Static room slabs: a floor slab under z = 0, wall slabs outside each edge, a ceiling slab."""
         wb = self.spec.worldbody
         if room is None:
@@ -183,7 +191,9 @@ class WorldBuilder:
     def add_static(self, obj: SceneObject, shape: ObjectShape) -> None:
         """An object that never moves, at its current pose."""
         m = obj.pose.matrix(with_scale=False)
-        self._add_shape(self.spec.worldbody, obj.id, shape, m[:3, :3], m[:3, 3], obj.sim.friction, (0.5, 0.5, 0.6, 1))
+        self._add_shape(
+            self.spec.worldbody, obj.id, shape, m[:3, :3], m[:3, 3], obj.sim.friction, (0.5, 0.5, 0.6, 1)
+        )
 
     def add_dynamic(
         self,
@@ -200,8 +210,12 @@ class WorldBuilder:
         body.name = f"b_{obj.id}"
         body.pos = m[:3, 3].tolist()
         size = shape.upper - shape.lower
-        inertia = mass / 12.0 * np.array(
-            [size[1] ** 2 + size[2] ** 2, size[0] ** 2 + size[2] ** 2, size[0] ** 2 + size[1] ** 2]
+        inertia = (
+            mass
+            / 12.0
+            * np.array(
+                [size[1] ** 2 + size[2] ** 2, size[0] ** 2 + size[2] ** 2, size[0] ** 2 + size[1] ** 2]
+            )
         )
         centre_local = (shape.lower + shape.upper) / 2
         body.mass = mass

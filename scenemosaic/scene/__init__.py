@@ -24,6 +24,7 @@ from scenemosaic.scene._model import (
     SimAttributes,
     Wall,
 )
+from scenemosaic.scene._tree import build_structure, format_tree, unit_frame, unit_layout, with_unit_layout
 
 __all__ = [
     "CEILING",
@@ -43,9 +44,14 @@ __all__ = [
     "SceneStructure",
     "SimAttributes",
     "Wall",
+    "build_structure",
+    "format_tree",
     "front_vector",
     "quat_from_yaw",
     "quat_multiply",
     "quat_to_matrix",
+    "unit_frame",
+    "unit_layout",
+    "with_unit_layout",
     "yaw_from_quat",
 ]

@@ -39,11 +39,15 @@ def _load_physcene_local(path: Path) -> Scene:
 
 def load_physcene(path: Path) -> Scene:
     """The project importer when it exists, else the local reader."""
-    try:
-        from scenemosaic.scene.importers import load_scene  # type: ignore[attr-defined]
-    except ImportError:
-        return _load_physcene_local(path)
-    return load_scene(path)  # type: ignore[no-any-return]
+    import importlib
+
+    for module in ("scenemosaic.importers", "scenemosaic.scene.importers"):
+        try:
+            load_scene = importlib.import_module(module).load_scene
+        except (ImportError, AttributeError):
+            continue
+        return load_scene(path)  # type: ignore[no-any-return]
+    return _load_physcene_local(path)
 
 
 @pytest.fixture(scope="session")

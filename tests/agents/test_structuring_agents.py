@@ -161,7 +161,7 @@ async def test_repair_succeeds_on_second_reply(priors: Any) -> None:
     await RoomAgent().run(state, RulesModel())
     replies = [_support_reply(**BASE, mug="ghost"), _support_reply(**BASE, mug="desk")]
     model = FunctionModel({"support": lambda m, c: replies.pop(0)})
-    out, _ = await SupportAgent(priors).run(state, model)
+    _out, _ = await SupportAgent(priors).run(state, model)
     assert not replies
     assert state.scene.support_of("mug").parent == "desk"  # type: ignore[union-attr]
 
@@ -358,7 +358,7 @@ async def test_manager_plans_by_scene_content(priors: Any) -> None:
     assert "containment" not in by["constraints"].depends_on  # pruned to scheduled agents
     shelf = Scene(objects=[box("shelf", "bookshelf", (0.8, 0.3, 1.8), (0, 0, 0)),
                            box("book", "book", (0.03, 0.2, 0.25), (0, 0, 0.4))])
-    plan2, agents2 = plan_structuring(shelf, priors=priors)
+    _plan2, agents2 = plan_structuring(shelf, priors=priors)
     assert "containment" in [a.name for a in agents2]
     assert "constraints" not in [a.name for a in agents2]
 

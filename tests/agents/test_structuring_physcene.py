@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pytest
 from shapely.geometry import Polygon
 
 from scenemosaic.agents import structure_scene

@@ -125,7 +125,7 @@ async def test_unusable_agent_output_fails_the_node() -> None:
     with pytest.raises(NodeFailedError) as info:
         await run_agents([RoomAgent(), DoubleAgent()], make_state(), SolverModel(bad_for="double"))
     assert isinstance(info.value.cause, AgentOutputError) and info.value.node == "double"
-    assert info.value.partial == {"room": CountOutput(value=3)}  # type: ignore[attr-defined]
+    assert info.value.partial == {"room": CountOutput(value=3)}
 
 
 async def test_missing_agent_dependency_is_a_graph_error() -> None:

@@ -209,7 +209,7 @@ async def test_failure_keeps_finished_outputs_and_stops_the_rest() -> None:
     with pytest.raises(NodeFailedError, match="node 'broken' failed: RuntimeError: kaput") as info:
         await runner.run()
     assert info.value.node == "broken"
-    assert info.value.partial == {"done": "d"}  # type: ignore[attr-defined]
+    assert info.value.partial == {"done": "d"}
     assert blocker_cancelled.is_set()
     assert only_this_task_left()
     failed = [e for e in runner.history if isinstance(e, NodeFailed)]
@@ -222,7 +222,7 @@ async def test_timeout_raises_node_timeout_error() -> None:
     with pytest.raises(NodeTimeoutError) as info:
         await run_graph([Node("ok", const(1)), Node("stuck", forever, ("ok",), policy=policy)])
     assert info.value.node == "stuck" and info.value.timeout_s == 0.05
-    assert info.value.partial == {"ok": 1}  # type: ignore[attr-defined]
+    assert info.value.partial == {"ok": 1}
     assert only_this_task_left()
 
 
@@ -353,7 +353,7 @@ async def test_invalid_run_time_nodes_fail_the_run(
     with pytest.raises(NodeFailedError) as info:
         await run_graph([Node("first", const(1)), Node("adder", adder, ("first",))])
     assert isinstance(info.value.cause, GraphDefinitionError)
-    assert info.value.partial == {"first": 1}  # type: ignore[attr-defined]
+    assert info.value.partial == {"first": 1}
     with pytest.raises(GraphDefinitionError, match=message):
         raise info.value.cause
 

@@ -93,7 +93,7 @@ async def test_resume_after_failure_runs_only_what_is_left(store: RunStore) -> N
     crashing = [*nodes[:3], Node("verify", broken, ("support",), version="1"), nodes[4]]
     with pytest.raises(NodeFailedError) as info:
         await Runner(crashing, store=store).run()
-    assert set(info.value.partial) == {"room", "walls", "support", "attributes"}  # type: ignore[attr-defined]
+    assert set(info.value.partial) == {"room", "walls", "support", "attributes"}
 
     counter.clear()
     out = await Runner(scene_graph(counter), store=store).run()

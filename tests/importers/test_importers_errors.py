@@ -209,6 +209,8 @@ def _rebase(data: dict[str, Any], example: Path) -> dict[str, Any]:
         (lambda d: d["objects"][0].update(label=7), "objects[0].label", "expected a string"),
         (lambda d: d["objects"][0].update(frame="x_up"), "objects[0].frame", "unknown frame"),
         (lambda d: d.update(units="furlong"), "units", "unknown units"),
+        (lambda d: d["objects"][4].update(front="up"), "objects[4].front", "unknown front axis"),
+        (lambda d: d["objects"][4].update(up_axis="x"), "objects[4].up_axis", "unknown up axis"),
         (lambda d: d["objects"][3].update(sim={"mass_kg": -1}), "objects[3].sim.mass_kg", "greater than 0"),
         (lambda d: d["room"].update(floor=[[0, 0], [1, 1], [2, 2]]), "room.floor", "zero area"),
     ],

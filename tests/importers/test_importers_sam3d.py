@@ -103,6 +103,22 @@ def test_world_placement_of_the_source_mesh_is_preserved(scene: Scene, sam3d_exa
         assert world.max(axis=0) == pytest.approx(hi, abs=1e-5), entry["id"]
 
 
+def test_backs_are_behind_the_front(scene: Scene, sam3d_example: Path) -> None:
+    """The bed's headboard and the chair's backrest lie opposite the object's front vector."""
+    doc = json.loads((sam3d_example / "poses.json").read_text())
+    for entry in doc["objects"]:
+        if entry["id"] not in ("bed", "office_chair"):
+            continue
+        mesh = trimesh.load(sam3d_example / entry["mesh"], force="mesh")
+        assert isinstance(mesh, trimesh.Trimesh)
+        w, x, y, z = entry["quaternion"]
+        world = np.asarray(mesh.vertices) @ Rotation.from_quat([x, y, z, w]).as_matrix().T + entry["position"]
+        tall = world[world[:, 2] > 0.85 * world[:, 2].max()]
+        obj = scene.get(entry["id"])
+        to_back = tall[:, :2].mean(axis=0) - np.asarray(obj.pose.position[:2])
+        assert float(front_vector(obj.pose.quaternion)[:2] @ to_back) < -0.15, entry["id"]
+
+
 def test_y_up_poses_give_the_same_scene(scene: Scene, sam3d_dir: Path, tmp_path: Path) -> None:
     write_sam3d_example(tmp_path, sam3d_dir, frame="y_up")
     doc = json.loads((tmp_path / "poses.json").read_text())
@@ -153,6 +169,7 @@ def test_pose_composition_with_a_known_canonical_transform(
         return _FakeCanonical(mesh=None, transform=c, sha256="0" * 64, extents=(1.0, 0.5, 0.8))
 
     monkeypatch.setattr(scenemosaic.assets, "load_mesh", fake_load_mesh, raising=False)
+    monkeypatch.setattr(scenemosaic.assets, "mesh_hash", lambda mesh: "1" * 64, raising=False)
     yaw = math.radians(30)
     # a pose in a Y-up world in cm: rotate the source by yaw about +Y, put it at (200, 0, -100)
     q = Rotation.from_euler("y", yaw).as_quat()
@@ -183,3 +200,42 @@ def test_pose_composition_with_a_known_canonical_transform(
     assert obj.asset.extents == (1.0, 0.5, 0.8)
     assert scene.room is not None  # recovered from the single object
     assert "room recovered" in " ".join(scene.provenance.notes)
+
+
+def test_front_axis_turns_the_canonical_frame(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    (tmp_path / "box.obj").write_text("v 0 0 0\n")
+    mesh = trimesh.creation.box(extents=(1.0, 0.5, 0.8))
+    mesh.apply_translation((0, 0, 0.4))
+
+    def fake_load_mesh(path: Path, *, up_axis: str = "auto", unit_scale: float = 1.0) -> _FakeCanonical:
+        return _FakeCanonical(mesh=mesh, transform=np.eye(4), sha256="0" * 64, extents=(1.0, 0.5, 0.8))
+
+    monkeypatch.setattr(scenemosaic.assets, "load_mesh", fake_load_mesh, raising=False)
+    monkeypatch.setattr(
+        scenemosaic.assets, "mesh_hash", lambda m: f"{m.extents[0]:.1f}".ljust(64, "0"), raising=False
+    )
+    objects = [
+        {
+            "id": "o_" + ("p" if front[0] == "+" else "m") + front[1],
+            "label": "box",
+            "mesh": "box.obj",
+            "position": [i * 2.0, 0, 0],
+            "front": front,
+        }
+        for i, front in enumerate(["-y", "+y", "+x", "-x"])
+    ]
+    (tmp_path / "poses.json").write_text(json.dumps({"objects": objects}))
+    scene = load_scene(tmp_path)
+    fronts = {o.id: front_vector(o.pose.quaternion)[:2] for o in scene.objects}
+    # the mesh never moves; only which of its sides counts as the front changes
+    assert fronts["o_my"] == pytest.approx((0, -1), abs=1e-9)
+    assert fronts["o_py"] == pytest.approx((0, 1), abs=1e-9)
+    assert fronts["o_px"] == pytest.approx((1, 0), abs=1e-9)
+    assert fronts["o_mx"] == pytest.approx((-1, 0), abs=1e-9)
+    assert scene.get("o_px").asset.extents == (0.5, 1.0, 0.8)
+    assert scene.get("o_py").asset.extents == (1.0, 0.5, 0.8)
+    assert scene.get("o_my").asset.sha256 == "0" * 64  # untouched canonical mesh keeps its hash
+    assert scene.get("o_px").asset.sha256 == "0.5".ljust(64, "0")  # the turned mesh is re-hashed
+    for obj in scene.objects:  # the world box is the same for every choice
+        lo, hi = obj.aabb()
+        assert (hi - lo) == pytest.approx((1.0, 0.5, 0.8), abs=1e-9)

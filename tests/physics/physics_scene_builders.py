@@ -61,7 +61,9 @@ def load_physcene_scene(path: Path) -> Scene:
 def assign_supports(scene: Scene) -> Scene:
     """Ceiling and pendant lamps hang from the ceiling; everything else stands on the floor."""
     relations = [
-        Relation(kind="attach", child=o.id, parent="ceiling" if o.category in _HANGING else "floor", source="test")
+        Relation(
+            kind="attach", child=o.id, parent="ceiling" if o.category in _HANGING else "floor", source="test"
+        )
         for o in scene.objects
         if scene.support_of(o.id) is None
     ]
@@ -168,15 +170,16 @@ def sam3d_scene(seed: int = 0) -> tuple[Scene, dict[str, list[np.ndarray]]]:
     bed_y = 2.45 - bed_d / 2
     desk_x = bed_x + bed_w / 2 + desk_w / 2 - dig()  # desk driven into the bed's side
     desk_y = 2.45 - desk_d / 2
-    chair_y = desk_y - desk_d / 2 - chair_d / 2 + 0.25 + dig()  # chair pushed into the desk
+    chair_y = desk_y - desk_d / 2 - chair_d / 2 + 0.3 + dig()  # chair pushed into the desk
     printer_x = desk_x + 0.3
-    mug_x = printer_x - printer_w / 2 - extents["coffee_mug"][0] / 2 + dig() / 2  # mug inside the printer
+    mug_x = printer_x - printer_w / 2 + dig() / 2  # mug inside the printer
+    desk_z = lift()
     layout = {
         "king_bed": ((bed_x, bed_y, lift()), 0.0, "floor"),
-        "work_desk": ((desk_x, desk_y, lift()), 0.0, "floor"),
+        "work_desk": ((desk_x, desk_y, desk_z), 0.0, "floor"),
         "office_chair": ((desk_x - 0.1, chair_y, lift()), math.pi, "floor"),
-        "printer": ((printer_x, desk_y, desk_h + lift()), 0.0, "work_desk"),
-        "coffee_mug": ((mug_x, desk_y - 0.1, desk_h + lift()), 0.3, "work_desk"),
+        "printer": ((printer_x, desk_y, desk_z + desk_h + lift()), 0.0, "work_desk"),
+        "coffee_mug": ((mug_x, desk_y - 0.1, desk_z + desk_h + lift()), 0.3, "work_desk"),
     }
     objects = []
     relations = []

@@ -1,0 +1,376 @@
+"""Convex decomposition with CoACD, run in worker processes and cached on disk.
+
+Cache layout (see ``docs/assets.md``)::
+
+    <root>/<key[:2]>/<key>.npz      vertices_<i>, faces_<i> per convex piece, plus a JSON "meta" entry
+
+``key = sha256("hulls-v1", mesh_hash(mesh), params.cache_token())``. Files are written to a
+temporary name in the same folder and renamed into place, so readers never see half a file.
+A file that cannot be read back is logged, deleted and recomputed.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import hashlib
+import json
+import multiprocessing
+import os
+import tempfile
+import threading
+import zipfile
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import structlog
+import trimesh
+
+from scenemosaic.assets._canonical import mesh_hash
+from scenemosaic.assets._coacd_worker import RawPiece, decompose
+from scenemosaic.exceptions import AssetError
+
+__all__ = [
+    "CACHE_FORMAT_VERSION",
+    "CoacdParams",
+    "HullCache",
+    "default_cache_dir",
+    "shutdown_workers",
+]
+
+log = structlog.get_logger(__name__)
+
+CACHE_FORMAT_VERSION = "hulls-v1"
+"""Part of every cache key: bump it when the stored format or the post-processing changes."""
+
+_MIN_PIECE_VOLUME = 1e-12
+"""Pieces with less volume (cubic metres for metric meshes) are dropped as degenerate slivers."""
+
+
+def default_cache_dir() -> Path:
+    """Root of scenemosaic's on-disk caches.
+
+    ``$SCENEMOSAIC_CACHE`` when set, else ``$XDG_CACHE_HOME/scenemosaic``, else
+    ``~/.cache/scenemosaic``. The hull cache lives in its ``hulls/`` folder.
+    """
+    env = os.environ.get("SCENEMOSAIC_CACHE")
+    if env:
+        return Path(env).expanduser()
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    base = Path(xdg).expanduser() if xdg else Path.home() / ".cache"
+    return base / "scenemosaic"
+
+
+@dataclass(frozen=True)
+class CoacdParams:
+    """Settings of one CoACD decomposition; every field is part of the cache key.
+
+    Attributes:
+        threshold: Concavity threshold (0.01-1). Lower gives more, tighter pieces and runs longer;
+            0.08 keeps furniture recognisable in about a dozen pieces.
+        max_convex_hull: Most pieces to keep after merging (-1 = no limit). Each piece becomes a
+            physics geom, so 16 keeps contact checks cheap.
+        preprocess_resolution: Voxel resolution of CoACD's manifold pre-processing. 30 is enough
+            for image-to-3D meshes, which are closed once their UV seams are merged.
+        simplify_faces: Meshes with more faces are first reduced to about this many by quadric
+            decimation (fast-simplification); 0 disables it. 40k-face meshes take minutes otherwise.
+        seed: Seed of CoACD's random search, so results are reproducible.
+        preprocess_mode: ``"auto"`` (remesh only non-manifold input), ``"on"`` or ``"off"``.
+        resolution: Surface samples CoACD uses to measure concavity (CoACD's default, 2000).
+        mcts_nodes: Children explored per node of the cutting-plane tree search (CoACD default 20).
+        mcts_iterations: Tree-search iterations per cut (CoACD default 150); lower is faster and coarser.
+        mcts_max_depth: Depth of the tree search (CoACD default 3).
+        max_ch_vertex: Most vertices per convex piece (CoACD default 256; MuJoCo accepts more).
+    """
+
+    threshold: float = 0.08
+    max_convex_hull: int = 16
+    preprocess_resolution: int = 30
+    simplify_faces: int = 4000
+    seed: int = 0
+    preprocess_mode: Literal["auto", "on", "off"] = "auto"
+    resolution: int = 2000
+    mcts_nodes: int = 20
+    mcts_iterations: int = 150
+    mcts_max_depth: int = 3
+    max_ch_vertex: int = 256
+
+    def cache_token(self) -> str:
+        """A canonical text of every field (sorted JSON), used in the cache key."""
+        return json.dumps(asdict(self), sort_keys=True, separators=(",", ":"))
+
+
+# --------------------------------------------------------------------------------------------
+# worker pool: one per process, shared by every HullCache, created on first use
+# --------------------------------------------------------------------------------------------
+_pool_lock = threading.Lock()
+_pool_instance: ProcessPoolExecutor | None = None
+
+
+def _worker_count() -> int:
+    env = os.environ.get("SCENEMOSAIC_COACD_WORKERS")
+    if env and env.isdigit() and int(env) > 0:
+        return int(env)
+    return max(1, min(4, (os.cpu_count() or 2) // 2))
+
+
+def _pool() -> ProcessPoolExecutor:
+    global _pool_instance
+    with _pool_lock:
+        if _pool_instance is None:
+            # spawn, not fork: forking a process that runs threads (event loop helpers, logging) can deadlock
+            _pool_instance = ProcessPoolExecutor(
+                max_workers=_worker_count(), mp_context=multiprocessing.get_context("spawn")
+            )
+        return _pool_instance
+
+
+def _drop_pool(broken: ProcessPoolExecutor | None = None) -> None:
+    global _pool_instance
+    with _pool_lock:
+        if _pool_instance is not None and (broken is None or _pool_instance is broken):
+            _pool_instance.shutdown(wait=False, cancel_futures=True)
+            _pool_instance = None
+
+
+def shutdown_workers() -> None:
+    """Stop the CoACD worker processes (they start again on the next decomposition)."""
+    _drop_pool()
+
+
+# --------------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------------
+def _geometry_only(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """Vertices and faces only, with UV/normal seams merged: image-to-3D meshes are triangle soups
+    split at every seam, which CoACD would treat as thousands of separate bodies."""
+    out = trimesh.Trimesh(
+        vertices=np.asarray(mesh.vertices, dtype=np.float64).copy(),
+        faces=np.asarray(mesh.faces, dtype=np.int64).copy(),
+        process=False,
+    )
+    out.merge_vertices(merge_tex=True, merge_norm=True)
+    out.remove_unreferenced_vertices()
+    return out
+
+
+def _check_mesh(mesh: trimesh.Trimesh) -> None:
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    if len(mesh.faces) == 0 or len(vertices) == 0:
+        raise AssetError("cannot decompose a mesh without faces")
+    if not np.all(np.isfinite(vertices)):
+        raise AssetError("cannot decompose a mesh with non-finite vertices")
+    extents = np.ptp(vertices, axis=0)
+    if float(extents.min()) <= 1e-9:
+        raise AssetError(f"cannot decompose a flat mesh (extents {extents.round(9).tolist()})")
+
+
+def _clean(raw: list[RawPiece]) -> list[RawPiece]:
+    """Re-hull every piece (closed, consistently wound, convex) and drop slivers."""
+    out: list[RawPiece] = []
+    for vertices, _faces in raw:
+        if len(vertices) < 4 or not np.all(np.isfinite(vertices)):
+            continue
+        try:
+            hull = trimesh.convex.convex_hull(vertices)
+        except Exception:  # qhull refuses flat or duplicate point sets
+            continue
+        if float(hull.volume) > _MIN_PIECE_VOLUME:
+            out.append((np.asarray(hull.vertices, dtype=np.float64), np.asarray(hull.faces, dtype=np.int64)))
+    return out
+
+
+def _to_meshes(raw: list[RawPiece]) -> list[trimesh.Trimesh]:
+    return [trimesh.Trimesh(vertices=v.copy(), faces=f.copy(), process=False) for v, f in raw]
+
+
+# --------------------------------------------------------------------------------------------
+# the cache
+# --------------------------------------------------------------------------------------------
+class HullCache:
+    """Convex decompositions keyed by mesh content and CoACD settings, stored on disk.
+
+    A miss runs CoACD in a worker *process* (never in the caller's thread, never on the event
+    loop); concurrent requests for the same key share one computation. Degenerate meshes (no
+    faces, NaN vertices, zero extent) raise :class:`~scenemosaic.exceptions.AssetError`. When
+    CoACD itself fails (an error, a crashed worker, no usable piece) the result is the mesh's
+    single convex hull, with a logged warning; that fallback is not stored, so a later run retries.
+
+    Attributes:
+        root: Folder of the cache files.
+        computations: Decompositions this instance started in a worker (misses that ran CoACD).
+        disk_hits: Requests answered from a cache file.
+        fallbacks: Decompositions that fell back to the single convex hull.
+    """
+
+    def __init__(self, root: Path | None = None) -> None:
+        self.root = Path(root) if root is not None else default_cache_dir() / "hulls"
+        self.computations = 0
+        self.disk_hits = 0
+        self.fallbacks = 0
+        self._lock = threading.Lock()
+        self._inflight: dict[str, Future[list[RawPiece]]] = {}
+
+    # -- keys and files ------------------------------------------------------------------------
+    def key(self, mesh: trimesh.Trimesh, params: CoacdParams = CoacdParams()) -> str:
+        """The cache key of ``mesh`` decomposed with ``params`` (hex SHA-256)."""
+        text = f"{CACHE_FORMAT_VERSION}\n{mesh_hash(mesh)}\n{params.cache_token()}"
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def path_for(self, key: str) -> Path:
+        """Where the decomposition with this key is stored."""
+        return self.root / key[:2] / f"{key}.npz"
+
+    def _read(self, key: str) -> list[RawPiece] | None:
+        path = self.path_for(key)
+        if not path.is_file():
+            return None
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                meta = json.loads(str(data["meta"]))
+                if meta.get("key") != key:
+                    raise ValueError("key recorded in the file does not match its name")
+                count = int(meta["pieces"])
+                if count < 1:
+                    raise ValueError("no pieces")
+                pieces: list[RawPiece] = []
+                for i in range(count):
+                    v = np.asarray(data[f"vertices_{i}"], dtype=np.float64)
+                    f = np.asarray(data[f"faces_{i}"], dtype=np.int64)
+                    if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
+                        raise ValueError(f"piece {i} has bad array shapes")
+                    if not np.all(np.isfinite(v)) or f.min() < 0 or f.max() >= len(v):
+                        raise ValueError(f"piece {i} has bad values")
+                    pieces.append((v, f))
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, json.JSONDecodeError) as exc:
+            log.warning("hull_cache_corrupt", path=str(path), error=f"{type(exc).__name__}: {exc}")
+            with contextlib.suppress(OSError):
+                path.unlink()
+            return None
+        return pieces
+
+    def _write(self, key: str, pieces: list[RawPiece], meta: dict[str, Any]) -> None:
+        path = self.path_for(key)
+        arrays: dict[str, Any] = {"meta": np.array(json.dumps({**meta, "key": key, "pieces": len(pieces)}))}
+        for i, (v, f) in enumerate(pieces):
+            arrays[f"vertices_{i}"] = v
+            arrays[f"faces_{i}"] = f.astype(np.int32)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{key[:16]}.", suffix=".tmp")
+            try:
+                with os.fdopen(fd, "wb") as fh:
+                    np.savez_compressed(fh, **arrays)
+                os.replace(tmp, path)
+            except BaseException:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+                raise
+        except OSError as exc:  # a read-only or full disk costs a recomputation later, nothing more
+            log.warning("hull_cache_write_failed", path=str(path), error=str(exc))
+
+    # -- computing -----------------------------------------------------------------------------
+    def _lookup(self, mesh: trimesh.Trimesh, params: CoacdParams) -> tuple[str, list[RawPiece] | None]:
+        _check_mesh(mesh)
+        key = self.key(mesh, params)
+        pieces = self._read(key)
+        if pieces is not None:
+            with self._lock:
+                self.disk_hits += 1
+        return key, pieces
+
+    def _start(self, key: str, mesh: trimesh.Trimesh, params: CoacdParams) -> Future[list[RawPiece]]:
+        with self._lock:
+            running = self._inflight.get(key)
+            if running is not None:
+                return running
+            outer: Future[list[RawPiece]] = Future()
+            outer.set_running_or_notify_cancel()  # waiters cannot cancel a computation others share
+            self._inflight[key] = outer
+            self.computations += 1
+        geometry = _geometry_only(mesh)
+        log.info("coacd_start", key=key[:16], faces=len(geometry.faces), params=asdict(params))
+        pool = _pool()
+        try:
+            work = pool.submit(
+                decompose, np.asarray(geometry.vertices), np.asarray(geometry.faces), asdict(params)
+            )
+        except (BrokenProcessPool, RuntimeError) as exc:
+            _drop_pool(pool)
+            self._finish(key, geometry, params, None, outer, error=exc)
+            return outer
+        work.add_done_callback(lambda done: self._finish(key, geometry, params, done, outer))
+        return outer
+
+    def _finish(
+        self,
+        key: str,
+        geometry: trimesh.Trimesh,
+        params: CoacdParams,
+        done: Future[list[RawPiece]] | None,
+        outer: Future[list[RawPiece]],
+        *,
+        error: BaseException | None = None,
+    ) -> None:
+        try:
+            pieces: list[RawPiece] = []
+            if done is not None and done.cancelled():
+                error = RuntimeError("the CoACD job was cancelled (worker pool shut down)")
+            elif done is not None:
+                error = done.exception()
+                if error is None:
+                    pieces = _clean(done.result())
+                    if not pieces:
+                        error = AssetError("CoACD returned no usable convex piece")
+            if error is None:
+                self._write(key, pieces, {"params": asdict(params), "source_faces": len(geometry.faces)})
+                log.info("coacd_done", key=key[:16], pieces=len(pieces))
+            else:
+                if isinstance(error, BrokenProcessPool):
+                    _drop_pool()
+                with self._lock:
+                    self.fallbacks += 1
+                log.warning(
+                    "coacd_failed_using_convex_hull",
+                    key=key[:16],
+                    error=f"{type(error).__name__}: {error}",
+                )
+                hull = geometry.convex_hull
+                pieces = [
+                    (np.asarray(hull.vertices, dtype=np.float64), np.asarray(hull.faces, dtype=np.int64))
+                ]
+            outer.set_result(pieces)
+        except BaseException as exc:
+            outer.set_exception(exc)
+        finally:
+            with self._lock:
+                self._inflight.pop(key, None)
+
+    # -- public --------------------------------------------------------------------------------
+    def get(self, mesh: trimesh.Trimesh, params: CoacdParams = CoacdParams()) -> list[trimesh.Trimesh]:
+        """Convex pieces of ``mesh`` (in its own coordinates): from disk, or computed in a worker.
+
+        Blocks until the pieces are ready. Returns fresh meshes (safe to modify).
+
+        Raises:
+            AssetError: when the mesh is degenerate (no faces, NaN vertices, zero extent).
+        """
+        key, pieces = self._lookup(mesh, params)
+        if pieces is None:
+            pieces = self._start(key, mesh, params).result()
+        return _to_meshes(pieces)
+
+    async def aget(self, mesh: trimesh.Trimesh, params: CoacdParams = CoacdParams()) -> list[trimesh.Trimesh]:
+        """Like :meth:`get`, without blocking the event loop.
+
+        Hashing and disk reads run in a thread; CoACD runs in a worker process.
+        """
+        key, pieces = await asyncio.to_thread(self._lookup, mesh, params)
+        if pieces is None:
+            outer = await asyncio.to_thread(self._start, key, mesh, params)
+            pieces = await asyncio.wrap_future(outer)
+        return _to_meshes(pieces)
