@@ -46,15 +46,15 @@ CATEGORIES = [
 
 
 def unit30(seed: int = 0) -> Scene:
-    """30 floor objects on a 6 x 5 grid in an 8 x 7 m room, jittered into each other and floating."""
+    """30 floor objects on a tight 6 x 5 grid in an 8 x 7 m room, jittered into each other and floating."""
     rng = np.random.default_rng(seed)
     objects: list[SceneObject] = []
     for k in range(30):
         cat, size = CATEGORIES[k % len(CATEGORIES)]
         gx, gy = k % 6, k // 6
         pos = (
-            1.0 + gx * 1.2 + rng.uniform(-0.15, 0.15),
-            1.0 + gy * 1.2 + rng.uniform(-0.15, 0.15),
+            1.0 + gx * 0.95 + rng.uniform(-0.2, 0.2),
+            1.0 + gy * 0.95 + rng.uniform(-0.2, 0.2),
             rng.uniform(0.0, 0.08),
         )
         objects.append(

@@ -188,6 +188,29 @@ def _to_meshes(raw: list[RawPiece]) -> list[trimesh.Trimesh]:
     return [trimesh.Trimesh(vertices=v.copy(), faces=f.copy(), process=False) for v, f in raw]
 
 
+def _parse(data: object, key: str) -> list[RawPiece]:
+    """The pieces stored in a loaded cache file; ``ValueError`` when anything is off."""
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise ValueError("not an npz archive")
+    with data:
+        meta = json.loads(str(data["meta"]))  # JSONDecodeError is a ValueError
+        if not isinstance(meta, dict) or meta.get("key") != key:
+            raise ValueError("key recorded in the file does not match its name")
+        count = int(meta["pieces"])
+        if count < 1:
+            raise ValueError("no pieces")
+        pieces: list[RawPiece] = []
+        for i in range(count):
+            v = np.asarray(data[f"vertices_{i}"], dtype=np.float64)
+            f = np.asarray(data[f"faces_{i}"], dtype=np.int64)
+            if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
+                raise ValueError(f"piece {i} has bad array shapes")
+            if not np.all(np.isfinite(v)) or f.min() < 0 or f.max() >= len(v):
+                raise ValueError(f"piece {i} has bad values")
+            pieces.append((v, f))
+    return pieces
+
+
 # --------------------------------------------------------------------------------------------
 # the cache
 # --------------------------------------------------------------------------------------------
@@ -230,23 +253,10 @@ class HullCache:
         if not path.is_file():
             return None
         try:
-            with np.load(path, allow_pickle=False) as data:
-                meta = json.loads(str(data["meta"]))
-                if meta.get("key") != key:
-                    raise ValueError("key recorded in the file does not match its name")
-                count = int(meta["pieces"])
-                if count < 1:
-                    raise ValueError("no pieces")
-                pieces: list[RawPiece] = []
-                for i in range(count):
-                    v = np.asarray(data[f"vertices_{i}"], dtype=np.float64)
-                    f = np.asarray(data[f"faces_{i}"], dtype=np.int64)
-                    if v.ndim != 2 or v.shape[1] != 3 or f.ndim != 2 or f.shape[1] != 3 or len(f) == 0:
-                        raise ValueError(f"piece {i} has bad array shapes")
-                    if not np.all(np.isfinite(v)) or f.min() < 0 or f.max() >= len(v):
-                        raise ValueError(f"piece {i} has bad values")
-                    pieces.append((v, f))
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, json.JSONDecodeError) as exc:
+            # our own handle: np.load leaks the one it opens when the zip directory is truncated
+            with open(path, "rb") as fh:
+                pieces = _parse(np.load(fh, allow_pickle=False), key)
+        except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
             log.warning("hull_cache_corrupt", path=str(path), error=f"{type(exc).__name__}: {exc}")
             with contextlib.suppress(OSError):
                 path.unlink()

@@ -5,10 +5,11 @@
 * :func:`export_sceneeval` — SceneEval's ``sceneState`` (``base/sceneeval/scene_base.json`` and
   ``assets/<assetId>.glb``) so SceneEval's own metric code can judge our scenes.
 
-MJCF export lives in ``_mjcf.py`` (owned by the physics side) and is re-exported here once it lands.
+* :func:`export_mjcf` — ``scene.xml`` + ``mjcf/`` meshes that plain MuJoCo loads.
 """
 
 from scenemosaic.export._glb import GLB_ROOT_NODE, Y_UP_TO_Z_UP, Z_UP_TO_Y_UP, build_glb_scene, export_glb
+from scenemosaic.export._mjcf import export_mjcf
 from scenemosaic.export._sceneeval import (
     LOCAL_TO_GLTF,
     MODEL_ID_PREFIX,
@@ -28,6 +29,7 @@ __all__ = [
     "SupportType",
     "build_glb_scene",
     "export_glb",
+    "export_mjcf",
     "export_sceneeval",
     "gltf_to_world",
     "sceneeval_state",

@@ -282,9 +282,11 @@ def settle_unit(
         obj = scene.get(cid)
         shape = shapes[cid]
         matrix = obj.pose.matrix(with_scale=False)
+        # static children (hung lamps, mounted TVs) are still placed inside and onto their anchor;
+        # "static" only keeps them fixed while the dynamic siblings settle
         movable = not obj.sim.static
         box_uv = _box_uv(obj, matrix, frame)
-        if movable and frame.region is not None:
+        if frame.region is not None:
             shift = minimal_containing_shift(box_uv, frame.region)
             if shift is None:
                 report.larger_than_anchor.append(cid)
@@ -294,18 +296,17 @@ def settle_unit(
                 report.containment_moves[cid] = round(float(np.linalg.norm(shift)), 6)
                 matrix = _translate(matrix, frame.lift(shift))
         pieces = _world_pieces(shape, matrix, frame)
-        if movable:
-            lo = min(p.lo for p in pieces)
-            hi = max(p.hi for p in pieces)
-            if frame.support_h is not None:
-                target = frame.support_h
-            else:
-                rel = scene.support_of(cid)
-                contained = rel is not None and rel.kind == "contain"
-                foot = convex_hull_2d(np.concatenate([p.uv for p in pieces]))
-                target = _support_height(foot, lo, hi, anchor_pieces, contained)
-            matrix = _translate(matrix, frame.up * (target - lo))
-            pieces = _world_pieces(shape, matrix, frame)
+        lo = min(p.lo for p in pieces)
+        hi = max(p.hi for p in pieces)
+        if frame.support_h is not None:
+            target = frame.support_h
+        else:
+            rel = scene.support_of(cid)
+            contained = rel is not None and rel.kind == "contain"
+            foot = convex_hull_2d(np.concatenate([p.uv for p in pieces]))
+            target = _support_height(foot, lo, hi, anchor_pieces, contained)
+        matrix = _translate(matrix, frame.up * (target - lo))
+        pieces = _world_pieces(shape, matrix, frame)
         area = max(float(Polygon(box_uv).area) if len(box_uv) >= 3 else 0.0, 1e-4)
         bodies.append(
             _Body(obj, shape, matrix, pieces, _box_uv(obj, matrix, frame), np.zeros(2), area, movable)
@@ -412,10 +413,7 @@ def settle_unit(
     report.rolled_back = rolled
     report.converged = outcome.converged and not rolled
 
-    poses: dict[str, Pose] = {}
-    for b in bodies:
-        if b.movable:
-            poses[b.obj.id] = _pose_from_matrix(b.matrix, b.obj.pose)
+    poses: dict[str, Pose] = {b.obj.id: _pose_from_matrix(b.matrix, b.obj.pose) for b in bodies}
     if world is not None:
         for wb in world.bodies:
             obj = scene.get(wb.object_id)

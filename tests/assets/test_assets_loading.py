@@ -26,7 +26,9 @@ def test_shared_data_is_where_conftest_says(shared_data: Path) -> None:
     assert COFFEE_MUG.is_file()
 
 
-@pytest.mark.parametrize("path", [KING_BED, WORK_DESK, OFFICE_CHAIR, PRINTER, COFFEE_MUG], ids=lambda p: p.stem)
+@pytest.mark.parametrize(
+    "path", [KING_BED, WORK_DESK, OFFICE_CHAIR, PRINTER, COFFEE_MUG], ids=lambda p: p.stem
+)
 def test_sam3d_gltf_is_canonical(path: Path) -> None:
     canonical = load_mesh(path)
     lo, hi = canonical.mesh.bounds
@@ -115,8 +117,12 @@ def test_hash_ignores_float_noise_below_the_rounding_step() -> None:
     noisy = box.copy()
     noisy.vertices = noisy.vertices + np.random.default_rng(0).uniform(-1e-8, 1e-8, noisy.vertices.shape)
     assert mesh_hash(noisy) == mesh_hash(box)
-    flipped_zero = trimesh.Trimesh([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 1.0]], [[0, 1, 2]], process=False)
-    negative_zero = trimesh.Trimesh([[-0.0, -0.0, 0.0], [1.0, -0.0, 0.0], [0.0, 1.0, 1.0]], [[0, 1, 2]], process=False)
+    flipped_zero = trimesh.Trimesh(
+        [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 1.0]], [[0, 1, 2]], process=False
+    )
+    negative_zero = trimesh.Trimesh(
+        [[-0.0, -0.0, 0.0], [1.0, -0.0, 0.0], [0.0, 1.0, 1.0]], [[0, 1, 2]], process=False
+    )
     assert mesh_hash(flipped_zero) == mesh_hash(negative_zero)
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import uuid
@@ -13,7 +14,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from structlog.testing import capture_logs
 
-from scenemosaic.assets import MAX_PARTS, known_categories, normalize_category, procedural_mesh, procedural_parts
+from scenemosaic.assets import (
+    MAX_PARTS,
+    known_categories,
+    normalize_category,
+    procedural_mesh,
+    procedural_parts,
+)
 from scenemosaic.exceptions import AssetError
 
 SIZES = st.tuples(
@@ -34,7 +41,9 @@ def _is_convex(part: trimesh.Trimesh) -> bool:
 @pytest.mark.parametrize("category", known_categories())
 @settings(max_examples=3, deadline=None, derandomize=False)
 @given(size=SIZES)
-def test_every_category_fills_its_box_with_convex_parts(category: str, size: tuple[float, float, float]) -> None:
+def test_every_category_fills_its_box_with_convex_parts(
+    category: str, size: tuple[float, float, float]
+) -> None:
     w, d, h = size
     parts = procedural_parts(category, size)
     assert 1 <= len(parts) <= MAX_PARTS
@@ -159,7 +168,7 @@ def test_bookshelf_compartments_are_open_and_can_hold_books() -> None:
         key=lambda p: p.bounds[0][2],
     )
     assert len(boards) >= 4  # bottom, top and at least two shelves
-    for lower, upper in zip(boards[:-1], boards[1:], strict=False):
+    for lower, upper in itertools.pairwise(boards):
         gap_lo, gap_hi = lower.bounds[1][2], upper.bounds[0][2]
         assert gap_hi - gap_lo > 0.2
         # a book standing in the compartment, near the open front, touches no part
