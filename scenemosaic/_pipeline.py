@@ -19,6 +19,7 @@ from typing import Any
 import structlog
 
 from scenemosaic.exceptions import UsageError
+from scenemosaic.models import Model
 from scenemosaic.scene import Scene
 
 __all__ = ["GenerateConfig", "GenerateResult", "StageRecord", "agenerate", "generate"]
@@ -37,8 +38,9 @@ class GenerateConfig:
     """Input format (``auto``, ``native``, ``front3d``, ``procthor``, ``sam3d``)."""
     variants: int = 0
     """Number of diverse variants to deliver (composition arrives with a later stage; 0 = base scene only)."""
-    model: str = "rules"
-    """Model string: ``rules``, ``openai:<model>[@<base_url>]`` or ``replay:<cassette.json>``."""
+    model: str | Model = "rules"
+    """Model string (``rules``, ``openai:<model>[@<base_url>]``, ``replay:<cassette.json>``) or a
+    :class:`~scenemosaic.models.Model` instance, which the caller keeps ownership of (not closed here)."""
     seed: int = 0
     """Run seed; every random choice derives from it, so equal inputs give identical files."""
     room: str | None = None
@@ -126,13 +128,16 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     from scenemosaic.models import parse_model
 
     assert run.scene is not None
-    model = parse_model(run.config.model, vision=run.config.vision)
+    spec = run.config.model
+    model = parse_model(spec, vision=run.config.vision) if isinstance(spec, str) else spec
+    rec.detail["model"] = model.name
     try:
         run.scene = await structure_scene(
             run.scene, model, seed=run.config.seed, priors_dir=run.config.priors_dir
         )
     finally:
-        await model.aclose()
+        if isinstance(spec, str):
+            await model.aclose()
     structure = run.scene.structure
     rec.detail["units"] = len(structure.units) if structure else 0
     rec.detail["relations"] = len(run.scene.relations)
@@ -289,7 +294,7 @@ def _report(run: PipelineRun, total_s: float, failure: BaseException | None) -> 
         "input": str(run.input_path),
         "config": {
             "format": run.config.format,
-            "model": run.config.model,
+            "model": run.config.model if isinstance(run.config.model, str) else run.config.model.name,
             "seed": run.config.seed,
             "variants_requested": run.config.variants,
             "room": run.config.room,

@@ -1,0 +1,157 @@
+"""``generate`` end to end on real data: output layout, sizes, report, replayed models, partial results."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import trimesh
+from pydantic import BaseModel
+from typer.testing import CliRunner
+
+from scenemosaic import (
+    FunctionModel,
+    GenerateConfig,
+    Message,
+    ReplayModel,
+    RequestContext,
+    generate,
+    load_scene,
+    read_scene,
+)
+from scenemosaic.cli import app
+from scenemosaic.export import Y_UP_TO_Z_UP
+
+LIVING = "LivingDiningRoom-124277_livingroom.json"
+DINING = "DiningRoom-19325_diningroom.json"
+
+
+@pytest.fixture(scope="module")
+def living_run(tmp_path_factory: pytest.TempPathFactory, shared_data: Path) -> tuple[Path, Path]:
+    source = shared_data / "layouts" / "physcene" / LIVING
+    out = tmp_path_factory.mktemp("living")
+    result = CliRunner().invoke(app, ["generate", str(source), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    return source, out
+
+
+def _input_objects(source: Path) -> list[dict[str, Any]]:
+    data = json.loads(source.read_text())
+    return [o for objs in data["ThreedFront"].values() for o in objs]
+
+
+def test_output_layout_is_complete(living_run: tuple[Path, Path]) -> None:
+    _, out = living_run
+    base = out / "base"
+    for rel in ["scene.json", "scene.glb", "topdown.png", "scene.xml", "sceneeval/scene_base.json"]:
+        assert (base / rel).is_file(), rel
+    assert list((base / "sceneeval" / "assets").glob("*.glb"))
+    report = json.loads((out / "report.json").read_text())
+    assert report["status"] == "ok"
+    assert [s["name"] for s in report["stages"]] == ["import", "assets", "structure", "stabilize", "validate", "export"]
+    assert all(s["seconds"] >= 0 and s["status"] == "done" for s in report["stages"])
+    assert report["objects"] == 16
+
+
+def test_glb_objects_match_input_counts_and_sizes(living_run: tuple[Path, Path]) -> None:
+    source, out = living_run
+    raw = _input_objects(source)
+    glb = trimesh.load(out / "base" / "scene.glb", force="scene")
+    scene = read_scene(out / "base")
+    ids = [o.id for o in scene.objects]
+    object_nodes = [n for n in glb.graph.nodes_geometry if n in ids]
+    assert len(object_nodes) == len(raw) == len(ids)
+    # footprint (x, y) in the object's own frame equals 2 x half extents (x, z of the Y-up input) within 2 %
+    expected = sorted((2 * o["size"][0], 2 * o["size"][2], 2 * o["size"][1]) for o in raw)
+    measured = []
+    for oid in ids:
+        transform, geom_name = glb.graph[oid]
+        mesh = glb.geometry[geom_name].copy()
+        mesh.apply_transform(transform)
+        mesh.apply_transform(Y_UP_TO_Z_UP)  # back to our Z-up world frame
+        obj = scene.get(oid)
+        local = mesh.vertices - np.asarray(obj.pose.position)
+        local = local @ obj.pose.rotation  # world -> object frame (rotation only)
+        measured.append(tuple(local.max(axis=0) - local.min(axis=0)))
+        assert local[:, 2].min() == pytest.approx(0.0, abs=1e-3), oid  # Z-up, origin at the bottom
+    for exp, got in zip(expected, sorted(measured), strict=True):
+        assert np.allclose(got, exp, rtol=0.02), (exp, got)
+
+
+def test_base_scene_round_trips_and_is_structured(living_run: tuple[Path, Path]) -> None:
+    _, out = living_run
+    scene = load_scene(out / "base")
+    assert scene.to_json() == read_scene(out / "base" / "scene.json").to_json()
+    assert scene.structure is not None and scene.structure.units
+    assert all(scene.support_of(o.id) is not None for o in scene.objects)
+    assert "structure" in scene.provenance.steps or scene.relations
+
+
+def test_stabilized_output_is_physically_valid(living_run: tuple[Path, Path]) -> None:
+    _, out = living_run
+    validation = json.loads((out / "report.json").read_text())["validation"]
+    assert validation["collisions"]["pairs"] == []
+    assert validation["out_of_bounds"]["objects"] == []
+    assert validation["tipped"] == [] and validation["fell"] == []
+    assert max(abs(g) for g in validation["support_gaps_m"].values()) < 0.01
+
+
+def test_demo_command_writes_a_valid_scene(tmp_path: Path) -> None:
+    result = CliRunner().invoke(app, ["demo", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["status"] == "ok" and report["objects"] == 16
+    validation = report["validation"]
+    assert validation["collisions"]["pairs"] == []
+    # the hung lamp and the wall TV are static yet must end on their supports
+    assert abs(validation["support_gaps_m"]["pendant_lamp"]) < 0.01
+    assert abs(validation["support_gaps_m"]["tv"]) < 0.01
+    tree = CliRunner().invoke(app, ["inspect", str(tmp_path / "base")])
+    assert tree.exit_code == 0 and "pendant_lamp" in tree.output and "ceiling" in tree.output
+
+
+def _solver_answer(messages: Sequence[Message], context: RequestContext) -> BaseModel:
+    assert context.solve is not None
+    return context.solve(context.evidence)
+
+
+def test_generate_replays_a_cassette_recorded_from_a_function_model(tmp_path: Path, shared_data: Path) -> None:
+    source = shared_data / "layouts" / "physcene" / DINING
+    cassette = tmp_path / "dining.cassette.json"
+    recorder = ReplayModel(FunctionModel(_solver_answer, name="recorded-fn", vision=False), cassette, "record")
+    recorded = generate(source, tmp_path / "rec", GenerateConfig(model=recorder, stabilize=False))
+    assert cassette.is_file()
+    result = CliRunner().invoke(
+        app, ["generate", str(source), "--out", str(tmp_path / "rep"), "--model", f"replay:{cassette}"]
+    )
+    assert result.exit_code == 0, result.output
+    replayed = read_scene(tmp_path / "rep" / "base")
+    assert replayed.relations == recorded.scene.relations
+    assert replayed.constraints == recorded.scene.constraints
+
+
+def test_failed_stage_keeps_partial_results(tmp_path: Path, shared_data: Path) -> None:
+    source = shared_data / "layouts" / "physcene" / DINING
+    missing = tmp_path / "no-such-cassette.json"
+    result = CliRunner().invoke(
+        app, ["generate", str(source), "--out", str(tmp_path / "o"), "--model", f"replay:{missing}"]
+    )
+    assert result.exit_code == 2
+    report = json.loads((tmp_path / "o" / "report.json").read_text())
+    assert report["status"] == "failed"
+    failed = [s for s in report["stages"] if s["status"] == "failed"]
+    assert [s["name"] for s in failed] == ["structure"]
+    # the imported scene is not lost
+    partial = read_scene(tmp_path / "o" / "base")
+    assert len(partial.objects) == 6
+
+
+def test_same_seed_gives_identical_scene_files(tmp_path: Path, shared_data: Path) -> None:
+    source = shared_data / "layouts" / "physcene" / DINING
+    a = generate(source, tmp_path / "a", GenerateConfig(seed=3))
+    b = generate(source, tmp_path / "b", GenerateConfig(seed=3))
+    assert (a.base_dir / "scene.json").read_bytes() == (b.base_dir / "scene.json").read_bytes()
