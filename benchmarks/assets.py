@@ -67,7 +67,9 @@ def main() -> int:
             assert warm_cache.computations == 0 and len(warm_pieces) == len(pieces)
         warm = statistics.median(warm_times)
         print(f"simple mesh: {len(ring.faces)} faces -> {len(pieces)} convex pieces")
-        print(f"  cold {cold:.3f} s, warm {warm * 1000:.2f} ms (median of {WARM_REPEATS}), speedup {cold / warm:.0f}x")
+        print(
+            f"  cold {cold:.3f} s, warm {warm * 1000:.2f} ms (median of {WARM_REPEATS}), speedup {cold / warm:.0f}x"
+        )
         results.update(
             coacd_cold_s=round(cold, 4),
             coacd_warm_s=round(warm, 6),

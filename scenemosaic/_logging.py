@@ -10,6 +10,23 @@ import structlog
 
 __all__ = ["configure_logging"]
 
+
+class _StderrLogger:
+    """Writes each rendered line to whatever ``sys.stderr`` is *now*.
+
+    Binding the stream once (as ``PrintLoggerFactory(file=sys.stderr)`` does) breaks when a
+    caller swaps stderr, e.g. a test runner capturing output, and later closes its buffer.
+    """
+
+    def msg(self, message: str) -> None:
+        print(message, file=sys.stderr, flush=True)
+
+    debug = info = warning = warn = error = critical = exception = fatal = msg
+
+
+def _stderr_logger_factory(*_args: object) -> _StderrLogger:
+    return _StderrLogger()
+
 LogLevel = Literal["debug", "info", "warning", "error"]
 
 
@@ -37,6 +54,6 @@ def configure_logging(level: LogLevel | str = "warning", *, json_lines: bool | N
             renderer,
         ],
         wrapper_class=structlog.make_filtering_bound_logger(numeric),
-        logger_factory=structlog.PrintLoggerFactory(file=sys.stderr),
+        logger_factory=_stderr_logger_factory,
         cache_logger_on_first_use=False,
     )

@@ -48,10 +48,10 @@ def _box_mesh(size: tuple[float, float, float]) -> trimesh.Trimesh:
     return box
 
 
-def _resolve(uri: str, base_dir: Path | None, obj: SceneObject) -> Path:
+def _resolve(uri: str, base_dir: str | Path | None, obj: SceneObject) -> Path:
     path = Path(uri).expanduser()
     if not path.is_absolute():
-        path = (base_dir if base_dir is not None else Path.cwd()) / path
+        path = (Path(base_dir) if base_dir is not None else Path.cwd()) / path
     if not path.is_file():
         raise AssetError(f"object {obj.id!r}: mesh file not found: {path}")
     return path.resolve()
@@ -70,7 +70,7 @@ def _canonical_cached(
     return mesh, mesh_hash(mesh)
 
 
-def _canonical(obj: SceneObject, base_dir: Path | None) -> trimesh.Trimesh:
+def _canonical(obj: SceneObject, base_dir: str | Path | None) -> trimesh.Trimesh:
     """The object's asset mesh in the canonical frame, unscaled (shared by a cache: do not modify)."""
     asset = obj.asset
     assert asset.uri is not None  # the scene model requires a uri for kind "mesh"
@@ -99,7 +99,7 @@ def _box_map(bounds: FloatArray, size: tuple[float, float, float]) -> tuple[Floa
     return scale, target_lo - lo * scale
 
 
-def object_mesh(obj: SceneObject, base_dir: Path | None = None) -> trimesh.Trimesh:
+def object_mesh(obj: SceneObject, base_dir: str | Path | None = None) -> trimesh.Trimesh:
     """The object's visual mesh in its local frame, scaled so its bounds equal ``obj.size``.
 
     * ``asset.kind == "procedural"``: :func:`procedural_mesh` of ``asset.category or obj.category``.
@@ -140,7 +140,7 @@ def _clamp_piece(vertices: FloatArray, lo: FloatArray, hi: FloatArray) -> trimes
 
 def object_hulls(
     obj: SceneObject,
-    base_dir: Path | None = None,
+    base_dir: str | Path | None = None,
     *,
     cache: HullCache | None = None,
     params: CoacdParams | None = None,
