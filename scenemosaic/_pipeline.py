@@ -198,10 +198,7 @@ def export_base(scene: Scene, folder: Path, base_dir: Path | None) -> list[str]:
     (folder / "topdown.png").write_bytes(render_topdown(saved, base_dir=folder))
     export_sceneeval(saved, folder / "sceneeval", base_dir=folder)
     export_mjcf(saved, folder, base_dir=folder)
-    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file() and p.parent == folder) + [
-        "sceneeval/",
-        "mjcf/",
-    ]
+    return [*sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file() and p.parent == folder), "sceneeval/", "mjcf/"]
 
 
 _STAGES: list[tuple[str, Callable[[PipelineRun, StageRecord], Awaitable[None]]]] = [
@@ -220,8 +217,21 @@ STAGE_NAMES: tuple[str, ...] = tuple(name for name, _ in _STAGES)
 # -- driver --------------------------------------------------------------------------------------
 
 
-def _input_base_dir(path: Path) -> Path:
-    return path if path.is_dir() else path.parent
+def _prepare_folders(input_path: Path, out: Path) -> Path:
+    """Check the input exists, create the output folder; returns the folder relative asset paths start from."""
+    if not input_path.exists():
+        raise UsageError(f"input not found: {input_path}")
+    out.mkdir(parents=True, exist_ok=True)
+    return input_path if input_path.is_dir() else input_path.parent
+
+
+def _export_partial(scene: Scene, folder: Path, base_dir: Path) -> None:
+    if not (folder / "scene.json").exists():  # a failed export stage may already have written it
+        export_base(scene, folder, base_dir)
+
+
+def _write_json(path: Path, payload: dict[str, Any]) -> None:
+    path.write_text(json.dumps(payload, indent=2, sort_keys=True), encoding="utf-8")
 
 
 async def agenerate(
@@ -239,12 +249,9 @@ async def agenerate(
     config = config or GenerateConfig()
     if config.variants < 0:
         raise UsageError("variants must be >= 0")
-    input_path = Path(input_path)
-    if not input_path.exists():
-        raise UsageError(f"input not found: {input_path}")
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    run = PipelineRun(input_path=input_path, out_dir=out, config=config, base_dir=_input_base_dir(input_path))
+    input_path, out = Path(input_path), Path(out_dir)
+    base_dir = await asyncio.to_thread(_prepare_folders, input_path, out)
+    run = PipelineRun(input_path=input_path, out_dir=out, config=config, base_dir=base_dir)
     failure: BaseException | None = None
     started = time.perf_counter()
     for name, stage in _STAGES:
@@ -274,14 +281,14 @@ async def agenerate(
         if on_stage:
             on_stage(name, "done")
 
-    if failure is not None and run.scene is not None and not (out / "base" / "scene.json").exists():
+    if failure is not None and run.scene is not None:
         try:  # keep the partial result: the last good scene in the stable layout
-            await asyncio.to_thread(export_base, run.scene, out / "base", run.base_dir)
+            await asyncio.to_thread(_export_partial, run.scene, out / "base", run.base_dir)
         except Exception as exc:  # the original failure matters more; note this one
             log.warning("partial_export_failed", error=str(exc))
 
     report = _report(run, time.perf_counter() - started, failure)
-    (out / "report.json").write_text(json.dumps(report, indent=2, sort_keys=True), encoding="utf-8")
+    await asyncio.to_thread(_write_json, out / "report.json", report)
     if failure is not None:
         raise failure
     assert run.scene is not None

@@ -4,7 +4,13 @@ This is the lowest layer: it imports nothing from the rest of scenemosaic but
 ``scenemosaic.exceptions``.
 """
 
-from scenemosaic.scene._geometry import front_vector, quat_from_yaw, quat_multiply, quat_to_matrix, yaw_from_quat
+from scenemosaic.scene._geometry import (
+    front_vector,
+    quat_from_yaw,
+    quat_multiply,
+    quat_to_matrix,
+    yaw_from_quat,
+)
 from scenemosaic.scene._model import (
     CEILING,
     FLOOR,

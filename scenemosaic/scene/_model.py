@@ -27,8 +27,8 @@ from scenemosaic.exceptions import SceneValidationError
 from scenemosaic.scene._geometry import FloatArray, quat_from_yaw, quat_to_matrix, yaw_from_quat
 
 __all__ = [
-    "FLOOR",
     "CEILING",
+    "FLOOR",
     "QUAT_NORM_TOLERANCE",
     "AssetRef",
     "ConstraintClause",
