@@ -128,6 +128,11 @@ from scenemosaic.scene import (
 
 __version__ = "0.1.0"
 
+import structlog as _structlog
+
+if not _structlog.is_configured():  # structlog's own default prints debug lines to stdout; respect any user setup
+    configure_logging("warning")
+
 __all__ = [
     "CEILING",
     "COLLISION_TOLERANCE_M",
