@@ -47,6 +47,9 @@ class GenerateConfig:
     """Room id to take from a multi-room house file."""
     vision: bool | None = None
     """Force the model's vision setting (``False`` for text-only local servers); ``None`` keeps its default."""
+    solver_fallback: bool = True
+    """When a real model's answers stay unusable (after retries and repairs), use the agent's rule
+    solver and note it in the report, instead of failing the run. Configuration errors still fail."""
     stabilize: bool = True
     """Run the physics stabilization stage."""
     cache_dir: Path | None = None
@@ -125,17 +128,22 @@ async def _stage_assets(run: PipelineRun, rec: StageRecord) -> None:
 
 async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     from scenemosaic.agents import structure_scene
-    from scenemosaic.models import parse_model
+    from scenemosaic.models import RulesModel, SolverFallbackModel, parse_model
 
     assert run.scene is not None
     spec = run.config.model
     model = parse_model(spec, vision=run.config.vision) if isinstance(spec, str) else spec
     rec.detail["model"] = model.name
+    asking: Model = model
+    if run.config.solver_fallback and not isinstance(model, RulesModel):
+        asking = SolverFallbackModel(model)
     try:
         run.scene = await structure_scene(
-            run.scene, model, seed=run.config.seed, priors_dir=run.config.priors_dir
+            run.scene, asking, seed=run.config.seed, priors_dir=run.config.priors_dir
         )
     finally:
+        if isinstance(asking, SolverFallbackModel):
+            rec.detail["solver_fallbacks"] = [{"agent": f.agent, "reason": f.reason} for f in asking.fallbacks]
         if isinstance(spec, str):
             await model.aclose()
     structure = run.scene.structure

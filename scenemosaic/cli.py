@@ -91,6 +91,13 @@ def generate(
     vision: Annotated[
         bool | None, typer.Option("--vision/--no-vision", help="Send images to the model (off for text-only servers).")
     ] = None,
+    fallback: Annotated[
+        bool,
+        typer.Option(
+            "--solver-fallback/--no-solver-fallback",
+            help="Use an agent's rule solver when the model's answers stay unusable (default) or fail the run.",
+        ),
+    ] = True,
     priors: Annotated[
         Path | None,
         typer.Option("--priors", help="ProcTHOR priors folder (default: $SCENEMOSAIC_PRIORS_DIR or the bundled table)."),
@@ -99,7 +106,14 @@ def generate(
 ) -> None:
     """Turn INPUT into a stabilized, simulation-ready scene in the output layout under --out."""
     config = GenerateConfig(
-        format=format, variants=variants, model=model, seed=seed, room=room, vision=vision, priors_dir=priors
+        format=format,
+        variants=variants,
+        model=model,
+        seed=seed,
+        room=room,
+        vision=vision,
+        priors_dir=priors,
+        solver_fallback=fallback,
     )
     try:
         result = _run_with_progress(input_path, out, config)

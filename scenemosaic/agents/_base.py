@@ -140,8 +140,31 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                         + "\nReply again with a corrected JSON object.",
                     ),
                 ]
+        if getattr(model, "solver_fallback", False):
+            output = self._fall_back(evidence, state, model, problems)
+            async with state.lock:
+                self.apply(output, state)
+                state.outputs[self.name] = output
+                state.scene.provenance.notes.append(f"{self.name}: model output unusable, used the rule solver")
+            return output, total
         raise AgentOutputError(
             f"agent {self.name!r} gave an unusable output after {self.max_repairs} repairs: {'; '.join(problems)}",
             agent=self.name,
             problems=problems,
         )
+
+    def _fall_back(self, evidence: EvidenceT, state: SceneState, model: Model, problems: list[str]) -> OutputT:
+        """Use the rule solver's answer (the model asked for it through ``solver_fallback``)."""
+        output = self.solve(evidence)
+        solver_problems = self.check(output, state)
+        if solver_problems:  # the solver itself is wrong: a bug worth failing loudly on
+            raise AgentOutputError(
+                f"agent {self.name!r}: the model's output and the rule solver's are both unusable: "
+                + "; ".join(problems + solver_problems),
+                agent=self.name,
+                problems=problems + solver_problems,
+            )
+        record = getattr(model, "record", None)
+        if callable(record):
+            record(self.name, "unusable after repairs: " + "; ".join(problems))
+        return output

@@ -12,12 +12,14 @@ Wrappers that add behaviour around any model:
 * :class:`ReplayModel` — record / replay replies in a JSON cassette.
 * :class:`LimitedModel` — shared concurrency and request/token rate limits.
 * :class:`InstrumentedModel` — a :class:`ModelCall` record per request.
+* :class:`SolverFallbackModel` — the asking agent's rule solver answers when the model keeps failing.
 
 :func:`parse_model` builds any of these from a string.
 """
 
 from scenemosaic.models._base import ImagePart, Message, Model, ModelSettings, RequestContext, TextPart, Usage
 from scenemosaic.models._completion import Completion, CompletionModel
+from scenemosaic.models._fallback import FallbackRecord, SolverFallbackModel
 from scenemosaic.models._function import AgentFunction, FunctionModel
 from scenemosaic.models._instrument import InstrumentedModel, ModelCall
 from scenemosaic.models._limit import LimitedModel, RateLimiter, TokenBucket
@@ -34,6 +36,7 @@ __all__ = [
     "Cassette",
     "Completion",
     "CompletionModel",
+    "FallbackRecord",
     "FunctionModel",
     "ImagePart",
     "InstrumentedModel",
@@ -50,6 +53,7 @@ __all__ = [
     "RetryPolicy",
     "RulesModel",
     "SchemaBounds",
+    "SolverFallbackModel",
     "StructuredMode",
     "TextPart",
     "TokenBucket",
