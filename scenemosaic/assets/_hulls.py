@@ -7,6 +7,12 @@ Cache layout (see ``docs/assets.md``)::
 ``key = sha256("hulls-v1", mesh_hash(mesh), params.cache_token())``. Files are written to a
 temporary name in the same folder and renamed into place, so readers never see half a file.
 A file that cannot be read back is logged, deleted and recomputed.
+
+After CoACD the pieces are checked: when their union spans less than ``MIN_COVERAGE`` of the
+mesh's extent on some axis (open, shell-like scans come back as slivers missing half the
+object) or they number more than ``max(MAX_PIECES, params.max_convex_hull)``, the mesh's
+single convex hull is used instead, with a logged warning. That outcome is deterministic for a
+given key, so it is stored like any other result.
 """
 
 from __future__ import annotations
@@ -36,6 +42,8 @@ from scenemosaic.exceptions import AssetError
 
 __all__ = [
     "CACHE_FORMAT_VERSION",
+    "MAX_PIECES",
+    "MIN_COVERAGE",
     "CoacdParams",
     "HullCache",
     "default_cache_dir",
@@ -44,8 +52,18 @@ __all__ = [
 
 log = structlog.get_logger(__name__)
 
-CACHE_FORMAT_VERSION = "hulls-v1"
-"""Part of every cache key: bump it when the stored format or the post-processing changes."""
+CACHE_FORMAT_VERSION = "hulls-v2"
+"""Part of every cache key: bump it when the stored format or the post-processing changes.
+
+v2: the coverage / piece-count check after CoACD (see :func:`_quality_problem`)."""
+
+MIN_COVERAGE = 0.9
+"""Least fraction of the mesh's bounding-box extent, on every axis, that the union of the pieces'
+bounds must span; below it the decomposition is replaced by the mesh's single convex hull."""
+
+MAX_PIECES = 32
+"""Most pieces accepted (or ``params.max_convex_hull`` when that is larger); each piece becomes a
+physics geom, so dozens of them mean a decomposition gone wrong."""
 
 _MIN_PIECE_VOLUME = 1e-12
 """Pieces with less volume (cubic metres for metric meshes) are dropped as degenerate slivers."""
@@ -184,6 +202,25 @@ def _clean(raw: list[RawPiece]) -> list[RawPiece]:
     return out
 
 
+def _quality_problem(pieces: list[RawPiece], mesh: trimesh.Trimesh, params: CoacdParams) -> str | None:
+    """Why ``pieces`` are no usable stand-in for ``mesh`` (too few axes covered, too many pieces), or ``None``."""
+    cap = max(MAX_PIECES, params.max_convex_hull)
+    if len(pieces) > cap:
+        return f"{len(pieces)} pieces, more than {cap}"
+    points = np.concatenate([v for v, _ in pieces])
+    extent = np.ptp(np.asarray(mesh.vertices, dtype=np.float64), axis=0)
+    coverage = np.ptp(points, axis=0) / extent
+    if float(coverage.min()) < MIN_COVERAGE:
+        shown = ", ".join(f"{a} {c:.0%}" for a, c in zip("xyz", coverage, strict=True))
+        return f"pieces span only {shown} of the mesh's extent (need {MIN_COVERAGE:.0%} on every axis)"
+    return None
+
+
+def _single_hull(mesh: trimesh.Trimesh) -> list[RawPiece]:
+    hull = mesh.convex_hull
+    return [(np.asarray(hull.vertices, dtype=np.float64), np.asarray(hull.faces, dtype=np.int64))]
+
+
 def _to_meshes(raw: list[RawPiece]) -> list[trimesh.Trimesh]:
     return [trimesh.Trimesh(vertices=v.copy(), faces=f.copy(), process=False) for v, f in raw]
 
@@ -222,6 +259,10 @@ class HullCache:
     faces, NaN vertices, zero extent) raise :class:`~scenemosaic.exceptions.AssetError`. When
     CoACD itself fails (an error, a crashed worker, no usable piece) the result is the mesh's
     single convex hull, with a logged warning; that fallback is not stored, so a later run retries.
+    When CoACD succeeds but its pieces cover less than :data:`MIN_COVERAGE` of the mesh's extent
+    on some axis, or exceed the piece cap (:data:`MAX_PIECES`), the single convex hull is used as
+    well (warning ``coacd_poor_pieces_using_convex_hull``) and stored, since CoACD would give the
+    same pieces again.
 
     Attributes:
         root: Folder of the cache files.
@@ -337,7 +378,15 @@ class HullCache:
                     if not pieces:
                         error = AssetError("CoACD returned no usable convex piece")
             if error is None:
-                self._write(key, pieces, {"params": asdict(params), "source_faces": len(geometry.faces)})
+                meta: dict[str, Any] = {"params": asdict(params), "source_faces": len(geometry.faces)}
+                problem = _quality_problem(pieces, geometry, params)
+                if problem is not None:
+                    with self._lock:
+                        self.fallbacks += 1
+                    log.warning("coacd_poor_pieces_using_convex_hull", key=key[:16], problem=problem)
+                    pieces = _single_hull(geometry)
+                    meta["fallback"] = problem
+                self._write(key, pieces, meta)
                 log.info("coacd_done", key=key[:16], pieces=len(pieces))
             else:
                 if isinstance(error, BrokenProcessPool):
@@ -349,10 +398,7 @@ class HullCache:
                     key=key[:16],
                     error=f"{type(error).__name__}: {error}",
                 )
-                hull = geometry.convex_hull
-                pieces = [
-                    (np.asarray(hull.vertices, dtype=np.float64), np.asarray(hull.faces, dtype=np.int64))
-                ]
+                pieces = _single_hull(geometry)
             outer.set_result(pieces)
         except BaseException as exc:
             outer.set_exception(exc)

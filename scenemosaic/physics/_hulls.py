@@ -1,9 +1,8 @@
 """Collision shapes of scene objects: convex pieces in the object's local frame.
 
-Pieces come from ``scenemosaic.assets.object_hulls`` when that is available (procedural
-furniture gives exact convex primitives, mesh assets CoACD pieces from the disk cache);
-otherwise, and for ``box`` assets, one box of the object's size. Callers may also pass
-precomputed pieces per object id.
+Pieces come from :func:`scenemosaic.assets.object_hulls` (procedural furniture gives exact
+convex primitives, mesh assets CoACD pieces from the disk cache, ``box`` assets one box of the
+object's size). Callers may also pass precomputed pieces per object id.
 
 Each piece is reduced once to its convex-hull vertices, volume and centroid and kept in an
 in-process cache keyed by the hash of its vertex bytes, so rebuilding a unit world for the
@@ -14,9 +13,8 @@ world builder can use MuJoCo's box primitive (much cheaper contacts than a mesh)
 from __future__ import annotations
 
 import hashlib
-import importlib
 import threading
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,10 +23,11 @@ import numpy as np
 import structlog
 from scipy.spatial import ConvexHull, QhullError
 
+from scenemosaic.assets import HullCache, object_hulls
 from scenemosaic.scene import SceneObject
 from scenemosaic.scene._geometry import FloatArray
 
-__all__ = ["HullPiece", "ObjectShape", "box_vertices", "object_shape", "piece_from_vertices"]
+__all__ = ["HullPiece", "ObjectShape", "object_shape", "piece_from_vertices"]
 
 log = structlog.get_logger(__name__)
 
@@ -72,14 +71,6 @@ _CACHE: dict[str, HullPiece] = {}
 _CACHE_LOCK = threading.Lock()
 
 
-def box_vertices(size: Sequence[float] | FloatArray) -> FloatArray:
-    """Corners (8, 3) of a box of ``size`` in the object frame (x, y centred, z from 0 up)."""
-    sx, sy, sz = (float(v) for v in size)
-    return np.array(
-        [[x, y, z] for x in (-sx / 2, sx / 2) for y in (-sy / 2, sy / 2) for z in (0.0, sz)], dtype=np.float64
-    )
-
-
 def _as_box(v: FloatArray) -> tuple[FloatArray, FloatArray] | None:
     lo, hi = v.min(axis=0), v.max(axis=0)
     if len(v) != 8 or np.any(hi - lo < 1e-9):
@@ -117,32 +108,18 @@ def piece_from_vertices(vertices: Any) -> HullPiece:
     return piece
 
 
-def _assets_hulls() -> Callable[..., Any] | None:
-    try:
-        module = importlib.import_module("scenemosaic.assets")
-    except ImportError:  # pragma: no cover - the assets package always exists in the tree
-        return None
-    fn = getattr(module, "object_hulls", None)
-    return fn if callable(fn) else None
-
-
 def object_shape(
     obj: SceneObject,
     base_dir: str | Path | None = None,
     *,
-    cache: Any = None,
+    cache: HullCache | None = None,
     hulls: HullInput | None = None,
 ) -> ObjectShape:
-    """The convex pieces of ``obj`` (local frame, scaled), from ``hulls``, the assets layer, or a box."""
-    raw: Sequence[Any] | None = None
-    if hulls is not None and obj.id in hulls:
-        raw = hulls[obj.id]
-    elif obj.asset.kind != "box":
-        fn = _assets_hulls()
-        if fn is not None:
-            raw = fn(obj, base_dir, cache=cache)
+    """The convex pieces of ``obj`` (local frame, scaled): ``hulls[obj.id]`` when given, else
+    :func:`scenemosaic.assets.object_hulls` (which uses ``cache`` for mesh assets)."""
+    raw: Sequence[Any] | None = hulls.get(obj.id) if hulls is not None else None
     if not raw:
-        raw = [box_vertices(obj.size)]
+        raw = object_hulls(obj, base_dir, cache=cache)
     pieces = tuple(piece_from_vertices(getattr(r, "vertices", r)) for r in raw)
     allv = np.concatenate([p.vertices for p in pieces])
     return ObjectShape(pieces=pieces, lower=allv.min(axis=0), upper=allv.max(axis=0))

@@ -22,7 +22,7 @@ COFFEE_MUG = ASSETS / "manipulands" / "sdf" / "coffee_mug_1762992163" / "coffee_
 
 
 def test_shared_data_is_where_conftest_says(shared_data: Path) -> None:
-    assert ASSETS.is_relative_to(shared_data)
+    assert ASSETS.resolve().is_relative_to(shared_data)
     assert COFFEE_MUG.is_file()
 
 
