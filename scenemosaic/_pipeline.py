@@ -128,15 +128,17 @@ async def _stage_assets(run: PipelineRun, rec: StageRecord) -> None:
 
 async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     from scenemosaic.agents import structure_scene
-    from scenemosaic.models import RulesModel, SolverFallbackModel, parse_model
+    from scenemosaic.dag import UsageTracker
+    from scenemosaic.models import InstrumentedModel, RulesModel, SolverFallbackModel, parse_model
 
     assert run.scene is not None
     spec = run.config.model
     model = parse_model(spec, vision=run.config.vision) if isinstance(spec, str) else spec
     rec.detail["model"] = model.name
-    asking: Model = model
+    tracker = UsageTracker()
+    asking: Model = InstrumentedModel(model, on_call=tracker.on_call)
     if run.config.solver_fallback and not isinstance(model, RulesModel):
-        asking = SolverFallbackModel(model)
+        asking = SolverFallbackModel(asking)
     try:
         run.scene = await structure_scene(
             run.scene, asking, seed=run.config.seed, priors_dir=run.config.priors_dir
@@ -144,12 +146,33 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     finally:
         if isinstance(asking, SolverFallbackModel):
             rec.detail["solver_fallbacks"] = [{"agent": f.agent, "reason": f.reason} for f in asking.fallbacks]
+        rec.detail["usage"] = _usage_summary(tracker)
         if isinstance(spec, str):
             await model.aclose()
     structure = run.scene.structure
     rec.detail["units"] = len(structure.units) if structure else 0
     rec.detail["relations"] = len(run.scene.relations)
     rec.detail["constraints"] = len(run.scene.constraints)
+
+
+def _usage_summary(tracker: Any) -> dict[str, Any]:
+    """Requests, tokens and latencies of the model calls, per run and per agent."""
+    latencies = sorted(c.latency_s for c in tracker.calls)
+    return {
+        "requests": tracker.total.requests,
+        "input_tokens": tracker.total.input_tokens,
+        "output_tokens": tracker.total.output_tokens,
+        "image_tokens": tracker.total.image_tokens,
+        "failed_calls": sum(1 for c in tracker.calls if not c.ok),
+        "latency_s": {
+            "mean": round(sum(latencies) / len(latencies), 4) if latencies else 0.0,
+            "max": round(latencies[-1], 4) if latencies else 0.0,
+        },
+        "by_agent": {
+            agent: {"requests": u.requests, "input_tokens": u.input_tokens, "output_tokens": u.output_tokens}
+            for agent, u in sorted(tracker.by_agent.items())
+        },
+    }
 
 
 async def _stage_stabilize(run: PipelineRun, rec: StageRecord) -> None:

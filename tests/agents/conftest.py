@@ -9,45 +9,12 @@ from pathlib import Path
 
 import pytest
 
+from scenemosaic.importers import load_scene
 from scenemosaic.scene import AssetRef, Pose, Scene, SceneObject
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 PROCTHOR = SHARED / "priors" / "procthor"
 SAM3D = SHARED / "sam3d_objects" / "generated_assets"
-
-
-def _load_physcene_local(path: Path) -> Scene:
-    """Minimal PhyScene reader (data README): half extents, Y-up -> Z-up, bottom-centre positions."""
-    data = json.loads(path.read_text(encoding="utf-8"))
-    objects: list[SceneObject] = []
-    for items in data["ThreedFront"].values():
-        for item in items:
-            label = item["label"]
-            sx, sy, sz = (float(v) for v in item["size"])
-            x, y, z = (float(v) for v in item["position"])
-            theta = item["theta"][0] if isinstance(item["theta"], list) else item["theta"]
-            objects.append(
-                SceneObject(
-                    id=f"{label}_{len(objects)}",
-                    category=label,
-                    asset=AssetRef(kind="procedural", category=label, extents=(2 * sx, 2 * sz, 2 * sy)),
-                    pose=Pose.from_yaw((x, -z, y), float(theta)),
-                )
-            )
-    return Scene(id=path.stem.replace(" ", "_")[:64], objects=objects)
-
-
-def load_physcene(path: Path) -> Scene:
-    """The project importer when it exists, else the local reader."""
-    import importlib
-
-    for module in ("scenemosaic.importers", "scenemosaic.scene.importers"):
-        try:
-            load_scene = importlib.import_module(module).load_scene
-        except (ImportError, AttributeError):
-            continue
-        return load_scene(path)  # type: ignore[no-any-return]
-    return _load_physcene_local(path)
 
 
 @pytest.fixture(scope="session")
@@ -58,7 +25,7 @@ def procthor_dir() -> Path:
 
 @pytest.fixture(scope="session")
 def physcene_scenes(physcene_files: list[Path]) -> dict[str, Scene]:
-    return {p.stem: load_physcene(p) for p in physcene_files}
+    return {p.stem: load_scene(p) for p in physcene_files}
 
 
 def _gltf_extents(path: Path) -> tuple[float, float, float]:
@@ -93,8 +60,9 @@ def build_sam3d_scene() -> Scene:
     desk_h = s["work_desk"][2]
 
     def obj(oid: str, cat: str, pos: tuple[float, float, float], yaw: float) -> SceneObject:
-        return SceneObject(id=oid, category=cat, asset=AssetRef(kind="box", extents=s[cat]),
-                           pose=Pose.from_yaw(pos, yaw))
+        return SceneObject(
+            id=oid, category=cat, asset=AssetRef(kind="box", extents=s[cat]), pose=Pose.from_yaw(pos, yaw)
+        )
 
     return Scene(
         id="sam3d_office",

@@ -15,14 +15,13 @@ import trimesh
 from scipy.spatial import ConvexHull
 from structlog.testing import capture_logs
 
-from scenemosaic.assets import CoacdParams, HullCache, _hulls, default_cache_dir, load_mesh, shutdown_workers
+from scenemosaic.assets import CoacdParams, HullCache, _hulls, default_cache_dir, shutdown_workers
+from scenemosaic.assets._objects import _canonical
 from scenemosaic.exceptions import AssetError
+from scenemosaic.scene import Scene
 
-COFFEE_MUG = (
-    Path(__file__).resolve().parents[3]
-    / "shared/data/sam3d_objects/generated_assets/manipulands/sdf/coffee_mug_1762992163/coffee_mug.gltf"
-)
-# Coarse, fast settings (seconds, not minutes): the behaviour under test does not depend on quality.
+# Coarse, fast settings (seconds, not minutes) for the synthetic ring: the behaviour under test does
+# not depend on quality. Real meshes use the suite's shared settings and cache (conftest).
 FAST = CoacdParams(
     threshold=0.15,
     max_convex_hull=8,
@@ -41,22 +40,19 @@ def _stop_workers() -> Iterator[None]:
 
 
 @pytest.fixture(scope="module")
-def mug() -> trimesh.Trimesh:
-    return load_mesh(COFFEE_MUG).mesh
+def mug(sam3d_office: Scene) -> trimesh.Trimesh:
+    """The example's coffee mug in the canonical frame, exactly as ``object_hulls`` decomposes it."""
+    return _canonical(sam3d_office.get("coffee_mug"), None)
 
 
 @pytest.fixture(scope="module")
-def mug_cache_root(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    # shared by the tests of this module (one cold decomposition for all of them)
-    return tmp_path_factory.mktemp("mug-hulls")
-
-
-@pytest.fixture(scope="module")
-def mug_pieces(mug: trimesh.Trimesh, mug_cache_root: Path) -> list[trimesh.Trimesh]:
-    cache = HullCache(mug_cache_root)
-    pieces = cache.get(mug, FAST)
-    assert cache.computations == 1
-    assert cache.disk_hits == 0
+def mug_pieces(
+    mug: trimesh.Trimesh, shared_hull_cache_dir: Path, shared_params: CoacdParams
+) -> list[trimesh.Trimesh]:
+    cache = HullCache(shared_hull_cache_dir)
+    pieces = cache.get(mug, shared_params)
+    assert cache.computations + cache.disk_hits == 1  # computed (cold checkout) or read, once
+    assert cache.fallbacks == 0
     return pieces
 
 
@@ -71,7 +67,7 @@ def _inside_any(points: np.ndarray, pieces: list[trimesh.Trimesh], tolerance: fl
 def test_mug_decomposes_into_convex_pieces_covering_it(
     mug: trimesh.Trimesh, mug_pieces: list[trimesh.Trimesh]
 ) -> None:
-    assert 1 <= len(mug_pieces) <= FAST.max_convex_hull
+    assert 2 <= len(mug_pieces) <= CoacdParams.fast().max_convex_hull  # a real decomposition
     for piece in mug_pieces:
         assert piece.is_watertight
         assert piece.is_convex
@@ -94,11 +90,14 @@ def test_mug_decomposes_into_convex_pieces_covering_it(
 
 
 def test_second_get_is_served_from_disk(
-    mug: trimesh.Trimesh, mug_cache_root: Path, mug_pieces: list[trimesh.Trimesh]
+    mug: trimesh.Trimesh,
+    shared_hull_cache_dir: Path,
+    shared_params: CoacdParams,
+    mug_pieces: list[trimesh.Trimesh],
 ) -> None:
-    cache = HullCache(mug_cache_root)
+    cache = HullCache(shared_hull_cache_dir)
     start = time.perf_counter()
-    again = cache.get(mug, FAST)
+    again = cache.get(mug, shared_params)
     elapsed = time.perf_counter() - start
     assert cache.computations == 0  # no worker job was started
     assert cache.disk_hits == 1
@@ -107,11 +106,11 @@ def test_second_get_is_served_from_disk(
     for a, b in zip(again, mug_pieces, strict=True):
         np.testing.assert_array_equal(a.vertices, b.vertices)
         np.testing.assert_array_equal(a.faces, b.faces)
-    # the layout: <root>/<key[:2]>/<key>.npz
-    key = cache.key(mug, FAST)
-    assert cache.path_for(key) == mug_cache_root / key[:2] / f"{key}.npz"
+    # the layout: <root>/<key[:2]>/<key>.npz, and no temporary file of this key left behind
+    key = cache.key(mug, shared_params)
+    assert cache.path_for(key) == shared_hull_cache_dir / key[:2] / f"{key}.npz"
     assert cache.path_for(key).is_file()
-    assert not list(mug_cache_root.rglob("*.tmp"))
+    assert not list(cache.path_for(key).parent.glob(f".{key[:16]}.*.tmp"))
 
 
 def test_key_depends_on_mesh_and_every_param(mug: trimesh.Trimesh, tmp_path: Path) -> None:

@@ -19,19 +19,10 @@ from scenemosaic.assets import (
     shutdown_workers,
 )
 from scenemosaic.exceptions import AssetError
-from scenemosaic.scene import AssetRef, Pose, SceneObject
+from scenemosaic.scene import AssetRef, Pose, Scene, SceneObject
 
 SAM3D = Path(__file__).resolve().parents[3] / "shared/data/sam3d_objects/generated_assets"
 MUG_URI = "manipulands/sdf/coffee_mug_1762992163/coffee_mug.gltf"
-FAST = CoacdParams(
-    threshold=0.15,
-    max_convex_hull=8,
-    preprocess_resolution=20,
-    simplify_faces=500,
-    resolution=500,
-    mcts_nodes=10,
-    mcts_iterations=60,
-)
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -120,22 +111,27 @@ def test_source_transform_is_applied_instead_of_canonicalizing() -> None:
     assert not np.allclose(mesh.vertices, object_mesh(without, SAM3D).vertices, atol=1e-3)
 
 
-def test_mesh_asset_hulls_fit_the_scaled_box(tmp_path: Path) -> None:
-    obj = _mug_object(scale=(2.0, 2.0, 1.5))
-    cache = HullCache(tmp_path)
-    hulls = object_hulls(obj, SAM3D, cache=cache, params=FAST)
-    assert cache.computations == 1
-    assert 1 <= len(hulls) <= FAST.max_convex_hull
+def test_mesh_asset_hulls_fit_the_scaled_box(
+    sam3d_office: Scene, shared_hull_cache: HullCache, shared_params: CoacdParams
+) -> None:
+    mug = sam3d_office.get("coffee_mug")
+    obj = mug.model_copy(update={"pose": mug.pose.model_copy(update={"scale": (2.0, 2.0, 1.5)})})
+    cache = shared_hull_cache
+    hulls = object_hulls(obj, cache=cache, params=shared_params)
+    assert cache.computations + cache.disk_hits == 1  # one decomposition, computed or read back
+    assert 2 <= len(hulls) <= shared_params.max_convex_hull
     assert all(h.is_convex and h.is_watertight for h in hulls)
     box = _box_bounds(obj.size)
     union = _union(hulls)
     assert np.all(union[0] >= box[0] - 1e-9) and np.all(union[1] <= box[1] + 1e-9)
     np.testing.assert_allclose(union, box, atol=0.05 * float(obj.size.max()))
     # the same asset at another scale reuses the decomposition of the unscaled mesh
-    other = _mug_object(scale=(1.0, 1.0, 1.0))
-    object_hulls(other, SAM3D, cache=cache, params=FAST)
-    assert cache.computations == 1
-    assert cache.disk_hits == 1
+    computed = cache.computations
+    unscaled = object_hulls(mug, cache=cache, params=shared_params)
+    assert cache.computations == computed
+    assert cache.disk_hits == 2 - computed
+    assert len(unscaled) == len(hulls)
+    np.testing.assert_allclose(_union(unscaled), _box_bounds(mug.size), atol=0.05 * float(mug.size.max()))
 
 
 def test_missing_mesh_file_names_the_object(tmp_path: Path) -> None:

@@ -29,6 +29,7 @@ if not URL:
     )
 
 
+@pytest.mark.timeout(1800)  # a 0.5 B model on 2 CPU cores: ~10 s per call, repairs included
 def test_generate_with_a_real_text_only_server(tmp_path: Path, shared_data: Path) -> None:
     source = shared_data / "layouts" / "physcene" / "DiningRoom-19325_diningroom.json"
     out = tmp_path / "o"
@@ -48,3 +49,7 @@ def test_generate_with_a_real_text_only_server(tmp_path: Path, shared_data: Path
         assert report["status"] == "failed" and report["error"]
         assert (out / "base" / "scene.json").is_file()
     assert stages["import"]["status"] == "done"
+    usage = stages["structure"]["detail"].get("usage")
+    if usage:  # figures for the issue note: pytest -s shows them
+        print(f"\nreal-server calls: {usage['requests']}, mean latency {usage['latency_s']['mean']} s, "
+              f"max {usage['latency_s']['max']} s, fallbacks {len(stages['structure']['detail'].get('solver_fallbacks', []))}")

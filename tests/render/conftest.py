@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import pytest
 
+from scenemosaic.importers import load_scene
 from scenemosaic.scene import AssetRef, Opening, Pose, Room, Scene, SceneObject
 
 PHYSCENE_DINING = (
@@ -18,31 +18,9 @@ PHYSCENE_DINING = (
 
 @pytest.fixture(scope="session")
 def dining_scene() -> Scene:
-    """The real PhyScene dining room, loaded by a minimal stand-in for ``load_scene``.
-
-    Half extents, Y-up: (x, y, z) -> (x, -z, y); theta about +Y is yaw about +Z; position is
-    the bottom centre. Room: the objects' XY bounds plus a 0.5 m margin.
-    """
-    data = json.loads(PHYSCENE_DINING.read_text())
-    objects = []
-    for group in data["ThreedFront"].values():
-        for item in group:
-            sx, sy, sz = item["size"]
-            px, py, pz = item["position"]
-            objects.append(
-                SceneObject(
-                    id=f"{item['label']}_{len(objects)}",
-                    category=item["label"],
-                    asset=AssetRef(
-                        kind="procedural", category=item["label"], extents=(2 * sx, 2 * sz, 2 * sy)
-                    ),
-                    pose=Pose.from_yaw((px, -pz, py), item["theta"]),
-                )
-            )
-    xs = [c for o in objects for c in o.footprint()[:, 0]]
-    ys = [c for o in objects for c in o.footprint()[:, 1]]
-    room = Room.rectangle(min(xs) - 0.5, min(ys) - 0.5, max(xs) + 0.5, max(ys) + 0.5)
-    return Scene(id="dining", room=room, objects=objects)
+    """The real PhyScene dining room, imported by ``load_scene`` (room recovered from the furniture)."""
+    assert PHYSCENE_DINING.is_file(), PHYSCENE_DINING
+    return load_scene(PHYSCENE_DINING)
 
 
 @pytest.fixture()
