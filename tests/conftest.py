@@ -26,3 +26,7 @@ def physcene_files() -> list[Path]:
     files = sorted(PHYSCENE_DIR.glob("*.json"))
     assert files, f"no layouts in {PHYSCENE_DIR}"
     return files
+
+
+# Any socket connect to a non-loopback address fails in tests (integration tests use 127.0.0.1 only).
+pytest_plugins = ["scenemosaic.models._testing"]

@@ -257,3 +257,20 @@ async def test_truncated_even_when_doubled_goes_through_repair_then_fails() -> N
     assert info.value.raw_reply == cut_but_valid
     assert any("cut off" in e for e in info.value.errors)
     assert [b["max_tokens"] for b in server.bodies] == [8, 16]
+
+
+async def test_owned_client_is_closed_and_injected_client_is_not() -> None:
+    server = FakeServer(chat_reply(VALID), chat_reply(VALID))
+    model, _ = server.model()
+    await model.request(user_messages(), Verdict)
+    await model.aclose()
+    await model.request(user_messages(), Verdict)  # a fresh client after close
+    await model.aclose()
+    assert len(server.requests) == 2
+
+    other = FakeServer(chat_reply(VALID))
+    async with httpx.AsyncClient(transport=httpx.MockTransport(other.handler)) as client:
+        injected = OpenAIChatModel("m", base_url="http://llm.test/v1", client=client)
+        await injected.request(user_messages(), Verdict)
+        await injected.aclose()
+        assert not client.is_closed
