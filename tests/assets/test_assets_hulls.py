@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import shutil
 import time
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -131,13 +132,27 @@ def ring() -> trimesh.Trimesh:
     return mesh
 
 
-@pytest.mark.parametrize("damage", ["garbage", "truncated", "empty", "npy", "other-key"])
-def test_corrupted_file_is_recomputed(ring: trimesh.Trimesh, tmp_path: Path, damage: str) -> None:
-    first = HullCache(tmp_path)
-    pieces = first.get(ring, FAST)
-    assert first.computations == 1
+@pytest.fixture(scope="module")
+def ring_file(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, int]:
+    """The ring decomposed once, cold, with FAST: its cache file and piece count."""
+    ring: trimesh.Trimesh = trimesh.creation.annulus(r_min=0.2, r_max=0.4, height=0.3, sections=24)
+    cache = HullCache(tmp_path_factory.mktemp("ring-hulls"))
+    pieces = cache.get(ring, FAST)
+    assert cache.computations == 1 and cache.disk_hits == 0
     assert len(pieces) >= 2  # a ring is not convex
+    return cache.path_for(cache.key(ring, FAST)), len(pieces)
+
+
+@pytest.mark.parametrize("damage", ["garbage", "truncated", "empty", "npy", "other-key"])
+def test_corrupted_file_is_recomputed(
+    ring: trimesh.Trimesh, ring_file: tuple[Path, int], tmp_path: Path, damage: str
+) -> None:
+    stored, count = ring_file
+    first = HullCache(tmp_path)
     path = first.path_for(first.key(ring, FAST))
+    path.parent.mkdir(parents=True)
+    shutil.copyfile(stored, path)
+    assert len(first.get(ring, FAST)) == count and first.disk_hits == 1  # the intact file reads back
     data = path.read_bytes()
     if damage == "garbage":
         path.write_bytes(b"not a zip file at all" * 10)
@@ -158,7 +173,7 @@ def test_corrupted_file_is_recomputed(ring: trimesh.Trimesh, tmp_path: Path, dam
         again = second.get(ring, FAST)
     assert second.computations == 1
     assert any(e["event"] == "hull_cache_corrupt" and e["log_level"] == "warning" for e in logs)
-    assert len(again) == len(pieces)
+    assert len(again) == count
     third = HullCache(tmp_path)  # the file was rewritten and reads back
     third.get(ring, FAST)
     assert third.computations == 0

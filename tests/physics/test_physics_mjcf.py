@@ -47,6 +47,10 @@ def test_exported_sam3d_office_loads_and_stays_at_rest(
     scene, _ = sam3d_stabilized
     xml = export_mjcf(scene, tmp_path, hulls=hulls)
     assert list((tmp_path / "mjcf").glob("*_hull_*.obj"))
+    # the imported meshes are found, so every object carries its visual mesh too
+    assert {p.stem for p in (tmp_path / "mjcf").glob("*_visual.obj")} == {
+        f"{o.id}_visual" for o in scene.objects
+    }
     drift, model = _rest_drift(xml)
     assert drift < 0.01
     mug_mass = scene.get("coffee_mug").sim.mass_kg

@@ -100,9 +100,16 @@ def test_stabilized_output_is_physically_valid(living_run: tuple[Path, Path]) ->
     assert max(abs(g) for g in validation["support_gaps_m"].values()) < 0.01
 
 
-def test_demo_command_writes_a_valid_scene(tmp_path: Path) -> None:
-    result = CliRunner().invoke(app, ["demo", "--out", str(tmp_path)])
+@pytest.fixture(scope="module")
+def demo_out(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("demo")
+    result = CliRunner().invoke(app, ["demo", "--out", str(out)])
     assert result.exit_code == 0, result.output
+    return out
+
+
+def test_demo_command_writes_a_valid_scene(demo_out: Path) -> None:
+    tmp_path = demo_out
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["status"] == "ok" and report["objects"] == 16
     validation = report["validation"]
@@ -155,3 +162,12 @@ def test_same_seed_gives_identical_scene_files(tmp_path: Path, shared_data: Path
     a = generate(source, tmp_path / "a", GenerateConfig(seed=3))
     b = generate(source, tmp_path / "b", GenerateConfig(seed=3))
     assert (a.base_dir / "scene.json").read_bytes() == (b.base_dir / "scene.json").read_bytes()
+
+
+def test_sceneeval_support_types_follow_the_support_relations(demo_out: Path) -> None:
+    state = json.loads((demo_out / "base" / "sceneeval" / "scene_base.json").read_text())
+    support = {o["id"]: o["sceneeval"]["supportType"] for o in state["scene"]["object"]}
+    assert support["pendant_lamp"] == "ceiling"
+    assert support["tv"] == "wall"
+    assert support["mug"] == support["laptop"] == support["table_lamp"] == "object"
+    assert support["bed"] == support["desk"] == support["wardrobe"] == "ground"
