@@ -7,10 +7,10 @@ separation and settling. The last line is JSON with ``unit30_settle_s`` and ``ro
 
 from __future__ import annotations
 
+import asyncio
 import json
 import math
 import statistics
-import sys
 import time
 from pathlib import Path
 
@@ -18,21 +18,20 @@ import mujoco
 import numpy as np
 import structlog
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests" / "physics"))
-
-from physics_scene_builders import assign_supports, load_physcene_scene  # noqa: E402
-
-from scenemosaic.physics import (  # noqa: E402
+from scenemosaic.agents import structure_scene
+from scenemosaic.importers import load_scene
+from scenemosaic.physics import (
     StabilizationReport,
     check_collisions,
     stabilize_scene_sync,
     validate_scene,
 )
-from scenemosaic.physics._hulls import object_shape  # noqa: E402
-from scenemosaic.physics._settings import SimSettings  # noqa: E402
-from scenemosaic.physics._world import WorldBuilder  # noqa: E402
-from scenemosaic.scene import AssetRef, Pose, Relation, Room, Scene, SceneObject  # noqa: E402
+from scenemosaic.physics._hulls import object_shape
+from scenemosaic.physics._settings import SimSettings
+from scenemosaic.physics._world import WorldBuilder
+from scenemosaic.scene import AssetRef, Pose, Relation, Room, Scene, SceneObject
+
+ROOT = Path(__file__).resolve().parents[1]
 
 ROOM16 = ROOT.parent / "shared" / "data" / "layouts" / "physcene" / "LivingDiningRoom-124277_livingroom.json"
 CATEGORIES = [
@@ -97,7 +96,7 @@ def main() -> None:
     structlog.configure(wrapper_class=structlog.make_filtering_bound_logger(30))
     s30 = unit30()
     t30, r30 = timed(s30)
-    room = assign_supports(load_physcene_scene(ROOM16))
+    room = asyncio.run(structure_scene(load_scene(ROOM16)))  # rules model: supports, units
     t16, r16 = timed(room)
     sps = steps_per_s(room)
     sps30 = steps_per_s(s30)

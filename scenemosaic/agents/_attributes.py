@@ -196,12 +196,24 @@ class AttributesAgent(TaskAgent[AttributesEvidence, AttributesOutput]):
                 )
         return problems
 
+    def _merged(self, given: SimAttributes, estimate: ObjectAttributes) -> SimAttributes:
+        """The estimate, except where the input measured a value (e.g. an SDF's mass): that is kept."""
+        measured = given.source is not None and not given.source.startswith(f"{self.name}:")
+        if measured and (given.mass_kg is not None or given.density_kg_m3 is not None):
+            return given.model_copy(
+                update={"static": estimate.static, "source": f"{given.source}; static: {self.name}"}
+            )
+        return SimAttributes(
+            mass_kg=estimate.mass_kg,
+            friction=estimate.friction,
+            static=estimate.static,
+            source=f"{self.name}: {estimate.basis}",
+        )
+
     def apply(self, output: AttributesOutput, state: SceneState) -> None:
         by_id = {a.object_id: a for a in output.objects}
         objects = [
-            o.model_copy(update={"sim": SimAttributes(mass_kg=by_id[o.id].mass_kg, friction=by_id[o.id].friction,
-                                                      static=by_id[o.id].static, source=f"{self.name}: {by_id[o.id].basis}")})
-            if o.id in by_id else o
+            o.model_copy(update={"sim": self._merged(o.sim, by_id[o.id])}) if o.id in by_id else o
             for o in state.scene.objects
         ]
         state.scene = replace_scene(state.scene, objects=objects)

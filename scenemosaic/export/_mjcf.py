@@ -10,7 +10,6 @@ folder can be moved. Frames: Z up, metres, object front along local -Y (see docs
 
 from __future__ import annotations
 
-import importlib
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -20,11 +19,12 @@ import numpy as np
 import structlog
 import trimesh
 
+from scenemosaic.assets import object_mesh
 from scenemosaic.physics._hulls import HullInput, object_shape
 from scenemosaic.physics._settings import SimSettings
 from scenemosaic.physics._validate import is_fixed
 from scenemosaic.physics._world import object_mass
-from scenemosaic.scene import Scene
+from scenemosaic.scene import Scene, SceneObject
 
 __all__ = ["export_mjcf"]
 
@@ -35,20 +35,14 @@ def _fmt(values: Any) -> str:
     return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
 
 
-def _visual_mesh(obj: Any, base_dir: str | Path | None) -> trimesh.Trimesh | None:
+def _visual_mesh(obj: SceneObject, base_dir: str | Path | None) -> trimesh.Trimesh | None:
+    """Geometry of the object's visual mesh (MuJoCo reads no materials, so none are written)."""
     try:
-        assets = importlib.import_module("scenemosaic.assets")
-    except ImportError:  # pragma: no cover
-        return None
-    fn = getattr(assets, "object_mesh", None)
-    if fn is None:
-        return None
-    try:
-        mesh = fn(obj, base_dir)
+        mesh = object_mesh(obj, base_dir)
     except Exception as exc:  # the visual is optional: the hulls still describe the object
         log.warning("mjcf_visual_mesh_failed", object_id=obj.id, error=str(exc))
         return None
-    return mesh if isinstance(mesh, trimesh.Trimesh) else None
+    return trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.faces, process=False)
 
 
 def export_mjcf(

@@ -4,7 +4,7 @@ Pieces come from :func:`scenemosaic.assets.object_hulls` (procedural furniture g
 convex primitives, mesh assets CoACD pieces from the disk cache, ``box`` assets one box of the
 object's size). Callers may also pass precomputed pieces per object id.
 
-Each piece is reduced once to its convex-hull vertices, volume and centroid and kept in an
+Each piece is reduced once to its convex-hull vertices and volume and kept in an
 in-process cache keyed by the hash of its vertex bytes, so rebuilding a unit world for the
 same objects costs no geometry work. Axis-aligned box pieces are recognized so that the
 world builder can use MuJoCo's box primitive (much cheaper contacts than a mesh).
