@@ -69,14 +69,13 @@ def _summarize(result: GenerateResult) -> None:
         _out.print(f"  {stage['name']:<10} {stage['status']:<8} {stage['seconds']:7.2f} s")
     validation = report.get("validation") or {}
     if validation:
-        keys = [k for k in ("collision_pairs", "out_of_bounds", "tipped", "fell") if k in validation]
-        figures = ", ".join(f"{k}={_count(validation[k])}" for k in keys)
-        if figures:
-            _out.print(f"  validation: {figures}")
-
-
-def _count(value: object) -> object:
-    return len(value) if isinstance(value, list) else value
+        figures = {
+            "collision pairs": len(validation.get("collisions", {}).get("pairs", [])),
+            "out of bounds": len(validation.get("out_of_bounds", {}).get("objects", [])),
+            "tipped": len(validation.get("tipped", [])),
+            "fell": len(validation.get("fell", [])),
+        }
+        _out.print("  validation: " + ", ".join(f"{k} {v}" for k, v in figures.items()))
 
 
 @app.command()

@@ -105,6 +105,7 @@ def demo_out(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("demo")
     result = CliRunner().invoke(app, ["demo", "--out", str(out)])
     assert result.exit_code == 0, result.output
+    assert "validation: collision pairs 0, out of bounds 0, tipped 0, fell 0" in result.output
     return out
 
 
