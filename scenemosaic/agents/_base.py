@@ -13,7 +13,10 @@ from __future__ import annotations
 
 import abc
 import asyncio
+import contextvars
+import functools
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar, Generic, TypeVar
@@ -24,13 +27,44 @@ from scenemosaic.exceptions import AgentOutputError
 from scenemosaic.models._base import ImagePart, Message, Model, ModelSettings, RequestContext, TextPart, Usage
 from scenemosaic.scene import Scene
 
-__all__ = ["PROMPTS_DIR", "SceneState", "TaskAgent", "load_prompt"]
+__all__ = ["PROMPTS_DIR", "SceneState", "TaskAgent", "load_prompt", "run_blocking"]
 
 PROMPTS_DIR = Path(__file__).resolve().parent.parent / "_prompts"
 """Where prompt templates live inside the installed package (``prompts/`` at the repo root links here)."""
 
 EvidenceT = TypeVar("EvidenceT", bound=BaseModel)
 OutputT = TypeVar("OutputT", bound=BaseModel)
+R = TypeVar("R")
+
+
+async def run_blocking(fn: Callable[..., R], *args: Any, offload: bool = True) -> R:
+    """Call ``fn(*args)`` in a worker thread (inline when ``offload`` is false).
+
+    Scene work of an agent (gathering evidence over every object pair, rendering images,
+    checking or applying an output) can take a noticeable fraction of a second on a large
+    scene; in a worker thread it never stalls the event loop, where model requests and
+    other scenes' nodes are waiting. A thread cannot be interrupted, so when the awaiting
+    task is cancelled this waits for the call to end before re-raising: no half-applied
+    change outlives the agent's hold on ``SceneState.lock``, and no worker is left writing
+    to the state after the run has stopped.
+    """
+    if not offload:
+        return fn(*args)
+    loop = asyncio.get_running_loop()
+    call = functools.partial(contextvars.copy_context().run, fn, *args)
+    future = loop.run_in_executor(None, call)
+    try:
+        await asyncio.wait([future])
+    except asyncio.CancelledError:
+        while not future.done():
+            try:
+                await asyncio.wait([future])
+            except asyncio.CancelledError:
+                continue
+        if not future.cancelled():
+            future.exception()  # retrieved: the run is stopping anyway
+        raise
+    return future.result()
 
 
 def load_prompt(name: str) -> str:
@@ -65,6 +99,10 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     * ``prompt`` — prompt template file name (without ``.md``) under ``prompts/``.
     * ``output_type`` — the pydantic model a reply must validate as.
     * ``max_repairs`` — how many times an output that fails :meth:`check` is sent back.
+    * ``offload`` — run :meth:`gather`, :meth:`messages`, :meth:`check` and :meth:`apply`
+      in a worker thread (default), holding ``state.lock`` so they still see and leave a
+      consistent scene. Set it to ``False`` for an agent whose hooks must run on the event
+      loop (e.g. an ``apply`` that adds graph nodes through ``current_context()``).
     """
 
     name: ClassVar[str]
@@ -72,6 +110,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     prompt: ClassVar[str]
     output_type: ClassVar[type[BaseModel]]
     max_repairs: ClassVar[int] = 2
+    offload: ClassVar[bool] = True
 
     # -- what a subclass provides ------------------------------------------------------------
     @abc.abstractmethod
@@ -112,22 +151,30 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         return [Message.text("system", system), Message(role="user", parts=tuple(parts))]
 
     async def run(
-        self, state: SceneState, model: Model, settings: ModelSettings | None = None, *, node: str | None = None
+        self,
+        state: SceneState,
+        model: Model,
+        settings: ModelSettings | None = None,
+        *,
+        node: str | None = None,
     ) -> tuple[OutputT, Usage]:
-        """Gather evidence, ask the model, check (repairing up to ``max_repairs`` times), apply."""
-        evidence = self.gather(state)
-        messages = self.messages(evidence, state, vision=model.vision)
+        """Gather evidence, ask the model, check (repairing up to ``max_repairs`` times), apply.
+
+        Scene work runs in a worker thread under ``state.lock`` (see ``offload``); only the
+        model request runs without the lock, so concurrent agents overlap on their requests.
+        """
+        vision = model.vision
+        async with state.lock:
+            evidence, messages = await run_blocking(self._prepare, state, vision, offload=self.offload)
         context = RequestContext(agent=self.name, node=node or self.name, evidence=evidence, solve=self.solve)
         total = Usage()
         problems: list[str] = []
         for attempt in range(self.max_repairs + 1):
             output, usage = await model.request(messages, self.output_type, settings, context=context)  # type: ignore[arg-type]
             total = total + usage
-            problems = self.check(output, state)  # type: ignore[arg-type]
+            async with state.lock:
+                problems = await run_blocking(self._check_and_apply, output, state, offload=self.offload)
             if not problems:
-                async with state.lock:
-                    self.apply(output, state)  # type: ignore[arg-type]
-                    state.outputs[self.name] = output
                 return output, total  # type: ignore[return-value]
             if attempt < self.max_repairs:
                 messages = [
@@ -141,19 +188,41 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                     ),
                 ]
         if getattr(model, "solver_fallback", False):
-            output = self._fall_back(evidence, state, model, problems)
             async with state.lock:
-                self.apply(output, state)
-                state.outputs[self.name] = output
-                state.scene.provenance.notes.append(f"{self.name}: model output unusable, used the rule solver")
-            return output, total
+                fallback = await run_blocking(
+                    self._fall_back_and_apply, evidence, state, model, problems, offload=self.offload
+                )
+            return fallback, total
         raise AgentOutputError(
             f"agent {self.name!r} gave an unusable output after {self.max_repairs} repairs: {'; '.join(problems)}",
             agent=self.name,
             problems=problems,
         )
 
-    def _fall_back(self, evidence: EvidenceT, state: SceneState, model: Model, problems: list[str]) -> OutputT:
+    def _prepare(self, state: SceneState, vision: bool) -> tuple[EvidenceT, list[Message]]:
+        evidence = self.gather(state)
+        return evidence, self.messages(evidence, state, vision=vision)
+
+    def _check_and_apply(self, output: OutputT, state: SceneState) -> list[str]:
+        """Problems with ``output``; when there are none, it is applied (caller holds the lock)."""
+        problems = self.check(output, state)
+        if not problems:
+            self.apply(output, state)
+            state.outputs[self.name] = output
+        return problems
+
+    def _fall_back_and_apply(
+        self, evidence: EvidenceT, state: SceneState, model: Model, problems: list[str]
+    ) -> OutputT:
+        output = self._fall_back(evidence, state, model, problems)
+        self.apply(output, state)
+        state.outputs[self.name] = output
+        state.scene.provenance.notes.append(f"{self.name}: model output unusable, used the rule solver")
+        return output
+
+    def _fall_back(
+        self, evidence: EvidenceT, state: SceneState, model: Model, problems: list[str]
+    ) -> OutputT:
         """Use the rule solver's answer (the model asked for it through ``solver_fallback``)."""
         output = self.solve(evidence)
         solver_problems = self.check(output, state)

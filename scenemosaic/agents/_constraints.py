@@ -18,6 +18,8 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -37,6 +39,7 @@ __all__ = [
     "ConstraintsAgent",
     "ConstraintsOutput",
     "FunctionalPair",
+    "foreign_note_ids",
     "procthor_group_pairs",
 ]
 
@@ -139,6 +142,26 @@ def _children(objs: list[ObjectFacts], anchor: str) -> list[str]:
     return [o.id for o in objs if o.parent == anchor][:32]
 
 
+_NOTE_REF = re.compile(r"\(([^()]*)\)")
+
+
+def foreign_note_ids(
+    clause: ConstraintClause, parents: Mapping[str, str | None], object_ids: Collection[str]
+) -> list[str]:
+    """Object ids a clause's ``layout_note`` names in parentheses that are outside its unit.
+
+    A clause may mention only its own anchor and that anchor's children (``parents`` maps an
+    object id to its support parent). Parenthesised words that are not object ids are ignored.
+    """
+    out: list[str] = []
+    for group in _NOTE_REF.findall(clause.layout_note):
+        for token in (t.strip() for t in group.split(",")):
+            inside = token == clause.anchor_id or parents.get(token) == clause.anchor_id
+            if token in object_ids and not inside and token not in out:
+                out.append(token)
+    return out
+
+
 def _clause(anchor: str, related: list[str], note: str) -> ConstraintClause:
     return ConstraintClause(anchor_id=anchor, related_objects=related[:32], layout_note=note[:400])
 
@@ -202,8 +225,10 @@ def solve_constraints(evidence: ConstraintEvidence) -> ConstraintsOutput:
             if len(stands) == 1 and stands[0].parent and tv.parent:
                 st = stands[0]
                 add("placement", f"wall TV ({tv.id}) and TV stand ({st.id}) share a centre line on {tv.parent}",
-                    _clause(tv.parent, [tv.id], f"keep ({tv.id}) centred above ({st.id}) along the wall"),
-                    _clause(str(st.parent), [st.id], f"keep ({st.id}) centred below ({tv.id}) on {tv.parent}"))
+                    _clause(tv.parent, [tv.id],
+                            f"keep ({tv.id}) centred on the centre line it shares with the TV stand below it"),
+                    _clause(str(st.parent), [st.id],
+                            f"keep ({st.id}) against {tv.parent}, centred under the TV mounted on that wall"))
     # sofa -> coffee table / TV stand (only unique pairs)
     sofas = sorted((o for o in objs if "sofa" in o.category), key=lambda o: -o.area)
     if sofas:
@@ -213,7 +238,7 @@ def solve_constraints(evidence: ConstraintEvidence) -> ConstraintsOutput:
             ct = coffees[0]
             add("orientation", f"{sofa.category} ({sofa.id}) faces {ct.category} ({ct.id})",
                 _clause(sofa.parent, [sofa.id, ct.id], f"({sofa.id}) faces ({ct.id}), which stays in front of it"),
-                _clause(ct.id, _children(objs, ct.id), f"({ct.id}) is the reference ({sofa.id}) faces"))
+                _clause(ct.id, _children(objs, ct.id), f"({ct.id}) is the reference the sofa in front of it faces"))
         stands = [o for o in objs if o.category == "tv_stand"]
         if ("sofa_faces_tv" in allowed and len(stands) == 1 and len(sofas) >= 1 and sofa.parent
                 and stands[0].parent == sofa.parent and _dist(stands[0], sofa) <= TV_REACH):
@@ -223,7 +248,7 @@ def solve_constraints(evidence: ConstraintEvidence) -> ConstraintsOutput:
             if n > 1e-6 and (sofa.front[0] * way[0] + sofa.front[1] * way[1]) / n > 0.5:
                 add("orientation", f"{sofa.category} ({sofa.id}) faces the TV stand ({st.id})",
                     _clause(sofa.parent, [sofa.id, st.id], f"({sofa.id}) faces ({st.id})"),
-                    _clause(st.id, _children(objs, st.id), f"({st.id}) is the reference ({sofa.id}) faces"))
+                    _clause(st.id, _children(objs, st.id), f"({st.id}) is the reference the sofa faces"))
     return ConstraintsOutput(constraints=out)
 
 
@@ -283,6 +308,11 @@ class ConstraintsAgent(TaskAgent[ConstraintEvidence, ConstraintsOutput]):
                         )
                     else:
                         involved.add(cats[oid])
+                for oid in foreign_note_ids(clause, parents, cats):
+                    problems.append(
+                        f"constraint {c.id!r}: the layout note of {clause.anchor_id!r} names ({oid}), which is not "
+                        f"in that unit (its parent is {parents.get(oid)!r}); name only the unit's own objects"
+                    )
             if _weak(involved):
                 problems.append(f"constraint {c.id!r} relates a weak pair ({', '.join(sorted(involved))}); drop it")
         return problems

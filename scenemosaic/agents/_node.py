@@ -18,7 +18,7 @@ from typing import Any, cast
 import structlog
 from pydantic import BaseModel
 
-from scenemosaic.agents._base import SceneState, TaskAgent
+from scenemosaic.agents._base import SceneState, TaskAgent, run_blocking
 from scenemosaic.dag import (
     EventListener,
     Node,
@@ -63,10 +63,13 @@ def agent_node(
         _log.debug("agent_done", agent=agent.name, node=ctx.name, requests=usage.requests)
         return cast(BaseModel, output)
 
+    def reapply(output: Any) -> None:
+        agent.apply(output, state)
+        state.outputs[agent.name] = output
+
     async def restore(output: Any) -> None:
         async with state.lock:
-            agent.apply(output, state)
-            state.outputs[agent.name] = output
+            await run_blocking(reapply, output, offload=getattr(agent, "offload", True))
 
     run_agent.__qualname__ = f"agent_node[{agent.name}]"
     return Node(

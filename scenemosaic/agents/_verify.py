@@ -2,7 +2,8 @@
 
 Rule solver: an object with no parent goes to the floor (the ceiling for ceiling fixtures); a
 parent cycle is broken by standing its lowest member on the floor; a constraint whose clauses
-name missing objects, or objects outside the clause's unit, is dropped. Apply then builds the
+name missing objects, or objects outside the clause's unit (in ``related_objects`` or in
+parentheses in its layout note), is dropped. Apply then builds the
 scene tree (:func:`scenemosaic.scene._tree.build_structure`) so every unit is non-empty by
 construction; anything left over is reported in the scene's provenance notes.
 """
@@ -15,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import traits
+from scenemosaic.agents._constraints import foreign_note_ids
 from scenemosaic.agents._facts import MAX_ITEMS, ObjectFacts, object_facts, parent_cycles, replace_scene
 from scenemosaic.scene import CEILING, FLOOR, CrossUnitConstraint, Relation
 from scenemosaic.scene._tree import build_structure
@@ -69,6 +71,7 @@ def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
     for c in evidence.constraints:
         for clause in (c.anchor_a, c.anchor_b):
             bad = [oid for oid in clause.related_objects if parents.get(oid) != clause.anchor_id]
+            bad += [oid for oid in foreign_note_ids(clause, parents, facts) if oid not in bad]
             if clause.anchor_id not in evidence.anchors:
                 bad.append(clause.anchor_id)
             if bad:

@@ -20,6 +20,7 @@ import structlog
 import trimesh
 
 from scenemosaic.assets import object_mesh
+from scenemosaic.physics._checks import require_finite_poses
 from scenemosaic.physics._hulls import HullInput, object_shape
 from scenemosaic.physics._settings import SimSettings
 from scenemosaic.physics._validate import is_fixed
@@ -54,7 +55,12 @@ def export_mjcf(
     hulls: HullInput | None = None,
     settings: SimSettings | None = None,
 ) -> Path:
-    """Write ``out_dir/scene.xml`` and ``out_dir/mjcf/*.obj``; return the XML path."""
+    """Write ``out_dir/scene.xml`` and ``out_dir/mjcf/*.obj``; return the XML path.
+
+    Raises :class:`~scenemosaic.exceptions.PhysicsError` naming any object whose pose is not
+    finite, before anything is written (MuJoCo cannot load a ``nan`` position).
+    """
+    require_finite_poses(scene, "export MJCF")
     settings = settings or SimSettings()
     out = Path(out_dir)
     mesh_dir = out / "mjcf"

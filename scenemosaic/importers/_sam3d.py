@@ -37,6 +37,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Mapping
 from pathlib import Path
@@ -50,7 +51,17 @@ from scipy.spatial.transform import Rotation
 from scenemosaic.exceptions import AssetError, ImportFormatError
 from scenemosaic.importers._common import FieldReader, sanitize_id, unique_id
 from scenemosaic.importers._room import recover_room
-from scenemosaic.scene import AssetRef, Pose, Provenance, Room, Scene, SceneObject, SimAttributes
+from scenemosaic.scene import (
+    CEILING,
+    FLOOR,
+    AssetRef,
+    Pose,
+    Provenance,
+    Room,
+    Scene,
+    SceneObject,
+    SimAttributes,
+)
 from scenemosaic.scene._geometry import FloatArray
 
 __all__ = [
@@ -113,7 +124,19 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
     if not items:
         r.fail("objects", "the object set is empty")
 
-    taken: set[str] = set()
+    # explicit ids are the objects' identities (masks, meshes and poses refer to them): a repeated
+    # one is an error, never renamed; generated ids (label_n) steer around every explicit one
+    explicit: dict[str, int] = {}
+    for i, raw in enumerate(items):
+        raw_id = raw.get("id") if isinstance(raw, Mapping) else None
+        if isinstance(raw_id, str) and raw_id:
+            sid = sanitize_id(raw_id)
+            if sid in explicit:
+                r.fail(f"objects[{i}].id", f"duplicate id {raw_id!r} (objects[{explicit[sid]}] has it too)")
+            if sid in (FLOOR, CEILING) or re.fullmatch(r"wall_\d+", sid):
+                r.fail(f"objects[{i}].id", f"id {raw_id!r} is reserved for a room anchor")
+            explicit[sid] = i
+    taken: set[str] = set(explicit)
     counters: dict[str, int] = {}
     objects: list[SceneObject] = []
     notes: list[str] = []
@@ -169,7 +192,7 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
             r.fail(f"{f}.id", "expected a string")
         n = counters.get(label, 0)
         counters[label] = n + 1
-        oid = unique_id(sanitize_id(raw_id) if raw_id else f"{label}_{n}", taken)
+        oid = sanitize_id(raw_id) if raw_id else unique_id(f"{label}_{n}", taken)
         description = item.get("description", label.replace("_", " "))
         if not isinstance(description, str):
             r.fail(f"{f}.description", "expected a string")

@@ -104,7 +104,11 @@ class TokenBucket:
         amount = min(amount, self.capacity)
         async with self._get_lock():
             self._refill()
-            while self._level < amount:
+            # The slack absorbs float rounding: after sleeping exactly the deficit the refill
+            # may land a hair short, and with a large clock value the next tiny deficit can be
+            # smaller than the clock's resolution, so waiting for it would never end.
+            slack = 1e-9 * max(1.0, amount)
+            while self._level < amount - slack:
                 await self._sleep((amount - self._level) / self.rate_per_s)
                 self._refill()
             self._level -= amount

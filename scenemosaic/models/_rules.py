@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import asyncio
+
 from pydantic import BaseModel, ValidationError
 
 from scenemosaic.exceptions import ModelConfigError, ModelError, OutputValidationError
@@ -16,6 +18,10 @@ class RulesModel(Model):
     No prompt is read and no network is touched: the messages are ignored. Usage counts
     requests only (no tokens). Text-only by nature, so ``vision`` is false and agents skip
     rendering images for it.
+
+    A solver is plain CPU work (on a large scene, pairwise geometry over every object), so
+    it runs in a worker thread: the event loop stays free for other nodes while it works.
+    Solvers are pure functions of their evidence, so this changes no result.
     """
 
     name = "rules"
@@ -41,7 +47,7 @@ class RulesModel(Model):
             )
         agent = context.agent
         try:
-            result = context.solve(context.evidence)
+            result = await asyncio.to_thread(context.solve, context.evidence)
         except Exception as exc:
             raise ModelError(f"rules solver of agent {agent!r} failed: {type(exc).__name__}: {exc}") from exc
         usage = Usage(requests=1)

@@ -10,6 +10,7 @@ import mujoco
 import numpy as np
 from shapely.geometry import Polygon
 
+from scenemosaic.exceptions import PhysicsError
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._planar import convex_hull_2d
 from scenemosaic.physics._reports import CollisionPair, CollisionReport, OutOfBoundsObject, OutOfBoundsReport
@@ -19,7 +20,38 @@ from scenemosaic.physics._world import WorldBuilder
 from scenemosaic.scene import CEILING, FLOOR, Scene, SceneObject
 from scenemosaic.scene._geometry import FloatArray
 
-__all__ = ["check_collisions", "check_out_of_bounds", "collision_report_for", "support_polygon"]
+__all__ = [
+    "check_collisions",
+    "check_out_of_bounds",
+    "collision_report_for",
+    "require_finite_poses",
+    "support_polygon",
+]
+
+
+def require_finite_poses(scene: Scene, action: str) -> None:
+    """Raise :class:`PhysicsError` naming every object whose pose or size is not finite.
+
+    Scene models validate poses on construction, but ``model_copy(update=...)`` and
+    ``model_construct`` skip validation, and a NaN fed to the geometry and the simulator
+    fails deep inside them (GEOS, MuJoCo) or, worse, silently counts as "no collision".
+    Checking up front turns such input into one clear error that names the objects; the
+    caller's scene is never modified, so nothing computed before is lost.
+    """
+    bad = [
+        o.id
+        for o in scene.objects
+        if not (
+            np.all(np.isfinite(o.pose.position))
+            and np.all(np.isfinite(o.pose.quaternion))
+            and np.all(np.isfinite(o.pose.scale))
+            and np.all(np.isfinite(o.size))
+        )
+    ]
+    if bad:
+        raise PhysicsError(
+            f"cannot {action}: non-finite pose or size (NaN or inf) for {', '.join(bad)}", object_ids=bad
+        )
 
 
 def collision_report_for(
@@ -81,8 +113,10 @@ def check_collisions(
 
     Depth is the largest penetration over all hull-piece pairs (MuJoCo's signed geom distance).
     Thin objects (rugs, paper) are excluded, as in the method. Touching pairs at or under the
-    tolerance are listed separately in ``shallow``.
+    tolerance are listed separately in ``shallow``. Raises :class:`PhysicsError` for a
+    non-finite pose.
     """
+    require_finite_poses(scene, "check collisions")
     shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
     return collision_report_for(scene, shapes, tolerance_m=tolerance_m)
 
@@ -112,8 +146,10 @@ def check_out_of_bounds(
 
     Floor, ceiling and unsupported objects are judged against the floor polygon (SceneEval's
     rule); objects on objects against the anchor's footprint; wall objects against the wall
-    rectangle, in the wall's plane. Footprints are the objects' oriented boxes.
+    rectangle, in the wall's plane. Footprints are the objects' oriented boxes. Raises
+    :class:`PhysicsError` for a non-finite pose.
     """
+    require_finite_poses(scene, "check bounds")
     report = OutOfBoundsReport(min_inside_fraction=min_inside_fraction)
     for obj in scene.objects:
         rel = scene.support_of(obj.id)

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import structlog
 
+from scenemosaic.physics._checks import require_finite_poses
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import StabilizationReport, UnitReport
 from scenemosaic.physics._settings import SettleSettings, SimSettings
@@ -90,7 +91,11 @@ async def stabilize_scene(
 
     ``hulls`` optionally gives precomputed convex pieces per object id (local frame, scaled),
     which win over the assets layer; ``hull_cache`` is passed to ``scenemosaic.assets.object_hulls``.
+
+    An object with a non-finite pose (NaN, inf) raises
+    :class:`~scenemosaic.exceptions.PhysicsError` naming it before any work starts.
     """
+    require_finite_poses(scene, "stabilize the scene")
     t0 = time.perf_counter()
     sim = sim or SimSettings()
     settle = settle or SettleSettings()

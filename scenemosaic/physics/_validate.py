@@ -10,7 +10,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from scenemosaic.physics._checks import check_out_of_bounds, collision_report_for
+from scenemosaic.physics._checks import check_out_of_bounds, collision_report_for, require_finite_poses
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import ObjectMotion, ValidationReport
 from scenemosaic.physics._settings import FELL_DROP_M, TIPPED_TILT_DEG, SettleSettings, SimSettings
@@ -58,6 +58,7 @@ def support_gaps(scene: Scene, shapes: Mapping[str, ObjectShape]) -> dict[str, f
     Floor: lowest hull point above z = 0. Ceiling: ceiling height minus the highest point.
     Wall: distance of the hull from the wall's inner face. Object: signed hull distance to the anchor.
     """
+    require_finite_poses(scene, "measure support gaps")
     gaps: dict[str, float] = {}
     builder = WorldBuilder(SimSettings())
     for o in scene.objects:
@@ -103,8 +104,10 @@ def validate_scene(
     given poses, measures each object's gap to its support, then simulates every unit together
     with gravity down (ceiling and wall objects and ``static`` ones held fixed, the rest on free
     joints) and reports displacement, objects that tipped (tilt above ``TIPPED_TILT_DEG``) and
-    objects that fell (dropped more than ``FELL_DROP_M``).
+    objects that fell (dropped more than ``FELL_DROP_M``). Raises
+    :class:`~scenemosaic.exceptions.PhysicsError` naming any object with a non-finite pose.
     """
+    require_finite_poses(scene, "validate the scene")
     shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
     collisions = collision_report_for(scene, shapes)
     oob = check_out_of_bounds(scene)

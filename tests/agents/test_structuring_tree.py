@@ -90,3 +90,25 @@ async def test_format_tree_and_rebuild(sam3d_scene: Scene, procthor_dir: Path) -
     assert mug_line.index("mug [") > desk_line.index("desk [")  # nested one level deeper
     assert "constraints:" in text and "@desk" in text
     assert build_structure(scene) == scene.structure
+
+
+async def test_imported_sam3d_meshes_give_the_desk_unit_and_chair_constraint(
+    tmp_path: Path, shared_data: Path, procthor_dir: Path
+) -> None:
+    """The acceptance on the real meshes as the SAM3D importer lays them out (not boxes)."""
+    from scenemosaic.importers import load_scene, write_sam3d_example
+
+    scene = load_scene(write_sam3d_example(tmp_path / "office", shared_data / "sam3d_objects"))
+    assert {o.asset.kind for o in scene.objects} == {"mesh"}
+    out = await structure_scene(scene, priors_dir=procthor_dir)
+    assert out.structure is not None
+    units = {u.anchor_id: u for u in out.structure.units}
+    assert set(units["work_desk"].children) == {"printer", "coffee_mug"}
+    assert set(units[FLOOR].children) == {"bed", "work_desk", "office_chair"}
+    [c] = [c for c in out.constraints if "office_chair" in c.anchor_a.related_objects + c.anchor_b.related_objects]
+    assert c.kind == "orientation"
+    clauses = {c.anchor_a.anchor_id: c.anchor_a, c.anchor_b.anchor_id: c.anchor_b}
+    assert set(clauses) == {FLOOR, "work_desk"}
+    assert "office_chair" in clauses[FLOOR].related_objects
+    assert set(clauses["work_desk"].related_objects) <= {"printer", "coffee_mug"}
+    assert clauses["work_desk"] in units["work_desk"].clauses and clauses[FLOOR] in units[FLOOR].clauses

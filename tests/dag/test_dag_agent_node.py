@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import asyncio
+import threading
 from pathlib import Path
 from typing import ClassVar
 
@@ -11,7 +13,7 @@ from pydantic import BaseModel
 from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._node import add_agent_nodes, agent_node, run_agents
 from scenemosaic.dag import FileRunStore, Node, NodeContext, NodePolicy, RetryPolicy, RunEvent, Runner
-from scenemosaic.exceptions import AgentOutputError, GraphDefinitionError, NodeFailedError
+from scenemosaic.exceptions import AgentOutputError, GraphDefinitionError, NodeFailedError, RunCancelledError
 from scenemosaic.models._base import Message, Model, ModelSettings, OutputT, RequestContext, Usage
 from scenemosaic.scene import Scene
 
@@ -142,3 +144,94 @@ async def test_a_manager_node_schedules_agents_at_run_time() -> None:
 
     out = await Runner([Node("manager", manager)]).run()
     assert out["double"] == CountOutput(value=4) and state.artifacts == {"room": 2, "double": 4}
+
+
+class _HandshakeAgent(RoomAgent):
+    """A room agent whose ``gather`` blocks until a coroutine on the event loop answers it."""
+
+    name: ClassVar[str] = "room"
+
+    def __init__(self, from_loop: threading.Event, threads: dict[str, int]) -> None:
+        self.from_loop = from_loop
+        self.threads = threads
+
+    def gather(self, state: SceneState) -> CountEvidence:
+        self.threads["gather"] = threading.get_ident()
+        # Only possible if gather is off the loop: the loop must run to set the event.
+        assert self.from_loop.wait(5.0), "gather blocked the event loop"
+        return super().gather(state)
+
+    def check(self, output: CountOutput, state: SceneState) -> list[str]:
+        self.threads["check"] = threading.get_ident()
+        return super().check(output, state)
+
+    def apply(self, output: CountOutput, state: SceneState) -> None:
+        self.threads["apply"] = threading.get_ident()
+        super().apply(output, state)
+
+
+async def test_agent_scene_work_and_rule_solvers_run_off_the_event_loop() -> None:
+    from scenemosaic.models import RulesModel
+
+    loop_thread = threading.get_ident()
+    from_loop, threads = threading.Event(), dict[str, int]()
+    agent = _HandshakeAgent(from_loop, threads)
+    solver_threads: list[int] = []
+    solve = agent.solve
+
+    def recording_solve(evidence: CountEvidence) -> CountOutput:
+        solver_threads.append(threading.get_ident())
+        return solve(evidence)
+
+    agent.solve = recording_solve  # type: ignore[method-assign]
+
+    async def answer() -> None:
+        await asyncio.sleep(0)
+        from_loop.set()
+
+    state = make_state(3)
+    _, (out, _usage) = await asyncio.gather(answer(), agent.run(state, RulesModel()))
+    assert out == CountOutput(value=3) and state.artifacts == {"room": 3}
+    assert set(threads) == {"gather", "check", "apply"}
+    assert loop_thread not in threads.values() and solver_threads and loop_thread not in solver_threads
+
+
+async def test_agents_may_keep_their_hooks_on_the_loop() -> None:
+    loop_thread = threading.get_ident()
+    seen: list[int] = []
+
+    class OnLoop(RoomAgent):
+        offload: ClassVar[bool] = False
+
+        def apply(self, output: CountOutput, state: SceneState) -> None:
+            seen.append(threading.get_ident())
+            super().apply(output, state)
+
+    await OnLoop().run(make_state(2), SolverModel())
+    assert seen == [loop_thread]
+
+
+async def test_cancelling_during_apply_leaves_the_state_whole_and_no_task() -> None:
+    applying, release, finished = threading.Event(), threading.Event(), threading.Event()
+
+    class SlowApply(DoubleAgent):
+        def apply(self, output: CountOutput, state: SceneState) -> None:
+            applying.set()
+            assert release.wait(5.0)
+            state.artifacts["double"] = output.value
+            state.artifacts["double_checked"] = True  # a second write: must never be seen alone
+            finished.set()
+
+    state = make_state(3)
+    task = asyncio.create_task(run_agents([RoomAgent(), SlowApply()], state, SolverModel()))
+    assert await asyncio.to_thread(applying.wait, 5.0)
+    task.cancel()
+    release.set()
+    with pytest.raises(RunCancelledError) as info:
+        await asyncio.wait_for(task, 5.0)
+    # the worker thread ended before the run reported the cancel: nothing writes to the state afterwards
+    assert finished.is_set()
+    assert info.value.partial == {"room": CountOutput(value=3)}
+    assert state.artifacts == {"room": 3, "double": 6, "double_checked": True}
+    assert not state.lock.locked()
+    assert asyncio.all_tasks() == {asyncio.current_task()}

@@ -18,6 +18,7 @@ from scenemosaic.models import (
     TokenBucket,
     Usage,
 )
+from scenemosaic.models._limit import estimate_tokens
 
 
 class FakeClock:
@@ -136,3 +137,63 @@ def test_bad_limits_are_config_errors() -> None:
         RateLimiter(max_concurrency=0)
     with pytest.raises(ModelConfigError):
         TokenBucket(rate_per_s=0.0, capacity=1.0)
+
+
+async def test_all_bounds_hold_together_under_100_concurrent_requests() -> None:
+    """In flight, requests per minute and tokens per minute, measured on what reached the model."""
+    clock = FakeClock()
+    fn = InFlight(clock)
+    settings = ModelSettings(max_tokens=400)
+    prompt_tokens = estimate_tokens(user_messages(), None)
+    tokens_per_call = prompt_tokens + 400  # what a provider charges: the prompt and the output cap
+
+    class Costly(FunctionModel):
+        async def request(self, messages, output_type, settings=None, *, context=None):  # type: ignore[no-untyped-def]
+            out, _ = await super().request(messages, output_type, settings, context=context)
+            return out, Usage(requests=1, input_tokens=prompt_tokens, output_tokens=400)
+
+    rpm, burst, tpm, concurrency = 30, 4, 4_000, 6
+    limiter = RateLimiter(
+        max_concurrency=concurrency,
+        requests_per_minute=rpm,
+        request_burst=burst,
+        tokens_per_minute=tpm,
+        clock=clock,
+        sleep=clock.sleep,
+    )
+    model = LimitedModel(Costly(fn), limiter)
+    await asyncio.gather(*[model.request(user_messages(), Verdict, settings) for _ in range(100)])
+    assert fn.calls == 100
+    assert fn.peak <= concurrency and limiter.max_in_flight <= concurrency
+    starts = sorted(fn.started_at)
+    for i, t in enumerate(starts):
+        in_window = sum(1 for s in starts[i:] if s < t + 60.0)
+        # a token bucket lets through its burst plus the rate over any 60 s window
+        assert in_window <= burst + rpm, (t, in_window)
+        # tokens: a full bucket (one minute's worth) plus one minute of refill
+        assert in_window * tokens_per_call <= 2 * tpm, (t, in_window)
+    # the tighter of the two rates sets the pace (here tokens: about 9.8 calls a minute)
+    pace = (len(starts) - 1) / ((starts[-1] - starts[0]) / 60.0)
+    assert pace <= tpm / tokens_per_call * 1.1 and pace < rpm
+    assert limiter.in_flight == 0
+
+
+async def test_bucket_waits_end_with_a_large_clock_value() -> None:
+    """Float rounding must not turn a wait into an endless loop of zero-length sleeps.
+
+    ``time.monotonic()`` is large on a machine that has been up for weeks; the deficit left after
+    sleeping exactly the computed wait can then be smaller than the clock's resolution.
+    """
+    clock = FakeClock()
+    clock.now = 2_000_000.123456789
+    bucket = TokenBucket(rate_per_s=0.5, capacity=4.0, clock=clock, sleep=clock.sleep)
+    for _ in range(4):
+        await bucket.acquire(1)
+
+    async def drain() -> None:
+        for _ in range(200):
+            await bucket.acquire(1)
+
+    await asyncio.wait_for(drain(), 10.0)
+    assert len(clock.sleeps) <= 200 * 2  # one computed sleep per acquire, give or take a rounding retry
+    assert clock.now - 2_000_000.123456789 == pytest.approx(400.0, abs=0.01)

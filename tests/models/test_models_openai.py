@@ -274,3 +274,48 @@ async def test_owned_client_is_closed_and_injected_client_is_not() -> None:
         await injected.request(user_messages(), Verdict)
         await injected.aclose()
         assert not client.is_closed
+
+
+async def test_503_honours_retry_after_and_caps_it() -> None:
+    server = FakeServer(
+        httpx.Response(503, headers={"Retry-After": "3"}, json={"error": {"message": "loading model"}}),
+        httpx.Response(503, headers={"Retry-After": "86400"}, json={"error": {"message": "loading model"}}),
+        chat_reply(VALID),
+    )
+    model, sleeps = server.model(retry=RetryPolicy(max_attempts=3, max_retry_after_s=20.0, jitter_s=0.5))
+    out, _ = await model.request(user_messages(), Verdict, context=CTX)
+    assert out.score == 70
+    assert sleeps == [3.0, 20.0]  # the server's hint, exactly (no jitter), capped at max_retry_after_s
+
+
+async def test_429_every_time_ends_with_the_status_and_body() -> None:
+    body = {"error": {"message": "rate limit reached for requests", "type": "requests"}}
+    server = FakeServer(*[httpx.Response(429, headers={"Retry-After": "1"}, json=body) for _ in range(3)])
+    model, sleeps = server.model(retry=RetryPolicy(max_attempts=3))
+    with pytest.raises(ModelHTTPError, match="rate limit reached") as info:
+        await model.request(user_messages(), Verdict, context=CTX)
+    assert info.value.status_code == 429 and json.loads(info.value.body) == body
+    assert (len(server.requests), sleeps) == (3, [1.0, 1.0])
+
+
+@pytest.mark.parametrize("status", [201, 202, 301, 401, 403, 404, 413, 422])
+async def test_any_non_200_with_error_message_is_an_error(status: int) -> None:
+    """Whatever the status code (even a 2xx other than 200), an error body is raised, not parsed."""
+    body = {"error": {"message": f"nope {status}"}}
+    server = FakeServer(httpx.Response(status, json=body), chat_reply(VALID))
+    model, sleeps = server.model()
+    with pytest.raises(ModelHTTPError, match=f"nope {status}") as info:
+        await model.request(user_messages(), Verdict, context=CTX)
+    assert info.value.status_code == status
+    assert (len(server.requests), sleeps) == (1, [])  # client errors are not retried
+
+
+async def test_truncated_reply_without_a_token_cap_is_repaired_not_accepted() -> None:
+    """With no max_tokens there is nothing to double: the cut reply goes to schema repair at once."""
+    server = FakeServer(chat_reply(VALID, finish="length"), chat_reply(VALID))
+    model, _ = server.model()
+    out, usage = await model.request(user_messages(), Verdict, ModelSettings(max_tokens=None), context=CTX)
+    assert out.score == 70 and usage.requests == 2
+    assert "max_tokens" not in server.bodies[0]
+    repair = server.bodies[1]["messages"][-1]["content"]
+    assert "cut off" in repair

@@ -9,6 +9,7 @@ import pytest
 from scenemosaic.physics import (
     COLLISION_TOLERANCE_M,
     SettleSettings,
+    SimSettings,
     check_collisions,
     check_out_of_bounds,
     stabilize_scene,
@@ -103,3 +104,134 @@ async def test_blow_up_falls_back_and_rolls_back() -> None:
     assert fixed.get("a").pose.position[2] == pytest.approx(0.0, abs=1e-9)
     assert check_collisions(fixed).count == 0
     assert math.isclose(fixed.get("a").pose.yaw, 0.0, abs_tol=1e-9)
+
+
+@pytest.mark.parametrize(("overlap", "counted"), [(0.006, True), (0.004, False)])
+def test_tolerance_boundary_is_five_millimetres(overlap: float, counted: bool) -> None:
+    """Just either side of 5 mm: a pair counts only when it would still intersect after a 5 mm move."""
+    a = _box("a", (0.6, 0.6, 0.8), (1.0, 1.0, 0.0))
+    b = _box("b", (0.6, 0.6, 0.8), (1.6 - overlap, 1.0, 0.0))
+    report = check_collisions(_scene([a, b], {}))
+    assert report.count == (1 if counted else 0)
+    assert [p.depth_m for p in report.pairs + report.shallow] == [pytest.approx(overlap, abs=1e-4)]
+    moved_apart = _box("b", (0.6, 0.6, 0.8), (1.6 - overlap + COLLISION_TOLERANCE_M, 1.0, 0.0))
+    assert check_collisions(_scene([a, moved_apart], {})).count == 0
+
+
+def test_flat_but_not_thin_objects_are_counted() -> None:
+    """Thinness is relative: a 10 cm slab of 1 m is not a rug and its overlaps count."""
+    slab = _box("slab", (1.0, 1.0, 0.1), (2.0, 2.0, 0.0))
+    table = _box("table", (1.0, 1.0, 0.7), (2.0, 2.0, 0.05))
+    report = check_collisions(_scene([slab, table], {}))
+    assert report.thin_excluded == [] and report.count == 1
+    assert report.pairs[0].depth_m == pytest.approx(0.05, abs=1e-4)
+
+
+def test_out_of_bounds_boundary_just_under_99_percent() -> None:
+    """1.5 % of the footprint outside the floor is out of bounds; 0.5 % is not."""
+    out = _box("out", (1.0, 1.0, 1.0), (0.485, 1.0, 0.0))
+    kept = _box("kept", (1.0, 1.0, 1.0), (0.495, 3.0, 0.0))
+    report = check_out_of_bounds(_scene([out, kept], {}))
+    assert [o.object_id for o in report.objects] == ["out"]
+    assert report.objects[0].inside_fraction == pytest.approx(0.985, abs=1e-6)
+    assert report.checked_objects == 2
+
+
+@pytest.mark.parametrize(
+    ("wall", "pos", "axis", "face"),
+    [
+        ("wall_0", (2.0, 0.10, 1.5), 1, 0.0),  # south wall, y = 0: gravity -y
+        ("wall_1", (3.90, 2.0, 1.5), 0, 4.0),  # east wall, x = 4: gravity +x
+        ("wall_2", (2.0, 3.90, 1.5), 1, 4.0),  # north wall, y = 4: gravity +y
+        ("wall_3", (0.10, 2.0, 1.5), 0, 0.0),  # west wall, x = 0: gravity -x
+    ],
+)
+async def test_wall_gravity_points_into_each_wall(
+    wall: str, pos: tuple[float, float, float], axis: int, face: float
+) -> None:
+    """A frame hung 7-8 cm off any of the four walls ends flat against that wall, at its height."""
+    yaw = {"wall_0": 0.0, "wall_1": math.pi / 2, "wall_2": math.pi, "wall_3": -math.pi / 2}[wall]
+    frame = _box("frame", (0.6, 0.05, 0.4), pos, yaw)
+    fixed, report = await stabilize_scene(_scene([frame], {"frame": wall}))
+    lo, hi = fixed.get("frame").aabb()
+    touching = lo[axis] if face == 0.0 else hi[axis]
+    assert touching == pytest.approx(face, abs=0.005)
+    assert fixed.get("frame").pose.position[2] == pytest.approx(1.5, abs=0.005)
+    assert report.units[0].anchor_kind == "wall" and report.units[0].rolled_back == []
+    assert validate_scene(fixed).support_gaps_m["frame"] == pytest.approx(0.0, abs=0.005)
+
+
+async def test_ceiling_gravity_is_up_even_from_the_floor() -> None:
+    """A hanging lamp placed on the floor rises to the ceiling (gravity up), not stays down."""
+    lamp = _box("lamp", (0.3, 0.3, 0.4), (2.0, 2.0, 0.0))
+    fixed, report = await stabilize_scene(_scene([lamp], {"lamp": "ceiling"}))
+    assert fixed.get("lamp").aabb()[1][2] == pytest.approx(2.8, abs=0.005)
+    assert report.units[0].anchor_kind == "ceiling"
+
+
+def test_non_finite_state_is_a_blow_up() -> None:
+    """NaN velocities in the simulator end the run and name the body, instead of propagating."""
+    from scenemosaic.physics._hulls import object_shape
+    from scenemosaic.physics._simulate import run_until_settled
+    from scenemosaic.physics._world import WorldBuilder
+
+    objs = [_box("a", (0.5, 0.5, 0.5), (1.0, 1.0, 0.0)), _box("b", (0.5, 0.5, 0.5), (3.0, 3.0, 0.0))]
+    builder = WorldBuilder(SimSettings())
+    builder.add_room(_scene(objs, {}).room)
+    for o in objs:
+        builder.add_dynamic(o, object_shape(o), mode="free")
+    world = builder.compile()
+    body_b = next(b for b in world.bodies if b.object_id == "b")
+    world.data.qvel[body_b.dof_slice] = float("nan")
+    outcome = run_until_settled(world, SettleSettings())
+    assert outcome.blown_up == ["b"] and not outcome.converged
+
+
+async def test_blow_up_recovers_with_the_smaller_step(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The first fallback is really used: a blow-up at the default step is settled at half the step."""
+    import scenemosaic.physics._settle as settle_mod
+
+    real = settle_mod.run_until_settled
+    timesteps: list[float] = []
+
+    def blows_up_at_default_step(world, settle):  # type: ignore[no-untyped-def]
+        timesteps.append(float(world.model.opt.timestep))
+        outcome = real(world, settle)
+        if world.model.opt.timestep == SimSettings().timestep:
+            outcome.blown_up = ["a"]
+        return outcome
+
+    monkeypatch.setattr(settle_mod, "run_until_settled", blows_up_at_default_step)
+    a = _box("a", (0.5, 0.5, 0.5), (1.0, 1.0, 0.04))  # floating 4 cm
+    fixed, report = await stabilize_scene(_scene([a], {"a": "floor"}))
+    unit = report.units[0]
+    assert timesteps == [SimSettings().timestep, SimSettings().timestep / 2]
+    assert unit.fallbacks == ["default: blow-up of ['a']"]
+    assert unit.rolled_back == [] and unit.converged
+    assert fixed.get("a").pose.position[2] == pytest.approx(0.0, abs=0.005)
+
+
+@pytest.mark.parametrize("field", ["position", "quaternion"])
+async def test_nan_pose_is_a_physics_error_naming_the_object(field: str) -> None:
+    """Bad input loses nothing: a NaN pose (possible through model_copy) is refused up front, the input
+    scene is untouched, and every entry point names the object instead of failing inside GEOS/MuJoCo."""
+    from scenemosaic.exceptions import PhysicsError
+    from scenemosaic.physics import support_gaps
+    from scenemosaic.physics._hulls import object_shape
+
+    good = _box("good", (0.5, 0.5, 0.5), (1.0, 1.0, 0.0))
+    bad = _box("bad", (0.5, 0.5, 0.5), (3.0, 3.0, 0.0))
+    value = (math.nan, 3.0, 0.0) if field == "position" else (math.nan, 0.0, 0.0, 1.0)
+    bad.pose = bad.pose.model_copy(update={field: value})
+    scene = _scene([good, bad], {"good": "floor", "bad": "floor"})
+    before = scene.model_dump_json()
+    with pytest.raises(PhysicsError, match="bad") as info:
+        await stabilize_scene(scene)
+    assert info.value.object_ids == ["bad"]
+    assert scene.model_dump_json() == before
+    for check in (check_collisions, check_out_of_bounds, validate_scene):
+        with pytest.raises(PhysicsError) as info:
+            check(scene)
+        assert info.value.object_ids == ["bad"]
+    with pytest.raises(PhysicsError):
+        support_gaps(scene, {o.id: object_shape(o) for o in scene.objects})

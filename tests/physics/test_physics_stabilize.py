@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+from typing import Any
 
 import numpy as np
 import pytest
@@ -98,8 +99,31 @@ def test_sam3d_office_is_valid_after_stabilization(
     assert check_out_of_bounds(scene).count == 0
 
 
-async def test_stabilize_is_deterministic_and_leaves_the_loop_free(physcene_raw: dict[str, Scene]) -> None:
+async def test_stabilize_is_deterministic_and_leaves_the_loop_free(
+    physcene_raw: dict[str, Scene], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import threading
+
+    import scenemosaic.physics._settle as settle_mod
+    import scenemosaic.physics._stabilize as stabilize_mod
+
     scene = physcene_raw[sorted(physcene_raw)[2]]
+    loop_thread = threading.get_ident()
+    threads: dict[str, set[int]] = {"settle_unit": set(), "run_until_settled": set(), "object_shape": set()}
+
+    def recording(name: str, fn: Any) -> Any:
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            threads[name].add(threading.get_ident())
+            return fn(*args, **kwargs)
+
+        return wrapper
+
+    # the CPU work (hull loading / CoACD, MuJoCo stepping, the whole unit) must never run on the loop
+    monkeypatch.setattr(stabilize_mod, "settle_unit", recording("settle_unit", stabilize_mod.settle_unit))
+    monkeypatch.setattr(stabilize_mod, "object_shape", recording("object_shape", stabilize_mod.object_shape))
+    monkeypatch.setattr(
+        settle_mod, "run_until_settled", recording("run_until_settled", settle_mod.run_until_settled)
+    )
     ticks = 0
 
     async def ticker() -> None:
@@ -112,9 +136,13 @@ async def test_stabilize_is_deterministic_and_leaves_the_loop_free(physcene_raw:
     (a, _), (b, _) = await asyncio.gather(stabilize_scene(scene, seed=3), stabilize_scene(scene, seed=3))
     task.cancel()
     assert ticks > 3
+    assert all(threads.values()), threads  # each was called ...
+    assert all(loop_thread not in ids for ids in threads.values()), threads  # ... and never on the loop
     assert a.to_json() == b.to_json()
     assert scene.to_json() != a.to_json()  # the input is copied, not edited
     assert "stabilize" in a.provenance.steps
+    again, _ = await stabilize_scene(scene, seed=3)  # alone, not racing another run: still the same
+    assert again.to_json() == a.to_json()
 
 
 def test_units_run_top_down_and_children_follow_their_anchor(

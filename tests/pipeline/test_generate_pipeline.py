@@ -172,3 +172,103 @@ def test_sceneeval_support_types_follow_the_support_relations(demo_out: Path) ->
     assert support["tv"] == "wall"
     assert support["mug"] == support["laptop"] == support["table_lamp"] == "object"
     assert support["bed"] == support["desk"] == support["wardrobe"] == "ground"
+
+
+# -- the structured base scene, seen through SceneEval and through `scenemosaic inspect` --------
+
+_SUPPORT_TYPE = {"floor": "ground", "ceiling": "ceiling"}
+
+
+def _expected_support_type(scene: Any, oid: str) -> str:
+    rel = scene.support_of(oid)
+    assert rel is not None, oid
+    if rel.parent in _SUPPORT_TYPE:
+        return _SUPPORT_TYPE[rel.parent]
+    return "wall" if scene.anchor_kind(rel.parent) == "wall" else "object"
+
+
+@pytest.mark.parametrize("which", ["living_run", "demo_out"])
+def test_sceneeval_export_of_a_structured_scene_matches_scene_glb(which: str, request: pytest.FixtureRequest) -> None:
+    """SceneEval's view of the exported base scene: same geometry as scene.glb to 1 mm, support from the tree."""
+    from scipy.spatial import cKDTree
+
+    fixture = request.getfixturevalue(which)
+    out: Path = fixture[1] if isinstance(fixture, tuple) else fixture
+    base = out / "base"
+    scene = read_scene(base)
+    assert scene.structure is not None
+    state = json.loads((base / "sceneeval" / "scene_base.json").read_text())
+    body = state["scene"]
+    assert state["format"] == "sceneState" and body["up"] == [0, 0, 1] and body["unit"] == 1.0
+    objects = body["object"]
+    assert [o["id"] for o in objects] == [o.id for o in scene.objects]
+    assert sorted(o["index"] for o in objects) == list(range(len(objects)))
+    # arch: the structured room, not a placeholder
+    assert scene.room is not None
+    floor = next(e for e in body["arch"]["elements"] if e["type"] == "Floor")
+    assert [p[:2] for p in floor["points"]] == [list(p) for p in scene.room.floor]
+    walls = [e for e in body["arch"]["elements"] if e["type"] == "Wall"]
+    assert [w["points"] for w in walls] == [[[*w.start, 0.0], [*w.end, 0.0]] for w in scene.room.walls]
+    glb = trimesh.load(base / "scene.glb", force="scene")
+    kinds = set()
+    for o in objects:
+        assert o["sceneeval"]["supportType"] == _expected_support_type(scene, o["id"]), o["id"]
+        kinds.add(o["sceneeval"]["supportType"])
+        asset = trimesh.load(base / "sceneeval" / "assets" / f"{o['modelId'][len('scenemosaic.'):]}.glb", force="mesh")
+        m = np.asarray(o["transform"]["data"]).reshape(4, 4).T
+        np.testing.assert_allclose(m[:3, :3].T @ m[:3, :3], np.eye(3), atol=1e-9)  # rigid
+        ours = trimesh.transform_points(asset.vertices, m)
+        matrix, geom = glb.graph[o["id"]]
+        ref = trimesh.transform_points(glb.geometry[geom].vertices, Y_UP_TO_Z_UP @ matrix)
+        np.testing.assert_allclose(ours.min(axis=0), ref.min(axis=0), atol=1e-3, err_msg=o["id"])
+        np.testing.assert_allclose(ours.max(axis=0), ref.max(axis=0), atol=1e-3, err_msg=o["id"])
+        assert cKDTree(ref).query(ours)[0].max() < 1e-3, o["id"]
+        assert cKDTree(ours).query(ref)[0].max() < 1e-3, o["id"]
+    assert {"ground", "ceiling"} <= kinds  # both rooms hang a lamp from the ceiling
+
+
+def _tree_parents(text: str) -> dict[str, str]:
+    """Child id -> the id on the line it is nested under, read from format_tree's drawing."""
+    parents: dict[str, str] = {}
+    stack: list[str] = []
+    for line in text.splitlines():
+        if "── " not in line:
+            continue
+        depth = line.index("── ") // 4
+        name = line[line.index("── ") + 3 :].split(" ")[0]
+        del stack[depth:]
+        if depth:
+            assert name not in parents, f"{name} listed twice"
+            parents[name] = stack[depth - 1]
+        stack.append(name)
+    return parents
+
+
+def test_inspect_prints_the_whole_tree_units_and_constraints(demo_out: Path) -> None:
+    from scenemosaic.scene import format_tree
+
+    scene = read_scene(demo_out / "base")
+    assert scene.structure is not None and scene.constraints
+    result = CliRunner().invoke(app, ["inspect", str(demo_out / "base")])
+    assert result.exit_code == 0, result.output
+    # the command prints format_tree's text (the console may wrap long lines)
+    assert " ".join(result.output.split()) == " ".join(format_tree(scene).split())
+    text = format_tree(scene)
+    # every object appears once, nested under its support parent
+    parents = _tree_parents(text)
+    assert parents == {o.id: scene.support_of(o.id).parent for o in scene.objects}  # type: ignore[union-attr]
+    lines = text.splitlines()
+    assert f"units: {len(scene.structure.units)}" in lines
+    for u in scene.structure.units:
+        assert f"  {u.anchor_id} ({u.anchor_kind}, {u.projection}): {', '.join(u.children)}" in lines
+    for c in scene.constraints:
+        assert f"  {c.id} [{c.kind}] {c.description}" in lines
+        for clause in (c.anchor_a, c.anchor_b):
+            rel = ", ".join(clause.related_objects) or "-"
+            assert f"    @{clause.anchor_id}: [{rel}] {clause.layout_note}" in lines
+    # --json carries the same units and constraints, machine-readable
+    as_json = CliRunner().invoke(app, ["inspect", str(demo_out / "base"), "--json"])
+    assert as_json.exit_code == 0, as_json.output
+    payload = json.loads(as_json.output)
+    assert [u["anchor_id"] for u in payload["units"]] == [u.anchor_id for u in scene.structure.units]
+    assert [c["id"] for c in payload["constraints"]] == [c.id for c in scene.constraints]
