@@ -165,7 +165,7 @@ def inspect(
         }
         _out.print_json(json.dumps(payload))
     else:
-        _out.print(format_tree(scene), markup=False, highlight=False)
+        _out.print(format_tree(scene), markup=False, highlight=False, soft_wrap=True)
 
 
 @app.command()

@@ -21,6 +21,10 @@ Layout (``docs/importers.md`` has the full statement)::
       ]
     }
 
+An ``id`` is optional (default ``<label>_<n>``); a given one is the object's identity, so a
+repeated id, or one reserved for a room anchor (``floor``, ``ceiling``, ``wall_<n>``), is an
+error naming the field rather than a silent rename.
+
 A pose places the **mesh file's own coordinates** in the world, as image-to-3D models report
 it: ``world = position + R(quaternion) * (scale * mesh_point)``. ``y_up`` poses (and room
 points, read as (x, z)) are turned to Z-up by (x, y, z) -> (x, -z, y). The importer loads each
