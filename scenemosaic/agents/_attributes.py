@@ -12,11 +12,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import normalize_category, traits
-from scenemosaic.agents._facts import MAX_ITEMS, ObjectFacts, object_facts, replace_scene
+from scenemosaic.agents._facts import MAX_ITEMS, AgentOutput, ObjectFacts, object_facts, replace_scene
 from scenemosaic.scene import CEILING, SimAttributes
 
 __all__ = [
@@ -85,18 +85,50 @@ ATTRIBUTE_TABLE: dict[str, AttributeRow] = {
 _UNKNOWN_LARGE = AttributeRow((1.0, 150.0), 60, 0.5)
 
 _GROUP: dict[str, str] = {
-    "double_bed": "bed", "single_bed": "bed", "kids_bed": "bed", "bunk_bed": "bed", "king_bed": "bed",
-    "children_cabinet": "cabinet", "wine_cabinet": "cabinet", "sideboard": "cabinet", "dresser": "cabinet",
-    "shelf": "bookshelf", "bookcase": "bookshelf", "shelving_unit": "bookshelf",
-    "console_table": "side_table", "corner_side_table": "side_table", "round_end_table": "side_table",
-    "tea_table": "coffee_table", "dining_table": "table", "work_desk": "desk",
-    "dining_chair": "chair", "chinese_chair": "chair", "dressing_chair": "chair", "lounge_chair": "armchair",
-    "barstool": "stool", "footstool": "stool",
-    "multi_seat_sofa": "sofa", "loveseat_sofa": "sofa", "l_shaped_sofa": "sofa", "lazy_sofa": "sofa",
-    "chaise_longue_sofa": "sofa", "pendant_lamp": "ceiling_lamp", "chandelier": "ceiling_lamp",
-    "desk_lamp": "small", "table_lamp": "small", "picture": "painting", "wall_clock": "painting",
-    "computer_monitor": "monitor", "coffee_mug": "mug", "cup": "mug", "alarm_clock": "small",
-    "storage_bin": "box", "basket": "box", "keyboard": "small", "bowl": "small", "plate": "small",
+    "double_bed": "bed",
+    "single_bed": "bed",
+    "kids_bed": "bed",
+    "bunk_bed": "bed",
+    "king_bed": "bed",
+    "children_cabinet": "cabinet",
+    "wine_cabinet": "cabinet",
+    "sideboard": "cabinet",
+    "dresser": "cabinet",
+    "shelf": "bookshelf",
+    "bookcase": "bookshelf",
+    "shelving_unit": "bookshelf",
+    "console_table": "side_table",
+    "corner_side_table": "side_table",
+    "round_end_table": "side_table",
+    "tea_table": "coffee_table",
+    "dining_table": "table",
+    "work_desk": "desk",
+    "dining_chair": "chair",
+    "chinese_chair": "chair",
+    "dressing_chair": "chair",
+    "lounge_chair": "armchair",
+    "barstool": "stool",
+    "footstool": "stool",
+    "multi_seat_sofa": "sofa",
+    "loveseat_sofa": "sofa",
+    "l_shaped_sofa": "sofa",
+    "lazy_sofa": "sofa",
+    "chaise_longue_sofa": "sofa",
+    "pendant_lamp": "ceiling_lamp",
+    "chandelier": "ceiling_lamp",
+    "desk_lamp": "small",
+    "table_lamp": "small",
+    "picture": "painting",
+    "wall_clock": "painting",
+    "computer_monitor": "monitor",
+    "coffee_mug": "mug",
+    "cup": "mug",
+    "alarm_clock": "small",
+    "storage_bin": "box",
+    "basket": "box",
+    "keyboard": "small",
+    "bowl": "small",
+    "plate": "small",
 }
 
 
@@ -115,11 +147,7 @@ def attribute_row(category: str) -> tuple[str, AttributeRow]:
     return key, ATTRIBUTE_TABLE[key]
 
 
-class _Out(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class ObjectAttributes(_Out):
+class ObjectAttributes(AgentOutput):
     """Simulation figures for one object."""
 
     object_id: str = Field(max_length=64)
@@ -129,13 +157,13 @@ class ObjectAttributes(_Out):
     basis: str = Field(default="", max_length=200)
 
 
-class AttributesOutput(_Out):
+class AttributesOutput(AgentOutput):
     """Simulation attributes per object."""
 
     objects: list[ObjectAttributes] = Field(max_length=MAX_ITEMS)
 
 
-class AttributesEvidence(_Out):
+class AttributesEvidence(AgentOutput):
     """Objects with their boxes and current parents."""
 
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
@@ -151,12 +179,20 @@ def solve_attributes(evidence: AttributesEvidence) -> AttributesOutput:
             key, row = "unknown_large", _UNKNOWN_LARGE
         lo, hi = row.mass_range_kg
         mass = min(max(row.fill_density * volume, lo), hi)
-        hung = o.parent == CEILING or (o.parent or "").startswith("wall") or traits(o.category).placement == "ceiling"
+        hung = (
+            o.parent == CEILING
+            or (o.parent or "").startswith("wall")
+            or traits(o.category).placement == "ceiling"
+        )
         static = row.static or hung
         items.append(
             ObjectAttributes(
-                object_id=o.id, mass_kg=round(mass, 3), friction=row.friction, static=static,
-                basis=f"table row {key!r}" + ("; fixed in place (hung or mounted)" if hung and not row.static else ""),
+                object_id=o.id,
+                mass_kg=round(mass, 3),
+                friction=row.friction,
+                static=static,
+                basis=f"table row {key!r}"
+                + ("; fixed in place (hung or mounted)" if hung and not row.static else ""),
             )
         )
     return AttributesOutput(objects=items)

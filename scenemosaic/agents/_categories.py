@@ -153,7 +153,9 @@ _TRAITS: dict[str, CategoryTraits] = {
     "alarm_clock": _F("surface"),
     # fixtures
     "fridge": _F("floor", supports=True, contains=True, opening="front", against_wall=True, built_in=True),
-    "kitchen_cabinet": _F("floor", supports=True, contains=True, opening="front", against_wall=True, built_in=True),
+    "kitchen_cabinet": _F(
+        "floor", supports=True, contains=True, opening="front", against_wall=True, built_in=True
+    ),
     "counter": _F("floor", supports=True, against_wall=True, built_in=True),
     "countertop": _F("floor", supports=True, against_wall=True, built_in=True),
     "sink": _F("floor", supports=True, built_in=True),
@@ -382,8 +384,28 @@ _BUNDLED_ON: dict[str, tuple[str, ...]] = {
     "CounterTop": (*_SMALL, "Plate"),
 }
 _BUNDLED_FLOOR = frozenset(
-    {"ArmChair", "Bed", "Box", "Chair", "CoffeeTable", "CounterTop", "Desk", "DiningTable", "Dresser", "FloorLamp",
-     "Fridge", "Ottoman", "ShelvingUnit", "SideTable", "Sofa", "Stool", "TVStand", "Television", "Toilet", "Sink"}
+    {
+        "ArmChair",
+        "Bed",
+        "Box",
+        "Chair",
+        "CoffeeTable",
+        "CounterTop",
+        "Desk",
+        "DiningTable",
+        "Dresser",
+        "FloorLamp",
+        "Fridge",
+        "Ottoman",
+        "ShelvingUnit",
+        "SideTable",
+        "Sofa",
+        "Stool",
+        "TVStand",
+        "Television",
+        "Toilet",
+        "Sink",
+    }
 )
 _BUNDLED_WALL = frozenset({"Painting", "Window", "LightSwitch", "TowelHolder"})
 _BUNDLED_PICKUP = frozenset({*_SMALL, "Pillow", "AlarmClock", "Box"})
@@ -404,7 +426,9 @@ def _load_dir(folder: str) -> SupportPriors:
     base = Path(folder)
     rec = json.loads((base / "receptacles.json").read_text(encoding="utf-8"))
     ann = json.loads((base / "placement-annotations.json").read_text(encoding="utf-8"))
-    on = {parent: {child: float(v.get("p", 0.0)) for child, v in kids.items()} for parent, kids in rec.items()}
+    on = {
+        parent: {child: float(v.get("p", 0.0)) for child, v in kids.items()} for parent, kids in rec.items()
+    }
 
     def flagged(key: str) -> frozenset[str]:
         return frozenset(t for t, v in ann.get(key, {}).items() if v is True)

@@ -25,11 +25,11 @@ from functools import lru_cache
 from pathlib import Path
 from typing import ClassVar
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import PRIORS_ENV, normalize_category, traits
-from scenemosaic.agents._facts import MAX_ITEMS, ObjectFacts, object_facts, replace_scene
+from scenemosaic.agents._facts import MAX_ITEMS, AgentOutput, ObjectFacts, object_facts, replace_scene
 from scenemosaic.scene import ConstraintClause, CrossUnitConstraint
 
 __all__ = [
@@ -65,26 +65,54 @@ class FunctionalPair:
 
 
 FUNCTIONAL_PAIRS: tuple[FunctionalPair, ...] = (
-    FunctionalPair("seats_face_table", "orientation", "chairs face the table or desk they belong to",
-                   ("DiningTable", "Chair")),
+    FunctionalPair(
+        "seats_face_table",
+        "orientation",
+        "chairs face the table or desk they belong to",
+        ("DiningTable", "Chair"),
+    ),
     FunctionalPair("desk_chair", "orientation", "a desk chair faces the desk", ("Desk", "Chair")),
-    FunctionalPair("nightstands_beside_bed", "placement", "nightstands stand beside the head of the bed", None),
-    FunctionalPair("monitor_keeps_desk_orientation", "orientation", "a monitor on a desk faces the desk's front",
-                   None),
-    FunctionalPair("wall_tv_over_stand", "placement", "a wall TV and the TV stand below it share a centre line",
-                   ("TVStand", "Television")),
+    FunctionalPair(
+        "nightstands_beside_bed", "placement", "nightstands stand beside the head of the bed", None
+    ),
+    FunctionalPair(
+        "monitor_keeps_desk_orientation", "orientation", "a monitor on a desk faces the desk's front", None
+    ),
+    FunctionalPair(
+        "wall_tv_over_stand",
+        "placement",
+        "a wall TV and the TV stand below it share a centre line",
+        ("TVStand", "Television"),
+    ),
     FunctionalPair("sofa_faces_coffee_table", "orientation", "the sofa faces its coffee table", None),
     FunctionalPair("sofa_faces_tv", "orientation", "the sofa faces the TV stand", ("TVStand", "Sofa")),
 )
 """The strong, unique functional pairs the rule solver may emit."""
 
 WEAK_PAIRS: tuple[tuple[frozenset[str], frozenset[str]], ...] = (
-    (frozenset({"painting", "picture", "mirror", "wall_clock"}),
-     frozenset({"sofa", "multi_seat_sofa", "loveseat_sofa", "l_shaped_sofa", "bed", "double_bed", "single_bed",
-                "armchair", "console_table", "dining_table", "desk"})),
+    (
+        frozenset({"painting", "picture", "mirror", "wall_clock"}),
+        frozenset(
+            {
+                "sofa",
+                "multi_seat_sofa",
+                "loveseat_sofa",
+                "l_shaped_sofa",
+                "bed",
+                "double_bed",
+                "single_bed",
+                "armchair",
+                "console_table",
+                "dining_table",
+                "desk",
+            }
+        ),
+    ),
     (frozenset({"television"}), frozenset({"dining_table", "table", "coffee_table"})),
-    (frozenset({"pendant_lamp", "ceiling_lamp", "chandelier"}), frozenset({"dining_table", "table", "coffee_table",
-                                                                          "bed", "double_bed", "sofa"})),
+    (
+        frozenset({"pendant_lamp", "ceiling_lamp", "chandelier"}),
+        frozenset({"dining_table", "table", "coffee_table", "bed", "double_bed", "sofa"}),
+    ),
 )
 """Category pairs whose relation is too weak or ambiguous to constrain (never emitted, rejected if proposed)."""
 
@@ -116,22 +144,22 @@ def procthor_group_pairs(folder: str | None) -> frozenset[tuple[str, str]]:
     return frozenset(pairs)
 
 
-class _Out(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class ConstraintsOutput(_Out):
+class ConstraintsOutput(AgentOutput):
     """The cross-unit constraints of the scene (replacing any earlier ones)."""
 
     constraints: list[CrossUnitConstraint] = Field(default_factory=list, max_length=64)
 
 
-class ConstraintEvidence(_Out):
+class ConstraintEvidence(AgentOutput):
     """Objects with their parents, wall relations, and the ProcTHOR-backed pair table."""
 
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
-    against: dict[str, str] = Field(default_factory=dict, description="Object id -> wall it stands flush against.")
-    pairs: list[str] = Field(default_factory=list, max_length=32, description="Allowed functional pair names.")
+    against: dict[str, str] = Field(
+        default_factory=dict, description="Object id -> wall it stands flush against."
+    )
+    pairs: list[str] = Field(
+        default_factory=list, max_length=32, description="Allowed functional pair names."
+    )
 
 
 def _dist(a: ObjectFacts, b: ObjectFacts) -> float:
@@ -174,11 +202,20 @@ def solve_constraints(evidence: ConstraintEvidence) -> ConstraintsOutput:
 
     def add(kind: str, desc: str, a: ConstraintClause, b: ConstraintClause) -> None:
         if a.anchor_id != b.anchor_id:
-            out.append(CrossUnitConstraint(id=f"c{len(out)}", kind=kind, description=desc[:400],  # type: ignore[arg-type]
-                                           anchor_a=a, anchor_b=b))
+            out.append(
+                CrossUnitConstraint(
+                    id=f"c{len(out)}",
+                    kind=kind,
+                    description=desc[:400],  # type: ignore[arg-type]
+                    anchor_a=a,
+                    anchor_b=b,
+                )
+            )
 
     tables = [o for o in objs if traits(o.category).table and o.parent]
-    seats = [o for o in objs if traits(o.category).seat and not ("sofa" in o.category or o.category == "armchair")]
+    seats = [
+        o for o in objs if traits(o.category).seat and not ("sofa" in o.category or o.category == "armchair")
+    ]
     # seats -> nearest table/desk
     if {"seats_face_table", "desk_chair"} & allowed and tables:
         owned: dict[str, list[ObjectFacts]] = {}
@@ -191,64 +228,122 @@ def solve_constraints(evidence: ConstraintEvidence) -> ConstraintsOutput:
             if not group or t.parent is None:
                 continue
             names = ", ".join(s.id for s in group)
-            add("orientation", f"chairs ({names}) face {t.category} ({t.id})",
-                _clause(t.parent, [*(s.id for s in group), t.id],
-                        f"turn each of ({names}) to face ({t.id}) and keep them along its edges"),
-                _clause(t.id, _children(objs, t.id),
-                        f"({t.id}) is the reference the chairs face; keep its edges free where they sit"))
+            add(
+                "orientation",
+                f"chairs ({names}) face {t.category} ({t.id})",
+                _clause(
+                    t.parent,
+                    [*(s.id for s in group), t.id],
+                    f"turn each of ({names}) to face ({t.id}) and keep them along its edges",
+                ),
+                _clause(
+                    t.id,
+                    _children(objs, t.id),
+                    f"({t.id}) is the reference the chairs face; keep its edges free where they sit",
+                ),
+            )
     # bed <-> nightstands
     if "nightstands_beside_bed" in allowed:
         for b in (o for o in objs if "bed" in o.category and traits(o.category).placement == "floor"):
-            stands = [o for o in objs if o.category == "nightstand" and o.parent == b.parent
-                      and _dist(o, b) <= NIGHTSTAND_REACH]
+            stands = [
+                o
+                for o in objs
+                if o.category == "nightstand" and o.parent == b.parent and _dist(o, b) <= NIGHTSTAND_REACH
+            ]
             if not stands or b.parent is None:
                 continue
             names = ", ".join(s.id for s in stands)
-            add("placement", f"nightstands ({names}) stand beside the head of {b.category} ({b.id})",
-                _clause(b.parent, [b.id, *(s.id for s in stands)],
-                        f"keep ({names}) beside the head end of ({b.id}), level with its headboard"),
-                _clause(b.id, _children(objs, b.id),
-                        f"({b.id}) keeps its head end where the nightstands stand"))
+            add(
+                "placement",
+                f"nightstands ({names}) stand beside the head of {b.category} ({b.id})",
+                _clause(
+                    b.parent,
+                    [b.id, *(s.id for s in stands)],
+                    f"keep ({names}) beside the head end of ({b.id}), level with its headboard",
+                ),
+                _clause(
+                    b.id, _children(objs, b.id), f"({b.id}) keeps its head end where the nightstands stand"
+                ),
+            )
     # desk -> monitor orientation
     if "monitor_keeps_desk_orientation" in allowed:
         for t in tables:
             screens = [o for o in objs if o.parent == t.id and o.category in MONITORS]
             if screens and t.parent:
                 names = ", ".join(s.id for s in screens)
-                add("orientation", f"({names}) keep the orientation of ({t.id})",
-                    _clause(t.id, [s.id for s in screens], f"({names}) face the same way as ({t.id})'s front"),
-                    _clause(t.parent, [t.id], f"({t.id})'s orientation is the reference for the screens on it"))
+                add(
+                    "orientation",
+                    f"({names}) keep the orientation of ({t.id})",
+                    _clause(
+                        t.id, [s.id for s in screens], f"({names}) face the same way as ({t.id})'s front"
+                    ),
+                    _clause(
+                        t.parent, [t.id], f"({t.id})'s orientation is the reference for the screens on it"
+                    ),
+                )
     # wall TV <-> floor TV stand on the same wall
     if "wall_tv_over_stand" in allowed:
         for tv in (o for o in objs if o.category == "television" and (o.parent or "").startswith("wall")):
             stands = [o for o in objs if o.category == "tv_stand" and evidence.against.get(o.id) == tv.parent]
             if len(stands) == 1 and stands[0].parent and tv.parent:
                 st = stands[0]
-                add("placement", f"wall TV ({tv.id}) and TV stand ({st.id}) share a centre line on {tv.parent}",
-                    _clause(tv.parent, [tv.id],
-                            f"keep ({tv.id}) centred on the centre line it shares with the TV stand below it"),
-                    _clause(str(st.parent), [st.id],
-                            f"keep ({st.id}) against {tv.parent}, centred under the TV mounted on that wall"))
+                add(
+                    "placement",
+                    f"wall TV ({tv.id}) and TV stand ({st.id}) share a centre line on {tv.parent}",
+                    _clause(
+                        tv.parent,
+                        [tv.id],
+                        f"keep ({tv.id}) centred on the centre line it shares with the TV stand below it",
+                    ),
+                    _clause(
+                        str(st.parent),
+                        [st.id],
+                        f"keep ({st.id}) against {tv.parent}, centred under the TV mounted on that wall",
+                    ),
+                )
     # sofa -> coffee table / TV stand (only unique pairs)
     sofas = sorted((o for o in objs if "sofa" in o.category), key=lambda o: -o.area)
     if sofas:
         sofa = sofas[0]
-        coffees = [o for o in objs if o.category in ("coffee_table", "tea_table") and _dist(o, sofa) <= COFFEE_REACH]
-        if "sofa_faces_coffee_table" in allowed and len(coffees) == 1 and sofa.parent == coffees[0].parent and sofa.parent:
+        coffees = [
+            o for o in objs if o.category in ("coffee_table", "tea_table") and _dist(o, sofa) <= COFFEE_REACH
+        ]
+        if (
+            "sofa_faces_coffee_table" in allowed
+            and len(coffees) == 1
+            and sofa.parent == coffees[0].parent
+            and sofa.parent
+        ):
             ct = coffees[0]
-            add("orientation", f"{sofa.category} ({sofa.id}) faces {ct.category} ({ct.id})",
-                _clause(sofa.parent, [sofa.id, ct.id], f"({sofa.id}) faces ({ct.id}), which stays in front of it"),
-                _clause(ct.id, _children(objs, ct.id), f"({ct.id}) is the reference the sofa in front of it faces"))
+            add(
+                "orientation",
+                f"{sofa.category} ({sofa.id}) faces {ct.category} ({ct.id})",
+                _clause(
+                    sofa.parent, [sofa.id, ct.id], f"({sofa.id}) faces ({ct.id}), which stays in front of it"
+                ),
+                _clause(
+                    ct.id, _children(objs, ct.id), f"({ct.id}) is the reference the sofa in front of it faces"
+                ),
+            )
         stands = [o for o in objs if o.category == "tv_stand"]
-        if ("sofa_faces_tv" in allowed and len(stands) == 1 and len(sofas) >= 1 and sofa.parent
-                and stands[0].parent == sofa.parent and _dist(stands[0], sofa) <= TV_REACH):
+        if (
+            "sofa_faces_tv" in allowed
+            and len(stands) == 1
+            and len(sofas) >= 1
+            and sofa.parent
+            and stands[0].parent == sofa.parent
+            and _dist(stands[0], sofa) <= TV_REACH
+        ):
             st = stands[0]
             way = (st.center[0] - sofa.center[0], st.center[1] - sofa.center[1])
             n = math.hypot(*way)
             if n > 1e-6 and (sofa.front[0] * way[0] + sofa.front[1] * way[1]) / n > 0.5:
-                add("orientation", f"{sofa.category} ({sofa.id}) faces the TV stand ({st.id})",
+                add(
+                    "orientation",
+                    f"{sofa.category} ({sofa.id}) faces the TV stand ({st.id})",
                     _clause(sofa.parent, [sofa.id, st.id], f"({sofa.id}) faces ({st.id})"),
-                    _clause(st.id, _children(objs, st.id), f"({st.id}) is the reference the sofa faces"))
+                    _clause(st.id, _children(objs, st.id), f"({st.id}) is the reference the sofa faces"),
+                )
     return ConstraintsOutput(constraints=out)
 
 
@@ -272,7 +367,8 @@ class ConstraintsAgent(TaskAgent[ConstraintEvidence, ConstraintsOutput]):
     def gather(self, state: SceneState) -> ConstraintEvidence:
         groups = procthor_group_pairs(self.priors_dir)
         allowed = [
-            p.name for p in FUNCTIONAL_PAIRS
+            p.name
+            for p in FUNCTIONAL_PAIRS
             if not groups or p.procthor is None or p.procthor in groups or _reverse(p.procthor) in groups
         ]
         against = {r.child: r.parent for r in state.scene.relations if r.kind == "against"}
@@ -300,7 +396,9 @@ class ConstraintsAgent(TaskAgent[ConstraintEvidence, ConstraintsOutput]):
                     involved.add(cats[clause.anchor_id])
                 for oid in clause.related_objects:
                     if oid not in cats:
-                        problems.append(f"constraint {c.id!r}: object id {oid!r} does not exist in this scene")
+                        problems.append(
+                            f"constraint {c.id!r}: object id {oid!r} does not exist in this scene"
+                        )
                     elif parents.get(oid) != clause.anchor_id:
                         problems.append(
                             f"constraint {c.id!r}: ({oid}) is not in the unit of {clause.anchor_id!r} "
@@ -314,7 +412,9 @@ class ConstraintsAgent(TaskAgent[ConstraintEvidence, ConstraintsOutput]):
                         f"in that unit (its parent is {parents.get(oid)!r}); name only the unit's own objects"
                     )
             if _weak(involved):
-                problems.append(f"constraint {c.id!r} relates a weak pair ({', '.join(sorted(involved))}); drop it")
+                problems.append(
+                    f"constraint {c.id!r} relates a weak pair ({', '.join(sorted(involved))}); drop it"
+                )
         return problems
 
     def apply(self, output: ConstraintsOutput, state: SceneState) -> None:

@@ -10,11 +10,11 @@ from __future__ import annotations
 
 from typing import ClassVar, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import SupportPriors, load_priors, traits
-from scenemosaic.agents._facts import MAX_ITEMS, ObjectFacts, object_facts, replace_scene
+from scenemosaic.agents._facts import MAX_ITEMS, AgentOutput, ObjectFacts, object_facts, replace_scene
 from scenemosaic.agents._support import check_parents, floor_only
 from scenemosaic.scene import Relation
 
@@ -24,11 +24,7 @@ INSIDE_TOLERANCE = 0.02
 """How far (metres) a contained object may poke out of its container's box."""
 
 
-class _Out(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class ContainedItem(_Out):
+class ContainedItem(AgentOutput):
     """One object inside one container."""
 
     object_id: str = Field(max_length=64)
@@ -37,13 +33,13 @@ class ContainedItem(_Out):
     reason: str = Field(default="", max_length=200)
 
 
-class ContainmentOutput(_Out):
+class ContainmentOutput(AgentOutput):
     """Every contained object; objects not listed keep their support."""
 
     items: list[ContainedItem] = Field(default_factory=list, max_length=MAX_ITEMS)
 
 
-class ContainerFacts(_Out):
+class ContainerFacts(AgentOutput):
     """A container candidate and the side it usually opens to."""
 
     id: str
@@ -51,7 +47,7 @@ class ContainerFacts(_Out):
     opening: Literal["front", "top"]
 
 
-class ContainmentEvidence(_Out):
+class ContainmentEvidence(AgentOutput):
     """Objects, and which of them can contain others."""
 
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
@@ -84,7 +80,11 @@ def solve_containment(evidence: ContainmentEvidence, priors: SupportPriors) -> C
             continue
         box = min(holders, key=_volume)
         opening = next(c.opening for c in evidence.containers if c.id == box.id)
-        items.append(ContainedItem(object_id=o.id, container_id=box.id, opening=opening, reason=f"inside {box.category}"))
+        items.append(
+            ContainedItem(
+                object_id=o.id, container_id=box.id, opening=opening, reason=f"inside {box.category}"
+            )
+        )
     return ContainmentOutput(items=items)
 
 
@@ -113,19 +113,26 @@ class ContainmentAgent(TaskAgent[ContainmentEvidence, ContainmentOutput]):
 
     def check(self, output: ContainmentOutput, state: SceneState) -> list[str]:
         problems = check_parents(
-            [(i.object_id, i.container_id, "contain") for i in output.items], state, self.priors, complete=False
+            [(i.object_id, i.container_id, "contain") for i in output.items],
+            state,
+            self.priors,
+            complete=False,
         )
         facts = {o.id: o for o in object_facts(state.scene)}
         for i in output.items:
             if i.object_id in facts and floor_only(facts[i.object_id], self.priors):
-                problems.append(f"{i.object_id!r} ({facts[i.object_id].category}) is floor furniture, not contents")
+                problems.append(
+                    f"{i.object_id!r} ({facts[i.object_id].category}) is floor furniture, not contents"
+                )
         return problems
 
     def apply(self, output: ContainmentOutput, state: SceneState) -> None:
         moved = {i.object_id for i in output.items}
         kept = [r for r in state.scene.relations if not (r.is_support and r.child in moved)]
         new = [
-            Relation(kind="contain", child=i.object_id, parent=i.container_id, opening=i.opening, source=self.name)
+            Relation(
+                kind="contain", child=i.object_id, parent=i.container_id, opening=i.opening, source=self.name
+            )
             for i in output.items
         ]
         state.scene = replace_scene(state.scene, relations=kept + new)

@@ -19,6 +19,7 @@ from scenemosaic.scene import CEILING, FLOOR, Relation, Scene, SceneObject
 
 __all__ = [
     "MAX_ITEMS",
+    "AgentOutput",
     "ObjectFacts",
     "RoomFacts",
     "WallFacts",
@@ -33,6 +34,12 @@ MAX_ITEMS = 512
 
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
+
+
+class AgentOutput(BaseModel):
+    """Base of every structuring agent's output: unknown keys are rejected, so a model's extra fields fail validation."""
+
+    model_config = ConfigDict(extra="forbid")
 
 
 class _Facts(BaseModel):
@@ -181,7 +188,7 @@ def parent_cycles(parents: dict[str, str]) -> list[list[str]]:
         node: str | None = start
         while node is not None and node in parents and node not in seen:
             if node in on_path:
-                cyc = path[path.index(node):]
+                cyc = path[path.index(node) :]
                 k = cyc.index(min(cyc))
                 cycles.append(cyc[k:] + cyc[:k])
                 break
@@ -205,8 +212,14 @@ def replace_scene(scene: Scene, **fields: Any) -> Scene:
     """
     data = scene.model_dump()
     for key, value in fields.items():
-        data[key] = value.model_dump() if isinstance(value, BaseModel) else (
-            [v.model_dump() if isinstance(v, BaseModel) else v for v in value] if isinstance(value, list) else value
+        data[key] = (
+            value.model_dump()
+            if isinstance(value, BaseModel)
+            else (
+                [v.model_dump() if isinstance(v, BaseModel) else v for v in value]
+                if isinstance(value, list)
+                else value
+            )
         )
     return Scene.model_validate(data)
 

@@ -13,14 +13,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, ClassVar, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from scenemosaic.agents._attributes import AttributesAgent
 from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import SupportPriors, load_priors, traits
 from scenemosaic.agents._constraints import ConstraintsAgent
 from scenemosaic.agents._containment import ContainmentAgent
-from scenemosaic.agents._facts import MAX_ITEMS, object_facts
+from scenemosaic.agents._facts import MAX_ITEMS, AgentOutput, object_facts
 from scenemosaic.agents._room import RoomAgent
 from scenemosaic.agents._semantics import SemanticsAgent
 from scenemosaic.agents._support import SupportAgent, floor_only
@@ -39,33 +39,39 @@ __all__ = [
     "plan_structuring",
 ]
 
-AgentName = Literal["room", "support", "containment", "walls", "semantics", "attributes", "constraints", "verify"]
-AGENT_NAMES: tuple[str, ...] = ("room", "support", "containment", "walls", "semantics", "attributes", "constraints",
-                                "verify")
+AgentName = Literal[
+    "room", "support", "containment", "walls", "semantics", "attributes", "constraints", "verify"
+]
+AGENT_NAMES: tuple[str, ...] = (
+    "room",
+    "support",
+    "containment",
+    "walls",
+    "semantics",
+    "attributes",
+    "constraints",
+    "verify",
+)
 """Every structuring agent the manager can schedule, in a valid order."""
 REQUIRED_AGENTS = frozenset({"room", "support", "verify"})
 """Agents every plan must contain (a tree needs a room, parents and a final check)."""
 
 
-class _Out(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class PlannedAgent(_Out):
+class PlannedAgent(AgentOutput):
     """One agent of the plan and why it is (or is not) scheduled."""
 
     name: AgentName
     reason: str = Field(default="", max_length=200)
 
 
-class StructuringPlan(_Out):
+class StructuringPlan(AgentOutput):
     """Which structuring agents to run; dependencies follow from the agents themselves."""
 
     agents: list[PlannedAgent] = Field(min_length=1, max_length=16)
     skipped: list[PlannedAgent] = Field(default_factory=list, max_length=16)
 
 
-class SceneSummary(_Out):
+class SceneSummary(AgentOutput):
     """What the manager looks at."""
 
     object_count: int
@@ -73,11 +79,13 @@ class SceneSummary(_Out):
     has_walls: bool
     categories: list[str] = Field(max_length=MAX_ITEMS)
     containers: list[str] = Field(default_factory=list, max_length=MAX_ITEMS)
-    container_candidates: list[str] = Field(default_factory=list, max_length=MAX_ITEMS,
-                                            description="Objects over a container's footprint.")
+    container_candidates: list[str] = Field(
+        default_factory=list, max_length=MAX_ITEMS, description="Objects over a container's footprint."
+    )
     wall_candidates: list[str] = Field(default_factory=list, max_length=MAX_ITEMS)
-    stack_candidates: list[str] = Field(default_factory=list, max_length=MAX_ITEMS,
-                                        description="Objects that could rest on another object.")
+    stack_candidates: list[str] = Field(
+        default_factory=list, max_length=MAX_ITEMS, description="Objects that could rest on another object."
+    )
     functional_pairs: list[str] = Field(default_factory=list, max_length=32)
 
 
@@ -99,7 +107,9 @@ def summarize(scene: Scene, priors: SupportPriors) -> SceneSummary:
         pairs.append("sofa and coffee table / TV stand")
     if cats & {"television", "monitor", "computer_monitor", "laptop"}:
         pairs.append("screen")
-    wall_like = [o.id for o in objs if traits(o.category).against_wall or traits(o.category).placement == "wall"]
+    wall_like = [
+        o.id for o in objs if traits(o.category).against_wall or traits(o.category).placement == "wall"
+    ]
     return SceneSummary(
         object_count=len(objs),
         has_room=scene.room is not None,
@@ -121,16 +131,33 @@ def solve_plan(summary: SceneSummary) -> StructuringPlan:
     def decide(name: AgentName, yes: bool, why_yes: str, why_no: str) -> None:
         (run if yes else skip).append(PlannedAgent(name=name, reason=why_yes if yes else why_no))
 
-    decide("room", True, "complete the input room's walls" if summary.has_room else "recover the room boundary", "")
+    decide(
+        "room",
+        True,
+        "complete the input room's walls" if summary.has_room else "recover the room boundary",
+        "",
+    )
     decide("support", True, f"parent each of {summary.object_count} objects", "")
-    decide("containment", bool(summary.container_candidates),
-           f"{len(summary.container_candidates)} objects over containers", "nothing could be inside a container")
-    decide("walls", bool(summary.wall_candidates) or summary.has_walls,
-           "wall-type furniture or input walls present", "nothing stands against or hangs on a wall")
+    decide(
+        "containment",
+        bool(summary.container_candidates),
+        f"{len(summary.container_candidates)} objects over containers",
+        "nothing could be inside a container",
+    )
+    decide(
+        "walls",
+        bool(summary.wall_candidates) or summary.has_walls,
+        "wall-type furniture or input walls present",
+        "nothing stands against or hangs on a wall",
+    )
     decide("semantics", True, "normalize categories and check fronts", "")
     decide("attributes", True, "mass, friction, static flags", "")
-    decide("constraints", bool(summary.functional_pairs),
-           "functional pairs: " + ", ".join(summary.functional_pairs), "no functional pair in the scene")
+    decide(
+        "constraints",
+        bool(summary.functional_pairs),
+        "functional pairs: " + ", ".join(summary.functional_pairs),
+        "no functional pair in the scene",
+    )
     decide("verify", True, "final completeness check and scene tree", "")
     return StructuringPlan(agents=run, skipped=skip)
 
@@ -171,8 +198,11 @@ def _rewired(agent: TaskAgent[Any, Any], depends_on: tuple[str, ...]) -> TaskAge
     if depends_on == tuple(agent.depends_on):
         return agent
     cls = type(agent)
-    sub = type(cls.__name__, (cls,), {"depends_on": depends_on, "__module__": cls.__module__,
-                                      "__qualname__": cls.__qualname__})
+    sub = type(
+        cls.__name__,
+        (cls,),
+        {"depends_on": depends_on, "__module__": cls.__module__, "__qualname__": cls.__qualname__},
+    )
     clone: TaskAgent[Any, Any] = object.__new__(sub)
     clone.__dict__.update(agent.__dict__)
     return clone

@@ -20,6 +20,7 @@ from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import traits
 from scenemosaic.agents._facts import (
     MAX_ITEMS,
+    AgentOutput,
     ObjectFacts,
     RoomFacts,
     object_facts,
@@ -40,11 +41,7 @@ CONTAIN_TOLERANCE = 0.02
 """How far (metres) a footprint may poke out of the floor polygon and still count as inside."""
 
 
-class _Out(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class WallSpec(_Out):
+class WallSpec(AgentOutput):
     """One wall of the recovered room (interior on the left of start -> end)."""
 
     id: str = Field(max_length=64, pattern=r"^[A-Za-z0-9_.\-]+$")
@@ -53,10 +50,12 @@ class WallSpec(_Out):
     height: float = Field(gt=0, le=20)
 
 
-class RoomOutput(_Out):
+class RoomOutput(AgentOutput):
     """The room boundary the agent settled on."""
 
-    floor: list[tuple[float, float]] = Field(min_length=3, max_length=64, description="Counter-clockwise polygon.")
+    floor: list[tuple[float, float]] = Field(
+        min_length=3, max_length=64, description="Counter-clockwise polygon."
+    )
     walls: list[WallSpec] = Field(default_factory=list, max_length=64)
     ceiling_height: float = Field(gt=0, le=20)
     kept_input: bool = Field(default=False, description="True when the input room was kept.")
@@ -135,7 +134,10 @@ def solve_room(evidence: RoomEvidence) -> RoomOutput:
             else _walls_for(list(r.floor), r.ceiling_height)
         )
         return RoomOutput(
-            floor=list(r.floor), walls=walls, ceiling_height=r.ceiling_height, kept_input=True,
+            floor=list(r.floor),
+            walls=walls,
+            ceiling_height=r.ceiling_height,
+            kept_input=True,
             note="input room kept" + ("" if r.walls else "; walls completed from the floor polygon"),
         )
     objs = evidence.objects
@@ -143,7 +145,9 @@ def solve_room(evidence: RoomEvidence) -> RoomOutput:
     ceiling = max(DEFAULT_CEILING, round(top, 3))
     if not objs:
         floor = [(-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)]
-        return RoomOutput(floor=floor, walls=_walls_for(floor, ceiling), ceiling_height=ceiling, note="empty scene")
+        return RoomOutput(
+            floor=floor, walls=_walls_for(floor, ceiling), ceiling_height=ceiling, note="empty scene"
+        )
     axis_floor, axis_area = _fit(objs, 0.0, ceiling)
     floor, yaw = axis_floor, 0.0
     dom = _dominant_yaw(objs)
@@ -152,7 +156,10 @@ def solve_room(evidence: RoomEvidence) -> RoomOutput:
         if rot_area < axis_area * 0.97:  # rotate only when clearly tighter
             floor, yaw = rot_floor, dom
     return RoomOutput(
-        floor=floor, walls=_walls_for(floor, ceiling), ceiling_height=ceiling, yaw_deg=round(math.degrees(yaw), 3),
+        floor=floor,
+        walls=_walls_for(floor, ceiling),
+        ceiling_height=ceiling,
+        yaw_deg=round(math.degrees(yaw), 3),
         note="rectangle fitted around the object footprints",
     )
 
@@ -193,10 +200,14 @@ class RoomAgent(TaskAgent[RoomEvidence, RoomOutput]):
         old_walls = {w.id for w in state.scene.room.walls} if state.scene.room else set()
         for wid in sorted((used & old_walls) - set(ids)):
             problems.append(f"wall {wid!r} is referenced by the scene and must be kept")
-        tallest = max((o.top for o in object_facts(state.scene) if traits(o.category).placement != "ceiling"),
-                      default=0.0)
+        tallest = max(
+            (o.top for o in object_facts(state.scene) if traits(o.category).placement != "ceiling"),
+            default=0.0,
+        )
         if output.ceiling_height < tallest - 0.05:
-            problems.append(f"ceiling height {output.ceiling_height:.2f} m is below the tallest object ({tallest:.2f} m)")
+            problems.append(
+                f"ceiling height {output.ceiling_height:.2f} m is below the tallest object ({tallest:.2f} m)"
+            )
         return problems
 
     def apply(self, output: RoomOutput, state: SceneState) -> None:

@@ -17,13 +17,14 @@ import math
 from typing import ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 from shapely.geometry import Point
 
 from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import normalize_category, traits
 from scenemosaic.agents._facts import (
     MAX_ITEMS,
+    AgentOutput,
     ObjectFacts,
     object_facts,
     outward,
@@ -44,11 +45,7 @@ UNAMBIGUOUS_DEG = 150.0
 """A chair facing more than this many degrees away from its table is turned around."""
 
 
-class _Out(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class SemanticItem(_Out):
+class SemanticItem(AgentOutput):
     """One object's normalized category, description and front check."""
 
     object_id: str = Field(max_length=64)
@@ -59,13 +56,13 @@ class SemanticItem(_Out):
     note: str = Field(default="", max_length=200)
 
 
-class SemanticsOutput(_Out):
+class SemanticsOutput(AgentOutput):
     """Per-object semantics."""
 
     objects: list[SemanticItem] = Field(max_length=MAX_ITEMS)
 
 
-class FrontFacts(_Out):
+class FrontFacts(AgentOutput):
     """Facts behind one object's front check."""
 
     id: str
@@ -74,11 +71,13 @@ class FrontFacts(_Out):
     wall_facing: Literal["back", "front", "side"] | None = None
     table_id: str | None = None
     table_distance: float | None = None
-    table_angle_deg: float | None = Field(default=None, description="Angle between the front and the way to the table.")
+    table_angle_deg: float | None = Field(
+        default=None, description="Angle between the front and the way to the table."
+    )
     against_wall: bool | None = None
 
 
-class SemanticsEvidence(_Out):
+class SemanticsEvidence(AgentOutput):
     """Objects plus the facts of each front check."""
 
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
@@ -93,17 +92,26 @@ def _front_facts(scene: Scene, objs: list[ObjectFacts]) -> list[FrontFacts]:
     for o in objs:
         f: dict[str, object] = {"id": o.id, "against_wall": o.id in against}
         if room is not None and room.walls:
-            w = min(room.walls, key=lambda w: abs(wall_gap(w, o)) - (0.1 if facing_side(o, outward(w)) != "side" else 0.0))
+            w = min(
+                room.walls,
+                key=lambda w: abs(wall_gap(w, o)) - (0.1 if facing_side(o, outward(w)) != "side" else 0.0),
+            )
             f.update(wall_id=w.id, wall_gap=round(wall_gap(w, o), 3), wall_facing=facing_side(o, outward(w)))
         if traits(o.category).seat and tables:
             t = min(tables, key=lambda t: t.polygon().distance(Point(o.center)))
             dist = float(t.polygon().distance(Point(o.center)))
             near = t.polygon().exterior.interpolate(t.polygon().exterior.project(Point(o.center)))
             way = np.array([near.x - o.center[0], near.y - o.center[1]])
-            if dist < 1e-6 or float(np.linalg.norm(way)) < 1e-6:  # chair centre over the table: aim at its centre
+            if (
+                dist < 1e-6 or float(np.linalg.norm(way)) < 1e-6
+            ):  # chair centre over the table: aim at its centre
                 way = np.subtract(t.center, o.center)
             norm = float(np.linalg.norm(way))
-            angle = math.degrees(math.acos(max(-1.0, min(1.0, float(o.front @ way) / norm)))) if norm > 1e-6 else 0.0
+            angle = (
+                math.degrees(math.acos(max(-1.0, min(1.0, float(o.front @ way) / norm))))
+                if norm > 1e-6
+                else 0.0
+            )
             f.update(table_id=t.id, table_distance=round(dist, 3), table_angle_deg=round(angle, 1))
         out.append(FrontFacts.model_validate(f))
     return out
@@ -127,16 +135,32 @@ def solve_semantics(evidence: SemanticsEvidence) -> SemanticsOutput:
         f = fronts.get(o.id)
         t = traits(o.category)
         ok, fix, note = True, 0, ""
-        if f is not None and t.against_wall and f.wall_facing == "front" and (f.wall_gap or 0.0) < WALL_FACING_REACH:
+        if (
+            f is not None
+            and t.against_wall
+            and f.wall_facing == "front"
+            and (f.wall_gap or 0.0) < WALL_FACING_REACH
+        ):
             ok, fix, note = False, 180, f"front faced {f.wall_id}; turned to face the room"
-        elif (f is not None and t.seat and f.table_angle_deg is not None and f.table_angle_deg > 90.0
-              and (f.table_distance or 0.0) < TABLE_REACH):
+        elif (
+            f is not None
+            and t.seat
+            and f.table_angle_deg is not None
+            and f.table_angle_deg > 90.0
+            and (f.table_distance or 0.0) < TABLE_REACH
+        ):
             ok, note = False, f"faces away from {f.table_id} by {f.table_angle_deg:.0f}°"
             if f.table_angle_deg > UNAMBIGUOUS_DEG and not f.against_wall:
                 fix, note = 180, note + "; turned to face it"
         items.append(
-            SemanticItem(object_id=o.id, category=normalize_category(o.category), description=_describe(o),
-                         front_ok=ok, yaw_fix_deg=fix, note=note)  # type: ignore[arg-type]
+            SemanticItem(
+                object_id=o.id,
+                category=normalize_category(o.category),
+                description=_describe(o),
+                front_ok=ok,
+                yaw_fix_deg=fix,
+                note=note,
+            )  # type: ignore[arg-type]
         )
     return SemanticsOutput(objects=items)
 
@@ -199,11 +223,14 @@ class SemanticsAgent(TaskAgent[SemanticsEvidence, SemanticsOutput]):
         scene = state.scene
         for item in output.objects:
             if item.yaw_fix_deg:
-                scene = replace_scene(scene, objects=rotate_subtree(scene, item.object_id, float(item.yaw_fix_deg)))
+                scene = replace_scene(
+                    scene, objects=rotate_subtree(scene, item.object_id, float(item.yaw_fix_deg))
+                )
         by_id = {i.object_id: i for i in output.objects}
         objects = [
             o.model_copy(update={"category": by_id[o.id].category, "description": by_id[o.id].description})
-            if o.id in by_id else o
+            if o.id in by_id
+            else o
             for o in scene.objects
         ]
         notes = [f"semantics: {i.object_id}: {i.note}" for i in output.objects if i.note]

@@ -52,8 +52,15 @@ async def structure_scene(
         assert isinstance(plan, StructuringPlan)
         agents = build_agents(plan, priors=priors, priors_dir=priors_dir)
         log.info("structuring_plan", agents=[a.name for a in agents], skipped=[s.name for s in plan.skipped])
-        await run_agents(agents, state, model, settings=settings, store=store, events=events,
-                         max_concurrency=max_concurrency)
+        await run_agents(
+            agents,
+            state,
+            model,
+            settings=settings,
+            store=store,
+            events=events,
+            max_concurrency=max_concurrency,
+        )
     except NodeFailedError as exc:
         cause: Any = exc.cause
         if isinstance(cause, AgentOutputError):

@@ -21,12 +21,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import ClassVar, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import SupportPriors, is_known, load_priors, traits
 from scenemosaic.agents._facts import (
     MAX_ITEMS,
+    AgentOutput,
     ObjectFacts,
     RoomFacts,
     object_facts,
@@ -37,7 +38,14 @@ from scenemosaic.agents._facts import (
 )
 from scenemosaic.scene import CEILING, FLOOR, Relation
 
-__all__ = ["ObjectHint", "SupportAgent", "SupportAssignment", "SupportEvidence", "SupportOutput", "supports_ok"]
+__all__ = [
+    "ObjectHint",
+    "SupportAgent",
+    "SupportAssignment",
+    "SupportEvidence",
+    "SupportOutput",
+    "supports_ok",
+]
 
 ON_TOP_TOLERANCE = 0.12
 """A child whose bottom is within this many metres below a parent's top still rests on it (sunk inputs)."""
@@ -53,11 +61,7 @@ LARGE_AREA = 0.6
 """Footprint area (m²) above which an unknown object is treated as floor furniture."""
 
 
-class _Out(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class SupportAssignment(_Out):
+class SupportAssignment(AgentOutput):
     """One object's support parent."""
 
     object_id: str = Field(max_length=64)
@@ -66,13 +70,13 @@ class SupportAssignment(_Out):
     reason: str = Field(default="", max_length=200)
 
 
-class SupportOutput(_Out):
+class SupportOutput(AgentOutput):
     """A support parent for every object."""
 
     assignments: list[SupportAssignment] = Field(max_length=MAX_ITEMS)
 
 
-class ObjectHint(_Out):
+class ObjectHint(AgentOutput):
     """Category prior of one object, given to the model as evidence."""
 
     id: str
@@ -81,7 +85,7 @@ class ObjectHint(_Out):
     can_contain: bool
 
 
-class SupportEvidence(_Out):
+class SupportEvidence(AgentOutput):
     """Objects with their boxes, the room, and per-object category priors."""
 
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
@@ -161,7 +165,9 @@ def solve_support(evidence: SupportEvidence, priors: SupportPriors) -> SupportOu
             continue
         hovering = best is not None and not best[2] and o.bottom - best[1].top > MOUNT_GAP
         if hovering and o.category in WALL_MOUNTABLE and wall is not None and wall[1] < WALL_MOUNT_REACH:
-            out.append(SupportAssignment(object_id=o.id, parent=wall[0], reason="hangs on the wall above furniture"))
+            out.append(
+                SupportAssignment(object_id=o.id, parent=wall[0], reason="hangs on the wall above furniture")
+            )
             continue
         if best is not None:
             _, p, inside = best
@@ -175,7 +181,9 @@ def solve_support(evidence: SupportEvidence, priors: SupportPriors) -> SupportOu
             )
             continue
         if wall is not None and o.bottom > MOUNT_MIN_HEIGHT and wall[1] < WALL_MOUNT_REACH:
-            out.append(SupportAssignment(object_id=o.id, parent=wall[0], reason="hangs near a wall, nothing below"))
+            out.append(
+                SupportAssignment(object_id=o.id, parent=wall[0], reason="hangs near a wall, nothing below")
+            )
             continue
         out.append(SupportAssignment(object_id=o.id, parent=FLOOR, reason="nothing below it"))
     return SupportOutput(assignments=out)
@@ -204,7 +212,9 @@ def check_parents(
             problems.append(f"object {child!r} is given more than one parent")
         seen.add(child)
         if parent not in anchors:
-            problems.append(f"parent {parent!r} of {child!r} is not 'floor', 'ceiling', a wall id or an object id")
+            problems.append(
+                f"parent {parent!r} of {child!r} is not 'floor', 'ceiling', a wall id or an object id"
+            )
             continue
         if parent == child:
             problems.append(f"object {child!r} cannot support itself")
@@ -261,5 +271,8 @@ class SupportAgent(TaskAgent[SupportEvidence, SupportOutput]):
     def apply(self, output: SupportOutput, state: SceneState) -> None:
         assigned = {a.object_id for a in output.assignments}
         kept = [r for r in state.scene.relations if not (r.is_support and r.child in assigned)]
-        new = [Relation(kind=a.kind, child=a.object_id, parent=a.parent, source=self.name) for a in output.assignments]
+        new = [
+            Relation(kind=a.kind, child=a.object_id, parent=a.parent, source=self.name)
+            for a in output.assignments
+        ]
         state.scene = replace_scene(state.scene, relations=kept + new)

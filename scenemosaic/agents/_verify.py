@@ -12,23 +12,26 @@ from __future__ import annotations
 
 from typing import ClassVar
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import traits
 from scenemosaic.agents._constraints import foreign_note_ids
-from scenemosaic.agents._facts import MAX_ITEMS, ObjectFacts, object_facts, parent_cycles, replace_scene
+from scenemosaic.agents._facts import (
+    MAX_ITEMS,
+    AgentOutput,
+    ObjectFacts,
+    object_facts,
+    parent_cycles,
+    replace_scene,
+)
 from scenemosaic.scene import CEILING, FLOOR, CrossUnitConstraint, Relation
 from scenemosaic.scene._tree import build_structure
 
 __all__ = ["ParentFix", "VerificationAgent", "VerificationEvidence", "VerificationOutput"]
 
 
-class _Out(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class ParentFix(_Out):
+class ParentFix(AgentOutput):
     """Give an object a (new) support parent."""
 
     object_id: str = Field(max_length=64)
@@ -36,7 +39,7 @@ class ParentFix(_Out):
     reason: str = Field(default="", max_length=200)
 
 
-class VerificationOutput(_Out):
+class VerificationOutput(AgentOutput):
     """Fixes to apply and problems to report."""
 
     fixes: list[ParentFix] = Field(default_factory=list, max_length=MAX_ITEMS)
@@ -44,12 +47,14 @@ class VerificationOutput(_Out):
     problems: list[str] = Field(default_factory=list, max_length=64)
 
 
-class VerificationEvidence(_Out):
+class VerificationEvidence(AgentOutput):
     """Objects with their parents, and the constraints."""
 
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
     constraints: list[CrossUnitConstraint] = Field(default_factory=list, max_length=64)
-    anchors: list[str] = Field(default_factory=list, max_length=MAX_ITEMS, description="Every valid anchor id.")
+    anchors: list[str] = Field(
+        default_factory=list, max_length=MAX_ITEMS, description="Every valid anchor id."
+    )
 
 
 def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
@@ -76,7 +81,9 @@ def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
                 bad.append(clause.anchor_id)
             if bad:
                 drop.append(c.id)
-                problems.append(f"constraint {c.id} dropped: {', '.join(bad)} not in the unit of {clause.anchor_id}")
+                problems.append(
+                    f"constraint {c.id} dropped: {', '.join(bad)} not in the unit of {clause.anchor_id}"
+                )
                 break
     return VerificationOutput(fixes=fixes, drop_constraints=drop, problems=problems)
 
@@ -85,8 +92,15 @@ class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
     """Checks completeness (one parent each, no cycles, valid constraints), fixes, and builds the tree."""
 
     name: ClassVar[str] = "verify"
-    depends_on: ClassVar[tuple[str, ...]] = ("room", "support", "containment", "walls", "semantics", "attributes",
-                                             "constraints")
+    depends_on: ClassVar[tuple[str, ...]] = (
+        "room",
+        "support",
+        "containment",
+        "walls",
+        "semantics",
+        "attributes",
+        "constraints",
+    )
     prompt: ClassVar[str] = "verify"
     output_type: ClassVar[type[BaseModel]] = VerificationOutput
 
@@ -128,11 +142,18 @@ class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
         scene = state.scene
         fixed = {f.object_id: f for f in output.fixes}
         rels = [r for r in scene.relations if not (r.is_support and r.child in fixed)]
-        rels += [Relation(kind="attach", child=f.object_id, parent=f.parent, source=self.name) for f in output.fixes]
+        rels += [
+            Relation(kind="attach", child=f.object_id, parent=f.parent, source=self.name)
+            for f in output.fixes
+        ]
         drop = set(output.drop_constraints)
         constraints = [c for c in scene.constraints if c.id not in drop]
         notes = [*scene.provenance.notes, *(f"verify: {p}" for p in output.problems)]
         notes += [f"verify: {f.object_id} -> {f.parent} ({f.reason})" for f in output.fixes]
-        scene = replace_scene(scene, relations=rels, constraints=constraints,
-                              provenance=scene.provenance.model_copy(update={"notes": notes}))
+        scene = replace_scene(
+            scene,
+            relations=rels,
+            constraints=constraints,
+            provenance=scene.provenance.model_copy(update={"notes": notes}),
+        )
         state.scene = replace_scene(scene, structure=build_structure(scene))

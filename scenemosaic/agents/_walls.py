@@ -13,12 +13,13 @@ import math
 from typing import ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
 from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import traits
 from scenemosaic.agents._facts import (
     MAX_ITEMS,
+    AgentOutput,
     ObjectFacts,
     RoomFacts,
     along_wall,
@@ -41,11 +42,7 @@ FACING_COS = math.cos(math.radians(30))
 """An object side 'faces' a wall when its normal is within 30° of the wall's outward normal."""
 
 
-class _Out(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class WallItem(_Out):
+class WallItem(AgentOutput):
     """One object's relation to its nearest wall."""
 
     object_id: str = Field(max_length=64)
@@ -56,13 +53,13 @@ class WallItem(_Out):
     mounted: bool = False
 
 
-class WallOutput(_Out):
+class WallOutput(AgentOutput):
     """Wall relations of the objects near walls."""
 
     items: list[WallItem] = Field(default_factory=list, max_length=MAX_ITEMS)
 
 
-class WallEvidence(_Out):
+class WallEvidence(AgentOutput):
     """Objects (with their current parents) and the room's walls."""
 
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
@@ -88,12 +85,13 @@ def solve_walls(evidence: WallEvidence) -> WallOutput:
     for o in evidence.objects:
         if traits(o.category).placement == "ceiling" or o.parent == "ceiling":
             continue
-        facing = [
-            w for w in room.walls
-            if -0.2 <= along_wall(w, o.center) <= wall_length(w) + 0.2
-        ] or list(room.walls)
+        facing = [w for w in room.walls if -0.2 <= along_wall(w, o.center) <= wall_length(w) + 0.2] or list(
+            room.walls
+        )
         # nearest wall; within 0.1 m of a tie, prefer the wall the object's back is turned to
-        w = min(facing, key=lambda w: abs(wall_gap(w, o)) - (0.1 if facing_side(o, outward(w)) == "back" else 0.0))
+        w = min(
+            facing, key=lambda w: abs(wall_gap(w, o)) - (0.1 if facing_side(o, outward(w)) == "back" else 0.0)
+        )
         gap = wall_gap(w, o)
         if gap > WALL_REACH:
             continue
@@ -101,8 +99,14 @@ def solve_walls(evidence: WallEvidence) -> WallOutput:
         mounted = o.parent == w.id
         flush = (not mounted) and o.parent in (FLOOR, None) and gap < FLUSH_GAP and side == "back"
         items.append(
-            WallItem(object_id=o.id, wall_id=w.id, distance=round(max(gap, 0.0), 3), facing=side,
-                     flush=flush, mounted=mounted)
+            WallItem(
+                object_id=o.id,
+                wall_id=w.id,
+                distance=round(max(gap, 0.0), 3),
+                facing=side,
+                flush=flush,
+                mounted=mounted,
+            )
         )
     return WallOutput(items=items)
 
@@ -131,13 +135,19 @@ class WallAttachmentAgent(TaskAgent[WallEvidence, WallOutput]):
             if i.object_id not in objects:
                 problems.append(f"object id {i.object_id!r} does not exist in this scene")
             if i.wall_id not in walls:
-                problems.append(f"wall id {i.wall_id!r} does not exist (walls: {', '.join(sorted(walls)) or 'none'})")
+                problems.append(
+                    f"wall id {i.wall_id!r} does not exist (walls: {', '.join(sorted(walls)) or 'none'})"
+                )
             if i.object_id in seen:
                 problems.append(f"object {i.object_id!r} is listed twice")
             seen.add(i.object_id)
             if i.flush and i.mounted:
                 problems.append(f"object {i.object_id!r} cannot be both flush on the floor and wall-mounted")
-            if i.mounted and i.object_id in objects and traits(scene.get(i.object_id).category).placement == "floor":
+            if (
+                i.mounted
+                and i.object_id in objects
+                and traits(scene.get(i.object_id).category).placement == "floor"
+            ):
                 problems.append(f"object {i.object_id!r} is floor furniture and cannot be wall-mounted")
         return problems
 
@@ -153,9 +163,23 @@ class WallAttachmentAgent(TaskAgent[WallEvidence, WallOutput]):
             rels.append(r)
         for i in output.items:
             if i.mounted:
-                rels.append(Relation(kind="attach", child=i.object_id, parent=i.wall_id, distance=i.distance,
-                                     source=self.name))
+                rels.append(
+                    Relation(
+                        kind="attach",
+                        child=i.object_id,
+                        parent=i.wall_id,
+                        distance=i.distance,
+                        source=self.name,
+                    )
+                )
             elif i.flush:
-                rels.append(Relation(kind="against", child=i.object_id, parent=i.wall_id, distance=i.distance,
-                                     source=self.name))
+                rels.append(
+                    Relation(
+                        kind="against",
+                        child=i.object_id,
+                        parent=i.wall_id,
+                        distance=i.distance,
+                        source=self.name,
+                    )
+                )
         state.scene = replace_scene(state.scene, relations=rels)
