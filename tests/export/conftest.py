@@ -3,24 +3,10 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import pytest
 
-from scenemosaic.importers import load_scene
 from scenemosaic.scene import AssetRef, Opening, Pose, Relation, Room, Scene, SceneObject, quat_multiply
-
-PHYSCENE_DINING = (
-    Path(__file__).resolve().parents[2].parent
-    / "shared/data/layouts/physcene/DiningRoom-19325_diningroom.json"
-)
-
-
-@pytest.fixture(scope="session")
-def dining_scene() -> Scene:
-    """The real PhyScene dining room (3D-FRONT vocabulary), 4 objects."""
-    assert PHYSCENE_DINING.is_file(), PHYSCENE_DINING
-    return load_scene(PHYSCENE_DINING)
 
 
 @pytest.fixture()
