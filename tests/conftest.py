@@ -1,4 +1,4 @@
-"""Shared test fixtures: the real data beside the repo, and an isolated cache."""
+"""Shared test fixtures: the real data beside the repo, a real room, and the network guard."""
 
 from __future__ import annotations
 
