@@ -272,3 +272,29 @@ def test_inspect_prints_the_whole_tree_units_and_constraints(demo_out: Path) -> 
     payload = json.loads(as_json.output)
     assert [u["anchor_id"] for u in payload["units"]] == [u.anchor_id for u in scene.structure.units]
     assert [c["id"] for c in payload["constraints"]] == [c.id for c in scene.constraints]
+
+
+async def test_cancelling_generate_keeps_the_report_and_the_last_good_scene(tmp_path: Path, shared_data: Path) -> None:
+    import asyncio
+
+    from scenemosaic import agenerate
+    from scenemosaic.exceptions import RunCancelledError
+
+    asked = asyncio.Event()
+
+    async def never_answers(messages: list[Message], context: RequestContext) -> BaseModel:
+        asked.set()
+        await asyncio.Event().wait()  # a model that hangs until the run is cancelled
+        raise AssertionError("unreachable")
+
+    source = shared_data / "layouts" / "physcene" / DINING
+    model = FunctionModel(never_answers, vision=False)
+    task = asyncio.create_task(agenerate(source, tmp_path, GenerateConfig(model=model)))
+    await asyncio.wait_for(asked.wait(), timeout=30)
+    task.cancel()
+    with pytest.raises((asyncio.CancelledError, RunCancelledError)):
+        await task
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["status"] == "failed"
+    assert [s["name"] for s in report["stages"] if s["status"] == "failed"] == ["structure"]
+    assert len(read_scene(tmp_path / "base").objects) == 6  # the imported scene is kept
