@@ -15,20 +15,18 @@ Room geometry:
 
 from __future__ import annotations
 
-import importlib
 import itertools
-from collections.abc import Callable
 from pathlib import Path
-from typing import Any, cast
+from typing import cast
 
 import numpy as np
 import shapely
 import structlog
 import trimesh
 
+from scenemosaic.assets import object_mesh
 from scenemosaic.exceptions import SceneValidationError
 from scenemosaic.scene import Room, SceneObject, Wall
-from scenemosaic.scene._geometry import FloatArray
 
 __all__ = [
     "CEILING_THICKNESS",
@@ -48,36 +46,13 @@ FLOOR_THICKNESS = 0.05
 CEILING_THICKNESS = 0.05
 """Thickness of the exported ceiling slab, metres (its bottom face is at the ceiling height)."""
 
-MeshFn = Callable[[SceneObject, Path | None], trimesh.Trimesh]
-
-
-def _assets_object_mesh() -> MeshFn | None:
-    """``scenemosaic.assets.object_mesh`` when that package provides it, else ``None``."""
-    try:
-        module = importlib.import_module("scenemosaic.assets")
-    except ImportError:  # pragma: no cover - the package always exists
-        return None
-    fn: Any = getattr(module, "object_mesh", None)
-    return cast(MeshFn, fn) if callable(fn) else None
-
-
-def _box_mesh(size: FloatArray) -> trimesh.Trimesh:
-    box = cast(trimesh.Trimesh, trimesh.creation.box(extents=np.asarray(size, dtype=np.float64)))
-    box.apply_translation([0.0, 0.0, float(size[2]) / 2.0])
-    return box
-
-
 def object_local_mesh(obj: SceneObject, base_dir: Path | None = None) -> trimesh.Trimesh:
     """The object's visual mesh in its local frame, scaled so its bounds equal ``obj.size``.
 
-    Origin at the bottom centre of the footprint, +Z up, front along local -Y. Delegates to
-    ``scenemosaic.assets.object_mesh``; while that is unavailable, a box of ``obj.size``.
+    Origin at the bottom centre of the footprint, +Z up, front along local -Y; a copy of
+    :func:`scenemosaic.assets.object_mesh`, safe to transform.
     """
-    fn = _assets_object_mesh()
-    if fn is None:
-        return _box_mesh(obj.size)
-    mesh = fn(obj, base_dir)
-    return mesh.copy()
+    return object_mesh(obj, base_dir).copy()
 
 
 def object_world_mesh(obj: SceneObject, base_dir: Path | None = None) -> trimesh.Trimesh:

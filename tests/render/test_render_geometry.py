@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
-import scenemosaic.assets
+import scenemosaic.render._geometry
 from scenemosaic.render import ceiling_mesh, floor_mesh, object_local_mesh, object_world_mesh, wall_mesh
 from scenemosaic.scene import AssetRef, Opening, Pose, Room, SceneObject
 
@@ -25,7 +25,7 @@ def test_local_mesh_fills_the_object_size() -> None:
     np.testing.assert_allclose(world.bounds, [[0.85, 1.6, 0.5], [1.15, 2.4, 0.7]], atol=1e-9)
 
 
-def test_assets_object_mesh_is_used_when_available(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_assets_object_mesh_is_what_gets_drawn(monkeypatch: pytest.MonkeyPatch) -> None:
     calls: list[tuple[str, Path | None]] = []
 
     def fake(obj: SceneObject, base_dir: Path | None = None) -> trimesh.Trimesh:
@@ -33,10 +33,10 @@ def test_assets_object_mesh_is_used_when_available(monkeypatch: pytest.MonkeyPat
         cone = trimesh.creation.cone(radius=float(min(obj.size[:2])) / 2, height=float(obj.size[2]))
         return cone
 
-    monkeypatch.setattr(scenemosaic.assets, "object_mesh", fake, raising=False)
+    monkeypatch.setattr(scenemosaic.render._geometry, "object_mesh", fake)
     mesh = object_local_mesh(_obj(), Path("/scenes/x"))
     assert calls == [("crate", Path("/scenes/x"))]
-    assert len(mesh.faces) > 12  # the cone, not the box placeholder
+    assert len(mesh.faces) > 12  # the cone, not a box
 
 
 def test_room_slabs_on_an_l_shaped_floor() -> None:
