@@ -141,7 +141,7 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
         asking = SolverFallbackModel(asking)
     try:
         run.scene = await structure_scene(
-            run.scene, asking, seed=run.config.seed, priors_dir=run.config.priors_dir
+            run.scene, asking, seed=run.config.seed, priors_dir=run.config.priors_dir, base_dir=run.base_dir
         )
     finally:
         if isinstance(asking, SolverFallbackModel):

@@ -30,6 +30,7 @@ from pydantic import BaseModel, Field
 from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import PRIORS_ENV, normalize_category, traits
 from scenemosaic.agents._facts import MAX_ITEMS, AgentOutput, ObjectFacts, object_facts, replace_scene
+from scenemosaic.agents._views import FloorPlanImages
 from scenemosaic.scene import ConstraintClause, CrossUnitConstraint
 
 __all__ = [
@@ -351,7 +352,7 @@ def _weak(categories: set[str]) -> bool:
     return any(categories & a and categories & b and not (categories - a - b) for a, b in WEAK_PAIRS)
 
 
-class ConstraintsAgent(TaskAgent[ConstraintEvidence, ConstraintsOutput]):
+class ConstraintsAgent(FloorPlanImages, TaskAgent[ConstraintEvidence, ConstraintsOutput]):
     """Finds the strong functional relations spanning units and splits each into two clauses."""
 
     name: ClassVar[str] = "constraints"

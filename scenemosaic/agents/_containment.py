@@ -16,6 +16,7 @@ from scenemosaic.agents._base import SceneState, TaskAgent
 from scenemosaic.agents._categories import SupportPriors, load_priors, traits
 from scenemosaic.agents._facts import MAX_ITEMS, AgentOutput, ObjectFacts, object_facts, replace_scene
 from scenemosaic.agents._support import check_parents, floor_only
+from scenemosaic.agents._views import FloorPlanImages
 from scenemosaic.scene import Relation
 
 __all__ = ["ContainedItem", "ContainerFacts", "ContainmentAgent", "ContainmentEvidence", "ContainmentOutput"]
@@ -88,7 +89,7 @@ def solve_containment(evidence: ContainmentEvidence, priors: SupportPriors) -> C
     return ContainmentOutput(items=items)
 
 
-class ContainmentAgent(TaskAgent[ContainmentEvidence, ContainmentOutput]):
+class ContainmentAgent(FloorPlanImages, TaskAgent[ContainmentEvidence, ContainmentOutput]):
     """Finds objects inside containers and the side each container opens to."""
 
     name: ClassVar[str] = "containment"

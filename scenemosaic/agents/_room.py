@@ -27,6 +27,7 @@ from scenemosaic.agents._facts import (
     replace_scene,
     room_facts,
 )
+from scenemosaic.agents._views import FloorPlanImages
 from scenemosaic.scene import Room, Wall
 
 __all__ = ["ROOM_MARGIN", "RoomAgent", "RoomEvidence", "RoomOutput", "WallSpec"]
@@ -164,7 +165,7 @@ def solve_room(evidence: RoomEvidence) -> RoomOutput:
     )
 
 
-class RoomAgent(TaskAgent[RoomEvidence, RoomOutput]):
+class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
     """Recovers (or completes) the room boundary, the walls and the ceiling height."""
 
     name: ClassVar[str] = "room"

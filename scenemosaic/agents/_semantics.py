@@ -32,6 +32,7 @@ from scenemosaic.agents._facts import (
     room_facts,
     wall_gap,
 )
+from scenemosaic.agents._views import FloorPlanImages
 from scenemosaic.agents._walls import facing_side
 from scenemosaic.scene import Pose, Scene, SceneObject, quat_from_yaw, quat_multiply
 
@@ -192,7 +193,7 @@ def rotate_subtree(scene: Scene, object_id: str, yaw_deg: float) -> list[SceneOb
     return out
 
 
-class SemanticsAgent(TaskAgent[SemanticsEvidence, SemanticsOutput]):
+class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutput]):
     """Normalizes categories, writes descriptions and checks each object's front direction."""
 
     name: ClassVar[str] = "semantics"

@@ -11,6 +11,7 @@ from scenemosaic.agents._base import SceneState
 from scenemosaic.agents._categories import load_priors
 from scenemosaic.agents._manager import ManagerAgent, StructuringPlan, build_agents
 from scenemosaic.agents._node import run_agents
+from scenemosaic.agents._views import BASE_DIR_ARTIFACT
 from scenemosaic.dag import EventListener, RunStore
 from scenemosaic.exceptions import AgentOutputError, NodeFailedError
 from scenemosaic.models import Model, ModelSettings, RulesModel
@@ -31,6 +32,7 @@ async def structure_scene(
     priors_dir: str | Path | None = None,
     events: EventListener | None = None,
     max_concurrency: int | None = 8,
+    base_dir: str | Path | None = None,
 ) -> Scene:
     """Structure ``scene``: room, parents, containment, walls, semantics, attributes, constraints, tree.
 
@@ -42,10 +44,14 @@ async def structure_scene(
 
     Raises :class:`~scenemosaic.exceptions.AgentOutputError` when an agent's output stays
     inconsistent with the scene after its repairs (other run errors pass through unchanged).
+    ``base_dir`` is the folder relative mesh paths start from; vision models get floor plans
+    drawn with the real meshes when it is given.
     """
     model = model if model is not None else RulesModel()
     priors = load_priors(priors_dir)
     state = SceneState(scene=scene.model_copy(deep=True), seed=seed)
+    if base_dir is not None:
+        state.artifacts[BASE_DIR_ARTIFACT] = Path(base_dir)
     try:
         await run_agents([ManagerAgent(priors)], state, model, settings=settings, store=store, events=events)
         plan = state.outputs["manager"]

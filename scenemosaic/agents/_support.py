@@ -36,6 +36,7 @@ from scenemosaic.agents._facts import (
     room_facts,
     wall_gap,
 )
+from scenemosaic.agents._views import FloorPlanImages
 from scenemosaic.scene import CEILING, FLOOR, Relation
 
 __all__ = [
@@ -237,7 +238,7 @@ def check_parents(
     return problems
 
 
-class SupportAgent(TaskAgent[SupportEvidence, SupportOutput]):
+class SupportAgent(FloorPlanImages, TaskAgent[SupportEvidence, SupportOutput]):
     """Gives every object exactly one support parent (floor, ceiling, a wall or an object)."""
 
     name: ClassVar[str] = "support"

@@ -30,6 +30,7 @@ from scenemosaic.agents._facts import (
     wall_gap,
     wall_length,
 )
+from scenemosaic.agents._views import FloorPlanImages
 from scenemosaic.scene import FLOOR, Relation
 
 __all__ = ["FLUSH_GAP", "WallAttachmentAgent", "WallEvidence", "WallItem", "WallOutput", "facing_side"]
@@ -111,7 +112,7 @@ def solve_walls(evidence: WallEvidence) -> WallOutput:
     return WallOutput(items=items)
 
 
-class WallAttachmentAgent(TaskAgent[WallEvidence, WallOutput]):
+class WallAttachmentAgent(FloorPlanImages, TaskAgent[WallEvidence, WallOutput]):
     """Reports which objects are flush against or mounted on which wall, with their distances."""
 
     name: ClassVar[str] = "walls"
