@@ -359,7 +359,7 @@ class OpenAIChatModel(CompletionModel):
             if has_images and _IMAGE_REJECTED.search(message):
                 raise ModelConfigError(
                     f"{self.name} at {self.base_url} does not accept images ({message!r}); "
-                    "turn the `vision` setting off (vision=False, or SCENEMOSAIC_VISION=0)"
+                    "turn the `vision` setting off (vision=False, --no-vision on the command line, or SCENEMOSAIC_VISION=0)"
                 )
             if "response_format" in body and "response_format" in message:
                 raise ModelConfigError(
