@@ -163,20 +163,10 @@ class WallAttachmentAgent(FloorPlanImages, TaskAgent[WallEvidence, WallOutput]):
                 continue
             rels.append(r)
         for i in output.items:
-            if i.mounted:
+            if i.mounted or i.flush:  # mounted: the wall supports it; flush: it only stands against it
                 rels.append(
                     Relation(
-                        kind="attach",
-                        child=i.object_id,
-                        parent=i.wall_id,
-                        distance=i.distance,
-                        source=self.name,
-                    )
-                )
-            elif i.flush:
-                rels.append(
-                    Relation(
-                        kind="against",
+                        kind="attach" if i.mounted else "against",
                         child=i.object_id,
                         parent=i.wall_id,
                         distance=i.distance,
