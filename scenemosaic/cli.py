@@ -145,16 +145,18 @@ def demo(
 
 @app.command()
 def inspect(
-    scene_path: Annotated[Path, typer.Argument(metavar="SCENE", help="A scene.json or a folder holding one.")],
+    scene_path: Annotated[
+        Path, typer.Argument(metavar="SCENE", help="A scene folder or scene.json, or any input generate reads.")
+    ],
     as_json: Annotated[bool, typer.Option("--json", help="Print the units and constraints as JSON.")] = False,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Show a scene's tree: anchors, their children, units and cross-unit constraints."""
-    from scenemosaic.importers import read_scene
+    from scenemosaic.importers import load_scene
     from scenemosaic.scene import format_tree
 
     try:
-        scene = read_scene(scene_path)
+        scene = load_scene(scene_path)
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {exc}")
         raise typer.Exit(code=2) from exc

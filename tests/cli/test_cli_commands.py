@@ -40,3 +40,19 @@ def test_unknown_log_level_rejected(tmp_path: Path) -> None:
     bad = runner.invoke(app, ["inspect", str(tmp_path), "--log-level", "loud"])
     assert bad.exit_code == 2
     assert "unknown log level" in bad.output
+
+
+def test_inspect_reads_any_input_format(shared_data: Path) -> None:
+    raw = shared_data / "layouts" / "physcene" / "DiningRoom-19325_diningroom.json"
+    result = runner.invoke(app, ["inspect", str(raw)])
+    assert result.exit_code == 0, result.output
+    # an unstructured input: the room is recovered, nothing is parented yet
+    assert "unparented:" in result.output and "dining_table_0" in result.output
+
+
+def test_inspect_bad_file_is_a_clear_error(tmp_path: Path) -> None:
+    bad = tmp_path / "scene.json"
+    bad.write_text('{"objects": [')
+    result = runner.invoke(app, ["inspect", str(bad)])
+    assert result.exit_code == 2
+    assert "scene.json" in result.output
