@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import asyncio
+import functools
 import time
 import zlib
+from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
 
@@ -80,6 +82,7 @@ async def stabilize_scene(
     hulls: HullInput | None = None,
     sim: SimSettings | None = None,
     settle: SettleSettings | None = None,
+    executor: Executor | None = None,
 ) -> tuple[Scene, StabilizationReport]:
     """Make a scene physically valid, unit by unit, top-down through the support tree.
 
@@ -91,6 +94,10 @@ async def stabilize_scene(
 
     ``hulls`` optionally gives precomputed convex pieces per object id (local frame, scaled),
     which win over the assets layer; ``hull_cache`` is passed to ``scenemosaic.assets.object_hulls``.
+
+    ``executor`` runs the units instead of the default worker threads, e.g. a
+    ``ProcessPoolExecutor`` (spawn context) shared by a batch of scenes, so the pure-Python
+    parts of settling (snapping, separation) also run in parallel. Results are identical.
 
     An object with a non-finite pose (NaN, inf) raises
     :class:`~scenemosaic.exceptions.PhysicsError` naming it before any work starts.
@@ -110,17 +117,21 @@ async def stabilize_scene(
         level = [u for u in units if u.depth == depth]
         snapshot = out.model_copy(deep=True)  # units of one level read the same state
         neighbours = list(done)
+        loop = asyncio.get_running_loop()
         results: list[tuple[dict[str, Pose], UnitReport]] = await asyncio.gather(
             *(
-                asyncio.to_thread(
-                    settle_unit,
-                    snapshot,
-                    u,
-                    shapes,
-                    neighbours,
-                    sim=sim,
-                    settle=settle,
-                    seed=_unit_seed(seed, u),
+                loop.run_in_executor(
+                    executor,
+                    functools.partial(
+                        settle_unit,
+                        snapshot,
+                        u,
+                        shapes,
+                        neighbours,
+                        sim=sim,
+                        settle=settle,
+                        seed=_unit_seed(seed, u),
+                    ),
                 )
                 for u in level
             )
