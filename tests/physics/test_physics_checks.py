@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -92,7 +93,8 @@ async def test_wall_and_ceiling_units_settle_toward_their_anchor() -> None:
     assert val.ok and val.support_gaps_m["painting"] == pytest.approx(0.0, abs=0.005)
 
 
-async def test_blow_up_falls_back_and_rolls_back() -> None:
+async def test_blow_up_falls_back_and_rolls_back(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs unstable states to ./MUJOCO_LOG.TXT
     a = _box("a", (0.5, 0.5, 0.5), (1.0, 1.0, 0.3))
     b = _box("b", (0.5, 0.5, 0.5), (1.3, 1.0, 0.1))  # overlapping a
     scene = _scene([a, b], {"a": "floor", "b": "floor"})
@@ -169,7 +171,8 @@ async def test_ceiling_gravity_is_up_even_from_the_floor() -> None:
     assert report.units[0].anchor_kind == "ceiling"
 
 
-def test_non_finite_state_is_a_blow_up() -> None:
+def test_non_finite_state_is_a_blow_up(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs unstable states to ./MUJOCO_LOG.TXT
     """NaN velocities in the simulator end the run and name the body, instead of propagating."""
     from scenemosaic.physics._hulls import object_shape
     from scenemosaic.physics._simulate import run_until_settled
@@ -187,7 +190,8 @@ def test_non_finite_state_is_a_blow_up() -> None:
     assert outcome.blown_up == ["b"] and not outcome.converged
 
 
-async def test_blow_up_recovers_with_the_smaller_step(monkeypatch: pytest.MonkeyPatch) -> None:
+async def test_blow_up_recovers_with_the_smaller_step(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs unstable states to ./MUJOCO_LOG.TXT
     """The first fallback is really used: a blow-up at the default step is settled at half the step."""
     import scenemosaic.physics._settle as settle_mod
 
