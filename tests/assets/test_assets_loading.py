@@ -154,33 +154,19 @@ def test_garbage_bytes(tmp_path: Path, suffix: str) -> None:
     _assert_names(exc, path)
 
 
-def test_zero_area_mesh(tmp_path: Path) -> None:
-    path = tmp_path / "flat.obj"
-    path.write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\n")
-    with pytest.raises(AssetError) as exc:
-        load_mesh(path)
-    _assert_names(exc, path)
-
-
-def test_collinear_faces_in_3d(tmp_path: Path) -> None:
-    path = tmp_path / "needles.obj"
-    path.write_text("v 0 0 0\nv 1 1 1\nv 2 2 2\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 4 4 5\n")
-    with pytest.raises(AssetError) as exc:
-        load_mesh(path)
-    _assert_names(exc, path)
-
-
-def test_no_faces(tmp_path: Path) -> None:
-    path = tmp_path / "points.obj"
-    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 1\n")
-    with pytest.raises(AssetError) as exc:
-        load_mesh(path)
-    _assert_names(exc, path)
-
-
-def test_nan_vertices(tmp_path: Path) -> None:
-    path = tmp_path / "nan.obj"
-    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv nan 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\n")
+@pytest.mark.parametrize(
+    ("name", "obj_text"),
+    [
+        ("flat.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\n"),  # zero area
+        ("needles.obj", "v 0 0 0\nv 1 1 1\nv 2 2 2\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 4 4 5\n"),  # collinear in 3D
+        ("points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 1\n"),  # no faces
+        ("nan.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv nan 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\n"),  # NaN vertex
+    ],
+    ids=["zero_area", "collinear_faces", "no_faces", "nan_vertices"],
+)
+def test_degenerate_mesh_is_an_error_naming_the_file(tmp_path: Path, name: str, obj_text: str) -> None:
+    path = tmp_path / name
+    path.write_text(obj_text)
     with pytest.raises(AssetError) as exc:
         load_mesh(path)
     _assert_names(exc, path)
