@@ -4,9 +4,6 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 OUT ?= out/demo
-# Real ProcTHOR placement priors when the shared data sits beside the clone; the agents fall back to a bundled table.
-PRIORS := $(wildcard ../shared/data/priors/procthor)
-export SCENEMOSAIC_PRIORS_DIR ?= $(abspath $(PRIORS))
 
 .PHONY: demo test lint typecheck bench clean
 

@@ -24,8 +24,8 @@ import trimesh
 from scenemosaic.assets import CoacdParams, HullCache, load_mesh, shutdown_workers
 
 KING_BED = (
-    Path(__file__).resolve().parents[2]
-    / "shared/data/sam3d_objects/generated_assets/sdf/king_bed_1761578419/king_bed.gltf"
+    Path(__file__).resolve().parents[1]
+    / "data/sam3d_objects/generated_assets/sdf/king_bed_1761578419/king_bed.gltf"
 )
 WARM_REPEATS = 7
 

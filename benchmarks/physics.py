@@ -18,8 +18,7 @@ import mujoco
 import numpy as np
 import structlog
 
-from scenemosaic.agents import structure_scene
-from scenemosaic.importers import load_scene
+from scenemosaic.exchange import load_scene
 from scenemosaic.physics import (
     StabilizationReport,
     check_collisions,
@@ -30,10 +29,11 @@ from scenemosaic.physics._hulls import object_shape
 from scenemosaic.physics._settings import SimSettings
 from scenemosaic.physics._world import WorldBuilder
 from scenemosaic.scene import AssetRef, Pose, Relation, Room, Scene, SceneObject
+from scenemosaic.structure import structure_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
-ROOM16 = ROOT.parent / "shared" / "data" / "layouts" / "physcene" / "LivingDiningRoom-124277_livingroom.json"
+ROOM16 = ROOT / "data" / "layouts" / "physcene" / "LivingDiningRoom-124277_livingroom.json"
 CATEGORIES = [
     ("armchair", (0.8, 0.8, 0.9)),
     ("coffee_table", (1.0, 0.6, 0.45)),

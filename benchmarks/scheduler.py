@@ -25,9 +25,9 @@ import networkx as nx
 import structlog
 from pydantic import BaseModel
 
-from scenemosaic.dag import Node, NodeContext, Runner, TaskGraph, UsageTracker
+from scenemosaic.dag import Node, NodeContext, Runner, TaskGraph
 from scenemosaic.dag._graph import NodeFn
-from scenemosaic.models import InstrumentedModel
+from scenemosaic.models import InstrumentedModel, UsageTracker
 from scenemosaic.models._base import Message, Model, ModelSettings, OutputT, RequestContext, Usage
 
 STRUCTURING: dict[str, tuple[str, ...]] = {

@@ -1,67 +1,57 @@
-"""Write your own task agent and run it next to the built-in ones, offline.
-
-A task agent declares its evidence, its output type, a rule solver (the offline path) and how
-its output changes the scene. The same agent talks to a real VLM when you pass an
-``openai:...`` model instead of the rules model.
-
-Run: ``python examples/custom_agent.py``
-"""
+"""A one-file agent plugin run by ``generate`` beside the built-in agents: ``python examples/custom_agent.py
+[ROOM.json] [OUT]`` writes ``OUT/base/scene.json`` with ``metadata.crowding``. A real VLM gets ``PROMPT``."""
 
 from __future__ import annotations
 
-import asyncio
+import sys
+from pathlib import Path
 from typing import ClassVar
 
 from pydantic import BaseModel, Field
+from shapely.geometry import Polygon
 
 import scenemosaic as sm
 
+PROMPT = """You judge how crowded a room's floor is. The evidence lists each object's id and
+footprint area in square metres, and the floor area. Reply with the covered fraction
+(sum of footprints / floor area) and the ids of the three largest objects.
+"""
+
 
 class Footprints(BaseModel):
-    """Evidence: each object's id, category and footprint area in square metres."""
+    floor_m2: float
+    objects: dict[str, float]
 
-    objects: list[tuple[str, str, float]]
 
-
-class CrowdingReport(BaseModel):
-    """Output: the share of the floor covered by furniture and the largest objects."""
-
+class Crowding(sm.AgentOutput):
     covered_fraction: float = Field(ge=0)
     largest: list[str] = Field(max_length=3)
 
 
-class CrowdingAgent(sm.TaskAgent[Footprints, CrowdingReport]):
-    """Measures how crowded the floor is; a plugin needs nothing but this class."""
-
+class CrowdingAgent(sm.TaskAgent[Footprints, Crowding]):
     name: ClassVar[str] = "crowding"
-    prompt: ClassVar[str] = "verify"  # any prompt file under prompts/ (write your own for a real VLM)
-    output_type: ClassVar[type[BaseModel]] = CrowdingReport
+    depends_on: ClassVar[tuple[str, ...]] = ("room",)  # needs the recovered floor
+    prompt: ClassVar[str] = PROMPT
+    output_type: ClassVar[type[BaseModel]] = Crowding
 
     def gather(self, state: sm.SceneState) -> Footprints:
-        objs = state.scene.objects
-        return Footprints(objects=[(o.id, o.category, float(o.size[0] * o.size[1])) for o in objs])
+        floor = Polygon(state.scene.room.floor).area if state.scene.room else 1.0
+        return Footprints(floor_m2=floor, objects={o.id: float(o.size[0] * o.size[1]) for o in state.scene.objects})
 
-    def solve(self, evidence: Footprints) -> CrowdingReport:
-        room_area = 4.5 * 4.0
-        total = sum(area for _, _, area in evidence.objects)
-        largest = sorted(evidence.objects, key=lambda item: -item[2])[:3]
-        return CrowdingReport(covered_fraction=round(total / room_area, 3), largest=[oid for oid, _, _ in largest])
+    def solve(self, evidence: Footprints) -> Crowding:
+        largest = sorted(evidence.objects, key=lambda oid: -evidence.objects[oid])[:3]
+        return Crowding(covered_fraction=round(sum(evidence.objects.values()) / evidence.floor_m2, 3), largest=largest)
 
-    def check(self, output: CrowdingReport, state: sm.SceneState) -> list[str]:
+    def check(self, output: Crowding, state: sm.SceneState) -> list[str]:
         known = {o.id for o in state.scene.objects}
-        return [f"unknown object id {oid!r}" for oid in output.largest if oid not in known]
+        return [f"unknown object id {oid!r}; use ids from the evidence" for oid in output.largest if oid not in known]
 
-    def apply(self, output: CrowdingReport, state: sm.SceneState) -> None:
+    def apply(self, output: Crowding, state: sm.SceneState) -> None:
         state.scene.metadata["crowding"] = output.model_dump()
 
 
-async def main() -> None:
-    state = sm.SceneState(scene=sm.demo_scene())
-    outputs = await sm.run_agents([CrowdingAgent()], state, sm.RulesModel())
-    report = outputs["crowding"]
-    assert isinstance(report, CrowdingReport)
-    print(f"floor covered: {report.covered_fraction:.0%}; largest: {', '.join(report.largest)}")
-
-
 if __name__ == "__main__":
-    asyncio.run(main())
+    room = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parents[1] / "data/layouts/physcene/DiningRoom-19325_diningroom.json"
+    out = Path(sys.argv[2]) if len(sys.argv) > 2 else Path("out/custom_agent")
+    result = sm.generate(room, out, sm.GenerateConfig(agents=[*sm.DEFAULT_AGENTS, CrowdingAgent()]))
+    print("crowding:", result.scene.metadata["crowding"])

@@ -1,7 +1,7 @@
 """Turn a real 3D-FRONT layout into a structured, stabilized scene from Python.
 
 Run: ``python examples/generate_room.py [LAYOUT.json] [OUT_DIR]``
-(default: the 6-object dining room from ``../shared/data``).
+(default: the 6-object dining room shipped in ``data/``).
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from pathlib import Path
 
 import scenemosaic as sm
 
-DEFAULT = Path(__file__).resolve().parents[2] / "shared/data/layouts/physcene/DiningRoom-19325_diningroom.json"
+DEFAULT = Path(__file__).resolve().parents[1] / "data/layouts/physcene/DiningRoom-19325_diningroom.json"
 
 
 def main() -> None:

@@ -1,248 +1,184 @@
 """scenemosaic: simulation-ready indoor scenes and diverse layout variants from one reference scene.
 
-The public API in one place; sub-packages hold the rest::
+The names a notebook needs, in one place::
 
     import scenemosaic as sm
 
-    scene = sm.load_scene("room.json")                    # 3D-FRONT, ProcTHOR, SAM3D or native
+    scene = sm.load_scene("room.json")                    # 3D-FRONT, ProcTHOR, SAM3D, SceneEval or native
     result = sm.generate("room.json", "out/room")         # import → structure → stabilize → export
     print(sm.format_tree(result.scene))
 
-Sub-packages: ``scene`` (model, io), ``importers``, ``assets``, ``models`` (VLM seam), ``dag``
-(scheduler), ``agents`` (task agents), ``physics``, ``render``, ``export``.
+Everything else lives in the sub-packages, which follow the pipeline: ``scene`` (model, tree,
+categories, rooms), ``assets`` (meshes, CoACD hulls), ``render``, ``models`` (the VLM seam,
+usage), ``dag`` (task-graph runtime), ``agents`` (the task-agent framework), ``structure``
+(the structuring agents), ``physics``, ``exchange`` (every file format), ``pipeline``.
+
+Names are loaded on first use, so ``import scenemosaic`` stays light (no MuJoCo, no CoACD).
 """
 
-from scenemosaic._demo import demo_scene
-from scenemosaic._logging import configure_logging
-from scenemosaic._pipeline import GenerateConfig, GenerateResult, agenerate, generate
-from scenemosaic.agents import (
-    ManagerAgent,
-    SceneState,
-    StructuringPlan,
-    TaskAgent,
-    add_agent_nodes,
-    agent_node,
-    plan_structuring,
-    run_agents,
-    structure_scene,
-)
-from scenemosaic.assets import (
-    CanonicalMesh,
-    CoacdParams,
-    HullCache,
-    load_mesh,
-    object_hulls,
-    object_mesh,
-    procedural_mesh,
-)
-from scenemosaic.dag import (
-    CachePolicy,
-    FileRunStore,
-    MemoryRunStore,
-    Node,
-    NodeContext,
-    NodePolicy,
-    RetryPolicy,
-    RunEvent,
-    Runner,
-    RunStore,
-    TaskGraph,
-    TimeoutPolicy,
-    UsageLimits,
-    UsageTracker,
-    run_graph,
-)
-from scenemosaic.exceptions import (
-    AgentOutputError,
-    AssetError,
-    GraphChangedError,
-    GraphDefinitionError,
-    ImportFormatError,
-    ModelConfigError,
-    ModelError,
-    ModelHTTPError,
-    NodeFailedError,
-    NodeTimeoutError,
-    OutputValidationError,
-    PhysicsError,
-    ReplayMissError,
-    RunCancelledError,
-    RunError,
-    SceneMosaicError,
-    SceneValidationError,
-    UsageError,
-    UsageLimitExceeded,
-)
-from scenemosaic.export import export_glb, export_mjcf, export_sceneeval
-from scenemosaic.importers import detect_format, load_scene, load_scenes, read_scene, save_scene
-from scenemosaic.models import (
-    FunctionModel,
-    ImagePart,
-    InstrumentedModel,
-    LimitedModel,
-    Message,
-    Model,
-    ModelSettings,
-    OpenAIChatModel,
-    ReplayModel,
-    RequestContext,
-    RulesModel,
-    TextPart,
-    Usage,
-    parse_model,
-)
-from scenemosaic.physics import (
-    COLLISION_TOLERANCE_M,
-    CollisionReport,
-    OutOfBoundsReport,
-    StabilizationReport,
-    ValidationReport,
-    check_collisions,
-    check_out_of_bounds,
-    stabilize_scene,
-    validate_scene,
-)
-from scenemosaic.render import OrthoView, render_topdown, render_view
-from scenemosaic.scene import (
-    CEILING,
-    FLOOR,
-    AssetRef,
-    ConstraintClause,
-    CrossUnitConstraint,
-    LocalUnit,
-    Opening,
-    Pose,
-    Provenance,
-    Relation,
-    Room,
-    Scene,
-    SceneObject,
-    SceneStructure,
-    SimAttributes,
-    Wall,
-    build_structure,
-    format_tree,
-    unit_layout,
-    with_unit_layout,
-)
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
-import structlog as _structlog
-
-if not _structlog.is_configured():  # structlog's own default prints debug lines to stdout; respect any user setup
-    configure_logging("warning")
+# public name -> the sub-package that defines it
+_EXPORTS: dict[str, str] = {
+    # run the pipeline
+    "generate": "scenemosaic.pipeline",
+    "agenerate": "scenemosaic.pipeline",
+    "GenerateConfig": "scenemosaic.pipeline",
+    "GenerateResult": "scenemosaic.pipeline",
+    "demo_scene": "scenemosaic.pipeline",
+    # read and write scenes
+    "load_scene": "scenemosaic.exchange",
+    "load_scenes": "scenemosaic.exchange",
+    "save_scene": "scenemosaic.exchange",
+    # the scene
+    "Scene": "scenemosaic.scene",
+    "SceneObject": "scenemosaic.scene",
+    "Pose": "scenemosaic.scene",
+    "Room": "scenemosaic.scene",
+    "Relation": "scenemosaic.scene",
+    "LocalUnit": "scenemosaic.scene",
+    "CrossUnitConstraint": "scenemosaic.scene",
+    "format_tree": "scenemosaic.scene",
+    # stages as functions
+    "structure_scene": "scenemosaic.structure",
+    "stabilize_scene": "scenemosaic.physics",
+    "validate_scene": "scenemosaic.physics",
+    # agents and plugins
+    "TaskAgent": "scenemosaic.agents",
+    "AgentOutput": "scenemosaic.agents",
+    "SceneState": "scenemosaic.agents",
+    "DEFAULT_AGENTS": "scenemosaic.structure",
+    # models
+    "Model": "scenemosaic.models",
+    "ModelSettings": "scenemosaic.models",
+    "RulesModel": "scenemosaic.models",
+    "OpenAIChatModel": "scenemosaic.models",
+    "ReplayModel": "scenemosaic.models",
+    "FunctionModel": "scenemosaic.models",
+    "parse_model": "scenemosaic.models",
+    # errors (the whole tree is in scenemosaic.exceptions)
+    "SceneMosaicError": "scenemosaic.exceptions",
+    "UsageError": "scenemosaic.exceptions",
+    "ImportFormatError": "scenemosaic.exceptions",
+    "SceneValidationError": "scenemosaic.exceptions",
+    "AgentOutputError": "scenemosaic.exceptions",
+    "ModelError": "scenemosaic.exceptions",
+    "PhysicsError": "scenemosaic.exceptions",
+    "RunError": "scenemosaic.exceptions",
+    # logging
+    "configure_logging": "scenemosaic._logging",
+}
 
 __all__ = [
-    "CEILING",
-    "COLLISION_TOLERANCE_M",
-    "FLOOR",
+    "DEFAULT_AGENTS",
+    "AgentOutput",
     "AgentOutputError",
-    "AssetError",
-    "AssetRef",
-    "CachePolicy",
-    "CanonicalMesh",
-    "CoacdParams",
-    "CollisionReport",
-    "ConstraintClause",
     "CrossUnitConstraint",
-    "FileRunStore",
     "FunctionModel",
     "GenerateConfig",
     "GenerateResult",
-    "GraphChangedError",
-    "GraphDefinitionError",
-    "HullCache",
-    "ImagePart",
     "ImportFormatError",
-    "InstrumentedModel",
-    "LimitedModel",
     "LocalUnit",
-    "ManagerAgent",
-    "MemoryRunStore",
-    "Message",
     "Model",
-    "ModelConfigError",
     "ModelError",
-    "ModelHTTPError",
     "ModelSettings",
-    "Node",
-    "NodeContext",
-    "NodeFailedError",
-    "NodePolicy",
-    "NodeTimeoutError",
     "OpenAIChatModel",
-    "Opening",
-    "OrthoView",
-    "OutOfBoundsReport",
-    "OutputValidationError",
     "PhysicsError",
     "Pose",
-    "Provenance",
     "Relation",
-    "ReplayMissError",
     "ReplayModel",
-    "RequestContext",
-    "RetryPolicy",
     "Room",
     "RulesModel",
-    "RunCancelledError",
     "RunError",
-    "RunEvent",
-    "RunStore",
-    "Runner",
     "Scene",
     "SceneMosaicError",
     "SceneObject",
     "SceneState",
-    "SceneStructure",
     "SceneValidationError",
-    "SimAttributes",
-    "StabilizationReport",
-    "StructuringPlan",
     "TaskAgent",
-    "TaskGraph",
-    "TextPart",
-    "TimeoutPolicy",
-    "Usage",
     "UsageError",
-    "UsageLimitExceeded",
-    "UsageLimits",
-    "UsageTracker",
-    "ValidationReport",
-    "Wall",
     "__version__",
-    "add_agent_nodes",
     "agenerate",
-    "agent_node",
-    "build_structure",
-    "check_collisions",
-    "check_out_of_bounds",
     "configure_logging",
     "demo_scene",
-    "detect_format",
-    "export_glb",
-    "export_mjcf",
-    "export_sceneeval",
     "format_tree",
     "generate",
-    "load_mesh",
     "load_scene",
     "load_scenes",
-    "object_hulls",
-    "object_mesh",
     "parse_model",
-    "plan_structuring",
-    "procedural_mesh",
-    "read_scene",
-    "render_topdown",
-    "render_view",
-    "run_agents",
-    "run_graph",
     "save_scene",
     "stabilize_scene",
     "structure_scene",
-    "unit_layout",
     "validate_scene",
-    "with_unit_layout",
 ]
+
+if TYPE_CHECKING:  # what type checkers and IDEs see; at run time names load lazily
+    from scenemosaic._logging import configure_logging
+    from scenemosaic.agents import AgentOutput, SceneState, TaskAgent
+    from scenemosaic.exceptions import (
+        AgentOutputError,
+        ImportFormatError,
+        ModelError,
+        PhysicsError,
+        RunError,
+        SceneMosaicError,
+        SceneValidationError,
+        UsageError,
+    )
+    from scenemosaic.exchange import load_scene, load_scenes, save_scene
+    from scenemosaic.models import (
+        FunctionModel,
+        Model,
+        ModelSettings,
+        OpenAIChatModel,
+        ReplayModel,
+        RulesModel,
+        parse_model,
+    )
+    from scenemosaic.physics import stabilize_scene, validate_scene
+    from scenemosaic.pipeline import GenerateConfig, GenerateResult, agenerate, demo_scene, generate
+    from scenemosaic.scene import (
+        CrossUnitConstraint,
+        LocalUnit,
+        Pose,
+        Relation,
+        Room,
+        Scene,
+        SceneObject,
+        format_tree,
+    )
+    from scenemosaic.structure import DEFAULT_AGENTS, structure_scene
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'scenemosaic' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
+
+if set(__all__) != {"__version__", *_EXPORTS}:  # pragma: no cover - a guard for maintainers
+    raise ImportError("scenemosaic.__all__ and _EXPORTS disagree")
+
+
+def _default_logging() -> None:
+    import structlog
+
+    from scenemosaic._logging import configure_logging
+
+    if not structlog.is_configured():  # structlog's own default prints debug lines to stdout
+        configure_logging("warning")
+
+
+_default_logging()

@@ -12,8 +12,8 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
 from scenemosaic._logging import configure_logging
-from scenemosaic._pipeline import STAGE_NAMES, GenerateConfig, GenerateResult, agenerate
 from scenemosaic.exceptions import SceneMosaicError
+from scenemosaic.pipeline import STAGE_NAMES, GenerateConfig, GenerateResult, agenerate
 
 __all__ = ["app", "main"]
 
@@ -130,8 +130,8 @@ def demo(
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Run generate on the bundled procedural demo scene, offline (rules model, no key, no network)."""
-    from scenemosaic._demo import demo_scene
-    from scenemosaic.importers import save_scene
+    from scenemosaic.exchange import save_scene
+    from scenemosaic.pipeline import demo_scene
 
     source = out / "input"
     save_scene(demo_scene(), source)
@@ -152,7 +152,7 @@ def inspect(
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Show a scene's tree: anchors, their children, units and cross-unit constraints."""
-    from scenemosaic.importers import load_scene
+    from scenemosaic.exchange import load_scene
     from scenemosaic.scene import format_tree
 
     try:

@@ -29,6 +29,11 @@ Usage errors (the caller gave us something wrong) are kept apart from run errors
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from scenemosaic.models import Usage
+
 from typing import Any
 
 __all__ = [
@@ -166,12 +171,23 @@ class ModelHTTPError(ModelError):
 
 
 class OutputValidationError(ModelError):
-    """A model reply was not JSON or broke the output schema, after every repair attempt."""
+    """A model reply was not JSON or broke the output schema.
 
-    def __init__(self, message: str, *, raw_reply: str, errors: list[str] | None = None) -> None:
+    ``raw_reply`` is the reply as text, ``errors`` the problems in words (what a repair request
+    sends back), ``usage`` the tokens the failed call cost (a ``scenemosaic.models.Usage``).
+    """
+
+    def __init__(
+        self, message: str, *, raw_reply: str, errors: list[str] | None = None, usage: Usage | None = None
+    ) -> None:
         super().__init__(message)
         self.raw_reply = raw_reply
         self.errors = list(errors or [])
+        if usage is None:
+            from scenemosaic.models._base import Usage as _Usage
+
+            usage = _Usage()
+        self.usage: Usage = usage
 
 
 class ReplayMissError(ModelError, KeyError):

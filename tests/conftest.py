@@ -1,4 +1,4 @@
-"""Shared test fixtures: the real data beside the repo, a real room, and the network guard."""
+"""Shared test fixtures: the real data shipped in ``data/``, a real room, and the network guard."""
 
 from __future__ import annotations
 
@@ -6,24 +6,24 @@ from pathlib import Path
 
 import pytest
 
-from scenemosaic.importers import load_scene
-from scenemosaic.scene import Scene
+from scenemosaic.exchange import load_scene
+from scenemosaic.scene import PROCTHOR_PRIORS_DIR, Scene
 
 # Any socket connect to a non-loopback address fails in tests (integration tests use 127.0.0.1 only).
 pytest_plugins = ["scenemosaic.models._testing"]
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
-SHARED_DATA = (REPO_ROOT.parent / "shared" / "data").resolve()
-PHYSCENE_DIR = SHARED_DATA / "layouts" / "physcene"
-SAM3D_DIR = SHARED_DATA / "sam3d_objects"
-PROCTHOR_DIR = SHARED_DATA / "priors" / "procthor"
+DATA = REPO_ROOT / "data"
+PHYSCENE_DIR = DATA / "layouts" / "physcene"
+SAM3D_DIR = DATA / "sam3d_objects"
+PROCTHOR_DIR = PROCTHOR_PRIORS_DIR
 
 
 @pytest.fixture(scope="session")
-def shared_data() -> Path:
-    """``../shared/data`` beside the repository (CI has it too)."""
-    assert SHARED_DATA.is_dir(), f"shared data not found at {SHARED_DATA}"
-    return SHARED_DATA
+def repo_data() -> Path:
+    """The real inputs shipped with the repository (``data/``, licences beside each set)."""
+    assert DATA.is_dir(), f"data not found at {DATA}"
+    return DATA
 
 
 @pytest.fixture(scope="session")

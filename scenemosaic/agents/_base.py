@@ -15,22 +15,55 @@ import abc
 import asyncio
 import contextvars
 import functools
+import inspect
 import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar, Generic, TypeVar
 
-from pydantic import BaseModel
+import structlog
+from pydantic import BaseModel, ConfigDict
 
-from scenemosaic.exceptions import AgentOutputError
-from scenemosaic.models._base import ImagePart, Message, Model, ModelSettings, RequestContext, TextPart, Usage
+from scenemosaic.exceptions import (
+    AgentOutputError,
+    ModelConfigError,
+    ModelError,
+    ModelHTTPError,
+    OutputValidationError,
+    ReplayMissError,
+    UsageError,
+)
+from scenemosaic.models import ImagePart, Message, Model, ModelSettings, RequestContext, TextPart, Usage
 from scenemosaic.scene import Scene
 
-__all__ = ["PROMPTS_DIR", "SceneState", "TaskAgent", "load_prompt", "run_blocking"]
+__all__ = [
+    "MAX_ITEMS",
+    "PROMPTS_FOLDER",
+    "AgentOutput",
+    "AgentPolicy",
+    "FallbackRecord",
+    "SceneState",
+    "TaskAgent",
+    "load_prompt",
+    "prompt_paths",
+    "run_blocking",
+]
 
-PROMPTS_DIR = Path(__file__).resolve().parent.parent / "_prompts"
-"""Where prompt templates live inside the installed package (``prompts/`` at the repo root links here)."""
+PROMPTS_FOLDER = "prompts"
+"""Name of the folder, beside the module that defines an agent class, holding its prompt templates."""
+
+MAX_ITEMS = 512
+"""Upper bound on list lengths in agent outputs (keeps constrained decoding from looping)."""
+
+
+class AgentOutput(BaseModel):
+    """Base of agent outputs: unknown keys are rejected, so a model's extra fields fail validation."""
+
+    model_config = ConfigDict(extra="forbid")
+
+
+_log = structlog.get_logger(__name__)
 
 EvidenceT = TypeVar("EvidenceT", bound=BaseModel)
 OutputT = TypeVar("OutputT", bound=BaseModel)
@@ -67,10 +100,77 @@ async def run_blocking(fn: Callable[..., R], *args: Any, offload: bool = True) -
     return future.result()
 
 
-def load_prompt(name: str) -> str:
-    """Text of ``<name>.md`` from the prompts folder."""
-    path = PROMPTS_DIR / f"{name}.md"
-    return path.read_text(encoding="utf-8")
+def prompt_paths(agent_cls: type, name: str) -> list[Path]:
+    """Where the template ``name`` of ``agent_cls`` may live, in lookup order.
+
+    For each class in the agent's MRO that defines ``prompt`` (so a subclass may reuse its
+    base's templates): ``prompts/<name>.md`` beside the module defining that class, then
+    ``<name>.md`` beside it.
+    """
+    paths: list[Path] = []
+    for cls in agent_cls.__mro__:
+        if "prompt" not in vars(cls):
+            continue
+        try:
+            folder = Path(inspect.getfile(cls)).resolve().parent
+        except (TypeError, OSError):  # a class made at run time, with no source file
+            continue
+        for candidate in (folder / PROMPTS_FOLDER / f"{name}.md", folder / f"{name}.md"):
+            if candidate not in paths:
+                paths.append(candidate)
+    return paths
+
+
+def load_prompt(agent_cls: type, name: str | None = None) -> str:
+    """The system prompt template of ``agent_cls``.
+
+    ``prompt`` on the class is either the template's text itself (anything containing a
+    newline) or a template name, found beside the module that defines the agent (see
+    :func:`prompt_paths`). Built-in agents keep theirs in ``<package>/prompts/``; a one-file
+    plugin may put the text in the class or a ``.md`` file beside its module.
+    """
+    prompt = name if name is not None else getattr(agent_cls, "prompt", "")
+    if "\n" in prompt:
+        return prompt
+    if not prompt:
+        raise AgentOutputError(f"agent class {agent_cls.__name__} sets no prompt", agent=agent_cls.__name__)
+    paths = prompt_paths(agent_cls, prompt)
+    for path in paths:
+        if path.is_file():
+            return path.read_text(encoding="utf-8")
+    raise UsageError(
+        f"prompt template {prompt!r} of agent class {agent_cls.__name__} not found; looked in "
+        + ", ".join(str(p) for p in paths)
+    )
+
+
+@dataclass(frozen=True)
+class AgentPolicy:
+    """How task agents treat a model's answers (one policy per run)."""
+
+    max_attempts: int = 3
+    """Model requests per agent run, first answer and repairs together. A reply that is not
+    JSON, breaks the output schema, or fails the agent's :meth:`TaskAgent.check` uses one
+    attempt and is sent back with the problems in words."""
+    solver_fallback: bool = False
+    """When the attempts are used up, or the model fails in a way retries cannot fix (time-outs,
+    5xx after the transport's own retries, dropped connections), answer with the agent's rule
+    solver and record it in :attr:`SceneState.fallbacks`, instead of failing the run.
+    Configuration errors (HTTP 401, a cassette miss, vision on a text-only server) still raise.
+    Off by default for direct use (an unusable answer raises); ``generate`` turns it on
+    (``GenerateConfig.solver_fallback``) so batch runs still deliver scenes."""
+
+    def __post_init__(self) -> None:
+        if self.max_attempts < 1:
+            raise UsageError(f"max_attempts must be >= 1, got {self.max_attempts}")
+
+
+@dataclass(frozen=True)
+class FallbackRecord:
+    """One agent answered by its rule solver instead of the model, and why."""
+
+    agent: str
+    reason: str
 
 
 @dataclass
@@ -79,14 +179,27 @@ class SceneState:
 
     ``scene`` is replaced (not mutated behind readers' backs) by ``apply``; ``lock``
     serializes applies so concurrent agents never interleave half-written changes.
-    ``outputs`` keeps each agent's validated output by agent name.
+    ``outputs`` keeps each agent's validated output by agent name; ``fallbacks`` lists the
+    agents that fell back to their rule solver.
     """
 
     scene: Scene
     seed: int = 0
+    base_dir: Path | None = None
+    """Folder relative mesh paths start from (agents that draw the scene's meshes need it)."""
+    policy: AgentPolicy = field(default_factory=AgentPolicy)
     outputs: dict[str, BaseModel] = field(default_factory=dict)
-    artifacts: dict[str, Any] = field(default_factory=dict)
+    fallbacks: list[FallbackRecord] = field(default_factory=list)
     lock: asyncio.Lock = field(default_factory=asyncio.Lock)
+
+
+def _recoverable(exc: ModelError) -> bool:
+    """Whether a model failure is the model's (fall back) rather than the user's set-up (raise)."""
+    if isinstance(exc, ReplayMissError | ModelConfigError):
+        return False  # a cassette mismatch or a wrong setting is a set-up error, not a flaky model
+    if isinstance(exc, ModelHTTPError):
+        return exc.status_code == 429 or exc.status_code >= 500
+    return True  # time-outs, dropped connections after the transport's retries
 
 
 class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
@@ -95,21 +208,28 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     Class attributes to set in a subclass:
 
     * ``name`` — unique node name in a graph.
-    * ``depends_on`` — names of agents whose outputs this one needs.
-    * ``prompt`` — prompt template file name (without ``.md``) under ``prompts/``.
+    * ``depends_on`` — names of agents whose outputs this one needs when they run; the
+      scheduler drops names of agents that are not part of the run.
+    * ``runs_last`` — ``True`` for an agent that must see every other agent's output (the
+      verification agent); it then depends on all agents of the run that do not run last.
+    * ``prompt`` — the prompt template's name (``<name>.md`` in a ``prompts/`` folder beside
+      the module defining the class, or beside the module itself), or the prompt text itself.
     * ``output_type`` — the pydantic model a reply must validate as.
-    * ``max_repairs`` — how many times an output that fails :meth:`check` is sent back.
     * ``offload`` — run :meth:`gather`, :meth:`messages`, :meth:`check` and :meth:`apply`
       in a worker thread (default), holding ``state.lock`` so they still see and leave a
       consistent scene. Set it to ``False`` for an agent whose hooks must run on the event
       loop (e.g. an ``apply`` that adds graph nodes through ``current_context()``).
+
+    The agent owns its answer: it validates, repairs within ``state.policy.max_attempts``
+    requests, and falls back to :meth:`solve`. Models never call agent code; with the offline
+    ``rules`` model (``model.uses_rule_solvers``) the agent answers with :meth:`solve` directly.
     """
 
     name: ClassVar[str]
     depends_on: ClassVar[tuple[str, ...]] = ()
+    runs_last: ClassVar[bool] = False
     prompt: ClassVar[str]
     output_type: ClassVar[type[BaseModel]]
-    max_repairs: ClassVar[int] = 2
     offload: ClassVar[bool] = True
 
     # -- what a subclass provides ------------------------------------------------------------
@@ -144,7 +264,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     def messages(self, evidence: EvidenceT, state: SceneState, *, vision: bool) -> list[Message]:
         """System prompt from the template, then the evidence as text (and images for vision models)."""
         schema = json.dumps(self.output_type.model_json_schema(), sort_keys=True)
-        system = load_prompt(self.prompt) + "\n\nReply with one JSON object matching this schema:\n" + schema
+        system = load_prompt(type(self)) + "\n\nReply with one JSON object matching this schema:\n" + schema
         parts: list[TextPart | ImagePart] = [TextPart("Evidence:\n" + self.render_evidence_text(evidence))]
         if vision:
             parts.extend(self.images(evidence, state))
@@ -158,82 +278,103 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         *,
         node: str | None = None,
     ) -> tuple[OutputT, Usage]:
-        """Gather evidence, ask the model, check (repairing up to ``max_repairs`` times), apply.
+        """Gather evidence, answer (model or rule solver), check, repair, apply; return the output.
 
         Scene work runs in a worker thread under ``state.lock`` (see ``offload``); only the
         model request runs without the lock, so concurrent agents overlap on their requests.
+        One budget, ``state.policy.max_attempts``, covers every reason to ask again.
         """
-        vision = model.vision
+        if model.uses_rule_solvers:
+            return await self._run_offline(state), Usage()
         async with state.lock:
-            evidence, messages = await run_blocking(self._prepare, state, vision, offload=self.offload)
-        context = RequestContext(agent=self.name, node=node or self.name, evidence=evidence, solve=self.solve)
+            evidence, messages = await run_blocking(self._prepare, state, model.vision, offload=self.offload)
+        context = RequestContext(agent=self.name, node=node or self.name, evidence=evidence)
+        policy = state.policy
         total = Usage()
         problems: list[str] = []
-        for attempt in range(self.max_repairs + 1):
-            output, usage = await model.request(messages, self.output_type, settings, context=context)  # type: ignore[arg-type]
-            total = total + usage
-            async with state.lock:
-                problems = await run_blocking(self._check_and_apply, output, state, offload=self.offload)
-            if not problems:
-                return output, total  # type: ignore[return-value]
-            if attempt < self.max_repairs:
+        schema_error: OutputValidationError | None = None
+        for attempt in range(policy.max_attempts):
+            schema_error = None
+            try:
+                output, usage = await model.request(messages, self.output_type, settings, context=context)
+            except OutputValidationError as exc:  # not JSON, or not the schema: repairable
+                schema_error = exc
+                total = total + exc.usage
+                problems, reply = exc.errors or [str(exc)], exc.raw_reply
+                intro = f"That reply is not a valid {self.output_type.__name__} JSON object:"
+            except ModelError as exc:
+                if not (policy.solver_fallback and _recoverable(exc)):
+                    raise
+                reason = f"{type(exc).__name__}: {exc}"
+                return await self._fall_back(evidence, state, reason, problems), total
+            else:
+                total = total + usage
+                async with state.lock:
+                    problems = await run_blocking(self._check_and_apply, output, state, offload=self.offload)
+                if not problems:
+                    return output, total  # type: ignore[return-value]
+                reply = output.model_dump_json()
+                intro = "That answer cannot be applied to this scene:"
+            if attempt + 1 < policy.max_attempts:
                 messages = [
                     *messages,
-                    Message.text("assistant", output.model_dump_json()),
+                    Message.text("assistant", reply),
                     Message.text(
-                        "user",
-                        "That answer cannot be applied to this scene:\n- "
-                        + "\n- ".join(problems)
-                        + "\nReply again with a corrected JSON object.",
+                        "user", intro + "\n- " + "\n- ".join(problems) + "\nReply again with only the corrected JSON object."
                     ),
                 ]
-        if getattr(model, "solver_fallback", False):
-            async with state.lock:
-                fallback = await run_blocking(
-                    self._fall_back_and_apply, evidence, state, model, problems, offload=self.offload
-                )
-            return fallback, total
-        raise AgentOutputError(
-            f"agent {self.name!r} gave an unusable output after {self.max_repairs} repairs: {'; '.join(problems)}",
-            agent=self.name,
-            problems=problems,
-        )
+        reason = f"unusable after {policy.max_attempts} attempts: " + "; ".join(problems)
+        if policy.solver_fallback:
+            return await self._fall_back(evidence, state, reason, problems), total
+        if schema_error is not None:  # the last reply was not even schema-valid: say so, with it
+            raise schema_error
+        raise AgentOutputError(f"agent {self.name!r} gave an {reason}", agent=self.name, problems=problems)
+
+    async def _run_offline(self, state: SceneState) -> OutputT:
+        """The rules path: the agent's own solver answers; its output must pass the agent's check."""
+        async with state.lock:
+            return await run_blocking(self._solve_and_apply, state, offload=self.offload)
+
+    def _solve_and_apply(self, state: SceneState) -> OutputT:
+        output = self.solve(self.gather(state))
+        self._require_usable(output, state, [])
+        self._apply_output(output, state)
+        return output
 
     def _prepare(self, state: SceneState, vision: bool) -> tuple[EvidenceT, list[Message]]:
         evidence = self.gather(state)
         return evidence, self.messages(evidence, state, vision=vision)
 
+    def _apply_output(self, output: OutputT, state: SceneState) -> None:
+        self.apply(output, state)
+        state.outputs[self.name] = output
+
     def _check_and_apply(self, output: OutputT, state: SceneState) -> list[str]:
         """Problems with ``output``; when there are none, it is applied (caller holds the lock)."""
         problems = self.check(output, state)
         if not problems:
-            self.apply(output, state)
-            state.outputs[self.name] = output
+            self._apply_output(output, state)
         return problems
 
-    def _fall_back_and_apply(
-        self, evidence: EvidenceT, state: SceneState, model: Model, problems: list[str]
-    ) -> OutputT:
-        output = self._fall_back(evidence, state, model, problems)
-        self.apply(output, state)
-        state.outputs[self.name] = output
-        state.scene.provenance.notes.append(f"{self.name}: model output unusable, used the rule solver")
-        return output
-
-    def _fall_back(
-        self, evidence: EvidenceT, state: SceneState, model: Model, problems: list[str]
-    ) -> OutputT:
-        """Use the rule solver's answer (the model asked for it through ``solver_fallback``)."""
-        output = self.solve(evidence)
+    def _require_usable(self, output: OutputT, state: SceneState, model_problems: list[str]) -> None:
         solver_problems = self.check(output, state)
         if solver_problems:  # the solver itself is wrong: a bug worth failing loudly on
+            what = "the model's output and the rule solver's are" if model_problems else "the rule solver's output is"
             raise AgentOutputError(
-                f"agent {self.name!r}: the model's output and the rule solver's are both unusable: "
-                + "; ".join(problems + solver_problems),
+                f"agent {self.name!r}: {what} unusable: " + "; ".join(model_problems + solver_problems),
                 agent=self.name,
-                problems=problems + solver_problems,
+                problems=model_problems + solver_problems,
             )
-        record = getattr(model, "record", None)
-        if callable(record):
-            record(self.name, "unusable after repairs: " + "; ".join(problems))
-        return output
+
+    async def _fall_back(self, evidence: EvidenceT, state: SceneState, reason: str, problems: list[str]) -> OutputT:
+        def fall_back() -> OutputT:
+            output = self.solve(evidence)
+            self._require_usable(output, state, problems)
+            self._apply_output(output, state)
+            state.fallbacks.append(FallbackRecord(agent=self.name, reason=reason[:500]))
+            state.scene.provenance.notes.append(f"{self.name}: model output unusable, used the rule solver")
+            return output
+
+        _log.warning("agent_fell_back_to_solver", agent=self.name, reason=reason[:200])
+        async with state.lock:
+            return await run_blocking(fall_back, offload=self.offload)

@@ -26,12 +26,11 @@ from scenemosaic.dag import (
     NodePolicy,
     Runner,
     RunStore,
-    UsageTracker,
     current_context,
 )
-from scenemosaic.models._base import Model, ModelSettings
+from scenemosaic.models import Model, ModelSettings, UsageTracker
 
-__all__ = ["add_agent_nodes", "agent_node", "run_agents"]
+__all__ = ["add_agent_nodes", "agent_dependencies", "agent_node", "run_agents"]
 
 _log = structlog.get_logger(__name__)
 
@@ -43,14 +42,35 @@ def _definition_key(agent: TaskAgent[Any, Any]) -> str:
     return f"{key}@{version}" if version is not None else key
 
 
+def agent_dependencies(agents: Sequence[TaskAgent[Any, Any]]) -> dict[str, tuple[str, ...]]:
+    """Each agent's dependencies within ``agents``: its ``depends_on`` trimmed to the agents
+    present, or, for an agent that ``runs_last``, every agent that does not run last."""
+    names = [a.name for a in agents]
+    present = set(names)
+    ordinary = [a.name for a in agents if not getattr(a, "runs_last", False)]
+    deps: dict[str, tuple[str, ...]] = {}
+    for agent in agents:
+        if getattr(agent, "runs_last", False):
+            wanted = [n for n in ordinary if n != agent.name]
+        else:
+            wanted = [d for d in agent.depends_on if d in present]
+            absent = [d for d in agent.depends_on if d not in present]
+            if absent:
+                _log.debug("agent_dependency_absent", agent=agent.name, absent=absent)
+        deps[agent.name] = tuple(dict.fromkeys(wanted))
+    return deps
+
+
 def agent_node(
     agent: TaskAgent[Any, Any],
     state: SceneState,
     model: Model,
     settings: ModelSettings | None = None,
     policy: NodePolicy | None = None,
+    *,
+    depends_on: Sequence[str] | None = None,
 ) -> Node:
-    """A node named ``agent.name``, depending on ``agent.depends_on``, that runs
+    """A node named ``agent.name``, depending on ``depends_on`` (default ``agent.depends_on``), that runs
     ``agent.run(state, model, settings, node=name)`` and outputs the agent's validated output.
 
     The definition key (part of the run store's input hash) is the agent's class path plus its
@@ -75,7 +95,7 @@ def agent_node(
     return Node(
         agent.name,
         run_agent,
-        depends_on=tuple(agent.depends_on),
+        depends_on=tuple(agent.depends_on if depends_on is None else depends_on),
         policy=policy or NodePolicy(),
         version=_definition_key(agent),
         restore=restore,
@@ -99,7 +119,7 @@ def add_agent_nodes(
 def _config_key(state: SceneState, model: Model, settings: ModelSettings | None) -> str:
     h = hashlib.sha256()
     h.update(state.scene.model_dump_json().encode())
-    h.update(f"\x00{model.name}\x00{settings!r}\x00{state.seed}".encode())
+    h.update(f"\x00{model.name}\x00{settings!r}\x00{state.seed}\x00{state.policy!r}".encode())
     return h.hexdigest()
 
 
@@ -118,7 +138,8 @@ async def run_agents(
     """Run ``agents`` as a task graph over ``state``; return each agent's output by name.
 
     Args:
-        agents: the agents; each one's ``depends_on`` must name agents in this list.
+        agents: the agents; each one's ``depends_on`` is trimmed to agents in this list
+            (:func:`agent_dependencies`), and one that ``runs_last`` waits for all the others.
         state: the shared scene state the agents read and write (its ``seed`` is the run seed).
         model: the model every agent asks.
         settings: per-request model settings.
@@ -133,7 +154,8 @@ async def run_agents(
     ``cause`` is, e.g., an ``AgentOutputError``; ``RunCancelledError``; ``UsageLimitExceeded``)
     and ``GraphDefinitionError`` for duplicate names, unknown dependencies or cycles.
     """
-    nodes = [agent_node(agent, state, model, settings) for agent in agents]
+    deps = agent_dependencies(agents)
+    nodes = [agent_node(agent, state, model, settings, depends_on=deps[agent.name]) for agent in agents]
     runner = Runner(
         nodes,
         max_concurrency=max_concurrency,

@@ -5,8 +5,9 @@ then run it with :class:`Runner` / :func:`run_graph`: every node starts as soon 
 dependencies finish, under per-node :class:`RetryPolicy`, :class:`TimeoutPolicy` and
 :class:`CachePolicy`. A :class:`RunStore` (:class:`FileRunStore`, :class:`MemoryRunStore`)
 lets a run resume; typed events (:class:`NodeStarted`, :class:`NodeFinished`, ...) are
-streamed and logged; a :class:`UsageTracker` accounts model calls and enforces
-:class:`UsageLimits`. See ``docs/runtime.md``.
+streamed and logged; a :class:`RunMonitor` (the models layer's ``UsageTracker``) may join a
+run to emit events and stop it at a limit. The scheduler knows nothing about models or scenes.
+See ``docs/runtime.md``.
 """
 
 from scenemosaic.dag._context import NodeContext, current_context, derive_seed
@@ -22,6 +23,7 @@ from scenemosaic.dag._events import (
     RunFinished,
 )
 from scenemosaic.dag._graph import GraphFingerprint, Node, NodeFn, TaskGraph
+from scenemosaic.dag._monitor import RunMonitor
 from scenemosaic.dag._policies import CachePolicy, NodePolicy, RetryPolicy, TimeoutPolicy
 from scenemosaic.dag._runner import Runner, run_graph
 from scenemosaic.dag._store import (
@@ -31,7 +33,6 @@ from scenemosaic.dag._store import (
     RunStore,
     StoredOutput,
 )
-from scenemosaic.dag._usage import ModelCallLike, ModelPrice, UsageLimits, UsageRecord, UsageTracker
 
 __all__ = [
     "CachePolicy",
@@ -40,8 +41,6 @@ __all__ = [
     "GraphChangedError",
     "GraphFingerprint",
     "MemoryRunStore",
-    "ModelCallLike",
-    "ModelPrice",
     "ModelRequest",
     "Node",
     "NodeAdded",
@@ -55,14 +54,12 @@ __all__ = [
     "RetryPolicy",
     "RunEvent",
     "RunFinished",
+    "RunMonitor",
     "RunStore",
     "Runner",
     "StoredOutput",
     "TaskGraph",
     "TimeoutPolicy",
-    "UsageLimits",
-    "UsageRecord",
-    "UsageTracker",
     "current_context",
     "derive_seed",
     "run_graph",

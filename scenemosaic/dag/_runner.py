@@ -34,6 +34,7 @@ from scenemosaic.dag._events import (
     RunFinished,
 )
 from scenemosaic.dag._graph import Node, TaskGraph
+from scenemosaic.dag._monitor import RunMonitor
 from scenemosaic.dag._policies import (
     DEFAULT_CACHE,
     DEFAULT_RETRY,
@@ -43,7 +44,6 @@ from scenemosaic.dag._policies import (
     RetryPolicy,
 )
 from scenemosaic.dag._store import RunStore, StoredOutput, input_hash, output_hash
-from scenemosaic.dag._usage import UsageTracker
 from scenemosaic.exceptions import (
     GraphChangedError,
     NodeFailedError,
@@ -98,7 +98,7 @@ class Runner:
         on_graph_change: Literal["error", "recompute"] = "error",
         config_key: str = "",
         seed: int = 0,
-        usage: UsageTracker | None = None,
+        usage: RunMonitor | None = None,
         listeners: Iterable[EventListener] = (),
         cancel_event: asyncio.Event | None = None,
         process_pool: Executor | None = None,
@@ -118,7 +118,8 @@ class Runner:
             config_key: the run's configuration key (e.g. a hash of the input scene and model
                 settings); part of every input hash.
             seed: run seed; each node gets ``derive_seed(seed, name)``.
-            usage: tracker whose calls become ``ModelRequest`` events and whose limits stop the run.
+            usage: a run monitor (e.g. the models layer's ``UsageTracker``) bound to this run while it
+                runs: it may emit events (``ModelRequest``) and stop the run when a limit is crossed.
             listeners: callbacks receiving every event.
             cancel_event: setting it cancels the run.
             process_pool: executor for ``ctx.run_in_process``; default: a spawn-based process

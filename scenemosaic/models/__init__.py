@@ -2,9 +2,9 @@
 
 Models that answer:
 
-* :class:`RulesModel` (``"rules"``) — each agent's deterministic solver; offline.
+* :class:`RulesModel` (``"rules"``) — offline: each agent answers with its own rule solver.
 * :class:`OpenAIChatModel` (``"openai:<model>[@<base_url>]"``) — any OpenAI-compatible
-  Chat Completions server, with retries and schema repair.
+  Chat Completions server, with transport retries (agents repair bad replies).
 * :class:`FunctionModel` — Python callables per agent (tests, scripts).
 
 Wrappers that add behaviour around any model:
@@ -12,22 +12,21 @@ Wrappers that add behaviour around any model:
 * :class:`ReplayModel` — record / replay replies in a JSON cassette.
 * :class:`LimitedModel` — shared concurrency and request/token rate limits.
 * :class:`InstrumentedModel` — a :class:`ModelCall` record per request.
-* :class:`SolverFallbackModel` — the asking agent's rule solver answers when the model keeps failing.
 
 :func:`parse_model` builds any of these from a string.
 """
 
 from scenemosaic.models._base import ImagePart, Message, Model, ModelSettings, RequestContext, TextPart, Usage
 from scenemosaic.models._completion import Completion, CompletionModel
-from scenemosaic.models._fallback import FallbackRecord, SolverFallbackModel
 from scenemosaic.models._function import AgentFunction, FunctionModel
 from scenemosaic.models._instrument import InstrumentedModel, ModelCall
 from scenemosaic.models._limit import LimitedModel, RateLimiter, TokenBucket
-from scenemosaic.models._openai import OpenAIChatModel, RetryPolicy, StructuredMode
+from scenemosaic.models._openai import HTTPRetryPolicy, OpenAIChatModel, StructuredMode
 from scenemosaic.models._parse import MODEL_SPEC_HELP, parse_model
 from scenemosaic.models._replay import Cassette, ReplayMode, ReplayModel, canonical_request, request_key
 from scenemosaic.models._rules import RulesModel
 from scenemosaic.models._schema import SchemaBounds, extract_json, strict_json_schema
+from scenemosaic.models._usage import ModelCallLike, ModelPrice, UsageLimits, UsageRecord, UsageTracker
 from scenemosaic.models._wrapper import WrapperModel
 
 __all__ = [
@@ -36,28 +35,31 @@ __all__ = [
     "Cassette",
     "Completion",
     "CompletionModel",
-    "FallbackRecord",
     "FunctionModel",
+    "HTTPRetryPolicy",
     "ImagePart",
     "InstrumentedModel",
     "LimitedModel",
     "Message",
     "Model",
     "ModelCall",
+    "ModelCallLike",
+    "ModelPrice",
     "ModelSettings",
     "OpenAIChatModel",
     "RateLimiter",
     "ReplayMode",
     "ReplayModel",
     "RequestContext",
-    "RetryPolicy",
     "RulesModel",
     "SchemaBounds",
-    "SolverFallbackModel",
     "StructuredMode",
     "TextPart",
     "TokenBucket",
     "Usage",
+    "UsageLimits",
+    "UsageRecord",
+    "UsageTracker",
     "WrapperModel",
     "canonical_request",
     "extract_json",

@@ -1,16 +1,16 @@
 """The one seam for language/vision models: :class:`Model` with a single abstract ``request``.
 
 Retry, rate limits, replay/record and usage accounting are *wrappers* around a model,
-not flags on it. The offline default (``rules``) answers each request with the asking
-agent's own deterministic solver, which it finds in the :class:`RequestContext`.
+not flags on it. The offline default (``rules``) sends no request at all: a model whose
+``uses_rule_solvers`` is true tells the asking agent to answer with its own deterministic
+solver. Models never call agent code.
 """
 
 from __future__ import annotations
 
 import abc
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any, Literal, TypeVar
+from dataclasses import dataclass
+from typing import Literal, TypeVar
 
 from pydantic import BaseModel
 
@@ -101,19 +101,16 @@ class Usage:
 class RequestContext:
     """What the asking agent tells a model besides the messages.
 
-    The rules model answers with ``solve(evidence)``; other models ignore ``solve`` and
-    use ``agent`` for usage accounting, rate-limit keys and cassette names.
+    Models use ``agent`` for usage accounting, rate-limit keys and cassette names; test
+    models (:class:`~scenemosaic.models.FunctionModel`) may read the structured ``evidence``.
     """
 
     agent: str
     """Name of the asking agent (e.g. ``"support"``)."""
     node: str | None = None
     """Task-graph node running the request, when there is one."""
-    evidence: Any = None
-    """The structured evidence the messages were rendered from (a pydantic model)."""
-    solve: Callable[[Any], BaseModel] | None = None
-    """The agent's deterministic solver, used by the rules model."""
-    extra: dict[str, Any] = field(default_factory=dict)
+    evidence: BaseModel | None = None
+    """The structured evidence the messages were rendered from."""
 
 
 class Model(abc.ABC):
@@ -125,6 +122,9 @@ class Model(abc.ABC):
 
     name: str = "model"
     vision: bool = True
+    uses_rule_solvers: bool = False
+    """True for the offline ``rules`` model: agents answer with their own solvers and send
+    no request. Wrappers report their wrapped model's value."""
 
     @abc.abstractmethod
     async def request(

@@ -1,9 +1,10 @@
 """Models that produce text (or loose JSON) and the schema-repair loop that validates it.
 
 :class:`CompletionModel` implements :meth:`Model.request` once for every model whose raw
-answer may be wrong: it parses the reply, validates it as the output type, and when that
-fails asks again with the bad reply and the validation errors appended, up to
-``max_repairs`` times, before raising :class:`OutputValidationError`.
+answer may be wrong: it parses the reply and validates it as the output type; when that
+fails it raises :class:`OutputValidationError` with the raw reply and the errors in words,
+so the asking agent can send a repair request within its own attempt budget (models never
+repair on their own: one budget per agent).
 """
 
 from __future__ import annotations
@@ -64,14 +65,12 @@ def validate_reply(completion: Completion, output_type: type[OutputT]) -> tuple[
 
 
 class CompletionModel(Model):
-    """A model whose answers are validated here, with schema repair.
+    """A model whose raw answers are parsed and validated here.
 
-    Subclasses implement :meth:`complete`; :meth:`request` parses and validates its
-    result and re-asks on failure.
+    Subclasses implement :meth:`complete`; :meth:`request` validates its result and raises
+    :class:`OutputValidationError` (carrying the raw reply, the errors and the usage) when it
+    is not a valid output.
     """
-
-    max_repairs: int = 2
-    """How many times an invalid reply is sent back with its errors before giving up."""
 
     @abc.abstractmethod
     async def complete(
@@ -91,33 +90,17 @@ class CompletionModel(Model):
         *,
         context: RequestContext | None = None,
     ) -> tuple[OutputT, Usage]:
-        """Ask, validate as ``output_type``, and repair up to ``max_repairs`` times."""
+        """Ask once and validate as ``output_type``."""
         settings = settings or ModelSettings()
-        conversation = list(messages)
-        total = Usage()
         agent = context.agent if context else None
-        for attempt in range(self.max_repairs + 1):
-            completion = await self.complete(conversation, output_type, settings, context)
-            total = total + completion.usage
-            output, errors = validate_reply(completion, output_type)
-            if output is not None:
-                return output, total
-            log.info("model reply invalid", model=self.name, agent=agent, attempt=attempt, errors=errors[:5])
-            if attempt == self.max_repairs:
-                raise OutputValidationError(
-                    f"{self.name}: reply for agent {agent!r} is not a valid {output_type.__name__} "
-                    f"after {self.max_repairs} repairs: {'; '.join(errors[:5])}",
-                    raw_reply=completion.text,
-                    errors=errors,
-                )
-            conversation = [
-                *conversation,
-                Message.text("assistant", completion.text),
-                Message.text(
-                    "user",
-                    f"That reply is not a valid {output_type.__name__} JSON object:\n- "
-                    + "\n- ".join(errors)
-                    + "\nReply again with only the corrected JSON object.",
-                ),
-            ]
-        raise AssertionError("unreachable")  # pragma: no cover
+        completion = await self.complete(list(messages), output_type, settings, context)
+        output, errors = validate_reply(completion, output_type)
+        if output is not None:
+            return output, completion.usage
+        log.info("model reply invalid", model=self.name, agent=agent, errors=errors[:5])
+        raise OutputValidationError(
+            f"{self.name}: reply for agent {agent!r} is not a valid {output_type.__name__}: {'; '.join(errors[:5])}",
+            raw_reply=completion.text,
+            errors=errors,
+            usage=completion.usage,
+        )

@@ -24,9 +24,9 @@ class FunctionModel(CompletionModel):
 
     A function gets the messages (with any repair turns appended) and the request
     context, and returns the output object, a dict, or a JSON string (code fences and
-    surrounding prose are tolerated). It may be sync or async. Invalid replies go
-    through the same schema-repair loop as a real model's, so a function can be used to
-    test repair behaviour.
+    surrounding prose are tolerated). It may be sync or async. An invalid reply
+    raises :class:`~scenemosaic.exceptions.OutputValidationError` as a real model's does, so
+    a function can be used to test the agents' repair behaviour.
     """
 
     def __init__(
@@ -35,13 +35,11 @@ class FunctionModel(CompletionModel):
         *,
         name: str = "function",
         vision: bool = True,
-        max_repairs: int = 2,
     ) -> None:
         """``functions``: one callable for every agent, or a mapping from agent name to callable."""
         self._functions = functions
         self.name = name
         self.vision = vision
-        self.max_repairs = max_repairs
 
     def __repr__(self) -> str:
         return f"FunctionModel(name={self.name!r})"

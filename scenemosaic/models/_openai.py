@@ -32,7 +32,7 @@ from scenemosaic.models._base import ImagePart, Message, ModelSettings, RequestC
 from scenemosaic.models._completion import Completion, CompletionModel
 from scenemosaic.models._schema import SchemaBounds, strict_json_schema
 
-__all__ = ["DEFAULT_OPENAI_BASE_URL", "OpenAIChatModel", "RetryPolicy", "StructuredMode"]
+__all__ = ["DEFAULT_OPENAI_BASE_URL", "HTTPRetryPolicy", "OpenAIChatModel", "StructuredMode"]
 
 log = structlog.get_logger(__name__)
 
@@ -51,7 +51,7 @@ _IMAGE_REJECTED = re.compile(
 
 
 @dataclass(frozen=True)
-class RetryPolicy:
+class HTTPRetryPolicy:
     """When and how long to wait before re-sending a request that failed transiently."""
 
     max_attempts: int = 4
@@ -134,8 +134,7 @@ class OpenAIChatModel(CompletionModel):
         vision: bool = True,
         structured: StructuredMode = "json_schema",
         timeout_s: float = 120.0,
-        retry: RetryPolicy | None = None,
-        max_repairs: int = 2,
+        retry: HTTPRetryPolicy | None = None,
         schema_bounds: SchemaBounds | None = None,
         max_tokens_field: str = "max_tokens",
         client: httpx.AsyncClient | None = None,
@@ -153,7 +152,7 @@ class OpenAIChatModel(CompletionModel):
         * ``structured`` — ``"json_schema"`` (strict schema, constrained decoding),
           ``"json_object"`` (any JSON object) or ``"none"`` (free text; JSON is extracted).
         * ``timeout_s`` — per-request timeout (seconds) when the settings give none.
-        * ``retry`` — the transient-failure policy; ``max_repairs`` — schema repairs.
+        * ``retry`` — the transient-failure policy.
         * ``schema_bounds`` — bounds added to unbounded arrays and strings in the sent schema.
         * ``max_tokens_field`` — ``"max_tokens"``, or ``"max_completion_tokens"`` for newer OpenAI models.
         * ``client`` / ``transport`` — an ``httpx.AsyncClient`` or transport to use (tests pass
@@ -170,8 +169,7 @@ class OpenAIChatModel(CompletionModel):
         self.vision = vision
         self.structured: StructuredMode = structured
         self.timeout_s = timeout_s
-        self.retry = retry or RetryPolicy()
-        self.max_repairs = max_repairs
+        self.retry = retry or HTTPRetryPolicy()
         self.schema_bounds = schema_bounds or SchemaBounds()
         self.max_tokens_field = max_tokens_field
         key = api_key if api_key is not None else os.environ.get(api_key_env)

@@ -261,6 +261,11 @@ class ReplayModel(Model):
     def vision(self, value: bool) -> None:
         self._vision = value
 
+    @property
+    def uses_rule_solvers(self) -> bool:  # type: ignore[override]
+        """The wrapped model's value (a cassette alone never holds rule answers)."""
+        return self.wrapped.uses_rule_solvers if self.wrapped is not None else False
+
     async def request(
         self,
         messages: list[Message],
@@ -279,11 +284,34 @@ class ReplayModel(Model):
         if self.mode in ("replay", "record_missing"):
             entry = self.cassette.get(key)
             if entry is not None:
+                if "invalid_reply" in entry:  # a recorded bad reply: the agent repairs it as before
+                    raise OutputValidationError(
+                        f"recorded reply for agent {agent!r} is not a valid {output_type.__name__}",
+                        raw_reply=str(entry["invalid_reply"]),
+                        errors=[str(e) for e in entry.get("errors", [])],
+                        usage=Usage(**entry.get("usage", {})),
+                    )
                 return self._replayed(entry, output_type, agent), Usage(**entry.get("usage", {}))
             if self.mode == "replay":
                 raise self.cassette.miss_error(agent, canonical)
         assert self.wrapped is not None
-        output, usage = await self.wrapped.request(messages, output_type, settings, context=context)
+        try:
+            output, usage = await self.wrapped.request(messages, output_type, settings, context=context)
+        except OutputValidationError as exc:  # recorded too, so a replayed run repairs the same way
+            self.cassette.put(
+                key,
+                {
+                    "agent": agent,
+                    "output_type": output_type.__name__,
+                    "request": canonical,
+                    "invalid_reply": exc.raw_reply,
+                    "errors": exc.errors,
+                    "usage": dataclasses.asdict(exc.usage),
+                },
+                model=self.name,
+                vision=self.vision,
+            )
+            raise
         entry = {
             "agent": agent,
             "output_type": output_type.__name__,

@@ -37,6 +37,11 @@ class WrapperModel(Model):
     def vision(self, value: bool) -> None:
         self._vision_override = value
 
+    @property
+    def uses_rule_solvers(self) -> bool:  # type: ignore[override]
+        """Whether the wrapped model is the offline rules model."""
+        return self.wrapped.uses_rule_solvers
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.wrapped!r})"
 

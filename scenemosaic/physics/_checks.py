@@ -17,8 +17,7 @@ from scenemosaic.physics._reports import CollisionPair, CollisionReport, OutOfBo
 from scenemosaic.physics._settings import COLLISION_TOLERANCE_M, OOB_MIN_INSIDE_FRACTION, SimSettings
 from scenemosaic.physics._settle import is_thin
 from scenemosaic.physics._world import WorldBuilder
-from scenemosaic.scene import CEILING, FLOOR, Scene, SceneObject
-from scenemosaic.scene._geometry import FloatArray
+from scenemosaic.scene import CEILING, FLOOR, FloatArray, Scene, SceneObject
 
 __all__ = [
     "check_collisions",

@@ -24,8 +24,7 @@ import structlog
 from scipy.spatial import ConvexHull, QhullError
 
 from scenemosaic.assets import HullCache, object_hulls
-from scenemosaic.scene import SceneObject
-from scenemosaic.scene._geometry import FloatArray
+from scenemosaic.scene import FloatArray, SceneObject
 
 __all__ = ["HullPiece", "ObjectShape", "object_shape", "piece_from_vertices"]
 

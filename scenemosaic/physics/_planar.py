@@ -16,8 +16,7 @@ from shapely import affinity
 from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points
 
-from scenemosaic.scene import Scene
-from scenemosaic.scene._geometry import FloatArray
+from scenemosaic.scene import FloatArray, Scene
 
 __all__ = [
     "UnitFrame",

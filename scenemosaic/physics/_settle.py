@@ -47,8 +47,7 @@ from scenemosaic.physics._settings import (
 from scenemosaic.physics._simulate import SimOutcome, run_until_settled
 from scenemosaic.physics._units import UnitPlan
 from scenemosaic.physics._world import BuiltWorld, JointMode, WorldBuilder
-from scenemosaic.scene import Pose, Scene, SceneObject
-from scenemosaic.scene._geometry import FloatArray, quat_multiply
+from scenemosaic.scene import FloatArray, Pose, Scene, SceneObject, quat_multiply
 
 __all__ = ["is_thin", "settle_unit"]
 

@@ -20,8 +20,7 @@ from scenemosaic.physics._settings import SettleSettings, SimSettings
 from scenemosaic.physics._settle import settle_unit
 from scenemosaic.physics._units import UnitPlan, plan_units
 from scenemosaic.physics._validate import motion_between
-from scenemosaic.scene import Pose, Scene
-from scenemosaic.scene._geometry import FloatArray
+from scenemosaic.scene import FloatArray, Pose, Scene
 
 __all__ = ["stabilize_scene", "stabilize_scene_sync"]
 

@@ -16,8 +16,16 @@ from scenemosaic.physics._reports import ObjectMotion, ValidationReport
 from scenemosaic.physics._settings import FELL_DROP_M, TIPPED_TILT_DEG, SettleSettings, SimSettings
 from scenemosaic.physics._simulate import run_until_settled
 from scenemosaic.physics._world import WorldBuilder
-from scenemosaic.scene import CEILING, FLOOR, Pose, Scene, SceneObject
-from scenemosaic.scene._geometry import quat_multiply, quat_to_matrix, yaw_from_quat
+from scenemosaic.scene import (
+    CEILING,
+    FLOOR,
+    Pose,
+    Scene,
+    SceneObject,
+    quat_multiply,
+    quat_to_matrix,
+    yaw_from_quat,
+)
 
 __all__ = ["is_fixed", "motion_between", "support_gaps", "validate_scene"]
 

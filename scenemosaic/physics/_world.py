@@ -24,8 +24,7 @@ import numpy as np
 
 from scenemosaic.physics._hulls import ObjectShape
 from scenemosaic.physics._settings import DEFAULT_DENSITY_KG_M3, SimSettings
-from scenemosaic.scene import Room, SceneObject
-from scenemosaic.scene._geometry import FloatArray
+from scenemosaic.scene import FloatArray, Room, SceneObject
 
 __all__ = ["BuiltWorld", "DynamicBody", "JointMode", "WorldBuilder", "object_mass"]
 

@@ -5,7 +5,7 @@
   objects; the seam for per-unit views (wall units seen along their normal, containers from
   their front).
 * :func:`object_world_mesh`, :func:`floor_mesh`, :func:`wall_mesh`, :func:`ceiling_mesh` —
-  world-space meshes of a scene, shared with :mod:`scenemosaic.export`.
+  world-space meshes of a scene, shared with :mod:`scenemosaic.exchange`.
 """
 
 from scenemosaic.render._geometry import (

@@ -1,6 +1,6 @@
 """World-space meshes of a scene: each object's visual mesh, and the room's floor, walls and ceiling.
 
-Shared by the views in this package and by :mod:`scenemosaic.export`. All meshes here are in
+Shared by the views in this package and by :mod:`scenemosaic.exchange`. All meshes here are in
 the world frame (Z up, metres) unless a function says it returns a local-frame mesh.
 
 Room geometry:

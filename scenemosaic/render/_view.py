@@ -37,8 +37,7 @@ from scenemosaic.render._palette import (
     category_color,
     shade,
 )
-from scenemosaic.scene import Scene, SceneObject
-from scenemosaic.scene._geometry import FloatArray
+from scenemosaic.scene import FloatArray, Scene, SceneObject
 
 __all__ = ["GRID_STEPS_M", "OrthoView", "PixelMap", "render_view"]
 

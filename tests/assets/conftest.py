@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from scenemosaic.assets import CoacdParams, HullCache
-from scenemosaic.importers import load_scene, write_sam3d_example
+from scenemosaic.exchange import load_scene, write_sam3d_example
 from scenemosaic.scene import Scene
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
@@ -33,10 +33,10 @@ def shared_params() -> CoacdParams:
 
 
 @pytest.fixture(scope="session")
-def sam3d_office(tmp_path_factory: pytest.TempPathFactory, shared_data: Path) -> Scene:
+def sam3d_office(tmp_path_factory: pytest.TempPathFactory, repo_data: Path) -> Scene:
     """The five shared SAM3D meshes as ``write_sam3d_example`` lays them out, imported."""
     folder = tmp_path_factory.mktemp("sam3d") / "sam3d_office"
-    return load_scene(write_sam3d_example(folder, shared_data / "sam3d_objects"))
+    return load_scene(write_sam3d_example(folder, repo_data / "sam3d_objects"))
 
 
 @pytest.fixture

@@ -12,8 +12,8 @@ from scenemosaic.assets import load_mesh, mesh_hash
 from scenemosaic.assets._canonical import _load_cached, load_source_mesh
 from scenemosaic.exceptions import AssetError
 
-# ``tests/conftest.py``'s SHARED_DATA, found the same way (test folders are not packages)
-ASSETS = Path(__file__).resolve().parents[3] / "shared" / "data" / "sam3d_objects" / "generated_assets"
+# ``tests/conftest.py``'s DATA, found the same way (test folders are not packages)
+ASSETS = Path(__file__).resolve().parents[2] / "data" / "sam3d_objects" / "generated_assets"
 KING_BED = ASSETS / "sdf" / "king_bed_1761578419" / "king_bed.gltf"
 WORK_DESK = ASSETS / "sdf" / "work_desk_1761578426" / "work_desk.gltf"
 OFFICE_CHAIR = ASSETS / "sdf" / "office_chair_1761578426" / "office_chair.gltf"
@@ -21,8 +21,8 @@ PRINTER = ASSETS / "sdf" / "printer_1761578426" / "printer.gltf"
 COFFEE_MUG = ASSETS / "manipulands" / "sdf" / "coffee_mug_1762992163" / "coffee_mug.gltf"
 
 
-def test_shared_data_is_where_conftest_says(shared_data: Path) -> None:
-    assert ASSETS.resolve().is_relative_to(shared_data)
+def test_repo_data_is_where_conftest_says(repo_data: Path) -> None:
+    assert ASSETS.resolve().is_relative_to(repo_data)
     assert COFFEE_MUG.is_file()
 
 

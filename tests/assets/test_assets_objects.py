@@ -21,7 +21,7 @@ from scenemosaic.assets import (
 from scenemosaic.exceptions import AssetError
 from scenemosaic.scene import AssetRef, Pose, Scene, SceneObject
 
-SAM3D = Path(__file__).resolve().parents[3] / "shared/data/sam3d_objects/generated_assets"
+SAM3D = Path(__file__).resolve().parents[2] / "data/sam3d_objects/generated_assets"
 MUG_URI = "manipulands/sdf/coffee_mug_1762992163/coffee_mug.gltf"
 
 

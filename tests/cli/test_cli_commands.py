@@ -42,8 +42,8 @@ def test_unknown_log_level_rejected(tmp_path: Path) -> None:
     assert "unknown log level" in bad.output
 
 
-def test_inspect_reads_any_input_format(shared_data: Path) -> None:
-    raw = shared_data / "layouts" / "physcene" / "DiningRoom-19325_diningroom.json"
+def test_inspect_reads_any_input_format(repo_data: Path) -> None:
+    raw = repo_data / "layouts" / "physcene" / "DiningRoom-19325_diningroom.json"
     result = runner.invoke(app, ["inspect", str(raw)])
     assert result.exit_code == 0, result.output
     # an unstructured input: the room is recovered, nothing is parented yet

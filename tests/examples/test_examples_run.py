@@ -17,7 +17,7 @@ def test_example_runs(script: Path, tmp_path: Path) -> None:
     env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
     args = [sys.executable, str(script)]
     if script.name == "generate_room.py":
-        args += [str(Path(__file__).resolve().parents[3] / "shared/data/layouts/physcene/DiningRoom-19325_diningroom.json"), str(tmp_path / "out")]
+        args += [str(Path(__file__).resolve().parents[2] / "data/layouts/physcene/DiningRoom-19325_diningroom.json"), str(tmp_path / "out")]
     done = subprocess.run(args, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=240, check=False)
     assert done.returncode == 0, done.stderr[-3000:]
     assert done.stdout.strip(), "an example should show its result"

@@ -30,8 +30,8 @@ if not URL:
 
 
 @pytest.mark.timeout(1800)  # a 0.5 B model on 2 CPU cores: ~10 s per call, repairs included
-def test_generate_with_a_real_text_only_server(tmp_path: Path, shared_data: Path) -> None:
-    source = shared_data / "layouts" / "physcene" / "DiningRoom-19325_diningroom.json"
+def test_generate_with_a_real_text_only_server(tmp_path: Path, repo_data: Path) -> None:
+    source = repo_data / "layouts" / "physcene" / "DiningRoom-19325_diningroom.json"
     out = tmp_path / "o"
     result = CliRunner().invoke(
         app,

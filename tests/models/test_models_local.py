@@ -8,9 +8,8 @@ from typing import Any
 import httpx
 import pytest
 from llm_fakes import VALID, FakeServer, Verdict, chat_reply, user_messages
-from pydantic import BaseModel
 
-from scenemosaic.exceptions import ModelConfigError, ModelError, ModelHTTPError, OutputValidationError
+from scenemosaic.exceptions import ModelConfigError, ModelHTTPError, OutputValidationError
 from scenemosaic.models import (
     FunctionModel,
     InstrumentedModel,
@@ -21,56 +20,15 @@ from scenemosaic.models import (
 )
 
 
-class Evidence(BaseModel):
-    n_chairs: int
-
-
-class Other(BaseModel):
-    x: int
-
-
-def solve(evidence: Evidence) -> Verdict:
-    return Verdict(should_modify=evidence.n_chairs > 2, notes=[f"{evidence.n_chairs} chairs"], score=50)
-
-
-async def test_rules_model_answers_with_the_agents_solver() -> None:
+async def test_rules_model_is_a_marker_that_never_answers() -> None:
+    """Agents answer with their own solvers when the model uses rule solvers; asked directly, it refuses."""
     model = RulesModel()
-    ctx = RequestContext(agent="critic", evidence=Evidence(n_chairs=3), solve=solve)  # type: ignore[arg-type]
-    out, usage = await model.request([], Verdict, context=ctx)
-    assert out == Verdict(should_modify=True, notes=["3 chairs"], score=50)
-    ctx2 = RequestContext(agent="critic", evidence=Evidence(n_chairs=1), solve=solve)  # type: ignore[arg-type]
-    out2, _ = await model.request([], Verdict, context=ctx2)
-    assert out2.should_modify is False
-    assert (usage.requests, usage.total_tokens) == (1, 0)
-    assert model.vision is False
-    assert model.name == "rules"
-
-
-async def test_rules_model_validates_dict_results() -> None:
-    ctx = RequestContext(agent="critic", evidence=None, solve=lambda _: VALID)  # type: ignore[arg-type,return-value]
-    out, _ = await RulesModel().request([], Verdict, context=ctx)
-    assert out.score == 70
-
-
-async def test_rules_model_errors_name_the_agent() -> None:
-    model = RulesModel()
+    assert model.uses_rule_solvers and InstrumentedModel(model, lambda call: None).uses_rule_solvers
+    assert (model.name, model.vision) == ("rules", False)
     with pytest.raises(ModelConfigError, match="'support'"):
         await model.request([], Verdict, context=RequestContext(agent="support"))
     with pytest.raises(ModelConfigError):
         await model.request([], Verdict)
-    wrong = RequestContext(agent="walls", solve=lambda _: Other(x=1))
-    with pytest.raises(OutputValidationError, match=r"'walls'.*Other"):
-        await model.request([], Verdict, context=wrong)
-
-    def broken(_: Any) -> BaseModel:
-        raise ZeroDivisionError("oops")
-
-    with pytest.raises(ModelError, match=r"'semantics'.*ZeroDivisionError") as info:
-        await model.request([], Verdict, context=RequestContext(agent="semantics", solve=broken))
-    assert isinstance(info.value.__cause__, ZeroDivisionError)
-    invalid = RequestContext(agent="room", solve=lambda _: {"score": -1})  # type: ignore[arg-type,return-value]
-    with pytest.raises(OutputValidationError, match="'room'"):
-        await model.request([], Verdict, context=invalid)
 
 
 async def test_function_model_per_agent_sync_and_async() -> None:
@@ -107,7 +65,7 @@ async def test_instrumented_model_reports_each_call() -> None:
     calls: list[ModelCall] = []
     ticks = iter([10.0, 10.25, 20.0, 20.5])
     server = FakeServer(chat_reply(VALID, prompt_tokens=9, completion_tokens=4), chat_reply("nope"))
-    inner, _ = server.model(max_repairs=0)
+    inner, _ = server.model()
     model = InstrumentedModel(inner, calls.append, clock=lambda: next(ticks))
     assert (model.name, model.vision) == ("openai:test-model", True)
 

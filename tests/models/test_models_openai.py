@@ -12,7 +12,7 @@ import pytest
 from llm_fakes import PNG_1PX, VALID, FakeServer, Verdict, chat_reply, user_messages
 
 from scenemosaic.exceptions import ModelConfigError, ModelError, ModelHTTPError, OutputValidationError
-from scenemosaic.models import ModelSettings, OpenAIChatModel, RequestContext, RetryPolicy
+from scenemosaic.models import HTTPRetryPolicy, ModelSettings, OpenAIChatModel, RequestContext
 
 CTX = RequestContext(agent="critic", node="critic/unit_0")
 
@@ -132,7 +132,7 @@ async def test_500_then_success_backs_off_with_jitter() -> None:
 
 async def test_5xx_exhausts_bounded_attempts_with_growing_backoff() -> None:
     server = FakeServer(*[httpx.Response(503, json={"error": {"message": "busy"}}) for _ in range(3)])
-    model, sleeps = server.model(retry=RetryPolicy(max_attempts=3, initial_backoff_s=2.0, jitter_s=0.0))
+    model, sleeps = server.model(retry=HTTPRetryPolicy(max_attempts=3, initial_backoff_s=2.0, jitter_s=0.0))
     with pytest.raises(ModelHTTPError) as info:
         await model.request(user_messages(), Verdict, context=CTX)
     assert info.value.status_code == 503
@@ -152,7 +152,7 @@ async def test_read_timeout_is_retried_with_the_request_timeout() -> None:
 
 async def test_timeouts_every_time_raise_model_error() -> None:
     server = FakeServer(*[httpx.ReadTimeout("too slow") for _ in range(2)])
-    model, _ = server.model(retry=RetryPolicy(max_attempts=2, jitter_s=0.0))
+    model, _ = server.model(retry=HTTPRetryPolicy(max_attempts=2, jitter_s=0.0))
     with pytest.raises(ModelError, match="timed out") as info:
         await model.request(user_messages(), Verdict, context=CTX)
     assert not isinstance(info.value, ModelHTTPError)
@@ -246,12 +246,12 @@ async def test_truncated_reply_is_retried_once_with_doubled_max_tokens() -> None
     assert (usage.requests, usage.output_tokens) == (2, 90)
 
 
-async def test_truncated_even_when_doubled_goes_through_repair_then_fails() -> None:
+async def test_truncated_even_when_doubled_is_never_accepted() -> None:
     cut = '{"should_modify": true, "notes": ["a'
     # A length-capped reply that happens to be valid JSON is still never accepted.
     cut_but_valid = json.dumps(VALID)
     server = FakeServer(chat_reply(cut, finish="length"), chat_reply(cut_but_valid, finish="length"))
-    model, _ = server.model(max_repairs=0)
+    model, _ = server.model()
     with pytest.raises(OutputValidationError) as info:
         await model.request(user_messages(), Verdict, ModelSettings(max_tokens=8), context=CTX)
     assert info.value.raw_reply == cut_but_valid
@@ -282,7 +282,7 @@ async def test_503_honours_retry_after_and_caps_it() -> None:
         httpx.Response(503, headers={"Retry-After": "86400"}, json={"error": {"message": "loading model"}}),
         chat_reply(VALID),
     )
-    model, sleeps = server.model(retry=RetryPolicy(max_attempts=3, max_retry_after_s=20.0, jitter_s=0.5))
+    model, sleeps = server.model(retry=HTTPRetryPolicy(max_attempts=3, max_retry_after_s=20.0, jitter_s=0.5))
     out, _ = await model.request(user_messages(), Verdict, context=CTX)
     assert out.score == 70
     assert sleeps == [3.0, 20.0]  # the server's hint, exactly (no jitter), capped at max_retry_after_s
@@ -291,7 +291,7 @@ async def test_503_honours_retry_after_and_caps_it() -> None:
 async def test_429_every_time_ends_with_the_status_and_body() -> None:
     body = {"error": {"message": "rate limit reached for requests", "type": "requests"}}
     server = FakeServer(*[httpx.Response(429, headers={"Retry-After": "1"}, json=body) for _ in range(3)])
-    model, sleeps = server.model(retry=RetryPolicy(max_attempts=3))
+    model, sleeps = server.model(retry=HTTPRetryPolicy(max_attempts=3))
     with pytest.raises(ModelHTTPError, match="rate limit reached") as info:
         await model.request(user_messages(), Verdict, context=CTX)
     assert info.value.status_code == 429 and json.loads(info.value.body) == body
@@ -310,12 +310,12 @@ async def test_any_non_200_with_error_message_is_an_error(status: int) -> None:
     assert (len(server.requests), sleeps) == (1, [])  # client errors are not retried
 
 
-async def test_truncated_reply_without_a_token_cap_is_repaired_not_accepted() -> None:
-    """With no max_tokens there is nothing to double: the cut reply goes to schema repair at once."""
+async def test_truncated_reply_without_a_token_cap_is_refused_not_accepted() -> None:
+    """With no max_tokens there is nothing to double: the cut reply is an invalid reply at once
+    (the asking agent sends it back for repair; see tests/agents/test_agent_repair.py)."""
     server = FakeServer(chat_reply(VALID, finish="length"), chat_reply(VALID))
     model, _ = server.model()
-    out, usage = await model.request(user_messages(), Verdict, ModelSettings(max_tokens=None), context=CTX)
-    assert out.score == 70 and usage.requests == 2
-    assert "max_tokens" not in server.bodies[0]
-    repair = server.bodies[1]["messages"][-1]["content"]
-    assert "cut off" in repair
+    with pytest.raises(OutputValidationError) as info:
+        await model.request(user_messages(), Verdict, ModelSettings(max_tokens=None), context=CTX)
+    assert len(server.requests) == 1 and "max_tokens" not in server.bodies[0]
+    assert any("cut off" in e for e in info.value.errors)

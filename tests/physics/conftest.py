@@ -15,9 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scenemosaic.agents import structure_scene
 from scenemosaic.assets import CoacdParams, HullCache, object_hulls, shutdown_workers
-from scenemosaic.importers import load_scene, write_sam3d_example
+from scenemosaic.exchange import load_scene, write_sam3d_example
 from scenemosaic.physics import (
     COLLISION_TOLERANCE_M,
     StabilizationReport,
@@ -25,11 +24,12 @@ from scenemosaic.physics import (
     stabilize_scene_sync,
 )
 from scenemosaic.scene import Scene
+from scenemosaic.structure import structure_scene
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
-SHARED_DATA = (REPO_ROOT.parent / "shared" / "data").resolve()
-PHYSCENE_DIR = SHARED_DATA / "layouts" / "physcene"
-SAM3D_DIR = SHARED_DATA / "sam3d_objects"
+DATA = REPO_ROOT / "data"
+PHYSCENE_DIR = DATA / "layouts" / "physcene"
+SAM3D_DIR = DATA / "sam3d_objects"
 HULL_CACHE_DIR = REPO_ROOT / ".scenemosaic-cache" / "hulls"
 COACD = CoacdParams.fast()
 ROOMS = sorted(p.stem for p in PHYSCENE_DIR.glob("*.json"))

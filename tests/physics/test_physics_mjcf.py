@@ -7,7 +7,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from scenemosaic.export._mjcf import export_mjcf
+from scenemosaic.exchange._mjcf import export_mjcf
 from scenemosaic.physics import StabilizationReport
 from scenemosaic.scene import Scene
 

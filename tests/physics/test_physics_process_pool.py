@@ -6,8 +6,8 @@ import multiprocessing
 from concurrent.futures import ProcessPoolExecutor
 
 from scenemosaic import demo_scene
-from scenemosaic.agents import structure_scene
 from scenemosaic.physics import stabilize_scene
+from scenemosaic.structure import structure_scene
 
 
 async def test_process_pool_gives_the_same_scene_as_threads() -> None:

@@ -10,29 +10,22 @@ from typing import Any
 import numpy as np
 import pytest
 import trimesh
+from agent_solvers import solver_answer
 from pydantic import BaseModel
 from typer.testing import CliRunner
 
-from scenemosaic import (
-    FunctionModel,
-    GenerateConfig,
-    Message,
-    ReplayModel,
-    RequestContext,
-    generate,
-    load_scene,
-    read_scene,
-)
+from scenemosaic import FunctionModel, GenerateConfig, ReplayModel, generate, load_scene
 from scenemosaic.cli import app
-from scenemosaic.export import Y_UP_TO_Z_UP
+from scenemosaic.exchange import Y_UP_TO_Z_UP, read_scene
+from scenemosaic.models import Message, RequestContext
 
 LIVING = "LivingDiningRoom-124277_livingroom.json"
 DINING = "DiningRoom-19325_diningroom.json"
 
 
 @pytest.fixture(scope="module")
-def living_run(tmp_path_factory: pytest.TempPathFactory, shared_data: Path) -> tuple[Path, Path]:
-    source = shared_data / "layouts" / "physcene" / LIVING
+def living_run(tmp_path_factory: pytest.TempPathFactory, repo_data: Path) -> tuple[Path, Path]:
+    source = repo_data / "layouts" / "physcene" / LIVING
     out = tmp_path_factory.mktemp("living")
     result = CliRunner().invoke(app, ["generate", str(source), "--out", str(out)])
     assert result.exit_code == 0, result.output
@@ -123,12 +116,11 @@ def test_demo_command_writes_a_valid_scene(demo_out: Path) -> None:
 
 
 def _solver_answer(messages: Sequence[Message], context: RequestContext) -> BaseModel:
-    assert context.solve is not None
-    return context.solve(context.evidence)
+    return solver_answer(messages, context)
 
 
-def test_generate_replays_a_cassette_recorded_from_a_function_model(tmp_path: Path, shared_data: Path) -> None:
-    source = shared_data / "layouts" / "physcene" / DINING
+def test_generate_replays_a_cassette_recorded_from_a_function_model(tmp_path: Path, repo_data: Path) -> None:
+    source = repo_data / "layouts" / "physcene" / DINING
     cassette = tmp_path / "dining.cassette.json"
     recorder = ReplayModel(FunctionModel(_solver_answer, name="recorded-fn", vision=False), cassette, "record")
     recorded = generate(source, tmp_path / "rec", GenerateConfig(model=recorder, stabilize=False))
@@ -142,8 +134,8 @@ def test_generate_replays_a_cassette_recorded_from_a_function_model(tmp_path: Pa
     assert replayed.constraints == recorded.scene.constraints
 
 
-def test_failed_stage_keeps_partial_results(tmp_path: Path, shared_data: Path) -> None:
-    source = shared_data / "layouts" / "physcene" / DINING
+def test_failed_stage_keeps_partial_results(tmp_path: Path, repo_data: Path) -> None:
+    source = repo_data / "layouts" / "physcene" / DINING
     missing = tmp_path / "no-such-cassette.json"
     result = CliRunner().invoke(
         app, ["generate", str(source), "--out", str(tmp_path / "o"), "--model", f"replay:{missing}"]
@@ -158,8 +150,8 @@ def test_failed_stage_keeps_partial_results(tmp_path: Path, shared_data: Path) -
     assert len(partial.objects) == 6
 
 
-def test_same_seed_gives_identical_scene_files(tmp_path: Path, shared_data: Path) -> None:
-    source = shared_data / "layouts" / "physcene" / DINING
+def test_same_seed_gives_identical_scene_files(tmp_path: Path, repo_data: Path) -> None:
+    source = repo_data / "layouts" / "physcene" / DINING
     a = generate(source, tmp_path / "a", GenerateConfig(seed=3))
     b = generate(source, tmp_path / "b", GenerateConfig(seed=3))
     assert (a.base_dir / "scene.json").read_bytes() == (b.base_dir / "scene.json").read_bytes()
@@ -274,7 +266,7 @@ def test_inspect_prints_the_whole_tree_units_and_constraints(demo_out: Path) -> 
     assert [c["id"] for c in payload["constraints"]] == [c.id for c in scene.constraints]
 
 
-async def test_cancelling_generate_keeps_the_report_and_the_last_good_scene(tmp_path: Path, shared_data: Path) -> None:
+async def test_cancelling_generate_keeps_the_report_and_the_last_good_scene(tmp_path: Path, repo_data: Path) -> None:
     import asyncio
 
     from scenemosaic import agenerate
@@ -287,7 +279,7 @@ async def test_cancelling_generate_keeps_the_report_and_the_last_good_scene(tmp_
         await asyncio.Event().wait()  # a model that hangs until the run is cancelled
         raise AssertionError("unreachable")
 
-    source = shared_data / "layouts" / "physcene" / DINING
+    source = repo_data / "layouts" / "physcene" / DINING
     model = FunctionModel(never_answers, vision=False)
     task = asyncio.create_task(agenerate(source, tmp_path, GenerateConfig(model=model)))
     await asyncio.wait_for(asked.wait(), timeout=30)

@@ -1,0 +1,59 @@
+"""Exchange: every scene format in and out, behind one registry (as ``trimesh.exchange``).
+
+Readers turn other tools' files into :class:`~scenemosaic.scene.Scene` objects; writers turn
+scenes into files a simulator or an evaluator loads. A format is one module plus one
+:func:`register_format` call. Built in:
+
+* ``native`` — a folder with ``scene.json`` + ``assets/`` (:func:`save_scene` writes it);
+* ``front3d`` — 3D-FRONT / ATISS / PhyScene layouts (``{"ThreedFront": ...}``);
+* ``procthor`` — AI2-THOR / ProcTHOR / Holodeck houses (one scene per room);
+* ``sam3d`` — image-to-3D object sets: ``poses.json`` + mesh files;
+* exports: GLB (:func:`export_glb`), SceneEval sceneState (:func:`export_sceneeval`),
+  MJCF (:func:`export_mjcf`).
+
+Every malformed input raises :class:`~scenemosaic.exceptions.ImportFormatError` naming the
+file and the field. Conventions and rules: ``docs/importers.md`` and ``docs/exports.md``.
+"""
+
+from scenemosaic.exchange._glb import GLB_ROOT_NODE, Y_UP_TO_Z_UP, Z_UP_TO_Y_UP, build_glb_scene, export_glb
+from scenemosaic.exchange._mjcf import export_mjcf
+from scenemosaic.exchange._native import read_scene, save_scene
+from scenemosaic.exchange._procthor import AssetDatabase, load_asset_database
+from scenemosaic.exchange._registry import FORMATS, ImportFormat, detect_format, load_scene, load_scenes
+from scenemosaic.exchange._sam3d import read_sdf_sim, write_sam3d_example
+from scenemosaic.exchange._sceneeval import (
+    LOCAL_TO_GLTF,
+    MODEL_ID_PREFIX,
+    SupportType,
+    export_sceneeval,
+    gltf_to_world,
+    sceneeval_state,
+    support_type,
+)
+
+__all__ = [
+    "FORMATS",
+    "GLB_ROOT_NODE",
+    "LOCAL_TO_GLTF",
+    "MODEL_ID_PREFIX",
+    "Y_UP_TO_Z_UP",
+    "Z_UP_TO_Y_UP",
+    "AssetDatabase",
+    "ImportFormat",
+    "SupportType",
+    "build_glb_scene",
+    "detect_format",
+    "export_glb",
+    "export_mjcf",
+    "export_sceneeval",
+    "gltf_to_world",
+    "load_asset_database",
+    "load_scene",
+    "load_scenes",
+    "read_scene",
+    "read_sdf_sim",
+    "save_scene",
+    "sceneeval_state",
+    "support_type",
+    "write_sam3d_example",
+]

@@ -1,0 +1,412 @@
+"""AI2-THOR / ProcTHOR / Holodeck house JSON: one :class:`Scene` per room.
+
+Unity's frame is left-handed and Y-up: (x, y, z) with z forward. Swapping y and z gives our
+right-handed Z-up world, so a floor point ``{x, z}`` is simply ``(x, z)`` on our floor. A
+Unity rotation (Euler degrees, applied z, then x, then y) conjugated by that swap is a proper
+rotation of our world; for the usual upright object it is ``-rotation.y`` about +Z. AI2-THOR
+assets face their local +Z, i.e. +Y after the swap, so a half turn about Z maps our front
+(-Y) onto it: upright objects get ``yaw = pi - radians(rotation.y)``.
+
+Objects carry no size: each ``assetId`` is looked up in an asset database (the
+``asset-database.json`` that ProcTHOR publishes: ``{objectType: [{assetId, boundingBox:
+{x, y, z}}, ...]}``). ``position`` is the centre of the asset's bounding box.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import structlog
+from pydantic import ValidationError
+from scipy.spatial.transform import Rotation
+from shapely.geometry import Point, Polygon
+
+from scenemosaic.exceptions import ImportFormatError
+from scenemosaic.exchange._common import FieldReader, read_json, sanitize_id, unique_id
+from scenemosaic.scene import (
+    PROCTHOR_PRIORS_DIR,
+    AssetRef,
+    FloatArray,
+    Opening,
+    Pose,
+    Provenance,
+    Relation,
+    Room,
+    Scene,
+    SceneObject,
+    Wall,
+)
+
+__all__ = [
+    "DEFAULT_CEILING_HEIGHT",
+    "AssetDatabase",
+    "import_procthor",
+    "load_asset_database",
+    "looks_like_procthor",
+]
+
+log = structlog.get_logger(__name__)
+
+DEFAULT_CEILING_HEIGHT = 2.5
+"""Ceiling height (metres) of a room none of whose walls gives a height."""
+IMPORTER = "scenemosaic.exchange.procthor"
+_WALL_MATCH_TOL = 1e-3  # metres: an opening's point must lie this close to one of our walls
+
+# swaps Unity's y and z: Unity coordinates <-> our Z-up world (its own inverse)
+_SWAP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+# our asset frame (front -Y) -> Unity asset frame after the swap (front +Y): half turn about Z
+_HALF_TURN = np.diag([-1.0, -1.0, 1.0])
+
+
+@dataclass(frozen=True)
+class AssetDatabase:
+    """Per-asset bounding boxes and object types, keyed by ``assetId``."""
+
+    boxes: Mapping[str, tuple[float, float, float]]
+    """Unity-frame bounding-box size (x, y, z) in metres; y is the height."""
+    types: Mapping[str, str]
+    """AI2-THOR object type (``"DiningTable"``...)."""
+    source: str = ""
+
+
+_DB_CACHE: dict[tuple[str, float], AssetDatabase] = {}
+
+
+def load_asset_database(
+    source: str | os.PathLike[str] | Mapping[str, Any] | AssetDatabase | None,
+) -> AssetDatabase:
+    """Load (and cache) an asset database from a path or a parsed mapping; ``None`` reads the
+    database shipped with the package (``PROCTHOR_PRIORS_DIR / "asset-database.json"``).
+
+    Accepted layouts: ``{objectType: [entry, ...]}`` (ProcTHOR's own), ``[entry, ...]`` or
+    ``{assetId: entry}``, where an entry holds ``boundingBox: {x, y, z}`` and optionally
+    ``assetId`` and ``objectType``.
+    """
+    if isinstance(source, AssetDatabase):
+        return source
+    if source is None:
+        source = PROCTHOR_PRIORS_DIR / "asset-database.json"
+    if isinstance(source, Mapping):
+        return _index_database(source, "<mapping>")
+    path = Path(source)
+    try:
+        key = (str(path.resolve()), path.stat().st_mtime)
+    except OSError as exc:
+        raise ImportFormatError("asset database not found", path=str(path)) from exc
+    if key not in _DB_CACHE:
+        _DB_CACHE[key] = _index_database(read_json(path), str(path))
+    return _DB_CACHE[key]
+
+
+def _index_database(data: Any, source: str) -> AssetDatabase:
+    r = FieldReader(Path(source))
+    boxes: dict[str, tuple[float, float, float]] = {}
+    types: dict[str, str] = {}
+
+    def add(entry: Any, field: str, asset_id: str | None, object_type: str | None) -> None:
+        e = r.mapping(entry, field)
+        aid = e.get("assetId", asset_id)
+        if not isinstance(aid, str):
+            r.fail(f"{field}.assetId", "missing asset id")
+        bx, by, bz = r.xyz(r.get(e, "boundingBox", field), f"{field}.boundingBox")
+        if min(bx, by, bz) <= 0:
+            r.fail(f"{field}.boundingBox", f"sizes must be positive, got {[bx, by, bz]}")
+        boxes[aid] = (bx, by, bz)
+        otype = e.get("objectType", object_type)
+        types[aid] = otype if isinstance(otype, str) else re.sub(r"_\d+$", "", aid)
+
+    if isinstance(data, list):
+        for i, entry in enumerate(data):
+            add(entry, f"[{i}]", None, None)
+    elif isinstance(data, Mapping):
+        for key, value in data.items():
+            if isinstance(value, list):
+                for i, entry in enumerate(value):
+                    add(entry, f"{key}[{i}]", None, key)
+            else:
+                add(value, key, key, None)
+    else:
+        r.fail("", "an asset database is a JSON object or array")
+    return AssetDatabase(boxes=boxes, types=types, source=source)
+
+
+def looks_like_procthor(data: Any) -> bool:
+    """Detection rule: a JSON object with ``rooms`` (each with a ``floorPolygon``) and ``objects``."""
+    if not isinstance(data, dict) or not isinstance(data.get("rooms"), list) or "objects" not in data:
+        return False
+    return any(isinstance(room, dict) and "floorPolygon" in room for room in data["rooms"])
+
+
+@dataclass
+class _RoomBuild:
+    room: Room
+    polygon: Polygon
+    source_id: str
+    room_type: str
+    objects: list[SceneObject] = field(default_factory=list)
+    relations: list[Relation] = field(default_factory=list)
+    asset_ids: dict[str, str] = field(default_factory=dict)
+    source_ids: dict[str, str] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+
+def import_procthor(data: Any, path: Path, *, asset_database: Any = None) -> list[Scene]:
+    """One :class:`Scene` per room of a parsed house, in the house's room order.
+
+    Each top-level object goes to the room whose floor polygon contains its centre (the
+    nearest room, with a provenance note, when none does); its ``children`` follow it and get
+    an ``attach`` relation to it. Top-level objects get no relation: structuring decides.
+    """
+    db = load_asset_database(asset_database)
+    r = FieldReader(path)
+    top = r.mapping(data, "")
+    rooms_raw = r.array(r.get(top, "rooms", ""), "rooms")
+    if not rooms_raw:
+        r.fail("rooms", "the house has no rooms")
+    walls_by_id = _walls_by_id(r, top)
+    builds: list[_RoomBuild] = []
+    room_ids: set[str] = set()
+    for i, raw in enumerate(rooms_raw):
+        builds.append(_build_room(r, raw, f"rooms[{i}]", walls_by_id, room_ids))
+    by_source = {b.source_id: b for b in builds}
+    for key in ("doors", "windows"):
+        for i, raw in enumerate(r.array(top.get(key) or [], key)):
+            _add_opening(r, raw, f"{key}[{i}]", key, walls_by_id, by_source)
+
+    taken: set[str] = set()
+    for i, raw in enumerate(r.array(r.get(top, "objects", ""), "objects")):
+        field_name = f"objects[{i}]"
+        item = r.mapping(raw, field_name)
+        centre = r.xyz(r.get(item, "position", field_name), f"{field_name}.position")
+        build = _room_for(builds, centre[0], centre[2])
+        if not build.polygon.covers(Point(centre[0], centre[2])):
+            build.notes.append(f"{field_name} lies outside every floor polygon; assigned to the nearest room")
+        _add_object(r, item, field_name, None, build, db, taken)
+
+    scenes = []
+    for b in builds:
+        scenes.append(
+            Scene(
+                id=b.room.id,
+                room=b.room,
+                objects=b.objects,
+                relations=b.relations,
+                metadata={
+                    "procthor": {
+                        "room_id": b.source_id,
+                        "room_type": b.room_type,
+                        "asset_ids": b.asset_ids,
+                        "source_ids": b.source_ids,
+                        "asset_database": db.source,
+                    }
+                },
+                provenance=Provenance(
+                    source_format="procthor", source_path=path.as_posix(), importer=IMPORTER, notes=b.notes
+                ),
+            )
+        )
+    log.debug(
+        "procthor_imported", path=str(path), rooms=len(scenes), objects=sum(len(s.objects) for s in scenes)
+    )
+    return scenes
+
+
+# -- rooms and walls ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _SourceWall:
+    room_id: str | None
+    start: tuple[float, float]
+    end: tuple[float, float]
+    height: float | None
+
+
+def _walls_by_id(r: FieldReader, top: Mapping[str, Any]) -> dict[str, _SourceWall]:
+    out: dict[str, _SourceWall] = {}
+    for i, raw in enumerate(r.array(top.get("walls") or [], "walls")):
+        f = f"walls[{i}]"
+        w = r.mapping(raw, f)
+        wid = r.text(r.get(w, "id", f), f"{f}.id")
+        poly = r.array(r.get(w, "polygon", f), f"{f}.polygon")
+        pts = [r.xyz(p, f"{f}.polygon[{j}]") for j, p in enumerate(poly)]
+        if len(pts) < 2:
+            r.fail(f"{f}.polygon", "a wall polygon needs at least 2 points")
+        low = min(p[1] for p in pts)
+        base: list[tuple[float, float]] = []
+        for p in pts:  # bottom edge, in file order: start then end
+            q = (p[0], p[2])
+            if abs(p[1] - low) < 1e-6 and q not in base:
+                base.append(q)
+        if len(base) < 2:
+            r.fail(f"{f}.polygon", "the wall has no bottom edge (two distinct points at its lowest height)")
+        high = max(p[1] for p in pts)
+        room_id = w.get("roomId")
+        out[wid] = _SourceWall(
+            room_id=room_id if isinstance(room_id, str) else None,
+            start=base[0],
+            end=base[1],
+            height=(high - low) if high - low > 1e-6 else None,
+        )
+    return out
+
+
+def _build_room(
+    r: FieldReader, raw: Any, f: str, walls_by_id: Mapping[str, _SourceWall], room_ids: set[str]
+) -> _RoomBuild:
+    room = r.mapping(raw, f)
+    source_id = r.text(r.get(room, "id", f), f"{f}.id")
+    points = r.array(r.get(room, "floorPolygon", f), f"{f}.floorPolygon")
+    floor = []
+    for j, p in enumerate(points):
+        x, _, z = r.xyz(p, f"{f}.floorPolygon[{j}]")
+        floor.append((x, z))
+    if len(floor) < 3:
+        r.fail(f"{f}.floorPolygon", f"a floor polygon needs at least 3 points, got {len(floor)}")
+    polygon = Polygon(floor)
+    if not polygon.is_valid or polygon.area <= 1e-9:
+        r.fail(f"{f}.floorPolygon", "the floor polygon is degenerate or self-intersecting")
+    heights = [w.height for w in walls_by_id.values() if w.room_id == source_id and w.height is not None]
+    ceiling = max(heights) if heights else DEFAULT_CEILING_HEIGHT
+    rid = unique_id(sanitize_id(source_id), room_ids)
+    try:
+        built = Room.from_polygon(floor, ceiling_height=ceiling, room_id=rid)
+    except ValidationError as exc:
+        r.fail(f"{f}.floorPolygon", exc.errors()[0]["msg"])
+    room_type = room.get("roomType")
+    return _RoomBuild(
+        room=built,
+        polygon=polygon,
+        source_id=source_id,
+        room_type=room_type if isinstance(room_type, str) else "",
+    )
+
+
+def _add_opening(
+    r: FieldReader,
+    raw: Any,
+    f: str,
+    key: str,
+    walls_by_id: Mapping[str, _SourceWall],
+    by_source: Mapping[str, _RoomBuild],
+) -> None:
+    item = r.mapping(raw, f)
+    hole = r.array(r.get(item, "holePolygon", f), f"{f}.holePolygon")
+    if len(hole) < 2:
+        r.fail(f"{f}.holePolygon", "expected two corners")
+    x0, y0, _ = r.xyz(hole[0], f"{f}.holePolygon[0]")
+    x1, y1, _ = r.xyz(hole[1], f"{f}.holePolygon[1]")
+    width, height = abs(x1 - x0), abs(y1 - y0)
+    if width <= 0 or height <= 0:
+        r.fail(f"{f}.holePolygon", "the hole has zero width or height")
+    kind = "door" if key == "doors" else "window"
+    for side in ("0", "1"):
+        room_src = item.get(f"room{side}")
+        wall_src = item.get(f"wall{side}")
+        build = by_source.get(room_src) if isinstance(room_src, str) else None
+        wall = walls_by_id.get(wall_src) if isinstance(wall_src, str) else None
+        if build is None or wall is None:
+            continue
+        # the hole's x runs along the source wall from its start
+        d = np.subtract(wall.end, wall.start)
+        length = float(np.linalg.norm(d))
+        if length < 1e-9:
+            continue
+        centre_pt = np.asarray(wall.start) + d / length * (0.5 * (x0 + x1))
+        target = _wall_through(build.room.walls, centre_pt)
+        if target is None:
+            build.notes.append(f"{f} does not lie on any wall of room {build.source_id!r}; dropped")
+            continue
+        along = float(np.dot(centre_pt - np.asarray(target.start), target.direction))
+        target.openings = [
+            *target.openings,
+            Opening(kind=kind, center=along, width=width, bottom=max(0.0, min(y0, y1)), height=height),
+        ]
+
+
+def _wall_through(walls: list[Wall], point: FloatArray) -> Wall | None:
+    for w in walls:
+        rel = point - np.asarray(w.start)
+        along = float(np.dot(rel, w.direction))
+        off = abs(float(np.dot(rel, w.inward_normal)))
+        if off < _WALL_MATCH_TOL and -_WALL_MATCH_TOL <= along <= w.length + _WALL_MATCH_TOL:
+            return w
+    return None
+
+
+def _room_for(builds: list[_RoomBuild], x: float, z: float) -> _RoomBuild:
+    p = Point(x, z)
+    for b in builds:
+        if b.polygon.covers(p):
+            return b
+    return min(builds, key=lambda b: b.polygon.distance(p))
+
+
+# -- objects --------------------------------------------------------------------------------------
+
+
+def _camel_to_snake(name: str) -> str:
+    s = re.sub(r"(?<=[a-z0-9])(?=[A-Z])", "_", name)
+    s = re.sub(r"(?<=[A-Z])(?=[A-Z][a-z])", "_", s)
+    return re.sub(r"[^a-z0-9_]+", "_", s.lower()).strip("_") or "object"
+
+
+def _unity_rotation(rx: float, ry: float, rz: float) -> FloatArray:
+    """Unity's Euler rotation (degrees; z, then x, then y) as a matrix in Unity coordinates."""
+    matrix: FloatArray = Rotation.from_euler("YXZ", [ry, rx, rz], degrees=True).as_matrix()
+    return matrix
+
+
+def _add_object(
+    r: FieldReader,
+    item: Mapping[str, Any],
+    f: str,
+    parent: str | None,
+    build: _RoomBuild,
+    db: AssetDatabase,
+    taken: set[str],
+) -> None:
+    asset_id = r.text(r.get(item, "assetId", f), f"{f}.assetId")
+    if asset_id not in db.boxes:
+        r.fail(f"{f}.assetId", f"asset {asset_id!r} is not in the asset database {db.source or ''}".rstrip())
+    bx, by, bz = db.boxes[asset_id]
+    cx, cy, cz = r.xyz(r.get(item, "position", f), f"{f}.position")
+    rot_raw = item.get("rotation", {"x": 0.0, "y": 0.0, "z": 0.0})
+    rx, ry, rz = r.xyz(rot_raw, f"{f}.rotation")
+    rotation = _SWAP @ _unity_rotation(rx, ry, rz) @ _SWAP @ _HALF_TURN
+    centre = np.array([cx, cz, cy])
+    origin = centre - rotation @ np.array([0.0, 0.0, by / 2.0])
+    qx, qy, qz, qw = Rotation.from_matrix(rotation).as_quat()
+    if abs(rx) < 1e-9 and abs(rz) < 1e-9:
+        pose = Pose.from_yaw(tuple(origin.tolist()), math.pi - math.radians(ry))  # exact for upright objects
+    else:
+        pose = Pose(position=tuple(origin.tolist()), quaternion=(qw, qx, qy, qz))
+    otype = db.types.get(asset_id, "Object")
+    category = _camel_to_snake(otype)
+    raw_id = item.get("id")
+    oid = unique_id(sanitize_id(raw_id) if isinstance(raw_id, str) else category, taken)
+    words = category.replace("_", " ")
+    build.objects.append(
+        SceneObject(
+            id=oid,
+            category=category,
+            description=f"{words} (AI2-THOR asset {asset_id})",
+            asset=AssetRef(kind="procedural", category=category, extents=(bx, bz, by)),
+            pose=pose,
+        )
+    )
+    build.asset_ids[oid] = asset_id
+    if isinstance(raw_id, str):
+        build.source_ids[oid] = raw_id
+    if parent is not None:
+        build.relations.append(Relation(kind="attach", child=oid, parent=parent, source=IMPORTER))
+    for j, child in enumerate(r.array(item.get("children") or [], f"{f}.children")):
+        cf = f"{f}.children[{j}]"
+        _add_object(r, r.mapping(child, cf), cf, oid, build, db, taken)

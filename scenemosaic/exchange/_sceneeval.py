@@ -1,0 +1,227 @@
+"""SceneEval ``sceneState`` export: ``scene_base.json`` plus one GLB per distinct asset.
+
+Frames (the full statement is ``docs/exports.md``):
+
+* The scene is Z-up, metres (``"up": [0, 0, 1]``, ``"unit": 1.0``); ``"front": [0, 1, 0]`` is
+  the format's declared front axis. Arch points are world ``[x, y, z]``.
+* Each asset GLB follows glTF: +Y up, +Z front, origin at the bottom centre of the footprint,
+  metres, with the object's scale and mesh *baked in* (one per distinct baked mesh).
+  Its vertices are our local-frame vertices mapped by ``Rx(-90°)``: ``(x, y, z) -> (x, z, -y)``,
+  so our front (local -Y) becomes glTF +Z.
+* Each object's ``transform`` is the rigid ``M = T(position) · R(pose) · Rx(+90°)``, written
+  column-major; for an upright pose ``R = Rz(yaw)``, so yaw 0 faces world -Y. SceneEval reads it
+  with ``np.asarray(data).reshape(4, 4).T`` and applies it to the GLB's raw vertices.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+from pathlib import Path
+from typing import Any, Literal, cast
+
+import numpy as np
+import structlog
+import trimesh
+
+from scenemosaic.exchange._glb import with_visual
+from scenemosaic.render import object_local_mesh
+from scenemosaic.scene import CEILING, FLOOR, FloatArray, Room, Scene, SceneObject
+
+__all__ = [
+    "LOCAL_TO_GLTF",
+    "MAX_OBJECT_NAME_BYTES",
+    "MODEL_ID_PREFIX",
+    "SupportType",
+    "export_sceneeval",
+    "gltf_to_world",
+    "sceneeval_state",
+    "support_type",
+]
+
+log = structlog.get_logger(__name__)
+
+SupportType = Literal["ground", "object", "wall", "ceiling"]
+
+MODEL_ID_PREFIX = "scenemosaic."
+"""``modelId`` = prefix + assetId; SceneEval picks the asset source by the part before the dot."""
+MAX_OBJECT_NAME_BYTES = 63
+"""SceneEval names each object ``idx<index>_<modelId>``; Blender truncates names beyond 63 bytes."""
+ASSET_HASH_CHARS = 10
+"""Hex digits of the baked-mesh hash kept in an assetId."""
+
+LOCAL_TO_GLTF = np.array(
+    [[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+)
+"""``Rx(-90°)``: our object frame (Z up, front -Y) -> glTF asset frame (Y up, front +Z)."""
+GLTF_TO_LOCAL = LOCAL_TO_GLTF.T.copy()
+"""``Rx(+90°)``, the inverse, the right-most factor of every object transform."""
+
+_ASSET_CHARS = re.compile(r"[^A-Za-z0-9_.\-]+")
+_HOLE_TYPES = {"door": "Door", "window": "Window", "opening": "Opening"}
+
+
+def support_type(scene: Scene, obj: SceneObject) -> SupportType:
+    """SceneEval's support type of an object, from its support relation.
+
+    ``ceiling`` when attached to (hanging from) the ceiling, ``wall`` when attached to a wall,
+    ``object`` when on or in another object, else ``ground`` (floor, or no support stated).
+    """
+    rel = scene.support_of(obj.id)
+    if rel is None or rel.parent == FLOOR:
+        return "ground"
+    if rel.parent == CEILING:
+        return "ceiling"
+    kind = scene.anchor_kind(rel.parent)
+    if kind == "wall":
+        return "wall"
+    if kind == "object":
+        return "object"
+    return "ground"
+
+
+def gltf_to_world(obj: SceneObject) -> FloatArray:
+    """The object's sceneState transform: rigid ``T · R · Rx(+90°)`` (4x4, row-major array)."""
+    m: FloatArray = obj.pose.matrix(with_scale=False) @ GLTF_TO_LOCAL
+    return m
+
+
+def _column_major(m: FloatArray) -> list[float]:
+    return [float(x) for x in np.asarray(m, dtype=np.float64).T.reshape(-1)]
+
+
+def _mesh_digest(mesh: trimesh.Trimesh) -> str:
+    h = hashlib.sha256()
+    h.update(np.round(np.asarray(mesh.vertices, dtype=np.float64), 6).tobytes())
+    h.update(np.asarray(mesh.faces, dtype=np.int64).tobytes())
+    return h.hexdigest()
+
+
+def _asset_id(category: str, digest: str, budget: int) -> str:
+    slug = _ASSET_CHARS.sub("_", category).strip("_.-") or "object"
+    room = budget - ASSET_HASH_CHARS - 1
+    if room < 1:
+        return digest[: max(budget, 1)]
+    return f"{slug[:room]}_{digest[:ASSET_HASH_CHARS]}"
+
+
+def _arch(room: Room) -> dict[str, Any]:
+    floor3 = [[float(x), float(y), 0.0] for x, y in room.floor]
+    elements: list[dict[str, Any]] = [
+        {"id": f"{room.id}|floor", "type": "Floor", "roomId": room.id, "points": floor3}
+    ]
+    for wall in room.walls:
+        holes = []
+        for k, op in enumerate(wall.openings):
+            a = max(op.center - op.width / 2.0, 0.0)
+            b = min(op.center + op.width / 2.0, wall.length)
+            top = min(op.bottom + op.height, wall.height)
+            if b <= a or top <= op.bottom:
+                log.warning("opening_outside_wall", wall=wall.id, opening=k)
+                continue
+            holes.append({
+                "id": f"{room.id}|{wall.id}|{op.kind}_{k}",
+                "type": _HOLE_TYPES[op.kind],
+                "box": {"min": [a, op.bottom], "max": [b, top]},
+            })  # fmt: skip
+        elements.append({
+            "id": f"{room.id}|{wall.id}",
+            "type": "Wall",
+            "roomId": room.id,
+            "points": [[wall.start[0], wall.start[1], 0.0], [wall.end[0], wall.end[1], 0.0]],
+            "height": wall.height,
+            "depth": wall.thickness,
+            "holes": holes,
+        })  # fmt: skip
+    elements.append({
+        "id": f"{room.id}|ceiling",
+        "type": "Ceiling",
+        "roomId": room.id,
+        "points": [[p[0], p[1], room.ceiling_height] for p in floor3],
+    })  # fmt: skip
+    return {
+        "version": "arch@1.0.2",
+        "id": room.id,
+        "up": [0, 0, 1],
+        "front": [0, 1, 0],
+        "coords2d": [0, 1],
+        "scaleToMeters": 1,
+        "elements": elements,
+    }
+
+
+def sceneeval_state(
+    scene: Scene, base_dir: Path | None = None
+) -> tuple[dict[str, Any], dict[str, trimesh.Trimesh]]:
+    """The sceneState document and the asset meshes it names (assetId -> glTF-frame mesh).
+
+    Objects whose baked meshes (vertices to 1 µm, faces) and categories are equal share one
+    asset. Asset meshes keep their own UV texture, else carry a PBR material of the category colour.
+    """
+    n = len(scene.objects)
+    longest_prefix = len(f"idx{max(n - 1, 0)}_{MODEL_ID_PREFIX}".encode())
+    budget = MAX_OBJECT_NAME_BYTES - longest_prefix
+    assets: dict[str, trimesh.Trimesh] = {}
+    by_key: dict[tuple[str, str], str] = {}
+    objects: list[dict[str, Any]] = []
+    for index, obj in enumerate(scene.objects):
+        local = object_local_mesh(obj, base_dir)
+        gltf = local.copy()
+        gltf.apply_transform(LOCAL_TO_GLTF)
+        key = (obj.category, _mesh_digest(gltf))
+        asset_id = by_key.get(key)
+        if asset_id is None:
+            asset_id = _asset_id(obj.category, key[1], budget)
+            if asset_id in assets:  # a category slug collision; the full digest keeps ids distinct
+                asset_id = _asset_id(f"{obj.category}_{key[1][ASSET_HASH_CHARS:]}", key[1], budget)
+            gltf = with_visual(gltf, obj.category)
+            assets[asset_id] = gltf
+            by_key[key] = asset_id
+        objects.append({
+            "id": obj.id,
+            "index": index,
+            "modelId": MODEL_ID_PREFIX + asset_id,
+            "category": obj.category,
+            "transform": {"rows": 4, "cols": 4, "data": _column_major(gltf_to_world(obj))},
+            "sceneeval": {"supportType": support_type(scene, obj)},
+        })  # fmt: skip
+    body: dict[str, Any] = {
+        "version": "scene@1.0.2",
+        "id": scene.id,
+        "up": [0, 0, 1],
+        "front": [0, 1, 0],
+        "unit": 1.0,
+    }
+    if scene.room is not None:
+        body["arch"] = _arch(scene.room)
+    else:
+        log.warning("sceneeval_without_room", scene=scene.id)
+    body["object"] = objects
+    return {"format": "sceneState", "scene": body}, assets
+
+
+def export_sceneeval(scene: Scene, out_dir: str | Path, base_dir: Path | None = None) -> Path:
+    """Write ``out_dir/scene_base.json`` and ``out_dir/assets/<assetId>.glb``; return the JSON path.
+
+    Also writes ``out_dir/assets/metadata.json`` (assetId -> category and size in metres), which
+    an asset source for SceneEval can read for descriptions. A scene without a room gets no
+    ``arch`` (SceneEval then builds its simple rectangular room around the objects).
+    """
+    out_dir = Path(out_dir)
+    asset_dir = out_dir / "assets"
+    asset_dir.mkdir(parents=True, exist_ok=True)
+    state, assets = sceneeval_state(scene, base_dir)
+    categories = {o["modelId"][len(MODEL_ID_PREFIX) :]: o["category"] for o in state["scene"]["object"]}
+    metadata: dict[str, dict[str, Any]] = {}
+    for asset_id, mesh in sorted(assets.items()):
+        data = cast(bytes, mesh.export(file_type="glb"))
+        (asset_dir / f"{asset_id}.glb").write_bytes(data)
+        ext = [float(e) for e in mesh.extents]
+        # glTF extents are (x, y up, z front); report them as our (x width, y depth, z height)
+        metadata[asset_id] = {"category": categories[asset_id], "extents_m": [ext[0], ext[2], ext[1]]}
+    (asset_dir / "metadata.json").write_text(json.dumps(metadata, indent=2, sort_keys=True) + "\n")
+    path = out_dir / "scene_base.json"
+    path.write_text(json.dumps(state, indent=2) + "\n")
+    log.info("sceneeval_exported", path=str(path), objects=len(scene.objects), assets=len(assets))
+    return path

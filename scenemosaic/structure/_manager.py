@@ -1,0 +1,248 @@
+"""The manager agent: looks at the scene and decides which structuring agents to schedule.
+
+Rule solver: room, support, semantics, attributes and verification always run; containment
+only when some object could contain another (a container with a non-furniture object over its
+footprint); wall attachment only when something could stand against or hang on a wall;
+cross-unit constraints only when a functional pair (seat + table, bed + nightstand, sofa +
+coffee table / TV stand, screen on a desk, TV) is present; plugin agents whenever given. The
+scheduler trims each agent's dependencies to the agents present, so skipping one never leaves
+a dangling edge.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+from pydantic import BaseModel, Field
+
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.exceptions import UsageError
+from scenemosaic.scene import Scene, SupportPriors, load_priors, traits
+from scenemosaic.structure._attributes import AttributesAgent
+from scenemosaic.structure._constraints import ConstraintsAgent
+from scenemosaic.structure._containment import ContainmentAgent
+from scenemosaic.structure._facts import object_facts
+from scenemosaic.structure._room import RoomAgent
+from scenemosaic.structure._semantics import SemanticsAgent
+from scenemosaic.structure._support import SupportAgent, floor_only
+from scenemosaic.structure._verify import VerificationAgent
+from scenemosaic.structure._walls import WallAttachmentAgent
+
+__all__ = [
+    "DEFAULT_AGENTS",
+    "REQUIRED_AGENTS",
+    "ManagerAgent",
+    "PlannedAgent",
+    "SceneSummary",
+    "StructuringPlan",
+    "plan_structuring",
+    "select_agents",
+]
+
+AgentList = Sequence[TaskAgent[Any, Any]]
+
+DEFAULT_AGENTS: tuple[TaskAgent[Any, Any], ...] = (
+    RoomAgent(),
+    SupportAgent(),
+    ContainmentAgent(),
+    WallAttachmentAgent(),
+    SemanticsAgent(),
+    AttributesAgent(),
+    ConstraintsAgent(),
+    VerificationAgent(),
+)
+"""The built-in structuring agents, in a valid order. A value to extend, not a registry:
+``GenerateConfig(agents=[*DEFAULT_AGENTS, MyAgent()])`` adds a plugin beside them."""
+REQUIRED_AGENTS = frozenset({"room", "support", "verify"})
+"""Agents every plan must contain when they are available (a tree needs a room, parents and a final check)."""
+
+
+class PlannedAgent(AgentOutput):
+    """One agent of the plan and why it is (or is not) scheduled."""
+
+    name: str = Field(min_length=1, max_length=64, description="An agent name from the evidence's available list.")
+    reason: str = Field(default="", max_length=200)
+
+
+class StructuringPlan(AgentOutput):
+    """Which structuring agents to run; dependencies follow from the agents themselves."""
+
+    agents: list[PlannedAgent] = Field(min_length=1, max_length=16)
+    skipped: list[PlannedAgent] = Field(default_factory=list, max_length=16)
+
+
+class SceneSummary(AgentOutput):
+    """What the manager looks at."""
+
+    available: list[str] = Field(
+        default_factory=list, max_length=64, description="Agents that can be scheduled, in a valid order."
+    )
+    object_count: int
+    has_room: bool
+    has_walls: bool
+    categories: list[str] = Field(max_length=MAX_ITEMS)
+    containers: list[str] = Field(default_factory=list, max_length=MAX_ITEMS)
+    container_candidates: list[str] = Field(
+        default_factory=list, max_length=MAX_ITEMS, description="Objects over a container's footprint."
+    )
+    wall_candidates: list[str] = Field(default_factory=list, max_length=MAX_ITEMS)
+    stack_candidates: list[str] = Field(
+        default_factory=list, max_length=MAX_ITEMS, description="Objects that could rest on another object."
+    )
+    functional_pairs: list[str] = Field(default_factory=list, max_length=32)
+
+
+def summarize(scene: Scene, priors: SupportPriors, available: Sequence[str] = ()) -> SceneSummary:
+    """The manager's evidence for ``scene`` when the agents named ``available`` can run."""
+    objs = object_facts(scene)
+    containers = [o for o in objs if traits(o.category).contains]
+    movable = [o for o in objs if not floor_only(o, priors) and traits(o.category).placement == "surface"]
+    in_container = sorted(
+        {o.id for o in movable for c in containers if c.id != o.id and c.contains_point(o.center, 0.02)}
+    )
+    cats = {o.category for o in objs}
+    pairs: list[str] = []
+    if any(traits(c).seat for c in cats) and any(traits(c).table for c in cats):
+        pairs.append("seats and a table or desk")
+    if any("bed" in c for c in cats) and "nightstand" in cats:
+        pairs.append("bed and nightstands")
+    if any("sofa" in c for c in cats) and cats & {"coffee_table", "tea_table", "tv_stand"}:
+        pairs.append("sofa and coffee table / TV stand")
+    if cats & {"television", "monitor", "computer_monitor", "laptop"}:
+        pairs.append("screen")
+    wall_like = [
+        o.id for o in objs if traits(o.category).against_wall or traits(o.category).placement == "wall"
+    ]
+    return SceneSummary(
+        available=list(available),
+        object_count=len(objs),
+        has_room=scene.room is not None,
+        has_walls=bool(scene.room and scene.room.walls),
+        categories=sorted(cats),
+        containers=[c.id for c in containers],
+        container_candidates=in_container,
+        wall_candidates=wall_like,
+        stack_candidates=[o.id for o in movable],
+        functional_pairs=pairs,
+    )
+
+
+def solve_plan(summary: SceneSummary) -> StructuringPlan:
+    """The manager's rule solver (see the module docstring)."""
+    run: list[PlannedAgent] = []
+    skip: list[PlannedAgent] = []
+
+    def decide(name: str, yes: bool, why_yes: str, why_no: str) -> None:
+        (run if yes else skip).append(PlannedAgent(name=name, reason=why_yes if yes else why_no))
+
+    decide(
+        "room",
+        True,
+        "complete the input room's walls" if summary.has_room else "recover the room boundary",
+        "",
+    )
+    decide("support", True, f"parent each of {summary.object_count} objects", "")
+    decide(
+        "containment",
+        bool(summary.container_candidates),
+        f"{len(summary.container_candidates)} objects over containers",
+        "nothing could be inside a container",
+    )
+    decide(
+        "walls",
+        bool(summary.wall_candidates) or summary.has_walls,
+        "wall-type furniture or input walls present",
+        "nothing stands against or hangs on a wall",
+    )
+    decide("semantics", True, "normalize categories and check fronts", "")
+    decide("attributes", True, "mass, friction, static flags", "")
+    decide(
+        "constraints",
+        bool(summary.functional_pairs),
+        "functional pairs: " + ", ".join(summary.functional_pairs),
+        "no functional pair in the scene",
+    )
+    decide("verify", True, "final completeness check and scene tree", "")
+    builtin = {p.name for p in (*run, *skip)}
+    for name in summary.available:  # plugins: the caller asked for them, so they run
+        if name not in builtin:
+            run.append(PlannedAgent(name=name, reason="plugin agent given by the caller"))
+    if summary.available:  # keep only agents that can run, in their given order
+        order = {n: i for i, n in enumerate(summary.available)}
+        run = sorted((p for p in run if p.name in order), key=lambda p: order[p.name])
+        skip = [p for p in skip if p.name in order]
+    return StructuringPlan(agents=run, skipped=skip)
+
+
+class ManagerAgent(TaskAgent[SceneSummary, StructuringPlan]):
+    """Decides which of the available structuring agents to run on a scene.
+
+    ``agents`` are the agents it may schedule (default :data:`DEFAULT_AGENTS`); plugins among
+    them are scheduled by the rule solver whenever they are given.
+    """
+
+    name: ClassVar[str] = "manager"
+    prompt: ClassVar[str] = "manager"
+    output_type: ClassVar[type[BaseModel]] = StructuringPlan
+
+    def __init__(self, agents: AgentList | None = None, priors: SupportPriors | None = None) -> None:
+        self.agents: tuple[TaskAgent[Any, Any], ...] = tuple(agents if agents is not None else DEFAULT_AGENTS)
+        names = [a.name for a in self.agents]
+        duplicates = sorted({n for n in names if names.count(n) > 1})
+        if duplicates:
+            raise UsageError("two agents share the name(s) " + ", ".join(duplicates) + "; names must be unique")
+        if "manager" in names:
+            raise UsageError("'manager' is the manager agent's own name; give the plugin another name")
+        self.priors = priors if priors is not None else load_priors()
+
+    def gather(self, state: SceneState) -> SceneSummary:
+        return summarize(state.scene, self.priors, [a.name for a in self.agents])
+
+    def solve(self, evidence: SceneSummary) -> StructuringPlan:
+        return solve_plan(evidence)
+
+    def check(self, output: StructuringPlan, state: SceneState) -> list[str]:
+        names = [a.name for a in output.agents]
+        available = [a.name for a in self.agents]
+        problems = []
+        if len(set(names)) != len(names):
+            problems.append("each agent may be scheduled once")
+        unknown = sorted(set(names) - set(available))
+        if unknown:
+            problems.append(
+                "unknown agents " + ", ".join(unknown) + "; choose from: " + ", ".join(available)
+            )
+        both = sorted(set(names) & {a.name for a in output.skipped})
+        if both:
+            problems.append("agents both scheduled and skipped: " + ", ".join(both) + "; list each once")
+        missing = sorted((REQUIRED_AGENTS & set(available)) - set(names))
+        if missing:
+            problems.append("the plan must schedule: " + ", ".join(missing))
+        return problems
+
+    def apply(self, output: StructuringPlan, state: SceneState) -> None:
+        """Nothing to change in the scene: the plan is the manager's output (``state.outputs``)."""
+
+    def select(self, plan: StructuringPlan) -> list[TaskAgent[Any, Any]]:
+        """The agents ``plan`` schedules, in the order they were given."""
+        return select_agents(plan, self.agents)
+
+
+def select_agents(plan: StructuringPlan, agents: AgentList) -> list[TaskAgent[Any, Any]]:
+    """The members of ``agents`` that ``plan`` schedules, in their given order.
+
+    Dependencies need no rewiring: the scheduler trims each agent's ``depends_on`` to the
+    agents present (:func:`scenemosaic.agents.run_agents`).
+    """
+    wanted = {a.name for a in plan.agents}
+    return [a for a in agents if a.name in wanted]
+
+
+def plan_structuring(
+    scene: Scene, *, agents: AgentList | None = None, priors: SupportPriors | None = None
+) -> tuple[StructuringPlan, list[TaskAgent[Any, Any]]]:
+    """The rule manager's plan for ``scene`` and the agents it schedules (no model involved)."""
+    manager = ManagerAgent(agents, priors)
+    plan = solve_plan(summarize(scene, manager.priors, [a.name for a in manager.agents]))
+    return plan, manager.select(plan)

@@ -1,0 +1,244 @@
+"""Semantic refinement: consistent categories, short descriptions, and a front-direction check.
+
+Rule solver:
+
+* categories are normalized (``"Dining Chair 2"`` -> ``dining_chair``);
+* a description names the category, its size and where it stands;
+* a piece of furniture that belongs against a wall (wardrobe, TV stand, bookshelf, bed...)
+  whose *front* faces the nearest wall from close by is turned 180° so it faces the room;
+* a chair next to a table or desk should face it: a chair turned more than 90° away is
+  reported; only one turned more than :data:`UNAMBIGUOUS_DEG` away (facing straight off) is
+  turned 180°, since in-between cases are often deliberate.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar, Literal
+
+import numpy as np
+from pydantic import BaseModel, Field
+from shapely.geometry import Point
+
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.scene import (
+    Pose,
+    Scene,
+    SceneObject,
+    normalize_category,
+    quat_from_yaw,
+    quat_multiply,
+    traits,
+)
+from scenemosaic.structure._facts import (
+    ObjectFacts,
+    object_facts,
+    outward,
+    replace_scene,
+    room_facts,
+    wall_gap,
+)
+from scenemosaic.structure._views import FloorPlanImages
+from scenemosaic.structure._walls import facing_side
+
+__all__ = ["SemanticItem", "SemanticsAgent", "SemanticsEvidence", "SemanticsOutput", "rotate_subtree"]
+
+WALL_FACING_REACH = 0.3
+"""A wall-type object whose front is this close (metres) to a wall is facing the wall."""
+TABLE_REACH = 0.8
+"""A chair this close (metres) to a table or desk footprint belongs to it."""
+UNAMBIGUOUS_DEG = 150.0
+"""A chair facing more than this many degrees away from its table is turned around."""
+
+
+class SemanticItem(AgentOutput):
+    """One object's normalized category, description and front check."""
+
+    object_id: str = Field(max_length=64)
+    category: str = Field(min_length=1, max_length=64, pattern=r"^[a-z0-9_]+$")
+    description: str = Field(default="", max_length=300)
+    front_ok: bool = True
+    yaw_fix_deg: Literal[0, 90, -90, 180] = 0
+    note: str = Field(default="", max_length=200)
+
+
+class SemanticsOutput(AgentOutput):
+    """Per-object semantics."""
+
+    objects: list[SemanticItem] = Field(max_length=MAX_ITEMS)
+
+
+class FrontFacts(AgentOutput):
+    """Facts behind one object's front check."""
+
+    id: str
+    wall_id: str | None = None
+    wall_gap: float | None = None
+    wall_facing: Literal["back", "front", "side"] | None = None
+    table_id: str | None = None
+    table_distance: float | None = None
+    table_angle_deg: float | None = Field(
+        default=None, description="Angle between the front and the way to the table."
+    )
+    against_wall: bool | None = None
+
+
+class SemanticsEvidence(AgentOutput):
+    """Objects plus the facts of each front check."""
+
+    objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
+    fronts: list[FrontFacts] = Field(max_length=MAX_ITEMS)
+
+
+def _front_facts(scene: Scene, objs: list[ObjectFacts]) -> list[FrontFacts]:
+    room = room_facts(scene)
+    against = {r.child for r in scene.relations if r.kind == "against"}
+    tables = [o for o in objs if traits(o.category).table]
+    out: list[FrontFacts] = []
+    for o in objs:
+        f: dict[str, object] = {"id": o.id, "against_wall": o.id in against}
+        if room is not None and room.walls:
+            w = min(
+                room.walls,
+                key=lambda w: abs(wall_gap(w, o)) - (0.1 if facing_side(o, outward(w)) != "side" else 0.0),
+            )
+            f.update(wall_id=w.id, wall_gap=round(wall_gap(w, o), 3), wall_facing=facing_side(o, outward(w)))
+        if traits(o.category).seat and tables:
+            t = min(tables, key=lambda t: t.polygon().distance(Point(o.center)))
+            dist = float(t.polygon().distance(Point(o.center)))
+            near = t.polygon().exterior.interpolate(t.polygon().exterior.project(Point(o.center)))
+            way = np.array([near.x - o.center[0], near.y - o.center[1]])
+            if (
+                dist < 1e-6 or float(np.linalg.norm(way)) < 1e-6
+            ):  # chair centre over the table: aim at its centre
+                way = np.subtract(t.center, o.center)
+            norm = float(np.linalg.norm(way))
+            angle = (
+                math.degrees(math.acos(max(-1.0, min(1.0, float(o.front @ way) / norm))))
+                if norm > 1e-6
+                else 0.0
+            )
+            f.update(table_id=t.id, table_distance=round(dist, 3), table_angle_deg=round(angle, 1))
+        out.append(FrontFacts.model_validate(f))
+    return out
+
+
+def _describe(o: ObjectFacts) -> str:
+    w, d, h = o.size
+    where = {None: "", "floor": " on the floor", "ceiling": " hanging from the ceiling"}.get(o.parent, "")
+    if o.parent and o.parent.startswith("wall"):
+        where = f" mounted on {o.parent}"
+    elif o.parent not in (None, "floor", "ceiling"):
+        where = f" {'inside' if o.relation == 'contain' else 'on'} {o.parent}"
+    return f"{normalize_category(o.category).replace('_', ' ')}, {w:.2f} x {d:.2f} x {h:.2f} m{where}"
+
+
+def solve_semantics(evidence: SemanticsEvidence) -> SemanticsOutput:
+    """The semantics rule solver (see the module docstring)."""
+    fronts = {f.id: f for f in evidence.fronts}
+    items: list[SemanticItem] = []
+    for o in evidence.objects:
+        f = fronts.get(o.id)
+        t = traits(o.category)
+        ok, fix, note = True, 0, ""
+        if (
+            f is not None
+            and t.against_wall
+            and f.wall_facing == "front"
+            and (f.wall_gap or 0.0) < WALL_FACING_REACH
+        ):
+            ok, fix, note = False, 180, f"front faced {f.wall_id}; turned to face the room"
+        elif (
+            f is not None
+            and t.seat
+            and f.table_angle_deg is not None
+            and f.table_angle_deg > 90.0
+            and (f.table_distance or 0.0) < TABLE_REACH
+        ):
+            ok, note = False, f"faces away from {f.table_id} by {f.table_angle_deg:.0f}°"
+            if f.table_angle_deg > UNAMBIGUOUS_DEG and not f.against_wall:
+                fix, note = 180, note + "; turned to face it"
+        items.append(
+            SemanticItem(
+                object_id=o.id,
+                category=normalize_category(o.category),
+                description=_describe(o),
+                front_ok=ok,
+                yaw_fix_deg=fix,
+                note=note,
+            )  # type: ignore[arg-type]
+        )
+    return SemanticsOutput(objects=items)
+
+
+def rotate_subtree(scene: Scene, object_id: str, yaw_deg: float) -> list[SceneObject]:
+    """Objects with ``object_id`` and everything it carries turned ``yaw_deg`` about its centre."""
+    if yaw_deg == 0:
+        return list(scene.objects)
+    root = scene.get(object_id)
+    moved = {object_id}
+    frontier = [object_id]
+    while frontier:
+        kids = scene.children_of(frontier.pop())
+        frontier.extend(k for k in kids if k not in moved)
+        moved |= set(kids)
+    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
+    cx, cy = root.pose.position[0], root.pose.position[1]
+    q = quat_from_yaw(math.radians(yaw_deg))
+    out: list[SceneObject] = []
+    for o in scene.objects:
+        if o.id not in moved:
+            out.append(o)
+            continue
+        x, y, z = o.pose.position
+        dx, dy = x - cx, y - cy
+        pos = (cx + c * dx - s * dy, cy + s * dx + c * dy, z)
+        pose = Pose(position=pos, quaternion=quat_multiply(q, o.pose.quaternion), scale=o.pose.scale)
+        out.append(o.model_copy(update={"pose": pose}))
+    return out
+
+
+class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutput]):
+    """Normalizes categories, writes descriptions and checks each object's front direction."""
+
+    name: ClassVar[str] = "semantics"
+    depends_on: ClassVar[tuple[str, ...]] = ("room", "support", "walls")
+    prompt: ClassVar[str] = "semantics"
+    output_type: ClassVar[type[BaseModel]] = SemanticsOutput
+
+    def gather(self, state: SceneState) -> SemanticsEvidence:
+        objs = object_facts(state.scene)
+        return SemanticsEvidence(objects=objs, fronts=_front_facts(state.scene, objs))
+
+    def solve(self, evidence: SemanticsEvidence) -> SemanticsOutput:
+        return solve_semantics(evidence)
+
+    def check(self, output: SemanticsOutput, state: SceneState) -> list[str]:
+        ids = {o.id for o in state.scene.objects}
+        problems: list[str] = []
+        seen: set[str] = set()
+        for item in output.objects:
+            if item.object_id not in ids:
+                problems.append(f"object id {item.object_id!r} does not exist in this scene")
+            if item.object_id in seen:
+                problems.append(f"object {item.object_id!r} is listed twice")
+            seen.add(item.object_id)
+        return problems
+
+    def apply(self, output: SemanticsOutput, state: SceneState) -> None:
+        scene = state.scene
+        for item in output.objects:
+            if item.yaw_fix_deg:
+                scene = replace_scene(
+                    scene, objects=rotate_subtree(scene, item.object_id, float(item.yaw_fix_deg))
+                )
+        by_id = {i.object_id: i for i in output.objects}
+        objects = [
+            o.model_copy(update={"category": by_id[o.id].category, "description": by_id[o.id].description})
+            if o.id in by_id
+            else o
+            for o in scene.objects
+        ]
+        notes = [f"semantics: {i.object_id}: {i.note}" for i in output.objects if i.note]
+        prov = scene.provenance.model_copy(update={"notes": [*scene.provenance.notes, *notes]})
+        state.scene = replace_scene(scene, objects=objects, provenance=prov)

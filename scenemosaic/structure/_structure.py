@@ -1,0 +1,107 @@
+"""``structure_scene``: the whole relation-guided structuring stage in one call."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import structlog
+
+from scenemosaic.agents import AgentPolicy, FallbackRecord, SceneState, TaskAgent, run_agents
+from scenemosaic.dag import EventListener, RunStore
+from scenemosaic.exceptions import AgentOutputError, NodeFailedError
+from scenemosaic.models import Model, ModelSettings, RulesModel
+from scenemosaic.scene import Scene, load_priors
+from scenemosaic.structure._constraints import ConstraintsAgent
+from scenemosaic.structure._containment import ContainmentAgent
+from scenemosaic.structure._manager import DEFAULT_AGENTS, ManagerAgent, StructuringPlan
+from scenemosaic.structure._support import SupportAgent
+
+__all__ = ["structure_scene"]
+
+log = structlog.get_logger(__name__)
+
+
+def _with_priors(agents: Sequence[TaskAgent[Any, Any]], priors_dir: str | Path) -> list[TaskAgent[Any, Any]]:
+    """The built-in agents that read ProcTHOR priors, re-made over ``priors_dir``; others unchanged."""
+    priors = load_priors(priors_dir)
+    out: list[TaskAgent[Any, Any]] = []
+    for agent in agents:
+        if type(agent) is SupportAgent:
+            agent = SupportAgent(priors)
+        elif type(agent) is ContainmentAgent:
+            agent = ContainmentAgent(priors)
+        elif type(agent) is ConstraintsAgent:
+            agent = ConstraintsAgent(priors_dir)
+        out.append(agent)
+    return out
+
+
+async def structure_scene(
+    scene: Scene,
+    model: Model | None = None,
+    *,
+    agents: Sequence[TaskAgent[Any, Any]] | None = None,
+    settings: ModelSettings | None = None,
+    policy: AgentPolicy | None = None,
+    store: RunStore | None = None,
+    seed: int = 0,
+    priors_dir: str | Path | None = None,
+    events: EventListener | None = None,
+    max_concurrency: int | None = 8,
+    base_dir: str | Path | None = None,
+    fallbacks: list[FallbackRecord] | None = None,
+) -> Scene:
+    """Structure ``scene``: room, parents, containment, walls, semantics, attributes, constraints, tree.
+
+    Two phases over the task-graph runtime: the manager agent first plans which of ``agents``
+    (default :data:`~scenemosaic.structure.DEFAULT_AGENTS`; add plugins to that list) to run,
+    then the planned agents run as one graph, independent ones concurrently. ``model=None``
+    uses the offline rules model. ``priors_dir`` replaces the ProcTHOR priors shipped with
+    the package. The input scene is never modified; a new scene with ``structure`` set is
+    returned. ``policy`` sets the agents' attempt budget and solver fallback; agents that fell
+    back are appended to ``fallbacks`` when a list is given.
+
+    Raises :class:`~scenemosaic.exceptions.AgentOutputError` when an agent's output stays
+    inconsistent with the scene and fallback is off (other run errors pass through unchanged).
+    ``base_dir`` is the folder relative mesh paths start from; vision models get floor plans
+    drawn with the real meshes when it is given.
+    """
+    model = model if model is not None else RulesModel()
+    available = list(agents if agents is not None else DEFAULT_AGENTS)
+    if priors_dir is not None:
+        available = _with_priors(available, priors_dir)
+    manager = ManagerAgent(available, load_priors(priors_dir))
+    state = SceneState(
+        scene=scene.model_copy(deep=True),
+        seed=seed,
+        base_dir=Path(base_dir) if base_dir is not None else None,
+        policy=policy or AgentPolicy(),
+    )
+    try:
+        await run_agents([manager], state, model, settings=settings, store=store, events=events)
+        plan = state.outputs["manager"]
+        assert isinstance(plan, StructuringPlan)
+        chosen = manager.select(plan)
+        log.info("structuring_plan", agents=[a.name for a in chosen], skipped=[s.name for s in plan.skipped])
+        await run_agents(
+            chosen,
+            state,
+            model,
+            settings=settings,
+            store=store,
+            events=events,
+            max_concurrency=max_concurrency,
+        )
+    except NodeFailedError as exc:
+        cause: Any = exc.cause
+        if isinstance(cause, AgentOutputError):
+            raise cause from exc
+        raise
+    finally:
+        if fallbacks is not None:
+            fallbacks.extend(state.fallbacks)
+    out = state.scene
+    steps = [*out.provenance.steps, "structure"]
+    return out.model_copy(update={"provenance": out.provenance.model_copy(update={"steps": steps})})

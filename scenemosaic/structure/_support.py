@@ -1,0 +1,276 @@
+"""Support (attach): every object gets exactly one parent — floor, ceiling, a wall or an object.
+
+Rule solver, per object, in this order:
+
+1. ceiling fixtures (pendant / ceiling lamps, chandeliers) hang from the ceiling, wherever the
+   input put them (a generator sometimes stands one on the floor);
+2. furniture that stands on the floor (beds, chairs, tables, wardrobes... from the category
+   table, else ProcTHOR's floor-only types) goes to the floor even when the input sank it into
+   the floor or floated it above a neighbour;
+3. otherwise the object rests on (or inside) the best supporting object below it: one whose
+   footprint covers the object's centre, that can carry things (category table / ProcTHOR
+   receptacles), that is not much smaller, and whose top is closest under the object's bottom
+   (ProcTHOR's receptacle probabilities break ties);
+4. wall things (paintings, mirrors, and anything hanging above the floor with nothing under it
+   near a wall) are mounted on the nearest wall;
+5. everything else stands on the floor.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import ClassVar, Literal
+
+from pydantic import BaseModel, Field
+
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.scene import CEILING, FLOOR, Relation, SupportPriors, is_known, load_priors, traits
+from scenemosaic.structure._facts import (
+    ObjectFacts,
+    RoomFacts,
+    object_facts,
+    parent_cycles,
+    replace_scene,
+    room_facts,
+    wall_gap,
+)
+from scenemosaic.structure._views import FloorPlanImages
+
+__all__ = [
+    "ObjectHint",
+    "SupportAgent",
+    "SupportAssignment",
+    "SupportEvidence",
+    "SupportOutput",
+    "supports_ok",
+]
+
+ON_TOP_TOLERANCE = 0.12
+"""A child whose bottom is within this many metres below a parent's top still rests on it (sunk inputs)."""
+WALL_MOUNT_REACH = 0.35
+"""Largest gap (metres) between a floating object and a wall for it to count as wall-mounted."""
+MOUNT_MIN_HEIGHT = 0.3
+"""A wall thing must hang at least this high (metres) above the floor to count as mounted."""
+MOUNT_GAP = 0.25
+"""A wall-mountable object hovering this far (metres) above the furniture under it hangs on the wall."""
+WALL_MOUNTABLE = frozenset({"television", "mirror", "painting", "picture", "wall_clock", "wall_shelf"})
+"""Categories that may hang on a wall even with furniture below them."""
+LARGE_AREA = 0.6
+"""Footprint area (m²) above which an unknown object is treated as floor furniture."""
+
+
+class SupportAssignment(AgentOutput):
+    """One object's support parent."""
+
+    object_id: str = Field(max_length=64)
+    parent: str = Field(max_length=64, description="'floor', 'ceiling', a wall id or an object id.")
+    kind: Literal["attach", "contain"] = "attach"
+    reason: str = Field(default="", max_length=200)
+
+
+class SupportOutput(AgentOutput):
+    """A support parent for every object."""
+
+    assignments: list[SupportAssignment] = Field(max_length=MAX_ITEMS)
+
+
+class ObjectHint(AgentOutput):
+    """Category prior of one object, given to the model as evidence."""
+
+    id: str
+    placement: str
+    can_support: bool
+    can_contain: bool
+
+
+class SupportEvidence(AgentOutput):
+    """Objects with their boxes, the room, and per-object category priors."""
+
+    objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
+    room: RoomFacts | None = None
+    hints: list[ObjectHint] = Field(default_factory=list, max_length=MAX_ITEMS)
+
+
+def can_support(category: str, priors: SupportPriors) -> bool:
+    """Whether objects of this category may carry other objects."""
+    return traits(category).supports or priors.is_receptacle(category) is True
+
+
+def floor_only(o: ObjectFacts, priors: SupportPriors) -> bool:
+    """Whether an object always stands on the floor (never on another object)."""
+    t = traits(o.category)
+    if is_known(o.category):
+        return t.placement == "floor"
+    prior = priors.floor_only(o.category)
+    if prior is not None:
+        return prior
+    return o.area > LARGE_AREA or o.size[2] > 1.2
+
+
+def supports_ok(child: ObjectFacts, parent: ObjectFacts, priors: SupportPriors) -> str | None:
+    """Why ``parent`` cannot carry ``child`` (a sentence), or None when it can."""
+    if not can_support(parent.category, priors):
+        return f"{parent.id!r} ({parent.category}) cannot carry other objects"
+    if parent.area < 0.25 * child.area:
+        return f"{parent.id!r} ({parent.category}) is far too small to carry {child.id!r} ({child.category})"
+    if traits(child.category).placement == "floor" and parent.category != "rug":
+        return f"{child.id!r} ({child.category}) is floor furniture and cannot stand on {parent.id!r}"
+    return None
+
+
+def _nearest_wall(o: ObjectFacts, room: RoomFacts | None) -> tuple[str, float] | None:
+    if room is None or not room.walls:
+        return None
+    best = min(room.walls, key=lambda w: abs(wall_gap(w, o)))
+    return best.id, wall_gap(best, o)
+
+
+def solve_support(evidence: SupportEvidence, priors: SupportPriors) -> SupportOutput:
+    """The support rule solver (see the module docstring)."""
+    objs = evidence.objects
+    out: list[SupportAssignment] = []
+    for o in objs:
+        t = traits(o.category)
+        if t.placement == "ceiling":
+            out.append(SupportAssignment(object_id=o.id, parent=CEILING, reason="ceiling fixture"))
+            continue
+        if floor_only(o, priors):
+            out.append(SupportAssignment(object_id=o.id, parent=FLOOR, reason="stands on the floor"))
+            continue
+        best: tuple[float, ObjectFacts, bool] | None = None
+        for p in objs:
+            if p.id == o.id or not can_support(p.category, priors) or p.area < 0.25 * o.area:
+                continue
+            if not (p.contains_point(o.center, 0.02) or o.overlap_fraction(p) >= 0.5):
+                continue
+            inside = (
+                traits(p.category).contains
+                and p.bottom - 0.02 <= o.bottom
+                and o.top <= p.top + 0.02
+                and p.area * (p.top - p.bottom) > o.area * (o.top - o.bottom)
+            )
+            gap = o.bottom - p.top
+            if not inside and (gap < -ON_TOP_TOLERANCE or p.bottom >= o.bottom):
+                continue
+            score = 0.0 if inside else abs(gap)
+            if priors.can_rest_on(o.category, p.category):
+                score -= 0.02
+            if best is None or score < best[0]:
+                best = (score, p, inside)
+        wall = _nearest_wall(o, evidence.room)
+        if t.placement == "wall" and wall is not None and o.bottom > MOUNT_MIN_HEIGHT:
+            out.append(SupportAssignment(object_id=o.id, parent=wall[0], reason="wall-mounted by category"))
+            continue
+        hovering = best is not None and not best[2] and o.bottom - best[1].top > MOUNT_GAP
+        if hovering and o.category in WALL_MOUNTABLE and wall is not None and wall[1] < WALL_MOUNT_REACH:
+            out.append(
+                SupportAssignment(object_id=o.id, parent=wall[0], reason="hangs on the wall above furniture")
+            )
+            continue
+        if best is not None:
+            _, p, inside = best
+            out.append(
+                SupportAssignment(
+                    object_id=o.id,
+                    parent=p.id,
+                    kind="contain" if inside else "attach",
+                    reason=("inside " if inside else "rests on ") + p.category,
+                )
+            )
+            continue
+        if wall is not None and o.bottom > MOUNT_MIN_HEIGHT and wall[1] < WALL_MOUNT_REACH:
+            out.append(
+                SupportAssignment(object_id=o.id, parent=wall[0], reason="hangs near a wall, nothing below")
+            )
+            continue
+        out.append(SupportAssignment(object_id=o.id, parent=FLOOR, reason="nothing below it"))
+    return SupportOutput(assignments=out)
+
+
+def check_parents(
+    pairs: Sequence[tuple[str, str, str]], state: SceneState, priors: SupportPriors, *, complete: bool
+) -> list[str]:
+    """Problems with (child, parent, kind) support triples against the scene.
+
+    Unknown ids, duplicates, self-support, parents that cannot carry or contain the child,
+    and cycles (including through the scene's other support relations). ``complete``
+    also requires every object to be covered.
+    """
+    scene = state.scene
+    facts = {f.id: f for f in object_facts(scene)}
+    anchors = scene.anchor_ids()
+    problems: list[str] = []
+    seen: set[str] = set()
+    parents = {r.child: r.parent for r in scene.relations if r.is_support}
+    for child, parent, kind in pairs:
+        if child not in facts:
+            problems.append(f"object id {child!r} does not exist in this scene")
+            continue
+        if child in seen:
+            problems.append(f"object {child!r} is given more than one parent")
+        seen.add(child)
+        if parent not in anchors:
+            problems.append(
+                f"parent {parent!r} of {child!r} is not 'floor', 'ceiling', a wall id or an object id"
+            )
+            continue
+        if parent == child:
+            problems.append(f"object {child!r} cannot support itself")
+            continue
+        parents[child] = parent
+        if parent in facts:
+            why = supports_ok(facts[child], facts[parent], priors)
+            if why:
+                problems.append(why)
+            if kind == "contain" and not traits(facts[parent].category).contains:
+                problems.append(f"{parent!r} ({facts[parent].category}) cannot contain {child!r}")
+        elif kind == "contain":
+            problems.append(f"only objects can contain others, not {parent!r}")
+    if complete:
+        missing = sorted(set(facts) - seen)
+        if missing:
+            problems.append("these objects have no parent: " + ", ".join(missing[:20]))
+    for cyc in parent_cycles(parents):
+        problems.append("parent cycle: " + " -> ".join([*cyc, cyc[0]]))
+    return problems
+
+
+class SupportAgent(FloorPlanImages, TaskAgent[SupportEvidence, SupportOutput]):
+    """Gives every object exactly one support parent (floor, ceiling, a wall or an object)."""
+
+    name: ClassVar[str] = "support"
+    depends_on: ClassVar[tuple[str, ...]] = ("room",)
+    prompt: ClassVar[str] = "support"
+    output_type: ClassVar[type[BaseModel]] = SupportOutput
+
+    def __init__(self, priors: SupportPriors | None = None) -> None:
+        self.priors = priors if priors is not None else load_priors()
+
+    def gather(self, state: SceneState) -> SupportEvidence:
+        objs = object_facts(state.scene)
+        hints = [
+            ObjectHint(
+                id=o.id,
+                placement="floor" if floor_only(o, self.priors) else traits(o.category).placement,
+                can_support=can_support(o.category, self.priors),
+                can_contain=traits(o.category).contains,
+            )
+            for o in objs
+        ]
+        return SupportEvidence(objects=objs, room=room_facts(state.scene), hints=hints)
+
+    def solve(self, evidence: SupportEvidence) -> SupportOutput:
+        return solve_support(evidence, self.priors)
+
+    def check(self, output: SupportOutput, state: SceneState) -> list[str]:
+        pairs = [(a.object_id, a.parent, a.kind) for a in output.assignments]
+        return check_parents(pairs, state, self.priors, complete=True)
+
+    def apply(self, output: SupportOutput, state: SceneState) -> None:
+        assigned = {a.object_id for a in output.assignments}
+        kept = [r for r in state.scene.relations if not (r.is_support and r.child in assigned)]
+        new = [
+            Relation(kind=a.kind, child=a.object_id, parent=a.parent, source=self.name)
+            for a in output.assignments
+        ]
+        state.scene = replace_scene(state.scene, relations=kept + new)
