@@ -82,11 +82,21 @@ def _summarize(result: GenerateResult) -> None:
 def generate(
     input_path: Annotated[Path, typer.Argument(metavar="INPUT", help="Scene folder or file (layout JSON, house JSON, poses JSON).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")],
-    format: Annotated[str, typer.Option("--format", help="auto, native, front3d, procthor, sam3d.")] = "auto",
-    variants: Annotated[int, typer.Option("--variants", min=0, help="Number of diverse variants (m).")] = 0,
+    format: Annotated[
+        str, typer.Option("--format", help="auto, native, front3d, procthor, holodeck, sam3d, sceneeval.")
+    ] = "auto",
+    variants: Annotated[
+        int, typer.Option("--variants", min=0, help="Number of diverse variants (m); not available yet: 0 only.")
+    ] = 0,
     model: Annotated[str, typer.Option("--model", help="rules | openai:<model>[@<base_url>] | replay:<cassette.json>")] = "rules",
     seed: Annotated[int, typer.Option("--seed", help="Run seed.")] = 0,
-    room: Annotated[str | None, typer.Option("--room", help="Room id for multi-room house files.")] = None,
+    room: Annotated[
+        str | None, typer.Option("--room", help="Room id for multi-room house files (e.g. 'room|3').")
+    ] = None,
+    asset_dir: Annotated[
+        Path | None,
+        typer.Option("--asset-dir", help="Folder of <assetId>.glb meshes for SceneEval inputs (default: assets/ beside it)."),
+    ] = None,
     vision: Annotated[
         bool | None, typer.Option("--vision/--no-vision", help="Send images to the model (off for text-only servers).")
     ] = None,
@@ -99,7 +109,7 @@ def generate(
     ] = True,
     priors: Annotated[
         Path | None,
-        typer.Option("--priors", help="ProcTHOR priors folder (default: $SCENEMOSAIC_PRIORS_DIR or the bundled table)."),
+        typer.Option("--priors", help="ProcTHOR priors folder replacing the priors shipped with the package."),
     ] = None,
     log_level: LogLevelOpt = "warning",
 ) -> None:
@@ -113,6 +123,7 @@ def generate(
         vision=vision,
         priors_dir=priors,
         solver_fallback=fallback,
+        asset_dir=asset_dir,
     )
     try:
         result = _run_with_progress(input_path, out, config)

@@ -2,7 +2,7 @@
 
 Readers turn other tools' files into :class:`~scenemosaic.scene.Scene` objects; writers turn
 scenes into files a simulator or an evaluator loads. A format is one module plus one
-:func:`register_format` call. Built in:
+:func:`register_format` call (the built-ins are registered in ``_builtin.py``). Built in:
 
 * ``native`` — a folder with ``scene.json`` + ``assets/`` (:func:`save_scene` writes it);
 * ``front3d`` — 3D-FRONT / ATISS / PhyScene layouts (``{"ThreedFront": ...}``);
@@ -15,11 +15,23 @@ Every malformed input raises :class:`~scenemosaic.exceptions.ImportFormatError` 
 file and the field. Conventions and rules: ``docs/importers.md`` and ``docs/exports.md``.
 """
 
+from scenemosaic.exchange import _builtin  # noqa: F401 - registers the built-in formats
 from scenemosaic.exchange._glb import GLB_ROOT_NODE, Y_UP_TO_Z_UP, Z_UP_TO_Y_UP, build_glb_scene, export_glb
 from scenemosaic.exchange._mjcf import export_mjcf
 from scenemosaic.exchange._native import read_scene, save_scene
 from scenemosaic.exchange._procthor import AssetDatabase, load_asset_database
-from scenemosaic.exchange._registry import FORMATS, ImportFormat, detect_format, load_scene, load_scenes
+from scenemosaic.exchange._registry import (
+    FORMATS,
+    ImportFormat,
+    ReadOptions,
+    SceneFormat,
+    detect_format,
+    get_format,
+    load_scene,
+    load_scenes,
+    register_format,
+    write_scene,
+)
 from scenemosaic.exchange._sam3d import read_sdf_sim, write_sam3d_example
 from scenemosaic.exchange._sceneeval import (
     LOCAL_TO_GLTF,
@@ -40,20 +52,25 @@ __all__ = [
     "Z_UP_TO_Y_UP",
     "AssetDatabase",
     "ImportFormat",
+    "ReadOptions",
+    "SceneFormat",
     "SupportType",
     "build_glb_scene",
     "detect_format",
     "export_glb",
     "export_mjcf",
     "export_sceneeval",
+    "get_format",
     "gltf_to_world",
     "load_asset_database",
     "load_scene",
     "load_scenes",
     "read_scene",
     "read_sdf_sim",
+    "register_format",
     "save_scene",
     "sceneeval_state",
     "support_type",
     "write_sam3d_example",
+    "write_scene",
 ]

@@ -19,7 +19,7 @@ import numpy as np
 import structlog
 import trimesh
 
-from scenemosaic.assets import object_mesh
+from scenemosaic.assets import HullCache, object_mesh
 from scenemosaic.physics._checks import require_finite_poses
 from scenemosaic.physics._hulls import HullInput, object_shape
 from scenemosaic.physics._settings import SimSettings
@@ -51,7 +51,7 @@ def export_mjcf(
     out_dir: str | Path,
     base_dir: str | Path | None = None,
     *,
-    hull_cache: Any = None,
+    hull_cache: HullCache | None = None,
     hulls: HullInput | None = None,
     settings: SimSettings | None = None,
 ) -> Path:

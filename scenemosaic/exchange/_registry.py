@@ -1,50 +1,126 @@
-"""``load_scene`` / ``load_scenes``: one entry point over every input format, with detection by content."""
+"""The format registry: every reader and writer behind one table, and ``load_scene`` over it.
+
+A format is one module plus one :func:`register_format` call: a :class:`SceneFormat` names a
+content test and a reader (for inputs), a writer (for outputs), or both. ``load_scenes`` picks
+the reader by name or by content (:func:`detect_format`); the pipeline writes every delivered
+format through :func:`write_scene`. Detection tries the registered readers in registration order
+(more specific formats first), so a plugin format registered later never shadows a built-in one.
+"""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, get_args
+from typing import Any, Literal
 
 import structlog
 
 from scenemosaic.exceptions import ImportFormatError, UsageError
 from scenemosaic.exchange._common import read_json
-from scenemosaic.exchange._front3d import import_front3d, looks_like_front3d
-from scenemosaic.exchange._native import SCENE_FILE, scene_from_data
-from scenemosaic.exchange._procthor import AssetDatabase, import_procthor, looks_like_procthor
-from scenemosaic.exchange._sam3d import POSES_FILE, import_sam3d, looks_like_sam3d
-from scenemosaic.scene import Provenance, Room, Scene
+from scenemosaic.scene import Room, Scene
 
-__all__ = ["FORMATS", "ImportFormat", "detect_format", "load_scene", "load_scenes"]
+__all__ = [
+    "FORMATS",
+    "ImportFormat",
+    "ReadOptions",
+    "SceneFormat",
+    "detect_format",
+    "get_format",
+    "load_scene",
+    "load_scenes",
+    "register_format",
+    "write_scene",
+]
 
 log = structlog.get_logger(__name__)
 
-ImportFormat = Literal["auto", "native", "front3d", "procthor", "sam3d"]
-"""Input formats ``load_scene`` understands; ``auto`` detects by content."""
-FORMATS: tuple[str, ...] = tuple(f for f in get_args(ImportFormat) if f != "auto")
-"""Every concrete format name."""
+ImportFormat = Literal["auto", "native", "front3d", "procthor", "holodeck", "sam3d", "sceneeval"]
+"""Input formats built in; ``auto`` detects by content. Registered plugin formats are accepted by name too."""
 
-AssetDatabaseSource = str | os.PathLike[str] | Mapping[str, Any] | AssetDatabase | None
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """What a reader may be told besides the file."""
+
+    room: Room | None = None
+    """Replaces the recovered room of single-room formats that accept one (``takes_room``)."""
+    asset_database: Any = None
+    """ProcTHOR asset database (a path or a parsed mapping); default: the one shipped with the package."""
+    asset_dir: Path | None = None
+    """Folder holding mesh assets a scene file names but does not carry (SceneEval ``assetId`` meshes)."""
+
+
+Reader = Callable[[Any, Path, ReadOptions], list[Scene]]
+"""``read(parsed_json, path, options)`` -> the scenes the file holds."""
+Writer = Callable[[Scene, Path, "Path | None"], Path]
+"""``write(scene, destination, base_dir)`` -> the main file written; ``base_dir`` resolves relative mesh uris."""
+
+
+@dataclass(frozen=True)
+class SceneFormat:
+    """One file format: how to recognise, read and/or write it."""
+
+    name: str
+    """Registry key, used by ``--format`` and ``load_scene(format=...)``."""
+    description: str
+    """One line for help texts and error messages."""
+    detect: Callable[[Any], bool] | None = None
+    """Content test on the parsed JSON of a file (readers only)."""
+    read: Reader | None = None
+    """Reader; ``None`` for export-only formats."""
+    write: Writer | None = None
+    """Writer; ``None`` for import-only formats."""
+    folder_file: str | None = None
+    """A folder holding a file of this name is this format (``scene.json``, ``poses.json``)."""
+    takes_room: bool = False
+    """Whether ``ReadOptions.room`` may replace the room this format recovers."""
+
+
+FORMATS: dict[str, SceneFormat] = {}
+"""Every registered format by name, in registration order (the order detection tries them)."""
+
+
+def register_format(fmt: SceneFormat, *, replace: bool = False) -> SceneFormat:
+    """Add ``fmt`` to the registry (``replace=True`` to swap a format of the same name)."""
+    if not fmt.name or fmt.name == "auto":
+        raise UsageError(f"invalid format name {fmt.name!r}")
+    if fmt.name in FORMATS and not replace:
+        raise UsageError(f"format {fmt.name!r} is already registered; pass replace=True to swap it")
+    if fmt.read is None and fmt.write is None:
+        raise UsageError(f"format {fmt.name!r} has neither a reader nor a writer")
+    FORMATS[fmt.name] = fmt
+    return fmt
+
+
+def get_format(name: str) -> SceneFormat:
+    """The registered format ``name``; an unknown name raises naming the known ones."""
+    try:
+        return FORMATS[name]
+    except KeyError:
+        raise UsageError(f"unknown format {name!r}; known: {', '.join(FORMATS)}") from None
+
+
+def _readers() -> list[SceneFormat]:
+    return [f for f in FORMATS.values() if f.read is not None]
 
 
 def detect_format(path: str | os.PathLike[str]) -> str:
     """Name the format of ``path`` by looking at its content (rules in ``docs/importers.md``).
 
-    A folder holding ``scene.json`` is ``native``, one holding ``poses.json`` is ``sam3d``.
-    A JSON file is ``front3d`` when it has a ``ThreedFront`` key, ``procthor`` when it has
-    ``rooms`` with ``floorPolygon`` and ``objects``, ``sam3d`` when it says ``"format":
-    "sam3d"`` or every object has a ``mesh``, ``native`` when every top-level key is a
-    :class:`Scene` field. Anything else raises :class:`ImportFormatError`.
+    A folder is the format whose ``folder_file`` it holds (``scene.json`` -> native,
+    ``poses.json`` -> sam3d). A JSON file is the first registered reader whose ``detect``
+    accepts it. Anything else raises :class:`ImportFormatError`.
     """
     p = Path(path)
     if p.is_dir():
         fmt = _folder_format(p)
         if fmt is None:
-            raise ImportFormatError(f"folder holds neither {SCENE_FILE} nor {POSES_FILE}", path=str(p))
-        return fmt
-    return _detect_data(read_json(p), p)
+            wanted = " nor ".join(f.folder_file for f in _readers() if f.folder_file)
+            raise ImportFormatError(f"folder holds neither {wanted}", path=str(p))
+        return fmt.name
+    return _detect_data(read_json(p), p).name
 
 
 def load_scenes(
@@ -52,7 +128,8 @@ def load_scenes(
     format: ImportFormat | str = "auto",
     *,
     room: Room | str | None = None,
-    asset_database: AssetDatabaseSource = None,
+    asset_database: Any = None,
+    asset_dir: str | os.PathLike[str] | None = None,
 ) -> list[Scene]:
     """Import every scene ``path`` holds, in a stable order.
 
@@ -60,18 +137,23 @@ def load_scenes(
     other folder, whose ``*.json`` files are each imported (sorted by name). A ProcTHOR house
     gives one scene per room. A :class:`Room` ``room`` replaces the recovered room of
     single-room formats (``front3d``, ``sam3d``); a string ``room`` keeps only the scene whose
-    id, room id or source room id (ProcTHOR's ``room|2``) equals it. ``asset_database`` (a path, a parsed mapping, or unset to read
-    ``$SCENEMOSAIC_PROCTHOR_DB``) gives ProcTHOR asset sizes.
+    id, room id or source room id (ProcTHOR's ``room|2``) equals it. ``asset_database`` (a path
+    or a parsed mapping) replaces the ProcTHOR asset sizes shipped with the package;
+    ``asset_dir`` is where SceneEval asset meshes are looked up (default: ``assets/`` beside the file).
     """
     fmt = _check_format(format, path)
     p = Path(path)
-    override = room if isinstance(room, Room) else None
+    options = ReadOptions(
+        room=room if isinstance(room, Room) else None,
+        asset_database=asset_database,
+        asset_dir=Path(asset_dir) if asset_dir is not None else None,
+    )
     scenes: list[Scene] = []
     if p.is_dir():
         inner = _folder_format(p)
-        if inner is not None and fmt in ("auto", inner):
-            file = p / (SCENE_FILE if inner == "native" else POSES_FILE)
-            scenes = _load_file(file, inner, room=override, asset_database=asset_database)
+        if inner is not None and fmt in ("auto", inner.name):
+            assert inner.folder_file is not None
+            scenes = _load_file(p / inner.folder_file, inner.name, options)
         else:
             files = sorted(q for q in p.glob("*.json") if q.is_file())
             if not files:
@@ -79,9 +161,9 @@ def load_scenes(
                     "folder holds no scene file (scene.json, poses.json or *.json)", path=str(p)
                 )
             for f in files:
-                scenes.extend(_load_file(f, fmt, room=override, asset_database=asset_database))
+                scenes.extend(_load_file(f, fmt, options))
     else:
-        scenes = _load_file(p, fmt, room=override, asset_database=asset_database)
+        scenes = _load_file(p, fmt, options)
     if isinstance(room, str):
         scenes = _select_room(scenes, room, p)
     return scenes
@@ -92,28 +174,42 @@ def load_scene(
     format: ImportFormat | str = "auto",
     *,
     room: Room | str | None = None,
-    asset_database: AssetDatabaseSource = None,
+    asset_database: Any = None,
+    asset_dir: str | os.PathLike[str] | None = None,
 ) -> Scene:
     """Import the one scene ``path`` holds (see :func:`load_scenes`).
 
     A source holding several scenes (a ProcTHOR house with several rooms, a folder of
-    layouts) raises :class:`~scenemosaic.exceptions.UsageError` naming them: use
-    :func:`load_scenes` there, or pick one with ``room="<room id>"``.
+    layouts) raises :class:`~scenemosaic.exceptions.UsageError` naming them: pick one with
+    ``room="<room id>"`` (``--room`` on the command line), or use :func:`load_scenes`.
     """
-    scenes = load_scenes(path, format, room=room, asset_database=asset_database)
+    scenes = load_scenes(path, format, room=room, asset_database=asset_database, asset_dir=asset_dir)
     if len(scenes) != 1:
         ids = ", ".join(s.id for s in scenes[:8])
-        raise UsageError(f"{os.fspath(path)} holds {len(scenes)} scenes ({ids}); use load_scenes()")
+        rooms = sorted({str(s.metadata.get("procthor", {}).get("room_id") or s.id) for s in scenes})[:8]
+        raise UsageError(
+            f"{os.fspath(path)} holds {len(scenes)} scenes ({ids}); pick one with room=<id> "
+            f"(--room on the command line; e.g. {rooms[0]!r}) or use load_scenes()"
+        )
     return scenes[0]
+
+
+def write_scene(scene: Scene, format: str, destination: str | os.PathLike[str], base_dir: Path | None = None) -> Path:
+    """Write ``scene`` in the registered ``format``; returns the main file written."""
+    fmt = get_format(format)
+    if fmt.write is None:
+        raise UsageError(f"format {format!r} can be read but not written")
+    return fmt.write(scene, Path(destination), base_dir)
 
 
 # -- internals ------------------------------------------------------------------------------------
 
 
 def _check_format(format: str, path: str | os.PathLike[str]) -> str:
-    if format != "auto" and format not in FORMATS:
+    if format != "auto" and (format not in FORMATS or FORMATS[format].read is None):
+        readable = ", ".join(f.name for f in _readers())
         raise ImportFormatError(
-            f"unknown format {format!r}; use 'auto' or one of {', '.join(FORMATS)}",
+            f"unknown format {format!r} for input; use 'auto' or one of {readable}",
             path=os.fspath(path),
             field="format",
         )
@@ -137,56 +233,29 @@ def _select_room(scenes: list[Scene], room: str, path: Path) -> list[Scene]:
     return picked
 
 
-def _folder_format(p: Path) -> str | None:
-    if (p / SCENE_FILE).is_file():
-        return "native"
-    if (p / POSES_FILE).is_file():
-        return "sam3d"
+def _folder_format(p: Path) -> SceneFormat | None:
+    for fmt in _readers():
+        if fmt.folder_file and (p / fmt.folder_file).is_file():
+            return fmt
     return None
 
 
-def _looks_native(data: Any) -> bool:
-    if not isinstance(data, dict) or not ({"objects", "room"} & data.keys()):
-        return False
-    return set(data) <= set(Scene.model_fields)
-
-
-def _detect_data(data: Any, path: Path) -> str:
-    if looks_like_front3d(data):
-        return "front3d"
-    if looks_like_procthor(data):
-        return "procthor"
-    if looks_like_sam3d(data):
-        return "sam3d"
-    if _looks_native(data):
-        return "native"
+def _detect_data(data: Any, path: Path) -> SceneFormat:
+    for fmt in _readers():
+        if fmt.detect is not None and fmt.detect(data):
+            return fmt
     keys = sorted(data)[:6] if isinstance(data, dict) else type(data).__name__
-    raise ImportFormatError(
-        f"unknown format (top-level {keys}); expected a native scene, a 3D-FRONT layout "
-        "(ThreedFront), a ProcTHOR house (rooms + objects) or a SAM3D pose file (objects with mesh)",
-        path=str(path),
-    )
+    kinds = "; ".join(f"{f.name} ({f.description})" for f in _readers())
+    raise ImportFormatError(f"unknown format (top-level {keys}); expected one of: {kinds}", path=str(path))
 
 
-def _load_file(
-    path: Path, fmt: str, *, room: Room | None, asset_database: AssetDatabaseSource
-) -> list[Scene]:
+def _load_file(path: Path, name: str, options: ReadOptions) -> list[Scene]:
     data = read_json(path)
-    if fmt == "auto":
-        fmt = _detect_data(data, path)
-    if room is not None and fmt in ("native", "procthor"):
-        raise UsageError(f"room= only applies to front3d and sam3d inputs; {path} is {fmt}")
-    log.debug("import", path=str(path), format=fmt)
-    if fmt == "native":
-        scene = scene_from_data(data, source=str(path))
-        if scene.provenance.source_format is None:
-            # a scene written by hand: record where it came from; imported scenes keep their origin
-            scene.provenance = Provenance(
-                source_format="native", source_path=path.as_posix(), importer="scenemosaic.exchange.native"
-            )
-        return [scene]
-    if fmt == "front3d":
-        return [import_front3d(data, path, room=room)]
-    if fmt == "procthor":
-        return import_procthor(data, path, asset_database=asset_database)
-    return [import_sam3d(data, path, room=room)]
+    fmt = _detect_data(data, path) if name == "auto" else FORMATS[name]
+    if options.room is not None and not fmt.takes_room:
+        takers = ", ".join(f.name for f in _readers() if f.takes_room)
+        raise UsageError(f"room= only applies to {takers} inputs; {path} is {fmt.name}")
+    log.debug("import", path=str(path), format=fmt.name)
+    assert fmt.read is not None
+    return fmt.read(data, path, options)
+

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
 
 import mujoco
 import numpy as np
 from shapely.geometry import Polygon
 
+from scenemosaic.assets import HullCache
 from scenemosaic.exceptions import PhysicsError
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._planar import convex_hull_2d
@@ -104,7 +104,7 @@ def check_collisions(
     scene: Scene,
     base_dir: str | Path | None = None,
     *,
-    hull_cache: Any = None,
+    hull_cache: HullCache | None = None,
     hulls: HullInput | None = None,
     tolerance_m: float = COLLISION_TOLERANCE_M,
 ) -> CollisionReport:

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import structlog
 
+from scenemosaic.assets import HullCache
 from scenemosaic.physics._checks import require_finite_poses
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import StabilizationReport, UnitReport
@@ -77,7 +78,7 @@ async def stabilize_scene(
     *,
     base_dir: str | Path | None = None,
     seed: int = 0,
-    hull_cache: Any = None,
+    hull_cache: HullCache | None = None,
     hulls: HullInput | None = None,
     sim: SimSettings | None = None,
     settle: SettleSettings | None = None,

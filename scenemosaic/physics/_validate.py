@@ -5,11 +5,11 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
 
 import mujoco
 import numpy as np
 
+from scenemosaic.assets import HullCache
 from scenemosaic.physics._checks import check_out_of_bounds, collision_report_for, require_finite_poses
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import ObjectMotion, ValidationReport
@@ -102,7 +102,7 @@ def validate_scene(
     scene: Scene,
     base_dir: str | Path | None = None,
     *,
-    hull_cache: Any = None,
+    hull_cache: HullCache | None = None,
     hulls: HullInput | None = None,
     sim: SimSettings | None = None,
 ) -> ValidationReport:

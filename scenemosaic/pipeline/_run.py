@@ -9,6 +9,7 @@ A failing stage never loses earlier work: the last good scene is exported to ``b
 from __future__ import annotations
 
 import asyncio
+import functools
 import json
 import time
 from collections.abc import Awaitable, Callable, Sequence
@@ -24,6 +25,7 @@ from scenemosaic.scene import Scene
 
 if TYPE_CHECKING:
     from scenemosaic.agents import TaskAgent
+    from scenemosaic.assets import HullCache
     from scenemosaic.models import UsageTracker
 
 __all__ = [
@@ -52,7 +54,8 @@ class GenerateConfig:
     format: str = "auto"
     """Input format (``auto``, ``native``, ``front3d``, ``procthor``, ``sam3d``)."""
     variants: int = 0
-    """Number of diverse variants to deliver (composition arrives with a later stage; 0 = base scene only)."""
+    """Number of diverse variants to deliver. Only 0 (the base scene) until the evolution and
+    composition stages arrive; any other value is refused before work starts, never ignored."""
     model: str | Model = "rules"
     """Model string (``rules``, ``openai:<model>[@<base_url>]``, ``replay:<cassette.json>``) or a
     :class:`~scenemosaic.models.Model` instance, which the caller keeps ownership of (not closed here)."""
@@ -60,6 +63,8 @@ class GenerateConfig:
     """Run seed; every random choice derives from it, so equal inputs give identical files."""
     room: str | None = None
     """Room id to take from a multi-room house file."""
+    asset_dir: Path | None = None
+    """Folder of asset meshes a SceneEval input names by ``assetId`` (default: ``assets/`` beside it)."""
     vision: bool | None = None
     """Force the model's vision setting (``False`` for text-only local servers); ``None`` keeps its default."""
     solver_fallback: bool = True
@@ -112,7 +117,10 @@ class PipelineRun:
     base_dir: Path
     scene: Scene | None = None
     records: list[StageRecord] = field(default_factory=list)
-    extra: dict[str, Any] = field(default_factory=dict)
+    hull_cache: HullCache | None = None
+    """The run's CoACD hull cache, opened by the assets stage and reused by physics."""
+    validation: dict[str, Any] | None = None
+    """The validate stage's full report (JSON-ready), written to ``report.json``."""
 
 
 # -- stages --------------------------------------------------------------------------------------
@@ -121,7 +129,11 @@ class PipelineRun:
 async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
     from scenemosaic.exchange import load_scene
 
-    scene = await asyncio.to_thread(load_scene, run.input_path, run.config.format, room=run.config.room)
+    scene = await asyncio.to_thread(
+        functools.partial(
+            load_scene, run.input_path, run.config.format, room=run.config.room, asset_dir=run.config.asset_dir
+        )
+    )
     run.scene = scene
     rec.detail["source_format"] = scene.provenance.source_format
 
@@ -131,7 +143,7 @@ async def _stage_assets(run: PipelineRun, rec: StageRecord) -> None:
 
     assert run.scene is not None
     cache = HullCache(run.config.cache_dir / "hulls" if run.config.cache_dir else None)
-    run.extra["hull_cache"] = cache
+    run.hull_cache = cache
     scene = run.scene
 
     def prepare() -> dict[str, int]:
@@ -208,7 +220,7 @@ async def _stage_stabilize(run: PipelineRun, rec: StageRecord) -> None:
         rec.status = "skipped"
         return
     scene, report = await stabilize_scene(
-        run.scene, base_dir=run.base_dir, seed=run.config.seed, hull_cache=run.extra.get("hull_cache")
+        run.scene, base_dir=run.base_dir, seed=run.config.seed, hull_cache=run.hull_cache
     )
     run.scene = scene
     rec.detail.update(report.model_dump(mode="json", include=_summary_fields(report)))
@@ -221,7 +233,7 @@ async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
     scene = run.scene
     report = await asyncio.to_thread(validate_scene, scene, run.base_dir)
     rec.detail.update(report.model_dump(mode="json", include=_summary_fields(report)))
-    run.extra["validation"] = report.model_dump(mode="json")
+    run.validation = report.model_dump(mode="json")
 
 
 def _summary_fields(report: Any) -> set[str]:
@@ -236,6 +248,10 @@ def _summary_fields(report: Any) -> set[str]:
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     assert run.scene is not None
     rec.detail["files"] = await asyncio.to_thread(export_base, run.scene, run.out_dir / "base", run.base_dir)
+
+
+DELIVERED_FORMATS: tuple[tuple[str, str], ...] = (("glb", "scene.glb"), ("sceneeval", "sceneeval"), ("mjcf", ""))
+"""Formats written beside ``scene.json`` in every delivered folder, with their destination in it."""
 
 
 def export_base(scene: Scene, folder: Path, base_dir: Path | None) -> list[str]:
@@ -317,6 +333,11 @@ async def agenerate(
     config = config or GenerateConfig()
     if config.variants < 0:
         raise UsageError("variants must be >= 0")
+    if config.variants > 0:
+        raise UsageError(
+            f"variants={config.variants} asked for, but variants arrive with the evolution stage, which this "
+            "version does not have yet; run with variants=0 (--variants 0) for the base scene"
+        )
     input_path, out = Path(input_path), Path(out_dir)
     base_dir = await asyncio.to_thread(_prepare_folders, input_path, out)
     run = PipelineRun(input_path=input_path, out_dir=out, config=config, base_dir=base_dir)
@@ -391,7 +412,7 @@ def _report(run: PipelineRun, total_s: float, failure: BaseException | None) -> 
             }
             for r in run.records
         ],
-        "validation": run.extra.get("validation"),
+        "validation": run.validation,
     }
 
 

@@ -257,7 +257,7 @@ def test_unknown_format(tmp_path: Path) -> None:
     (tmp_path / "empty").mkdir()
     with pytest.raises(ImportFormatError, match="no scene file"):
         load_scenes(tmp_path / "empty")
-    with pytest.raises(ImportFormatError, match=r"neither scene\.json nor poses\.json"):
+    with pytest.raises(ImportFormatError, match=r"neither poses\.json nor scene\.json"):
         detect_format(tmp_path / "empty")
     with pytest.raises(ImportFormatError, match="file not found"):
         load_scene(tmp_path / "absent.json")

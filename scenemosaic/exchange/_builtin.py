@@ -1,0 +1,97 @@
+"""The formats scenemosaic ships, registered once (importing :mod:`scenemosaic.exchange` does it).
+
+Detection order matters: specific content tests first (3D-FRONT's ``ThreedFront``, SceneEval's
+``"format": "sceneState"``, ProcTHOR's ``rooms`` + ``objects``, a SAM3D pose file), the native
+scene model last because its test is the loosest.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from scenemosaic.exchange._front3d import import_front3d, looks_like_front3d
+from scenemosaic.exchange._glb import export_glb
+from scenemosaic.exchange._mjcf import export_mjcf
+from scenemosaic.exchange._native import SCENE_FILE, save_scene, scene_from_data
+from scenemosaic.exchange._procthor import import_procthor, looks_like_procthor
+from scenemosaic.exchange._registry import ReadOptions, SceneFormat, register_format
+from scenemosaic.exchange._sam3d import POSES_FILE, import_sam3d, looks_like_sam3d
+from scenemosaic.exchange._sceneeval import export_sceneeval
+from scenemosaic.scene import Provenance, Scene
+
+__all__ = ["NATIVE_IMPORTER"]
+
+NATIVE_IMPORTER = "scenemosaic.exchange.native"
+
+
+def _looks_native(data: Any) -> bool:
+    if not isinstance(data, dict) or not ({"objects", "room"} & data.keys()):
+        return False
+    return set(data) <= set(Scene.model_fields)
+
+
+def _read_native(data: Any, path: Path, options: ReadOptions) -> list[Scene]:
+    scene = scene_from_data(data, source=str(path))
+    if scene.provenance.source_format is None:
+        # a scene written by hand: record where it came from; imported scenes keep their origin
+        scene.provenance = Provenance(source_format="native", source_path=path.as_posix(), importer=NATIVE_IMPORTER)
+    return [scene]
+
+
+def _write_native(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
+    return save_scene(scene, folder, base_dir=base_dir)
+
+
+def _write_glb(scene: Scene, path: Path, base_dir: Path | None) -> Path:
+    return export_glb(scene, path, base_dir=base_dir)
+
+
+def _write_sceneeval(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
+    return export_sceneeval(scene, folder, base_dir=base_dir)
+
+
+def _write_mjcf(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
+    return export_mjcf(scene, folder, base_dir=base_dir)
+
+
+register_format(
+    SceneFormat(
+        "front3d",
+        "3D-FRONT / ATISS / PhyScene layout with a ThreedFront key",
+        detect=looks_like_front3d,
+        read=lambda data, path, o: [import_front3d(data, path, room=o.room)],
+        takes_room=True,
+    )
+)
+register_format(
+    SceneFormat(
+        "procthor",
+        "AI2-THOR / ProcTHOR / Holodeck house with rooms and objects",
+        detect=looks_like_procthor,
+        read=lambda data, path, o: import_procthor(data, path, asset_database=o.asset_database),
+    )
+)
+register_format(
+    SceneFormat(
+        "sam3d",
+        f"image-to-3D object set: {POSES_FILE} with a mesh per object",
+        detect=looks_like_sam3d,
+        read=lambda data, path, o: [import_sam3d(data, path, room=o.room)],
+        folder_file=POSES_FILE,
+        takes_room=True,
+    )
+)
+register_format(
+    SceneFormat(
+        "native",
+        f"a scenemosaic {SCENE_FILE} (or a folder holding one)",
+        detect=_looks_native,
+        read=_read_native,
+        write=_write_native,
+        folder_file=SCENE_FILE,
+    )
+)
+register_format(SceneFormat("glb", "one GLB with a node per object (Y-up, as glTF)", write=_write_glb))
+register_format(SceneFormat("sceneeval", "SceneEval sceneState + assets/<assetId>.glb", write=_write_sceneeval))
+register_format(SceneFormat("mjcf", "MuJoCo scene.xml + mjcf/ meshes", write=_write_mjcf))
