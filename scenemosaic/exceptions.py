@@ -29,11 +29,6 @@ Usage errors (the caller gave us something wrong) are kept apart from run errors
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from scenemosaic.models import Usage
-
 from typing import Any
 
 __all__ = [
@@ -177,17 +172,11 @@ class OutputValidationError(ModelError):
     sends back), ``usage`` the tokens the failed call cost (a ``scenemosaic.models.Usage``).
     """
 
-    def __init__(
-        self, message: str, *, raw_reply: str, errors: list[str] | None = None, usage: Usage | None = None
-    ) -> None:
+    def __init__(self, message: str, *, raw_reply: str, errors: list[str] | None = None, usage: Any = None) -> None:
         super().__init__(message)
         self.raw_reply = raw_reply
         self.errors = list(errors or [])
-        if usage is None:
-            from scenemosaic.models._base import Usage as _Usage
-
-            usage = _Usage()
-        self.usage: Usage = usage
+        self.usage = usage  # a scenemosaic.models.Usage, or None when unknown (this module imports nothing)
 
 
 class ReplayMissError(ModelError, KeyError):

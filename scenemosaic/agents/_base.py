@@ -299,7 +299,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                 output, usage = await model.request(messages, self.output_type, settings, context=context)
             except OutputValidationError as exc:  # not JSON, or not the schema: repairable
                 schema_error = exc
-                total = total + exc.usage
+                total = total + (exc.usage if isinstance(exc.usage, Usage) else Usage())
                 problems, reply = exc.errors or [str(exc)], exc.raw_reply
                 intro = f"That reply is not a valid {self.output_type.__name__} JSON object:"
             except ModelError as exc:

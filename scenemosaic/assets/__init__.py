@@ -12,7 +12,7 @@ from scenemosaic.assets._objects import default_hull_cache, object_hulls, object
 from scenemosaic.assets._procedural import (
     MAX_PARTS,
     known_categories,
-    normalize_category,
+    procedural_key,
     procedural_mesh,
     procedural_parts,
 )
@@ -27,9 +27,9 @@ __all__ = [
     "known_categories",
     "load_mesh",
     "mesh_hash",
-    "normalize_category",
     "object_hulls",
     "object_mesh",
+    "procedural_key",
     "procedural_mesh",
     "procedural_parts",
     "shutdown_workers",

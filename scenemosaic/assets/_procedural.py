@@ -22,11 +22,12 @@ import structlog
 import trimesh
 
 from scenemosaic.exceptions import AssetError
+from scenemosaic.scene import normalize_category
 
 __all__ = [
     "MAX_PARTS",
     "known_categories",
-    "normalize_category",
+    "procedural_key",
     "procedural_mesh",
     "procedural_parts",
 ]
@@ -785,17 +786,19 @@ def _lookup(name: str) -> str | None:
     return _ALIASES.get(name)
 
 
-def normalize_category(label: str) -> str:
-    """Map a dataset label to a builder key of the procedural library.
+def procedural_key(label: str) -> str:
+    """Map a label to a builder key of the procedural library.
 
+    The label is first put in the scene vocabulary (:func:`scenemosaic.scene.normalize_category`:
+    snake case, instance numbers dropped, synonyms mapped), then looked up among the builders.
     Accepts 3D-FRONT labels (``double_bed``, ``multi_seat_sofa``, ``pendant_lamp`` ...), AI2-THOR
     object types (``ArmChair``, ``HousePlant``, ``TVStand`` ...) and common synonyms, in any case
     or separator style. A label that is not known outright is matched by its trailing words
     (``modern_floor_lamp`` -> ``floor_lamp``) and then without a plural ``s``. A label that matches
     nothing comes back in snake case; :func:`procedural_parts` then builds a plain box for it.
     """
-    name = _snake(label)
-    if not name:
+    name = normalize_category(_snake(label)) if _snake(label) else ""
+    if not name or name == "object":
         return "box"
     found = _lookup(name)
     if found:
@@ -859,13 +862,13 @@ def _check_extents(category: str, extents: Sequence[float]) -> tuple[float, floa
 def procedural_parts(category: str, extents: tuple[float, float, float]) -> list[trimesh.Trimesh]:
     """Convex, watertight pieces of a procedural model filling the box ``extents`` exactly.
 
-    ``category`` may be any label :func:`normalize_category` understands. The box is
+    ``category`` may be any label :func:`procedural_key` understands. The box is
     ``x in [-w/2, w/2]``, ``y in [-d/2, d/2]``, ``z in [0, h]`` with ``extents = (w, d, h)``; the
     model's front faces -Y. An unknown category gives one box, with a warning logged once per category.
     Returns fresh copies (safe to modify).
     """
     w, d, h = _check_extents(category, extents)
-    key = normalize_category(category)
+    key = procedural_key(category)
     return [p.copy() for p in _build(key, w, d, h)]
 
 

@@ -17,8 +17,17 @@ import structlog
 import trimesh
 from trimesh.visual.material import PBRMaterial
 
-from scenemosaic.render import ceiling_mesh, floor_mesh, object_local_mesh, wall_mesh
-from scenemosaic.render._palette import CEILING_COLOR, FLOOR_COLOR, RGB, WALL_COLOR, category_color
+from scenemosaic.render import (
+    CEILING_COLOR,
+    FLOOR_COLOR,
+    RGB,
+    WALL_COLOR,
+    category_color,
+    ceiling_mesh,
+    floor_mesh,
+    object_local_mesh,
+    wall_mesh,
+)
 from scenemosaic.scene import Scene
 
 __all__ = [

@@ -306,7 +306,7 @@ class ReplayModel(Model):
                     "request": canonical,
                     "invalid_reply": exc.raw_reply,
                     "errors": exc.errors,
-                    "usage": dataclasses.asdict(exc.usage),
+                    "usage": dataclasses.asdict(exc.usage) if isinstance(exc.usage, Usage) else {},
                 },
                 model=self.name,
                 vision=self.vision,

@@ -6,7 +6,7 @@ Entry points: :func:`stabilize_scene` (per local unit, top-down), :func:`check_c
 """
 
 from scenemosaic.physics._checks import check_collisions, check_out_of_bounds
-from scenemosaic.physics._hulls import ObjectShape, object_shape
+from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import (
     CollisionPair,
     CollisionReport,
@@ -29,7 +29,7 @@ from scenemosaic.physics._settings import (
 from scenemosaic.physics._settle import is_thin
 from scenemosaic.physics._stabilize import stabilize_scene, stabilize_scene_sync
 from scenemosaic.physics._units import UnitPlan, plan_units
-from scenemosaic.physics._validate import support_gaps, validate_scene
+from scenemosaic.physics._validate import scene_world, support_gaps, validate_scene, write_scene_mjcf
 
 __all__ = [
     "COLLISION_TOLERANCE_M",
@@ -39,6 +39,7 @@ __all__ = [
     "TIPPED_TILT_DEG",
     "CollisionPair",
     "CollisionReport",
+    "HullInput",
     "ObjectMotion",
     "ObjectShape",
     "OutOfBoundsObject",
@@ -54,8 +55,10 @@ __all__ = [
     "is_thin",
     "object_shape",
     "plan_units",
+    "scene_world",
     "stabilize_scene",
     "stabilize_scene_sync",
     "support_gaps",
     "validate_scene",
+    "write_scene_mjcf",
 ]

@@ -10,7 +10,6 @@ from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import structlog
 
 from scenemosaic.assets import HullCache
@@ -21,52 +20,17 @@ from scenemosaic.physics._settings import SettleSettings, SimSettings
 from scenemosaic.physics._settle import settle_unit
 from scenemosaic.physics._units import UnitPlan, plan_units
 from scenemosaic.physics._validate import motion_between
-from scenemosaic.scene import FloatArray, Pose, Scene
+from scenemosaic.scene import Pose, Scene, rigid_moves
 
 __all__ = ["stabilize_scene", "stabilize_scene_sync"]
 
 log = structlog.get_logger(__name__)
 
 
-def _pose_of(matrix: FloatArray, scale: tuple[float, float, float]) -> Pose:
-    from scenemosaic.physics._world import _quat_from_matrix
-
-    q = _quat_from_matrix(matrix[:3, :3])
-    return Pose(
-        position=(float(matrix[0, 3]), float(matrix[1, 3]), float(matrix[2, 3])),
-        quaternion=(q[0], q[1], q[2], q[3]),
-        scale=scale,
-    )
-
-
-def _descendants(scene: Scene, object_id: str) -> list[str]:
-    out: list[str] = []
-    stack = [object_id]
-    seen = {object_id}
-    while stack:
-        for c in scene.children_of(stack.pop()):
-            if c not in seen:
-                seen.add(c)
-                out.append(c)
-                stack.append(c)
-    return out
-
-
 def _apply(scene: Scene, poses: dict[str, Pose]) -> None:
-    """Write new poses; descendants of a moved object follow it rigidly (poses relative to their anchor)."""
-    for oid, new in poses.items():
-        obj = scene.get(oid)
-        old_m = obj.pose.matrix(with_scale=False)
-        new_m = new.matrix(with_scale=False)
-        obj.pose = new
-        delta = new_m @ np.linalg.inv(old_m)
-        if np.allclose(delta, np.eye(4), atol=1e-12):
-            continue
-        for did in _descendants(scene, oid):
-            if did in poses:
-                continue
-            d = scene.get(did)
-            d.pose = _pose_of(delta @ d.pose.matrix(with_scale=False), d.pose.scale)
+    """Write new poses; descendants of a moved object follow it rigidly (``scene.rigid_moves``)."""
+    for oid, pose in rigid_moves(scene, poses).items():
+        scene.get(oid).pose = pose
 
 
 def _unit_seed(seed: int, plan: UnitPlan) -> int:

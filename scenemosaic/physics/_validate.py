@@ -8,8 +8,9 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+import structlog
 
-from scenemosaic.assets import HullCache
+from scenemosaic.assets import HullCache, object_mesh
 from scenemosaic.physics._checks import check_out_of_bounds, collision_report_for, require_finite_poses
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import ObjectMotion, ValidationReport
@@ -27,10 +28,59 @@ from scenemosaic.scene import (
     yaw_from_quat,
 )
 
-__all__ = ["is_fixed", "motion_between", "support_gaps", "validate_scene"]
+__all__ = ["is_fixed", "motion_between", "scene_world", "support_gaps", "validate_scene", "write_scene_mjcf"]
+
+log = structlog.get_logger(__name__)
 
 _VALIDATION_SETTLE = SettleSettings(max_time_s=1.0)
 _VALIDATION_MIN_S = 0.3
+
+
+def scene_world(scene: Scene, shapes: Mapping[str, ObjectShape], sim: SimSettings | None = None) -> WorldBuilder:
+    """The whole scene as one MuJoCo world with gravity down: the room static, objects hung from
+    the ceiling or a wall and ``static`` ones welded, every other object on a free joint.
+
+    Validation simulates this world and the MJCF export writes it (:func:`write_scene_mjcf`).
+    """
+    builder = WorldBuilder(sim or SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
+    builder.add_room(scene.room)
+    for o in scene.objects:
+        if is_fixed(scene, o):
+            builder.add_static(o, shapes[o.id])
+        else:
+            builder.add_dynamic(o, shapes[o.id], mode="free")
+    return builder
+
+
+def write_scene_mjcf(
+    scene: Scene,
+    out_dir: str | Path,
+    base_dir: str | Path | None = None,
+    *,
+    hull_cache: HullCache | None = None,
+    hulls: HullInput | None = None,
+    sim: SimSettings | None = None,
+) -> Path:
+    """Write ``out_dir/scene.xml`` + ``out_dir/mjcf/`` for plain MuJoCo: :func:`scene_world` (the
+    world validation simulates) plus each object's visual mesh as a non-colliding geom (group 2;
+    collision pieces are group 3). Paths are relative. Raises
+    :class:`~scenemosaic.exceptions.PhysicsError` naming any object whose pose is not finite.
+    """
+    require_finite_poses(scene, "export MJCF")
+    shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
+    builder = scene_world(scene, shapes, sim)
+    for obj in scene.objects:
+        try:
+            mesh = object_mesh(obj, base_dir)
+        except Exception as exc:  # the visual is optional: the collision pieces still describe the object
+            log.warning("mjcf_visual_mesh_failed", object_id=obj.id, error=str(exc))
+            continue
+        builder.add_visual(obj, np.asarray(mesh.vertices), np.asarray(mesh.faces))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    path = builder.write_mjcf(out, model_name=scene.id)
+    log.info("mjcf_exported", path=str(path), objects=len(scene.objects))
+    return path
 
 
 def is_fixed(scene: Scene, obj: SceneObject) -> bool:
@@ -121,14 +171,7 @@ def validate_scene(
     oob = check_out_of_bounds(scene)
     gaps = support_gaps(scene, shapes) if scene.objects else {}
 
-    builder = WorldBuilder(sim or SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
-    builder.add_room(scene.room)
-    for o in scene.objects:
-        if is_fixed(scene, o):
-            builder.add_static(o, shapes[o.id])
-        else:
-            builder.add_dynamic(o, shapes[o.id], mode="free")
-    world = builder.compile()
+    world = scene_world(scene, shapes, sim).compile()
     outcome = run_until_settled(world, _VALIDATION_SETTLE, min_time_s=_VALIDATION_MIN_S)
     motions: list[ObjectMotion] = []
     tipped: list[str] = []

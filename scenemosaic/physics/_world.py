@@ -10,23 +10,33 @@ body; dynamic objects get their own body. Two joint layouts:
 * ``"free"`` (validation and export): a free joint, nothing locked.
 
 Bodies of dynamic objects are placed at the object's origin (bottom centre of the footprint).
+Every object body is named by the object's id, its collision geoms ``<id>_hull_<k>``. The same
+builder writes the MJCF export (:meth:`WorldBuilder.write_mjcf`), so the exported file is the
+model that was simulated, not a second rendering of it.
 """
 
 from __future__ import annotations
 
 import math
+import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Literal
 
 import mujoco
 import numpy as np
+import numpy.typing as npt
+import trimesh
 
 from scenemosaic.physics._hulls import ObjectShape
 from scenemosaic.physics._settings import DEFAULT_DENSITY_KG_M3, SimSettings
 from scenemosaic.scene import FloatArray, Room, SceneObject
 
-__all__ = ["BuiltWorld", "DynamicBody", "JointMode", "WorldBuilder", "object_mass"]
+__all__ = ["MJCF_MESH_DIR", "BuiltWorld", "DynamicBody", "JointMode", "WorldBuilder", "object_mass"]
+
+MJCF_MESH_DIR = "mjcf"
+"""Folder, beside ``scene.xml``, holding the exported meshes (relative, so the folder can move)."""
 
 JointMode = Literal["tilt", "slide", "free"]
 
@@ -91,6 +101,8 @@ class WorldBuilder:
         self.settings = settings
         self.spec = mujoco.MjSpec()
         self.spec.modelname = "scenemosaic_unit"
+        # inertias are always explicit (object_mass + box inertia), never derived from geoms
+        self.spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
         opt = self.spec.option
         opt.timestep = settings.timestep
         opt.solver = _SOLVERS[settings.solver]
@@ -102,9 +114,11 @@ class WorldBuilder:
         g = np.asarray(gravity_dir, dtype=np.float64)
         opt.gravity = (settings.gravity * g / max(float(np.linalg.norm(g)), 1e-12)).tolist()
         self.spec.compiler.autolimits = True
-        self._meshes: set[str] = set()
+        self._meshes: dict[str, str] = {}
         self._dynamic: list[tuple[str, str, JointMode, bool]] = []
         self._geom_names: dict[str, list[str]] = {}
+        self._dynamic_ids: set[str] = set()
+        self._aligned: dict[str, bool] = {}
         self._count = 0
 
     # -- helpers ---------------------------------------------------------------------------
@@ -124,8 +138,8 @@ class WorldBuilder:
     ) -> None:
         names = self._geom_names.setdefault(object_id, [])
         quat = _quat_from_matrix(local_r)
-        for piece in shape.pieces:
-            name = self._name(f"g_{object_id}")
+        for k, piece in enumerate(shape.pieces):
+            name = f"{object_id}_hull_{k}"
             g = body.add_geom()
             g.name = name
             g.friction = [friction, 0.005, 0.0001]
@@ -137,14 +151,15 @@ class WorldBuilder:
                 g.size = [float(v) for v in half]
                 g.pos = (local_r @ centre + local_t).tolist()
             else:
-                mesh_name = f"hull_{piece.key}"
-                if mesh_name not in self._meshes:
+                mesh_name = self._meshes.get(piece.key)
+                if mesh_name is None:  # identical pieces share one mesh asset
+                    mesh_name = self._meshes[piece.key] = name
                     self.spec.add_mesh(name=mesh_name, uservert=piece.vertices.reshape(-1).tolist())
-                    self._meshes.add(mesh_name)
                 g.type = mujoco.mjtGeom.mjGEOM_MESH
                 g.meshname = mesh_name
                 g.pos = local_t.tolist()
             g.quat = quat
+            g.group = 3
             names.append(name)
 
     # -- public ----------------------------------------------------------------------------
@@ -173,6 +188,7 @@ class WorldBuilder:
         if ceiling:
             g = wb.add_geom()
             g.name = "ceiling"
+            g.group = 4  # hidden in viewers by default: it would hide the scene from above
             g.type = mujoco.mjtGeom.mjGEOM_BOX
             g.size = [float(half[0]), float(half[1]), 0.05]
             g.pos = [float(centre[0]), float(centre[1]), room.ceiling_height + 0.05]
@@ -188,11 +204,40 @@ class WorldBuilder:
                 g.quat = [math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)]
 
     def add_static(self, obj: SceneObject, shape: ObjectShape) -> None:
-        """An object that never moves, at its current pose."""
+        """An object that never moves, at its current pose: a body welded to the world (no joint)."""
         m = obj.pose.matrix(with_scale=False)
-        self._add_shape(
-            self.spec.worldbody, obj.id, shape, m[:3, :3], m[:3, 3], obj.sim.friction, (0.5, 0.5, 0.6, 1)
+        body = self.spec.worldbody.add_body()
+        body.name = obj.id
+        self._add_shape(body, obj.id, shape, m[:3, :3], m[:3, 3], obj.sim.friction, (0.5, 0.5, 0.6, 1))
+
+    def add_visual(self, obj: SceneObject, vertices: FloatArray, faces: npt.NDArray[np.int64]) -> None:
+        """The object's visual mesh (local frame, already scaled) as a non-colliding, massless geom."""
+        name = f"{obj.id}_visual"
+        if obj.id not in self._geom_names:
+            raise ValueError(f"add {obj.id!r} (static or dynamic) before its visual mesh")
+        self.spec.add_mesh(
+            name=name,
+            uservert=np.asarray(vertices, dtype=np.float64).reshape(-1).tolist(),
+            userface=np.asarray(faces, dtype=np.int64).reshape(-1).tolist(),
         )
+        body = self.spec.body(obj.id)
+        m = obj.pose.matrix(with_scale=False)
+        g = body.add_geom()
+        g.name = name
+        g.type = mujoco.mjtGeom.mjGEOM_MESH
+        g.meshname = name
+        g.contype = 0
+        g.conaffinity = 0
+        g.group = 2
+        g.mass = 0.0
+        if obj.id not in self._dynamic_ids:  # static: a body at the origin, geoms in world coordinates
+            local_r, local_t = m[:3, :3], m[:3, 3]
+        elif self._aligned[obj.id]:  # tilt/slide: a world-aligned body at the object's origin
+            local_r, local_t = m[:3, :3], np.zeros(3)
+        else:  # free: the body carries the object's rotation
+            local_r, local_t = np.eye(3), np.zeros(3)
+        g.pos = local_t.tolist()
+        g.quat = _quat_from_matrix(local_r)
 
     def add_dynamic(
         self,
@@ -206,7 +251,7 @@ class WorldBuilder:
         m = obj.pose.matrix(with_scale=False)
         mass = object_mass(obj, shape)
         body = self.spec.worldbody.add_body()
-        body.name = f"b_{obj.id}"
+        body.name = obj.id
         body.pos = m[:3, 3].tolist()
         size = shape.upper - shape.lower
         inertia = (
@@ -235,7 +280,7 @@ class WorldBuilder:
         damping = self.settings.damping_per_kg * mass
         if mode == "free":
             j = body.add_freejoint()
-            j.name = f"j_{obj.id}"
+            j.name = f"{obj.id}_free"
         else:
             for k, axis in enumerate(np.eye(3)):
                 j = body.add_joint()
@@ -251,6 +296,44 @@ class WorldBuilder:
                     j.axis = np.asarray(axis, dtype=np.float64).tolist()
                     j.damping = [self.settings.damping_per_kg * float(inertia.mean()), 0.0, 0.0]
         self._dynamic.append((obj.id, body.name, mode, axis_aligned))
+        self._dynamic_ids.add(obj.id)
+        self._aligned[obj.id] = axis_aligned
+
+    def write_mjcf(self, out_dir: Path, *, model_name: str) -> Path:
+        """Write ``out_dir/scene.xml`` plus one OBJ per mesh under ``out_dir/mjcf/``; return the XML path.
+
+        The XML is MuJoCo's own rendering of this builder's spec (so it is the simulated model);
+        inline mesh vertices become relative OBJ files (collision pieces as their convex hulls, as
+        MuJoCo uses them), so the folder can be moved and the XML stays readable.
+        """
+        self.spec.modelname = model_name
+        light = self.spec.worldbody.add_light()
+        light.pos = [0.0, 0.0, 5.0]
+        light.dir = [0.0, 0.0, -1.0]
+        light.type = mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
+        self.spec.compile()
+        root = ET.fromstring(self.spec.to_xml())
+        mesh_dir = out_dir / MJCF_MESH_DIR
+        mesh_dir.mkdir(parents=True, exist_ok=True)
+        compiler = root.find("compiler")
+        if compiler is None:
+            compiler = ET.SubElement(root, "compiler")
+        compiler.set("meshdir", MJCF_MESH_DIR)
+        for mesh in root.iter("mesh"):
+            name = mesh.attrib["name"]
+            verts = np.array(mesh.attrib.pop("vertex").split(), dtype=np.float64).reshape(-1, 3)
+            faces_text = mesh.attrib.pop("face", None)
+            if faces_text is None:
+                tm = trimesh.Trimesh(vertices=verts).convex_hull
+            else:
+                faces = np.array(faces_text.split(), dtype=np.int64).reshape(-1, 3)
+                tm = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
+            tm.export(mesh_dir / f"{name}.obj")
+            mesh.set("file", f"{name}.obj")
+        ET.indent(root)
+        path = out_dir / "scene.xml"
+        path.write_text(ET.tostring(root, encoding="unicode") + "\n", encoding="utf-8")
+        return path
 
     def compile(self) -> BuiltWorld:
         """Compile the model, create its data and locate the dynamic bodies' dofs."""

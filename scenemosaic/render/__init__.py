@@ -18,13 +18,17 @@ from scenemosaic.render._geometry import (
     wall_mesh,
     wall_panels,
 )
-from scenemosaic.render._palette import category_color, shade
+from scenemosaic.render._palette import CEILING_COLOR, FLOOR_COLOR, RGB, WALL_COLOR, category_color, shade
 from scenemosaic.render._topdown import render_topdown, topdown_view
 from scenemosaic.render._view import OrthoView, PixelMap, render_view
 
 __all__ = [
+    "CEILING_COLOR",
     "CEILING_THICKNESS",
+    "FLOOR_COLOR",
     "FLOOR_THICKNESS",
+    "RGB",
+    "WALL_COLOR",
     "OrthoView",
     "PixelMap",
     "category_color",

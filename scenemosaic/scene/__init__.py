@@ -21,6 +21,7 @@ from scenemosaic.scene._categories import (
 from scenemosaic.scene._geometry import (
     FloatArray,
     front_vector,
+    quat_from_matrix,
     quat_from_yaw,
     quat_multiply,
     quat_to_matrix,
@@ -53,7 +54,15 @@ from scenemosaic.scene._room import (
     dominant_orientation,
     recover_room,
 )
-from scenemosaic.scene._tree import build_structure, format_tree, unit_frame, unit_layout, with_unit_layout
+from scenemosaic.scene._tree import (
+    build_structure,
+    descendants,
+    format_tree,
+    rigid_moves,
+    unit_frame,
+    unit_layout,
+    with_unit_layout,
+)
 
 __all__ = [
     "CEILING",
@@ -82,16 +91,19 @@ __all__ = [
     "SupportPriors",
     "Wall",
     "build_structure",
+    "descendants",
     "dominant_orientation",
     "format_tree",
     "front_vector",
     "is_known",
     "load_priors",
     "normalize_category",
+    "quat_from_matrix",
     "quat_from_yaw",
     "quat_multiply",
     "quat_to_matrix",
     "recover_room",
+    "rigid_moves",
     "thor_type",
     "traits",
     "unit_frame",

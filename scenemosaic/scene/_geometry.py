@@ -18,6 +18,7 @@ FloatArray = npt.NDArray[np.float64]
 __all__ = [
     "FloatArray",
     "front_vector",
+    "quat_from_matrix",
     "quat_from_yaw",
     "quat_multiply",
     "quat_to_matrix",
@@ -67,3 +68,23 @@ def front_vector(q: Sequence[float]) -> FloatArray:
     """World direction of the object's front (local -Y)."""
     front: FloatArray = quat_to_matrix(q) @ np.array([0.0, -1.0, 0.0])
     return front
+
+
+def quat_from_matrix(r: FloatArray) -> tuple[float, float, float, float]:
+    """Unit quaternion (w, x, y, z) of a 3x3 rotation matrix (Shepperd's method)."""
+    t = float(np.trace(r))
+    if t > 0:
+        s = 2.0 * np.sqrt(t + 1.0)
+        q = (0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s)
+    elif r[0, 0] > r[1, 1] and r[0, 0] > r[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + r[0, 0] - r[1, 1] - r[2, 2])
+        q = ((r[2, 1] - r[1, 2]) / s, 0.25 * s, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s)
+    elif r[1, 1] > r[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + r[1, 1] - r[0, 0] - r[2, 2])
+        q = ((r[0, 2] - r[2, 0]) / s, (r[0, 1] + r[1, 0]) / s, 0.25 * s, (r[1, 2] + r[2, 1]) / s)
+    else:
+        s = 2.0 * np.sqrt(1.0 + r[2, 2] - r[0, 0] - r[1, 1])
+        q = ((r[1, 0] - r[0, 1]) / s, (r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, 0.25 * s)
+    n = float(np.sqrt(sum(float(c) * float(c) for c in q)))
+    w, x, y, z = (float(c) / n for c in q)
+    return (w, x, y, z) if w >= 0 else (-w, -x, -y, -z)

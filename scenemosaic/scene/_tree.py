@@ -25,7 +25,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from scenemosaic.scene._geometry import FloatArray
+from scenemosaic.scene._geometry import FloatArray, quat_from_matrix
 from scenemosaic.scene._model import (
     CEILING,
     FLOOR,
@@ -39,31 +39,13 @@ from scenemosaic.scene._model import (
 
 __all__ = [
     "build_structure",
+    "descendants",
     "format_tree",
+    "rigid_moves",
     "unit_frame",
     "unit_layout",
     "with_unit_layout",
 ]
-
-
-def _matrix_to_quat(r: FloatArray) -> tuple[float, float, float, float]:
-    """Unit quaternion (w, x, y, z) of a 3x3 rotation matrix (Shepperd's method)."""
-    t = float(np.trace(r))
-    if t > 0:
-        s = 2.0 * np.sqrt(t + 1.0)
-        q = (0.25 * s, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s)
-    elif r[0, 0] > r[1, 1] and r[0, 0] > r[2, 2]:
-        s = 2.0 * np.sqrt(1.0 + r[0, 0] - r[1, 1] - r[2, 2])
-        q = ((r[2, 1] - r[1, 2]) / s, 0.25 * s, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s)
-    elif r[1, 1] > r[2, 2]:
-        s = 2.0 * np.sqrt(1.0 + r[1, 1] - r[0, 0] - r[2, 2])
-        q = ((r[0, 2] - r[2, 0]) / s, (r[0, 1] + r[1, 0]) / s, 0.25 * s, (r[1, 2] + r[2, 1]) / s)
-    else:
-        s = 2.0 * np.sqrt(1.0 + r[2, 2] - r[0, 0] - r[1, 1])
-        q = ((r[1, 0] - r[0, 1]) / s, (r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, 0.25 * s)
-    n = float(np.sqrt(sum(float(c) * float(c) for c in q)))
-    w, x, y, z = (float(c) / n for c in q)
-    return (w, x, y, z) if w >= 0 else (-w, -x, -y, -z)
 
 
 def unit_frame(scene: Scene, anchor_id: str) -> FloatArray:
@@ -163,19 +145,46 @@ def unit_layout(scene: Scene, unit: LocalUnit | str) -> dict[str, Pose]:
         o = scene.get(cid)
         local = inv @ o.pose.matrix(with_scale=False)
         out[cid] = Pose(position=tuple(float(v) for v in local[:3, 3]),  # type: ignore[arg-type]
-                        quaternion=_matrix_to_quat(local[:3, :3]), scale=o.pose.scale)
+                        quaternion=quat_from_matrix(local[:3, :3]), scale=o.pose.scale)
     return out
 
 
-def _descendants(scene: Scene, object_id: str) -> list[str]:
+def descendants(scene: Scene, object_id: str) -> list[str]:
+    """Every object resting on ``object_id``, directly or through others (depth first, no repeats)."""
     out: list[str] = []
+    seen = {object_id}
     frontier = [object_id]
     while frontier:
         for k in scene.children_of(frontier.pop()):
-            if k not in out and k != object_id:
+            if k not in seen:
+                seen.add(k)
                 out.append(k)
                 frontier.append(k)
     return out
+
+
+def rigid_moves(scene: Scene, poses: Mapping[str, Pose]) -> dict[str, Pose]:
+    """World poses after moving each object of ``poses`` to its new world pose, carrying along
+    rigidly everything resting on it (recursively). Descendants named in ``poses`` keep the pose
+    given there. The one implementation of "move with descendants" (units, physics, evolution).
+    """
+    moved: dict[str, Pose] = dict(poses)
+    for oid, new in poses.items():
+        old = scene.get(oid).pose
+        delta = new.matrix(with_scale=False) @ np.linalg.inv(old.matrix(with_scale=False))
+        if np.allclose(delta, np.eye(4), atol=1e-12):
+            continue
+        for d in descendants(scene, oid):
+            if d in poses:
+                continue
+            dp = scene.get(d).pose
+            m = delta @ dp.matrix(with_scale=False)
+            moved[d] = Pose(
+                position=(float(m[0, 3]), float(m[1, 3]), float(m[2, 3])),
+                quaternion=quat_from_matrix(m[:3, :3]),
+                scale=dp.scale,
+            )
+    return moved
 
 
 def with_unit_layout(scene: Scene, unit: LocalUnit | str, poses: Mapping[str, Pose]) -> Scene:
@@ -191,19 +200,15 @@ def with_unit_layout(scene: Scene, unit: LocalUnit | str, poses: Mapping[str, Po
         if oid not in kids:
             raise KeyError(f"{oid!r} is not a child of unit {anchor!r}")
     frame = unit_frame(scene, anchor)
-    new_world: dict[str, Pose] = {}
+    targets: dict[str, Pose] = {}
     for oid, local in poses.items():
-        old = scene.get(oid).pose
         world = frame @ local.matrix(with_scale=False)
-        new_pose = Pose(position=tuple(float(v) for v in world[:3, 3]),  # type: ignore[arg-type]
-                        quaternion=_matrix_to_quat(world[:3, :3]), scale=local.scale)
-        new_world[oid] = new_pose
-        delta = world @ np.linalg.inv(old.matrix(with_scale=False))
-        for d in _descendants(scene, oid):
-            dp = scene.get(d).pose
-            moved = delta @ dp.matrix(with_scale=False)
-            new_world[d] = Pose(position=tuple(float(v) for v in moved[:3, 3]),  # type: ignore[arg-type]
-                                quaternion=_matrix_to_quat(moved[:3, :3]), scale=dp.scale)
+        targets[oid] = Pose(
+            position=(float(world[0, 3]), float(world[1, 3]), float(world[2, 3])),
+            quaternion=quat_from_matrix(world[:3, :3]),
+            scale=local.scale,
+        )
+    new_world = rigid_moves(scene, targets)
     objects: list[SceneObject] = [
         o.model_copy(update={"pose": new_world[o.id]}) if o.id in new_world else o.model_copy() for o in scene.objects
     ]

@@ -17,7 +17,7 @@ from structlog.testing import capture_logs
 from scenemosaic.assets import (
     MAX_PARTS,
     known_categories,
-    normalize_category,
+    procedural_key,
     procedural_mesh,
     procedural_parts,
 )
@@ -209,13 +209,13 @@ def test_bookshelf_compartments_are_open_and_can_hold_books() -> None:
     ],
 )
 def test_normalize_category(label: str, key: str) -> None:
-    assert normalize_category(label) == key
+    assert procedural_key(label) == key
     assert key in known_categories()
 
 
 def test_unknown_labels_come_back_in_snake_case() -> None:
-    assert normalize_category("WashingMachine") == "washing_machine"
-    assert normalize_category("washing_machine") not in known_categories()
+    assert procedural_key("WashingMachine") == "washing_machine"
+    assert procedural_key("washing_machine") not in known_categories()
 
 
 def test_every_label_of_the_physcene_layouts_has_a_builder(physcene_files: list) -> None:
@@ -225,5 +225,14 @@ def test_every_label_of_the_physcene_layouts_has_a_builder(physcene_files: list)
         for objects in data["ThreedFront"].values():
             labels |= {o["label"] for o in objects}
     assert labels
-    unknown = {label for label in labels if normalize_category(label) not in known_categories()}
+    unknown = {label for label in labels if procedural_key(label) not in known_categories()}
     assert not unknown
+
+
+def test_one_category_vocabulary_underlies_the_builder_keys() -> None:
+    """The builder lookup starts from the scene vocabulary, so both agree on what a label means."""
+    from scenemosaic.scene import normalize_category
+
+    for label in ("Dining Chair 2", "work_desk_1761578426", "Couch", "double_bed"):
+        assert procedural_key(label) == procedural_key(normalize_category(label)), label
+    assert normalize_category("Dining Chair 2") == "dining_chair"

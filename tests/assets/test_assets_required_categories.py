@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from structlog.testing import capture_logs
 
-from scenemosaic.assets import known_categories, normalize_category, procedural_parts
+from scenemosaic.assets import known_categories, procedural_key, procedural_parts
 
 # the list from the issue, written out here so that a builder removed from the library fails the test
 REQUIRED = [
@@ -20,7 +20,7 @@ FLAT = {"rug", "book"}  # a slab is the honest low-poly model of these
 
 @pytest.mark.parametrize("label", REQUIRED)
 def test_required_category_has_its_own_model(label: str) -> None:
-    key = normalize_category(label)
+    key = procedural_key(label)
     assert key in known_categories(), f"{label!r} -> {key!r} has no builder"
     size = (0.9, 0.6, 0.8)
     with capture_logs() as logs:
