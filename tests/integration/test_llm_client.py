@@ -1,7 +1,7 @@
 """The OpenAI-compatible client against a real server (opt-in).
 
-Runs only when ``SCENEMOSAIC_LLM_URL`` points at a Chat Completions server, e.g. the local
-llama.cpp server from ``shared/tools/llm_server``::
+Runs only when ``SCENEMOSAIC_LLM_URL`` points at a Chat Completions server, e.g. a local
+llama.cpp server (``llama-server --port 8089``) on 127.0.0.1::
 
     SCENEMOSAIC_LLM_URL=http://127.0.0.1:8089/v1 pytest -m integration tests/integration/test_llm_client.py
 
