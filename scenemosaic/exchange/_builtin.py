@@ -1,8 +1,8 @@
 """The formats scenemosaic ships, registered once (importing :mod:`scenemosaic.exchange` does it).
 
 Detection order matters: specific content tests first (3D-FRONT's ``ThreedFront``, SceneEval's
-``"format": "sceneState"``, ProcTHOR's ``rooms`` + ``objects``, a SAM3D pose file), the native
-scene model last because its test is the loosest.
+``"format": "sceneState"``, a Holodeck room before a ProcTHOR house because both have ``rooms`` +
+``objects``, a SAM3D pose file), the native scene model last because its test is the loosest.
 """
 
 from __future__ import annotations
@@ -12,12 +12,14 @@ from typing import Any
 
 from scenemosaic.exchange._front3d import import_front3d, looks_like_front3d
 from scenemosaic.exchange._glb import export_glb
+from scenemosaic.exchange._holodeck import import_holodeck, looks_like_holodeck
 from scenemosaic.exchange._mjcf import export_mjcf
 from scenemosaic.exchange._native import SCENE_FILE, save_scene, scene_from_data
 from scenemosaic.exchange._procthor import import_procthor, looks_like_procthor
 from scenemosaic.exchange._registry import ReadOptions, SceneFormat, register_format
 from scenemosaic.exchange._sam3d import POSES_FILE, import_sam3d, looks_like_sam3d
 from scenemosaic.exchange._sceneeval import export_sceneeval
+from scenemosaic.exchange._sceneeval_read import import_sceneeval, looks_like_sceneeval
 from scenemosaic.scene import Provenance, Scene
 
 __all__ = ["NATIVE_IMPORTER"]
@@ -66,6 +68,23 @@ register_format(
 )
 register_format(
     SceneFormat(
+        "sceneeval",
+        "SceneEval sceneState (SceneEval, SceneSmith, LayoutVLM) with assets/<assetId>.glb meshes",
+        detect=looks_like_sceneeval,
+        read=lambda data, path, o: [import_sceneeval(data, path, asset_dir=o.asset_dir)],
+        write=_write_sceneeval,
+    )
+)
+register_format(  # before procthor: a Holodeck room also has rooms + objects
+    SceneFormat(
+        "holodeck",
+        "Holodeck single-room output (flat object list, parents named in the ids)",
+        detect=looks_like_holodeck,
+        read=lambda data, path, o: [import_holodeck(data, path, asset_database=o.asset_database)],
+    )
+)
+register_format(
+    SceneFormat(
         "procthor",
         "AI2-THOR / ProcTHOR / Holodeck house with rooms and objects",
         detect=looks_like_procthor,
@@ -93,5 +112,4 @@ register_format(
     )
 )
 register_format(SceneFormat("glb", "one GLB with a node per object (Y-up, as glTF)", write=_write_glb))
-register_format(SceneFormat("sceneeval", "SceneEval sceneState + assets/<assetId>.glb", write=_write_sceneeval))
 register_format(SceneFormat("mjcf", "MuJoCo scene.xml + mjcf/ meshes", write=_write_mjcf))

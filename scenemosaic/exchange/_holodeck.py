@@ -1,0 +1,459 @@
+"""Holodeck output: one AI2-THOR-style room with a flat object list and the LLM's plan.
+
+A Holodeck file is a ProcTHOR house (``rooms``, ``walls``, ``doors``, ``windows``, ``objects``)
+plus the generator's working state (``object_selection_plan``, ``floor_objects``,
+``wall_objects``, ``small_objects``, ``receptacle2small_objects``...). Frames are AI2-THOR's
+(Unity: left-handed, Y up) and are converted with the ProcTHOR importer's helpers, so an
+object's ``position`` is the centre of its box and an upright object gets
+``yaw = pi - radians(rotation.y)``.
+
+Objects carry Objaverse asset uids whose meshes cannot be redistributed, and no size. Each
+object becomes a procedural box-like asset of its category, sized by the first rule that
+applies:
+
+1. ``asset_database``: the asset's box, when the database knows the ``assetId`` (the ProcTHOR
+   database shipped with the package holds the AI2-THOR assets Holodeck mixes in);
+2. a floor (or unlisted, hand-added) object with ``vertices``: the footprint those vertices
+   draw (centimetres, world x/z; measured along the object's own axes), and twice its centre
+   height (it stands on the floor: Holodeck's own rule);
+3. a wall object with ``vertices``: the same footprint, and the middle one of the three sizes
+   the plan (``object_selection_plan``) asked for as its height, because the LLM does not keep
+   the plan's ``[length, width, height]`` order for flat wall objects (paintings come as
+   ``[width, height, depth]``);
+4. a small object (id ``<name>|<parent id>``): a cube whose side is the largest horizontal
+   extent of its asset, the one size ``receptacle2small_objects`` records.
+
+Anything else raises :class:`ImportFormatError` naming the object. A small object's id names
+its parent: it gets an ``attach`` relation to that object when it exists.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import structlog
+from scipy.spatial.transform import Rotation
+
+from scenemosaic.exchange._common import FieldReader, sanitize_id, unique_id
+from scenemosaic.exchange._procthor import (
+    _HALF_TURN,
+    _SWAP,
+    AssetDatabase,
+    _build_room,
+    _RoomBuild,
+    _SourceWall,
+    _unity_rotation,
+    _wall_through,
+    _walls_by_id,
+    load_asset_database,
+)
+from scenemosaic.scene import (
+    AssetRef,
+    FloatArray,
+    Opening,
+    Pose,
+    Provenance,
+    Relation,
+    Scene,
+    SceneObject,
+    normalize_category,
+)
+
+__all__ = ["HOLODECK_KEYS", "import_holodeck", "looks_like_holodeck"]
+
+log = structlog.get_logger(__name__)
+
+IMPORTER = "scenemosaic.exchange.holodeck"
+HOLODECK_KEYS = (
+    "object_selection_plan",
+    "selected_objects",
+    "floor_objects",
+    "wall_objects",
+    "small_objects",
+    "receptacle2small_objects",
+)
+"""Top-level keys only Holodeck writes; one of them (besides ``rooms`` and ``objects``) marks its output."""
+
+Placement = Literal["floor", "wall", "small", "other"]
+_ROOM_SUFFIX = re.compile(r"\s*\([^()]*\)\s*$")  # Holodeck ids end with " (<room id>)"
+_INSTANCE = re.compile(r"-\d+$")  # "armchair-1" -> plan entry "armchair"
+_MIN_EXTENT_M = 1e-6  # a footprint thinner than this is a line, not an object
+_OFF_CENTRE_NOTE_M = 0.05  # footprint centre this far from the position: worth a note
+
+
+def looks_like_holodeck(data: Any) -> bool:
+    """Detection rule: a house with ``rooms`` and ``objects`` and one of :data:`HOLODECK_KEYS`.
+
+    Such a file also passes the ProcTHOR test (``rooms`` with a ``floorPolygon``), so this rule
+    must be tried first.
+    """
+    if not isinstance(data, dict) or not isinstance(data.get("rooms"), list):
+        return False
+    return isinstance(data.get("objects"), list) and any(k in data for k in HOLODECK_KEYS)
+
+
+def import_holodeck(data: Any, path: Path, *, asset_database: Any = None) -> Scene:
+    """Build a :class:`Scene` of procedural objects from a parsed single-room Holodeck output.
+
+    The room is the file's only entry of ``rooms`` (floor polygon, walls of the ProcTHOR wall
+    height, doors and windows cut into them). Object sizes follow the rules of the module
+    docstring; ids are Holodeck's without the room suffix (``throw pillow-0|sofa-0 (living
+    room)`` -> ``throw_pillow-0_sofa-0``). Objects that share one position (the generator's
+    failed small-object placement) are kept as given and listed in ``provenance.notes``.
+
+    Raises:
+        ImportFormatError: naming the file and field for malformed input, several rooms, or an
+            object whose size none of the rules gives.
+    """
+    db = load_asset_database(asset_database)
+    r = FieldReader(path)
+    top = r.mapping(data, "")
+    rooms = r.array(r.get(top, "rooms", ""), "rooms")
+    if len(rooms) != 1:
+        r.fail("rooms", f"the file holds {len(rooms)} rooms; the Holodeck importer reads single-room outputs")
+    walls_by_id = _walls_by_id(r, top)
+    build = _build_room(r, rooms[0], "rooms[0]", walls_by_id, set())
+    for key in ("doors", "windows"):
+        for i, raw in enumerate(r.array(top.get(key) or [], key)):
+            _add_opening(r, raw, f"{key}[{i}]", key, walls_by_id, build)
+
+    context = _Context.read(r, top, build)
+    items = r.array(r.get(top, "objects", ""), "objects")
+    raw_ids: list[str] = []
+    for i, raw in enumerate(items):
+        item = r.mapping(raw, f"objects[{i}]")
+        raw_ids.append(r.text(r.get(item, "id", f"objects[{i}]"), f"objects[{i}].id"))
+    taken: set[str] = set()
+    oid_of: dict[str, str] = {}
+    for i, raw_id in enumerate(raw_ids):
+        if raw_id in oid_of:
+            r.fail(
+                f"objects[{i}].id", f"duplicate id {raw_id!r} (objects[{raw_ids.index(raw_id)}] has it too)"
+            )
+        oid_of[raw_id] = unique_id(sanitize_id(_ROOM_SUFFIX.sub("", raw_id)), taken)
+
+    placements: dict[str, Placement] = {}
+    size_sources: dict[str, str] = {}
+    asset_ids: dict[str, str] = {}
+    centres: dict[str, tuple[float, float, float]] = {}
+    for i, raw in enumerate(items):
+        f = f"objects[{i}]"
+        built = _object(r, r.mapping(raw, f), f, oid_of[raw_ids[i]], context, db, build)
+        obj = built.obj
+        build.objects.append(obj)
+        placements[obj.id] = built.placement
+        size_sources[obj.id] = built.size_source
+        asset_ids[obj.id] = built.asset_id
+        centres[obj.id] = built.centre
+        if built.placement == "small":
+            parent_raw = raw_ids[i].split("|", 1)[1]
+            parent = oid_of.get(parent_raw)
+            if parent is None:
+                build.notes.append(
+                    f"{f}: parent {parent_raw!r} named in its id is not in the file; no relation"
+                )
+            else:
+                build.relations.append(Relation(kind="attach", child=obj.id, parent=parent, source=IMPORTER))
+
+    _note_shared_positions(centres, placements, build.notes)
+    log.debug("holodeck_imported", path=str(path), objects=len(build.objects), notes=len(build.notes))
+    query = top.get("query")
+    return Scene(
+        id=sanitize_id(path.stem),
+        room=build.room,
+        objects=build.objects,
+        relations=build.relations,
+        metadata={
+            "holodeck": {
+                "room_id": build.source_id,
+                "room_type": build.room_type,
+                "query": query if isinstance(query, str) else None,
+                "asset_ids": asset_ids,
+                "source_ids": {oid: raw for raw, oid in oid_of.items()},
+                "placement": placements,
+                "size_source": size_sources,
+                "asset_database": db.source,
+            }
+        },
+        provenance=Provenance(
+            source_format="holodeck", source_path=path.as_posix(), importer=IMPORTER, notes=build.notes
+        ),
+    )
+
+
+# -- what the generator's working state tells about objects ----------------------------------------
+
+
+@dataclass(frozen=True)
+class _Context:
+    """The parts of the file beside ``objects`` that size and classify them."""
+
+    plan: Mapping[str, Any]
+    """The room's ``object_selection_plan`` entries by object name (``armchair``)."""
+    wall_ids: set[str]
+    floor_ids: set[str]
+    small_sizes: Mapping[str, Mapping[str, float]]
+    """Receptacle id -> small object name -> largest horizontal extent of its asset (m)."""
+
+    @classmethod
+    def read(cls, r: FieldReader, top: Mapping[str, Any], build: _RoomBuild) -> _Context:
+        plans = top.get("object_selection_plan")
+        plan: Mapping[str, Any] = {}
+        if isinstance(plans, Mapping):  # keyed by room type (Holodeck) or room id
+            for key in (build.room_type, build.source_id):
+                if isinstance(plans.get(key), Mapping):
+                    plan = plans[key]
+                    break
+
+        def ids(key: str) -> set[str]:
+            out = set()
+            for entry in top.get(key) or []:
+                if isinstance(entry, Mapping) and isinstance(entry.get("id"), str):
+                    out.add(entry["id"])
+            return out
+
+        small: dict[str, dict[str, float]] = {}
+        r2s = top.get("receptacle2small_objects")
+        if isinstance(r2s, Mapping):
+            for parent, rows in r2s.items():
+                field = f"receptacle2small_objects.{parent}"
+                for j, row in enumerate(r.array(rows, field)):
+                    entry = r.array(row, f"{field}[{j}]")
+                    if len(entry) < 3:
+                        r.fail(f"{field}[{j}]", "expected [name, assetId, size]")
+                    name = r.text(entry[0], f"{field}[{j}][0]")
+                    size = r.number(entry[2], f"{field}[{j}][2]")
+                    if size <= 0:
+                        r.fail(f"{field}[{j}][2]", f"size must be positive, got {size}")
+                    small.setdefault(str(parent), {})[name] = size
+        return cls(plan, ids("wall_objects"), ids("floor_objects"), small)
+
+    def plan_entry(self, name: str) -> Mapping[str, Any] | None:
+        entry = self.plan.get(_INSTANCE.sub("", name))
+        return entry if isinstance(entry, Mapping) else None
+
+
+@dataclass(frozen=True)
+class _Built:
+    obj: SceneObject
+    placement: Placement
+    size_source: str
+    asset_id: str
+    centre: tuple[float, float, float]
+
+
+def _object(
+    r: FieldReader,
+    item: Mapping[str, Any],
+    f: str,
+    oid: str,
+    ctx: _Context,
+    db: AssetDatabase,
+    build: _RoomBuild,
+) -> _Built:
+    raw_id = r.text(r.get(item, "id", f), f"{f}.id")
+    asset_id = r.text(r.get(item, "assetId", f), f"{f}.assetId")
+    cx, cy, cz = r.xyz(r.get(item, "position", f), f"{f}.position")
+    rx, ry, rz = r.xyz(item.get("rotation", {"x": 0.0, "y": 0.0, "z": 0.0}), f"{f}.rotation")
+    core = _ROOM_SUFFIX.sub("", raw_id)
+    small = "|" in raw_id
+    name_raw = item.get("object_name")
+    name = name_raw if isinstance(name_raw, str) and name_raw else core.split("|", 1)[0]
+    plan = None if small else ctx.plan_entry(name)
+    location = plan.get("location") if plan is not None else None
+    placement: Placement
+    if small:
+        placement = "small"
+    elif raw_id in ctx.wall_ids or (raw_id not in ctx.floor_ids and location == "wall"):
+        placement = "wall"
+    elif raw_id in ctx.floor_ids or location == "floor":
+        placement = "floor"
+    else:
+        placement = "other"
+
+    unity = _unity_rotation(rx, ry, rz)
+    box, source = _size(
+        r, item, f, raw_id, name, asset_id, placement, plan, (cx, cy, cz), unity, ctx, db, build
+    )
+    bx, by, bz = box
+    rotation = _SWAP @ unity @ _SWAP @ _HALF_TURN
+    centre = np.array([cx, cz, cy])
+    origin = centre - rotation @ np.array([0.0, 0.0, by / 2.0])
+    if abs(rx) < 1e-9 and abs(rz) < 1e-9:
+        pose = Pose.from_yaw(_vec3(origin), math.pi - math.radians(ry))  # exact for upright objects
+    else:
+        qx, qy, qz, qw = Rotation.from_matrix(rotation).as_quat()
+        pose = Pose(position=_vec3(origin), quaternion=(float(qw), float(qx), float(qy), float(qz)))
+    category = normalize_category(name)
+    described = plan.get("description") if plan is not None else None
+    description = described if isinstance(described, str) and described else name.replace("_", " ")
+    obj = SceneObject(
+        id=oid,
+        category=category,
+        description=description[:500],
+        asset=AssetRef(kind="procedural", category=category, extents=(bx, bz, by)),
+        pose=pose,
+    )
+    return _Built(obj, placement, source, asset_id, (cx, cy, cz))
+
+
+def _size(
+    r: FieldReader,
+    item: Mapping[str, Any],
+    f: str,
+    raw_id: str,
+    name: str,
+    asset_id: str,
+    placement: Placement,
+    plan: Mapping[str, Any] | None,
+    centre: tuple[float, float, float],
+    unity: FloatArray,
+    ctx: _Context,
+    db: AssetDatabase,
+    build: _RoomBuild,
+) -> tuple[tuple[float, float, float], str]:
+    """The object's Unity-frame box (x, y up, z) and which rule gave it."""
+    if asset_id in db.boxes:
+        return db.boxes[asset_id], "asset_database"
+    if placement == "small":
+        child, parent = raw_id.split("|", 1)
+        side = ctx.small_sizes.get(parent, {}).get(child)
+        if side is None:
+            r.fail(
+                f"{f}.id",
+                f"small object {raw_id!r} has no size: asset {asset_id!r} is not in the asset database and "
+                f"receptacle2small_objects[{parent!r}] does not list {child!r}",
+            )
+        return (side, side, side), "small_object_extent"
+    if "vertices" not in item:
+        r.fail(
+            f"{f}.vertices",
+            f"object {raw_id!r} has no size: no footprint vertices and asset {asset_id!r} is not in the asset database",
+        )
+    bx, bz, mid = _footprint(r, item["vertices"], f"{f}.vertices", unity)
+    if math.dist(mid, (centre[0], centre[2])) > _OFF_CENTRE_NOTE_M:
+        build.notes.append(
+            f"{f} ({name}): its footprint vertices are centred {math.dist(mid, (centre[0], centre[2])):.2f} m "
+            "from its position; sizes taken from them, position kept"
+        )
+    if placement == "wall":
+        planned = plan.get("size") if plan is not None else None
+        if not isinstance(planned, list) or len(planned) != 3:
+            r.fail(
+                f"{f}.vertices",
+                f"wall object {raw_id!r} has no height: asset {asset_id!r} is not in the asset database and "
+                f"object_selection_plan gives no size for {_INSTANCE.sub('', name)!r}",
+            )
+        dims = sorted(r.number(v, f"object_selection_plan.{_INSTANCE.sub('', name)}.size") for v in planned)
+        if dims[1] <= 0:
+            r.fail(
+                f"object_selection_plan.{_INSTANCE.sub('', name)}.size",
+                f"sizes must be positive, got {planned}",
+            )
+        return (bx, dims[1] / 100.0, bz), "vertices+plan_height"
+    if centre[1] <= 0:
+        r.fail(f"{f}.position.y", f"a floor object's centre must be above the floor, got {centre[1]}")
+    return (bx, 2.0 * centre[1], bz), "vertices"
+
+
+def _footprint(
+    r: FieldReader, raw: Any, f: str, unity: FloatArray
+) -> tuple[float, float, tuple[float, float]]:
+    """Extents of the footprint (cm, world x/z) along the object's own x and z axes, and its centre (m)."""
+    pts = r.array(raw, f)
+    if len(pts) < 3:
+        r.fail(f, f"a footprint needs at least 3 vertices, got {len(pts)}")
+    xz = np.array([r.vector(p, 2, f"{f}[{j}]") for j, p in enumerate(pts)], dtype=np.float64) / 100.0
+    axis_x = np.array([unity[0, 0], unity[2, 0]])
+    axis_z = np.array([unity[0, 2], unity[2, 2]])
+    along_x, along_z = xz @ axis_x, xz @ axis_z
+    bx = float(along_x.max() - along_x.min())
+    bz = float(along_z.max() - along_z.min())
+    if bx <= _MIN_EXTENT_M or bz <= _MIN_EXTENT_M:
+        r.fail(f, f"the footprint has zero width or depth ({bx:.3g} x {bz:.3g} m)")
+    lo, hi = xz.min(axis=0), xz.max(axis=0)
+    return bx, bz, (float(lo[0] + hi[0]) / 2.0, float(lo[1] + hi[1]) / 2.0)
+
+
+# -- openings -------------------------------------------------------------------------------------
+
+
+def _add_opening(
+    r: FieldReader,
+    raw: Any,
+    f: str,
+    key: str,
+    walls_by_id: Mapping[str, _SourceWall],
+    build: _RoomBuild,
+) -> None:
+    """Cut a door or window into our wall it lies on.
+
+    AI2-THOR measures ``holePolygon`` along ``wall0`` from its start. Holodeck's exterior walls
+    run opposite to the room's own, so the hole's centre is placed on ``wall0`` in world
+    coordinates first and then found on our wall; the room side's wall is not used.
+    """
+    item = r.mapping(raw, f)
+    hole = r.array(r.get(item, "holePolygon", f), f"{f}.holePolygon")
+    if len(hole) < 2:
+        r.fail(f"{f}.holePolygon", "expected two corners")
+    x0, y0, _ = r.xyz(hole[0], f"{f}.holePolygon[0]")
+    x1, y1, _ = r.xyz(hole[1], f"{f}.holePolygon[1]")
+    width, height = abs(x1 - x0), abs(y1 - y0)
+    if width <= 0 or height <= 0:
+        r.fail(f"{f}.holePolygon", "the hole has zero width or height")
+    wall_key = r.text(r.get(item, "wall0", f), f"{f}.wall0")
+    wall = walls_by_id.get(wall_key)
+    if wall is None:
+        r.fail(f"{f}.wall0", f"no wall with id {wall_key!r}")
+    d = np.subtract(wall.end, wall.start)
+    length = float(np.linalg.norm(d))
+    if length < 1e-9:
+        r.fail(f"{f}.wall0", f"wall {wall_key!r} has zero length")
+    centre = np.asarray(wall.start) + d / length * (0.5 * (x0 + x1))
+    target = _wall_through(build.room.walls, centre)
+    if target is None:
+        build.notes.append(f"{f} does not lie on any wall of room {build.source_id!r}; dropped")
+        return
+    along = float(np.dot(centre - np.asarray(target.start), target.direction))
+    kind: Literal["door", "window"] = "door" if key == "doors" else "window"
+    target.openings = [
+        *target.openings,
+        Opening(kind=kind, center=along, width=width, bottom=max(0.0, min(y0, y1)), height=height),
+    ]
+
+
+# -- notes ----------------------------------------------------------------------------------------
+
+
+def _note_shared_positions(
+    centres: Mapping[str, tuple[float, float, float]], placements: Mapping[str, Placement], notes: list[str]
+) -> None:
+    """Record objects stacked at one point (Holodeck's failed small-object placement); they stay as given."""
+    groups: dict[tuple[float, ...], list[str]] = {}
+    for oid, c in centres.items():
+        groups.setdefault(tuple(round(v, 6) for v in c), []).append(oid)
+    shared = [ids for ids in groups.values() if len(ids) > 1]
+    if not shared:
+        return
+    small = [oid for oid, kind in placements.items() if kind == "small"]
+    distinct = len({tuple(round(v, 6) for v in centres[oid]) for oid in small})
+    head = (
+        f"{len(small)} small objects sit at only {distinct} distinct positions"
+        if distinct < len(small)
+        else f"{sum(len(ids) for ids in shared)} objects share {len(shared)} positions"
+    )
+    listed = "; ".join(", ".join(ids) for ids in shared)
+    notes.append(
+        f"{head} (the generator stacked them); imported as given for later stages to separate. "
+        f"Objects at one position: {listed}"
+    )
+
+
+def _vec3(v: Any) -> tuple[float, float, float]:
+    return (float(v[0]), float(v[1]), float(v[2]))
