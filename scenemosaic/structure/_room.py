@@ -17,18 +17,23 @@ from pydantic import BaseModel, ConfigDict, Field
 from shapely.geometry import Polygon
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
-from scenemosaic.scene import Room, Wall, traits
+from scenemosaic.scene import (
+    ROOM_MARGIN,
+    FootprintItem,
+    Room,
+    Wall,
+    dominant_orientation,
+    recovered_ceiling,
+    room_rectangle,
+    traits,
+)
 from scenemosaic.structure._facts import ObjectFacts, RoomFacts, object_facts, replace_scene, room_facts
 from scenemosaic.structure._views import FloorPlanImages
 
-__all__ = ["ROOM_MARGIN", "RoomAgent", "RoomEvidence", "RoomOutput", "WallSpec"]
+__all__ = ["RoomAgent", "RoomEvidence", "RoomOutput", "WallSpec"]
 
-ROOM_MARGIN = 0.25
-"""Free space (metres) left between the outermost footprint and a wall no furniture backs onto."""
 SNAP_GAP = 0.02
 """Gap (metres) left between a wall-backed piece of furniture and the wall it is snapped to."""
-DEFAULT_CEILING = 2.8
-"""Ceiling height (metres) used when no object reaches higher."""
 CONTAIN_TOLERANCE = 0.02
 """How far (metres) a footprint may poke out of the floor polygon and still count as inside."""
 
@@ -63,52 +68,24 @@ class RoomEvidence(BaseModel):
     room: RoomFacts | None = None
 
 
-def _dominant_yaw(objects: list[ObjectFacts]) -> float:
-    """Heading modulo 90 degrees carrying the most footprint area (radians in [0, pi/2))."""
-    votes: dict[int, float] = {}
-    for o in objects:
-        bucket = round(o.yaw_deg % 90.0) % 90
-        votes[bucket] = votes.get(bucket, 0.0) + max(o.area, 1e-3)
-    if not votes:
-        return 0.0
-    best = max(sorted(votes), key=lambda b: votes[b])
-    return math.radians(best)
+def _items(objects: list[ObjectFacts]) -> list[FootprintItem]:
+    return [
+        FootprintItem(
+            points=np.asarray(o.footprint, dtype=np.float64),
+            yaw=math.radians(o.yaw_deg),
+            category=o.category,
+            top=o.top,
+            area=o.area,
+        )
+        for o in objects
+    ]
 
 
-def _fit(objects: list[ObjectFacts], yaw: float, ceiling: float) -> tuple[list[tuple[float, float]], float]:
-    """Rectangle (CCW corners) around the footprints in a frame rotated by ``yaw``; also its area."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    to_local = np.array([[c, s], [-s, c]])  # world -> rotated frame
-    lo = np.array([np.inf, np.inf])
-    hi = -lo
-    per_obj: list[tuple[ObjectFacts, np.ndarray, np.ndarray]] = []
-    for o in objects:
-        pts = np.asarray(o.footprint) @ to_local.T
-        a, b = pts.min(axis=0), pts.max(axis=0)
-        per_obj.append((o, a, b))
-        lo, hi = np.minimum(lo, a), np.maximum(hi, b)
-    sides = [lo[0], lo[1], hi[0], hi[1]]  # -x, -y, +x, +y
-    outward_dirs = [np.array([-1.0, 0]), np.array([0, -1.0]), np.array([1.0, 0]), np.array([0, 1.0])]
-    for k in range(4):
-        axis, sign = k % 2, (-1.0 if k < 2 else 1.0)
-        extreme = sides[k]
-        margin = ROOM_MARGIN
-        for o, a, b in per_obj:
-            edge = a[axis] if sign < 0 else b[axis]
-            if abs(edge - extreme) > 0.05 or not traits(o.category).against_wall:
-                continue
-            yaw_o = math.radians(o.yaw_deg)
-            back_world = -np.array([math.sin(yaw_o), -math.cos(yaw_o)])
-            back_local = to_local @ back_world
-            if float(back_local @ outward_dirs[k]) > math.cos(math.radians(30)):
-                margin = SNAP_GAP
-                break
-        sides[k] = extreme + sign * margin
-    x0, y0, x1, y1 = sides
-    local = [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
-    to_world = to_local.T
-    corners = [tuple(float(round(v, 4)) for v in to_world @ np.array(p)) for p in local]
-    return [(p[0], p[1]) for p in corners], float((x1 - x0) * (y1 - y0))
+def _fit(items: list[FootprintItem], yaw: float) -> tuple[list[tuple[float, float]], float]:
+    """The scene layer's room rectangle with the agent's settings: a margin on free sides, wall
+    furniture snapped to its wall; corners rounded to 0.1 mm for a stable answer."""
+    floor, area = room_rectangle(items, yaw, margin=ROOM_MARGIN, snap_gap=SNAP_GAP)
+    return [(round(x, 4), round(y, 4)) for x, y in floor], area
 
 
 def _walls_for(floor: list[tuple[float, float]], height: float) -> list[WallSpec]:
@@ -133,18 +110,18 @@ def solve_room(evidence: RoomEvidence) -> RoomOutput:
             note="input room kept" + ("" if r.walls else "; walls completed from the floor polygon"),
         )
     objs = evidence.objects
-    top = max((o.top for o in objs), default=0.0)
-    ceiling = max(DEFAULT_CEILING, round(top, 3))
+    items = _items(objs)
+    ceiling = round(recovered_ceiling(items), 3)
     if not objs:
         floor = [(-2.0, -2.0), (2.0, -2.0), (2.0, 2.0), (-2.0, 2.0)]
         return RoomOutput(
             floor=floor, walls=_walls_for(floor, ceiling), ceiling_height=ceiling, note="empty scene"
         )
-    axis_floor, axis_area = _fit(objs, 0.0, ceiling)
+    axis_floor, axis_area = _fit(items, 0.0)
     floor, yaw = axis_floor, 0.0
-    dom = _dominant_yaw(objs)
-    if dom > 1e-6:
-        rot_floor, rot_area = _fit(objs, dom, ceiling)
+    dom = dominant_orientation(items)
+    if abs(dom) > 1e-6:
+        rot_floor, rot_area = _fit(items, dom)
         if rot_area < axis_area * 0.97:  # rotate only when clearly tighter
             floor, yaw = rot_floor, dom
     return RoomOutput(
