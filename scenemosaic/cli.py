@@ -1,9 +1,17 @@
-"""Command-line interface: ``scenemosaic generate | demo | inspect | schema``."""
+"""Command-line interface: ``scenemosaic generate | demo | inspect | schema``.
+
+Errors are one line (the traceback of an unexpected one goes to ``report.json``); exit codes:
+0 done, 1 unexpected error (or degraded under ``--strict``), 2 bad input or settings, 130 SIGINT,
+143 SIGTERM.
+"""
 
 from __future__ import annotations
 
 import asyncio
 import json
+import os
+import signal
+import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -13,7 +21,7 @@ from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeEl
 
 from scenemosaic._logging import configure_logging
 from scenemosaic.exceptions import SceneMosaicError
-from scenemosaic.pipeline import STAGE_NAMES, GenerateConfig, GenerateResult, agenerate
+from scenemosaic.pipeline import STAGE_NAMES, GenerateConfig, GenerateResult, agenerate, checkpoint_config
 
 __all__ = ["app", "main"]
 
@@ -41,7 +49,58 @@ LogLevelOpt = Annotated[
 ]
 
 
+EXIT_OK = 0
+EXIT_UNEXPECTED = 1
+"""An unexpected error (a bug), or a degraded result under ``--strict``."""
+EXIT_BAD_INPUT = 2
+"""A clear error about the input or the settings (a ``SceneMosaicError``)."""
+EXIT_SIGINT = 130
+EXIT_SIGTERM = 143
+
+
+class _Stop:
+    """Turns SIGINT/SIGTERM into a cancel of the running task; a second signal exits at once.
+
+    The pipeline writes ``report.json`` first thing when cancelled, so exiting on the second
+    signal loses no report. Worker threads and CoACD processes are not waited for.
+    """
+
+    def __init__(self) -> None:
+        self.signal: int | None = None
+        self.task: asyncio.Task[GenerateResult] | None = None
+
+    def install(self, loop: asyncio.AbstractEventLoop) -> None:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, self._received, sig)
+
+    def _received(self, sig: int) -> None:
+        if self.signal is not None:  # second signal: the report is already on disk
+            _err.print("[red]stopped[/red] (second signal)")
+            _hard_exit(_exit_code(self.signal))
+        self.signal = sig
+        _err.print(f"[yellow]stopping[/yellow] ({signal.Signals(sig).name}): writing the report and the last good scene")
+        if self.task is not None:
+            self.task.cancel()
+
+
+def _exit_code(sig: int | None) -> int:
+    return EXIT_SIGTERM if sig == signal.SIGTERM else EXIT_SIGINT
+
+
+def _hard_exit(code: int) -> None:
+    """Leave now: stop the CoACD workers, flush, and skip waiting for worker threads."""
+    from scenemosaic.assets import shutdown_workers
+
+    try:
+        shutdown_workers()
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+
+
 def _run_with_progress(input_path: Path, out: Path, config: GenerateConfig) -> GenerateResult:
+    stop = _Stop()
     with Progress(
         SpinnerColumn(),
         TextColumn("[bold]{task.description}"),
@@ -51,15 +110,62 @@ def _run_with_progress(input_path: Path, out: Path, config: GenerateConfig) -> G
         console=_err,
         transient=False,
     ) as progress:
-        task = progress.add_task("starting", total=len(STAGE_NAMES))
+        bar = progress.add_task("starting", total=len(STAGE_NAMES))
 
         def on_stage(name: str, status: str) -> None:
             if status == "started":
-                progress.update(task, description=name)
+                progress.update(bar, description=name)
             else:
-                progress.advance(task)
+                progress.advance(bar)
 
-        return asyncio.run(agenerate(input_path, out, config, on_stage=on_stage))
+        async def main() -> GenerateResult:
+            stop.install(asyncio.get_running_loop())
+            stop.task = asyncio.current_task()  # type: ignore[assignment]
+            return await agenerate(input_path, out, config, on_stage=on_stage)
+
+        try:
+            return asyncio.run(main())
+        except asyncio.CancelledError:
+            if stop.signal is None:
+                raise
+    _err.print(f"[yellow]interrupted[/yellow]: report and last good scene in {out}; continue with --resume {out}")
+    _hard_exit(_exit_code(stop.signal))
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _failed_stage(out: Path) -> str | None:
+    try:
+        value = json.loads((out / "report.json").read_text(encoding="utf-8")).get("failed_stage")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return value if isinstance(value, str) else None
+
+
+def _run_cli(input_path: Path, out: Path, config: GenerateConfig) -> None:
+    """Run, then map the outcome to an exit code: errors are one line, never a traceback."""
+    try:
+        result = _run_with_progress(input_path, out, config)
+    except SceneMosaicError as exc:
+        _err.print(f"[red]error:[/red] {exc}", highlight=False)
+        if (out / "report.json").is_file():
+            _err.print(f"partial results and the report are in {out}", highlight=False)
+        raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+    except Exception as exc:  # a bug: one line here, the traceback in the report
+        stage = _failed_stage(out)
+        where = f" in stage {stage!r}" if stage else ""
+        _err.print(
+            f"[red]error:[/red] unexpected {type(exc).__name__}{where} on {input_path}: {exc} "
+            f"(traceback in {out / 'report.json'})",
+            highlight=False,
+        )
+        raise typer.Exit(code=EXIT_UNEXPECTED) from exc
+    _summarize(result)
+    if result.status == "degraded":
+        _err.print("[yellow]warning:[/yellow] the result is degraded (status 'degraded' in report.json):")
+        for line in result.report.get("warnings", [])[:10]:
+            _err.print(f"  - {line}", markup=False, highlight=False)
+        if config.strict:
+            raise typer.Exit(code=EXIT_UNEXPECTED)
 
 
 def _summarize(result: GenerateResult) -> None:
@@ -78,10 +184,14 @@ def _summarize(result: GenerateResult) -> None:
         _out.print("  validation: " + ", ".join(f"{k} {v}" for k, v in figures.items()))
 
 
+
 @app.command()
 def generate(
-    input_path: Annotated[Path, typer.Argument(metavar="INPUT", help="Scene folder or file (layout JSON, house JSON, poses JSON).")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")],
+    input_path: Annotated[
+        Path | None,
+        typer.Argument(metavar="[INPUT]", help="Scene folder or file (layout JSON, house JSON, poses JSON, sceneState)."),
+    ] = None,
+    out: Annotated[Path | None, typer.Option("--out", "-o", help="Output folder.")] = None,
     format: Annotated[
         str, typer.Option("--format", help="auto, native, front3d, procthor, holodeck, sam3d, sceneeval.")
     ] = "auto",
@@ -107,13 +217,43 @@ def generate(
             help="Use an agent's rule solver when the model's answers stay unusable (default) or fail the run.",
         ),
     ] = True,
+    request_timeout: Annotated[
+        float | None, typer.Option("--request-timeout", help="Seconds one model request may take (default: the model's own).")
+    ] = None,
+    deadline: Annotated[
+        float | None,
+        typer.Option("--deadline", help="Seconds all model requests of the run may take; then agents use their rule solvers."),
+    ] = None,
+    strict: Annotated[bool, typer.Option("--strict", help="Exit 1 when the result is degraded.")] = False,
+    overwrite: Annotated[
+        bool, typer.Option("--overwrite", help="Replace an output folder that holds another input's results.")
+    ] = False,
+    resume: Annotated[
+        Path | None,
+        typer.Option("--resume", help="Continue the stopped run in this output folder (INPUT and settings come from it)."),
+    ] = None,
     priors: Annotated[
         Path | None,
         typer.Option("--priors", help="ProcTHOR priors folder replacing the priors shipped with the package."),
     ] = None,
     log_level: LogLevelOpt = "warning",
 ) -> None:
-    """Turn INPUT into a stabilized, simulation-ready scene in the output layout under --out."""
+    """Turn INPUT into a stabilized, simulation-ready scene in the output layout under --out.
+
+    Exit codes: 0 done (also when degraded, unless --strict), 1 unexpected error or degraded
+    under --strict, 2 bad input or settings, 130 stopped by Ctrl-C, 143 stopped by SIGTERM.
+    """
+    if resume is not None:
+        try:
+            input_path, config = checkpoint_config(resume)
+        except SceneMosaicError as exc:
+            _err.print(f"[red]error:[/red] {exc}", highlight=False)
+            raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+        _run_cli(input_path, resume, config)
+        return
+    if input_path is None or out is None:
+        _err.print("[red]error:[/red] give INPUT and --out (or --resume OUT to continue a stopped run)")
+        raise typer.Exit(code=EXIT_BAD_INPUT)
     config = GenerateConfig(
         format=format,
         variants=variants,
@@ -124,14 +264,12 @@ def generate(
         priors_dir=priors,
         solver_fallback=fallback,
         asset_dir=asset_dir,
+        request_timeout_s=request_timeout,
+        deadline_s=deadline,
+        strict=strict,
+        overwrite=overwrite,
     )
-    try:
-        result = _run_with_progress(input_path, out, config)
-    except SceneMosaicError as exc:
-        _err.print(f"[red]error:[/red] {exc}")
-        _err.print(f"partial results and the report are in {out}")
-        raise typer.Exit(code=2) from exc
-    _summarize(result)
+    _run_cli(input_path, out, config)
 
 
 @app.command()
@@ -146,12 +284,7 @@ def demo(
 
     source = out / "input"
     save_scene(demo_scene(), source)
-    try:
-        result = _run_with_progress(source, out, GenerateConfig(model="rules", seed=seed))
-    except SceneMosaicError as exc:
-        _err.print(f"[red]error:[/red] {exc}")
-        raise typer.Exit(code=2) from exc
-    _summarize(result)
+    _run_cli(source, out, GenerateConfig(model="rules", seed=seed, overwrite=True))
 
 
 @app.command()
@@ -170,7 +303,7 @@ def inspect(
         scene = load_scene(scene_path)
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {exc}")
-        raise typer.Exit(code=2) from exc
+        raise typer.Exit(code=EXIT_BAD_INPUT) from exc
     if as_json:
         payload = {
             "units": [u.model_dump(mode="json") for u in (scene.structure.units if scene.structure else [])],

@@ -9,6 +9,7 @@ Usage errors (the caller gave us something wrong) are kept apart from run errors
     │   ├── SceneValidationError        a scene breaks the model's rules (NaN pose, duplicate id, ...)
     │   ├── ImportFormatError           an input file is malformed (names file and field)
     │   ├── AssetError                  a mesh cannot be loaded or is degenerate
+    │   │   └── UnsafePathError         a file reference leaves its allowed folders, or cannot be resolved
     │   ├── GraphDefinitionError        a task graph has a cycle, a missing dependency, a duplicate name
     │   │   └── GraphChangedError       a run store belongs to another graph definition
     │   ├── ModelConfigError            a model string or model setting is wrong (e.g. vision on a text-only server)
@@ -20,8 +21,11 @@ Usage errors (the caller gave us something wrong) are kept apart from run errors
         ├── UsageLimitExceeded          a usage limit (requests, tokens, cost) stopped the run
         ├── ModelError                  a model request failed
         │   ├── ModelHTTPError          non-200 reply; carries status code and body
+        │   │   └── ModelContextLengthError  the prompt does not fit the model's context window
         │   ├── OutputValidationError   reply not JSON / breaks the schema; carries raw reply and errors
-        │   └── ReplayMissError         replay mode found no cassette entry; names the differing part
+        │   ├── ReplayMissError         replay mode found no cassette entry; names the differing part
+        │   ├── ModelDeadlineExceeded   the run's model deadline has passed; nothing was sent
+        │   └── ModelUnavailableError   a circuit breaker holds requests back from a failing endpoint
         ├── AgentOutputError            a validated agent output is inconsistent with the scene
         │                               (unknown object id, parent cycle, support by a leaf)
         └── PhysicsError                simulation failed (blow-up that no fallback could fix)
@@ -39,8 +43,11 @@ __all__ = [
     "ImportFormatError",
     "MissingExtraError",
     "ModelConfigError",
+    "ModelContextLengthError",
+    "ModelDeadlineExceeded",
     "ModelError",
     "ModelHTTPError",
+    "ModelUnavailableError",
     "NodeFailedError",
     "NodeTimeoutError",
     "OutputValidationError",
@@ -50,6 +57,7 @@ __all__ = [
     "RunError",
     "SceneMosaicError",
     "SceneValidationError",
+    "UnsafePathError",
     "UsageError",
     "UsageLimitExceeded",
 ]
@@ -210,3 +218,66 @@ class PhysicsError(RunError):
     def __init__(self, message: str, *, object_ids: list[str] | None = None) -> None:
         super().__init__(message)
         self.object_ids = list(object_ids or [])
+
+
+class ModelContextLengthError(ModelHTTPError):
+    """The prompt does not fit the model's context window.
+
+    Raised for a server's refusal (llama.cpp's ``exceed_context_size_error``, OpenAI's
+    ``context_length_exceeded``) and, with ``sent`` false, when the client's own estimate
+    shows the prompt clearly cannot fit, before anything is sent. ``prompt_tokens`` and
+    ``context_tokens`` are the sizes when known (the server's figures, or the estimate).
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        status_code: int,
+        body: str,
+        prompt_tokens: int | None = None,
+        context_tokens: int | None = None,
+        sent: bool = True,
+    ) -> None:
+        if sent:
+            super().__init__(message, status_code=status_code, body=body)
+        else:  # refused before sending: no "HTTP <status>" prefix, since no server said it
+            ModelError.__init__(self, message)
+            self.status_code = status_code
+            self.body = body
+        self.prompt_tokens = prompt_tokens
+        self.context_tokens = context_tokens
+        self.sent = sent
+
+
+class ModelDeadlineExceeded(ModelError):
+    """The run's deadline for model requests has passed (or passed while a request was running)."""
+
+
+class ModelUnavailableError(ModelError):
+    """A circuit breaker refused a request without sending it: the endpoint kept failing.
+
+    ``model`` names the model (and its endpoint when known), ``last_error`` the failure that
+    opened the circuit, ``retry_in_s`` how long until a trial request is let through.
+    """
+
+    def __init__(self, message: str, *, model: str, last_error: str, retry_in_s: float) -> None:
+        super().__init__(message)
+        self.model = model
+        self.last_error = last_error
+        self.retry_in_s = retry_in_s
+
+
+class UnsafePathError(AssetError):
+    """A file reference would read outside the folders it may use, or cannot be resolved.
+
+    Raised for a scene's mesh uri, or a file a mesh references (glTF buffers and images, OBJ
+    material libraries and textures), whose resolved path (symlinks followed) lies outside the
+    allowed folders, for a URL where a file path is expected, and for a symlink loop. ``reference``
+    is the text as written in the file; ``resolved`` the path it leads to, when that is known.
+    """
+
+    def __init__(self, message: str, *, reference: str, resolved: str | None = None) -> None:
+        super().__init__(message)
+        self.reference = reference
+        self.resolved = resolved

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from typing import Any
 
 import httpx
@@ -56,20 +56,37 @@ def chat_reply(
     )
 
 
-Reply = httpx.Response | Exception | Callable[[httpx.Request], httpx.Response]
+Reply = (
+    httpx.Response
+    | Exception
+    | Callable[[httpx.Request], httpx.Response]
+    | Callable[[httpx.Request], Awaitable[httpx.Response]]
+)
+"""A scripted answer: a response, an exception to raise, or a function of the request (an
+async one lets a test hang the reply: ``httpx.MockTransport`` awaits it)."""
 
 
 class FakeServer:
-    """Answers each request with the next scripted reply and keeps every request it saw."""
+    """Answers each request with the next scripted reply and keeps every request it saw.
 
-    def __init__(self, *replies: Reply) -> None:
+    ``default`` answers every request after the scripted ones (a server that always says
+    the same thing); without it, a request beyond the script fails the test.
+    """
+
+    def __init__(self, *replies: Reply, default: Reply | None = None) -> None:
         self.replies = list(replies)
+        self.default = default
         self.requests: list[httpx.Request] = []
 
-    def handler(self, request: httpx.Request) -> httpx.Response:
+    def handler(self, request: httpx.Request) -> Any:
         self.requests.append(request)
-        assert self.replies, f"unexpected request #{len(self.requests)}"
-        reply = self.replies.pop(0)
+        if not self.replies and self.default is not None:
+            reply = self.default
+            if isinstance(reply, httpx.Response):  # a response is consumed once it is read
+                reply = httpx.Response(reply.status_code, headers=reply.headers, content=reply.content)
+        else:
+            assert self.replies, f"unexpected request #{len(self.requests)}"
+            reply = self.replies.pop(0)
         if isinstance(reply, Exception):
             if isinstance(reply, httpx.RequestError):
                 reply.request = request  # httpx wants the failing request attached
@@ -84,10 +101,16 @@ class FakeServer:
         return [json.loads(r.content) for r in self.requests]
 
     def model(self, **kw: Any) -> tuple[OpenAIChatModel, list[float]]:
-        """An ``OpenAIChatModel`` wired to this server, and the list its retry sleeps go to."""
-        sleeps: list[float] = []
+        """An ``OpenAIChatModel`` wired to this server, and the list its retry sleeps go to.
+
+        Its sleeps return at once; with ``clock=FakeClock()`` they advance that clock too.
+        """
+        clock = kw.get("clock")
+        sleeps: list[float] = clock.sleeps if isinstance(clock, FakeClock) else []
 
         async def fake_sleep(seconds: float) -> None:
+            if isinstance(clock, FakeClock):
+                clock.now += seconds
             sleeps.append(seconds)
 
         kw.setdefault("base_url", "http://llm.test/v1")
@@ -97,6 +120,26 @@ class FakeServer:
             "test-model", transport=httpx.MockTransport(self.handler), sleep=fake_sleep, **kw
         )
         return model, sleeps
+
+
+class FakeClock:
+    """A monotonic clock that moves only when told to (or when a fake sleep advances it)."""
+
+    def __init__(self, start: float = 1000.0) -> None:
+        self.now = start
+        self.sleeps: list[float] = []
+
+    def __call__(self) -> float:
+        return self.now
+
+    def advance(self, seconds: float) -> None:
+        """Let ``seconds`` pass."""
+        self.now += seconds
+
+    async def sleep(self, seconds: float) -> None:
+        """A sleep that returns at once, having moved the clock."""
+        self.sleeps.append(seconds)
+        self.now += seconds
 
 
 def user_messages(text: str = "Evidence: three chairs.", *, image: bool = False) -> list[Message]:

@@ -28,6 +28,7 @@ from pydantic import BaseModel, ConfigDict
 from scenemosaic.exceptions import (
     AgentOutputError,
     ModelConfigError,
+    ModelContextLengthError,
     ModelError,
     ModelHTTPError,
     OutputValidationError,
@@ -35,7 +36,7 @@ from scenemosaic.exceptions import (
     UsageError,
 )
 from scenemosaic.models import ImagePart, Message, Model, ModelSettings, RequestContext, TextPart, Usage
-from scenemosaic.scene import Scene
+from scenemosaic.scene import MAX_OBJECTS, Scene
 
 __all__ = [
     "MAX_ITEMS",
@@ -53,8 +54,8 @@ __all__ = [
 PROMPTS_FOLDER = "prompts"
 """Name of the folder, beside the module that defines an agent class, holding its prompt templates."""
 
-MAX_ITEMS = 512
-"""Upper bound on list lengths in agent outputs (keeps constrained decoding from looping)."""
+MAX_ITEMS = MAX_OBJECTS
+"""Upper bound on list lengths in agent outputs: the scene's object limit (keeps constrained decoding from looping)."""
 
 
 class AgentOutput(BaseModel):
@@ -197,6 +198,8 @@ def _recoverable(exc: ModelError) -> bool:
     """Whether a model failure is the model's (fall back) rather than the user's set-up (raise)."""
     if isinstance(exc, ReplayMissError | ModelConfigError):
         return False  # a cassette mismatch or a wrong setting is a set-up error, not a flaky model
+    if isinstance(exc, ModelContextLengthError):
+        return True  # the evidence outgrew this model's window: the rule solver needs no window
     if isinstance(exc, ModelHTTPError):
         return exc.status_code == 429 or exc.status_code >= 500
     return True  # time-outs, dropped connections after the transport's retries

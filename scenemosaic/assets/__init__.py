@@ -4,9 +4,13 @@ procedural furniture library.
 The canonical asset frame is the object's local frame: Z up, metres, origin at the bottom
 centre of the footprint, front along -Y (``docs/assets.md``). This layer imports only
 :mod:`scenemosaic.scene` and :mod:`scenemosaic.exceptions`.
+
+Every file a mesh names (buffers, textures, materials) must lie in the mesh's folder
+(:func:`referenced_files`); meshes above ``MAX_MESH_FACES`` faces are refused.
 """
 
 from scenemosaic.assets._canonical import CanonicalMesh, load_mesh, mesh_hash
+from scenemosaic.assets._files import MESH_SUFFIXES, referenced_files
 from scenemosaic.assets._hulls import CoacdParams, HullCache, default_cache_dir, shutdown_workers
 from scenemosaic.assets._objects import default_hull_cache, object_hulls, object_mesh
 from scenemosaic.assets._procedural import (
@@ -19,6 +23,7 @@ from scenemosaic.assets._procedural import (
 
 __all__ = [
     "MAX_PARTS",
+    "MESH_SUFFIXES",
     "CanonicalMesh",
     "CoacdParams",
     "HullCache",
@@ -32,5 +37,6 @@ __all__ = [
     "procedural_key",
     "procedural_mesh",
     "procedural_parts",
+    "referenced_files",
     "shutdown_workers",
 ]

@@ -17,7 +17,9 @@ import numpy.typing as npt
 import structlog
 import trimesh
 
+from scenemosaic.assets._files import MESH_SUFFIXES, referenced_files
 from scenemosaic.exceptions import AssetError
+from scenemosaic.scene import MAX_MESH_FACES, real_path
 
 __all__ = [
     "GLTF_TO_Z_UP",
@@ -125,6 +127,8 @@ def _validate(mesh: trimesh.Trimesh, path: Path) -> None:
 def _load_cached(path: str, mtime_ns: int, size: int) -> trimesh.Trimesh:
     del mtime_ns, size  # part of the cache key only: an edited file is loaded again
     file = Path(path)
+    # before trimesh opens anything: it would follow a texture uri wherever it points
+    referenced_files(file)
     try:
         loaded = trimesh.load(file, process=False)
     except AssetError:
@@ -132,6 +136,8 @@ def _load_cached(path: str, mtime_ns: int, size: int) -> trimesh.Trimesh:
     except Exception as exc:  # trimesh raises many kinds on malformed input
         raise AssetError(f"{file}: cannot read mesh ({type(exc).__name__}: {exc})") from exc
     mesh = _concatenate(loaded, file)
+    if len(mesh.faces) > MAX_MESH_FACES:
+        raise AssetError(f"{file}: {len(mesh.faces)} faces; meshes may have at most {MAX_MESH_FACES}")
     _validate(mesh, file)
     mesh.remove_unreferenced_vertices()
     return mesh
@@ -141,18 +147,29 @@ def load_source_mesh(path: str | Path) -> trimesh.Trimesh:
     """The file's triangles in *source* coordinates, scenes flattened; validated, cached.
 
     The result is shared by an in-process LRU cache keyed by path, modification time and
-    size: do not modify it in place (copy it first).
+    size: do not modify it in place (copy it first). Symlinks are followed; the files the mesh
+    references (glTF buffers and images, OBJ materials and textures) must lie in its folder.
 
     Raises:
-        AssetError: naming the file, when it is missing, unreadable or degenerate.
+        AssetError: naming the file, when it is missing, a directory, empty, not a mesh type
+            read here (:data:`MESH_SUFFIXES`), unreadable, degenerate, larger than
+            ``MAX_MESH_FACES``, or references a file outside its folder
+            (:class:`~scenemosaic.exceptions.UnsafePathError`, also for a symlink loop).
     """
-    file = Path(path).expanduser().resolve()
+    file = real_path(Path(path).expanduser())
     try:
         stat = file.stat()
     except OSError as exc:
         raise AssetError(f"{file}: cannot open mesh file ({exc.strerror or exc})") from exc
+    if file.is_dir():
+        raise AssetError(f"{file}: is a directory, not a mesh file")
     if not file.is_file():
-        raise AssetError(f"{file}: not a file")
+        raise AssetError(f"{file}: not a regular file")
+    if stat.st_size == 0:
+        raise AssetError(f"{file}: empty mesh file (0 bytes)")
+    if file.suffix.lower() not in MESH_SUFFIXES:
+        kinds = ", ".join(sorted(MESH_SUFFIXES))
+        raise AssetError(f"{file}: unsupported mesh file type {file.suffix or '(none)'!r}; use one of {kinds}")
     return _load_cached(str(file), stat.st_mtime_ns, stat.st_size)
 
 
@@ -198,9 +215,11 @@ def load_mesh(
         The canonical mesh (a fresh copy, safe to modify), the transform, its hash and extents.
 
     Raises:
-        AssetError: naming the file: missing, unreadable, no faces, NaN vertices, zero extent on an axis.
+        AssetError: naming the file: missing, a directory, empty, unreadable, no faces, NaN
+            vertices, zero extent on an axis, too many faces, or a referenced file outside its
+            folder (see :func:`load_source_mesh`).
     """
-    file = Path(path).expanduser().resolve()
+    file = real_path(Path(path).expanduser())
     if not (np.isfinite(unit_scale) and unit_scale > 0):
         raise AssetError(f"{file}: unit_scale must be a positive number, got {unit_scale!r}")
     axis = _resolve_up_axis(file, up_axis)

@@ -4,15 +4,23 @@ Cache layout (see ``docs/assets.md``)::
 
     <root>/<key[:2]>/<key>.npz      vertices_<i>, faces_<i> per convex piece, plus a JSON "meta" entry
 
-``key = sha256("hulls-v1", mesh_hash(mesh), params.cache_token())``. Files are written to a
-temporary name in the same folder and renamed into place, so readers never see half a file.
+``key = sha256(CACHE_FORMAT_VERSION, mesh_hash(mesh), params.cache_token())``. Files are written
+to a temporary name in the same folder and renamed into place, so readers never see half a file.
 A file that cannot be read back is logged, deleted and recomputed.
+
+Processes share the cache: a computation holds an exclusive lock on ``<key>.lock`` (``fcntl.flock``,
+POSIX only; elsewhere there is no lock and two processes may both compute), so a second process
+asking for the same key waits, then reads the first one's result instead of computing it again.
+
+Meshes with more than ``COACD_MAX_FACES`` triangles are decimated to that many before CoACD
+whatever the parameters say; meshes beyond ``MAX_MESH_FACES`` are refused.
 
 After CoACD the pieces are checked: when their union spans less than ``MIN_COVERAGE`` of the
 mesh's extent on some axis (open, shell-like scans come back as slivers missing half the
 object) or they number more than ``max(MAX_PIECES, params.max_convex_hull)``, the mesh's
 single convex hull is used instead, with a logged warning. That outcome is deterministic for a
-given key, so it is stored like any other result.
+given key, so it is stored like any other result. The single hull is cut down to at most
+``MAX_HULL_VERTICES`` vertices (a scan's hull can have hundreds of thousands).
 """
 
 from __future__ import annotations
@@ -20,10 +28,11 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import hashlib
+import io
 import json
 import multiprocessing
 import os
-import tempfile
+import sys
 import threading
 import zipfile
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -33,12 +42,14 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
+import numpy.typing as npt
 import structlog
 import trimesh
 
 from scenemosaic.assets._canonical import mesh_hash
 from scenemosaic.assets._coacd_worker import RawPiece, decompose
 from scenemosaic.exceptions import AssetError
+from scenemosaic.scene import COACD_MAX_FACES, MAX_HULL_VERTICES, MAX_MESH_FACES, write_atomic
 
 __all__ = [
     "CACHE_FORMAT_VERSION",
@@ -52,10 +63,14 @@ __all__ = [
 
 log = structlog.get_logger(__name__)
 
-CACHE_FORMAT_VERSION = "hulls-v2"
+FloatArray = npt.NDArray[np.float64]
+
+CACHE_FORMAT_VERSION = "hulls-v3"
 """Part of every cache key: bump it when the stored format or the post-processing changes.
 
-v2: the coverage / piece-count check after CoACD (see :func:`_quality_problem`)."""
+v2: the coverage / piece-count check after CoACD (see :func:`_quality_problem`).
+v3: the single-hull fallback capped at ``MAX_HULL_VERTICES`` vertices; inputs above
+``COACD_MAX_FACES`` decimated whatever ``simplify_faces`` says."""
 
 MIN_COVERAGE = 0.9
 """Least fraction of the mesh's bounding-box extent, on every axis, that the union of the pieces'
@@ -154,17 +169,82 @@ def _pool() -> ProcessPoolExecutor:
         return _pool_instance
 
 
-def _drop_pool(broken: ProcessPoolExecutor | None = None) -> None:
+def _drop_pool(broken: ProcessPoolExecutor | None = None, *, wait: bool = False) -> None:
     global _pool_instance
     with _pool_lock:
-        if _pool_instance is not None and (broken is None or _pool_instance is broken):
-            _pool_instance.shutdown(wait=False, cancel_futures=True)
-            _pool_instance = None
+        pool = _pool_instance
+        if pool is None or (broken is not None and pool is not broken):
+            return
+        _pool_instance = None
+    pool.shutdown(wait=wait, cancel_futures=True)
 
 
-def shutdown_workers() -> None:
-    """Stop the CoACD worker processes (they start again on the next decomposition)."""
-    _drop_pool()
+def shutdown_workers(*, wait: bool = False) -> None:
+    """Stop the CoACD worker processes (they start again on the next decomposition).
+
+    Pending jobs are cancelled. ``wait=True`` blocks until the workers have exited (and a running
+    job has finished): a process started by ``multiprocessing`` must do that before it returns,
+    since it exits without the interpreter's own shutdown of executors and would otherwise leave
+    its workers waiting for a stop message that never comes.
+    """
+    _drop_pool(wait=wait)
+
+
+# --------------------------------------------------------------------------------------------
+# cross-process lock: one lock file per cache key
+# --------------------------------------------------------------------------------------------
+if sys.platform == "win32":  # pragma: no cover - no flock; processes may then compute twice
+
+    def _flock(fd: int) -> None:
+        del fd
+
+    def _funlock(fd: int) -> None:
+        del fd
+
+else:
+    import fcntl
+
+    def _flock(fd: int) -> None:
+        fcntl.flock(fd, fcntl.LOCK_EX)  # blocks until the holder releases it or exits
+
+    def _funlock(fd: int) -> None:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+
+
+class _KeyLock:
+    """An exclusive advisory lock on a file, held by this process while it computes one key.
+
+    The kernel drops a ``flock`` when its holder dies, so a crashed computation never leaves
+    the key locked. The lock file stays (deleting it would race with a process opening it).
+    """
+
+    def __init__(self, fd: int | None) -> None:
+        self._fd = fd
+
+    @classmethod
+    def acquire(cls, path: Path) -> _KeyLock:
+        """Wait for and take the lock; a cache folder that cannot be written gives a no-op lock."""
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+        except OSError as exc:
+            log.debug("hull_lock_unavailable", path=str(path), error=str(exc))
+            return cls(None)
+        try:
+            _flock(fd)
+        except BaseException:
+            os.close(fd)
+            raise
+        return cls(fd)
+
+    def release(self) -> None:
+        """Let the next process in; safe to call more than once."""
+        fd, self._fd = self._fd, None
+        if fd is not None:
+            try:
+                _funlock(fd)
+            finally:
+                os.close(fd)
 
 
 # --------------------------------------------------------------------------------------------
@@ -187,6 +267,8 @@ def _check_mesh(mesh: trimesh.Trimesh) -> None:
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     if len(mesh.faces) == 0 or len(vertices) == 0:
         raise AssetError("cannot decompose a mesh without faces")
+    if len(mesh.faces) > MAX_MESH_FACES:
+        raise AssetError(f"cannot decompose a mesh of {len(mesh.faces)} faces; the maximum is {MAX_MESH_FACES}")
     if not np.all(np.isfinite(vertices)):
         raise AssetError("cannot decompose a mesh with non-finite vertices")
     extents = np.ptp(vertices, axis=0)
@@ -223,8 +305,42 @@ def _quality_problem(pieces: list[RawPiece], mesh: trimesh.Trimesh, params: Coac
     return None
 
 
+def _decimation_target(params: CoacdParams) -> int:
+    """The face count CoACD's input is reduced to: ``params.simplify_faces``, but never above
+    ``COACD_MAX_FACES`` (``simplify_faces=0`` would otherwise hand CoACD a whole scan)."""
+    if 0 < params.simplify_faces <= COACD_MAX_FACES:
+        return params.simplify_faces
+    return COACD_MAX_FACES
+
+
+def _spread_points(points: FloatArray, count: int) -> FloatArray:
+    """``count`` of ``points`` spread over them: the extremes on each axis, then farthest-point
+    sampling. Deterministic, and the chosen set keeps the points' bounding box."""
+    chosen = list(dict.fromkeys(int(i) for i in (*points.argmin(axis=0), *points.argmax(axis=0))))
+    nearest = np.full(len(points), np.inf)
+    for i in chosen:  # one pass per point: no (n, k, 3) temporary for a million-vertex hull
+        nearest = np.minimum(nearest, np.linalg.norm(points - points[i], axis=1))
+    while len(chosen) < count:
+        far = int(np.argmax(nearest))
+        if nearest[far] <= 0.0:
+            break
+        chosen.append(far)
+        nearest = np.minimum(nearest, np.linalg.norm(points - points[far], axis=1))
+    picked: FloatArray = points[np.sort(np.asarray(chosen))]
+    return picked
+
+
 def _single_hull(mesh: trimesh.Trimesh) -> list[RawPiece]:
+    """The mesh's convex hull as one piece, with at most ``MAX_HULL_VERTICES`` vertices.
+
+    A bigger hull (a smooth scan's can have one vertex per input vertex) is replaced by the hull
+    of that many of its vertices, spread over it: a little inside the exact hull, same bounds.
+    """
     hull = mesh.convex_hull
+    vertices = np.asarray(hull.vertices, dtype=np.float64)
+    if len(vertices) > MAX_HULL_VERTICES:
+        hull = trimesh.convex.convex_hull(_spread_points(vertices, MAX_HULL_VERTICES))
+        log.info("fallback_hull_simplified", vertices_before=len(vertices), vertices_after=len(hull.vertices))
     return [(np.asarray(hull.vertices, dtype=np.float64), np.asarray(hull.faces, dtype=np.int64))]
 
 
@@ -262,8 +378,11 @@ class HullCache:
     """Convex decompositions keyed by mesh content and CoACD settings, stored on disk.
 
     A miss runs CoACD in a worker *process* (never in the caller's thread, never on the event
-    loop); concurrent requests for the same key share one computation. Degenerate meshes (no
-    faces, NaN vertices, zero extent) raise :class:`~scenemosaic.exceptions.AssetError`. When
+    loop); concurrent requests for the same key share one computation, in this process through
+    a shared future and across processes through a lock file per key (POSIX ``flock``): the
+    second process waits for the first and reads its result. Degenerate meshes (no faces, NaN
+    vertices, zero extent, more than ``MAX_MESH_FACES`` faces) raise
+    :class:`~scenemosaic.exceptions.AssetError`. When
     CoACD itself fails (an error, a crashed worker, no usable piece) the result is the mesh's
     single convex hull, with a logged warning; that fallback is not stored, so a later run retries.
     When CoACD succeeds but its pieces cover less than :data:`MIN_COVERAGE` of the mesh's extent
@@ -274,7 +393,8 @@ class HullCache:
     Attributes:
         root: Folder of the cache files.
         computations: Decompositions this instance started in a worker (misses that ran CoACD).
-        disk_hits: Requests answered from a cache file.
+        disk_hits: Requests answered from a cache file (including one another process wrote
+            while this one waited for its lock).
         fallbacks: Decompositions that fell back to the single convex hull.
     """
 
@@ -295,6 +415,10 @@ class HullCache:
     def path_for(self, key: str) -> Path:
         """Where the decomposition with this key is stored."""
         return self.root / key[:2] / f"{key}.npz"
+
+    def lock_path(self, key: str) -> Path:
+        """The file a process locks while it computes the decomposition with this key."""
+        return self.root / key[:2] / f"{key}.lock"
 
     def _read(self, key: str) -> list[RawPiece] | None:
         path = self.path_for(key)
@@ -317,17 +441,11 @@ class HullCache:
         for i, (v, f) in enumerate(pieces):
             arrays[f"vertices_{i}"] = v
             arrays[f"faces_{i}"] = f.astype(np.int32)
+        buffer = io.BytesIO()
+        np.savez_compressed(buffer, **arrays)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{key[:16]}.", suffix=".tmp")
-            try:
-                with os.fdopen(fd, "wb") as fh:
-                    np.savez_compressed(fh, **arrays)
-                os.replace(tmp, path)
-            except BaseException:
-                with contextlib.suppress(OSError):
-                    os.unlink(tmp)
-                raise
+            write_atomic(path, buffer.getvalue())
         except OSError as exc:  # a read-only or full disk costs a recomputation later, nothing more
             log.warning("hull_cache_write_failed", path=str(path), error=str(exc))
 
@@ -349,20 +467,63 @@ class HullCache:
             outer: Future[list[RawPiece]] = Future()
             outer.set_running_or_notify_cancel()  # waiters cannot cancel a computation others share
             self._inflight[key] = outer
-            self.computations += 1
-        geometry = _geometry_only(mesh)
-        log.info("coacd_start", key=key[:16], faces=len(geometry.faces), params=asdict(params))
-        pool = _pool()
         try:
-            work = pool.submit(
-                decompose, np.asarray(geometry.vertices), np.asarray(geometry.faces), asdict(params)
-            )
+            # another process may be computing this key: wait for it, then take its result
+            file_lock = _KeyLock.acquire(self.lock_path(key))
+            try:
+                pieces = self._read(key)
+            except BaseException:
+                file_lock.release()
+                raise
+        except BaseException as exc:
+            self._settle(key, outer, error=exc)
+            return outer
+        if pieces is not None:
+            file_lock.release()
+            with self._lock:
+                self.disk_hits += 1
+            self._settle(key, outer, pieces=pieces)
+            return outer
+        with self._lock:
+            self.computations += 1
+        try:
+            geometry = _geometry_only(mesh)
+            options = {**asdict(params), "simplify_faces": _decimation_target(params)}
+            log.info("coacd_start", key=key[:16], faces=len(geometry.faces), params=options)
+        except BaseException as exc:
+            file_lock.release()
+            self._settle(key, outer, error=exc)
+            return outer
+        pool: ProcessPoolExecutor | None = None
+        try:
+            pool = _pool()
+            work = pool.submit(decompose, np.asarray(geometry.vertices), np.asarray(geometry.faces), options)
         except (BrokenProcessPool, RuntimeError) as exc:
             _drop_pool(pool)
-            self._finish(key, geometry, params, None, outer, error=exc)
+            self._finish(key, geometry, params, None, outer, file_lock, error=exc)
             return outer
-        work.add_done_callback(lambda done: self._finish(key, geometry, params, done, outer))
+        except BaseException as exc:
+            file_lock.release()
+            self._settle(key, outer, error=exc)
+            return outer
+        work.add_done_callback(lambda done: self._finish(key, geometry, params, done, outer, file_lock))
         return outer
+
+    def _settle(
+        self,
+        key: str,
+        outer: Future[list[RawPiece]],
+        *,
+        pieces: list[RawPiece] | None = None,
+        error: BaseException | None = None,
+    ) -> None:
+        """Give the shared future its result (or error) and forget the key as in flight."""
+        with self._lock:
+            self._inflight.pop(key, None)
+        if error is not None:
+            outer.set_exception(error)
+        else:
+            outer.set_result(pieces if pieces is not None else [])
 
     def _finish(
         self,
@@ -371,6 +532,7 @@ class HullCache:
         params: CoacdParams,
         done: Future[list[RawPiece]] | None,
         outer: Future[list[RawPiece]],
+        file_lock: _KeyLock,
         *,
         error: BaseException | None = None,
     ) -> None:
@@ -410,6 +572,7 @@ class HullCache:
         except BaseException as exc:
             outer.set_exception(exc)
         finally:
+            file_lock.release()  # after the write: a waiting process then finds the file
             with self._lock:
                 self._inflight.pop(key, None)
 

@@ -17,8 +17,8 @@ import trimesh
 from scenemosaic.assets._canonical import load_mesh, load_source_mesh, mesh_hash
 from scenemosaic.assets._hulls import CoacdParams, HullCache
 from scenemosaic.assets._procedural import procedural_mesh, procedural_parts
-from scenemosaic.exceptions import AssetError
-from scenemosaic.scene import SceneObject
+from scenemosaic.exceptions import AssetError, UnsafePathError
+from scenemosaic.scene import SceneObject, confined_path, real_path
 
 __all__ = ["default_hull_cache", "object_hulls", "object_mesh"]
 
@@ -49,12 +49,18 @@ def _box_mesh(size: tuple[float, float, float]) -> trimesh.Trimesh:
 
 
 def _resolve(uri: str, base_dir: str | Path | None, obj: SceneObject) -> Path:
-    path = Path(uri).expanduser()
-    if not path.is_absolute():
-        path = (Path(base_dir) if base_dir is not None else Path.cwd()) / path
+    """The mesh file of ``obj``: a relative uri must stay inside ``base_dir`` (symlinks followed);
+    an absolute one is taken as it is, since the reader that produced it checked it."""
+    base = Path(base_dir) if base_dir is not None else Path.cwd()
+    try:
+        path = confined_path(base, uri) if not Path(uri).is_absolute() else real_path(uri)
+    except UnsafePathError as exc:
+        raise UnsafePathError(f"object {obj.id!r}: mesh uri {exc}", reference=uri, resolved=exc.resolved) from exc
+    if path.is_dir():
+        raise AssetError(f"object {obj.id!r}: mesh uri {uri!r} names a directory, not a file: {path}")
     if not path.is_file():
-        raise AssetError(f"object {obj.id!r}: mesh file not found: {path}")
-    return path.resolve()
+        raise AssetError(f"object {obj.id!r}: mesh file not found: {base / uri}")
+    return path
 
 
 @functools.lru_cache(maxsize=32)

@@ -142,6 +142,13 @@ class RunStore(abc.ABC):
         """Record the graph the following outputs belong to."""
 
     @abc.abstractmethod
+    def scoped(self, name: str) -> RunStore:
+        """A separate store for another graph of the same run (e.g. a plan, then the planned work).
+
+        Each graph keeps its own fingerprint, so two graphs never look like one graph that changed.
+        """
+
+    @abc.abstractmethod
     def clear(self) -> None:
         """Forget every stored output and the fingerprint."""
 
@@ -152,6 +159,7 @@ class MemoryRunStore(RunStore):
     def __init__(self) -> None:
         self._records: dict[tuple[str, str], StoredOutput] = {}
         self._fingerprint: GraphFingerprint | None = None
+        self._scopes: dict[str, MemoryRunStore] = {}
 
     def get(self, node: str, input_hash: str) -> StoredOutput | None:
         return self._records.get((node, input_hash))
@@ -168,6 +176,10 @@ class MemoryRunStore(RunStore):
     def clear(self) -> None:
         self._records.clear()
         self._fingerprint = None
+
+    def scoped(self, name: str) -> MemoryRunStore:
+        """A store for another graph of the same run (the same object for the same name)."""
+        return self._scopes.setdefault(name, MemoryRunStore())
 
     def __len__(self) -> int:
         return len(self._records)
@@ -234,6 +246,10 @@ class FileRunStore(RunStore):
     def clear(self) -> None:
         shutil.rmtree(self.root / "nodes", ignore_errors=True)
         (self.root / "graph.json").unlink(missing_ok=True)
+
+    def scoped(self, name: str) -> FileRunStore:
+        """A store for another graph of the same run, in ``<root>/scopes/<name>``."""
+        return FileRunStore(self.root / "scopes" / quote(name, safe=""))
 
 
 def _write_atomic(path: Path, text: str) -> None:

@@ -12,7 +12,9 @@ scenes into files a simulator or an evaluator loads. A format is one module plus
   MJCF (:func:`export_mjcf`).
 
 Every malformed input raises :class:`~scenemosaic.exceptions.ImportFormatError` naming the
-file and the field. Conventions and rules: ``docs/importers.md`` and ``docs/exports.md``.
+file and the field, values beyond the scene limits included. A reader only opens files inside
+the input's own folder (or ``asset_dir=``), symlinks followed (``scenemosaic.scene.confined_path``).
+Conventions and rules: ``docs/importers.md`` and ``docs/exports.md``.
 """
 
 from scenemosaic.exchange import _builtin  # noqa: F401 - registers the built-in formats

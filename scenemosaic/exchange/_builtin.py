@@ -34,7 +34,9 @@ def _looks_native(data: Any) -> bool:
 
 
 def _read_native(data: Any, path: Path, options: ReadOptions) -> list[Scene]:
-    scene = scene_from_data(data, source=str(path))
+    # mesh uris must lie in the scene's folder, or in the asset folder the caller named
+    roots = [options.asset_dir] if options.asset_dir is not None else []
+    scene = scene_from_data(data, source=str(path), roots=roots)
     if scene.provenance.source_format is None:
         # a scene written by hand: record where it came from; imported scenes keep their origin
         scene.provenance = Provenance(source_format="native", source_path=path.as_posix(), importer=NATIVE_IMPORTER)

@@ -1,22 +1,23 @@
-"""Shared pieces of the importers: JSON reading, field checks that name the field, id helpers."""
+"""Shared pieces of the importers: JSON reading, field checks that name the field, the checks of
+the scene limits and of file references in the file's own terms."""
 
 from __future__ import annotations
 
 import json
 import math
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
-from scenemosaic.exceptions import ImportFormatError
-from scenemosaic.scene import CEILING, FLOOR
+from pydantic import ValidationError
 
-__all__ = ["FieldReader", "normalize_label", "read_json", "sanitize_id", "unique_id"]
+from scenemosaic.exceptions import ImportFormatError, UnsafePathError
+from scenemosaic.scene import SceneObject, confined_path, object_count_problem
+
+__all__ = ["FieldReader", "normalize_label", "read_json"]
 
 _LABEL_RE = re.compile(r"^[a-z][a-z0-9_]{0,47}$")
-_ID_BAD_CHARS = re.compile(r"[^A-Za-z0-9_.\-]+")
-_MAX_ID = 64
 
 
 def read_json(path: Path) -> Any:
@@ -93,6 +94,44 @@ class FieldReader:
         obj = self.mapping(value, field)
         return tuple(self.number(self.get(obj, k, field), _join(field, k)) for k in keys)
 
+    def check(self, problem: str | None, field: str, *, what: str = "") -> None:
+        """Fail on ``field`` (of ``what``, e.g. ``object 'chair_1'``) when a limit check
+        (``scenemosaic.scene.size_problem``...) found a problem."""
+        if problem is not None:
+            self.fail(field, f"{what}: {problem}" if what else problem)
+
+    def objects(self, value: Any, field: str) -> list[Any]:
+        """A JSON array of objects, at most ``MAX_OBJECTS`` long (checked before any is read)."""
+        items = self.array(value, field)
+        self.check(object_count_problem(len(items)), field)
+        return items
+
+    def file(self, base: Path, uri: str, field: str, *, roots: Sequence[Path] = (), what: str = "") -> Path:
+        """The file ``uri`` names, resolved, when it lies inside ``base`` or ``roots``
+        (:func:`scenemosaic.scene.confined_path`); otherwise an error naming ``field`` (and
+        ``what``: the object it belongs to)."""
+        try:
+            return confined_path(base, uri, roots=roots)
+        except UnsafePathError as exc:
+            prefix = f"{what}: " if what else ""
+            raise ImportFormatError(f"{prefix}{exc}", path=str(self.path), field=field) from exc
+
+    def scene_object(self, field: str, what: str, **fields: Any) -> SceneObject:
+        """``SceneObject(**fields)``; a value the scene model refuses fails on ``field`` naming ``what``.
+
+        The readers check the usual problems in their own terms first; this catches the rest
+        (a size beyond the limits that only appears once a mesh is measured, say).
+        """
+        try:
+            return SceneObject(**fields)
+        except ValidationError as exc:
+            err = exc.errors()[0]
+            where = ".".join(str(p) for p in err["loc"])
+            detail = str(err["msg"]).removeprefix("Value error, ")
+            if detail.startswith(f"{what}: "):  # the model's own message already names the object
+                detail = detail[len(what) + 2 :]
+            self.fail(field, f"{what}: {where + ': ' if where else ''}{detail}")
+
     def label(self, value: Any, field: str) -> str:
         """A category label, normalized (see :func:`normalize_label`)."""
         raw = self.text(value, field)
@@ -106,25 +145,6 @@ def normalize_label(raw: str) -> str | None:
     """``"Dining Chair"`` -> ``"dining_chair"``; ``None`` when the text is not a usable category name."""
     label = re.sub(r"[\s\-]+", "_", raw.strip().lower())
     return label if _LABEL_RE.match(label) else None
-
-
-def sanitize_id(raw: str) -> str:
-    """Map any text to the object-id alphabet (``[A-Za-z0-9_.-]``, at most 64 characters)."""
-    cleaned = _ID_BAD_CHARS.sub("_", raw).strip("_")
-    return (cleaned or "object")[:_MAX_ID]
-
-
-def unique_id(candidate: str, taken: set[str]) -> str:
-    """``candidate`` or ``candidate_2``, ``_3``...: the first one not in ``taken`` nor an anchor id; adds it."""
-    reserved = {FLOOR, CEILING}
-    out = candidate
-    n = 2
-    while out in taken or out in reserved or re.fullmatch(r"wall_\d+", out):
-        suffix = f"_{n}"
-        out = candidate[: _MAX_ID - len(suffix)] + suffix
-        n += 1
-    taken.add(out)
-    return out
 
 
 def _join(field: str, key: str) -> str:

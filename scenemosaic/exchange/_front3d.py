@@ -18,8 +18,21 @@ from typing import Any
 
 import structlog
 
-from scenemosaic.exchange._common import FieldReader, sanitize_id, unique_id
-from scenemosaic.scene import AssetRef, Pose, Provenance, Room, Scene, SceneObject, recover_room
+from scenemosaic.exchange._common import FieldReader
+from scenemosaic.scene import (
+    AssetRef,
+    Pose,
+    Provenance,
+    Room,
+    Scene,
+    SceneObject,
+    coordinate_problem,
+    object_count_problem,
+    recover_room,
+    sanitize_id,
+    size_problem,
+    unique_id,
+)
 
 __all__ = ["FRONT3D_KEY", "import_front3d", "looks_like_front3d"]
 
@@ -44,6 +57,8 @@ def import_front3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
     r = FieldReader(path)
     top = r.mapping(data, "")
     models = r.mapping(r.get(top, FRONT3D_KEY, ""), FRONT3D_KEY)
+    # counted over every model before any object is built
+    r.check(object_count_problem(sum(len(v) for v in models.values() if isinstance(v, list))), FRONT3D_KEY)
     taken: set[str] = set()
     counters: dict[str, int] = {}
     objects: list[SceneObject] = []
@@ -54,14 +69,17 @@ def import_front3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
             field = f"{base}[{i}]"
             item = r.mapping(raw, field)
             label = r.label(r.get(item, "label", field), f"{field}.label")
-            sx, sy, sz = r.vector(r.get(item, "size", field), 3, f"{field}.size")
-            if min(sx, sy, sz) <= 0:
-                r.fail(f"{field}.size", f"half extents must be positive, got {[sx, sy, sz]}")
-            px, py, pz = r.vector(r.get(item, "position", field), 3, f"{field}.position")
-            theta = r.number(r.get(item, "theta", field), f"{field}.theta")
             n = counters.get(label, 0)
             counters[label] = n + 1
             oid = unique_id(sanitize_id(f"{label}_{n}"), taken)
+            who = f"object {oid!r}"
+            sx, sy, sz = r.vector(r.get(item, "size", field), 3, f"{field}.size")
+            if min(sx, sy, sz) <= 0:
+                r.fail(f"{field}.size", f"half extents must be positive, got {[sx, sy, sz]}")
+            r.check(size_problem((2 * sx, 2 * sy, 2 * sz)), f"{field}.size", what=who)
+            px, py, pz = r.vector(r.get(item, "position", field), 3, f"{field}.position")
+            r.check(coordinate_problem((px, py, pz)), f"{field}.position", what=who)
+            theta = r.number(r.get(item, "theta", field), f"{field}.theta")
             objects.append(
                 SceneObject(
                     id=oid,
@@ -77,7 +95,7 @@ def import_front3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
     scene_room = room if room is not None else recover_room(objects, source=str(path))
     log.debug("front3d_imported", path=str(path), objects=len(objects), room_given=room is not None)
     return Scene(
-        id=sanitize_id(path.stem),
+        id=sanitize_id(path.stem, fallback="scene"),
         room=scene_room,
         objects=objects,
         metadata={"front3d": {"source_ids": source_ids, "room_recovered": room is None}},

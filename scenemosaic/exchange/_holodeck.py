@@ -40,7 +40,7 @@ import numpy as np
 import structlog
 from scipy.spatial.transform import Rotation
 
-from scenemosaic.exchange._common import FieldReader, sanitize_id, unique_id
+from scenemosaic.exchange._common import FieldReader
 from scenemosaic.exchange._procthor import (
     _HALF_TURN,
     _SWAP,
@@ -62,7 +62,11 @@ from scenemosaic.scene import (
     Relation,
     Scene,
     SceneObject,
+    coordinate_problem,
     normalize_category,
+    sanitize_id,
+    size_problem,
+    unique_id,
 )
 
 __all__ = ["HOLODECK_KEYS", "import_holodeck", "looks_like_holodeck"]
@@ -124,7 +128,7 @@ def import_holodeck(data: Any, path: Path, *, asset_database: Any = None) -> Sce
             _add_opening(r, raw, f"{key}[{i}]", key, walls_by_id, build)
 
     context = _Context.read(r, top, build)
-    items = r.array(r.get(top, "objects", ""), "objects")
+    items = r.objects(r.get(top, "objects", ""), "objects")
     raw_ids: list[str] = []
     for i, raw in enumerate(items):
         item = r.mapping(raw, f"objects[{i}]")
@@ -165,7 +169,7 @@ def import_holodeck(data: Any, path: Path, *, asset_database: Any = None) -> Sce
     log.debug("holodeck_imported", path=str(path), objects=len(build.objects), notes=len(build.notes))
     query = top.get("query")
     return Scene(
-        id=sanitize_id(path.stem),
+        id=sanitize_id(path.stem, fallback="scene"),
         room=build.room,
         objects=build.objects,
         relations=build.relations,
@@ -258,8 +262,10 @@ def _object(
     build: _RoomBuild,
 ) -> _Built:
     raw_id = r.text(r.get(item, "id", f), f"{f}.id")
+    who = f"object {raw_id!r}"
     asset_id = r.text(r.get(item, "assetId", f), f"{f}.assetId")
     cx, cy, cz = r.xyz(r.get(item, "position", f), f"{f}.position")
+    r.check(coordinate_problem((cx, cy, cz)), f"{f}.position", what=who)
     rx, ry, rz = r.xyz(item.get("rotation", {"x": 0.0, "y": 0.0, "z": 0.0}), f"{f}.rotation")
     core = _ROOM_SUFFIX.sub("", raw_id)
     small = "|" in raw_id
@@ -282,6 +288,7 @@ def _object(
         r, item, f, raw_id, name, asset_id, placement, plan, (cx, cy, cz), unity, ctx, db, build
     )
     bx, by, bz = box
+    r.check(size_problem((bx, bz, by)), f, what=f"{who}: size from {source}")
     rotation = _SWAP @ unity @ _SWAP @ _HALF_TURN
     centre = np.array([cx, cz, cy])
     origin = centre - rotation @ np.array([0.0, 0.0, by / 2.0])
@@ -293,7 +300,9 @@ def _object(
     category = normalize_category(name)
     described = plan.get("description") if plan is not None else None
     description = described if isinstance(described, str) and described else name.replace("_", " ")
-    obj = SceneObject(
+    obj = r.scene_object(
+        f,
+        who,
         id=oid,
         category=category,
         description=description[:500],

@@ -15,7 +15,9 @@ re-derived and the copy is lossless. ``<hash12>`` is the first 12 hex digits of 
 the mesh file's bytes, so two objects sharing a mesh share one copy and saving the same scene
 twice gives the same layout and byte-identical JSON.
 
-This module belongs to the ``scene`` layer: it copies files but never parses a mesh.
+A ``scene.json`` is untrusted input: reading it checks that every mesh uri names a non-empty
+file inside the scene's folder (or an explicitly allowed root), symlinks followed; saving
+checks again that every file copied lies where it may (see ``docs/importers.md``).
 """
 
 from __future__ import annotations
@@ -25,15 +27,17 @@ import json
 import os
 import re
 import shutil
-import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import structlog
 from pydantic import ValidationError
 
-from scenemosaic.exceptions import AssetError, ImportFormatError, SceneValidationError
-from scenemosaic.scene import Scene, SceneObject
+from scenemosaic.assets import referenced_files
+from scenemosaic.exceptions import AssetError, ImportFormatError, SceneValidationError, UnsafePathError
+from scenemosaic.exchange._common import FieldReader
+from scenemosaic.scene import Scene, SceneObject, confined_path, real_path, write_atomic
 
 __all__ = ["ASSETS_DIR", "SCENE_FILE", "read_scene", "save_scene"]
 
@@ -55,8 +59,15 @@ def save_scene(
     Every ``kind == "mesh"`` asset file (with the buffers, textures and material files it
     references) is copied into ``folder/assets/<stem>-<hash12>/`` and its uri rewritten
     relative to ``folder``. Relative uris in ``scene`` are resolved against ``base_dir``
-    (default: the current directory); absolute uris are used as they are. The input scene is
-    not modified. A missing mesh file raises :class:`~scenemosaic.exceptions.AssetError`.
+    (default: the current directory) and must stay inside it, symlinks followed; absolute uris
+    are used as they are (the reader that made them checked them). The files a mesh references
+    must lie in the mesh's folder. The input scene is not modified. Files are written with the
+    mode a plain ``open`` gives (``0644`` under the usual umask).
+
+    Raises:
+        AssetError: naming the object, for a missing, empty or directory mesh file or a
+            missing side file; :class:`~scenemosaic.exceptions.UnsafePathError` (an
+            ``AssetError``) for a file outside where it may be.
     """
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
@@ -67,28 +78,30 @@ def save_scene(
         if obj.asset.kind != "mesh" or obj.asset.uri is None:
             objects.append(obj)
             continue
-        src = Path(obj.asset.uri)
-        if not src.is_absolute():
-            src = base / src
-        src = src.resolve()
+        src = _mesh_source(obj.asset.uri, base, obj.id)
         if src not in copied:
-            copied[src] = _copy_mesh(src, out, obj.id)
+            copied[src] = copy_mesh(src, out, obj.id)
         asset = obj.asset.model_copy(update={"uri": copied[src]})
         objects.append(obj.model_copy(update={"asset": asset}))
     saved = scene.model_copy(update={"objects": objects})
     target = out / SCENE_FILE
-    _write_atomic(target, saved.to_json() + "\n")
+    write_atomic(target, saved.to_json() + "\n")
     log.debug("scene_saved", path=str(target), objects=len(objects), meshes=len(copied))
     return target
 
 
-def read_scene(path: str | os.PathLike[str]) -> Scene:
+def read_scene(
+    path: str | os.PathLike[str], *, roots: Sequence[str | os.PathLike[str]] = ()
+) -> Scene:
     """Read a scene from a ``scene.json`` file or from a folder holding one.
 
     Malformed JSON raises :class:`~scenemosaic.exceptions.ImportFormatError` naming the file;
-    a document that breaks the scene model raises
+    a document that breaks the scene model (limits included) raises
     :class:`~scenemosaic.exceptions.SceneValidationError` naming the file, the offending
-    object's id and the field. Mesh uris stay as stored (relative to the scene folder).
+    object's id and the field. Every mesh uri must name a non-empty file inside the scene's
+    folder or one of ``roots``, symlinks followed (an absolute uri too); otherwise an
+    ``ImportFormatError`` names the file, the object and the field (``objects[3].asset.uri``).
+    Mesh uris stay as stored (relative to the scene folder).
     """
     p = Path(path)
     file = p / SCENE_FILE if p.is_dir() else p
@@ -103,21 +116,44 @@ def read_scene(path: str | os.PathLike[str]) -> Scene:
         raise ImportFormatError(
             f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", path=str(file)
         ) from exc
-    return scene_from_data(data, source=str(file))
+    return scene_from_data(data, source=str(file), roots=roots)
 
 
-def scene_from_data(data: Any, *, source: str) -> Scene:
-    """Validate already-parsed JSON data as a :class:`Scene`; errors name ``source``, object id and field."""
+def scene_from_data(data: Any, *, source: str, roots: Sequence[str | os.PathLike[str]] = ()) -> Scene:
+    """Validate already-parsed JSON data read from the file ``source`` as a :class:`Scene`.
+
+    Errors name ``source``, the object id and the field. Mesh uris are checked as
+    :func:`read_scene` says, against the folder of ``source`` and ``roots``.
+    """
     if not isinstance(data, dict):
         raise ImportFormatError(
             f"expected a JSON object at the top level, got {type(data).__name__}", path=source
         )
     try:
-        return Scene.model_validate(data)
+        scene = Scene.model_validate(data)
     except ValidationError as exc:
         raise _scene_validation_error(exc, data, source) from exc
     except SceneValidationError as exc:
         raise SceneValidationError(f"{source}: {exc}", object_id=exc.object_id) from exc
+    _check_mesh_files(scene, Path(source), [Path(r) for r in roots])
+    return scene
+
+
+def _check_mesh_files(scene: Scene, source: Path, roots: list[Path]) -> None:
+    """Every mesh uri names a non-empty regular file inside the scene's folder or ``roots``."""
+    r = FieldReader(source)
+    for i, obj in enumerate(scene.objects):
+        if obj.asset.kind != "mesh" or obj.asset.uri is None:
+            continue
+        field = f"objects[{i}].asset.uri"
+        what = f"object {obj.id!r}"
+        path = r.file(source.parent, obj.asset.uri, field, roots=roots, what=what)
+        if path.is_dir():
+            r.fail(field, f"{what}: {obj.asset.uri!r} is a directory, not a mesh file")
+        if not path.is_file():
+            r.fail(field, f"{what}: mesh file not found: {path}")
+        if path.stat().st_size == 0:
+            r.fail(field, f"{what}: mesh file {path} is empty (0 bytes)")
 
 
 # -- helpers --------------------------------------------------------------------------------------
@@ -131,7 +167,10 @@ def _scene_validation_error(exc: ValidationError, data: dict[str, Any], source: 
         where, object_id = _describe_location(err["loc"], data)
         if first_id is None and object_id is not None:
             first_id = object_id
-        parts.append(f"{where}: {err['msg']}")
+        message = str(err["msg"])
+        if object_id is not None:  # the object's own validator names it; the location already does
+            message = message.replace(f"Value error, object {object_id!r}: ", "Value error, ", 1)
+        parts.append(f"{where}: {message}")
     count = len(parts)
     plural = "s" if count != 1 else ""
     return SceneValidationError(
@@ -160,69 +199,42 @@ def _dotted(loc: tuple[int | str, ...]) -> str:
     return out
 
 
-def _copy_mesh(src: Path, folder: Path, object_id: str) -> str:
-    """Copy a mesh file and its side files under ``folder/assets``; return the new relative uri."""
+def _mesh_source(uri: str, base: Path, object_id: str) -> Path:
+    """The mesh file an object's uri names (see :func:`save_scene` for the rule)."""
+    try:
+        return confined_path(base, uri) if not Path(uri).is_absolute() else real_path(uri)
+    except UnsafePathError as exc:
+        raise UnsafePathError(f"object {object_id!r}: mesh uri {exc}", reference=uri, resolved=exc.resolved) from exc
+
+
+def copy_mesh(src: Path, folder: Path, object_id: str, subfolder: str = ASSETS_DIR) -> str:
+    """Copy a mesh file and its side files under ``folder/<subfolder>``; return the new relative uri.
+
+    ``src`` is resolved. Side files must lie in its folder; every file written must land in the
+    copy's own folder (a symlink planted in the destination does not redirect a copy).
+    """
+    if src.is_dir():
+        raise AssetError(f"object {object_id!r}: mesh uri names a directory, not a file: {src}")
     if not src.is_file():
         raise AssetError(f"object {object_id!r}: mesh file not found: {src}")
+    if src.stat().st_size == 0:
+        raise AssetError(f"object {object_id!r}: mesh file is empty (0 bytes): {src}")
+    try:
+        side_files = referenced_files(src)
+    except UnsafePathError as exc:
+        raise UnsafePathError(f"object {object_id!r}: {exc}", reference=exc.reference, resolved=exc.resolved) from exc
+    except AssetError as exc:
+        raise AssetError(f"object {object_id!r}: {exc}") from exc
     digest = hashlib.sha256(src.read_bytes()).hexdigest()[:_HASH_CHARS]
     stem = re.sub(r"[^A-Za-z0-9_.\-]", "_", src.stem)[:40] or "mesh"
-    rel_dir = Path(ASSETS_DIR) / f"{stem}-{digest}"
+    rel_dir = Path(subfolder) / f"{stem}-{digest}"
     dest_dir = folder / rel_dir
-    for rel in [src.name, *_side_files(src)]:
-        from_path = (src.parent / rel).resolve()
-        if not from_path.is_relative_to(src.parent.resolve()):
-            raise AssetError(f"object {object_id!r}: mesh {src} references {rel!r} outside its folder")
+    for rel, from_path in [(src.name, src), *side_files]:
         if not from_path.is_file():
             raise AssetError(f"object {object_id!r}: mesh {src} references missing file {rel!r}")
-        to_path = dest_dir / rel
-        if to_path.resolve() == from_path:
+        to_path = confined_path(dest_dir, rel)
+        if to_path == from_path:
             continue  # saving a scene into the folder it was read from
         to_path.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(from_path, to_path)
     return (rel_dir / src.name).as_posix()
-
-
-def _side_files(mesh: Path) -> list[str]:
-    """Relative paths of the files a mesh file references (glTF buffers/images, OBJ materials/textures)."""
-    suffix = mesh.suffix.lower()
-    if suffix == ".gltf":
-        try:
-            doc = json.loads(mesh.read_text(encoding="utf-8"))
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise AssetError(f"cannot read glTF {mesh}: {exc}") from exc
-        uris = [
-            entry.get("uri")
-            for key in ("buffers", "images")
-            for entry in (doc.get(key) or [])
-            if isinstance(entry, dict)
-        ]
-        return sorted({u for u in uris if isinstance(u, str) and not u.startswith("data:")})
-    if suffix == ".obj":
-        files: set[str] = set()
-        for line in mesh.read_text(encoding="utf-8", errors="replace").splitlines():
-            if line.startswith("mtllib "):
-                mtl = line.split(maxsplit=1)[1].strip()
-                files.add(mtl)
-                mtl_path = mesh.parent / mtl
-                if mtl_path.is_file():
-                    for mline in mtl_path.read_text(encoding="utf-8", errors="replace").splitlines():
-                        token = mline.strip().split()
-                        if (
-                            token
-                            and token[0].lower().startswith(("map_", "bump", "disp", "norm"))
-                            and len(token) > 1
-                        ):
-                            files.add(token[-1])
-        return sorted(files)
-    return []
-
-
-def _write_atomic(target: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=".scene-", suffix=".json.tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise

@@ -29,7 +29,7 @@ from scipy.spatial.transform import Rotation
 from shapely.geometry import Point, Polygon
 
 from scenemosaic.exceptions import ImportFormatError
-from scenemosaic.exchange._common import FieldReader, read_json, sanitize_id, unique_id
+from scenemosaic.exchange._common import FieldReader, read_json
 from scenemosaic.scene import (
     PROCTHOR_PRIORS_DIR,
     AssetRef,
@@ -42,6 +42,11 @@ from scenemosaic.scene import (
     Scene,
     SceneObject,
     Wall,
+    coordinate_problem,
+    object_count_problem,
+    sanitize_id,
+    size_problem,
+    unique_id,
 )
 
 __all__ = [
@@ -191,7 +196,8 @@ def import_procthor(data: Any, path: Path, *, asset_database: Any = None) -> lis
         _add_object(r, item, field_name, None, build, db, taken)
 
     scenes = []
-    for b in builds:
+    for i, b in enumerate(builds):
+        r.check(object_count_problem(len(b.objects)), "objects", what=f"room {b.source_id!r} (rooms[{i}])")
         scenes.append(
             Scene(
                 id=b.room.id,
@@ -275,7 +281,7 @@ def _build_room(
         r.fail(f"{f}.floorPolygon", "the floor polygon is degenerate or self-intersecting")
     heights = [w.height for w in walls_by_id.values() if w.room_id == source_id and w.height is not None]
     ceiling = max(heights) if heights else DEFAULT_CEILING_HEIGHT
-    rid = unique_id(sanitize_id(source_id), room_ids)
+    rid = unique_id(sanitize_id(source_id, fallback="room"), room_ids)
     try:
         built = Room.from_polygon(floor, ceiling_height=ceiling, room_id=rid)
     except ValidationError as exc:
@@ -377,7 +383,11 @@ def _add_object(
     if asset_id not in db.boxes:
         r.fail(f"{f}.assetId", f"asset {asset_id!r} is not in the asset database {db.source or ''}".rstrip())
     bx, by, bz = db.boxes[asset_id]
+    raw_id = item.get("id")
+    who = f"object {raw_id!r}" if isinstance(raw_id, str) else f"asset {asset_id!r}"
+    r.check(size_problem((bx, bz, by)), f"{f}.assetId", what=f"{who}: asset database box")
     cx, cy, cz = r.xyz(r.get(item, "position", f), f"{f}.position")
+    r.check(coordinate_problem((cx, cy, cz)), f"{f}.position", what=who)
     rot_raw = item.get("rotation", {"x": 0.0, "y": 0.0, "z": 0.0})
     rx, ry, rz = r.xyz(rot_raw, f"{f}.rotation")
     rotation = _SWAP @ _unity_rotation(rx, ry, rz) @ _SWAP @ _HALF_TURN
@@ -390,11 +400,12 @@ def _add_object(
         pose = Pose(position=tuple(origin.tolist()), quaternion=(qw, qx, qy, qz))
     otype = db.types.get(asset_id, "Object")
     category = _camel_to_snake(otype)
-    raw_id = item.get("id")
     oid = unique_id(sanitize_id(raw_id) if isinstance(raw_id, str) else category, taken)
     words = category.replace("_", " ")
     build.objects.append(
-        SceneObject(
+        r.scene_object(
+            f,
+            who,
             id=oid,
             category=category,
             description=f"{words} (AI2-THOR asset {asset_id})",

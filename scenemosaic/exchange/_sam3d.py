@@ -53,10 +53,12 @@ from pydantic import ValidationError
 from scipy.spatial.transform import Rotation
 
 from scenemosaic.exceptions import AssetError, ImportFormatError
-from scenemosaic.exchange._common import FieldReader, sanitize_id, unique_id
+from scenemosaic.exchange._common import FieldReader
+from scenemosaic.exchange._native import copy_mesh
 from scenemosaic.scene import (
     CEILING,
     FLOOR,
+    MAX_OBJECT_SIZE,
     AssetRef,
     FloatArray,
     Pose,
@@ -65,10 +67,18 @@ from scenemosaic.scene import (
     Scene,
     SceneObject,
     SimAttributes,
+    confined_path,
+    coordinate_problem,
+    real_path,
     recover_room,
+    sanitize_id,
+    scale_problem,
+    unique_id,
+    write_atomic,
 )
 
 __all__ = [
+    "EXAMPLE_MESH_FOLDER",
     "POSES_FILE",
     "UNIT_SCALES",
     "import_sam3d",
@@ -111,8 +121,9 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
     """Build a :class:`Scene` of mesh objects from a parsed ``poses.json`` at ``path``.
 
     Mesh uris are stored as absolute paths (the scene has no folder yet; :func:`save_scene`
-    copies them and makes them relative). Without ``room`` (argument or file) the room is
-    recovered from the objects like a 3D-FRONT layout's.
+    copies them and makes them relative). A mesh must lie inside the folder of ``poses.json``
+    (sub-folders included; symlinks followed), and so must every file it references. Without
+    ``room`` (argument or file) the room is recovered from the objects like a 3D-FRONT layout's.
     """
     from scenemosaic.assets import load_mesh, mesh_hash  # importers sit above assets
 
@@ -124,23 +135,11 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
     unit = UNIT_SCALES[units]
     default_frame = _frame(r, top.get("frame", "z_up"), "frame")
     given_room = room if room is not None else _room(r, top.get("room"), default_frame, unit)
-    items = r.array(r.get(top, "objects", ""), "objects")
+    items = r.objects(r.get(top, "objects", ""), "objects")
     if not items:
         r.fail("objects", "the object set is empty")
-
-    # explicit ids are the objects' identities (masks, meshes and poses refer to them): a repeated
-    # one is an error, never renamed; generated ids (label_n) steer around every explicit one
-    explicit: dict[str, int] = {}
-    for i, raw in enumerate(items):
-        raw_id = raw.get("id") if isinstance(raw, Mapping) else None
-        if isinstance(raw_id, str) and raw_id:
-            sid = sanitize_id(raw_id)
-            if sid in explicit:
-                r.fail(f"objects[{i}].id", f"duplicate id {raw_id!r} (objects[{explicit[sid]}] has it too)")
-            if sid in (FLOOR, CEILING) or re.fullmatch(r"wall_\d+", sid):
-                r.fail(f"objects[{i}].id", f"id {raw_id!r} is reserved for a room anchor")
-            explicit[sid] = i
-    taken: set[str] = set(explicit)
+    explicit = _explicit_ids(r, items)
+    taken: set[str] = set(explicit.values())
     counters: dict[str, int] = {}
     objects: list[SceneObject] = []
     notes: list[str] = []
@@ -149,11 +148,16 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
         f = f"objects[{i}]"
         item = r.mapping(raw, f)
         label = r.label(r.get(item, "label", f), f"{f}.label")
+        raw_id = item.get("id")
+        who = f"object {raw_id!r}" if isinstance(raw_id, str) and raw_id else f"object {label!r}"
         mesh_rel = r.text(r.get(item, "mesh", f), f"{f}.mesh")
-        mesh_path = (path.parent / mesh_rel).resolve()
+        mesh_path = r.file(path.parent, mesh_rel, f"{f}.mesh", what=who)
+        if mesh_path.is_dir():
+            r.fail(f"{f}.mesh", f"{who}: {mesh_rel!r} is a directory, not a mesh file")
         if not mesh_path.is_file():
             r.fail(f"{f}.mesh", f"mesh file not found: {mesh_path}")
         position = np.array(r.vector(r.get(item, "position", f), 3, f"{f}.position"))
+        r.check(coordinate_problem(position * unit), f"{f}.position", what=who)
         quat = r.vector(item.get("quaternion", [1.0, 0.0, 0.0, 0.0]), 4, f"{f}.quaternion")
         norm = math.sqrt(sum(c * c for c in quat))
         if norm < 1e-9:
@@ -161,6 +165,7 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
         scale = np.array(r.vector(item.get("scale", [1.0, 1.0, 1.0]), 3, f"{f}.scale"))
         if scale.min() <= 0:
             r.fail(f"{f}.scale", f"scale must be positive on every axis, got {scale.tolist()}")
+        r.check(scale_problem(scale), f"{f}.scale", what=who)
         frame = _frame(r, item.get("frame", default_frame), f"{f}.frame")
         up_raw = item.get("up_axis", "auto")
         if up_raw not in _UP_AXES:
@@ -191,18 +196,19 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
         if not exact:
             notes.append(f"{f}: scale is not aligned with the canonical axes; rotation approximated")
 
-        raw_id = item.get("id")
         if raw_id is not None and not isinstance(raw_id, str):
             r.fail(f"{f}.id", "expected a string")
         n = counters.get(label, 0)
         counters[label] = n + 1
-        oid = sanitize_id(raw_id) if raw_id else unique_id(f"{label}_{n}", taken)
+        oid = explicit[i] if i in explicit else unique_id(f"{label}_{n}", taken)
         description = item.get("description", label.replace("_", " "))
         if not isinstance(description, str):
             r.fail(f"{f}.description", "expected a string")
         sim = _sim(r, item.get("sim"), f"{f}.sim")
         objects.append(
-            SceneObject(
+            r.scene_object(
+                f,
+                who,
                 id=oid,
                 category=label,
                 description=description[:500],
@@ -224,13 +230,46 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
         notes.append("room recovered from the objects' footprints")
     log.debug("sam3d_imported", path=str(path), objects=len(objects))
     return Scene(
-        id=sanitize_id(path.parent.name if path.name == POSES_FILE else path.stem),
+        id=sanitize_id(path.parent.name if path.name == POSES_FILE else path.stem, fallback="scene"),
         room=scene_room,
         objects=objects,
         provenance=Provenance(
             source_format="sam3d", source_path=path.as_posix(), importer=IMPORTER, notes=notes
         ),
     )
+
+
+def _explicit_ids(r: FieldReader, items: list[Any]) -> dict[int, str]:
+    """Our id for each object that gives one, by index.
+
+    Explicit ids are the objects' identities (masks, meshes and poses refer to them): a repeated
+    one is an error naming both entries by their original text, never renamed. Ids already in
+    the id alphabet are kept verbatim; the others are sanitized (:func:`sanitize_id`) and, should
+    two sanitize alike, told apart with a suffix. Generated ids (``label_n``) steer around all.
+    """
+    first: dict[str, int] = {}
+    given: list[tuple[int, str]] = []
+    for i, raw in enumerate(items):
+        raw_id = raw.get("id") if isinstance(raw, Mapping) else None
+        if not isinstance(raw_id, str) or not raw_id:
+            continue
+        if raw_id in first:
+            r.fail(f"objects[{i}].id", f"duplicate id {raw_id!r} (objects[{first[raw_id]}] has it too)")
+        sid = sanitize_id(raw_id)
+        if sid in (FLOOR, CEILING) or re.fullmatch(r"wall_\d+", sid):
+            r.fail(f"objects[{i}].id", f"id {raw_id!r} is reserved for a room anchor")
+        first[raw_id] = i
+        given.append((i, raw_id))
+    out: dict[int, str] = {}
+    taken: set[str] = set()
+    verbatim = [(i, raw_id) for i, raw_id in given if sanitize_id(raw_id) == raw_id]
+    for i, raw_id in verbatim:
+        out[i] = raw_id
+        taken.add(raw_id)
+    for i, raw_id in given:
+        if i not in out:
+            out[i] = unique_id(sanitize_id(raw_id), taken)
+    return out
 
 
 def _turn_to_front(
@@ -278,8 +317,8 @@ def _room(r: FieldReader, value: Any, frame: str, unit: float) -> Room | None:
         a, b = r.vector(p, 2, f"room.floor[{j}]")
         floor.append((a * unit, -b * unit) if frame == "y_up" else (a * unit, b * unit))
     height = r.number(spec.get("ceiling_height", 2.8 / unit), "room.ceiling_height") * unit
-    if height <= 0:
-        r.fail("room.ceiling_height", "must be positive")
+    if not 0 < height <= MAX_OBJECT_SIZE:
+        r.fail("room.ceiling_height", f"must be positive and at most {MAX_OBJECT_SIZE:g} m, got {height:g} m")
     try:
         return Room.from_polygon(floor, ceiling_height=height)
     except ValidationError as exc:
@@ -369,6 +408,8 @@ def _sdf_room(sdf: Path) -> tuple[tuple[float, float, float, float], float] | No
     return floor, top
 
 
+EXAMPLE_MESH_FOLDER = "meshes"
+"""Folder, beside the example's ``poses.json``, that holds the copies of the shared meshes."""
 _EXAMPLE_MESHES = {
     "bed": ("generated_assets/sdf/king_bed_*/king_bed.gltf", "bed"),
     "work_desk": ("generated_assets/sdf/work_desk_*/work_desk.gltf", "desk"),
@@ -390,8 +431,10 @@ def write_sam3d_example(
     5 x 5 m room of ``room_geometry.sdf``: the bed against the north wall, the work desk
     against the south wall, the office chair in front of the desk facing it, the printer
     (turned a quarter so it fits the desk's depth) and the mug on the desk top. Mass and
-    friction come from each mesh's ``.sdf``. Meshes are referenced (relative paths), not
-    copied. ``frame`` picks the frame the poses are written in (``z_up`` or ``y_up``).
+    friction come from each mesh's ``.sdf``. The meshes are copied, with their buffers, into
+    ``folder/meshes/<stem>-<hash12>/`` and referenced relative to ``poses.json``: a pose file
+    may only use meshes inside its own folder. ``frame`` picks the frame the poses are written
+    in (``z_up`` or ``y_up``).
     """
     from scenemosaic.assets import load_mesh, mesh_hash
 
@@ -408,9 +451,10 @@ def write_sam3d_example(
         matches = sorted(shared.glob(pattern))
         if not matches:
             raise AssetError(f"no mesh matching {pattern!r} under {shared}")
-        mesh = matches[0]
-        sdfs = sorted(mesh.parent.glob("*.sdf"))
-        sim = read_sdf_sim(sdfs[0]) if sdfs else SimAttributes()
+        source = real_path(matches[0])
+        sdfs = sorted(source.parent.glob("*.sdf"))
+        sim = read_sdf_sim(confined_path(source.parent, sdfs[0].name)) if sdfs else SimAttributes()
+        mesh = out / copy_mesh(source, out, key, EXAMPLE_MESH_FOLDER)
         found[key] = (mesh, _turn_to_front(load_mesh(mesh), _FRONT_TURNS[_EXAMPLE_FRONT], mesh_hash), sim)
 
     def ext(key: str) -> FloatArray:
@@ -447,7 +491,7 @@ def write_sam3d_example(
             {
                 "id": key,
                 "label": _EXAMPLE_MESHES[key][1],
-                "mesh": os.path.relpath(mesh, out),
+                "mesh": mesh.relative_to(out).as_posix(),
                 "position": [round(float(v), 9) for v in source_to_world[:3, 3]],
                 "quaternion": [round(float(v), 12) for v in (qw, qx, qy, qz)],
                 "scale": [round(float(v), 12) for v in scale],
@@ -465,6 +509,4 @@ def write_sam3d_example(
         "room": {"floor": floor, "ceiling_height": ceiling},
         "objects": objects,
     }
-    target = out / POSES_FILE
-    target.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
-    return target
+    return write_atomic(out / POSES_FILE, json.dumps(doc, indent=2) + "\n")

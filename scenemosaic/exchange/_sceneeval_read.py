@@ -16,9 +16,10 @@ Frames (the exact inverse of our export, ``_sceneeval.py``):
   bottom centre lands, ``T + B · c``.
 
 Meshes are looked up as ``<assetId>.glb`` in ``asset_dir`` (when given), then in ``assets/``
-beside the file: the layout our export writes. Objects become ``AssetRef(kind="mesh")`` with a
-uri relative to the scene file's folder when the mesh lies under it (absolute otherwise), the
-mesh's canonical ``source_transform`` and content hash.
+beside the file: the layout our export writes. A mesh found there must resolve (symlinks
+followed) inside the scene file's folder or ``asset_dir``. Objects become
+``AssetRef(kind="mesh")`` with a uri relative to the scene file's folder when the mesh lies under
+it (absolute otherwise), the mesh's canonical ``source_transform`` and content hash.
 """
 
 from __future__ import annotations
@@ -38,11 +39,12 @@ from shapely.geometry import Point, Polygon
 
 from scenemosaic.assets import CanonicalMesh, load_mesh
 from scenemosaic.exceptions import AssetError
-from scenemosaic.exchange._common import FieldReader, normalize_label, sanitize_id, unique_id
+from scenemosaic.exchange._common import FieldReader, normalize_label
 from scenemosaic.exchange._sceneeval import LOCAL_TO_GLTF
 from scenemosaic.scene import (
     CEILING,
     FLOOR,
+    MAX_OBJECT_SIZE,
     AssetRef,
     FloatArray,
     Opening,
@@ -53,8 +55,12 @@ from scenemosaic.scene import (
     Scene,
     SceneObject,
     Wall,
+    coordinate_problem,
     normalize_category,
     recover_room,
+    sanitize_id,
+    scale_problem,
+    unique_id,
 )
 
 __all__ = ["SCENEEVAL_ASSET_FOLDER", "import_sceneeval", "looks_like_sceneeval"]
@@ -104,7 +110,7 @@ def import_sceneeval(data: Any, path: Path, *, asset_dir: Path | None = None) ->
         r.fail("format", f"expected 'sceneState', got {fmt!r}")
     body = r.mapping(r.get(top, "scene", ""), "scene")
     _check_frame(r, body)
-    raw_objects = r.array(body.get("object") or [], "scene.object")
+    raw_objects = r.objects(body.get("object") or [], "scene.object")
 
     # pass 1: everything the file itself says (fails fast on malformed fields)
     parsed: list[_Parsed] = []
@@ -123,7 +129,14 @@ def import_sceneeval(data: Any, path: Path, *, asset_dir: Path | None = None) ->
         if hit is None:
             missing[p.asset_id] = p.field
         else:
-            found[p.asset_id] = hit
+            # the file found may be a symlink: where it leads must be the scene's folder or asset_dir
+            found[p.asset_id] = r.file(
+                path.parent,
+                str(hit.absolute()),
+                f"{p.field}.modelId",
+                roots=[asset_dir] if asset_dir is not None else [],
+                what=f"asset {p.asset_id!r}",
+            )
     if missing:
         _fail_missing(r, missing, folders)
 
@@ -146,7 +159,9 @@ def import_sceneeval(data: Any, path: Path, *, asset_dir: Path | None = None) ->
                 f"{p.field}.transform has shear ({p.shear:.2g} of its scale); kept its per-axis scale"
             )
         objects.append(
-            SceneObject(
+            r.scene_object(
+                p.field,
+                f"object {p.source_id or p.oid!r}",
                 id=p.oid,
                 category=p.category,
                 description=f"SceneEval model {p.model_id}"[:500],
@@ -175,7 +190,7 @@ def import_sceneeval(data: Any, path: Path, *, asset_dir: Path | None = None) ->
     scene_id = _text_id(body.get("id"))
     log.debug("sceneeval_imported", path=str(path), objects=len(objects), assets=len(canonical))
     return Scene(
-        id=sanitize_id(scene_id or path.stem),
+        id=sanitize_id(scene_id or path.stem, fallback="scene"),
         room=room,
         objects=objects,
         relations=relations,
@@ -273,9 +288,11 @@ def _decompose(
         r.fail(tf, f"degenerate transform (singular values {sigma.tolist()})")
     if np.linalg.det(linear) < 0:
         r.fail(tf, "the transform mirrors the object (negative determinant); reflections are not supported")
+    r.check(coordinate_problem(m[:3, 3]), f"{tf}.data")
     rotation = w @ vt
     stretch = vt.T @ np.diag(sigma) @ vt
     scale = np.diag(stretch).copy()
+    r.check(scale_problem(scale), tf)
     off = stretch - np.diag(scale)
     shear = float(np.max(np.abs(off)) / sigma[0])
     qx, qy, qz, qw = Rotation.from_matrix(rotation).as_quat()
@@ -352,6 +369,8 @@ def _room_from_arch(
         r.vector(p, 3, f"{ff}.points[{j}]")
         for j, p in enumerate(r.array(r.get(floor_el, "points", ff), f"{ff}.points"))
     ]
+    for j, p in enumerate(pts):
+        r.check(coordinate_problem(p[:2]), f"{ff}.points[{j}]")
     floor = [(p[0], p[1]) for p in pts]
     if len(floor) < 3:
         r.fail(f"{ff}.points", f"a floor polygon needs at least 3 points, got {len(floor)}")
@@ -407,6 +426,8 @@ def _wall(
         r.fail(f"{f}.points", f"a wall needs 2 points, got {len(pts)}")
     a = r.vector(pts[0], 3, f"{f}.points[0]")
     b = r.vector(pts[1], 3, f"{f}.points[1]")
+    r.check(coordinate_problem(a[:2]), f"{f}.points[0]")
+    r.check(coordinate_problem(b[:2]), f"{f}.points[1]")
     start, end = (a[0], a[1]), (b[0], b[1])
     length = math.dist(start, end)
     if length < 1e-9:
@@ -414,6 +435,8 @@ def _wall(
     height = r.number(w["height"], f"{f}.height") if "height" in w else ceiling
     if height is None or height <= 0:
         r.fail(f"{f}.height", "missing or non-positive wall height (and no ceiling to take it from)")
+    if height > MAX_OBJECT_SIZE:
+        r.fail(f"{f}.height", f"wall height {height:g} m is above the {MAX_OBJECT_SIZE:g} m maximum")
     thickness = r.number(w["depth"], f"{f}.depth") if "depth" in w else 0.1
     if thickness <= 0:
         r.fail(f"{f}.depth", f"wall depth must be positive, got {thickness}")

@@ -12,29 +12,39 @@ Wrappers that add behaviour around any model:
 * :class:`ReplayModel` — record / replay replies in a JSON cassette.
 * :class:`LimitedModel` — shared concurrency and request/token rate limits.
 * :class:`InstrumentedModel` — a :class:`ModelCall` record per request.
+* :class:`DeadlineModel` — one wall-clock budget for all requests of a run.
+* :class:`CircuitBreakerModel` — refuse requests at once while an endpoint keeps failing.
 
 :func:`parse_model` builds any of these from a string.
 """
 
 from scenemosaic.models._base import ImagePart, Message, Model, ModelSettings, RequestContext, TextPart, Usage
+from scenemosaic.models._circuit import CircuitBreakerModel, CircuitState
 from scenemosaic.models._completion import Completion, CompletionModel
+from scenemosaic.models._deadline import DeadlineModel
 from scenemosaic.models._function import AgentFunction, FunctionModel
 from scenemosaic.models._instrument import InstrumentedModel, ModelCall
 from scenemosaic.models._limit import LimitedModel, RateLimiter, TokenBucket
-from scenemosaic.models._openai import HTTPRetryPolicy, OpenAIChatModel, StructuredMode
+from scenemosaic.models._openai import DEFAULT_TIMEOUT_S, HTTPRetryPolicy, OpenAIChatModel, StructuredMode
 from scenemosaic.models._parse import MODEL_SPEC_HELP, parse_model
 from scenemosaic.models._replay import Cassette, ReplayMode, ReplayModel, canonical_request, request_key
 from scenemosaic.models._rules import RulesModel
-from scenemosaic.models._schema import SchemaBounds, extract_json, strict_json_schema
+from scenemosaic.models._schema import STRICT_SCHEMA_KEYWORDS, SchemaBounds, extract_json, strict_json_schema
+from scenemosaic.models._tokens import estimate_tokens
 from scenemosaic.models._usage import ModelCallLike, ModelPrice, UsageLimits, UsageRecord, UsageTracker
 from scenemosaic.models._wrapper import WrapperModel
 
 __all__ = [
+    "DEFAULT_TIMEOUT_S",
     "MODEL_SPEC_HELP",
+    "STRICT_SCHEMA_KEYWORDS",
     "AgentFunction",
     "Cassette",
+    "CircuitBreakerModel",
+    "CircuitState",
     "Completion",
     "CompletionModel",
+    "DeadlineModel",
     "FunctionModel",
     "HTTPRetryPolicy",
     "ImagePart",
@@ -62,6 +72,7 @@ __all__ = [
     "UsageTracker",
     "WrapperModel",
     "canonical_request",
+    "estimate_tokens",
     "extract_json",
     "parse_model",
     "request_key",

@@ -67,15 +67,24 @@ class ModelSettings:
     """Sampling temperature; 0 for reproducible structured answers."""
     max_tokens: int | None = 2048
     """Cap on output tokens. A reply cut at this cap is treated as truncated, never as valid."""
-    timeout_s: float | None = 120.0
-    """Per-request timeout in seconds (connect + read)."""
+    timeout_s: float | None = None
+    """Time-out of each HTTP attempt in seconds; ``None`` (the default) means the model's own
+    (``OpenAIChatModel(timeout_s=...)``, else 120 s). A value set here wins over the model's;
+    a run deadline (:class:`~scenemosaic.models.DeadlineModel`) can only shorten it."""
     seed: int | None = None
     """Sampling seed where the server honours one."""
 
 
 @dataclass
 class Usage:
-    """Token and request counts of one call or an aggregate of calls."""
+    """Token and request counts of one call or an aggregate of calls.
+
+    ``requests`` counts HTTP requests the server answered: every attempt that got a response
+    counts, whatever its status (a 429 that was retried, a reply cut at ``max_tokens`` and
+    sent again, a reply that failed validation). Attempts that got no response at all
+    (connection refused, time-out) are not counted. Token counts are what the server
+    reported, summed over those attempts.
+    """
 
     requests: int = 0
     input_tokens: int = 0
@@ -136,6 +145,15 @@ class Model(abc.ABC):
         context: RequestContext | None = None,
     ) -> tuple[OutputT, Usage]:
         """Send ``messages`` and return the reply validated as ``output_type`` plus its usage."""
+
+    @property
+    def default_timeout_s(self) -> float | None:
+        """The per-attempt time-out this model uses when ``ModelSettings.timeout_s`` is ``None``.
+
+        ``None`` when the model has no time-out of its own (it does no I/O, or lets the
+        caller bound it). Wrappers report their wrapped model's value.
+        """
+        return None
 
     async def aclose(self) -> None:  # noqa: B027 - optional hook, most models hold nothing
         """Release connections; a no-op unless the model holds any."""

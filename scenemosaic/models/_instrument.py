@@ -27,7 +27,8 @@ class ModelCall:
     model: str
     """The model's name."""
     usage: Usage = field(default_factory=Usage)
-    """Tokens and requests of the call (empty when it failed)."""
+    """Tokens and requests of the call. A failed call reports what it cost when the error
+    carries it (an invalid reply, retried 429s and 5xx); else it is empty."""
     latency_s: float = 0.0
     """Wall-clock seconds from request to answer or error, repairs and retries included."""
     ok: bool = True
@@ -73,11 +74,13 @@ class InstrumentedModel(WrapperModel):
         try:
             output, usage = await self.wrapped.request(messages, output_type, settings, context=context)
         except BaseException as exc:  # cancellations are reported too, then re-raised
+            spent = getattr(exc, "usage", None)
             self._report(
                 ModelCall(
                     agent=agent,
                     node=node,
                     model=self.name,
+                    usage=spent if isinstance(spent, Usage) else Usage(),
                     latency_s=self._clock() - started,
                     ok=False,
                     error=f"{type(exc).__name__}: {exc}",

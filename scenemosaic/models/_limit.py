@@ -14,47 +14,15 @@ import time
 from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
 
-from scenemosaic.exceptions import ModelConfigError
-from scenemosaic.models._base import (
-    ImagePart,
-    Message,
-    Model,
-    ModelSettings,
-    OutputT,
-    RequestContext,
-    TextPart,
-    Usage,
-)
+from scenemosaic.exceptions import ModelConfigError, ModelError
+from scenemosaic.models._base import Message, Model, ModelSettings, OutputT, RequestContext, Usage
+from scenemosaic.models._tokens import estimate_tokens
 from scenemosaic.models._wrapper import WrapperModel
 
 __all__ = ["LimitedModel", "RateLimiter", "TokenBucket", "estimate_tokens"]
 
 Clock = Callable[[], float]
 Sleep = Callable[[float], Awaitable[None]]
-
-CHARS_PER_TOKEN = 4.0
-"""Rough characters per token for English prompts and JSON, used only to pre-book tokens."""
-IMAGE_TOKENS = 765
-"""Tokens pre-booked per image (a 1024 px image at high detail on OpenAI's tiling is 765)."""
-
-
-def estimate_tokens(messages: list[Message], settings: ModelSettings | None) -> int:
-    """Tokens to book before a request: prompt text / 4, images, plus the output cap.
-
-    Providers count the requested output cap against a tokens-per-minute limit when the
-    request arrives, so it is booked in full; the difference to the real usage is given
-    back (or charged) when the reply comes.
-    """
-    chars = 0
-    images = 0
-    for message in messages:
-        for part in message.parts:
-            if isinstance(part, TextPart):
-                chars += len(part.text)
-            elif isinstance(part, ImagePart):
-                images += 1
-    out_cap = settings.max_tokens if settings and settings.max_tokens else 0
-    return int(chars / CHARS_PER_TOKEN) + images * IMAGE_TOKENS + out_cap
 
 
 class TokenBucket:
@@ -186,8 +154,9 @@ class RateLimiter:
             self.max_in_flight = max(self.max_in_flight, self.in_flight)
 
             def settle(usage: Usage) -> None:
-                # A wrapped model may have sent several HTTP requests (repairs, retries
-                # after truncation): the extra ones are charged to the request bucket.
+                # A wrapped model may have sent several HTTP requests (retried 429s and
+                # 5xx, a re-send after truncation): the extra ones are charged to the
+                # request bucket, since the provider counted them too.
                 if self.requests is not None and usage.requests > 1:
                     self.requests.adjust(usage.requests - 1)
                 if self.tokens is not None:
@@ -236,6 +205,14 @@ class LimitedModel(WrapperModel):
         """Wait for a slot and the rate budgets, then forward the request."""
         estimate = estimate_tokens(messages, settings) if self.limiter.tokens is not None else 0
         async with self.limiter.slot(estimate) as settle:
-            output, usage = await self.wrapped.request(messages, output_type, settings, context=context)
+            try:
+                output, usage = await self.wrapped.request(messages, output_type, settings, context=context)
+            except ModelError as exc:
+                # A failed call may still have cost requests and tokens (a reply that did
+                # not validate, retried 429s): the provider counted them, so the buckets do.
+                spent = getattr(exc, "usage", None)
+                if isinstance(spent, Usage):
+                    settle(spent)
+                raise
             settle(usage)
         return output, usage

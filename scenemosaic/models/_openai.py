@@ -1,10 +1,16 @@
 """A model behind an OpenAI-compatible Chat Completions endpoint (OpenAI, vLLM, llama.cpp...).
 
 The wire format is the plain ``POST {base_url}/chat/completions`` JSON; images travel as
-``image_url`` parts holding ``data:image/png;base64,...`` URLs. Transient failures (429,
-5xx, connect errors, timeouts) are retried with tenacity, honouring ``Retry-After``; a
-dropped keep-alive connection (``httpx.RemoteProtocolError``) is retried once at once.
-Everything else becomes a :class:`ModelHTTPError` carrying the status and the body.
+``image_url`` parts holding ``data:image/png;base64,...`` URLs.
+
+Transient failures (429, 408/409/425, 5xx, time-outs, refused, reset or dropped
+connections, read and write errors) are retried under an :class:`HTTPRetryPolicy`:
+bounded attempts, each under its own time-out, waits honouring a capped ``Retry-After``,
+and a total budget after which no attempt starts. A prompt over the context window raises
+:class:`ModelContextLengthError`; any other non-200 reply a :class:`ModelHTTPError` with the
+status and the body. A 200 reply that is not a usable completion (an HTML page, no
+choices, no content, a body over ``max_reply_bytes``) is an ordinary invalid reply: an
+:class:`OutputValidationError` the asking agent repairs or falls back from.
 """
 
 from __future__ import annotations
@@ -12,12 +18,13 @@ from __future__ import annotations
 import asyncio
 import base64
 import json
+import math
 import os
 import random
 import re
 import time
 from collections.abc import Awaitable, Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from email.utils import parsedate_to_datetime
 from typing import Any, Literal
@@ -25,19 +32,38 @@ from typing import Any, Literal
 import httpx
 import structlog
 from pydantic import BaseModel
-from tenacity import AsyncRetrying, RetryCallState, retry_if_exception, stop_after_attempt
 
-from scenemosaic.exceptions import ModelConfigError, ModelError, ModelHTTPError
+from scenemosaic.exceptions import ModelConfigError, ModelContextLengthError, ModelError, ModelHTTPError
 from scenemosaic.models._base import ImagePart, Message, ModelSettings, RequestContext, TextPart, Usage
 from scenemosaic.models._completion import Completion, CompletionModel
 from scenemosaic.models._schema import SchemaBounds, strict_json_schema
+from scenemosaic.models._tokens import estimate_tokens
 
-__all__ = ["DEFAULT_OPENAI_BASE_URL", "HTTPRetryPolicy", "OpenAIChatModel", "StructuredMode"]
+__all__ = [
+    "CONTEXT_ESTIMATE_SLACK",
+    "DEFAULT_MAX_REPLY_BYTES",
+    "DEFAULT_OPENAI_BASE_URL",
+    "DEFAULT_TIMEOUT_S",
+    "HTTPRetryPolicy",
+    "OpenAIChatModel",
+    "StructuredMode",
+    "parse_retry_after",
+]
 
 log = structlog.get_logger(__name__)
 
 DEFAULT_OPENAI_BASE_URL = "https://api.openai.com/v1"
 """Where ``OpenAIChatModel`` sends requests unless told otherwise."""
+
+DEFAULT_TIMEOUT_S = 120.0
+"""Time-out of each HTTP attempt when neither the request's settings nor the model set one."""
+
+DEFAULT_MAX_REPLY_BYTES = 1_000_000
+"""Largest reply body read; a larger 200 reply is an invalid reply (no agent output is near 1 MB)."""
+
+CONTEXT_ESTIMATE_SLACK = 1.1
+"""A prompt is refused before sending only when its estimated size exceeds ``context_tokens``
+by this factor: the estimate can be off by about that much either way."""
 
 StructuredMode = Literal["json_schema", "json_object", "none"]
 """How a reply is constrained: a strict JSON schema, any JSON object, or free text."""
@@ -48,22 +74,53 @@ _IMAGE_REJECTED = re.compile(
     r"|(image|vision)[^.]{0,40}(not supported|unsupported)",
     re.IGNORECASE,
 )
+_CONTEXT_CODES = frozenset(
+    {"context_length_exceeded", "exceed_context_size_error", "context_window_exceeded"}
+)
+_CONTEXT_WORDS = re.compile(
+    r"(exceed|longer than|too long|too large|greater than|more than)[^.]{0,80}context"
+    r"|maximum context length|context (length|size|window) (is )?exceeded|prompt is too long",
+    re.IGNORECASE,
+)
+_CONTEXT_SIZE = re.compile(
+    r"maximum context length is (\d+)|(\d+) maximum|context (?:size|window) of (\d+)", re.I
+)
+_PROMPT_SIZE = re.compile(
+    r"\((\d+) in the messages|messages resulted in (\d+) tokens|prompt is too long: (\d+) tokens", re.I
+)
+_EXCERPT_BYTES = 2000
 
 
 @dataclass(frozen=True)
 class HTTPRetryPolicy:
-    """When and how long to wait before re-sending a request that failed transiently."""
+    """When and how long to wait before re-sending a request that failed transiently.
+
+    One request (one ``model.request`` call) takes at most ``max_attempts`` attempts, each
+    under the request's time-out, so its wall time is at most ``max_attempts`` x time-out
+    plus the waits between them, and never more than ``max_total_s``.
+    """
 
     max_attempts: int = 4
-    """Attempts in all, the first included (429, 5xx, connect errors and timeouts)."""
+    """Attempts in all, the first included."""
     initial_backoff_s: float = 1.0
     """Wait before the second attempt when the server gives no ``Retry-After`` (seconds); doubles per attempt."""
     max_backoff_s: float = 30.0
     """Cap on the exponential wait (seconds), before jitter."""
     jitter_s: float = 1.0
     """Uniform random extra wait in ``[0, jitter_s]`` seconds, so parallel clients spread out."""
-    max_retry_after_s: float = 120.0
+    max_retry_after_s: float = 30.0
     """Cap on a server's ``Retry-After`` (seconds): a longer request is waited out only this long."""
+    max_total_s: float = 300.0
+    """Budget for one request, attempts and waits together (seconds): no attempt starts (and
+    none runs) past it, and a wait that would end past it is not begun."""
+
+    def __post_init__(self) -> None:
+        if self.max_attempts < 1:
+            raise ModelConfigError(f"max_attempts must be at least 1, got {self.max_attempts}")
+        if self.max_total_s <= 0:
+            raise ModelConfigError(f"max_total_s must be positive, got {self.max_total_s}")
+        if min(self.initial_backoff_s, self.max_backoff_s, self.jitter_s, self.max_retry_after_s) < 0:
+            raise ModelConfigError("retry waits must not be negative")
 
 
 class _TransientHTTPError(ModelHTTPError):
@@ -74,8 +131,29 @@ class _TransientHTTPError(ModelHTTPError):
         self.retry_after_s = retry_after_s
 
 
-def _is_transient(exc: BaseException) -> bool:
-    return isinstance(exc, _TransientHTTPError | httpx.TimeoutException | httpx.ConnectError)
+class _AttemptTimedOut(Exception):
+    """One attempt ran past its time-out as a whole (httpx's own time-outs are per read)."""
+
+
+class _UnusableReply(Exception):
+    """A 200 reply that is no completion: becomes an invalid reply, not a transport error."""
+
+    def __init__(self, text: str, problem: str) -> None:
+        super().__init__(problem)
+        self.text = text
+        self.problem = problem
+
+
+# Failures another attempt may cure. Not retried: httpx.UnsupportedProtocol and
+# LocalProtocolError (our request is wrong) and every non-transient status.
+_RETRYABLE: tuple[type[BaseException], ...] = (
+    _TransientHTTPError,
+    _AttemptTimedOut,
+    httpx.TimeoutException,
+    httpx.NetworkError,  # ConnectError, ReadError, WriteError, CloseError
+    httpx.RemoteProtocolError,  # the server dropped the connection mid-exchange
+    httpx.ProxyError,
+)
 
 
 def parse_retry_after(value: str | None, *, now: datetime | None = None) -> float | None:
@@ -84,9 +162,11 @@ def parse_retry_after(value: str | None, *, now: datetime | None = None) -> floa
         return None
     value = value.strip()
     try:
-        return max(0.0, float(value))
+        seconds = float(value)
     except ValueError:
         pass
+    else:
+        return max(0.0, seconds) if math.isfinite(seconds) else None
     try:
         when = parsedate_to_datetime(value)
     except (TypeError, ValueError):
@@ -96,32 +176,90 @@ def parse_retry_after(value: str | None, *, now: datetime | None = None) -> floa
     return max(0.0, (when - (now or datetime.now(UTC))).total_seconds())
 
 
-def _error_message(body: str) -> str:
+def _json_or_none(raw: bytes) -> Any:
     try:
-        data = json.loads(body)
-    except ValueError:
-        return body.strip()[:500] or "(empty body)"
+        return json.loads(raw)
+    except (ValueError, RecursionError):  # UnicodeDecodeError is a ValueError
+        return None
+
+
+def _error_message(data: Any, text: str) -> str:
     if isinstance(data, dict):
         err = data.get("error")
         if isinstance(err, dict) and err.get("message"):
             return str(err["message"])
-        if isinstance(err, str):
+        if isinstance(err, str) and err:
             return err
         if data.get("message"):
             return str(data["message"])
-    return body.strip()[:500]
+    return text.strip()[:500] or "(empty body)"
+
+
+def _count(value: Any) -> int:
+    """A token count from a usage field: a non-negative number, anything else counts 0."""
+    if isinstance(value, bool):
+        return 0
+    if isinstance(value, int):
+        return max(0, value)
+    if isinstance(value, float) and math.isfinite(value):
+        return max(0, int(value))
+    if isinstance(value, str) and value.strip().isdigit():
+        return int(value.strip())
+    return 0
+
+
+def _first_int(pattern: re.Pattern[str], text: str) -> int | None:
+    match = pattern.search(text)
+    if match is None:
+        return None
+    return next(int(g) for g in match.groups() if g is not None)
+
+
+def _context_length_error(status: int, data: Any, message: str, body: str) -> ModelContextLengthError | None:
+    """The reply as a :class:`ModelContextLengthError` when it says the prompt is too long."""
+    if status == 429:  # "too many tokens per minute" is a rate limit, not the window
+        return None
+    err = data.get("error") if isinstance(data, dict) else None
+    fields: dict[str, Any] = err if isinstance(err, dict) else (data if isinstance(data, dict) else {})
+    codes = {str(fields.get("code") or ""), str(fields.get("type") or "")}
+    if not codes & _CONTEXT_CODES and not _CONTEXT_WORDS.search(message):
+        return None
+    prompt = _count(fields.get("n_prompt_tokens")) or _first_int(_PROMPT_SIZE, message)
+    context = _count(fields.get("n_ctx")) or _first_int(_CONTEXT_SIZE, message)
+    return ModelContextLengthError(
+        message, status_code=status, body=body, prompt_tokens=prompt or None, context_tokens=context or None
+    )
 
 
 def _png_data_url(png: bytes) -> str:
     return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
 
 
+@dataclass
+class _Spent:
+    """What one request has cost so far, over all its attempts."""
+
+    images: int
+    usage: Usage = field(default_factory=Usage)
+
+    def count(self, data: Any) -> None:
+        """One attempt got a response: count it, with the tokens its body reports."""
+        raw = data.get("usage") if isinstance(data, dict) else None
+        raw = raw if isinstance(raw, dict) else {}
+        self.usage = self.usage + Usage(
+            requests=1,
+            input_tokens=_count(raw.get("prompt_tokens")),
+            output_tokens=_count(raw.get("completion_tokens")),
+            images=self.images,
+        )
+
+
 class OpenAIChatModel(CompletionModel):
     """A chat model behind an OpenAI-compatible ``/chat/completions`` endpoint.
 
-    Replies are validated as the requested pydantic type, with schema repair (see
-    :class:`CompletionModel`). ``vision=False`` drops image parts before sending: the
-    agents already put a text rendering of the same facts in the messages.
+    Replies are validated as the requested pydantic type (see :class:`CompletionModel`;
+    the asking agent repairs a bad one). ``vision=False`` drops image parts before sending:
+    the agents already put a text rendering of the same facts in the messages.
     """
 
     def __init__(
@@ -133,13 +271,16 @@ class OpenAIChatModel(CompletionModel):
         api_key_env: str = "OPENAI_API_KEY",
         vision: bool = True,
         structured: StructuredMode = "json_schema",
-        timeout_s: float = 120.0,
+        timeout_s: float | None = None,
         retry: HTTPRetryPolicy | None = None,
         schema_bounds: SchemaBounds | None = None,
         max_tokens_field: str = "max_tokens",
+        context_tokens: int | None = None,
+        max_reply_bytes: int = DEFAULT_MAX_REPLY_BYTES,
         client: httpx.AsyncClient | None = None,
         transport: httpx.AsyncBaseTransport | None = None,
         sleep: Callable[[float], Awaitable[None]] | None = None,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         """Configure the endpoint; no connection is opened until the first request.
 
@@ -151,13 +292,19 @@ class OpenAIChatModel(CompletionModel):
         * ``vision`` — whether image parts are sent.
         * ``structured`` — ``"json_schema"`` (strict schema, constrained decoding),
           ``"json_object"`` (any JSON object) or ``"none"`` (free text; JSON is extracted).
-        * ``timeout_s`` — per-request timeout (seconds) when the settings give none.
-        * ``retry`` — the transient-failure policy.
-        * ``schema_bounds`` — bounds added to unbounded arrays and strings in the sent schema.
+        * ``timeout_s`` — time-out of each HTTP attempt (seconds), used when the request's
+          ``ModelSettings.timeout_s`` is ``None``; ``None`` here means :data:`DEFAULT_TIMEOUT_S` (120 s).
+        * ``retry`` — the transient-failure policy (attempts, waits, total budget).
+        * ``schema_bounds`` — bounds added to unbounded arrays in the sent schema.
         * ``max_tokens_field`` — ``"max_tokens"``, or ``"max_completion_tokens"`` for newer OpenAI models.
+        * ``context_tokens`` — the server's context window, when known: a prompt whose
+          estimate (:func:`~scenemosaic.models.estimate_tokens`) is over it by more than
+          :data:`CONTEXT_ESTIMATE_SLACK` raises :class:`ModelContextLengthError` unsent.
+        * ``max_reply_bytes`` — the most reply bytes read; a larger 200 reply is an invalid reply.
         * ``client`` / ``transport`` — an ``httpx.AsyncClient`` or transport to use (tests pass
           ``httpx.MockTransport``); a client passed in is not closed by :meth:`aclose`.
-        * ``sleep`` — the coroutine used to wait between retries (tests replace it).
+        * ``sleep`` / ``clock`` — how to wait between retries and read the time for the
+          retry budget (tests replace both; a fake ``sleep`` can advance a fake ``clock``).
         """
         if structured not in ("json_schema", "json_object", "none"):
             raise ModelConfigError(
@@ -168,7 +315,15 @@ class OpenAIChatModel(CompletionModel):
         self.base_url = base_url.rstrip("/")
         self.vision = vision
         self.structured: StructuredMode = structured
-        self.timeout_s = timeout_s
+        if timeout_s is not None and timeout_s <= 0:
+            raise ModelConfigError(f"timeout_s must be positive, got {timeout_s}")
+        if context_tokens is not None and context_tokens < 1:
+            raise ModelConfigError(f"context_tokens must be positive, got {context_tokens}")
+        if max_reply_bytes < 1:
+            raise ModelConfigError(f"max_reply_bytes must be positive, got {max_reply_bytes}")
+        self.timeout_s: float = timeout_s if timeout_s is not None else DEFAULT_TIMEOUT_S
+        self.context_tokens = context_tokens
+        self.max_reply_bytes = max_reply_bytes
         self.retry = retry or HTTPRetryPolicy()
         self.schema_bounds = schema_bounds or SchemaBounds()
         self.max_tokens_field = max_tokens_field
@@ -183,11 +338,17 @@ class OpenAIChatModel(CompletionModel):
         self._client_loop: asyncio.AbstractEventLoop | None = None
         self._transport = transport
         self._sleep: Callable[[float], Awaitable[None]] = sleep or asyncio.sleep
+        self._clock = clock
         self._rng = random.Random()
         self._schemas: dict[type[BaseModel], dict[str, Any]] = {}
 
     def __repr__(self) -> str:
         return f"OpenAIChatModel({self.model!r}, base_url={self.base_url!r}, vision={self.vision})"
+
+    @property
+    def default_timeout_s(self) -> float:
+        """This model's own per-attempt time-out (``timeout_s``)."""
+        return self.timeout_s
 
     # -- connection ------------------------------------------------------------------------
     def _http(self) -> httpx.AsyncClient:
@@ -286,141 +447,258 @@ class OpenAIChatModel(CompletionModel):
         settings: ModelSettings,
         context: RequestContext | None,
     ) -> Completion:
-        """One completion; a reply cut at ``max_tokens`` is retried once with twice the cap."""
+        """One completion; a reply cut at ``max_tokens`` is sent again once with twice the cap.
+
+        The time-out of each attempt is ``settings.timeout_s`` when set, else the model's
+        ``timeout_s``. A :class:`ModelError` raised here carries ``usage`` (what the attempts
+        that got a response cost), like :class:`OutputValidationError` does.
+        """
+        self._refuse_if_too_long(messages)
         body, images = self.payload(messages, output_type, settings)
         timeout = settings.timeout_s if settings.timeout_s is not None else self.timeout_s
+        give_up_at = self._clock() + self.retry.max_total_s
         agent = context.agent if context else None
-        usage = Usage()
+        spent = _Spent(images=images)
         doubled = False
-        while True:
-            started = time.perf_counter()
-            data = await self._post(body, timeout_s=timeout, has_images=images > 0)
-            latency = time.perf_counter() - started
-            text, finish = self._read_choice(data)
-            usage = usage + self._read_usage(data, images)
-            log.debug(
-                "chat completion", model=self.model, agent=agent, latency_s=round(latency, 3), finish=finish
-            )
-            if finish != "length":
-                return Completion(text=text, usage=usage)
-            cap = body.get(self.max_tokens_field)
-            if cap is None or doubled:
-                return Completion(text=text, usage=usage, truncated=True)
-            log.info(
-                "reply truncated; retrying with a doubled token cap",
-                model=self.model,
-                agent=agent,
-                max_tokens=cap,
-            )
-            body = {**body, self.max_tokens_field: int(cap) * 2}
-            doubled = True
-
-    async def _post(self, body: dict[str, Any], *, timeout_s: float, has_images: bool) -> dict[str, Any]:
-        retrying = AsyncRetrying(
-            stop=stop_after_attempt(max(1, self.retry.max_attempts)),
-            wait=self._wait,
-            retry=retry_if_exception(_is_transient),
-            sleep=self._sleep,
-            reraise=True,
-            before_sleep=self._log_retry,
-        )
         try:
-            async for attempt in retrying:
-                with attempt:
-                    return await self._post_once(body, timeout_s=timeout_s, has_images=has_images)
-        except httpx.TimeoutException as exc:
-            raise ModelError(
-                f"{self.name}: request timed out ({timeout_s:g} s) {self.retry.max_attempts} times: {exc!r}"
-            ) from exc
-        except httpx.HTTPError as exc:
-            raise ModelError(
-                f"{self.name}: request to {self.base_url} failed: {type(exc).__name__}: {exc}"
-            ) from exc
-        raise AssertionError("unreachable")  # pragma: no cover
+            while True:
+                started = time.perf_counter()
+                data = await self._post(body, timeout_s=timeout, give_up_at=give_up_at, spent=spent)
+                latency = time.perf_counter() - started
+                text, finish = self._read_choice(data)
+                log.debug(
+                    "chat completion",
+                    model=self.model,
+                    agent=agent,
+                    latency_s=round(latency, 3),
+                    finish=finish,
+                )
+                if finish != "length":
+                    return Completion(text=text, usage=spent.usage)
+                cap = body.get(self.max_tokens_field)
+                if cap is None or doubled:
+                    return Completion(text=text, usage=spent.usage, truncated=True)
+                log.info(
+                    "reply truncated; retrying with a doubled token cap",
+                    model=self.model,
+                    agent=agent,
+                    max_tokens=cap,
+                )
+                body = {**body, self.max_tokens_field: int(cap) * 2}
+                doubled = True
+        except _UnusableReply as bad:
+            return Completion(text=bad.text, usage=spent.usage, problems=[bad.problem])
+        except ModelError as exc:
+            # The exception types of the tree carry no usage field but OutputValidationError's;
+            # the instrumented model and the rate limiter read this one when it is there.
+            exc.usage = spent.usage  # type: ignore[attr-defined]
+            raise
 
-    async def _post_once(self, body: dict[str, Any], *, timeout_s: float, has_images: bool) -> dict[str, Any]:
+    def _refuse_if_too_long(self, messages: list[Message]) -> None:
+        """Raise :class:`ModelContextLengthError` (nothing sent) for a prompt that clearly cannot fit."""
+        if self.context_tokens is None:
+            return
+        sent = [
+            Message(
+                m.role,
+                tuple(p for p in m.parts if isinstance(p, TextPart) or (self.vision and m.role == "user")),
+            )
+            for m in messages
+        ]
+        estimate = estimate_tokens(sent)
+        if estimate > self.context_tokens * CONTEXT_ESTIMATE_SLACK:
+            raise ModelContextLengthError(
+                f"{self.name}: the prompt (about {estimate} tokens, estimated) cannot fit the "
+                f"{self.context_tokens}-token context window; nothing was sent",
+                status_code=400,
+                body="",
+                prompt_tokens=estimate,
+                context_tokens=self.context_tokens,
+                sent=False,
+            )
+
+    async def _post(
+        self, body: dict[str, Any], *, timeout_s: float, give_up_at: float, spent: _Spent
+    ) -> dict[str, Any]:
+        """Send ``body`` until an attempt succeeds, a failure is not transient, or the policy says stop."""
+        policy = self.retry
+        attempt = 0
+        after_drop = False
+        while True:
+            attempt += 1
+            # No attempt runs past the request's total budget.
+            attempt_timeout = max(0.001, min(timeout_s, give_up_at - self._clock()))
+            try:
+                return await self._post_once(body, timeout_s=attempt_timeout, spent=spent)
+            except _RETRYABLE as exc:
+                failure: BaseException = exc
+            except httpx.UnsupportedProtocol as exc:
+                raise ModelConfigError(f"{self.name}: cannot send to {self.base_url}: {exc}") from exc
+            except httpx.HTTPError as exc:  # our own request is malformed: another attempt cannot help
+                raise self._transport_error(exc, attempt, timeout_s) from exc
+            wait = self._backoff(failure, attempt, after_drop=after_drop)
+            after_drop = isinstance(failure, httpx.RemoteProtocolError)
+            if attempt >= policy.max_attempts or self._clock() + wait >= give_up_at:
+                if isinstance(failure, ModelHTTPError):
+                    raise failure
+                raise self._transport_error(failure, attempt, timeout_s) from failure
+            log.warning(
+                "transient model failure; retrying",
+                model=self.model,
+                attempt=attempt,
+                wait_s=round(wait, 3),
+                error=f"{type(failure).__name__}: {failure}",
+            )
+            if wait > 0:
+                await self._sleep(wait)
+
+    def _transport_error(self, failure: BaseException, attempts: int, timeout_s: float) -> ModelError:
+        tries = f"{attempts} attempt{'s' if attempts != 1 else ''}"
+        if isinstance(failure, _AttemptTimedOut | httpx.TimeoutException):
+            return ModelError(
+                f"{self.name}: request to {self.base_url} timed out ({timeout_s:g} s per attempt) after {tries}: "
+                f"{type(failure).__name__}: {failure}"
+            )
+        return ModelError(
+            f"{self.name}: request to {self.base_url} failed after {tries}: {type(failure).__name__}: {failure}"
+        )
+
+    def _backoff(self, failure: BaseException, attempt: int, *, after_drop: bool) -> float:
+        """Seconds to wait after failed attempt number ``attempt``."""
+        if isinstance(failure, httpx.RemoteProtocolError) and not after_drop:
+            # A pooled keep-alive connection the server had closed (llama-server does after a
+            # streamed reply): the pool has dropped it, so re-sending at once suffices.
+            return 0.0
+        if isinstance(failure, _TransientHTTPError) and failure.retry_after_s is not None:
+            return min(failure.retry_after_s, self.retry.max_retry_after_s)
+        backoff: float = self.retry.initial_backoff_s * 2.0 ** max(0, attempt - 1)
+        return min(backoff, self.retry.max_backoff_s) + self._rng.uniform(0.0, self.retry.jitter_s)
+
+    async def _post_once(self, body: dict[str, Any], *, timeout_s: float, spent: _Spent) -> dict[str, Any]:
+        """One attempt: the reply's JSON object, or an exception saying what went wrong."""
         headers = {"Accept": "application/json"}
         if self._api_key:
             headers["Authorization"] = f"Bearer {self._api_key}"
         url = f"{self.base_url}/chat/completions"
         client = self._http()
         try:
-            response = await client.post(url, json=body, headers=headers, timeout=timeout_s)
-        except httpx.RemoteProtocolError as exc:
-            # A server may drop a pooled keep-alive connection (llama-server does after a
-            # streamed reply); the pool has discarded it, so one immediate re-send suffices.
-            log.warning("connection dropped by server; re-sending once", model=self.model, error=str(exc))
-            response = await client.post(url, json=body, headers=headers, timeout=timeout_s)
-        text = response.text
-        if response.status_code != 200:
-            message = _error_message(text)
-            if has_images and _IMAGE_REJECTED.search(message):
-                raise ModelConfigError(
-                    f"{self.name} at {self.base_url} does not accept images ({message!r}); "
-                    "turn the `vision` setting off (vision=False, --no-vision on the command line, or SCENEMOSAIC_VISION=0)"
-                )
-            if "response_format" in body and "response_format" in message:
-                raise ModelConfigError(
-                    f"{self.name} at {self.base_url} rejected response_format {body['response_format']['type']!r} "
-                    f"({message!r}); set the `structured` setting to 'json_object' or 'none'"
-                )
-            if response.status_code in _TRANSIENT_STATUS or response.status_code >= 500:
-                raise _TransientHTTPError(
-                    message,
-                    status_code=response.status_code,
-                    body=text,
-                    retry_after_s=parse_retry_after(response.headers.get("retry-after")),
-                )
-            raise ModelHTTPError(message, status_code=response.status_code, body=text)
-        try:
-            data = response.json()
-        except ValueError as exc:
-            raise ModelHTTPError("reply body is not JSON", status_code=200, body=text) from exc
+            # httpx's time-out bounds each connect, write and read; a server that trickles
+            # bytes could still hold an attempt for ever, so the attempt as a whole is bounded too.
+            async with asyncio.timeout(timeout_s) as scope:
+                async with client.stream(
+                    "POST", url, json=body, headers=headers, timeout=timeout_s
+                ) as response:
+                    raw, whole = await self._read_body(response)
+        except TimeoutError as exc:
+            if scope.expired():
+                raise _AttemptTimedOut(f"no complete reply within {timeout_s:g} s") from exc
+            raise
+        status = response.status_code
+        data = _json_or_none(raw) if whole else None
+        spent.count(data)
+        text = raw.decode("utf-8", errors="replace")
+        if status == 200 and not whole:
+            raise _UnusableReply(
+                f"{text[:_EXCERPT_BYTES]}\n[... cut: the reply is over {self.max_reply_bytes} bytes]",
+                f"the reply is larger than the {self.max_reply_bytes}-byte limit; answer with the JSON object only",
+            )
+        if status != 200:
+            self._raise_for_status(status, data, text, body, response.headers.get("retry-after"))
         if not isinstance(data, dict):
-            raise ModelHTTPError("reply body is not a JSON object", status_code=200, body=text)
+            what = "is not JSON" if data is None else f"is JSON but not an object ({type(data).__name__})"
+            raise _UnusableReply(
+                text[:_EXCERPT_BYTES], f"the server's reply {what}; expected a chat completion"
+            )
         error = data.get("error")
         if isinstance(error, dict) and error.get("message"):
-            raise ModelHTTPError(str(error["message"]), status_code=200, body=text)
+            # An error wrapped in a 200 (some proxies and servers do this): no completion, so an
+            # invalid reply the agent repairs or falls back from, unless it is the context window.
+            message = str(error["message"])
+            too_long = _context_length_error(200, data, message, text)
+            if too_long is not None:
+                raise too_long
+            raise _UnusableReply(text[:_EXCERPT_BYTES], f"the server answered with an error: {message}")
         return data
 
-    def _wait(self, state: RetryCallState) -> float:
-        exc = state.outcome.exception() if state.outcome else None
-        if isinstance(exc, _TransientHTTPError) and exc.retry_after_s is not None:
-            return min(exc.retry_after_s, self.retry.max_retry_after_s)
-        backoff: float = self.retry.initial_backoff_s * 2.0 ** max(0, state.attempt_number - 1)
-        return min(backoff, self.retry.max_backoff_s) + self._rng.uniform(0.0, self.retry.jitter_s)
-
-    def _log_retry(self, state: RetryCallState) -> None:
-        exc = state.outcome.exception() if state.outcome else None
-        wait = state.next_action.sleep if state.next_action else None
-        log.warning(
-            "transient model failure; retrying",
-            model=self.model,
-            attempt=state.attempt_number,
-            wait_s=wait,
-            error=f"{type(exc).__name__}: {exc}",
+    def _raise_for_status(
+        self, status: int, data: Any, text: str, body: dict[str, Any], retry_after: str | None
+    ) -> None:
+        message = _error_message(data, text)
+        too_long = _context_length_error(status, data, message, text)
+        if too_long is not None:
+            raise too_long
+        has_images = any(
+            isinstance(m.get("content"), list) and any(p.get("type") == "image_url" for p in m["content"])
+            for m in body.get("messages", [])
         )
+        if has_images and _IMAGE_REJECTED.search(message):
+            raise ModelConfigError(
+                f"{self.name} at {self.base_url} does not accept images ({message!r}); "
+                "turn the `vision` setting off (vision=False, --no-vision on the command line, or SCENEMOSAIC_VISION=0)"
+            )
+        if "response_format" in body and "response_format" in message:
+            raise ModelConfigError(
+                f"{self.name} at {self.base_url} rejected response_format {body['response_format']['type']!r} "
+                f"({message!r}); set the `structured` setting to 'json_object' or 'none'"
+            )
+        if status in _TRANSIENT_STATUS or status >= 500:
+            raise _TransientHTTPError(
+                message, status_code=status, body=text, retry_after_s=parse_retry_after(retry_after)
+            )
+        raise ModelHTTPError(message, status_code=status, body=text)
+
+    async def _read_body(self, response: httpx.Response) -> tuple[bytes, bool]:
+        """The body, and whether it is whole: reading stops past ``max_reply_bytes``."""
+        cap = self.max_reply_bytes
+        declared = response.headers.get("content-length", "")
+        if declared.isdigit() and int(declared) > cap:
+            # Announced too large: read only the first chunk, for the excerpt.
+            async for chunk in response.aiter_bytes():
+                return chunk[:_EXCERPT_BYTES], False
+            return b"", False
+        chunks: list[bytes] = []
+        size = 0
+        async for chunk in response.aiter_bytes():
+            size += len(chunk)
+            if size > cap:
+                chunks.append(chunk)
+                return b"".join(chunks)[:cap], False
+            chunks.append(chunk)
+        return b"".join(chunks), True
 
     def _read_choice(self, data: dict[str, Any]) -> tuple[str, str | None]:
+        """The reply text and finish reason of ``choices[0]``; :class:`_UnusableReply` when there is none."""
+        shown = json.dumps(data)[:_EXCERPT_BYTES]
         choices = data.get("choices")
-        if not isinstance(choices, list) or not choices or not isinstance(choices[0], dict):
-            raise ModelHTTPError("reply has no choices", status_code=200, body=json.dumps(data)[:2000])
+        if not isinstance(choices, list) or not choices:
+            raise _UnusableReply(shown, "the server's reply holds no choices")
         choice = choices[0]
-        message = choice.get("message") or {}
+        if not isinstance(choice, dict):
+            raise _UnusableReply(
+                shown, f"choices[0] in the server's reply is a {type(choice).__name__}, not an object"
+            )
+        finish_raw = choice.get("finish_reason")
+        finish = str(finish_raw) if finish_raw is not None else None
+        message = choice.get("message")
+        if not isinstance(message, dict):
+            raise _UnusableReply(
+                shown,
+                f"choices[0].message in the server's reply is a {type(message).__name__}, not an object",
+            )
         content = message.get("content")
         if isinstance(content, list):  # some servers answer in parts
-            content = "".join(str(p.get("text", "")) for p in content if isinstance(p, dict))
-        if content is None:
-            content = f"(no content; refusal: {message['refusal']})" if message.get("refusal") else ""
-        finish = choice.get("finish_reason")
-        return str(content), (str(finish) if finish is not None else None)
-
-    @staticmethod
-    def _read_usage(data: dict[str, Any], images: int) -> Usage:
-        raw = data.get("usage") or {}
-        return Usage(
-            requests=1,
-            input_tokens=int(raw.get("prompt_tokens") or 0),
-            output_tokens=int(raw.get("completion_tokens") or 0),
-            images=images,
-        )
+            content = "".join(
+                p if isinstance(p, str) else str(p.get("text") or "")
+                for p in content
+                if isinstance(p, str) or (isinstance(p, dict) and isinstance(p.get("text"), str))
+            )
+        elif content is not None and not isinstance(content, str):
+            content = json.dumps(content)  # an already-decoded object: validation reads it the same
+        if content:
+            return content, finish
+        if finish == "length":
+            return "", finish  # cut before any text: the truncation path sends it again
+        refusal = message.get("refusal")
+        if refusal:
+            raise _UnusableReply(f"(refusal: {refusal})", f"the model refused to answer: {refusal}")
+        raise _UnusableReply(shown, "the reply has no content")

@@ -266,6 +266,11 @@ class ReplayModel(Model):
         """The wrapped model's value (a cassette alone never holds rule answers)."""
         return self.wrapped.uses_rule_solvers if self.wrapped is not None else False
 
+    @property
+    def default_timeout_s(self) -> float | None:
+        """The wrapped model's own time-out (none for a cassette alone)."""
+        return self.wrapped.default_timeout_s if self.wrapped is not None else None
+
     async def request(
         self,
         messages: list[Message],

@@ -67,11 +67,12 @@ class UsageLimits:
 
     A cap is checked after every call: the call that crosses it still counts, and the run
     stops with :class:`~scenemosaic.exceptions.UsageLimitExceeded`. :meth:`UsageTracker.before_call`
-    additionally refuses a request once ``max_requests`` calls were made.
+    additionally refuses a request once ``max_requests`` requests were made.
     """
 
     max_requests: int | None = None
-    """Most model calls the run may make."""
+    """Most HTTP requests the run may make, counted as ``Usage.requests`` counts them: every
+    attempt the server answered (retries included); a call that got no answer at all counts one."""
     max_total_tokens: int | None = None
     """Most tokens (input + output + image) the run may spend."""
     max_cost: float | None = None

@@ -42,6 +42,11 @@ class WrapperModel(Model):
         """Whether the wrapped model is the offline rules model."""
         return self.wrapped.uses_rule_solvers
 
+    @property
+    def default_timeout_s(self) -> float | None:
+        """The wrapped model's own time-out."""
+        return self.wrapped.default_timeout_s
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.wrapped!r})"
 

@@ -1,321 +1,239 @@
-"""The ``generate`` pipeline: import → assets → structure → stabilize → validate → export.
+"""The driver of ``generate``: runs :data:`STAGES` over one :class:`PipelineRun` and never loses work.
 
-Later stages (evolve, compose) slot in between *stabilize* and *export*; every stage is a
-small function over a :class:`PipelineRun` so a new one is one more entry in ``_STAGES``.
-A failing stage never loses earlier work: the last good scene is exported to ``base/`` and
-``report.json`` records which stage failed and why.
+* After every stage a checkpoint (the scene and the stage records) goes to ``out/.checkpoint``;
+  ``resume=True`` continues a stopped run from there (finished stages and finished agents are
+  reused, hulls come from the on-disk cache).
+* A failing stage writes ``report.json`` (with the traceback of an unexpected error) and exports
+  the last good scene to ``base/``. A cancelled run (Ctrl-C, SIGTERM: the CLI cancels the task)
+  writes the report *first*, then only ``base/scene.json``, so a second signal loses nothing.
+* The outcome is ``ok``, ``degraded`` (the files are there, but collisions, fallen objects or
+  solver fallbacks remain: each named in ``warnings``), ``failed`` or ``interrupted``.
 """
 
 from __future__ import annotations
 
 import asyncio
-import functools
 import json
+import os
+import shutil
 import time
-from collections.abc import Awaitable, Callable, Sequence
-from dataclasses import dataclass, field
+import traceback
+from dataclasses import asdict, fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import structlog
 
 from scenemosaic.exceptions import UsageError
-from scenemosaic.models import Model
+from scenemosaic.pipeline._config import (
+    GenerateConfig,
+    GenerateResult,
+    PipelineRun,
+    StageCallback,
+    StageRecord,
+)
+from scenemosaic.pipeline._stages import STAGES, export_base, export_scene_only
 from scenemosaic.scene import Scene
 
-if TYPE_CHECKING:
-    from scenemosaic.agents import TaskAgent
-    from scenemosaic.assets import HullCache
-    from scenemosaic.models import UsageTracker
-
-__all__ = [
-    "STAGES",
-    "STAGE_NAMES",
-    "GenerateConfig",
-    "GenerateResult",
-    "PipelineRun",
-    "Stage",
-    "StageRecord",
-    "agenerate",
-    "export_base",
-    "generate",
-]
+__all__ = ["REPORT_FILE", "agenerate", "checkpoint_config", "generate"]
 
 log = structlog.get_logger(__name__)
 
-StageCallback = Callable[[str, str], None]
-"""Called as ``callback(stage_name, status)`` with status ``"started"``, ``"done"`` or ``"failed"``."""
+REPORT_FILE = "report.json"
+_RUN_FILE = "run.json"
+_OUTPUTS = ("base", REPORT_FILE, ".checkpoint")
+"""What a run writes into its output folder (and what ``overwrite`` may remove)."""
+_CONFIG_KEYS = ("format", "model", "seed", "room", "stabilize", "solver_fallback", "vision", "request_timeout_s", "deadline_s")
+"""The settings that decide a run's results; a resumed run must agree on them."""
 
 
-@dataclass(frozen=True)
-class GenerateConfig:
-    """Settings of one ``generate`` run."""
-
-    format: str = "auto"
-    """Input format (``auto``, ``native``, ``front3d``, ``procthor``, ``sam3d``)."""
-    variants: int = 0
-    """Number of diverse variants to deliver. Only 0 (the base scene) until the evolution and
-    composition stages arrive; any other value is refused before work starts, never ignored."""
-    model: str | Model = "rules"
-    """Model string (``rules``, ``openai:<model>[@<base_url>]``, ``replay:<cassette.json>``) or a
-    :class:`~scenemosaic.models.Model` instance, which the caller keeps ownership of (not closed here)."""
-    seed: int = 0
-    """Run seed; every random choice derives from it, so equal inputs give identical files."""
-    room: str | None = None
-    """Room id to take from a multi-room house file."""
-    asset_dir: Path | None = None
-    """Folder of asset meshes a SceneEval input names by ``assetId`` (default: ``assets/`` beside it)."""
-    vision: bool | None = None
-    """Force the model's vision setting (``False`` for text-only local servers); ``None`` keeps its default."""
-    solver_fallback: bool = True
-    """When a real model's answers stay unusable (after retries and repairs), use the agent's rule
-    solver and note it in the report, instead of failing the run. Configuration errors still fail."""
-    stabilize: bool = True
-    """Run the physics stabilization stage."""
-    cache_dir: Path | None = None
-    """Hull cache folder; default ``$SCENEMOSAIC_CACHE`` or ``~/.cache/scenemosaic``."""
-    priors_dir: Path | None = None
-    """ProcTHOR priors folder (receptacles, placement annotations, asset groups) replacing the
-    priors shipped with the package."""
-    agents: Sequence[TaskAgent[Any, Any]] | None = None
-    """Structuring agents the manager may schedule; default
-    :data:`~scenemosaic.structure.DEFAULT_AGENTS`. Add a plugin with
-    ``agents=[*DEFAULT_AGENTS, MyAgent()]``."""
+# -- folders, checkpoints ------------------------------------------------------------------------
 
 
-@dataclass
-class StageRecord:
-    """Timing and outcome of one pipeline stage, as written to ``report.json``."""
-
-    name: str
-    seconds: float = 0.0
-    status: str = "pending"
-    objects: int | None = None
-    detail: dict[str, Any] = field(default_factory=dict)
-
-
-@dataclass
-class GenerateResult:
-    """What ``generate`` produced: the final base scene, the output folder and the report."""
-
-    scene: Scene
-    out_dir: Path
-    report: dict[str, Any]
-
-    @property
-    def base_dir(self) -> Path:
-        return self.out_dir / "base"
+def _config_record(config: GenerateConfig) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key in _CONFIG_KEYS:
+        value = getattr(config, key)
+        out[key] = value if isinstance(value, str | int | float | bool | type(None)) else getattr(value, "name", str(value))
+    for key in ("asset_dir", "cache_dir", "priors_dir"):
+        value = getattr(config, key)
+        out[key] = str(value) if value is not None else None
+    return out
 
 
-@dataclass
-class PipelineRun:
-    """Mutable state threaded through the stages."""
+def checkpoint_config(out_dir: str | Path) -> tuple[Path, GenerateConfig]:
+    """The input and settings of the run whose checkpoints are in ``out_dir`` (for ``--resume``).
 
-    input_path: Path
-    out_dir: Path
-    config: GenerateConfig
-    base_dir: Path
-    scene: Scene | None = None
-    records: list[StageRecord] = field(default_factory=list)
-    hull_cache: HullCache | None = None
-    """The run's CoACD hull cache, opened by the assets stage and reused by physics."""
-    validation: dict[str, Any] | None = None
-    """The validate stage's full report (JSON-ready), written to ``report.json``."""
-
-
-# -- stages --------------------------------------------------------------------------------------
-
-
-async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
-    from scenemosaic.exchange import load_scene
-
-    scene = await asyncio.to_thread(
-        functools.partial(
-            load_scene, run.input_path, run.config.format, room=run.config.room, asset_dir=run.config.asset_dir
-        )
-    )
-    run.scene = scene
-    rec.detail["source_format"] = scene.provenance.source_format
-
-
-async def _stage_assets(run: PipelineRun, rec: StageRecord) -> None:
-    from scenemosaic.assets import HullCache, object_hulls
-
-    assert run.scene is not None
-    cache = HullCache(run.config.cache_dir / "hulls" if run.config.cache_dir else None)
-    run.hull_cache = cache
-    scene = run.scene
-
-    def prepare() -> dict[str, int]:
-        counts: dict[str, int] = {}
-        for obj in scene.objects:
-            counts[obj.asset.kind] = counts.get(obj.asset.kind, 0) + 1
-            if obj.asset.kind == "mesh":  # warm the CoACD cache once, before physics needs it
-                object_hulls(obj, run.base_dir, cache=cache)
-        return counts
-
-    rec.detail["asset_kinds"] = await asyncio.to_thread(prepare)
-
-
-async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
-    from scenemosaic.agents import AgentPolicy, FallbackRecord
-    from scenemosaic.models import InstrumentedModel, UsageTracker, parse_model
-    from scenemosaic.structure import structure_scene
-
-    assert run.scene is not None
-    spec = run.config.model
-    model = parse_model(spec, vision=run.config.vision) if isinstance(spec, str) else spec
-    rec.detail["model"] = model.name
-    tracker = UsageTracker()
-    asking: Model = InstrumentedModel(model, on_call=tracker.on_call)
-    fallbacks: list[FallbackRecord] = []
+    Raises :class:`~scenemosaic.exceptions.UsageError` when the folder holds no resumable run.
+    """
+    path = Path(out_dir) / ".checkpoint" / _RUN_FILE
     try:
-        run.scene = await structure_scene(
-            run.scene,
-            asking,
-            agents=run.config.agents,
-            policy=AgentPolicy(solver_fallback=run.config.solver_fallback),
-            seed=run.config.seed,
-            priors_dir=run.config.priors_dir,
-            base_dir=run.base_dir,
-            fallbacks=fallbacks,
-        )
-    finally:
-        if not model.uses_rule_solvers:
-            rec.detail["solver_fallbacks"] = [{"agent": f.agent, "reason": f.reason} for f in fallbacks]
-        rec.detail["usage"] = _usage_summary(tracker)
-        if isinstance(spec, str):
-            await model.aclose()
-    structure = run.scene.structure
-    rec.detail["units"] = len(structure.units) if structure else 0
-    rec.detail["relations"] = len(run.scene.relations)
-    rec.detail["constraints"] = len(run.scene.constraints)
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise UsageError(f"{out_dir} holds no run to resume ({path} unreadable: {exc})") from exc
+    saved = data.get("config", {})
+    known = {f.name for f in fields(GenerateConfig)}
+    kwargs: dict[str, Any] = {k: v for k, v in saved.items() if k in known and k in _CONFIG_KEYS}
+    for key in ("asset_dir", "cache_dir", "priors_dir"):
+        if saved.get(key):
+            kwargs[key] = Path(saved[key])
+    return Path(data["input"]), GenerateConfig(**kwargs, resume=True)
 
 
-def _usage_summary(tracker: UsageTracker) -> dict[str, Any]:
-    """Requests, tokens and latencies of the model calls, per run and per agent."""
-    latencies = sorted(c.latency_s for c in tracker.calls)
-    return {
-        "requests": tracker.total.requests,
-        "input_tokens": tracker.total.input_tokens,
-        "output_tokens": tracker.total.output_tokens,
-        "image_tokens": tracker.total.image_tokens,
-        "failed_calls": sum(1 for c in tracker.calls if not c.ok),
-        "latency_s": {
-            "mean": round(sum(latencies) / len(latencies), 4) if latencies else 0.0,
-            "max": round(latencies[-1], 4) if latencies else 0.0,
-        },
-        "by_agent": {
-            agent: {"requests": u.requests, "input_tokens": u.input_tokens, "output_tokens": u.output_tokens}
-            for agent, u in sorted(tracker.by_agent.items())
-        },
-    }
+def _prepare_folders(input_path: Path, out: Path, config: GenerateConfig) -> Path:
+    """Check the input and the output folder; returns the folder relative asset paths start from.
 
-
-async def _stage_stabilize(run: PipelineRun, rec: StageRecord) -> None:
-    from scenemosaic.physics import stabilize_scene
-
-    assert run.scene is not None
-    if not run.config.stabilize:
-        rec.status = "skipped"
-        return
-    scene, report = await stabilize_scene(
-        run.scene, base_dir=run.base_dir, seed=run.config.seed, hull_cache=run.hull_cache
-    )
-    run.scene = scene
-    rec.detail.update(report.model_dump(mode="json", include=_summary_fields(report)))
-
-
-async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
-    from scenemosaic.physics import validate_scene
-
-    assert run.scene is not None
-    scene = run.scene
-    report = await asyncio.to_thread(validate_scene, scene, run.base_dir)
-    rec.detail.update(report.model_dump(mode="json", include=_summary_fields(report)))
-    run.validation = report.model_dump(mode="json")
-
-
-def _summary_fields(report: Any) -> set[str]:
-    """The scalar fields of a report model (counts, booleans, timings) for report.json's stage table."""
-    return {
-        name
-        for name, value in report
-        if isinstance(value, int | float | bool | str) or (isinstance(value, list) and len(value) <= 20)
-    }
-
-
-async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
-    assert run.scene is not None
-    rec.detail["files"] = await asyncio.to_thread(export_base, run.scene, run.out_dir / "base", run.base_dir)
-
-
-DELIVERED_FORMATS: tuple[tuple[str, str], ...] = (("glb", "scene.glb"), ("sceneeval", "sceneeval"), ("mjcf", ""))
-"""Formats written beside ``scene.json`` in every delivered folder, with their destination in it."""
-
-
-def export_base(scene: Scene, folder: Path, base_dir: Path | None) -> list[str]:
-    """Write one scene in the stable output layout; returns the files written (relative to ``folder``)."""
-    from scenemosaic.exchange import export_glb, export_mjcf, export_sceneeval, save_scene
-    from scenemosaic.render import render_topdown
-
-    folder.mkdir(parents=True, exist_ok=True)
-    save_scene(scene, folder, base_dir=base_dir)
-    # later exports read mesh assets from the saved folder, whose uris save_scene rewrote
-    from scenemosaic.exchange import read_scene
-
-    saved = read_scene(folder)
-    export_glb(saved, folder / "scene.glb", base_dir=folder)
-    (folder / "topdown.png").write_bytes(render_topdown(saved, base_dir=folder))
-    export_sceneeval(saved, folder / "sceneeval", base_dir=folder)
-    export_mjcf(saved, folder, base_dir=folder)
-    return [*sorted(str(p.relative_to(folder)) for p in folder.rglob("*") if p.is_file() and p.parent == folder), "sceneeval/", "mjcf/"]
-
-
-StageFn = Callable[[PipelineRun, StageRecord], Awaitable[None]]
-"""A stage's body: reads and updates the run, records its figures in the stage record."""
-
-
-@dataclass(frozen=True)
-class Stage:
-    """One named step of the pipeline."""
-
-    name: str
-    run: StageFn
-
-
-STAGES: tuple[Stage, ...] = (
-    Stage("import", _stage_import),
-    Stage("assets", _stage_assets),
-    Stage("structure", _stage_structure),
-    Stage("stabilize", _stage_stabilize),
-    Stage("validate", _stage_validate),
-    Stage("export", _stage_export),
-)
-"""The stages ``generate`` runs, in order (``evolve`` and ``compose`` slot in before ``export``)."""
-
-STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in STAGES)
-"""The names of :data:`STAGES`, in order."""
-
-
-# -- driver --------------------------------------------------------------------------------------
-
-
-def _prepare_folders(input_path: Path, out: Path) -> Path:
-    """Check the input exists, create the output folder; returns the folder relative asset paths start from."""
+    An output folder holding another input's results is refused unless ``overwrite``; a re-run of
+    the same input (not resumed) first removes the previous results, so a failing re-run never
+    leaves an old ``base/`` beside its new report.
+    """
     if not input_path.exists():
         raise UsageError(f"input not found: {input_path}")
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out} exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()):
+        previous = _previous_input(out)
+        same = previous is not None and Path(previous).resolve() == input_path.resolve()
+        if not same and not config.overwrite:
+            what = f"the results of {previous}" if previous else "files scenemosaic did not write"
+            raise UsageError(
+                f"output folder {out} already holds {what}; choose an empty folder or pass "
+                "overwrite=True (--overwrite) to replace it"
+            )
+        if not config.resume:
+            for name in _OUTPUTS:
+                target = out / name
+                if target.is_dir():
+                    shutil.rmtree(target)
+                elif target.exists():
+                    target.unlink()
     out.mkdir(parents=True, exist_ok=True)
     return input_path if input_path.is_dir() else input_path.parent
 
 
-def _export_partial(scene: Scene, folder: Path, base_dir: Path) -> None:
-    if not (folder / "scene.json").exists():  # a failed export stage may already have written it
-        export_base(scene, folder, base_dir)
+def _previous_input(out: Path) -> str | None:
+    for candidate in (out / REPORT_FILE, out / ".checkpoint" / _RUN_FILE):
+        try:
+            value = json.loads(candidate.read_text(encoding="utf-8")).get("input")
+        except (OSError, ValueError, AttributeError):
+            continue
+        if isinstance(value, str):
+            return value
+    return None
 
 
 def _write_json(path: Path, payload: dict[str, Any]) -> None:
-    path.write_text(json.dumps(payload, indent=2, sort_keys=True), encoding="utf-8")
+    """Write atomically (a temporary file renamed over the target), readable by everyone (0644)."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(payload, indent=2, sort_keys=True), encoding="utf-8")
+    os.chmod(tmp, 0o644)
+    os.replace(tmp, path)
+
+
+def _save_checkpoint(run: PipelineRun) -> None:
+    folder = run.checkpoint_dir
+    folder.mkdir(parents=True, exist_ok=True)
+    if run.scene is not None:
+        tmp = folder / ".scene.json.tmp"
+        tmp.write_text(run.scene.to_json(), encoding="utf-8")
+        os.replace(tmp, folder / "scene.json")
+    _write_json(
+        folder / _RUN_FILE,
+        {
+            "input": str(run.input_path),
+            "config": _config_record(run.config),
+            "records": [asdict(r) for r in run.records if r.status in ("done", "skipped", "reused")],
+            "validation": run.validation,
+            "warnings": run.warnings,
+            "fallbacks": [{"agent": f.agent, "reason": f.reason} for f in run.fallbacks],
+        },
+    )
+
+
+def _load_checkpoint(run: PipelineRun) -> set[str]:
+    """Restore a stopped run's state; returns the names of the stages it finished."""
+    from scenemosaic.agents import FallbackRecord
+
+    folder = run.checkpoint_dir
+    try:
+        data = json.loads((folder / _RUN_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return set()
+    if Path(data.get("input", "")).resolve() != run.input_path.resolve():
+        raise UsageError(f"{run.out_dir} holds a run of {data.get('input')}, not of {run.input_path}; cannot resume")
+    changed = [k for k, v in _config_record(run.config).items() if k in _CONFIG_KEYS and data["config"].get(k) != v]
+    if changed:
+        raise UsageError(f"cannot resume {run.out_dir}: settings differ from the stopped run ({', '.join(changed)})")
+    done = [StageRecord(**r) for r in data.get("records", [])]
+    if (folder / "scene.json").is_file():
+        run.scene = Scene.model_validate_json((folder / "scene.json").read_text(encoding="utf-8"))
+    run.validation = data.get("validation")
+    run.warnings = list(data.get("warnings", []))
+    run.fallbacks = [FallbackRecord(**f) for f in data.get("fallbacks", [])]
+    run.records = done
+    return {r.name for r in done}
+
+
+# -- the report -----------------------------------------------------------------------------------
+
+
+def _status(run: PipelineRun, failure: BaseException | None) -> str:
+    if isinstance(failure, asyncio.CancelledError):
+        return "interrupted"
+    if failure is not None:
+        return "failed"
+    return "degraded" if run.warnings else "ok"
+
+
+def _report(run: PipelineRun, total_s: float, failure: BaseException | None) -> dict[str, Any]:
+    scene = run.scene
+    status = _status(run, failure)
+    error: str | None = None
+    trace: str | None = None
+    if status == "interrupted":
+        error = "interrupted: the run was stopped (signal or cancel); resume it with --resume"
+    elif failure is not None:
+        error = f"{type(failure).__name__}: {failure}"
+        from scenemosaic.exceptions import SceneMosaicError
+
+        if not isinstance(failure, SceneMosaicError):  # a bug, not bad input: keep everything for the issue
+            trace = "".join(traceback.format_exception(failure))
+    failed_stage = next((r.name for r in run.records if r.status in ("failed", "interrupted")), None)
+    return {
+        "input": str(run.input_path),
+        "config": _config_record(run.config) | {"variants_requested": run.config.variants},
+        "status": status,
+        "error": error,
+        "failed_stage": failed_stage,
+        "traceback": trace,
+        "warnings": list(run.warnings),
+        "total_seconds": round(total_s, 4),
+        "objects": len(scene.objects) if scene else 0,
+        "categories": sorted({o.category for o in scene.objects}) if scene else [],
+        "variants_written": 0,
+        "stages": [
+            {"name": r.name, "seconds": round(r.seconds, 4), "status": r.status, "objects": r.objects, "detail": r.detail}
+            for r in run.records
+        ],
+        "validation": run.validation,
+    }
+
+
+# -- the driver -----------------------------------------------------------------------------------
+
+
+def _check_config(config: GenerateConfig) -> None:
+    if config.variants < 0:
+        raise UsageError("variants must be >= 0")
+    if config.variants > 0:
+        raise UsageError(
+            f"variants={config.variants} asked for, but variants arrive with the evolution stage, which this "
+            "version does not have yet; run with variants=0 (--variants 0) for the base scene"
+        )
+    for name in ("request_timeout_s", "deadline_s"):
+        value = getattr(config, name)
+        if value is not None and not value > 0:
+            raise UsageError(f"{name} must be a positive number of seconds, got {value}")
 
 
 async def agenerate(
@@ -328,23 +246,30 @@ async def agenerate(
     """Run the pipeline on ``input_path`` and write the output layout under ``out_dir``.
 
     Raises the failing stage's error after writing ``report.json`` (and ``base/`` from the
-    last good scene when there is one), so partial results are kept.
+    last good scene when there is one), so partial results are kept. Cancelling the task stops
+    the run at once: ``report.json`` (status ``interrupted``) and ``base/scene.json`` are written
+    before the cancel propagates. With ``config.resume`` a stopped run continues from its
+    checkpoints. A finished run's report says ``ok`` or ``degraded`` (see ``warnings``).
     """
     config = config or GenerateConfig()
-    if config.variants < 0:
-        raise UsageError("variants must be >= 0")
-    if config.variants > 0:
-        raise UsageError(
-            f"variants={config.variants} asked for, but variants arrive with the evolution stage, which this "
-            "version does not have yet; run with variants=0 (--variants 0) for the base scene"
-        )
+    _check_config(config)
     input_path, out = Path(input_path), Path(out_dir)
-    base_dir = await asyncio.to_thread(_prepare_folders, input_path, out)
+    base_dir = await asyncio.to_thread(_prepare_folders, input_path, out, config)
     run = PipelineRun(input_path=input_path, out_dir=out, config=config, base_dir=base_dir)
+    finished = await asyncio.to_thread(_load_checkpoint, run) if config.resume else set()
+    if not config.resume:  # resumable from the first moment, even if stopped during the import
+        await asyncio.to_thread(_save_checkpoint, run)
     failure: BaseException | None = None
     started = time.perf_counter()
     for stage in STAGES:
         name = stage.name
+        if name in finished and name != "export":
+            for rec in run.records:
+                if rec.name == name and rec.status == "done":
+                    rec.status = "reused"
+            if on_stage:
+                on_stage(name, "reused")
+            continue
         rec = StageRecord(name=name)
         run.records.append(rec)
         if on_stage:
@@ -356,9 +281,10 @@ async def agenerate(
             await stage.run(run, rec)
         except (Exception, asyncio.CancelledError) as exc:
             rec.seconds = time.perf_counter() - t0
-            rec.status = "failed"
-            rec.detail["error"] = f"{type(exc).__name__}: {exc}"
-            bound.error("stage_failed", error=str(exc), error_type=type(exc).__name__)
+            interrupted = isinstance(exc, asyncio.CancelledError)
+            rec.status = "interrupted" if interrupted else "failed"
+            rec.detail["error"] = "interrupted" if interrupted else f"{type(exc).__name__}: {exc}"
+            bound.error("stage_failed", error=str(exc) or type(exc).__name__, error_type=type(exc).__name__)
             if on_stage:
                 on_stage(name, "failed")
             failure = exc
@@ -368,52 +294,47 @@ async def agenerate(
             rec.status = "done"
         rec.objects = len(run.scene.objects) if run.scene is not None else None
         bound.info("stage_finished", seconds=round(rec.seconds, 3), objects=rec.objects)
+        await asyncio.to_thread(_save_checkpoint, run)
         if on_stage:
             on_stage(name, "done")
 
-    if failure is not None and run.scene is not None:
-        try:  # keep the partial result: the last good scene in the stable layout
-            await asyncio.to_thread(_export_partial, run.scene, out / "base", run.base_dir)
-        except Exception as exc:  # the original failure matters more; note this one
-            log.warning("partial_export_failed", error=str(exc))
-
-    report = _report(run, time.perf_counter() - started, failure)
-    await asyncio.to_thread(_write_json, out / "report.json", report)
     if failure is not None:
+        await _keep_partial_results(run, failure, time.perf_counter() - started)
         raise failure
+    report = _report(run, time.perf_counter() - started, None)
+    await asyncio.to_thread(_write_json, out / REPORT_FILE, report)
+    if report["status"] == "degraded":
+        log.warning("run_degraded", warnings=run.warnings)
     assert run.scene is not None
     return GenerateResult(scene=run.scene, out_dir=out, report=report)
 
 
-def _report(run: PipelineRun, total_s: float, failure: BaseException | None) -> dict[str, Any]:
-    scene = run.scene
-    return {
-        "input": str(run.input_path),
-        "config": {
-            "format": run.config.format,
-            "model": run.config.model if isinstance(run.config.model, str) else run.config.model.name,
-            "seed": run.config.seed,
-            "variants_requested": run.config.variants,
-            "room": run.config.room,
-        },
-        "status": "failed" if failure else "ok",
-        "error": f"{type(failure).__name__}: {failure}" if failure else None,
-        "total_seconds": round(total_s, 4),
-        "objects": len(scene.objects) if scene else 0,
-        "categories": sorted({o.category for o in scene.objects}) if scene else [],
-        "variants_written": 0,
-        "stages": [
-            {
-                "name": r.name,
-                "seconds": round(r.seconds, 4),
-                "status": r.status,
-                "objects": r.objects,
-                "detail": r.detail,
-            }
-            for r in run.records
-        ],
-        "validation": run.validation,
-    }
+async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapsed: float) -> None:
+    """Report first, then the last good scene; shielded, so a second cancel cannot lose the report."""
+
+    async def keep() -> None:
+        report = _report(run, elapsed, failure)
+        await asyncio.to_thread(_write_json, run.out_dir / REPORT_FILE, report)
+        if run.scene is None or (run.out_dir / "base" / "scene.json").exists():
+            return
+        quick = isinstance(failure, asyncio.CancelledError)  # stopping: no hull or render work now
+        try:
+            files = await asyncio.to_thread(
+                export_scene_only if quick else export_base, run.scene, run.out_dir / "base", run.base_dir
+            )
+        except Exception as exc:  # the original failure matters more; note this one
+            log.warning("partial_export_failed", error=str(exc))
+            report["partial_export_error"] = f"{type(exc).__name__}: {exc}"
+        else:
+            report["partial_files"] = files
+        await asyncio.to_thread(_write_json, run.out_dir / REPORT_FILE, report)
+
+    task = asyncio.ensure_future(keep())
+    try:
+        await asyncio.shield(task)
+    except asyncio.CancelledError:
+        if not task.done():  # a second cancel: the report is written first thing; let the export finish
+            await asyncio.wait([task])
 
 
 def generate(

@@ -5,7 +5,10 @@ This is the lowest layer: it imports nothing from the rest of scenemosaic but
 category normalization (:func:`normalize_category`, :func:`traits`), the ProcTHOR priors the
 agents and importers read (package data, :func:`load_priors`, :func:`procthor_asset_database`),
 one room recovery (:func:`recover_room`) and one rigid "move with descendants"
-(:func:`with_unit_layout` / :func:`move_with_descendants`).
+(:func:`with_unit_layout` / :func:`move_with_descendants`). It also owns the rules every input
+must keep: the limits on sizes, positions and counts (``MAX_OBJECTS``, ``MAX_COORDINATE``...),
+the one id sanitization (:func:`sanitize_id`, :func:`unique_id`) and the one file confinement
+check (:func:`confined_path`).
 """
 
 from scenemosaic.scene._categories import (
@@ -18,6 +21,7 @@ from scenemosaic.scene._categories import (
     thor_type,
     traits,
 )
+from scenemosaic.scene._files import confined_path, real_path, write_atomic
 from scenemosaic.scene._geometry import (
     FloatArray,
     front_vector,
@@ -27,9 +31,31 @@ from scenemosaic.scene._geometry import (
     quat_to_matrix,
     yaw_from_quat,
 )
-from scenemosaic.scene._model import (
+from scenemosaic.scene._ids import (
     CEILING,
     FLOOR,
+    ID_HASH_CHARS,
+    MAX_ID_LENGTH,
+    OBJECT_ID_PATTERN,
+    sanitize_id,
+    unique_id,
+)
+from scenemosaic.scene._limits import (
+    COACD_MAX_FACES,
+    MAX_COORDINATE,
+    MAX_HULL_VERTICES,
+    MAX_MESH_FACES,
+    MAX_OBJECT_SIZE,
+    MAX_OBJECTS,
+    MAX_SCALE,
+    MIN_OBJECT_SIZE,
+    MIN_SCALE,
+    coordinate_problem,
+    object_count_problem,
+    scale_problem,
+    size_problem,
+)
+from scenemosaic.scene._model import (
     QUAT_NORM_TOLERANCE,
     AssetRef,
     ConstraintClause,
@@ -71,8 +97,20 @@ from scenemosaic.scene._tree import (
 __all__ = [
     "CEILING",
     "CEILING_LAMP_CATEGORIES",
+    "COACD_MAX_FACES",
     "FLOOR",
+    "ID_HASH_CHARS",
+    "MAX_COORDINATE",
+    "MAX_HULL_VERTICES",
+    "MAX_ID_LENGTH",
+    "MAX_MESH_FACES",
+    "MAX_OBJECTS",
+    "MAX_OBJECT_SIZE",
+    "MAX_SCALE",
     "MIN_CEILING_HEIGHT",
+    "MIN_OBJECT_SIZE",
+    "MIN_SCALE",
+    "OBJECT_ID_PATTERN",
     "PROCTHOR_PRIORS_DIR",
     "QUAT_NORM_TOLERANCE",
     "ROOM_MARGIN",
@@ -96,6 +134,8 @@ __all__ = [
     "SupportPriors",
     "Wall",
     "build_structure",
+    "confined_path",
+    "coordinate_problem",
     "descendants",
     "dominant_orientation",
     "footprint_items",
@@ -104,18 +144,25 @@ __all__ = [
     "is_known",
     "load_priors",
     "normalize_category",
+    "object_count_problem",
     "quat_from_matrix",
     "quat_from_yaw",
     "quat_multiply",
     "quat_to_matrix",
+    "real_path",
     "recover_room",
     "recovered_ceiling",
     "rigid_moves",
     "room_rectangle",
+    "sanitize_id",
+    "scale_problem",
+    "size_problem",
     "thor_type",
     "traits",
+    "unique_id",
     "unit_frame",
     "unit_layout",
     "with_unit_layout",
+    "write_atomic",
     "yaw_from_quat",
 ]

@@ -12,6 +12,7 @@ Frames and units (the full statement is ``docs/conventions.md``):
   an object's size in its own frame is ``asset.extents * pose.scale``.
 * Anchor ids: ``"floor"``, ``"ceiling"``, each wall's id, or an object id. Object ids may
   not collide with them.
+* Positions, sizes, scales, heights and the object count are bounded (``_limits.py``).
 """
 
 from __future__ import annotations
@@ -25,6 +26,14 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 
 from scenemosaic.exceptions import SceneValidationError
 from scenemosaic.scene._geometry import FloatArray, quat_from_yaw, quat_to_matrix, yaw_from_quat
+from scenemosaic.scene._ids import CEILING, FLOOR, MAX_ID_LENGTH, OBJECT_ID_PATTERN
+from scenemosaic.scene._limits import (
+    MAX_OBJECT_SIZE,
+    coordinate_problem,
+    object_count_problem,
+    scale_problem,
+    size_problem,
+)
 
 __all__ = [
     "CEILING",
@@ -48,14 +57,10 @@ __all__ = [
 
 log = structlog.get_logger(__name__)
 
-FLOOR = "floor"
-"""Anchor id of the floor."""
-CEILING = "ceiling"
-"""Anchor id of the ceiling."""
 QUAT_NORM_TOLERANCE = 1e-6
 """Largest accepted deviation of a quaternion's norm from 1 before it is normalized (with a warning)."""
 
-ObjectId = Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.\-]+$")]
+ObjectId = Annotated[str, Field(min_length=1, max_length=MAX_ID_LENGTH, pattern=OBJECT_ID_PATTERN)]
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -64,6 +69,17 @@ Quat = tuple[float, float, float, float]
 def _check_finite(values: tuple[float, ...], what: str) -> None:
     if not all(math.isfinite(v) for v in values):
         raise ValueError(f"{what} must be finite, got {list(values)}")
+
+
+def _finite_or(values: tuple[float, ...], neutral: float) -> tuple[float, ...]:
+    """``values`` with every non-finite entry replaced by ``neutral`` (for range-only checks)."""
+    return tuple(v if math.isfinite(v) else neutral for v in values)
+
+
+def _height(v: float) -> float:
+    if not math.isfinite(v) or v > MAX_OBJECT_SIZE:
+        raise ValueError(f"height {v:g} m is not a finite number up to {MAX_OBJECT_SIZE:g} m")
+    return v
 
 
 class _Model(BaseModel):
@@ -199,6 +215,25 @@ class SceneObject(_Model):
     pose: Pose
     sim: SimAttributes = Field(default_factory=SimAttributes)
 
+    @model_validator(mode="after")
+    def _within_limits(self) -> SceneObject:
+        """Position, pose scale and size (``asset.extents * pose.scale``) within the scene limits
+        (``_limits.py``); the error names the object and the field."""
+        # checked on the object rather than on Pose: a Pose is also a transient value (physics
+        # measures motions with poses of bodies that flew away), an object is what a scene holds.
+        # Only the range is checked here: finiteness is Pose's and AssetRef's own rule, and a NaN
+        # smuggled past them (model_copy) is for physics' require_finite_poses to name.
+        problem = coordinate_problem(_finite_or(self.pose.position, 0.0))
+        field = "pose.position"
+        if problem is None:
+            problem, field = scale_problem(_finite_or(self.pose.scale, 1.0)), "pose.scale"
+        if problem is None:
+            size = _finite_or(tuple(float(v) for v in self.size), 1.0)
+            problem, field = size_problem(size), "asset.extents * pose.scale"
+        if problem is not None:
+            raise ValueError(f"object {self.id!r}: {field}: {problem}")
+        return self
+
     @property
     def size(self) -> FloatArray:
         """Size in the object's own frame: asset extents times pose scale (metres)."""
@@ -248,6 +283,19 @@ class Wall(_Model):
     thickness: float = Field(default=0.1, gt=0)
     openings: list[Opening] = Field(default_factory=list)
 
+    @field_validator("start", "end")
+    @classmethod
+    def _in_range(cls, v: Vec2) -> Vec2:
+        problem = coordinate_problem(v)
+        if problem is not None:
+            raise ValueError(problem)
+        return v
+
+    @field_validator("height")
+    @classmethod
+    def _not_too_tall(cls, v: float) -> float:
+        return _height(v)
+
     @property
     def length(self) -> float:
         return float(math.dist(self.start, self.end))
@@ -276,11 +324,19 @@ class Room(_Model):
     walls: list[Wall] = Field(default_factory=list)
     ceiling_height: float = Field(default=2.8, gt=0)
 
+    @field_validator("ceiling_height")
+    @classmethod
+    def _not_too_tall(cls, v: float) -> float:
+        return _height(v)
+
     @field_validator("floor")
     @classmethod
     def _ccw_polygon(cls, v: list[Vec2]) -> list[Vec2]:
-        for p in v:
+        for i, p in enumerate(v):
             _check_finite(p, "floor point")
+            problem = coordinate_problem(p)
+            if problem is not None:
+                raise ValueError(f"floor point {i}: {problem}")
         pts = np.asarray(v, dtype=np.float64)
         x, y = pts[:, 0], pts[:, 1]
         area2 = float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
@@ -413,6 +469,17 @@ class Scene(_Model):
     structure: SceneStructure | None = None
     metadata: dict[str, Any] = Field(default_factory=dict)
     provenance: Provenance = Field(default_factory=Provenance)
+
+    @field_validator("objects", mode="before")
+    @classmethod
+    def _not_too_many(cls, v: Any) -> Any:
+        """At most ``MAX_OBJECTS`` objects."""
+        # before the items are validated: a huge list is refused without building its objects
+        if isinstance(v, list | tuple):
+            problem = object_count_problem(len(v))
+            if problem is not None:
+                raise ValueError(problem)
+        return v
 
     @model_validator(mode="after")
     def _references(self) -> Scene:

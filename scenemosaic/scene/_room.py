@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from pydantic import ValidationError
 
 from scenemosaic.exceptions import ImportFormatError
 from scenemosaic.scene._categories import traits
@@ -166,4 +167,8 @@ def recover_room(
         raise ImportFormatError("no objects to recover a room from", path=source or None)
     items = footprint_items(objects)
     floor, _area = room_rectangle(items, dominant_orientation(items), margin=margin)
-    return Room.from_polygon(floor, ceiling_height=recovered_ceiling(items, min_ceiling))
+    try:
+        return Room.from_polygon(floor, ceiling_height=recovered_ceiling(items, min_ceiling))
+    except ValidationError as exc:  # objects at the edge of the limits can give a room beyond them
+        detail = str(exc.errors()[0]["msg"]).removeprefix("Value error, ")
+        raise ImportFormatError(f"the room recovered from the objects is unusable: {detail}", path=source or None) from exc

@@ -1,7 +1,10 @@
 """Room and walls: a canonical floor polygon, wall primitives and a ceiling height.
 
 Rule solver: when the scene already has a room it is kept (walls are completed from the
-polygon edges if missing). Otherwise the room is the tightest rectangle around every object
+polygon edges if missing) and *repaired* where the objects disagree with it: an object poking
+through a wall by up to ``MAX_PULL_IN`` is pulled back into the room, one hanging through the
+ceiling is lowered under it; an object further out means the input room is too small, and the
+room is grown to the rectangle around everything. Every change is listed in the output. Otherwise the room is the tightest rectangle around every object
 footprint, tried axis-aligned and at the scene's dominant heading, with a margin on each side;
 a side whose outermost object is a wall-type piece of furniture (wardrobe, bed, sofa...) with
 its back to that side is snapped to the object with only a hairline gap.
@@ -14,23 +17,27 @@ from typing import ClassVar
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
-from shapely.geometry import Polygon
+from shapely.affinity import translate
+from shapely.geometry import Point, Polygon
+from shapely.ops import nearest_points
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.scene import (
     ROOM_MARGIN,
     FootprintItem,
+    Pose,
     Room,
     Wall,
     dominant_orientation,
     recovered_ceiling,
+    rigid_moves,
     room_rectangle,
     traits,
 )
 from scenemosaic.structure._facts import ObjectFacts, RoomFacts, object_facts, replace_scene, room_facts
 from scenemosaic.structure._views import FloorPlanImages
 
-__all__ = ["RoomAgent", "RoomEvidence", "RoomOutput", "WallSpec"]
+__all__ = ["ObjectShift", "RoomAgent", "RoomEvidence", "RoomOutput", "WallSpec"]
 
 SNAP_GAP = 0.02
 """Gap (metres) left between a wall-backed piece of furniture and the wall it is snapped to."""
@@ -47,6 +54,23 @@ class WallSpec(AgentOutput):
     height: float = Field(gt=0, le=20)
 
 
+MAX_PULL_IN = 0.5
+"""Largest distance (metres) an object poking through a kept room's wall is moved back in; an
+object further out grows the room instead (the input room was too small, not the object misplaced)."""
+CEILING_GAP = 0.01
+"""Gap (metres) kept under the ceiling by an object lowered because it poked through it."""
+
+
+class ObjectShift(AgentOutput):
+    """A translation that brings one object inside a kept room, and why."""
+
+    object_id: str = Field(max_length=64)
+    dx: float = Field(ge=-MAX_PULL_IN - 0.01, le=MAX_PULL_IN + 0.01)
+    dy: float = Field(ge=-MAX_PULL_IN - 0.01, le=MAX_PULL_IN + 0.01)
+    dz: float = Field(default=0.0, ge=-20, le=0.0, description="Only downward: out of the ceiling.")
+    reason: str = Field(default="", max_length=200)
+
+
 class RoomOutput(AgentOutput):
     """The room boundary the agent settled on."""
 
@@ -57,6 +81,9 @@ class RoomOutput(AgentOutput):
     ceiling_height: float = Field(gt=0, le=20)
     kept_input: bool = Field(default=False, description="True when the input room was kept.")
     yaw_deg: float = Field(default=0.0, description="Heading of the fitted rectangle.")
+    shifts: list[ObjectShift] = Field(
+        default_factory=list, max_length=MAX_ITEMS, description="Objects moved to lie inside a kept room."
+    )
     note: str = Field(default="", max_length=400)
 
 
@@ -93,22 +120,101 @@ def _walls_for(floor: list[tuple[float, float]], height: float) -> list[WallSpec
     return [WallSpec(id=f"wall_{i}", start=floor[i], end=floor[(i + 1) % n], height=height) for i in range(n)]
 
 
+def _pull_in(poly: Polygon, footprint: Polygon) -> tuple[float, float] | None:
+    """The smallest translation (a few steps toward the nearest inside point) that puts
+    ``footprint`` inside ``poly``; ``None`` when none within ``MAX_PULL_IN`` does."""
+    inner = poly.buffer(-1e-4)
+    dx = dy = 0.0
+    for _ in range(8):
+        moved = translate(footprint, dx, dy)
+        outside = moved.difference(inner)
+        if outside.area < 1e-8:
+            return (dx, dy)
+        # push away from the part that pokes out, by its extent along the push direction
+        cx, cy = outside.centroid.x, outside.centroid.y
+        near = nearest_points(poly.exterior, Point(cx, cy))[0]
+        mx, my = moved.centroid.x, moved.centroid.y
+        vx, vy = mx - cx, my - cy
+        n = math.hypot(vx, vy)
+        if n < 1e-9:
+            vx, vy, n = mx - near.x, my - near.y, math.hypot(mx - near.x, my - near.y) or 1.0
+        ux, uy = vx / n, vy / n
+        depth = max(0.0, max((ux * (near.x - x) + uy * (near.y - y)) for x, y in outside.exterior.coords)
+                    if isinstance(outside, Polygon) else 0.0)
+        step = max(depth, 0.005) + 0.002
+        dx, dy = dx + ux * step, dy + uy * step
+        if math.hypot(dx, dy) > MAX_PULL_IN:
+            return None
+    moved = translate(footprint, dx, dy)
+    return (dx, dy) if moved.difference(inner).area < 1e-6 else None
+
+
+def _repair_room(evidence: RoomEvidence) -> RoomOutput:
+    """Keep the input room; pull objects poking through it back in, or grow it (see the module docstring)."""
+    r = evidence.room
+    assert r is not None
+    floor = list(r.floor)
+    walls = (
+        [WallSpec(id=w.id, start=w.start, end=w.end, height=w.height) for w in r.walls]
+        if r.walls
+        else _walls_for(floor, r.ceiling_height)
+    )
+    poly = Polygon(floor)
+    grown = poly.buffer(CONTAIN_TOLERANCE)
+    shifts: list[ObjectShift] = []
+    too_far: list[str] = []
+    for o in evidence.objects:
+        dz = 0.0
+        if o.top > r.ceiling_height + CONTAIN_TOLERANCE and traits(o.category).placement != "floor":
+            dz = r.ceiling_height - CEILING_GAP - o.top
+        fp = o.polygon()
+        dxy: tuple[float, float] = (0.0, 0.0)
+        if not grown.contains(fp):
+            found = _pull_in(poly, fp)
+            if found is None:
+                too_far.append(o.id)
+                continue
+            dxy = found
+        if dxy != (0.0, 0.0) or dz < 0:
+            what = []
+            if dxy != (0.0, 0.0):
+                what.append(f"{math.hypot(*dxy):.2f} m back inside the walls")
+            if dz < 0:
+                what.append(f"{-dz:.2f} m down, under the ceiling")
+            shifts.append(
+                ObjectShift(object_id=o.id, dx=round(dxy[0], 4), dy=round(dxy[1], 4), dz=round(dz, 4), reason="moved " + " and ".join(what))
+            )
+    note = "input room kept" + ("" if r.walls else "; walls completed from the floor polygon")
+    ceiling = r.ceiling_height
+    tallest_floor = max((o.top for o in evidence.objects if traits(o.category).placement == "floor"), default=0.0)
+    if tallest_floor > ceiling:
+        ceiling = round(tallest_floor + 0.1, 3)
+        note += f"; ceiling raised to {ceiling:.2f} m above the tallest furniture"
+    if too_far:  # the input room is too small: grow it around everything (walls recomputed)
+        items = _items(list(evidence.objects))
+        grown_floor, _ = _fit(items, 0.0)
+        union = Polygon(grown_floor).union(poly).envelope
+        floor = [(round(x, 4), round(y, 4)) for x, y in list(union.exterior.coords)[:-1]]
+        if Polygon(floor).exterior.is_ccw is False:
+            floor.reverse()
+        walls = _walls_for(floor, ceiling)
+        note += "; room grown to enclose " + ", ".join(too_far[:8]) + (" ..." if len(too_far) > 8 else "")
+    if shifts:
+        note += f"; {len(shifts)} object(s) moved inside"
+    return RoomOutput(
+        floor=floor,
+        walls=[w.model_copy(update={"height": ceiling}) if w.height < ceiling else w for w in walls],
+        ceiling_height=ceiling,
+        kept_input=not too_far,
+        shifts=shifts,
+        note=note[:400],
+    )
+
+
 def solve_room(evidence: RoomEvidence) -> RoomOutput:
     """The room rule solver (see the module docstring)."""
     if evidence.room is not None:
-        r = evidence.room
-        walls = (
-            [WallSpec(id=w.id, start=w.start, end=w.end, height=w.height) for w in r.walls]
-            if r.walls
-            else _walls_for(list(r.floor), r.ceiling_height)
-        )
-        return RoomOutput(
-            floor=list(r.floor),
-            walls=walls,
-            ceiling_height=r.ceiling_height,
-            kept_input=True,
-            note="input room kept" + ("" if r.walls else "; walls completed from the floor polygon"),
-        )
+        return _repair_room(evidence)
     objs = evidence.objects
     items = _items(objs)
     ceiling = round(recovered_ceiling(items), 3)
@@ -153,9 +259,24 @@ class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
         if not poly.is_valid or poly.area < 0.5:
             return [f"the floor polygon is degenerate or self-intersecting (area {poly.area:.2f} m²)"]
         grown = poly.buffer(CONTAIN_TOLERANCE)
-        for o in object_facts(state.scene):
-            if not grown.contains(o.polygon()):
-                problems.append(f"object {o.id!r} ({o.category}) lies partly outside the floor polygon")
+        shifts = {s.object_id: s for s in output.shifts}
+        facts = object_facts(state.scene)
+        known = {o.id for o in facts}
+        for oid in sorted(set(shifts) - known):
+            problems.append(f"shift names unknown object {oid!r}; use ids from the evidence")
+        for o in facts:
+            sh = shifts.get(o.id)
+            fp = translate(o.polygon(), sh.dx, sh.dy) if sh else o.polygon()
+            if not grown.contains(fp):
+                problems.append(
+                    f"object {o.id!r} ({o.category}) lies partly outside the floor polygon; move it inside "
+                    "with a shift (at most 0.5 m) or enlarge the floor polygon"
+                )
+            top = o.top + (sh.dz if sh else 0.0)
+            if traits(o.category).placement != "floor" and top > output.ceiling_height + CONTAIN_TOLERANCE:
+                problems.append(
+                    f"object {o.id!r} ({o.category}) reaches {top:.2f} m, above the ceiling; lower it with a shift dz"
+                )
         ids = [w.id for w in output.walls]
         if len(set(ids)) != len(ids):
             problems.append("wall ids must be unique")
@@ -170,7 +291,11 @@ class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
         for wid in sorted((used & old_walls) - set(ids)):
             problems.append(f"wall {wid!r} is referenced by the scene and must be kept")
         tallest = max(
-            (o.top for o in object_facts(state.scene) if traits(o.category).placement != "ceiling"),
+            (
+                o.top + (shifts[o.id].dz if o.id in shifts else 0.0)
+                for o in facts
+                if traits(o.category).placement != "ceiling"
+            ),
             default=0.0,
         )
         if output.ceiling_height < tallest - 0.05:
@@ -184,4 +309,18 @@ class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
         room.walls = [Wall(id=w.id, start=w.start, end=w.end, height=w.height) for w in output.walls]
         if not room.walls:
             room = Room.from_polygon(room.floor, ceiling_height=output.ceiling_height)
-        state.scene = replace_scene(state.scene, room=room)
+        scene = replace_scene(state.scene, room=room)
+        if output.shifts:
+            moves: dict[str, Pose] = {}
+            for sh in output.shifts:
+                pose = scene.get(sh.object_id).pose
+                x, y, z = pose.position
+                moves[sh.object_id] = pose.model_copy(update={"position": (x + sh.dx, y + sh.dy, z + sh.dz)})
+            new_poses = rigid_moves(scene, moves)
+            for oid, pose in new_poses.items():
+                scene.get(oid).pose = pose
+            for sh in output.shifts:
+                scene.provenance.notes.append(f"room: {sh.object_id} {sh.reason}")
+        if not output.kept_input and state.scene.room is not None:
+            scene.provenance.notes.append(f"room: {output.note}")
+        state.scene = scene

@@ -80,7 +80,10 @@ async def structure_scene(
         policy=policy or AgentPolicy(),
     )
     try:
-        await run_agents([manager], state, model, settings=settings, store=store, events=events)
+        # the plan and the planned agents are two graphs: each keeps its own record in the store
+        plan_store = store.scoped("plan") if store is not None else None
+        agents_store = store.scoped("agents") if store is not None else None
+        await run_agents([manager], state, model, settings=settings, store=plan_store, events=events)
         plan = state.outputs["manager"]
         assert isinstance(plan, StructuringPlan)
         chosen = manager.select(plan)
@@ -90,7 +93,7 @@ async def structure_scene(
             state,
             model,
             settings=settings,
-            store=store,
+            store=agents_store,
             events=events,
             max_concurrency=max_concurrency,
         )

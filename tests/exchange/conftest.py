@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +64,30 @@ def sam3d_example(tmp_path_factory: pytest.TempPathFactory, sam3d_dir: Path) -> 
     folder = tmp_path_factory.mktemp("sam3d_example")
     write_sam3d_example(folder, sam3d_dir)
     return folder
+
+
+@pytest.fixture(scope="session")
+def link_sam3d_example(sam3d_example: Path) -> Callable[[Path], dict[str, Any]]:
+    """``link(folder)`` gives ``folder`` the example's meshes (hard links, or copies across file
+    systems) and returns the example's poses (mesh paths relative, so they resolve inside it).
+
+    A pose file may only use meshes inside its own folder, so an edited copy of ``poses.json``
+    needs the meshes beside it, not a path back to the example.
+    """
+
+    def copy_file(src: str, dst: str) -> None:
+        try:
+            os.link(src, dst)
+        except OSError:
+            shutil.copy2(src, dst)
+
+    def link(folder: Path) -> dict[str, Any]:
+        folder.mkdir(parents=True, exist_ok=True)
+        shutil.copytree(sam3d_example / "meshes", folder / "meshes", copy_function=copy_file, dirs_exist_ok=True)
+        data: dict[str, Any] = json.loads((sam3d_example / "poses.json").read_text())
+        return data
+
+    return link
 
 
 @pytest.fixture()

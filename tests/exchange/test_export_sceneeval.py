@@ -13,7 +13,7 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from scenemosaic.exchange import MODEL_ID_PREFIX, Y_UP_TO_Z_UP, export_glb, export_sceneeval, sceneeval_state
-from scenemosaic.scene import AssetRef, Pose, Room, Scene, SceneObject, front_vector
+from scenemosaic.scene import MAX_OBJECTS, AssetRef, Pose, Room, Scene, SceneObject, front_vector
 
 TOL_M = 1e-3
 
@@ -157,17 +157,18 @@ def test_identical_assets_are_shared(dining_scene: Scene, tmp_path: Path) -> Non
 
 
 def test_object_name_length_rule_with_many_objects() -> None:
+    """The largest scene the model allows (MAX_OBJECTS objects, all different) keeps names short."""
     category = "an_unusually_long_category_name_for_a_piece_of_furniture_x"
     objects = [
         SceneObject(id=f"o{i}", category=category, asset=AssetRef(kind="box", extents=(0.1, 0.1, 0.1 + i * 1e-3)),
                     pose=Pose.from_yaw((0.01 * i, 0.0, 0.0), 0.0))
-        for i in range(1100)
+        for i in range(MAX_OBJECTS)
     ]  # fmt: skip
     scene = Scene(room=Room.rectangle(-1, -1, 2, 1), objects=objects)
     state, assets = sceneeval_state(scene)
-    assert len(assets) == 1100
+    assert len(assets) == MAX_OBJECTS
     names = [f"idx{o['index']}_{o['modelId']}" for o in state["scene"]["object"]]
-    assert len(set(names)) == 1100
+    assert len(set(names)) == MAX_OBJECTS
     assert max(len(n.encode()) for n in names) <= 63
 
 

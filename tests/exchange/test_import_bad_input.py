@@ -21,17 +21,14 @@ from scenemosaic.scene import AssetRef, Pose, Relation, Scene, SceneObject
 
 
 @pytest.fixture
-def poses_text(sam3d_example: Path) -> str:
-    """The example's poses.json with absolute mesh paths, so copies can live anywhere."""
-    data: dict[str, Any] = json.loads((sam3d_example / "poses.json").read_text())
-    for obj in data["objects"]:
-        obj["mesh"] = str((sam3d_example / obj["mesh"]).resolve())
-    return json.dumps(data, indent=1)
+def poses_text(link_sam3d_example: Callable[[Path], dict[str, Any]], tmp_path: Path) -> str:
+    """The example's poses.json, for a folder ``tmp_path / "set"`` that holds links to its meshes."""
+    return json.dumps(link_sam3d_example(tmp_path / "set"), indent=1)
 
 
 def _poses_dir(tmp_path: Path, text: str) -> Path:
     folder = tmp_path / "set"
-    folder.mkdir()
+    folder.mkdir(exist_ok=True)
     (folder / "poses.json").write_text(text)
     return folder
 
@@ -103,7 +100,7 @@ def test_sam3d_generated_ids_steer_around_explicit_ones(poses_text: str, tmp_pat
 def test_sam3d_degenerate_mesh_names_pose_file_field_and_mesh(
     poses_text: str, tmp_path: Path, name: str, content: str, words: str
 ) -> None:
-    bad = tmp_path / name
+    bad = tmp_path / "set" / name
     bad.write_text(content)
     data = json.loads(poses_text)
     data["objects"][2]["mesh"] = str(bad)

@@ -181,16 +181,9 @@ def test_procthor_bad_database(house: dict[str, Any], tmp_path: Path) -> None:
 
 
 @pytest.fixture
-def poses(sam3d_example: Path) -> dict[str, Any]:
-    data: dict[str, Any] = json.loads((sam3d_example / "poses.json").read_text())
-    return data
-
-
-def _rebase(data: dict[str, Any], example: Path) -> dict[str, Any]:
-    """Mesh paths are relative to the pose file: make them absolute so the copy can live elsewhere."""
-    for obj in data["objects"]:
-        obj["mesh"] = str((example / obj["mesh"]).resolve())
-    return data
+def poses(link_sam3d_example: Callable[[Path], dict[str, Any]], tmp_path: Path) -> dict[str, Any]:
+    """The example's poses, with its meshes linked into ``tmp_path`` (where the edited file goes)."""
+    return link_sam3d_example(tmp_path)
 
 
 @pytest.mark.parametrize(
@@ -223,7 +216,7 @@ def test_sam3d_bad_input(
     field: str,
     words: str,
 ) -> None:
-    data = _rebase(copy.deepcopy(poses), sam3d_example)
+    data = copy.deepcopy(poses)
     edit(data)
     path = _write(tmp_path, "poses.json", data)
     with pytest.raises(ImportFormatError) as info:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -190,11 +191,12 @@ def test_asset_dir_wins_over_the_folder_beside_the_file(small_export: Path, tmp_
 
 
 def _write(tmp_path: Path, source: Path, data: Any) -> Path:
-    """Write ``data`` beside a copy of the exported assets (so only the JSON differs)."""
+    """Write ``data`` beside a copy of the exported assets (so only the JSON differs).
+
+    A copy, not a symlink: a link to a folder outside the scene's would be refused."""
     folder = tmp_path / "edited"
     if not folder.exists():
-        folder.mkdir()
-        (folder / "assets").symlink_to(source.parent / "assets", target_is_directory=True)
+        shutil.copytree(source.parent / "assets", folder / "assets")
     path = folder / "scene_base.json"
     path.write_text(json.dumps(data))
     return path

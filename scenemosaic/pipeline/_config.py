@@ -1,0 +1,149 @@
+"""What a ``generate`` run is told (:class:`GenerateConfig`) and what it carries along (:class:`PipelineRun`)."""
+
+from __future__ import annotations
+
+from collections.abc import Awaitable, Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from scenemosaic.models import Model
+from scenemosaic.scene import Scene
+
+if TYPE_CHECKING:
+    from scenemosaic.agents import FallbackRecord, TaskAgent
+    from scenemosaic.assets import HullCache
+
+__all__ = [
+    "GenerateConfig",
+    "GenerateResult",
+    "PipelineRun",
+    "Stage",
+    "StageCallback",
+    "StageFn",
+    "StageRecord",
+]
+
+StageCallback = Callable[[str, str], None]
+"""Called as ``callback(stage_name, status)`` with status ``"started"``, ``"done"``, ``"reused"`` or ``"failed"``."""
+
+
+@dataclass(frozen=True)
+class GenerateConfig:
+    """Settings of one ``generate`` run."""
+
+    format: str = "auto"
+    """Input format (``auto`` or a registered reader: ``native``, ``front3d``, ``procthor``,
+    ``holodeck``, ``sam3d``, ``sceneeval``)."""
+    variants: int = 0
+    """Number of diverse variants to deliver. Only 0 (the base scene) until the evolution and
+    composition stages arrive; any other value is refused before work starts, never ignored."""
+    model: str | Model = "rules"
+    """Model string (``rules``, ``openai:<model>[@<base_url>]``, ``replay:<cassette.json>``) or a
+    :class:`~scenemosaic.models.Model` instance, which the caller keeps ownership of (not closed here)."""
+    seed: int = 0
+    """Run seed; every random choice derives from it, so equal inputs give identical files."""
+    room: str | None = None
+    """Room id to take from a multi-room house file."""
+    asset_dir: Path | None = None
+    """Folder of asset meshes a SceneEval input names by ``assetId`` (default: ``assets/`` beside it)."""
+    vision: bool | None = None
+    """Force the model's vision setting (``False`` for text-only local servers); ``None`` keeps its default."""
+    solver_fallback: bool = True
+    """When a real model's answers stay unusable (after retries and repairs), use the agent's rule
+    solver and note it in the report (the run is then ``degraded``), instead of failing the run.
+    Configuration errors still fail."""
+    request_timeout_s: float | None = None
+    """Time-out of one model request in seconds (``--request-timeout``); ``None`` keeps the
+    model's own. See ``docs/reliability.md`` for the precedence of time-outs."""
+    deadline_s: float | None = None
+    """Wall-clock budget for all model requests of the run, in seconds (``--deadline``): once it
+    has passed, agents answer with their rule solvers (the run is ``degraded``)."""
+    stabilize: bool = True
+    """Run the physics stabilization stage."""
+    strict: bool = False
+    """Treat a ``degraded`` outcome (unresolved collisions, fallen objects, solver fallbacks) as a
+    failure: the CLI exits 1 (``--strict``). The files are written either way."""
+    overwrite: bool = False
+    """Allow writing into an output folder that holds the results of another input."""
+    resume: bool = False
+    """Continue a stopped run in the same output folder: finished stages (and finished agents of
+    the structuring stage) are reused from the run's checkpoints (``--resume``)."""
+    cache_dir: Path | None = None
+    """Hull cache folder; default ``$SCENEMOSAIC_CACHE`` or ``~/.cache/scenemosaic``."""
+    priors_dir: Path | None = None
+    """ProcTHOR priors folder (receptacles, placement annotations, asset groups) replacing the
+    priors shipped with the package."""
+    agents: Sequence[TaskAgent[Any, Any]] | None = None
+    """Structuring agents the manager may schedule; default
+    :data:`~scenemosaic.structure.DEFAULT_AGENTS`. Add a plugin with
+    ``agents=[*DEFAULT_AGENTS, MyAgent()]``."""
+
+
+@dataclass
+class StageRecord:
+    """Timing and outcome of one pipeline stage, as written to ``report.json``."""
+
+    name: str
+    seconds: float = 0.0
+    status: str = "pending"
+    """``pending``, ``done``, ``skipped``, ``reused`` (from a checkpoint), ``failed`` or ``interrupted``."""
+    objects: int | None = None
+    detail: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class GenerateResult:
+    """What ``generate`` produced: the final base scene, the output folder and the report."""
+
+    scene: Scene
+    out_dir: Path
+    report: dict[str, Any]
+
+    @property
+    def base_dir(self) -> Path:
+        """The delivered base scene's folder (``out_dir / "base"``)."""
+        return self.out_dir / "base"
+
+    @property
+    def status(self) -> str:
+        """``ok`` or ``degraded`` (a failed run raises instead of returning)."""
+        return str(self.report.get("status", "ok"))
+
+
+@dataclass
+class PipelineRun:
+    """Mutable state threaded through the stages."""
+
+    input_path: Path
+    out_dir: Path
+    config: GenerateConfig
+    base_dir: Path
+    """Folder relative mesh paths of the input start from."""
+    scene: Scene | None = None
+    records: list[StageRecord] = field(default_factory=list)
+    hull_cache: HullCache | None = None
+    """The run's CoACD hull cache, opened on first use and shared by the stages."""
+    validation: dict[str, Any] | None = None
+    """The validate stage's full report (JSON-ready), written to ``report.json``."""
+    fallbacks: list[FallbackRecord] = field(default_factory=list)
+    """Agents answered by their rule solvers instead of the model."""
+    warnings: list[str] = field(default_factory=list)
+    """What makes the outcome ``degraded``, in words."""
+
+    @property
+    def checkpoint_dir(self) -> Path:
+        """Where stage checkpoints and the agents' run store live (``out/.checkpoint``)."""
+        return self.out_dir / ".checkpoint"
+
+
+StageFn = Callable[[PipelineRun, StageRecord], Awaitable[None]]
+"""A stage's body: reads and updates the run, records its figures in the stage record."""
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One named step of the pipeline."""
+
+    name: str
+    run: StageFn

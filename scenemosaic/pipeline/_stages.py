@@ -1,0 +1,236 @@
+"""The stages of ``generate``, in order: import → assets → structure → stabilize → validate → export.
+
+Each stage is a small async function over a :class:`~scenemosaic.pipeline.PipelineRun`; CPU work
+runs in worker threads so the event loop stays free to notice a cancel. The method's ``evolve``
+and ``compose`` stages are two more entries of :data:`STAGES`, before ``export``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import functools
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from scenemosaic.pipeline._config import PipelineRun, Stage, StageRecord
+from scenemosaic.scene import Scene
+
+if TYPE_CHECKING:
+    from scenemosaic.assets import HullCache
+    from scenemosaic.models import Model, UsageTracker
+
+__all__ = ["DELIVERED_FORMATS", "STAGES", "STAGE_NAMES", "export_base", "export_scene_only"]
+
+DELIVERED_FORMATS: tuple[tuple[str, str], ...] = (("glb", "scene.glb"), ("sceneeval", "sceneeval"), ("mjcf", ""))
+"""Formats written beside ``scene.json`` in every delivered folder, with their destination in it."""
+
+
+def hull_cache(run: PipelineRun) -> HullCache:
+    """The run's hull cache, opened on first use (a resumed run skips the assets stage)."""
+    from scenemosaic.assets import HullCache
+
+    if run.hull_cache is None:
+        run.hull_cache = HullCache(run.config.cache_dir / "hulls" if run.config.cache_dir else None)
+    return run.hull_cache
+
+
+async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
+    from scenemosaic.exchange import load_scene
+
+    scene = await asyncio.to_thread(
+        functools.partial(
+            load_scene, run.input_path, run.config.format, room=run.config.room, asset_dir=run.config.asset_dir
+        )
+    )
+    run.scene = scene
+    rec.detail["source_format"] = scene.provenance.source_format
+
+
+async def _stage_assets(run: PipelineRun, rec: StageRecord) -> None:
+    from scenemosaic.assets import object_hulls
+
+    assert run.scene is not None
+    cache = hull_cache(run)
+    scene = run.scene
+
+    def prepare() -> dict[str, int]:
+        counts: dict[str, int] = {}
+        for obj in scene.objects:
+            counts[obj.asset.kind] = counts.get(obj.asset.kind, 0) + 1
+            if obj.asset.kind == "mesh":  # warm the CoACD cache once, before physics needs it
+                object_hulls(obj, run.base_dir, cache=cache)
+        return counts
+
+    rec.detail["asset_kinds"] = await asyncio.to_thread(prepare)
+
+
+def _asking_model(run: PipelineRun, model: Model, tracker: UsageTracker) -> Model:
+    """The model the agents ask: instrumented for usage, bounded by the run's time limits."""
+    from scenemosaic.models import InstrumentedModel
+
+    asking: Model = InstrumentedModel(model, on_call=tracker.on_call)
+    if model.uses_rule_solvers:
+        return asking
+    from scenemosaic.models import CircuitBreakerModel, DeadlineModel
+
+    asking = CircuitBreakerModel(asking)
+    if run.config.deadline_s is not None:
+        asking = DeadlineModel(asking, run.config.deadline_s)
+    return asking
+
+
+async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
+    from scenemosaic.agents import AgentPolicy
+    from scenemosaic.dag import FileRunStore
+    from scenemosaic.models import ModelSettings, UsageTracker, parse_model
+    from scenemosaic.structure import structure_scene
+
+    assert run.scene is not None
+    notes_before = len(run.scene.provenance.notes)
+    spec = run.config.model
+    model = parse_model(spec, vision=run.config.vision) if isinstance(spec, str) else spec
+    rec.detail["model"] = model.name
+    tracker = UsageTracker()
+    asking = _asking_model(run, model, tracker)
+    settings = ModelSettings(timeout_s=run.config.request_timeout_s) if run.config.request_timeout_s else None
+    # finished agents are kept on disk, so a stopped run resumed later does not ask them again
+    store = FileRunStore(run.checkpoint_dir / "agents")
+    fallbacks = run.fallbacks
+    try:
+        run.scene = await structure_scene(
+            run.scene,
+            asking,
+            agents=run.config.agents,
+            settings=settings,
+            policy=AgentPolicy(solver_fallback=run.config.solver_fallback),
+            store=store,
+            seed=run.config.seed,
+            priors_dir=run.config.priors_dir,
+            base_dir=run.base_dir,
+            fallbacks=fallbacks,
+        )
+    finally:
+        if not model.uses_rule_solvers:
+            rec.detail["solver_fallbacks"] = [{"agent": f.agent, "reason": f.reason} for f in fallbacks]
+        rec.detail["usage"] = _usage_summary(tracker)
+        if isinstance(spec, str):
+            await model.aclose()
+    for f in fallbacks:
+        run.warnings.append(f"agent {f.agent!r} answered by its rule solver: {f.reason[:160]}")
+    # what the agents changed to make the input consistent (objects pulled inside walls...)
+    rec.detail["repairs"] = run.scene.provenance.notes[notes_before:]
+    structure = run.scene.structure
+    rec.detail["units"] = len(structure.units) if structure else 0
+    rec.detail["relations"] = len(run.scene.relations)
+    rec.detail["constraints"] = len(run.scene.constraints)
+
+
+def _usage_summary(tracker: UsageTracker) -> dict[str, Any]:
+    """Requests, tokens and latencies of the model calls, per run and per agent."""
+    latencies = sorted(c.latency_s for c in tracker.calls)
+    return {
+        "requests": tracker.total.requests,
+        "input_tokens": tracker.total.input_tokens,
+        "output_tokens": tracker.total.output_tokens,
+        "image_tokens": tracker.total.image_tokens,
+        "failed_calls": sum(1 for c in tracker.calls if not c.ok),
+        "latency_s": {
+            "mean": round(sum(latencies) / len(latencies), 4) if latencies else 0.0,
+            "max": round(latencies[-1], 4) if latencies else 0.0,
+        },
+        "by_agent": {
+            agent: {"requests": u.requests, "input_tokens": u.input_tokens, "output_tokens": u.output_tokens}
+            for agent, u in sorted(tracker.by_agent.items())
+        },
+    }
+
+
+async def _stage_stabilize(run: PipelineRun, rec: StageRecord) -> None:
+    from scenemosaic.physics import stabilize_scene
+
+    assert run.scene is not None
+    if not run.config.stabilize:
+        rec.status = "skipped"
+        return
+    scene, report = await stabilize_scene(
+        run.scene, base_dir=run.base_dir, seed=run.config.seed, hull_cache=hull_cache(run)
+    )
+    run.scene = scene
+    rec.detail.update(report.model_dump(mode="json", include=_summary_fields(report)))
+
+
+async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
+    from scenemosaic.physics import validate_scene
+
+    assert run.scene is not None
+    scene = run.scene
+    report = await asyncio.to_thread(
+        functools.partial(validate_scene, scene, run.base_dir, hull_cache=hull_cache(run))
+    )
+    rec.detail.update(report.model_dump(mode="json", include=_summary_fields(report)))
+    run.validation = report.model_dump(mode="json")
+    if report.collisions.pairs:
+        worst = max(p.depth_m for p in report.collisions.pairs)
+        run.warnings.append(f"{len(report.collisions.pairs)} colliding pair(s) left, deepest {worst:.3f} m")
+    if report.out_of_bounds.objects:
+        run.warnings.append(f"{len(report.out_of_bounds.objects)} object(s) out of bounds")
+    if report.fell:
+        run.warnings.append("object(s) fell in the validation run: " + ", ".join(report.fell[:10]))
+    if report.tipped:
+        run.warnings.append("object(s) tipped in the validation run: " + ", ".join(report.tipped[:10]))
+
+
+def _summary_fields(report: Any) -> set[str]:
+    """The scalar fields of a report model (counts, booleans, timings) for report.json's stage table."""
+    return {
+        name
+        for name, value in report
+        if isinstance(value, int | float | bool | str) or (isinstance(value, list) and len(value) <= 20)
+    }
+
+
+async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
+    assert run.scene is not None
+    rec.detail["files"] = await asyncio.to_thread(export_base, run.scene, run.out_dir / "base", run.base_dir)
+
+
+def export_base(scene: Scene, folder: Path, base_dir: Path | None) -> list[str]:
+    """Write one scene in the stable output layout; returns the files written (relative to ``folder``).
+
+    ``scene.json`` (+ ``assets/``) first, through the native writer; every delivered format is then
+    written from that saved copy (whose mesh uris the native writer rewrote), plus a top-down PNG.
+    """
+    from scenemosaic.exchange import read_scene, write_scene
+    from scenemosaic.render import render_topdown
+
+    folder.mkdir(parents=True, exist_ok=True)
+    write_scene(scene, "native", folder, base_dir)
+    saved = read_scene(folder)
+    for fmt, destination in DELIVERED_FORMATS:
+        write_scene(saved, fmt, folder / destination if destination else folder, folder)
+    (folder / "topdown.png").write_bytes(render_topdown(saved, base_dir=folder))
+    top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
+    return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir() and p.name != "assets")]
+
+
+def export_scene_only(scene: Scene, folder: Path, base_dir: Path | None) -> list[str]:
+    """Write only ``scene.json`` (+ its mesh assets): the fast partial result of a stopped run."""
+    from scenemosaic.exchange import write_scene
+
+    folder.mkdir(parents=True, exist_ok=True)
+    write_scene(scene, "native", folder, base_dir)
+    return ["scene.json"]
+
+
+STAGES: tuple[Stage, ...] = (
+    Stage("import", _stage_import),
+    Stage("assets", _stage_assets),
+    Stage("structure", _stage_structure),
+    Stage("stabilize", _stage_stabilize),
+    Stage("validate", _stage_validate),
+    Stage("export", _stage_export),
+)
+"""The stages ``generate`` runs, in order (``evolve`` and ``compose`` slot in before ``export``)."""
+
+STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in STAGES)
+"""The names of :data:`STAGES`, in order."""

@@ -1,0 +1,49 @@
+"""Runs the ``scenemosaic`` CLI in this process with one stage made slow or broken, for tests.
+
+Usage: ``python cli_driver.py <stage|-> <sleep|raise|-> -- <scenemosaic arguments>``. ``sleep``
+makes the named stage wait (10 minutes) before doing its work, so a test can send a signal while
+that stage runs; ``raise`` makes it fail with an unexpected ``RuntimeError`` (a stand-in for a
+bug). Prints ``STAGE-STARTED <name>`` on stderr when the slowed stage begins.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import sys
+
+from scenemosaic.pipeline import _run
+from scenemosaic.pipeline._config import PipelineRun, Stage, StageRecord
+
+
+def _patched(stage_name: str, action: str) -> tuple[Stage, ...]:
+    out = []
+    for stage in _run.STAGES:
+        if stage.name != stage_name:
+            out.append(stage)
+            continue
+        original = stage.run
+
+        async def slowed(run: PipelineRun, rec: StageRecord, original=original) -> None:  # type: ignore[no-untyped-def]
+            print(f"STAGE-STARTED {stage_name}", file=sys.stderr, flush=True)
+            if action == "raise":
+                raise RuntimeError("injected failure for a test")
+            await asyncio.sleep(600)
+            await original(run, rec)
+
+        out.append(Stage(stage.name, slowed))
+    return tuple(out)
+
+
+def main() -> None:
+    stage, action, sep, *args = sys.argv[1:]
+    assert sep == "--"
+    if stage != "-":
+        _run.STAGES = _patched(stage, action)  # type: ignore[misc]
+    from scenemosaic.cli import app
+
+    sys.argv = ["scenemosaic", *args]
+    app()
+
+
+if __name__ == "__main__":
+    main()
