@@ -159,6 +159,8 @@ _TRAITS: dict[str, CategoryTraits] = {
     "counter": _F("floor", supports=True, against_wall=True, built_in=True),
     "countertop": _F("floor", supports=True, against_wall=True, built_in=True),
     "sink": _F("floor", supports=True, built_in=True),
+    "garbage_can": _F("floor", contains=True, opening="top"),
+    "laundry_hamper": _F("floor", contains=True, opening="top"),
     "toilet": _F("floor", against_wall=True, built_in=True),
     "bathtub": _F("floor", against_wall=True, built_in=True),
     "radiator": _F("floor", against_wall=True, built_in=True),
@@ -176,6 +178,11 @@ _SYNONYMS: dict[str, str] = {
     "bedside_table": "nightstand",
     "bedside_cabinet": "nightstand",
     "end_table": "side_table",
+    "counter_top": "countertop",
+    "kitchen_counter": "countertop",
+    "trash_can": "garbage_can",
+    "waste_bin": "garbage_can",
+    "dust_bin": "garbage_can",
     "couch": "sofa",
     "three_seat_sofa": "multi_seat_sofa",
     "closet": "wardrobe",
@@ -218,6 +225,8 @@ _KEYWORDS: tuple[tuple[str, str], ...] = (
 )
 
 THOR_TYPE: dict[str, str] = {
+    "garbage_can": "GarbageCan",
+    "laundry_hamper": "LaundryHamper",
     "double_bed": "Bed",
     "single_bed": "Bed",
     "kids_bed": "Bed",

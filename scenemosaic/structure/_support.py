@@ -9,8 +9,11 @@ Rule solver, per object, in this order:
    the floor or floated it above a neighbour;
 3. otherwise the object rests on (or inside) the best supporting object below it: one whose
    footprint covers the object's centre, that can carry things (category table / ProcTHOR
-   receptacles), that is not much smaller, and whose top is closest under the object's bottom
-   (ProcTHOR's receptacle probabilities break ties);
+   receptacles), that is not much smaller, and whose *real surface* under the object — measured
+   by downward rays on the parent's mesh (:func:`resting_surfaces`), the box top only when no
+   mesh is available — is closest under the object's bottom; an object inside a carrier's box,
+   above its base, rests on an inner surface of it (a shelf board, a seat) when nothing matches
+   better; ProcTHOR's receptacle probabilities break ties;
 4. wall things (paintings, mirrors, and anything hanging above the floor with nothing under it
    near a wall) are mounted on the nearest wall;
 5. everything else stands on the floor.
@@ -19,12 +22,27 @@ Rule solver, per object, in this order:
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 from typing import ClassVar, Literal
 
+import numpy as np
+import trimesh
 from pydantic import BaseModel, Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
-from scenemosaic.scene import CEILING, FLOOR, Relation, SupportPriors, is_known, load_priors, traits
+from scenemosaic.assets import object_mesh
+from scenemosaic.exceptions import SceneMosaicError
+from scenemosaic.scene import (
+    CEILING,
+    FLOOR,
+    Relation,
+    Scene,
+    SceneObject,
+    SupportPriors,
+    is_known,
+    load_priors,
+    traits,
+)
 from scenemosaic.structure._facts import (
     ObjectFacts,
     RoomFacts,
@@ -38,10 +56,12 @@ from scenemosaic.structure._views import FloorPlanImages
 
 __all__ = [
     "ObjectHint",
+    "RestingSurface",
     "SupportAgent",
     "SupportAssignment",
     "SupportEvidence",
     "SupportOutput",
+    "resting_surfaces",
     "supports_ok",
 ]
 
@@ -57,6 +77,12 @@ WALL_MOUNTABLE = frozenset({"television", "mirror", "painting", "picture", "wall
 """Categories that may hang on a wall even with furniture below them."""
 LARGE_AREA = 0.6
 """Footprint area (m²) above which an unknown object is treated as floor furniture."""
+INTERIOR_MIN_LIFT = 0.05
+"""An object this far (metres) above a supporting object's base, inside its box, rests on an inner surface of it."""
+BOX_ONLY_PENALTY = 0.05
+"""Score added when only the parent's box top (not its measured surface) matches the object's bottom."""
+INTERIOR_PENALTY = 0.3
+"""Score added to an inner-surface match, so a measured or box-top surface wins over it."""
 
 
 class SupportAssignment(AgentOutput):
@@ -83,12 +109,22 @@ class ObjectHint(AgentOutput):
     can_contain: bool
 
 
+class RestingSurface(AgentOutput):
+    """Where a candidate parent's real geometry lies under a child (measured on its mesh)."""
+
+    child: str
+    parent: str
+    z: float | None = Field(description="Height of the parent's highest surface under the child, metres; "
+                            "null when none of it lies under the child.")
+
+
 class SupportEvidence(AgentOutput):
-    """Objects with their boxes, the room, and per-object category priors."""
+    """Objects with their boxes, the room, per-object category priors and measured resting surfaces."""
 
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
     room: RoomFacts | None = None
     hints: list[ObjectHint] = Field(default_factory=list, max_length=MAX_ITEMS)
+    surfaces: list[RestingSurface] = Field(default_factory=list, max_length=4 * MAX_ITEMS)
 
 
 def can_support(category: str, priors: SupportPriors) -> bool:
@@ -118,6 +154,96 @@ def supports_ok(child: ObjectFacts, parent: ObjectFacts, priors: SupportPriors) 
     return None
 
 
+def _candidate(o: ObjectFacts, p: ObjectFacts, priors: SupportPriors) -> bool:
+    """Whether ``p`` could carry ``o`` at all (footprint under it, can carry things, big enough)."""
+    if p.id == o.id or not can_support(p.category, priors) or p.area < 0.25 * o.area:
+        return False
+    return p.contains_point(o.center, 0.02) or o.overlap_fraction(p) >= 0.5
+
+
+def resting_surfaces(
+    scene: Scene, objs: list[ObjectFacts], priors: SupportPriors, base_dir: Path | None
+) -> list[RestingSurface]:
+    """Measure, on each candidate parent's real mesh, the surface under each object.
+
+    Downward rays from five points of the child's footprint (its centre and half-way to each
+    corner), starting ``ON_TOP_TOLERANCE`` above the child's bottom; the highest first hit is the
+    surface the child rests on (a mattress under a pillow, a shelf board under a book), ``None``
+    when no ray meets the parent. A parent whose mesh cannot be loaded is left unmeasured (the
+    solver then uses its box top).
+    """
+    by_id = {o.id: o for o in scene.objects}
+    meshes: dict[str, trimesh.Trimesh | None] = {}
+    out: list[RestingSurface] = []
+    for o in objs:
+        if traits(o.category).placement == "ceiling" or floor_only(o, priors):
+            continue
+        for p in objs:
+            if not _candidate(o, p, priors):
+                continue
+            if p.id not in meshes:
+                meshes[p.id] = _world_mesh(by_id[p.id], base_dir)
+            mesh = meshes[p.id]
+            if mesh is None:
+                continue
+            z = _surface_under(mesh, o)
+            out.append(RestingSurface(child=o.id, parent=p.id, z=None if z is None else round(z, 4)))
+    return out
+
+
+def _world_mesh(obj: SceneObject, base_dir: Path | None) -> trimesh.Trimesh | None:
+    try:
+        local = object_mesh(obj, base_dir)
+    except SceneMosaicError:
+        return None
+    mesh = trimesh.Trimesh(vertices=np.asarray(local.vertices), faces=np.asarray(local.faces), process=False)
+    mesh.apply_transform(obj.pose.matrix(with_scale=False))
+    return mesh
+
+
+def _surface_under(mesh: trimesh.Trimesh, o: ObjectFacts) -> float | None:
+    corners = np.asarray(o.footprint, dtype=np.float64)
+    centre = corners.mean(axis=0)
+    points = np.vstack([centre, centre + 0.5 * (corners - centre)])
+    start = o.bottom + ON_TOP_TOLERANCE
+    best: float | None = None
+    for z in _vertical_hits(mesh, points):
+        below = z[z <= start + 1e-9]
+        if len(below):
+            top = float(below.max())
+            best = top if best is None else max(best, top)
+    return best
+
+
+def _vertical_hits(mesh: trimesh.Trimesh, points: np.ndarray) -> list[np.ndarray]:
+    """Heights where vertical lines through ``points`` (n, 2) cross the mesh's triangles.
+
+    A vertical line meets a triangle where the point lies inside the triangle's XY projection;
+    the height follows from the barycentric weights. Exact, vectorised over the triangles, and
+    free of a spatial index (no optional dependency).
+    """
+    tri = np.asarray(mesh.triangles, dtype=np.float64)  # (m, 3, 3)
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1 = b[:, :2] - a[:, :2], c[:, :2] - a[:, :2]
+    den = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]
+    ok = np.abs(den) > 1e-12  # triangles seen edge-on from above hold no surface
+    lo, hi = tri[:, :, :2].min(axis=1), tri[:, :, :2].max(axis=1)
+    out = []
+    for px, py in points:
+        near = ok & (lo[:, 0] <= px) & (px <= hi[:, 0]) & (lo[:, 1] <= py) & (py <= hi[:, 1])
+        if not near.any():
+            out.append(np.empty(0))
+            continue
+        d = np.array([px, py]) - a[near, :2]
+        dn = den[near]
+        u = (d[:, 0] * v1[near, 1] - v1[near, 0] * d[:, 1]) / dn
+        v = (v0[near, 0] * d[:, 1] - d[:, 0] * v0[near, 1]) / dn
+        inside = (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9)
+        z = a[near, 2] + u * (b[near, 2] - a[near, 2]) + v * (c[near, 2] - a[near, 2])
+        out.append(z[inside])
+    return out
+
+
 def _nearest_wall(o: ObjectFacts, room: RoomFacts | None) -> tuple[str, float] | None:
     if room is None or not room.walls:
         return None
@@ -128,6 +254,7 @@ def _nearest_wall(o: ObjectFacts, room: RoomFacts | None) -> tuple[str, float] |
 def solve_support(evidence: SupportEvidence, priors: SupportPriors) -> SupportOutput:
     """The support rule solver (see the module docstring)."""
     objs = evidence.objects
+    surfaces = {(s.child, s.parent): s.z for s in evidence.surfaces}
     out: list[SupportAssignment] = []
     for o in objs:
         t = traits(o.category)
@@ -139,9 +266,7 @@ def solve_support(evidence: SupportEvidence, priors: SupportPriors) -> SupportOu
             continue
         best: tuple[float, ObjectFacts, bool] | None = None
         for p in objs:
-            if p.id == o.id or not can_support(p.category, priors) or p.area < 0.25 * o.area:
-                continue
-            if not (p.contains_point(o.center, 0.02) or o.overlap_fraction(p) >= 0.5):
+            if not _candidate(o, p, priors):
                 continue
             inside = (
                 traits(p.category).contains
@@ -149,10 +274,30 @@ def solve_support(evidence: SupportEvidence, priors: SupportPriors) -> SupportOu
                 and o.top <= p.top + 0.02
                 and p.area * (p.top - p.bottom) > o.area * (o.top - o.bottom)
             )
-            gap = o.bottom - p.top
-            if not inside and (gap < -ON_TOP_TOLERANCE or p.bottom >= o.bottom):
+            # the measured surface (the parent's mesh under the child) is the best evidence; the box
+            # top counts too, a little less, since a procedural stand-in only approximates an asset
+            measured = surfaces.get((o.id, p.id))
+            box_gap = o.bottom - p.top
+            close = [abs(box_gap) + BOX_ONLY_PENALTY] if abs(box_gap) <= ON_TOP_TOLERANCE else []
+            if measured is not None and abs(o.bottom - measured) <= ON_TOP_TOLERANCE:
+                close.append(abs(o.bottom - measured))
+            within = (
+                not inside
+                and p.bottom + INTERIOR_MIN_LIFT < o.bottom < p.top - 0.02
+                and o.overlap_fraction(p) >= 0.8
+            )
+            if inside:
+                score = 0.0
+            elif close and p.bottom < o.bottom:
+                score = min(close)
+            elif within:
+                # inside the parent's box, above its base: resting on an inner surface (a shelf
+                # board, a seat, a mattress below a headboard) that the box alone does not show
+                score = INTERIOR_PENALTY
+            elif box_gap > ON_TOP_TOLERANCE:
+                score = box_gap  # floating above it: the closest surface below wins
+            else:
                 continue
-            score = 0.0 if inside else abs(gap)
             if priors.can_rest_on(o.category, p.category):
                 score -= 0.02
             if best is None or score < best[0]:
@@ -248,6 +393,7 @@ class SupportAgent(FloorPlanImages, TaskAgent[SupportEvidence, SupportOutput]):
 
     def gather(self, state: SceneState) -> SupportEvidence:
         objs = object_facts(state.scene)
+        surfaces = resting_surfaces(state.scene, objs, self.priors, state.base_dir)
         hints = [
             ObjectHint(
                 id=o.id,
@@ -257,7 +403,7 @@ class SupportAgent(FloorPlanImages, TaskAgent[SupportEvidence, SupportOutput]):
             )
             for o in objs
         ]
-        return SupportEvidence(objects=objs, room=room_facts(state.scene), hints=hints)
+        return SupportEvidence(objects=objs, room=room_facts(state.scene), hints=hints, surfaces=surfaces)
 
     def solve(self, evidence: SupportEvidence) -> SupportOutput:
         return solve_support(evidence, self.priors)
