@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -130,6 +131,8 @@ class PipelineRun:
     """Agents answered by their rule solvers instead of the model."""
     warnings: list[str] = field(default_factory=list)
     """What makes the outcome ``degraded``, in words."""
+    started: float = field(default_factory=time.monotonic)
+    """``time.monotonic()`` when the run began: the run deadline counts from here."""
 
     @property
     def checkpoint_dir(self) -> Path:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import functools
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -74,8 +75,9 @@ def _asking_model(run: PipelineRun, model: Model, tracker: UsageTracker) -> Mode
     from scenemosaic.models import CircuitBreakerModel, DeadlineModel
 
     asking = CircuitBreakerModel(asking)
-    if run.config.deadline_s is not None:
-        asking = DeadlineModel(asking, run.config.deadline_s)
+    if run.config.deadline_s is not None:  # the whole run's budget: what the earlier stages used is gone
+        left = run.config.deadline_s - (time.monotonic() - run.started)
+        asking = DeadlineModel(asking, max(left, 0.001))
     return asking
 
 

@@ -15,7 +15,7 @@ from typing import ClassVar
 from pydantic import BaseModel, Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
-from scenemosaic.scene import CEILING, SimAttributes, normalize_category, traits
+from scenemosaic.scene import CEILING, FLOOR, SimAttributes, normalize_category, traits
 from scenemosaic.structure._facts import ObjectFacts, object_facts, replace_scene
 
 __all__ = [
@@ -162,6 +162,14 @@ class AttributesOutput(AgentOutput):
     objects: list[ObjectAttributes] = Field(max_length=MAX_ITEMS)
 
 
+SOFT_FURNISHINGS = frozenset({"pillow", "throw_pillow", "cushion", "blanket", "towel", "teddy_bear", "plush_toy"})
+"""Soft things that mould to what they lie on; a rigid stand-in of one rocks and tips, so one resting
+on an object is fixed there (a pillow on a bed, a cushion on a sofa)."""
+THIN_BASE_RATIO = 0.15
+"""A standing object whose narrower base side is below this fraction of its height (a TV plate, a
+picture frame, a book on edge) is fixed on its support rather than left to tip over."""
+
+
 class AttributesEvidence(AgentOutput):
     """Objects with their boxes and current parents."""
 
@@ -183,7 +191,12 @@ def solve_attributes(evidence: AttributesEvidence) -> AttributesOutput:
             or (o.parent or "").startswith("wall")
             or traits(o.category).placement == "ceiling"
         )
-        static = row.static or hung
+        # a screen or picture standing on furniture as a thin plate cannot stand by itself (its real
+        # foot is not in the stand-in); real ones are fixed to their stand, so it is held in place
+        base = min(o.size[0], o.size[1])
+        thin = not hung and traits(o.category).placement != "floor" and o.size[2] > 0.1 and base / o.size[2] < THIN_BASE_RATIO
+        soft = o.category in SOFT_FURNISHINGS and o.parent not in (None, FLOOR)
+        static = row.static or hung or thin or soft
         items.append(
             ObjectAttributes(
                 object_id=o.id,
@@ -191,7 +204,9 @@ def solve_attributes(evidence: AttributesEvidence) -> AttributesOutput:
                 friction=row.friction,
                 static=static,
                 basis=f"table row {key!r}"
-                + ("; fixed in place (hung or mounted)" if hung and not row.static else ""),
+                + ("; fixed in place (hung or mounted)" if hung and not row.static else "")
+                + ("; fixed on its support (too thin to stand)" if thin and not (hung or row.static) else "")
+                + ("; soft: keeps its shape on its support" if soft and not (hung or row.static or thin) else ""),
             )
         )
     return AttributesOutput(objects=items)
