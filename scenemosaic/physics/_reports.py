@@ -119,6 +119,9 @@ class StabilizationReport(_Report):
         description="Objects with no support relation, treated as standing on the floor.",
     )
     wall_s: float = 0.0
+    against_snapped: list[str] = Field(
+        default_factory=list, description="Objects slid flush against the wall they stand against."
+    )
 
     def motion(self, object_id: str) -> ObjectMotion:
         """Motion record of one object; raises ``KeyError`` when it was not stabilized."""

@@ -6,23 +6,30 @@ import asyncio
 import functools
 import time
 import zlib
+from collections.abc import Mapping
 from concurrent.futures import Executor
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import structlog
 
 from scenemosaic.assets import HullCache
-from scenemosaic.physics._checks import require_finite_poses
+from scenemosaic.physics._checks import collision_report_for, require_finite_poses
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import StabilizationReport, UnitReport
 from scenemosaic.physics._settings import SettleSettings, SimSettings
 from scenemosaic.physics._settle import settle_unit
 from scenemosaic.physics._units import UnitPlan, plan_units
 from scenemosaic.physics._validate import motion_between
-from scenemosaic.scene import Pose, Scene, rigid_moves
+from scenemosaic.scene import FLOOR, Pose, Scene, SceneObject, rigid_moves
 
-__all__ = ["stabilize_scene", "stabilize_scene_sync"]
+__all__ = ["AGAINST_GAP_M", "AGAINST_MAX_MOVE_M", "stabilize_scene", "stabilize_scene_sync"]
+
+AGAINST_GAP_M = 0.005
+"""Gap (metres) left between a piece of furniture standing ``against`` a wall and that wall."""
+AGAINST_MAX_MOVE_M = 0.3
+"""Largest slide (metres) toward or away from its wall an ``against`` object is given."""
 
 log = structlog.get_logger(__name__)
 
@@ -31,6 +38,57 @@ def _apply(scene: Scene, poses: dict[str, Pose]) -> None:
     """Write new poses; descendants of a moved object follow it rigidly (``scene.rigid_moves``)."""
     for oid, pose in rigid_moves(scene, poses).items():
         scene.get(oid).pose = pose
+
+
+def _snap_against(scene: Scene, children: set[str], shapes: Mapping[str, ObjectShape]) -> list[str]:
+    """Move each floor object that stands ``against`` a wall so its box touches that wall.
+
+    The object (and whatever rests on it) slides along the wall's inward normal until its
+    footprint is ``AGAINST_GAP_M`` from the wall line: flush within 1 cm, back to the wall, front
+    into the room (the walls agent only marks an object ``against`` when its back faces the
+    wall). Larger corrections than ``AGAINST_MAX_MOVE_M`` are left alone (the relation is stale).
+    """
+    room = scene.room
+    if room is None:
+        return []
+    walls = {w.id: w for w in room.walls}
+    moves: dict[str, Pose] = {}
+    for rel in scene.relations:
+        if rel.kind != "against" or rel.child not in children or rel.parent not in walls:
+            continue
+        wall = walls[rel.parent]
+        inward = np.asarray(wall.inward_normal, dtype=np.float64)
+        obj = scene.get(rel.child)
+        offsets = (obj.footprint() - np.asarray(wall.start)) @ inward
+        gap = float(offsets.min())
+        shift = gap - AGAINST_GAP_M
+        if abs(shift) < 1e-4 or abs(shift) > AGAINST_MAX_MOVE_M:
+            continue
+        x, y, z = obj.pose.position
+        moved = obj.pose.model_copy(
+            update={"position": (x - shift * float(inward[0]), y - shift * float(inward[1]), z)}
+        )
+        before = _deepest_contact(scene, obj, shapes)
+        if _deepest_contact(scene, obj.model_copy(update={"pose": moved}), shapes) > before + 1e-3:
+            continue  # sliding to the wall would drive it into a neighbour: leave it where physics put it
+        moves[obj.id] = moved
+        _apply(scene, {obj.id: moved})  # one at a time: the next check sees this one in place
+    return sorted(moves)
+
+
+def _deepest_contact(scene: Scene, obj: SceneObject, shapes: Mapping[str, ObjectShape]) -> float:
+    """Deepest hull penetration (metres, 0 when none) between ``obj`` and the objects near it."""
+    lo, hi = obj.aabb()
+    near = [
+        o
+        for o in scene.objects
+        if o.id != obj.id and not (np.any(o.aabb()[0] > hi + 0.05) or np.any(lo > o.aabb()[1] + 0.05))
+    ]
+    if not near:
+        return 0.0
+    sub = Scene(id="snap", objects=[obj, *near])
+    pairs = collision_report_for(sub, shapes, tolerance_m=0.0).pairs
+    return max((p.depth_m for p in pairs if obj.id in (p.a, p.b)), default=0.0)
 
 
 def _unit_seed(seed: int, plan: UnitPlan) -> int:
@@ -104,6 +162,8 @@ async def stabilize_scene(
             _apply(out, poses)
             report.units.append(unit_report)
             done.extend(u.children)
+            if u.anchor_id == FLOOR:
+                report.against_snapped.extend(_snap_against(out, set(u.children), shapes))
     report.motions = [motion_between(o.id, scene.get(o.id).pose, o.pose) for o in out.objects]
     out.provenance.steps.append("stabilize")
     if defaulted:

@@ -19,6 +19,7 @@ __all__ = [
     "MIN_CEILING_HEIGHT",
     "ROOM_MARGIN",
     "TOP_CLEARANCE",
+    "WALL_SNAP_GAP",
     "FootprintItem",
     "dominant_orientation",
     "footprint_items",
@@ -27,6 +28,8 @@ __all__ = [
     "room_rectangle",
 ]
 
+WALL_SNAP_GAP = 0.02
+"""Gap (metres) between furniture that stands against a wall and the wall recovered behind it."""
 ROOM_MARGIN = 0.3
 """Metres added on every side of the furniture's bounding rectangle, so wall-side objects do not touch it."""
 MIN_CEILING_HEIGHT = 2.6
@@ -153,6 +156,7 @@ def recover_room(
     objects: Sequence[SceneObject],
     *,
     margin: float = ROOM_MARGIN,
+    snap_gap: float | None = WALL_SNAP_GAP,
     min_ceiling: float = MIN_CEILING_HEIGHT,
     source: str = "",
 ) -> Room:
@@ -160,13 +164,15 @@ def recover_room(
 
     The footprints of every object (ceiling lamps included, projected onto the floor) are
     enclosed in the smallest rectangle aligned with :func:`dominant_orientation`, grown by
-    ``margin`` on each side (:func:`room_rectangle`); the ceiling follows
-    :func:`recovered_ceiling`. The room agent uses the same functions.
+    ``margin`` on each side — except a side that furniture standing against a wall backs onto:
+    that wall is placed ``snap_gap`` behind it (the wall the furniture implies; ``None`` keeps the
+    margin everywhere). The ceiling follows :func:`recovered_ceiling`. The room agent uses the
+    same functions.
     """
     if not objects:
         raise ImportFormatError("no objects to recover a room from", path=source or None)
     items = footprint_items(objects)
-    floor, _area = room_rectangle(items, dominant_orientation(items), margin=margin)
+    floor, _area = room_rectangle(items, dominant_orientation(items), margin=margin, snap_gap=snap_gap)
     try:
         return Room.from_polygon(floor, ceiling_height=recovered_ceiling(items, min_ceiling))
     except ValidationError as exc:  # objects at the edge of the limits can give a room beyond them

@@ -24,6 +24,7 @@ from shapely.ops import nearest_points
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.scene import (
     ROOM_MARGIN,
+    WALL_SNAP_GAP,
     FootprintItem,
     Pose,
     Room,
@@ -39,8 +40,6 @@ from scenemosaic.structure._views import FloorPlanImages
 
 __all__ = ["ObjectShift", "RoomAgent", "RoomEvidence", "RoomOutput", "WallSpec"]
 
-SNAP_GAP = 0.02
-"""Gap (metres) left between a wall-backed piece of furniture and the wall it is snapped to."""
 CONTAIN_TOLERANCE = 0.02
 """How far (metres) a footprint may poke out of the floor polygon and still count as inside."""
 
@@ -111,7 +110,7 @@ def _items(objects: list[ObjectFacts]) -> list[FootprintItem]:
 def _fit(items: list[FootprintItem], yaw: float) -> tuple[list[tuple[float, float]], float]:
     """The scene layer's room rectangle with the agent's settings: a margin on free sides, wall
     furniture snapped to its wall; corners rounded to 0.1 mm for a stable answer."""
-    floor, area = room_rectangle(items, yaw, margin=ROOM_MARGIN, snap_gap=SNAP_GAP)
+    floor, area = room_rectangle(items, yaw, margin=ROOM_MARGIN, snap_gap=WALL_SNAP_GAP)
     return [(round(x, 4), round(y, 4)) for x, y in floor], area
 
 

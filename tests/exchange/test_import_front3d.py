@@ -9,11 +9,11 @@ from typing import Any
 
 import numpy as np
 import pytest
-from shapely.geometry import Polygon
+from shapely.geometry import LineString, Polygon
 
 from scenemosaic.exchange import detect_format, load_scene, load_scenes
 from scenemosaic.scene import Pose, Room, SceneObject, dominant_orientation, front_vector
-from scenemosaic.scene._room import CEILING_LAMP_CATEGORIES, ROOM_MARGIN, TOP_CLEARANCE
+from scenemosaic.scene import CEILING_LAMP_CATEGORIES, ROOM_MARGIN, TOP_CLEARANCE, WALL_SNAP_GAP, traits
 
 
 def _raw_objects(path: Path) -> list[dict[str, Any]]:
@@ -86,21 +86,31 @@ def test_dining_chair_faces_the_table(physcene_files: list[Path]) -> None:
     assert angle(-chair.pose.yaw) > 90  # the opposite sign convention would face away
 
 
-def test_recovered_room_contains_every_footprint_with_margin(physcene_files: list[Path]) -> None:
+def test_recovered_room_contains_every_footprint_with_margin_or_a_backing_wall(physcene_files: list[Path]) -> None:
+    """Every footprint inside; each side either keeps the margin or is the wall that furniture backs onto."""
+    snapped_sides = 0
     for path in physcene_files:
         scene = load_scene(path)
         assert scene.room is not None
         floor = Polygon(scene.room.floor)
-        inner = floor.buffer(-(ROOM_MARGIN - 1e-6), join_style="mitre")
         for obj in scene.objects:
-            assert inner.covers(Polygon(obj.corners()[:, :2]).convex_hull), (path.name, obj.id)
+            assert floor.covers(Polygon(obj.corners()[:, :2]).convex_hull), (path.name, obj.id)
             top = float(obj.corners()[:, 2].max())
             clearance = 0.0 if obj.category in CEILING_LAMP_CATEGORIES else TOP_CLEARANCE
             assert scene.room.ceiling_height >= top + clearance - 1e-9, (path.name, obj.id)
         assert scene.room.ceiling_height >= 2.6
-        # the rectangle is tight: some footprint touches the inner (margin-shrunk) boundary
-        gaps = [inner.exterior.distance(Polygon(o.corners()[:, :2]).convex_hull) for o in scene.objects]
-        assert min(gaps) < 1e-6, path.name
+        for wall in scene.room.walls:
+            edge = LineString([wall.start, wall.end])
+            gaps = {o.id: edge.distance(Polygon(o.corners()[:, :2]).convex_hull) for o in scene.objects}
+            gap = min(gaps.values())
+            outermost = [o for o in scene.objects if gaps[o.id] < gap + 0.05]
+            if gap < ROOM_MARGIN - 1e-6:  # closer than the margin: a wall that furniture backs onto, 2 cm behind
+                assert any(traits(o.category).against_wall for o in outermost), (path.name, wall.id)
+                assert gap == pytest.approx(WALL_SNAP_GAP, abs=1e-6), (path.name, wall.id)
+                snapped_sides += 1
+            else:
+                assert gap == pytest.approx(ROOM_MARGIN, abs=1e-6), (path.name, wall.id)
+    assert snapped_sides >= 6  # wardrobes, beds and sofas imply their walls
 
 
 def test_raw_generator_errors_are_kept(physcene_files: list[Path]) -> None:
