@@ -12,8 +12,18 @@ import pytest
 from shapely.geometry import LineString, Polygon
 
 from scenemosaic.exchange import detect_format, load_scene, load_scenes
-from scenemosaic.scene import Pose, Room, SceneObject, dominant_orientation, front_vector
-from scenemosaic.scene import CEILING_LAMP_CATEGORIES, ROOM_MARGIN, TOP_CLEARANCE, WALL_SNAP_GAP, traits
+from scenemosaic.scene import (
+    CEILING_LAMP_CATEGORIES,
+    ROOM_MARGIN,
+    TOP_CLEARANCE,
+    WALL_SNAP_GAP,
+    Pose,
+    Room,
+    SceneObject,
+    dominant_orientation,
+    front_vector,
+    traits,
+)
 
 
 def _raw_objects(path: Path) -> list[dict[str, Any]]:
