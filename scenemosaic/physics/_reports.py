@@ -145,6 +145,10 @@ class ValidationReport(_Report):
         description="Per object: distance from its support along gravity (negative = sunk into it), metres.",
     )
     simulated_s: float = 0.0
+    nested: list[str] = Field(
+        default_factory=list,
+        description="Pairs of floor furniture (not containers, not a seat under a table) standing inside each other's boxes.",
+    )
 
     @property
     def ok(self) -> bool:

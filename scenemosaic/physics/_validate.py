@@ -11,7 +11,12 @@ import numpy as np
 import structlog
 
 from scenemosaic.assets import HullCache, object_mesh
-from scenemosaic.physics._checks import check_out_of_bounds, collision_report_for, require_finite_poses
+from scenemosaic.physics._checks import (
+    check_out_of_bounds,
+    collision_report_for,
+    nested_furniture,
+    require_finite_poses,
+)
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import ObjectMotion, ValidationReport
 from scenemosaic.physics._settings import FELL_DROP_M, TIPPED_TILT_DEG, SettleSettings, SimSettings
@@ -204,4 +209,5 @@ def validate_scene(
         max_displacement_m=max((m.displacement_m for m in motions), default=0.0),
         support_gaps_m=gaps,
         simulated_s=round(outcome.simulated_s, 6),
+        nested=nested_furniture(scene),
     )

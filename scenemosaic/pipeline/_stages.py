@@ -180,6 +180,8 @@ async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
         run.warnings.append("object(s) fell in the validation run: " + ", ".join(report.fell[:10]))
     if report.tipped:
         run.warnings.append("object(s) tipped in the validation run: " + ", ".join(report.tipped[:10]))
+    for pair in report.nested:
+        run.warnings.append(f"furniture nested inside each other's boxes: {pair}")
 
 
 def _summary_fields(report: Any) -> set[str]:

@@ -48,6 +48,28 @@ class VerificationEvidence(AgentOutput):
     )
 
 
+SOFT_ON_FURNITURE = frozenset({"pillow", "throw_pillow", "cushion"})
+"""Things that belong on a bed or a seat, never on the floor beside one."""
+SOFT_HOSTS = ("bed", "sofa", "armchair", "lounge_chair", "loveseat")
+"""Category fragments of the furniture soft things rest on."""
+BESIDE_M = 0.5
+"""A soft thing this close (metres) to a bed or seat's footprint lies *beside* it."""
+
+
+def _soft_things_on_the_floor(objects: list[ObjectFacts], parents: dict[str, str]) -> list[ParentFix]:
+    """Pillows and cushions on the floor next to a bed or seat go onto it (physics then lays them on top)."""
+    hosts = [o for o in objects if any(h in o.category for h in SOFT_HOSTS)]
+    fixes: list[ParentFix] = []
+    for o in objects:
+        if o.category not in SOFT_ON_FURNITURE or parents.get(o.id) != FLOOR or not hosts:
+            continue
+        host = min(hosts, key=lambda h: h.polygon().distance(o.polygon()))
+        if host.polygon().distance(o.polygon()) <= BESIDE_M:
+            fixes.append(ParentFix(object_id=o.id, parent=host.id, reason=f"a {o.category} on the floor beside the {host.category} belongs on it"))
+            parents[o.id] = host.id
+    return fixes
+
+
 def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
     """The verification rule solver (see the module docstring)."""
     facts = {o.id: o for o in evidence.objects}
@@ -62,8 +84,9 @@ def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
         low = min((facts[c] for c in cyc if c in facts), key=lambda f: f.bottom)
         fixes.append(ParentFix(object_id=low.id, parent=FLOOR, reason="broke a parent cycle"))
         parents[low.id] = FLOOR
-    drop: list[str] = []
     problems: list[str] = []
+    fixes += _soft_things_on_the_floor(evidence.objects, parents)
+    drop: list[str] = []
     for c in evidence.constraints:
         for clause in (c.anchor_a, c.anchor_b):
             bad = [oid for oid in clause.related_objects if parents.get(oid) != clause.anchor_id]

@@ -52,3 +52,19 @@ def test_the_procthor_bedroom_has_nothing_tipped_or_fallen(tmp_path: Path) -> No
     result = generate(DATA / "houses/procthor/procthor_1room_bedroom.json", tmp_path, GenerateConfig())
     validation = result.report["validation"]
     assert validation["tipped"] == [] and validation["fell"] == []
+
+
+async def test_a_pillow_on_the_floor_beside_a_bed_is_put_on_the_bed() -> None:
+    scene = Scene(
+        id="p",
+        room=Room.rectangle(0, 0, 4, 4, ceiling_height=2.6),
+        objects=[
+            _obj("bed", "double_bed", (1.6, 2.0, 0.5), 0.0),
+            _obj("pillow", "pillow", (0.5, 0.3, 0.12), 0.0).model_copy(
+                update={"pose": Pose.from_yaw((3.15, 2.0, 0.0), 0.0)}  # on the floor, just beside the bed
+            ),
+        ],
+    )
+    out = await structure_scene(scene)
+    assert out.support_of("pillow").parent == "bed"  # type: ignore[union-attr]
+    assert any("pillow" in n and "beside" in n for n in out.provenance.notes)
