@@ -194,6 +194,17 @@ class SceneState:
     lock: asyncio.Lock = field(default_factory=asyncio.Lock)
 
 
+def _rounded(value: Any) -> Any:
+    """``value`` with every float rounded to 3 decimals (1 mm for lengths in metres)."""
+    if isinstance(value, float):
+        return round(value, 3)
+    if isinstance(value, list):
+        return [_rounded(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _rounded(v) for k, v in value.items()}
+    return value
+
+
 def _recoverable(exc: ModelError) -> bool:
     """Whether a model failure is the model's (fall back) rather than the user's set-up (raise)."""
     if isinstance(exc, ReplayMissError | ModelConfigError):
@@ -263,6 +274,18 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         """Text rendering of the evidence (also what text-only models get instead of images)."""
         return json.dumps(evidence.model_dump(mode="json"), indent=1, sort_keys=True)
 
+    def compact_messages(self, evidence: EvidenceT, state: SceneState, *, vision: bool) -> list[Message]:
+        """A shorter prompt for a model whose context the full one did not fit: the evidence as
+        compact JSON with numbers rounded to 1 mm / 0.001, and no schema pasted into the system
+        prompt (the strict schema still goes with the request). Images are kept for vision models."""
+        system = load_prompt(type(self)) + "\n\nReply with one JSON object of the requested schema."
+        data = _rounded(evidence.model_dump(mode="json"))
+        text = json.dumps(data, separators=(",", ":"), sort_keys=True)
+        parts: list[TextPart | ImagePart] = [TextPart("Evidence:\n" + text)]
+        if vision:
+            parts.extend(self.images(evidence, state))
+        return [Message.text("system", system), Message(role="user", parts=tuple(parts))]
+
     # -- the generic run loop ----------------------------------------------------------------
     def messages(self, evidence: EvidenceT, state: SceneState, *, vision: bool) -> list[Message]:
         """System prompt from the template, then the evidence as text (and images for vision models)."""
@@ -296,6 +319,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         total = Usage()
         problems: list[str] = []
         schema_error: OutputValidationError | None = None
+        compacted = False
         for attempt in range(policy.max_attempts):
             schema_error = None
             try:
@@ -305,6 +329,19 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                 total = total + (exc.usage if isinstance(exc.usage, Usage) else Usage())
                 problems, reply = exc.errors or [str(exc)], exc.raw_reply
                 intro = f"That reply is not a valid {self.output_type.__name__} JSON object:"
+            except ModelContextLengthError as exc:
+                if not compacted:  # once: a shorter prompt, then (if it still does not fit) the solver
+                    compacted = True
+                    _log.warning("agent_prompt_compacted", agent=self.name, reason=str(exc)[:200])
+                    async with state.lock:
+                        compact = functools.partial(self.compact_messages, vision=model.vision)
+                        messages = await run_blocking(compact, evidence, state, offload=self.offload)
+                    problems = [f"the prompt did not fit the model's context: {exc}"]
+                    continue
+                if not policy.solver_fallback:
+                    raise
+                reason = f"{type(exc).__name__}: {exc}"
+                return await self._fall_back(evidence, state, reason, problems), total
             except ModelError as exc:
                 if not (policy.solver_fallback and _recoverable(exc)):
                     raise

@@ -18,7 +18,7 @@ from scenemosaic.exceptions import (
     OutputValidationError,
     ReplayMissError,
 )
-from scenemosaic.models import FunctionModel, Message, Model, RequestContext, RulesModel
+from scenemosaic.models import FunctionModel, Message, Model, RequestContext, RulesModel, TextPart
 from scenemosaic.scene import Scene
 from scenemosaic.structure import SupportAgent
 
@@ -166,3 +166,28 @@ def test_generate_with_a_broken_model_still_delivers_a_scene(tmp_path: Path, rep
     assert structure["detail"]["solver_fallbacks"], "every agent should have fallen back"
     assert any("rule solver" in w for w in report["warnings"])
     assert all(result.scene.support_of(o.id) is not None for o in result.scene.objects)
+
+
+async def test_a_context_refusal_compacts_the_prompt_once_then_falls_back() -> None:
+    """First a shorter prompt (compact evidence, no pasted schema); if that is refused too, the solver."""
+    from scenemosaic.exceptions import ModelContextLengthError
+
+    prompts: list[str] = []
+
+    def refuse_long(messages: list[Message], context: RequestContext | None) -> str:
+        prompts.append("".join(p.text for m in messages for p in m.parts if isinstance(p, TextPart)))
+        if len(prompts) == 1:
+            raise ModelContextLengthError("too long", status_code=400, body="{}", prompt_tokens=5000, context_tokens=4096)
+        return '{"value": 6}'
+
+    state = SceneState(scene=Scene(), policy=FALLBACK)
+    out, _ = await DoublingAgent().run(state, FunctionModel(refuse_long, vision=False))
+    assert out == Answer(value=6) and state.fallbacks == []  # the compact prompt was answered
+    assert len(prompts[1]) < len(prompts[0])
+    assert "matching this schema" in prompts[0] and "matching this schema" not in prompts[1]
+
+    always = FailingModel(ModelContextLengthError("too long", status_code=400, body="{}"))
+    state = SceneState(scene=Scene(), policy=FALLBACK)
+    out, _ = await DoublingAgent().run(state, always)
+    assert out == Answer(value=6) and always.calls == 2  # full prompt, compact prompt, then the solver
+    assert [f.agent for f in state.fallbacks] == ["demo"] and "ModelContextLengthError" in state.fallbacks[0].reason
