@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import httpx
 import pytest
 from llm_fakes import PNG_1PX, VALID, FakeServer, Verdict, chat_reply, user_messages
@@ -145,11 +147,14 @@ class EchoAgent(TaskAgent[Number, Answer]):
 
 
 async def test_agents_fall_back_on_a_context_refusal() -> None:
-    server = FakeServer(httpx.Response(400, json=LLAMA_CPP))
+    server = FakeServer(httpx.Response(400, json=LLAMA_CPP), httpx.Response(400, json=LLAMA_CPP))
     model, _ = server.model()
     state = SceneState(scene=Scene(), policy=AgentPolicy(solver_fallback=True))
     out, _ = await EchoAgent().run(state, model)
     assert out == Answer(value=5)
     (record,) = state.fallbacks
     assert record.agent == "echo" and "ModelContextLengthError" in record.reason
-    assert len(server.requests) == 1  # asking again with the same prompt cannot help
+    # once more with a compact prompt (never the same prompt twice), then the rule solver
+    assert len(server.requests) == 2
+    first, second = (json.dumps(b["messages"]) for b in server.bodies)
+    assert len(second) < len(first)
