@@ -45,18 +45,16 @@ from scenemosaic.exchange._procthor import (
     _HALF_TURN,
     _SWAP,
     AssetDatabase,
+    _add_opening,
     _build_room,
     _RoomBuild,
-    _SourceWall,
     _unity_rotation,
-    _wall_through,
     _walls_by_id,
     load_asset_database,
 )
 from scenemosaic.scene import (
     AssetRef,
     FloatArray,
-    Opening,
     Pose,
     Provenance,
     Relation,
@@ -125,7 +123,7 @@ def import_holodeck(data: Any, path: Path, *, asset_database: Any = None) -> Sce
     build = _build_room(r, rooms[0], "rooms[0]", walls_by_id, set())
     for key in ("doors", "windows"):
         for i, raw in enumerate(r.array(top.get(key) or [], key)):
-            _add_opening(r, raw, f"{key}[{i}]", key, walls_by_id, build)
+            _add_opening(r, raw, f"{key}[{i}]", key, walls_by_id, {build.source_id: build})
 
     context = _Context.read(r, top, build)
     items = r.objects(r.get(top, "objects", ""), "objects")
@@ -391,50 +389,6 @@ def _footprint(
 
 
 # -- openings -------------------------------------------------------------------------------------
-
-
-def _add_opening(
-    r: FieldReader,
-    raw: Any,
-    f: str,
-    key: str,
-    walls_by_id: Mapping[str, _SourceWall],
-    build: _RoomBuild,
-) -> None:
-    """Cut a door or window into our wall it lies on.
-
-    AI2-THOR measures ``holePolygon`` along ``wall0`` from its start. Holodeck's exterior walls
-    run opposite to the room's own, so the hole's centre is placed on ``wall0`` in world
-    coordinates first and then found on our wall; the room side's wall is not used.
-    """
-    item = r.mapping(raw, f)
-    hole = r.array(r.get(item, "holePolygon", f), f"{f}.holePolygon")
-    if len(hole) < 2:
-        r.fail(f"{f}.holePolygon", "expected two corners")
-    x0, y0, _ = r.xyz(hole[0], f"{f}.holePolygon[0]")
-    x1, y1, _ = r.xyz(hole[1], f"{f}.holePolygon[1]")
-    width, height = abs(x1 - x0), abs(y1 - y0)
-    if width <= 0 or height <= 0:
-        r.fail(f"{f}.holePolygon", "the hole has zero width or height")
-    wall_key = r.text(r.get(item, "wall0", f), f"{f}.wall0")
-    wall = walls_by_id.get(wall_key)
-    if wall is None:
-        r.fail(f"{f}.wall0", f"no wall with id {wall_key!r}")
-    d = np.subtract(wall.end, wall.start)
-    length = float(np.linalg.norm(d))
-    if length < 1e-9:
-        r.fail(f"{f}.wall0", f"wall {wall_key!r} has zero length")
-    centre = np.asarray(wall.start) + d / length * (0.5 * (x0 + x1))
-    target = _wall_through(build.room.walls, centre)
-    if target is None:
-        build.notes.append(f"{f} does not lie on any wall of room {build.source_id!r}; dropped")
-        return
-    along = float(np.dot(centre - np.asarray(target.start), target.direction))
-    kind: Literal["door", "window"] = "door" if key == "doors" else "window"
-    target.openings = [
-        *target.openings,
-        Opening(kind=kind, center=along, width=width, bottom=max(0.0, min(y0, y1)), height=height),
-    ]
 
 
 # -- notes ----------------------------------------------------------------------------------------

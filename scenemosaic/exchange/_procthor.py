@@ -20,7 +20,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import structlog
@@ -303,6 +303,13 @@ def _add_opening(
     walls_by_id: Mapping[str, _SourceWall],
     by_source: Mapping[str, _RoomBuild],
 ) -> None:
+    """Cut a door or window into the wall it lies on, once in each room it opens onto.
+
+    AI2-THOR measures ``holePolygon`` along ``wall0`` from its start, so the hole's centre is
+    placed on ``wall0`` in world coordinates and then found on each room's own wall through that
+    point. ``room0`` and ``room1`` are the same room for an exterior window or door (the other
+    side is the outside): it is cut once, not twice. Shared by the ProcTHOR and Holodeck readers.
+    """
     item = r.mapping(raw, f)
     hole = r.array(r.get(item, "holePolygon", f), f"{f}.holePolygon")
     if len(hole) < 2:
@@ -312,25 +319,26 @@ def _add_opening(
     width, height = abs(x1 - x0), abs(y1 - y0)
     if width <= 0 or height <= 0:
         r.fail(f"{f}.holePolygon", "the hole has zero width or height")
-    kind = "door" if key == "doors" else "window"
-    for side in ("0", "1"):
-        room_src = item.get(f"room{side}")
-        wall_src = item.get(f"wall{side}")
-        build = by_source.get(room_src) if isinstance(room_src, str) else None
-        wall = walls_by_id.get(wall_src) if isinstance(wall_src, str) else None
-        if build is None or wall is None:
+    wall_key = r.text(r.get(item, "wall0", f), f"{f}.wall0")
+    wall = walls_by_id.get(wall_key)
+    if wall is None:
+        r.fail(f"{f}.wall0", f"no wall with id {wall_key!r}")
+    d = np.subtract(wall.end, wall.start)
+    length = float(np.linalg.norm(d))
+    if length < 1e-9:
+        r.fail(f"{f}.wall0", f"wall {wall_key!r} has zero length")
+    centre = np.asarray(wall.start) + d / length * (0.5 * (x0 + x1))
+    kind: Literal["door", "window"] = "door" if key == "doors" else "window"
+    rooms = dict.fromkeys(src for src in (item.get("room0"), item.get("room1")) if isinstance(src, str))
+    for src in rooms:
+        build = by_source.get(src)
+        if build is None:  # the outside, or a room this file does not hold
             continue
-        # the hole's x runs along the source wall from its start
-        d = np.subtract(wall.end, wall.start)
-        length = float(np.linalg.norm(d))
-        if length < 1e-9:
-            continue
-        centre_pt = np.asarray(wall.start) + d / length * (0.5 * (x0 + x1))
-        target = _wall_through(build.room.walls, centre_pt)
+        target = _wall_through(build.room.walls, centre)
         if target is None:
             build.notes.append(f"{f} does not lie on any wall of room {build.source_id!r}; dropped")
             continue
-        along = float(np.dot(centre_pt - np.asarray(target.start), target.direction))
+        along = float(np.dot(centre - np.asarray(target.start), target.direction))
         target.openings = [
             *target.openings,
             Opening(kind=kind, center=along, width=width, bottom=max(0.0, min(y0, y1)), height=height),

@@ -142,3 +142,21 @@ def test_a_room_id_picks_one_room(procthor_house: Path, procthor_db: Path, house
     assert by_new_id == by_source_id == house[1]
     with pytest.raises(UsageError, match=r"no room 'kitchen'.*room\|2"):
         load_scene(procthor_house, room="kitchen", asset_database=procthor_db)
+
+
+def test_each_window_and_door_is_cut_once_per_room_it_opens_onto() -> None:
+    """An exterior window lists the same room on both sides: one opening, not a mirrored pair."""
+    houses = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor"
+    for path in sorted(houses.glob("procthor_*.json")):
+        raw = json.loads(path.read_text(encoding="utf-8"))
+        expected = {"door": 0, "window": 0}
+        for key, kind in (("doors", "door"), ("windows", "window")):
+            for item in raw.get(key, []):
+                expected[kind] += len({item.get("room0"), item.get("room1")} & {r["id"] for r in raw["rooms"]})
+        got = {"door": 0, "window": 0}
+        for scene in load_scenes(path):
+            assert scene.room is not None
+            for wall in scene.room.walls:
+                for opening in wall.openings:
+                    got[opening.kind] += 1
+        assert got == expected, path.name
