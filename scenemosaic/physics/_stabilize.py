@@ -163,7 +163,9 @@ async def stabilize_scene(
             report.units.append(unit_report)
             done.extend(u.children)
             if u.anchor_id == FLOOR:
-                report.against_snapped.extend(_snap_against(out, set(u.children), shapes))
+                # hull contact checks compile MuJoCo worlds: off the event loop
+                snapped = await asyncio.to_thread(_snap_against, out, set(u.children), shapes)
+                report.against_snapped.extend(snapped)
     report.motions = [motion_between(o.id, scene.get(o.id).pose, o.pose) for o in out.objects]
     out.provenance.steps.append("stabilize")
     if defaulted:
