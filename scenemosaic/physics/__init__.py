@@ -29,7 +29,13 @@ from scenemosaic.physics._settings import (
 from scenemosaic.physics._settle import is_thin
 from scenemosaic.physics._stabilize import stabilize_scene, stabilize_scene_sync
 from scenemosaic.physics._units import UnitPlan, plan_units
-from scenemosaic.physics._validate import scene_world, support_gaps, validate_scene, write_scene_mjcf
+from scenemosaic.physics._validate import (
+    is_fixed,
+    scene_world,
+    support_gaps,
+    validate_scene,
+    write_scene_mjcf,
+)
 
 __all__ = [
     "COLLISION_TOLERANCE_M",
@@ -52,6 +58,7 @@ __all__ = [
     "ValidationReport",
     "check_collisions",
     "check_out_of_bounds",
+    "is_fixed",
     "is_thin",
     "object_shape",
     "plan_units",

@@ -12,12 +12,19 @@ from shapely.geometry import Polygon
 from scenemosaic.assets import HullCache
 from scenemosaic.exceptions import PhysicsError
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
-from scenemosaic.physics._planar import convex_hull_2d
 from scenemosaic.physics._reports import CollisionPair, CollisionReport, OutOfBoundsObject, OutOfBoundsReport
 from scenemosaic.physics._settings import COLLISION_TOLERANCE_M, OOB_MIN_INSIDE_FRACTION, SimSettings
 from scenemosaic.physics._settle import is_thin
 from scenemosaic.physics._world import WorldBuilder
-from scenemosaic.scene import CEILING, FLOOR, FloatArray, Scene, SceneObject, traits
+from scenemosaic.scene import (
+    CEILING,
+    FLOOR,
+    FloatArray,
+    Scene,
+    SceneObject,
+    convex_hull_2d,
+    nested_pairs,
+)
 
 __all__ = [
     "check_collisions",
@@ -177,46 +184,7 @@ def check_out_of_bounds(
     return report
 
 
-NESTED_FRACTION = 0.25
-"""Two floor furniture boxes sharing more than this fraction of the smaller footprint, at heights
-that overlap, stand inside each other: real furniture cannot (chairs tucked under a table excepted)."""
-
-
-CONCAVE_FOOTPRINTS = ("l_shaped", "corner_sofa", "sectional")
-"""Category fragments of furniture whose footprint is not its box (the crook of an L is free floor)."""
-
-
 def nested_furniture(scene: Scene) -> list[str]:
-    """Pairs of floor-standing furniture whose boxes stand inside each other, as ``"a ~ b"``.
-
-    Hull collision checks miss this when stand-in meshes have legs and gaps (a TV stand under a
-    dressing table). A seat under a table, a table in the crook of an L-shaped sofa, and a much
-    smaller piece inside a container (a cabinet) are normal.
-    """
-    floor = [
-        o
-        for o in scene.objects
-        if (rel := scene.support_of(o.id)) is not None
-        and rel.parent == FLOOR
-        and traits(o.category).placement == "floor"
-    ]
-    found: list[str] = []
-    for i, a in enumerate(floor):
-        for b in floor[i + 1 :]:
-            ta, tb = traits(a.category), traits(b.category)
-            if (ta.seat and tb.table) or (tb.seat and ta.table):
-                continue
-            if any(k in c for c in (a.category, b.category) for k in CONCAVE_FOOTPRINTS):
-                continue  # an L-shaped sofa's box holds its corner table in the crook of the L
-            (_, _, az0), (_, _, az1) = a.aabb()
-            (_, _, bz0), (_, _, bz1) = b.aabb()
-            if min(az1, bz1) - max(az0, bz0) <= 0.05:
-                continue
-            pa, pb = _footprint(a), _footprint(b)
-            outer, inner = (a, pb) if pa.area >= pb.area else (b, pa)
-            if traits(outer.category).contains and inner.area < 0.5 * max(pa.area, pb.area):
-                continue  # a cabinet may hold a smaller piece
-            shared = pa.intersection(pb).area
-            if shared > NESTED_FRACTION * min(pa.area, pb.area):
-                found.append(f"{a.id} ~ {b.id}")
-    return found
+    """Pairs of floor-standing furniture whose boxes stand inside each other, as ``"a ~ b"``
+    (the scene layer's :func:`scenemosaic.scene.nested_pairs`)."""
+    return [p.label() for p in nested_pairs(scene)]

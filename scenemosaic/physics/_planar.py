@@ -1,8 +1,10 @@
-"""Geometry in a unit's support plane: frames, footprints, containment and sibling separation.
+"""A unit's support plane: its frame and the region its children must stay in.
 
 A unit is seen along its gravity axis (the orthographic projection of the method): ``n`` is
 "up" (opposite gravity), ``(e1, e2)`` span the support plane. Footprints are convex polygons of
-projected hull vertices; ``h = p . n`` is the height above the plane's origin.
+projected hull vertices; ``h = p . n`` is the height above the plane's origin. The convex
+geometry itself (hulls, separating axes, containing shifts) is the scene layer's
+(``scenemosaic.scene.convex_hull_2d`` and its neighbours).
 """
 
 from __future__ import annotations
@@ -11,21 +13,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import shapely
-from shapely import affinity
-from shapely.geometry import Point, Polygon
-from shapely.ops import nearest_points
+from shapely.geometry import Polygon
 
 from scenemosaic.scene import FloatArray, Scene
 
-__all__ = [
-    "UnitFrame",
-    "convex_hull_2d",
-    "edge_axes",
-    "minimal_containing_shift",
-    "sat_overlap",
-    "unit_frame",
-]
+__all__ = ["UnitFrame", "unit_frame"]
 
 
 @dataclass(frozen=True)
@@ -90,85 +82,3 @@ def unit_frame(
     if anchor_footprint is None:
         raise ValueError("an object anchor needs its footprint")
     return UnitFrame(_Z, _X, _Y, None, Polygon(anchor_footprint).convex_hull)
-
-
-def convex_hull_2d(points: FloatArray) -> FloatArray:
-    """Counter-clockwise convex hull (monotone chain) of 2D points, shape (k, 2)."""
-    pts = np.unique(np.round(points, 9), axis=0)
-    if len(pts) <= 2:
-        return pts
-
-    def cross(o: FloatArray, a: FloatArray, b: FloatArray) -> float:
-        return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
-
-    lower: list[FloatArray] = []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    upper: list[FloatArray] = []
-    for p in pts[::-1]:
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def edge_axes(poly: FloatArray) -> FloatArray:
-    """Unit outward edge normals of a convex polygon (the candidate separating axes)."""
-    edges = np.roll(poly, -1, axis=0) - poly
-    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
-    lengths = np.linalg.norm(normals, axis=1)
-    keep = lengths > 1e-12
-    out: FloatArray = normals[keep] / lengths[keep, None]
-    return out
-
-
-def sat_overlap(a: FloatArray, b: FloatArray, axes: FloatArray | None = None) -> tuple[float, FloatArray]:
-    """Separating-axis test of two convex polygons.
-
-    Returns ``(depth, axis)``: the smallest overlap over all edge normals (negative when the
-    polygons are apart: the gap along the best separating axis) and the unit axis along which
-    moving ``b`` by ``+depth`` (or ``a`` by ``-depth``) separates them. ``axes`` may carry the
-    precomputed edge normals of both polygons (they do not change under translation).
-    """
-    if axes is None:
-        axes = np.concatenate([edge_axes(a), edge_axes(b)]) if len(a) > 2 and len(b) > 2 else np.eye(2)
-    pa = a @ axes.T
-    pb = b @ axes.T
-    amin, amax = pa.min(axis=0), pa.max(axis=0)
-    bmin, bmax = pb.min(axis=0), pb.max(axis=0)
-    push_pos = amax - bmin  # move b along +axis by this much
-    push_neg = bmax - amin  # move b along -axis by this much
-    need = np.minimum(push_pos, push_neg)
-    k = int(np.argmin(need))
-    axis = axes[k] if push_pos[k] <= push_neg[k] else -axes[k]
-    return float(need[k]), axis
-
-
-def minimal_containing_shift(
-    footprint: FloatArray, region: Polygon, inset: float = 0.002
-) -> FloatArray | None:
-    """Smallest 2D shift that puts the convex ``footprint`` inside ``region`` (shrunk by ``inset``).
-
-    The feasible shifts are the intersection of the region translated by minus each footprint
-    corner; its point nearest the origin is the minimal move. ``None`` when no shift fits (the
-    object is larger than its support).
-    """
-    inner = region.buffer(-inset, join_style="mitre") if inset > 0 else region
-    if inner.is_empty:
-        return None
-    if shapely.contains(inner, Polygon(footprint)):
-        return np.zeros(2)
-    feasible = None
-    for px, py in footprint:
-        moved = affinity.translate(inner, -float(px), -float(py))
-        feasible = moved if feasible is None else feasible.intersection(moved)
-        if feasible.is_empty:
-            return None
-    assert feasible is not None
-    origin = Point(0.0, 0.0)
-    if feasible.contains(origin):
-        return np.zeros(2)
-    nearest = nearest_points(feasible, origin)[0]
-    return np.array([nearest.x, nearest.y], dtype=np.float64)

@@ -28,14 +28,7 @@ import structlog
 from shapely.geometry import Polygon
 
 from scenemosaic.physics._hulls import ObjectShape
-from scenemosaic.physics._planar import (
-    UnitFrame,
-    convex_hull_2d,
-    edge_axes,
-    minimal_containing_shift,
-    sat_overlap,
-    unit_frame,
-)
+from scenemosaic.physics._planar import UnitFrame, unit_frame
 from scenemosaic.physics._reports import UnitReport
 from scenemosaic.physics._settings import (
     COLLISION_TOLERANCE_M,
@@ -47,7 +40,17 @@ from scenemosaic.physics._settings import (
 from scenemosaic.physics._simulate import SimOutcome, run_until_settled
 from scenemosaic.physics._units import UnitPlan
 from scenemosaic.physics._world import BuiltWorld, JointMode, WorldBuilder
-from scenemosaic.scene import FloatArray, Pose, Scene, SceneObject, quat_multiply
+from scenemosaic.scene import (
+    FloatArray,
+    Pose,
+    Scene,
+    SceneObject,
+    convex_hull_2d,
+    edge_axes,
+    minimal_containing_shift,
+    quat_multiply,
+    sat_overlap,
+)
 
 __all__ = ["is_thin", "settle_unit"]
 

@@ -96,7 +96,9 @@ class Pose(BaseModel):
 
     position: Vec3 = Field(description="World position of the object's local origin (bottom centre), metres.")
     quaternion: Quat = Field(default=(1.0, 0.0, 0.0, 0.0), description="Unit quaternion (w, x, y, z).")
-    scale: Vec3 = Field(default=(1.0, 1.0, 1.0), description="Positive per-axis scale of the canonical asset.")
+    scale: Vec3 = Field(
+        default=(1.0, 1.0, 1.0), description="Positive per-axis scale of the canonical asset."
+    )
 
     @field_validator("position")
     @classmethod
@@ -209,7 +211,9 @@ class SceneObject(_Model):
     """One object of the scene, with a stable id that survives every stage."""
 
     id: ObjectId
-    category: str = Field(min_length=1, max_length=64, description="Normalized category, e.g. 'dining_chair'.")
+    category: str = Field(
+        min_length=1, max_length=64, description="Normalized category, e.g. 'dining_chair'."
+    )
     description: str = Field(default="", max_length=500)
     asset: AssetRef
     pose: Pose
@@ -253,7 +257,9 @@ class SceneObject(_Model):
     def footprint(self) -> FloatArray:
         """World XY corners (4, 2) of the oriented footprint, counter-clockwise, for upright objects."""
         sx, sy, _ = self.asset.extents
-        local = np.array([[-sx / 2, -sy / 2, 0], [sx / 2, -sy / 2, 0], [sx / 2, sy / 2, 0], [-sx / 2, sy / 2, 0]])
+        local = np.array(
+            [[-sx / 2, -sy / 2, 0], [sx / 2, -sy / 2, 0], [sx / 2, sy / 2, 0], [-sx / 2, sy / 2, 0]]
+        )
         m = self.pose.matrix()
         return (local @ m[:3, :3].T + m[:3, 3])[:, :2]
 
@@ -356,7 +362,9 @@ class Room(_Model):
         return room
 
     @classmethod
-    def rectangle(cls, xmin: float, ymin: float, xmax: float, ymax: float, *, ceiling_height: float = 2.8) -> Room:
+    def rectangle(
+        cls, xmin: float, ymin: float, xmax: float, ymax: float, *, ceiling_height: float = 2.8
+    ) -> Room:
         """An axis-aligned rectangular room."""
         return cls.from_polygon(
             [(xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax)], ceiling_height=ceiling_height
@@ -380,11 +388,15 @@ class Relation(_Model):
       side the container opens to, in the container's frame.
     * ``against``: the child stands flush against a wall (not a support); ``distance`` is
       the gap to the wall in metres.
+    * ``faces``: the child (a seat, a sofa) is turned toward the parent (its table, desk,
+      coffee table, TV stand), both in one local unit; not a support.
+    * ``beside``: the child stands beside the parent as one group (nightstands at a bed's head),
+      both in one local unit; not a support.
 
     ``parent`` is an anchor id: ``"floor"``, ``"ceiling"``, a wall id, or an object id.
     """
 
-    kind: Literal["attach", "contain", "against"]
+    kind: Literal["attach", "contain", "against", "faces", "beside"]
     child: ObjectId
     parent: ObjectId
     opening: Literal["front", "top", "back", "left", "right"] | None = None
@@ -558,7 +570,8 @@ class Scene(_Model):
             for clause in (c.anchor_a, c.anchor_b):
                 if clause.anchor_id not in anchors:
                     raise SceneValidationError(
-                        f"constraint {c.id!r} names unknown anchor {clause.anchor_id!r}", object_id=clause.anchor_id
+                        f"constraint {c.id!r} names unknown anchor {clause.anchor_id!r}",
+                        object_id=clause.anchor_id,
                     )
                 for oid in clause.related_objects:
                     if oid not in seen:

@@ -3,8 +3,11 @@
 Rule solver: a documented per-category table (see ``docs/structuring.md`` for where the figures
 come from). Mass is the box volume times an effective fill density (a wardrobe's box is mostly
 air), clamped to the category's typical range, so a small nightstand weighs less than a big one
-but never less than any nightstand sold. Fixtures (built-ins), ceiling-hung and wall-mounted
-objects are static; furniture, however heavy, stays dynamic so physics can settle it.
+but never less than any nightstand sold. Fixtures (built-ins) are static; furniture, however
+heavy, stays dynamic so physics can settle it. Objects hung from a wall or the ceiling (pictures,
+mirrors, pendant lamps) are dynamic too: their unit is simulated with gravity toward its anchor,
+so a picture settles onto its wall; in the whole scene under real gravity they are held where
+they hang (``scenemosaic.physics.is_fixed``), as their hooks and cords would hold them.
 """
 
 from __future__ import annotations
@@ -62,7 +65,7 @@ ATTRIBUTE_TABLE: dict[str, AttributeRow] = {
     "sofa": _R((30, 120), 45, 0.55),
     "stool": _R((2, 8), 30, 0.5),
     "floor_lamp": _R((2, 10), 20, 0.5),
-    "ceiling_lamp": _R((0.5, 8), 15, 0.5, static=True),
+    "ceiling_lamp": _R((0.5, 8), 15, 0.5),
     "painting": _R((0.5, 8), 60, 0.4),
     "mirror": _R((2, 15), 150, 0.4),
     "television": _R((4, 25), 120, 0.5),
@@ -162,7 +165,9 @@ class AttributesOutput(AgentOutput):
     objects: list[ObjectAttributes] = Field(max_length=MAX_ITEMS)
 
 
-SOFT_FURNISHINGS = frozenset({"pillow", "throw_pillow", "cushion", "blanket", "towel", "teddy_bear", "plush_toy"})
+SOFT_FURNISHINGS = frozenset(
+    {"pillow", "throw_pillow", "cushion", "blanket", "towel", "teddy_bear", "plush_toy"}
+)
 """Soft things that mould to what they lie on; a rigid stand-in of one rocks and tips, so one resting
 on an object is fixed there (a pillow on a bed, a cushion on a sofa)."""
 THIN_BASE_RATIO = 0.15
@@ -194,9 +199,14 @@ def solve_attributes(evidence: AttributesEvidence) -> AttributesOutput:
         # a screen or picture standing on furniture as a thin plate cannot stand by itself (its real
         # foot is not in the stand-in); real ones are fixed to their stand, so it is held in place
         base = min(o.size[0], o.size[1])
-        thin = not hung and traits(o.category).placement != "floor" and o.size[2] > 0.1 and base / o.size[2] < THIN_BASE_RATIO
+        thin = (
+            not hung
+            and traits(o.category).placement != "floor"
+            and o.size[2] > 0.1
+            and base / o.size[2] < THIN_BASE_RATIO
+        )
         soft = o.category in SOFT_FURNISHINGS and o.parent not in (None, FLOOR)
-        static = row.static or hung or thin or soft
+        static = row.static or thin or soft
         items.append(
             ObjectAttributes(
                 object_id=o.id,
@@ -204,9 +214,13 @@ def solve_attributes(evidence: AttributesEvidence) -> AttributesOutput:
                 friction=row.friction,
                 static=static,
                 basis=f"table row {key!r}"
-                + ("; fixed in place (hung or mounted)" if hung and not row.static else "")
-                + ("; fixed on its support (too thin to stand)" if thin and not (hung or row.static) else "")
-                + ("; soft: keeps its shape on its support" if soft and not (hung or row.static or thin) else ""),
+                + (
+                    "; hangs: settles toward its anchor, held there under real gravity"
+                    if hung and not row.static
+                    else ""
+                )
+                + ("; fixed on its support (too thin to stand)" if thin and not row.static else "")
+                + ("; soft: keeps its shape on its support" if soft and not (row.static or thin) else ""),
             )
         )
     return AttributesOutput(objects=items)

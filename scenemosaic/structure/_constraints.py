@@ -1,16 +1,19 @@
 """Cross-unit constraints: the few strong functional relations that span local units.
 
-Rule solver: a table of functional pairs (:data:`FUNCTIONAL_PAIRS`), each one informed by a
-ProcTHOR asset group where one exists (dining table + chairs, desk + chair, TV stand + TV +
-sofa), plus bed ↔ nightstands, which ProcTHOR's groups lack. A pair becomes a constraint only
-when it is unique and unambiguous (one coffee table in front of the sofa, one TV stand in the
-room...). Weak pairs — a painting and the sofa below it, a wall display and a central table —
+Rule solver (:func:`solve_constraints`): functional relations are found in the scene's geometry
+for the kinds of :data:`FUNCTIONAL_PAIRS` (seats at the edges of their table, nightstands at a
+bed's head end, screens on a desk, a wall TV over its stand, a sofa facing its coffee table and
+TV stand), each kind informed by a ProcTHOR asset group where one exists (dining table + chairs,
+desk + chair, TV stand + TV + sofa); bed ↔ nightstands is our own. A kind becomes a relation
+only when it is unique and unambiguous (one coffee table in front of the sofa, one TV stand in
+the room...). Weak pairs — a painting and the sofa below it, a wall display and a central table —
 are never emitted (:data:`WEAK_PAIRS`), since they would freeze layouts for no functional reason.
 
-Each constraint is split into two clauses that each name one anchor and only objects of that
-anchor's unit; the shared reference is usually the anchor object itself (the table in
-"chairs face the table": the floor clause turns the chairs toward it, the table clause keeps the
-table's own frame the reference for what stands on it).
+A relation becomes a constraint only when it spans two units, and is then split into two
+clauses that each name one unit's anchor and only that unit's objects: a wall TV's wall unit
+and its stand's floor unit; the floor unit where seats face a desk and the desk's own unit,
+where its monitor keeps facing the seats. A relation inside one unit (seats around a dining
+table that carries nothing) is recorded as a ``faces`` or ``beside`` relation instead.
 """
 
 from __future__ import annotations
@@ -22,8 +25,9 @@ from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import ClassVar
+from typing import ClassVar, Literal
 
+import numpy as np
 from pydantic import BaseModel, Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
@@ -31,6 +35,7 @@ from scenemosaic.scene import (
     PROCTHOR_PRIORS_DIR,
     ConstraintClause,
     CrossUnitConstraint,
+    Relation,
     normalize_category,
     traits,
 )
@@ -44,6 +49,8 @@ __all__ = [
     "ConstraintsAgent",
     "ConstraintsOutput",
     "FunctionalPair",
+    "UnitRelation",
+    "find_functional_relations",
     "foreign_note_ids",
     "procthor_group_pairs",
 ]
@@ -149,10 +156,20 @@ def procthor_group_pairs(folder: str | None) -> frozenset[tuple[str, str]]:
     return frozenset(pairs)
 
 
+class UnitRelation(AgentOutput):
+    """A functional relation inside one unit: ``object_id`` faces, or stands beside, ``reference_id``."""
+
+    kind: Literal["faces", "beside"]
+    object_id: str = Field(max_length=64)
+    reference_id: str = Field(max_length=64)
+
+
 class ConstraintsOutput(AgentOutput):
-    """The cross-unit constraints of the scene (replacing any earlier ones)."""
+    """The cross-unit constraints of the scene, and the functional relations inside one unit
+    (both replace any earlier ones)."""
 
     constraints: list[CrossUnitConstraint] = Field(default_factory=list, max_length=64)
+    within_unit: list[UnitRelation] = Field(default_factory=list, max_length=MAX_ITEMS)
 
 
 class ConstraintEvidence(AgentOutput):
@@ -164,6 +181,10 @@ class ConstraintEvidence(AgentOutput):
     )
     pairs: list[str] = Field(
         default_factory=list, max_length=32, description="Allowed functional pair names."
+    )
+    units: dict[str, list[str]] = Field(
+        default_factory=dict,
+        description="Local units: anchor id -> its children. Only these anchors may hold a clause.",
     )
 
 
@@ -199,157 +220,246 @@ def _clause(anchor: str, related: list[str], note: str) -> ConstraintClause:
     return ConstraintClause(anchor_id=anchor, related_objects=related[:32], layout_note=note[:400])
 
 
-def solve_constraints(evidence: ConstraintEvidence) -> ConstraintsOutput:
-    """The constraint rule solver (see the module docstring)."""
+@dataclass(frozen=True)
+class _Found:
+    """A functional relation found in the scene: ``subjects`` relate to ``reference``."""
+
+    pair: str
+    kind: str
+    description: str
+    subjects: tuple[ObjectFacts, ...]
+    reference: ObjectFacts
+    same_unit_note: str
+    """Clause of the unit holding subjects and reference (names both)."""
+    reference_unit_note: str
+    """Clause of the reference's own unit (names the reference and its children only)."""
+    subject_note: str = ""
+    """Clause of the subjects' unit when the reference lives in another unit (names subjects only)."""
+    reference_note: str = ""
+    """Clause of the reference's parent unit in that case (names the reference only)."""
+
+
+def _edge_name(seat: ObjectFacts, table: ObjectFacts) -> str:
+    """Which edge of ``table`` (in its own frame: front, back, left or right) ``seat`` is pulled up to."""
+    way = np.subtract(seat.center, table.center)
+    front = table.front
+    right = np.array([-front[1], front[0]])  # the table's right hand, looking out of its front
+    along, across = (
+        float(way @ front) / max(table.size[1] / 2, 1e-6),
+        float(way @ right) / max(table.size[0] / 2, 1e-6),
+    )
+    if abs(along) >= abs(across):
+        return "front" if along > 0 else "back"
+    return "right" if across > 0 else "left"
+
+
+def _facing(subject: ObjectFacts, target: ObjectFacts, max_deg: float) -> bool:
+    """Whether ``subject``'s front points at ``target``'s footprint within ``max_deg``."""
+    way = np.subtract(target.center, subject.center)
+    n = float(np.linalg.norm(way))
+    if n < 1e-6:
+        return True
+    return float(subject.front @ way) / n >= math.cos(math.radians(max_deg))
+
+
+def find_functional_relations(evidence: ConstraintEvidence) -> list[_Found]:
+    """The strong functional relations of the scene, found from categories and geometry.
+
+    * seats (chairs, stools) with their table or desk: the nearest table-like piece within
+      :data:`SEAT_REACH` of the seat's footprint, on the same support; the note gives the edge
+      each seat is pulled up to;
+    * nightstands at the head end of a bed (within :data:`NIGHTSTAND_REACH` of its footprint and
+      level with the back half of the bed);
+    * screens on a desk or table keeping its orientation;
+    * a wall TV over the one TV stand standing against the same wall;
+    * the largest sofa with the one coffee table within :data:`COFFEE_REACH` it faces, and with
+      the one TV stand within :data:`TV_REACH` it faces.
+
+    Each kind is used only when its row of :data:`FUNCTIONAL_PAIRS` is allowed.
+    """
     objs = evidence.objects
     allowed = set(evidence.pairs)
-    out: list[CrossUnitConstraint] = []
-
-    def add(kind: str, desc: str, a: ConstraintClause, b: ConstraintClause) -> None:
-        if a.anchor_id != b.anchor_id:
-            out.append(
-                CrossUnitConstraint(
-                    id=f"c{len(out)}",
-                    kind=kind,
-                    description=desc[:400],  # type: ignore[arg-type]
-                    anchor_a=a,
-                    anchor_b=b,
-                )
-            )
-
+    found: list[_Found] = []
     tables = [o for o in objs if traits(o.category).table and o.parent]
     seats = [
         o for o in objs if traits(o.category).seat and not ("sofa" in o.category or o.category == "armchair")
     ]
-    # seats -> nearest table/desk
+    screens_of = {t.id: [o for o in objs if o.parent == t.id and o.category in MONITORS] for t in tables}
     if {"seats_face_table", "desk_chair"} & allowed and tables:
         owned: dict[str, list[ObjectFacts]] = {}
-        for s in seats:
-            t = min(tables, key=lambda t: _dist(s, t))
-            if _dist(s, t) <= SEAT_REACH and s.parent and s.parent == t.parent:
-                owned.setdefault(t.id, []).append(s)
+        for seat in seats:
+            t = min(tables, key=lambda t: _dist(seat, t))
+            if _dist(seat, t) <= SEAT_REACH and seat.parent and seat.parent == t.parent:
+                owned.setdefault(t.id, []).append(seat)
         for t in tables:
             group = owned.get(t.id)
-            if not group or t.parent is None:
+            if not group:
                 continue
             names = ", ".join(s.id for s in group)
-            add(
-                "orientation",
-                f"chairs ({names}) face {t.category} ({t.id})",
-                _clause(
-                    t.parent,
-                    [*(s.id for s in group), t.id],
-                    f"turn each of ({names}) to face ({t.id}) and keep them along its edges",
-                ),
-                _clause(
-                    t.id,
-                    _children(objs, t.id),
-                    f"({t.id}) is the reference the chairs face; keep its edges free where they sit",
-                ),
+            edges = "; ".join(f"({s.id}) at its {_edge_name(s, t)} edge" for s in group)
+            screens = screens_of.get(t.id, [])
+            keep = (
+                f"keep ({', '.join(s.id for s in screens)}) facing the way ({t.id})'s front faces"
+                if screens
+                else f"keep the edges of ({t.id}) where its seats sit clear"
             )
-    # bed <-> nightstands
+            found.append(
+                _Found(
+                    "seats_face_table",
+                    "orientation",
+                    f"seats ({names}) face {t.category} ({t.id})",
+                    tuple(group),
+                    t,
+                    f"turn each of ({names}) to face ({t.id}): {edges}",
+                    f"({t.id}) is the reference its seats face; {keep}",
+                )
+            )
     if "nightstands_beside_bed" in allowed:
-        for b in (o for o in objs if "bed" in o.category and traits(o.category).placement == "floor"):
+        for b in (
+            o for o in objs if "bed" in o.category and traits(o.category).placement == "floor" and o.parent
+        ):
+            axis = -b.front  # toward the head end
             stands = [
                 o
                 for o in objs
-                if o.category == "nightstand" and o.parent == b.parent and _dist(o, b) <= NIGHTSTAND_REACH
+                if o.category == "nightstand"
+                and o.parent == b.parent
+                and _dist(o, b) <= NIGHTSTAND_REACH
+                and float(np.subtract(o.center, b.center) @ axis) > 0.0
             ]
-            if not stands or b.parent is None:
-                continue
-            names = ", ".join(s.id for s in stands)
-            add(
-                "placement",
-                f"nightstands ({names}) stand beside the head of {b.category} ({b.id})",
-                _clause(
-                    b.parent,
-                    [b.id, *(s.id for s in stands)],
-                    f"keep ({names}) beside the head end of ({b.id}), level with its headboard",
-                ),
-                _clause(
-                    b.id, _children(objs, b.id), f"({b.id}) keeps its head end where the nightstands stand"
-                ),
-            )
-    # desk -> monitor orientation
+            if stands:
+                names = ", ".join(s.id for s in stands)
+                found.append(
+                    _Found(
+                        "nightstands_beside_bed",
+                        "placement",
+                        f"nightstands ({names}) stand beside the head of {b.category} ({b.id})",
+                        tuple(stands),
+                        b,
+                        f"keep ({names}) beside the head end of ({b.id}), level with its headboard",
+                        f"({b.id}) keeps its head end where the nightstands stand; what lies on it stays on the bed",
+                    )
+                )
     if "monitor_keeps_desk_orientation" in allowed:
         for t in tables:
-            screens = [o for o in objs if o.parent == t.id and o.category in MONITORS]
-            if screens and t.parent:
+            screens = screens_of.get(t.id, [])
+            if screens and t.id not in {f.reference.id for f in found}:
                 names = ", ".join(s.id for s in screens)
-                add(
-                    "orientation",
-                    f"({names}) keep the orientation of ({t.id})",
-                    _clause(
-                        t.id, [s.id for s in screens], f"({names}) face the same way as ({t.id})'s front"
-                    ),
-                    _clause(
-                        t.parent, [t.id], f"({t.id})'s orientation is the reference for the screens on it"
-                    ),
+                found.append(
+                    _Found(
+                        "monitor_keeps_desk_orientation",
+                        "orientation",
+                        f"({names}) keep the orientation of ({t.id})",
+                        tuple(screens),
+                        t,
+                        "",
+                        "",
+                        subject_note=f"({names}) face the same way as ({t.id})'s front",
+                        reference_note=f"({t.id})'s orientation is the reference for the screens on it",
+                    )
                 )
-    # wall TV <-> floor TV stand on the same wall
     if "wall_tv_over_stand" in allowed:
         for tv in (o for o in objs if o.category == "television" and (o.parent or "").startswith("wall")):
             stands = [o for o in objs if o.category == "tv_stand" and evidence.against.get(o.id) == tv.parent]
-            if len(stands) == 1 and stands[0].parent and tv.parent:
+            if len(stands) == 1 and stands[0].parent:
                 st = stands[0]
-                add(
-                    "placement",
-                    f"wall TV ({tv.id}) and TV stand ({st.id}) share a centre line on {tv.parent}",
-                    _clause(
-                        tv.parent,
-                        [tv.id],
-                        f"keep ({tv.id}) centred on the centre line it shares with the TV stand below it",
-                    ),
-                    _clause(
-                        str(st.parent),
-                        [st.id],
-                        f"keep ({st.id}) against {tv.parent}, centred under the TV mounted on that wall",
-                    ),
+                found.append(
+                    _Found(
+                        "wall_tv_over_stand",
+                        "placement",
+                        f"wall TV ({tv.id}) and TV stand ({st.id}) share a centre line on {tv.parent}",
+                        (tv,),
+                        st,
+                        "",
+                        "",
+                        subject_note=f"keep ({tv.id}) centred on the centre line it shares with the TV stand below it",
+                        reference_note=f"keep ({st.id}) against {tv.parent}, centred under the TV mounted on that wall",
+                    )
                 )
-    # sofa -> coffee table / TV stand (only unique pairs)
-    sofas = sorted((o for o in objs if "sofa" in o.category), key=lambda o: -o.area)
+    sofas = sorted((o for o in objs if "sofa" in o.category and o.parent), key=lambda o: -o.area)
     if sofas:
         sofa = sofas[0]
         coffees = [
             o for o in objs if o.category in ("coffee_table", "tea_table") and _dist(o, sofa) <= COFFEE_REACH
         ]
-        if (
-            "sofa_faces_coffee_table" in allowed
-            and len(coffees) == 1
-            and sofa.parent == coffees[0].parent
-            and sofa.parent
-        ):
+        if "sofa_faces_coffee_table" in allowed and len(coffees) == 1 and sofa.parent == coffees[0].parent:
             ct = coffees[0]
-            add(
-                "orientation",
-                f"{sofa.category} ({sofa.id}) faces {ct.category} ({ct.id})",
-                _clause(
-                    sofa.parent, [sofa.id, ct.id], f"({sofa.id}) faces ({ct.id}), which stays in front of it"
-                ),
-                _clause(
-                    ct.id, _children(objs, ct.id), f"({ct.id}) is the reference the sofa in front of it faces"
-                ),
+            found.append(
+                _Found(
+                    "sofa_faces_coffee_table",
+                    "orientation",
+                    f"{sofa.category} ({sofa.id}) faces {ct.category} ({ct.id})",
+                    (sofa,),
+                    ct,
+                    f"({sofa.id}) faces ({ct.id}), which stays in front of it",
+                    f"({ct.id}) is the reference the sofa in front of it faces",
+                )
             )
         stands = [o for o in objs if o.category == "tv_stand"]
         if (
             "sofa_faces_tv" in allowed
             and len(stands) == 1
-            and len(sofas) >= 1
-            and sofa.parent
             and stands[0].parent == sofa.parent
             and _dist(stands[0], sofa) <= TV_REACH
+            and _facing(sofa, stands[0], 60.0)
         ):
             st = stands[0]
-            way = (st.center[0] - sofa.center[0], st.center[1] - sofa.center[1])
-            n = math.hypot(*way)
-            if n > 1e-6 and (sofa.front[0] * way[0] + sofa.front[1] * way[1]) / n > 0.5:
-                add(
+            found.append(
+                _Found(
+                    "sofa_faces_tv",
                     "orientation",
                     f"{sofa.category} ({sofa.id}) faces the TV stand ({st.id})",
-                    _clause(sofa.parent, [sofa.id, st.id], f"({sofa.id}) faces ({st.id})"),
-                    _clause(st.id, _children(objs, st.id), f"({st.id}) is the reference the sofa faces"),
+                    (sofa,),
+                    st,
+                    f"({sofa.id}) faces ({st.id})",
+                    f"({st.id}) is the reference the sofa faces; what stands on it faces out of its front",
                 )
-    return ConstraintsOutput(constraints=out)
+            )
+    return found
+
+
+def solve_constraints(evidence: ConstraintEvidence) -> ConstraintsOutput:
+    """The constraint rule solver: :func:`find_functional_relations`, each split by where it lives.
+
+    * subjects and reference in different units (a wall TV and a floor TV stand; screens on a desk
+      and the desk on the floor): one clause in each of the two units;
+    * in one unit, with the reference carrying things of its own (a desk with a monitor, a bed with
+      pillows): one clause in the shared unit, one in the reference's unit;
+    * in one unit, with a reference that carries nothing (a bare dining table): not a cross-unit
+      constraint but a relation inside the unit, ``faces`` (seats, sofas) or ``beside``
+      (nightstands), for the unit's own evolution.
+    """
+    units = evidence.units
+    out: list[CrossUnitConstraint] = []
+    within: list[UnitRelation] = []
+    for f in find_functional_relations(evidence):
+        ref = f.reference
+        homes = {s.parent for s in f.subjects}
+        if len(homes) != 1 or ref.parent is None:
+            continue
+        home = homes.pop()
+        assert home is not None
+        subject_ids = [s.id for s in f.subjects]
+        if home != ref.parent:
+            a = _clause(home, subject_ids, f.subject_note)
+            b = _clause(ref.parent, [ref.id], f.reference_note)
+        elif units.get(ref.id):
+            a = _clause(home, [*subject_ids, ref.id], f.same_unit_note)
+            b = _clause(ref.id, units[ref.id], f.reference_unit_note)
+        else:
+            kind = "beside" if f.kind == "placement" else "faces"
+            within += [UnitRelation(kind=kind, object_id=s, reference_id=ref.id) for s in subject_ids]
+            continue
+        out.append(
+            CrossUnitConstraint(
+                id=f"c{len(out)}",
+                kind=f.kind,
+                description=f.description[:400],
+                anchor_a=a,
+                anchor_b=b,  # type: ignore[arg-type]
+            )
+        )
+    return ConstraintsOutput(constraints=out, within_unit=within)
 
 
 def _weak(categories: set[str]) -> bool:
@@ -375,8 +485,13 @@ class ConstraintsAgent(FloorPlanImages, TaskAgent[ConstraintEvidence, Constraint
             for p in FUNCTIONAL_PAIRS
             if not groups or p.procthor is None or p.procthor in groups or _reverse(p.procthor) in groups
         ]
-        against = {r.child: r.parent for r in state.scene.relations if r.kind == "against"}
-        return ConstraintEvidence(objects=object_facts(state.scene), against=against, pairs=allowed)
+        scene = state.scene
+        against = {r.child: r.parent for r in scene.relations if r.kind == "against"}
+        units: dict[str, list[str]] = {}
+        for r in scene.relations:
+            if r.is_support:
+                units.setdefault(r.parent, []).append(r.child)
+        return ConstraintEvidence(objects=object_facts(scene), against=against, pairs=allowed, units=units)
 
     def solve(self, evidence: ConstraintEvidence) -> ConstraintsOutput:
         return solve_constraints(evidence)
@@ -396,6 +511,11 @@ class ConstraintsAgent(FloorPlanImages, TaskAgent[ConstraintEvidence, Constraint
                 if clause.anchor_id not in anchors:
                     problems.append(f"constraint {c.id!r}: anchor {clause.anchor_id!r} does not exist")
                     continue
+                if clause.anchor_id not in set(parents.values()):
+                    problems.append(
+                        f"constraint {c.id!r}: {clause.anchor_id!r} carries nothing, so it anchors no unit; "
+                        "a relation inside one unit goes in within_unit, not in a constraint"
+                    )
                 if clause.anchor_id in cats:
                     involved.add(cats[clause.anchor_id])
                 for oid in clause.related_objects:
@@ -419,10 +539,29 @@ class ConstraintsAgent(FloorPlanImages, TaskAgent[ConstraintEvidence, Constraint
                 problems.append(
                     f"constraint {c.id!r} relates a weak pair ({', '.join(sorted(involved))}); drop it"
                 )
+        for w in output.within_unit:
+            for oid in (w.object_id, w.reference_id):
+                if oid not in cats:
+                    problems.append(f"within_unit: object id {oid!r} does not exist in this scene")
+            if w.object_id in cats and w.reference_id in cats:
+                if w.object_id == w.reference_id:
+                    problems.append(f"within_unit: {w.object_id!r} cannot relate to itself")
+                elif parents.get(w.object_id) != parents.get(w.reference_id):
+                    problems.append(
+                        f"within_unit: ({w.object_id}) and ({w.reference_id}) are in different units "
+                        f"(parents {parents.get(w.object_id)!r} and {parents.get(w.reference_id)!r}); "
+                        "relate them with a constraint instead"
+                    )
         return problems
 
     def apply(self, output: ConstraintsOutput, state: SceneState) -> None:
-        state.scene = replace_scene(state.scene, constraints=list(output.constraints))
+        scene = state.scene
+        relations = [r for r in scene.relations if r.kind not in ("faces", "beside")]
+        relations += [
+            Relation(kind=w.kind, child=w.object_id, parent=w.reference_id, source=self.name)
+            for w in output.within_unit
+        ]
+        state.scene = replace_scene(scene, constraints=list(output.constraints), relations=relations)
 
 
 def traits_key(category: str) -> str:

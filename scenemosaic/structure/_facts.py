@@ -15,7 +15,16 @@ from pydantic import BaseModel, ConfigDict, Field
 from shapely.geometry import Point, Polygon
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput
-from scenemosaic.scene import CEILING, FLOOR, Relation, Scene, SceneObject, normalize_category
+from scenemosaic.scene import (
+    CEILING,
+    FLOOR,
+    Pose,
+    Relation,
+    Scene,
+    SceneObject,
+    normalize_category,
+    rigid_moves,
+)
 
 __all__ = [
     "MAX_ITEMS",
@@ -27,6 +36,7 @@ __all__ = [
     "parent_cycles",
     "replace_scene",
     "room_facts",
+    "translate_objects",
 ]
 
 Vec2 = tuple[float, float]
@@ -213,6 +223,18 @@ def replace_scene(scene: Scene, **fields: Any) -> Scene:
             )
         )
     return Scene.model_validate(data)
+
+
+def translate_objects(scene: Scene, moves: dict[str, Vec3]) -> None:
+    """Translate objects in place by ``(dx, dy, dz)``; what each carries moves with it
+    (``scenemosaic.scene.rigid_moves``)."""
+    poses: dict[str, Pose] = {}
+    for oid, (dx, dy, dz) in moves.items():
+        pose = scene.get(oid).pose
+        x, y, z = pose.position
+        poses[oid] = pose.model_copy(update={"position": (x + dx, y + dy, z + dz)})
+    for oid, pose in rigid_moves(scene, poses).items():
+        scene.get(oid).pose = pose
 
 
 def with_support(relations: list[Relation], child: str, new: Relation) -> list[Relation]:

@@ -26,16 +26,21 @@ from scenemosaic.scene import (
     ROOM_MARGIN,
     WALL_SNAP_GAP,
     FootprintItem,
-    Pose,
     Room,
     Wall,
     dominant_orientation,
     recovered_ceiling,
-    rigid_moves,
     room_rectangle,
     traits,
 )
-from scenemosaic.structure._facts import ObjectFacts, RoomFacts, object_facts, replace_scene, room_facts
+from scenemosaic.structure._facts import (
+    ObjectFacts,
+    RoomFacts,
+    object_facts,
+    replace_scene,
+    room_facts,
+    translate_objects,
+)
 from scenemosaic.structure._views import FloorPlanImages
 
 __all__ = ["ObjectShift", "RoomAgent", "RoomEvidence", "RoomOutput", "WallSpec"]
@@ -61,7 +66,8 @@ CEILING_GAP = 0.01
 
 
 class ObjectShift(AgentOutput):
-    """A translation that brings one object inside a kept room, and why."""
+    """A translation of one object (what it carries moves with it), and why: into a kept room,
+    out of the ceiling, out of another piece of furniture."""
 
     object_id: str = Field(max_length=64)
     dx: float = Field(ge=-MAX_PULL_IN - 0.01, le=MAX_PULL_IN + 0.01)
@@ -138,8 +144,12 @@ def _pull_in(poly: Polygon, footprint: Polygon) -> tuple[float, float] | None:
         if n < 1e-9:
             vx, vy, n = mx - near.x, my - near.y, math.hypot(mx - near.x, my - near.y) or 1.0
         ux, uy = vx / n, vy / n
-        depth = max(0.0, max((ux * (near.x - x) + uy * (near.y - y)) for x, y in outside.exterior.coords)
-                    if isinstance(outside, Polygon) else 0.0)
+        depth = max(
+            0.0,
+            max((ux * (near.x - x) + uy * (near.y - y)) for x, y in outside.exterior.coords)
+            if isinstance(outside, Polygon)
+            else 0.0,
+        )
         step = max(depth, 0.005) + 0.002
         dx, dy = dx + ux * step, dy + uy * step
         if math.hypot(dx, dy) > MAX_PULL_IN:
@@ -181,11 +191,19 @@ def _repair_room(evidence: RoomEvidence) -> RoomOutput:
             if dz < 0:
                 what.append(f"{-dz:.2f} m down, under the ceiling")
             shifts.append(
-                ObjectShift(object_id=o.id, dx=round(dxy[0], 4), dy=round(dxy[1], 4), dz=round(dz, 4), reason="moved " + " and ".join(what))
+                ObjectShift(
+                    object_id=o.id,
+                    dx=round(dxy[0], 4),
+                    dy=round(dxy[1], 4),
+                    dz=round(dz, 4),
+                    reason="moved " + " and ".join(what),
+                )
             )
     note = "input room kept" + ("" if r.walls else "; walls completed from the floor polygon")
     ceiling = r.ceiling_height
-    tallest_floor = max((o.top for o in evidence.objects if traits(o.category).placement == "floor"), default=0.0)
+    tallest_floor = max(
+        (o.top for o in evidence.objects if traits(o.category).placement == "floor"), default=0.0
+    )
     if tallest_floor > ceiling:
         ceiling = round(tallest_floor + 0.1, 3)
         note += f"; ceiling raised to {ceiling:.2f} m above the tallest furniture"
@@ -310,14 +328,7 @@ class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
             room = Room.from_polygon(room.floor, ceiling_height=output.ceiling_height)
         scene = replace_scene(state.scene, room=room)
         if output.shifts:
-            moves: dict[str, Pose] = {}
-            for sh in output.shifts:
-                pose = scene.get(sh.object_id).pose
-                x, y, z = pose.position
-                moves[sh.object_id] = pose.model_copy(update={"position": (x + sh.dx, y + sh.dy, z + sh.dz)})
-            new_poses = rigid_moves(scene, moves)
-            for oid, pose in new_poses.items():
-                scene.get(oid).pose = pose
+            translate_objects(scene, {sh.object_id: (sh.dx, sh.dy, sh.dz) for sh in output.shifts})
             for sh in output.shifts:
                 scene.provenance.notes.append(f"room: {sh.object_id} {sh.reason}")
         if not output.kept_input and state.scene.room is not None:

@@ -6,15 +6,16 @@ Rule solver:
 * a description names the category, its size and where it stands;
 * a piece of furniture that belongs against a wall (wardrobe, TV stand, bookshelf, bed...)
   whose *front* faces the nearest wall from close by is turned 180° so it faces the room;
-* a chair next to a table or desk should face it: a chair turned more than 90° away is
-  reported; only one turned more than :data:`UNAMBIGUOUS_DEG` away (facing straight off) is
-  turned 180°, since in-between cases are often deliberate.
+* a chair next to a table or desk should face it: a chair whose front is turned more than
+  90° away from the way to the table (its back, not its seat, toward the table) is turned to
+  face the table's nearest edge squarely; a chair turned less than that is left alone, since a
+  chair pulled out at an angle is often deliberate.
 """
 
 from __future__ import annotations
 
 import math
-from typing import ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import BaseModel, Field
@@ -47,8 +48,8 @@ WALL_FACING_REACH = 0.3
 """A wall-type object whose front is this close (metres) to a wall is facing the wall."""
 TABLE_REACH = 0.8
 """A chair this close (metres) to a table or desk footprint belongs to it."""
-UNAMBIGUOUS_DEG = 150.0
-"""A chair facing more than this many degrees away from its table is turned around."""
+AWAY_DEG = 90.0
+"""A chair whose front is more than this many degrees off the way to its table is turned to face it."""
 
 
 class SemanticItem(AgentOutput):
@@ -58,7 +59,12 @@ class SemanticItem(AgentOutput):
     category: str = Field(min_length=1, max_length=64, pattern=r"^[a-z0-9_]+$")
     description: str = Field(default="", max_length=300)
     front_ok: bool = True
-    yaw_fix_deg: Literal[0, 90, -90, 180] = 0
+    yaw_fix_deg: float = Field(
+        default=0.0,
+        ge=-180.0,
+        le=180.0,
+        description="Turn to apply about the object's centre, degrees counter-clockwise; 0 when front_ok.",
+    )
     note: str = Field(default="", max_length=200)
 
 
@@ -79,6 +85,10 @@ class FrontFacts(AgentOutput):
     table_distance: float | None = None
     table_angle_deg: float | None = Field(
         default=None, description="Angle between the front and the way to the table."
+    )
+    table_turn_deg: float | None = Field(
+        default=None,
+        description="Counter-clockwise turn that makes the front face the table's nearest edge squarely.",
     )
     against_wall: bool | None = None
 
@@ -118,9 +128,36 @@ def _front_facts(scene: Scene, objs: list[ObjectFacts]) -> list[FrontFacts]:
                 if norm > 1e-6
                 else 0.0
             )
-            f.update(table_id=t.id, table_distance=round(dist, 3), table_angle_deg=round(angle, 1))
+            f.update(
+                table_id=t.id,
+                table_distance=round(dist, 3),
+                table_angle_deg=round(angle, 1),
+                table_turn_deg=round(_turn_to_edge(o, t), 1),
+            )
         out.append(FrontFacts.model_validate(f))
     return out
+
+
+def _turn_to_edge(seat: ObjectFacts, table: ObjectFacts) -> float:
+    """Signed turn (degrees, counter-clockwise) that points ``seat``'s front squarely at the
+    edge of ``table``'s footprint nearest to it (against that edge's outward normal)."""
+    corners = np.asarray(table.footprint, dtype=np.float64)
+    centre = np.asarray(seat.center, dtype=np.float64)
+    best: tuple[float, np.ndarray[Any, np.dtype[np.float64]]] | None = None
+    for a, b in zip(corners, np.roll(corners, -1, axis=0), strict=True):
+        edge = b - a
+        length = float(np.linalg.norm(edge))
+        if length < 1e-9:
+            continue
+        t = float(np.clip((centre - a) @ edge / length**2, 0.0, 1.0))
+        dist = float(np.linalg.norm(centre - (a + t * edge)))
+        if best is None or dist < best[0]:
+            best = (dist, np.array([edge[1], -edge[0]]) / length)  # outward normal of a CCW polygon
+    if best is None:
+        return 0.0
+    want = -best[1]
+    f = seat.front
+    return math.degrees(math.atan2(float(f[0] * want[1] - f[1] * want[0]), float(f @ want)))
 
 
 def _describe(o: ObjectFacts) -> str:
@@ -140,24 +177,25 @@ def solve_semantics(evidence: SemanticsEvidence) -> SemanticsOutput:
     for o in evidence.objects:
         f = fronts.get(o.id)
         t = traits(o.category)
-        ok, fix, note = True, 0, ""
+        ok, fix, note = True, 0.0, ""
         if (
             f is not None
             and t.against_wall
             and f.wall_facing == "front"
             and (f.wall_gap or 0.0) < WALL_FACING_REACH
         ):
-            ok, fix, note = False, 180, f"front faced {f.wall_id}; turned to face the room"
+            ok, fix, note = False, 180.0, f"front faced {f.wall_id}; turned to face the room"
         elif (
             f is not None
             and t.seat
             and f.table_angle_deg is not None
-            and f.table_angle_deg > 90.0
+            and f.table_angle_deg > AWAY_DEG
             and (f.table_distance or 0.0) < TABLE_REACH
         ):
             ok, note = False, f"faces away from {f.table_id} by {f.table_angle_deg:.0f}°"
-            if f.table_angle_deg > UNAMBIGUOUS_DEG and not f.against_wall:
-                fix, note = 180, note + "; turned to face it"
+            if not f.against_wall and f.table_turn_deg is not None:
+                fix = f.table_turn_deg
+                note += f"; turned {fix:+.0f}° to face it"
         items.append(
             SemanticItem(
                 object_id=o.id,
@@ -166,7 +204,7 @@ def solve_semantics(evidence: SemanticsEvidence) -> SemanticsOutput:
                 front_ok=ok,
                 yaw_fix_deg=fix,
                 note=note,
-            )  # type: ignore[arg-type]
+            )
         )
     return SemanticsOutput(objects=items)
 
@@ -223,6 +261,11 @@ class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutp
             if item.object_id in seen:
                 problems.append(f"object {item.object_id!r} is listed twice")
             seen.add(item.object_id)
+            if item.front_ok and abs(item.yaw_fix_deg) > 1e-9:
+                problems.append(
+                    f"{item.object_id!r}: front_ok is true but yaw_fix_deg is {item.yaw_fix_deg:g}; "
+                    "a turn is only given for a front that is wrong (set yaw_fix_deg to 0 or front_ok to false)"
+                )
         return problems
 
     def apply(self, output: SemanticsOutput, state: SceneState) -> None:

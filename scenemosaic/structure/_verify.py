@@ -3,7 +3,12 @@
 Rule solver: an object with no parent goes to the floor (the ceiling for ceiling fixtures); a
 parent cycle is broken by standing its lowest member on the floor; a constraint whose clauses
 name missing objects, or objects outside the clause's unit (in ``related_objects`` or in
-parentheses in its layout note), is dropped. Apply then builds the
+parentheses in its layout note), is dropped; pillows and cushions on the floor beside a bed or
+seat are put on it; two floor-standing pieces of furniture whose boxes stand inside each other
+(:func:`scenemosaic.scene.nested_pairs`: a TV stand slid under a dressing table) are parted by
+moving the smaller one the least distance that separates them, provided it stays inside the
+room and clear of every other piece; otherwise the larger one, otherwise the pair is reported.
+Apply then builds the
 scene tree (:func:`scenemosaic.scene._tree.build_structure`) so every unit is non-empty by
 construction; anything left over is reported in the scene's provenance notes.
 """
@@ -12,14 +17,33 @@ from __future__ import annotations
 
 from typing import ClassVar
 
+import numpy as np
 from pydantic import BaseModel, Field
+from shapely.affinity import translate
+from shapely.geometry import Polygon
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
-from scenemosaic.scene import CEILING, FLOOR, CrossUnitConstraint, Relation, build_structure, traits
+from scenemosaic.scene import (
+    CEILING,
+    FLOOR,
+    CrossUnitConstraint,
+    Relation,
+    build_structure,
+    nested_pairs,
+    traits,
+)
 from scenemosaic.structure._constraints import foreign_note_ids
-from scenemosaic.structure._facts import ObjectFacts, object_facts, parent_cycles, replace_scene
+from scenemosaic.structure._facts import (
+    ObjectFacts,
+    Vec2,
+    object_facts,
+    parent_cycles,
+    replace_scene,
+    translate_objects,
+)
+from scenemosaic.structure._room import MAX_PULL_IN, ObjectShift
 
-__all__ = ["ParentFix", "VerificationAgent", "VerificationEvidence", "VerificationOutput"]
+__all__ = ["NestedFacts", "ParentFix", "VerificationAgent", "VerificationEvidence", "VerificationOutput"]
 
 
 class ParentFix(AgentOutput):
@@ -34,18 +58,35 @@ class VerificationOutput(AgentOutput):
     """Fixes to apply and problems to report."""
 
     fixes: list[ParentFix] = Field(default_factory=list, max_length=MAX_ITEMS)
+    moves: list[ObjectShift] = Field(
+        default_factory=list,
+        max_length=MAX_ITEMS,
+        description="Translations that part furniture standing inside other furniture (dz stays 0).",
+    )
     drop_constraints: list[str] = Field(default_factory=list, max_length=64)
     problems: list[str] = Field(default_factory=list, max_length=64)
 
 
+class NestedFacts(AgentOutput):
+    """Two floor-standing pieces whose boxes stand inside each other."""
+
+    a: str
+    b: str
+    shared: float = Field(description="Fraction of the smaller footprint both boxes cover.")
+    depth: float = Field(description="Least in-plane move (metres) that parts the two boxes.")
+    axis: Vec2 = Field(description="Moving b by depth along this unit vector (or a against it) parts them.")
+
+
 class VerificationEvidence(AgentOutput):
-    """Objects with their parents, and the constraints."""
+    """Objects with their parents, the constraints, and furniture standing inside furniture."""
 
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
     constraints: list[CrossUnitConstraint] = Field(default_factory=list, max_length=64)
     anchors: list[str] = Field(
         default_factory=list, max_length=MAX_ITEMS, description="Every valid anchor id."
     )
+    nested: list[NestedFacts] = Field(default_factory=list, max_length=MAX_ITEMS)
+    floor: list[Vec2] = Field(default_factory=list, max_length=256, description="Room floor polygon, if any.")
 
 
 SOFT_ON_FURNITURE = frozenset({"pillow", "throw_pillow", "cushion"})
@@ -65,9 +106,75 @@ def _soft_things_on_the_floor(objects: list[ObjectFacts], parents: dict[str, str
             continue
         host = min(hosts, key=lambda h: h.polygon().distance(o.polygon()))
         if host.polygon().distance(o.polygon()) <= BESIDE_M:
-            fixes.append(ParentFix(object_id=o.id, parent=host.id, reason=f"a {o.category} on the floor beside the {host.category} belongs on it"))
+            fixes.append(
+                ParentFix(
+                    object_id=o.id,
+                    parent=host.id,
+                    reason=f"a {o.category} on the floor beside the {host.category} belongs on it",
+                )
+            )
             parents[o.id] = host.id
     return fixes
+
+
+PART_GAP_M = 0.01
+"""Clearance left between two pieces of furniture parted by verification."""
+
+
+def _parting_moves(evidence: VerificationEvidence) -> tuple[list[ObjectShift], list[str]]:
+    """One move per nested pair (see the module docstring), and the pairs it could not part."""
+    facts = {o.id: o for o in evidence.objects}
+    shapes = {o.id: o.polygon() for o in evidence.objects}
+    room = Polygon(evidence.floor).buffer(1e-3) if len(evidence.floor) >= 3 else None
+    moves: list[ObjectShift] = []
+    problems: list[str] = []
+    moved: set[str] = set()
+    for pair in evidence.nested:
+        if pair.a in moved or pair.b in moved or pair.a not in facts or pair.b not in facts:
+            continue
+        step = pair.depth + PART_GAP_M
+        if step > MAX_PULL_IN:
+            problems.append(
+                f"{pair.a} and {pair.b} stand inside each other by {pair.depth:.2f} m; too deep to part"
+            )
+            continue
+        axis = np.asarray(pair.axis, dtype=np.float64)
+        order = sorted(
+            [(pair.b, axis * step), (pair.a, -axis * step)], key=lambda c: facts[c[0]].area
+        )  # the smaller piece first
+        for oid, (dx, dy) in order:
+            other = pair.a if oid == pair.b else pair.b
+            shape = translate(shapes[oid], float(dx), float(dy))
+            if room is not None and not room.contains(shape):
+                continue
+            clash = [
+                k
+                for k, poly in shapes.items()
+                if k not in (oid, other)
+                and facts[k].parent == FLOOR
+                and traits(facts[k].category).placement == "floor"
+                and poly.intersection(shape).area > 0.05 * min(poly.area, shape.area) + 1e-9
+                and poly.intersection(shapes[oid]).area <= 1e-9
+            ]
+            if clash:
+                continue
+            moves.append(
+                ObjectShift(
+                    object_id=oid,
+                    dx=round(float(dx), 4),
+                    dy=round(float(dy), 4),
+                    reason=f"stood {pair.depth:.2f} m inside {other}; moved out",
+                )
+            )
+            shapes[oid] = shape
+            moved.add(oid)
+            break
+        else:
+            problems.append(
+                f"{pair.a} and {pair.b} stand inside each other ({pair.shared:.0%} of the smaller box); "
+                "no short move parts them inside the room"
+            )
+    return moves, problems
 
 
 def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
@@ -84,8 +191,8 @@ def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
         low = min((facts[c] for c in cyc if c in facts), key=lambda f: f.bottom)
         fixes.append(ParentFix(object_id=low.id, parent=FLOOR, reason="broke a parent cycle"))
         parents[low.id] = FLOOR
-    problems: list[str] = []
     fixes += _soft_things_on_the_floor(evidence.objects, parents)
+    moves, problems = _parting_moves(evidence)
     drop: list[str] = []
     for c in evidence.constraints:
         for clause in (c.anchor_a, c.anchor_b):
@@ -99,7 +206,7 @@ def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
                     f"constraint {c.id} dropped: {', '.join(bad)} not in the unit of {clause.anchor_id}"
                 )
                 break
-    return VerificationOutput(fixes=fixes, drop_constraints=drop, problems=problems)
+    return VerificationOutput(fixes=fixes, moves=moves, drop_constraints=drop, problems=problems)
 
 
 class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
@@ -111,10 +218,16 @@ class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
     output_type: ClassVar[type[BaseModel]] = VerificationOutput
 
     def gather(self, state: SceneState) -> VerificationEvidence:
+        scene = state.scene
         return VerificationEvidence(
-            objects=object_facts(state.scene),
-            constraints=list(state.scene.constraints),
-            anchors=sorted(state.scene.anchor_ids()),
+            objects=object_facts(scene),
+            constraints=list(scene.constraints),
+            anchors=sorted(scene.anchor_ids()),
+            nested=[
+                NestedFacts(a=p.a, b=p.b, shared=round(p.shared, 3), depth=round(p.depth_m, 3), axis=p.axis)
+                for p in nested_pairs(scene)
+            ],
+            floor=[(round(x, 3), round(y, 3)) for x, y in scene.room.floor] if scene.room is not None else [],
         )
 
     def solve(self, evidence: VerificationEvidence) -> VerificationOutput:
@@ -133,6 +246,17 @@ class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
                 problems.append(f"parent {f.parent!r} of {f.object_id!r} is not a valid anchor")
             else:
                 parents[f.object_id] = f.parent
+        moved: set[str] = set()
+        for m in output.moves:
+            if m.object_id not in objects:
+                problems.append(f"move names unknown object {m.object_id!r}; use ids from the evidence")
+            elif m.object_id in moved:
+                problems.append(f"object {m.object_id!r} is moved twice; give one move per object")
+            elif abs(m.dz) > 1e-9:
+                problems.append(
+                    f"move of {m.object_id!r} has dz {m.dz:g}; parting moves stay in the floor plane (dz 0)"
+                )
+            moved.add(m.object_id)
         known = {c.id for c in scene.constraints}
         for cid in output.drop_constraints:
             if cid not in known:
@@ -156,10 +280,13 @@ class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
         constraints = [c for c in scene.constraints if c.id not in drop]
         notes = [*scene.provenance.notes, *(f"verify: {p}" for p in output.problems)]
         notes += [f"verify: {f.object_id} -> {f.parent} ({f.reason})" for f in output.fixes]
+        notes += [f"verify: {m.object_id} {m.reason} ({m.dx:+.2f}, {m.dy:+.2f}) m" for m in output.moves]
         scene = replace_scene(
             scene,
             relations=rels,
             constraints=constraints,
             provenance=scene.provenance.model_copy(update={"notes": notes}),
         )
+        if output.moves:
+            translate_objects(scene, {m.object_id: (m.dx, m.dy, 0.0) for m in output.moves})
         state.scene = replace_scene(scene, structure=build_structure(scene))

@@ -3,8 +3,10 @@
 Rule solver: for every object within :data:`WALL_REACH` of a wall (measured from the wall
 line to the nearest footprint corner, only walls whose span the object faces), report the
 nearest wall, the gap, and which side of the object faces it (back, front or side, within
-30°). A floor object is *flush* when the gap is under :data:`FLUSH_GAP` and its back faces
-the wall; an object is *mounted* when its support parent already is that wall.
+30°). A floor object is *flush* when its back faces the wall and the gap is under
+:data:`FLUSH_GAP`, or under :data:`WALL_FURNITURE_GAP` for furniture that belongs against a
+wall (beds, wardrobes, shelves: a prior often leaves them a few decimetres off it); an object
+is *mounted* when its support parent already is that wall.
 """
 
 from __future__ import annotations
@@ -30,10 +32,21 @@ from scenemosaic.structure._facts import (
 )
 from scenemosaic.structure._views import FloorPlanImages
 
-__all__ = ["FLUSH_GAP", "WallAttachmentAgent", "WallEvidence", "WallItem", "WallOutput", "facing_side"]
+__all__ = [
+    "FLUSH_GAP",
+    "WALL_FURNITURE_GAP",
+    "WallAttachmentAgent",
+    "WallEvidence",
+    "WallItem",
+    "WallOutput",
+    "facing_side",
+]
 
 FLUSH_GAP = 0.15
 """Largest gap (metres) between an object's back and a wall for it to count as flush."""
+WALL_FURNITURE_GAP = 0.3
+"""Largest gap (metres) behind furniture that belongs against a wall (``traits().against_wall``)
+for it to be marked as standing against that wall; physics then slides it flush."""
 WALL_REACH = 0.6
 """Objects farther than this (metres) from every wall are not reported."""
 FACING_COS = math.cos(math.radians(30))
@@ -95,7 +108,8 @@ def solve_walls(evidence: WallEvidence) -> WallOutput:
             continue
         side = facing_side(o, outward(w))
         mounted = o.parent == w.id
-        flush = (not mounted) and o.parent in (FLOOR, None) and gap < FLUSH_GAP and side == "back"
+        reach = WALL_FURNITURE_GAP if traits(o.category).against_wall else FLUSH_GAP
+        flush = (not mounted) and o.parent in (FLOOR, None) and gap < reach and side == "back"
         items.append(
             WallItem(
                 object_id=o.id,

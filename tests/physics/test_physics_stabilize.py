@@ -50,7 +50,7 @@ def test_raw_rooms_need_fixing(physcene_raw: dict[str, Scene]) -> None:
         for s in physcene_raw.values()
         for g in support_gaps(s, {o.id: object_shape(o) for o in s.objects}).values()
     ]
-    assert collisions >= 3
+    assert collisions >= 2  # structuring already parted two dining chairs standing inside each other
     assert sum(g > RESTING_M for g in gaps) >= 10
     assert max(gaps) > 0.3
 

@@ -13,6 +13,7 @@ from shapely.geometry import Polygon
 from scenemosaic.agents import AgentPolicy, SceneState, TaskAgent, agent_dependencies
 from scenemosaic.exceptions import AgentOutputError
 from scenemosaic.models import FunctionModel, Message, RequestContext, RulesModel
+from scenemosaic.physics import is_fixed
 from scenemosaic.scene import CEILING, FLOOR, AssetRef, Pose, Relation, Room, Scene, SceneObject, load_priors
 from scenemosaic.structure import (
     AttributesAgent,
@@ -257,9 +258,8 @@ async def test_semantics_turns_wardrobe_facing_the_wall_and_reports_chairs(prior
     w = state.scene.get("wardrobe")
     assert abs(abs(w.pose.yaw) - 0.0) < 1e-6  # turned to face the room (-Y)
     assert items["chair_ok"].front_ok and items["chair_ok"].yaw_fix_deg == 0
-    assert items["chair_away"].yaw_fix_deg == 180
-    assert not items["chair_side"].front_ok or items["chair_side"].yaw_fix_deg == 0
-    assert items["chair_side"].yaw_fix_deg == 0  # ambiguous: reported at most, never turned
+    assert abs(items["chair_away"].yaw_fix_deg) == pytest.approx(180.0)
+    assert items["chair_side"].yaw_fix_deg == 0  # sideways, not away: a chair pulled out is left alone
     assert state.scene.get("chair_side").category == "dining_chair"
     assert "dining chair" in state.scene.get("chair_ok").description
 
@@ -270,7 +270,12 @@ async def test_attributes_table(priors: Any) -> None:
     await run_chain(state, [RoomAgent(), SupportAgent(priors)])
     out, _ = await AttributesAgent().run(state, RulesModel())
     sim = {o.id: o.sim for o in state.scene.objects}
-    assert sim["tv"].static and sim["painting"].static  # wall-mounted
+    # wall-mounted: dynamic in their wall unit (gravity toward the wall settles them onto it), held
+    # where they hang in the whole scene under real gravity
+    assert not sim["tv"].static and not sim["painting"].static
+    assert "hangs" in (sim["painting"].source or "")
+    assert is_fixed(state.scene, state.scene.get("tv")) and is_fixed(state.scene, state.scene.get("painting"))
+    assert not is_fixed(state.scene, state.scene.get("wardrobe"))
     assert not sim["wardrobe"].static and sim["wardrobe"].mass_kg is not None and sim["wardrobe"].mass_kg >= 45
     assert sim["table"].mass_kg is not None and 8 <= sim["table"].mass_kg <= 40
     assert all(0.2 <= s.friction <= 1.0 for s in sim.values())

@@ -62,31 +62,26 @@ async def test_generator_errors_are_repaired(physcene_scenes: dict[str, Scene], 
 
 
 async def test_functional_constraints(physcene_scenes: dict[str, Scene], procthor_dir: Path) -> None:
+    """Seats face their table, nightstands stand by the bed: as a cross-unit constraint when the two
+    sides live in different units, as a relation inside the floor unit when they do not (PhyScene's
+    tables and beds carry nothing, so here every pair lives in the floor unit)."""
     for name, scene in physcene_scenes.items():
         out = await structure_scene(scene, priors_dir=procthor_dir)
         cats = {o.id: o.category for o in out.objects}
-        chair_table = [
-            c for c in out.constraints
-            if c.kind == "orientation"
-            and cats.get(c.anchor_b.anchor_id) == "dining_table"
-            and any(cats.get(i) == "dining_chair" for i in c.anchor_a.related_objects)
-        ]
-        beds = [
-            c for c in out.constraints
-            if c.kind == "placement"
-            and "bed" in cats.get(c.anchor_b.anchor_id, "")
-            and any(cats.get(i) == "nightstand" for i in c.anchor_a.related_objects)
-        ]
+        parent = {r.child: r.parent for r in out.relations if r.is_support}
+        carriers = set(parent.values())
+        faces = [(r.child, r.parent) for r in out.relations if r.kind == "faces"]
+        beside = [(r.child, r.parent) for r in out.relations if r.kind == "beside"]
         if "dining_table" in cats.values():
-            assert chair_table, f"{name}: no chairs-face-table constraint"
-            for c in chair_table:
-                assert c.anchor_a.anchor_id == FLOOR
-                # the floor clause names only floor-unit objects
-                assert all(out.support_of(i).parent == FLOOR for i in c.anchor_a.related_objects)  # type: ignore[union-attr]
+            assert any(cats[c] == "dining_chair" and cats[t] == "dining_table" for c, t in faces), name
         if name.startswith("Bedroom"):
-            assert beds, f"{name}: no nightstands-beside-bed constraint"
+            assert any(cats[n] == "nightstand" and "bed" in cats[b] for n, b in beside), name
+        for child, ref in faces + beside:
+            assert parent[child] == parent[ref], f"{name}: {child} and {ref} are in different units"
+            assert ref not in carriers, f"{name}: {ref} carries objects; this pair spans units"
         for c in out.constraints:
-            assert c.anchor_a.anchor_id != c.anchor_b.anchor_id
+            a, b = c.anchor_a.anchor_id, c.anchor_b.anchor_id
+            assert a != b and a in carriers and b in carriers, f"{name}: {c.id} is not cross-unit"
         # every clause lands in a unit
         assert out.structure is not None
         placed = [cl for u in out.structure.units for cl in u.clauses]
