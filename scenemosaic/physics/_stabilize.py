@@ -59,9 +59,7 @@ def _snap_against(scene: Scene, children: set[str], shapes: Mapping[str, ObjectS
         wall = walls[rel.parent]
         inward = np.asarray(wall.inward_normal, dtype=np.float64)
         obj = scene.get(rel.child)
-        offsets = (obj.footprint() - np.asarray(wall.start)) @ inward
-        gap = float(offsets.min())
-        shift = gap - AGAINST_GAP_M
+        shift = wall.gap(obj.footprint()) - AGAINST_GAP_M
         if abs(shift) < 1e-4 or abs(shift) > AGAINST_MAX_MOVE_M:
             continue
         x, y, z = obj.pose.position
@@ -74,6 +72,16 @@ def _snap_against(scene: Scene, children: set[str], shapes: Mapping[str, ObjectS
         moves[obj.id] = moved
         _apply(scene, {obj.id: moved})  # one at a time: the next check sees this one in place
     return sorted(moves)
+
+
+def _refresh_wall_distances(scene: Scene) -> None:
+    """Relations that record a gap to a wall (``against``, wall-mounted) get the gap after physics."""
+    if scene.room is None:
+        return
+    walls = {w.id: w for w in scene.room.walls}
+    for rel in scene.relations:
+        if rel.distance is not None and rel.parent in walls:
+            rel.distance = round(max(walls[rel.parent].gap(scene.get(rel.child).footprint()), 0.0), 4)
 
 
 def _deepest_contact(scene: Scene, obj: SceneObject, shapes: Mapping[str, ObjectShape]) -> float:
@@ -166,6 +174,7 @@ async def stabilize_scene(
                 # hull contact checks compile MuJoCo worlds: off the event loop
                 snapped = await asyncio.to_thread(_snap_against, out, set(u.children), shapes)
                 report.against_snapped.extend(snapped)
+    _refresh_wall_distances(out)
     report.motions = [motion_between(o.id, scene.get(o.id).pose, o.pose) for o in out.objects]
     out.provenance.steps.append("stabilize")
     if defaulted:

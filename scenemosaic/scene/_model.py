@@ -321,6 +321,11 @@ class Wall(_Model):
     def outward_normal(self) -> FloatArray:
         return -self.inward_normal
 
+    def gap(self, points: FloatArray) -> float:
+        """Distance (metres) from the wall's line into the room to the nearest of ``points``
+        (``(n, 2)`` XY, e.g. an object's footprint); negative when one lies behind the wall."""
+        return float(((np.asarray(points)[:, :2] - np.asarray(self.start)) @ self.inward_normal).min())
+
 
 class Room(_Model):
     """A room: floor polygon (counter-clockwise, metres, z = 0), walls and ceiling height."""

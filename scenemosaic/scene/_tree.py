@@ -237,7 +237,8 @@ def format_tree(scene: Scene) -> str:
             bits.append(f"{r.distance:.2f} m from wall")
         if oid in against:
             a = against[oid]
-            bits.append(f"against {a.parent}" + (f" ({a.distance:.2f} m)" if a.distance is not None else ""))
+            bits.append(f"against {a.parent}" + (f" ({a.distance:.3f} m)" if a.distance is not None else ""))
+        bits += [f"{r.kind} {r.parent}" for r in scene.relations if r.child == oid and r.kind in ("faces", "beside")]
         return "  ".join(bits)
 
     def walk(anchor: str, prefix: str) -> None:
