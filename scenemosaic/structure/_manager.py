@@ -219,6 +219,15 @@ class ManagerAgent(TaskAgent[SceneSummary, StructuringPlan]):
         missing = sorted((REQUIRED_AGENTS & set(available)) - set(names))
         if missing:
             problems.append("the plan must schedule: " + ", ".join(missing))
+        summary = self.gather(state)
+        needed = {
+            "containment": (summary.container_candidates, "objects stand over a container"),
+            "walls": (summary.wall_candidates, "wall furniture is present"),
+            "constraints": (summary.functional_pairs, "functional pairs are present"),
+        }
+        for name, (evidence, why) in needed.items():
+            if evidence and name in available and name not in names:
+                problems.append(f"schedule {name!r}: {why} ({', '.join(evidence[:5])})")
         return problems
 
     def apply(self, output: StructuringPlan, state: SceneState) -> None:

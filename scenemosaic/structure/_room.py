@@ -43,7 +43,7 @@ from scenemosaic.structure._facts import (
 )
 from scenemosaic.structure._views import FloorPlanImages
 
-__all__ = ["ObjectShift", "RoomAgent", "RoomEvidence", "RoomOutput", "WallSpec"]
+__all__ = ["MIN_WALL_LENGTH", "ObjectShift", "RoomAgent", "RoomEvidence", "RoomOutput", "WallSpec"]
 
 CONTAIN_TOLERANCE = 0.02
 """How far (metres) a footprint may poke out of the floor polygon and still count as inside."""
@@ -256,6 +256,84 @@ def solve_room(evidence: RoomEvidence) -> RoomOutput:
     )
 
 
+MIN_WALL_LENGTH = 0.3
+"""Shortest wall (metres) a room may have; anything shorter is a degenerate reply."""
+RING_GAP = 0.05
+"""How far (metres) one wall's end may be from the next wall's start, and a wall from the floor's edge."""
+
+
+def _wall_ring_problems(output: RoomOutput, poly: Polygon) -> list[str]:
+    """The walls must form a closed, non-degenerate ring along the floor polygon's edge, with the
+    room on each wall's left. No walls at all is fine: they are then built from the polygon."""
+    walls = output.walls
+    if not walls:
+        return []
+    problems: list[str] = []
+    edge = poly.exterior
+    seen: list[tuple[tuple[float, float], tuple[float, float]]] = []
+    for w in walls:
+        length = math.dist(w.start, w.end)
+        if length < MIN_WALL_LENGTH:
+            problems.append(
+                f"wall {w.id!r} is {length:.2f} m long; every wall runs along one edge of the floor "
+                f"polygon, from one corner to the next (at least {MIN_WALL_LENGTH:g} m)"
+            )
+            continue
+        if any(math.dist(w.start, a) + math.dist(w.end, b) < RING_GAP for a, b in seen):
+            problems.append(f"wall {w.id!r} repeats another wall; give each edge of the floor polygon one wall")
+        seen.append((w.start, w.end))
+        off = max(edge.distance(Point(w.start)), edge.distance(Point(w.end)))
+        if off > RING_GAP:
+            problems.append(
+                f"wall {w.id!r} lies {off:.2f} m off the floor polygon's edge; walls run along the polygon's edges"
+            )
+            continue
+        mx, my = (w.start[0] + w.end[0]) / 2, (w.start[1] + w.end[1]) / 2
+        nx, ny = -(w.end[1] - w.start[1]) / length, (w.end[0] - w.start[0]) / length
+        if not poly.contains(Point(mx + 0.05 * nx, my + 0.05 * ny)):
+            problems.append(
+                f"wall {w.id!r} runs the wrong way; go from start to end with the room on the left "
+                "(counter-clockwise around the floor)"
+            )
+    if problems:
+        return problems
+    covered = sum(math.dist(w.start, w.end) for w in walls)
+    if covered < 0.95 * edge.length:
+        problems.append(
+            f"the walls cover {covered:.2f} m of the floor polygon's {edge.length:.2f} m edge; "
+            "give every edge of the polygon a wall"
+        )
+    starts = [w.start for w in walls]
+    for w in walls:
+        if min(math.dist(w.end, s) for s in starts) > RING_GAP:
+            problems.append(f"wall {w.id!r} ends where no wall starts; the walls must close a ring")
+    return problems
+
+
+def _extent_problems(output: RoomOutput, poly: Polygon, state: SceneState) -> list[str]:
+    """A kept input room may grow but not shrink or move; a recovered one hugs the furniture."""
+    scene = state.scene
+    if scene.room is not None:
+        given = Polygon(scene.room.floor)
+        kept = given.intersection(poly).area / max(given.area, 1e-9)
+        if kept < 0.95:
+            return [
+                f"the floor polygon covers only {kept:.0%} of the input room's floor; keep the input room "
+                "(and only grow it to enclose objects that stand outside it)"
+            ]
+        return []
+    facts = object_facts(scene)
+    if not facts:
+        return []
+    fitted = Polygon(_fit(_items(facts), 0.0)[0]).area
+    if poly.area > 3.0 * fitted + 4.0:
+        return [
+            f"the floor polygon ({poly.area:.1f} m²) is far larger than the furniture needs (about "
+            f"{fitted:.1f} m²); put the walls just behind the furniture that stands against them"
+        ]
+    return []
+
+
 class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
     """Recovers (or completes) the room boundary, the walls and the ceiling height."""
 
@@ -275,6 +353,12 @@ class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
         poly = Polygon(output.floor)
         if not poly.is_valid or poly.area < 0.5:
             return [f"the floor polygon is degenerate or self-intersecting (area {poly.area:.2f} m²)"]
+        if not poly.exterior.is_ccw:
+            problems.append(
+                "the floor corners run clockwise; list them counter-clockwise seen from above (x right, y up)"
+            )
+        problems += _wall_ring_problems(output, poly)
+        problems += _extent_problems(output, poly, state)
         grown = poly.buffer(CONTAIN_TOLERANCE)
         shifts = {s.object_id: s for s in output.shifts}
         facts = object_facts(state.scene)

@@ -42,7 +42,14 @@ from scenemosaic.structure._facts import (
 from scenemosaic.structure._views import FloorPlanImages
 from scenemosaic.structure._walls import facing_side
 
-__all__ = ["SemanticItem", "SemanticsAgent", "SemanticsEvidence", "SemanticsOutput", "rotate_subtree"]
+__all__ = [
+    "SemanticItem",
+    "SemanticsAgent",
+    "SemanticsEvidence",
+    "SemanticsOutput",
+    "front_problem",
+    "rotate_subtree",
+]
 
 WALL_FACING_REACH = 0.3
 """A wall-type object whose front is this close (metres) to a wall is facing the wall."""
@@ -170,28 +177,35 @@ def _describe(o: ObjectFacts) -> str:
     return f"{normalize_category(o.category).replace('_', ' ')}, {w:.2f} x {d:.2f} x {h:.2f} m{where}"
 
 
+def front_problem(category: str, f: FrontFacts | None) -> Literal["faces_wall", "seat_away"] | None:
+    """What is wrong with an object's front by the evidence, if anything: wall furniture whose
+    front is turned to the wall right behind it, or a seat with its back to its table."""
+    if f is None:
+        return None
+    t = traits(category)
+    if t.against_wall and f.wall_facing == "front" and (f.wall_gap or 0.0) < WALL_FACING_REACH:
+        return "faces_wall"
+    if (
+        t.seat
+        and f.table_angle_deg is not None
+        and f.table_angle_deg > AWAY_DEG
+        and (f.table_distance or 0.0) < TABLE_REACH
+    ):
+        return "seat_away"
+    return None
+
+
 def solve_semantics(evidence: SemanticsEvidence) -> SemanticsOutput:
     """The semantics rule solver (see the module docstring)."""
     fronts = {f.id: f for f in evidence.fronts}
     items: list[SemanticItem] = []
     for o in evidence.objects:
         f = fronts.get(o.id)
-        t = traits(o.category)
         ok, fix, note = True, 0.0, ""
-        if (
-            f is not None
-            and t.against_wall
-            and f.wall_facing == "front"
-            and (f.wall_gap or 0.0) < WALL_FACING_REACH
-        ):
+        problem = front_problem(o.category, f)
+        if problem == "faces_wall" and f is not None:
             ok, fix, note = False, 180.0, f"front faced {f.wall_id}; turned to face the room"
-        elif (
-            f is not None
-            and t.seat
-            and f.table_angle_deg is not None
-            and f.table_angle_deg > AWAY_DEG
-            and (f.table_distance or 0.0) < TABLE_REACH
-        ):
+        elif problem == "seat_away" and f is not None:
             ok, note = False, f"faces away from {f.table_id} by {f.table_angle_deg:.0f}°"
             if not f.against_wall and f.table_turn_deg is not None:
                 fix = f.table_turn_deg
@@ -265,6 +279,32 @@ class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutp
                 problems.append(
                     f"{item.object_id!r}: front_ok is true but yaw_fix_deg is {item.yaw_fix_deg:g}; "
                     "a turn is only given for a front that is wrong (set yaw_fix_deg to 0 or front_ok to false)"
+                )
+        problems += self._turn_problems(output, state)
+        return problems
+
+    def _turn_problems(self, output: SemanticsOutput, state: SceneState) -> list[str]:
+        """Turns only where the evidence shows a wrong front, and none that faces wall furniture into a wall."""
+        scene = state.scene
+        objs = {o.id: o for o in object_facts(scene)}
+        fronts = {f.id: f for f in _front_facts(scene, list(objs.values()))}
+        problems: list[str] = []
+        for item in output.objects:
+            if abs(item.yaw_fix_deg) < 1e-9 or item.object_id not in objs:
+                continue
+            o = objs[item.object_id]
+            if front_problem(o.category, fronts.get(o.id)) is None:
+                problems.append(
+                    f"{item.object_id!r}: the evidence shows nothing wrong with its front (not wall furniture "
+                    "facing its wall, not a seat with its back to its table); set yaw_fix_deg to 0"
+                )
+                continue
+            turned = o.model_copy(update={"yaw_deg": o.yaw_deg + item.yaw_fix_deg})
+            after = _front_facts(scene, [turned, *(v for k, v in objs.items() if k != o.id)])[0]
+            if traits(o.category).against_wall and front_problem(o.category, after) == "faces_wall":
+                problems.append(
+                    f"{item.object_id!r}: turning it {item.yaw_fix_deg:g}° points its front into {after.wall_id}; "
+                    "wall furniture faces into the room"
                 )
         return problems
 
