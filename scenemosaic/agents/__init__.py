@@ -19,11 +19,13 @@ from scenemosaic.agents._base import (
     prompt_paths,
     run_blocking,
 )
+from scenemosaic.agents._evidence import TABLE_NOTE, evidence_legend, evidence_text
 from scenemosaic.agents._node import add_agent_nodes, agent_dependencies, agent_node, run_agents
 
 __all__ = [
     "MAX_ITEMS",
     "PROMPTS_FOLDER",
+    "TABLE_NOTE",
     "AgentOutput",
     "AgentPolicy",
     "FallbackRecord",
@@ -32,6 +34,8 @@ __all__ = [
     "add_agent_nodes",
     "agent_dependencies",
     "agent_node",
+    "evidence_legend",
+    "evidence_text",
     "load_prompt",
     "prompt_paths",
     "run_agents",

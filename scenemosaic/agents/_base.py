@@ -16,7 +16,6 @@ import asyncio
 import contextvars
 import functools
 import inspect
-import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +24,7 @@ from typing import Any, ClassVar, Generic, TypeVar
 import structlog
 from pydantic import BaseModel, ConfigDict
 
+from scenemosaic.agents._evidence import TABLE_NOTE, evidence_legend, evidence_text
 from scenemosaic.exceptions import (
     AgentOutputError,
     ModelConfigError,
@@ -194,17 +194,6 @@ class SceneState:
     lock: asyncio.Lock = field(default_factory=asyncio.Lock)
 
 
-def _rounded(value: Any) -> Any:
-    """``value`` with every float rounded to 3 decimals (1 mm for lengths in metres)."""
-    if isinstance(value, float):
-        return round(value, 3)
-    if isinstance(value, list):
-        return [_rounded(v) for v in value]
-    if isinstance(value, dict):
-        return {k: _rounded(v) for k, v in value.items()}
-    return value
-
-
 def _recoverable(exc: ModelError) -> bool:
     """Whether a model failure is the model's (fall back) rather than the user's set-up (raise)."""
     if isinstance(exc, ReplayMissError | ModelConfigError):
@@ -245,6 +234,9 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     prompt: ClassVar[str]
     output_type: ClassVar[type[BaseModel]]
     offload: ClassVar[bool] = True
+    prompt_omit: ClassVar[frozenset[str]] = frozenset()
+    """Evidence fields this agent's decisions do not need: left out of the prompt text (the rule
+    solver still reads them), to keep prompts small."""
 
     # -- what a subclass provides ------------------------------------------------------------
     @abc.abstractmethod
@@ -266,35 +258,54 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     def apply(self, output: OutputT, state: SceneState) -> None:
         """Write a checked output into the scene state."""
 
+    def needs_model(self, evidence: EvidenceT) -> bool:
+        """Whether ``evidence`` leaves the model anything to decide (default: always).
+
+        An agent whose evidence holds nothing to decide (a verification pass with nothing
+        to fix) returns ``False``: it then answers with :meth:`solve` without a request,
+        which keeps a model run's critical path short. The answer is still checked.
+        """
+        return True
+
     def images(self, evidence: EvidenceT, state: SceneState) -> list[ImagePart]:
         """Images to send to vision models (none by default)."""
         return []
 
     def render_evidence_text(self, evidence: EvidenceT) -> str:
-        """Text rendering of the evidence (also what text-only models get instead of images)."""
-        return json.dumps(evidence.model_dump(mode="json"), indent=1, sort_keys=True)
+        """Text rendering of the evidence (also what text-only models get instead of images):
+        compact tables, numbers to 1 cm, ``prompt_omit`` left out (:func:`scenemosaic.agents.evidence_text`)."""
+        return evidence_text(evidence, omit=self.prompt_omit)
+
+    def system_prompt(self, evidence: EvidenceT, *, legend: bool = True) -> str:
+        """The template, how to read the evidence and what its fields mean (``legend``), and the
+        reply format. The output schema itself travels with the request (a strict
+        ``response_format``; a model without one pastes it, see ``OpenAIChatModel``)."""
+        parts = [load_prompt(type(self))]
+        if legend:
+            parts += [TABLE_NOTE, evidence_legend(type(evidence), self.prompt_omit)]
+        parts.append("Reply with one JSON object of the requested schema, and nothing else.")
+        return "\n\n".join(p for p in parts if p)
 
     def compact_messages(self, evidence: EvidenceT, state: SceneState, *, vision: bool) -> list[Message]:
-        """A shorter prompt for a model whose context the full one did not fit: the evidence as
-        compact JSON with numbers rounded to 1 mm / 0.001, and no schema pasted into the system
-        prompt (the strict schema still goes with the request). Images are kept for vision models."""
-        system = load_prompt(type(self)) + "\n\nReply with one JSON object of the requested schema."
-        data = _rounded(evidence.model_dump(mode="json"))
-        text = json.dumps(data, separators=(",", ":"), sort_keys=True)
-        parts: list[TextPart | ImagePart] = [TextPart("Evidence:\n" + text)]
+        """A shorter prompt for a model whose context the full one did not fit: no format note or
+        field legend, numbers to 1 dm. Images are kept for vision models."""
+        parts: list[TextPart | ImagePart] = [
+            TextPart("Evidence:\n" + evidence_text(evidence, digits=1, omit=self.prompt_omit))
+        ]
         if vision:
             parts.extend(self.images(evidence, state))
-        return [Message.text("system", system), Message(role="user", parts=tuple(parts))]
+        return [
+            Message.text("system", self.system_prompt(evidence, legend=False)),
+            Message(role="user", parts=tuple(parts)),
+        ]
 
     # -- the generic run loop ----------------------------------------------------------------
     def messages(self, evidence: EvidenceT, state: SceneState, *, vision: bool) -> list[Message]:
-        """System prompt from the template, then the evidence as text (and images for vision models)."""
-        schema = json.dumps(self.output_type.model_json_schema(), sort_keys=True)
-        system = load_prompt(type(self)) + "\n\nReply with one JSON object matching this schema:\n" + schema
+        """System prompt (:meth:`system_prompt`), then the evidence as text (and images for vision models)."""
         parts: list[TextPart | ImagePart] = [TextPart("Evidence:\n" + self.render_evidence_text(evidence))]
         if vision:
             parts.extend(self.images(evidence, state))
-        return [Message.text("system", system), Message(role="user", parts=tuple(parts))]
+        return [Message.text("system", self.system_prompt(evidence)), Message(role="user", parts=tuple(parts))]
 
     async def run(
         self,
@@ -314,6 +325,9 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
             return await self._run_offline(state), Usage()
         async with state.lock:
             evidence, messages = await run_blocking(self._prepare, state, model.vision, offload=self.offload)
+            if not self.needs_model(evidence):  # nothing to decide: the solver's answer, checked, no call
+                _log.info("agent_answered_without_model", agent=self.name)
+                return await run_blocking(self._solve_and_apply, state, offload=self.offload), Usage()
         context = RequestContext(agent=self.name, node=node or self.name, evidence=evidence)
         policy = state.policy
         total = Usage()

@@ -415,6 +415,19 @@ class OpenAIChatModel(CompletionModel):
             },
         }
 
+    def _with_schema_text(self, wire: list[dict[str, Any]], output_type: type[BaseModel]) -> list[dict[str, Any]]:
+        """Without a strict ``response_format`` the server never sees the schema: state the same
+        strict schema (compact JSON) at the end of the system message instead."""
+        note = "The JSON object must match this JSON schema: " + json.dumps(
+            self._strict_schema(output_type), separators=(",", ":"), sort_keys=True
+        )
+        out = [dict(m) for m in wire]
+        for m in out:
+            if m["role"] == "system" and isinstance(m["content"], str):
+                m["content"] = m["content"] + "\n\n" + note
+                return out
+        return [{"role": "system", "content": note}, *out]
+
     def _strict_schema(self, output_type: type[BaseModel]) -> dict[str, Any]:
         # Schemas are built once per output type; the body only reads them.
         schema = self._schemas.get(output_type)
@@ -427,6 +440,8 @@ class OpenAIChatModel(CompletionModel):
     ) -> tuple[dict[str, Any], int]:
         """The request body for one completion, and the number of images in it."""
         wire, images = self.wire_messages(messages)
+        if self.structured != "json_schema":
+            wire = self._with_schema_text(wire, output_type)
         body: dict[str, Any] = {"model": self.model, "messages": wire, "stream": False}
         if settings.temperature is not None:
             body["temperature"] = settings.temperature

@@ -233,6 +233,7 @@ class AttributesAgent(TaskAgent[AttributesEvidence, AttributesOutput]):
     depends_on: ClassVar[tuple[str, ...]] = ("support",)
     prompt: ClassVar[str] = "attributes"
     output_type: ClassVar[type[BaseModel]] = AttributesOutput
+    prompt_omit: ClassVar[frozenset[str]] = frozenset({"center", "yaw_deg", "bottom", "top", "relation"})
 
     def gather(self, state: SceneState) -> AttributesEvidence:
         return AttributesEvidence(objects=object_facts(state.scene))

@@ -39,8 +39,9 @@ from scenemosaic.scene import (
     normalize_category,
     traits,
 )
-from scenemosaic.structure._facts import ObjectFacts, object_facts, replace_scene
+from scenemosaic.structure._facts import ObjectFacts, object_facts, replace_scene, room_facts
 from scenemosaic.structure._views import FloorPlanImages
+from scenemosaic.structure._walls import flush_walls
 
 __all__ = [
     "FUNCTIONAL_PAIRS",
@@ -470,9 +471,10 @@ class ConstraintsAgent(FloorPlanImages, TaskAgent[ConstraintEvidence, Constraint
     """Finds the strong functional relations spanning units and splits each into two clauses."""
 
     name: ClassVar[str] = "constraints"
-    depends_on: ClassVar[tuple[str, ...]] = ("support", "containment", "walls", "semantics")
+    depends_on: ClassVar[tuple[str, ...]] = ("support", "containment")
     prompt: ClassVar[str] = "constraints"
     output_type: ClassVar[type[BaseModel]] = ConstraintsOutput
+    prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation", "label"})
 
     def __init__(self, priors_dir: str | Path | None = None) -> None:
         """``priors_dir``: ProcTHOR folder with ``asset_groups/`` (default: the priors shipped with the package)."""
@@ -486,12 +488,13 @@ class ConstraintsAgent(FloorPlanImages, TaskAgent[ConstraintEvidence, Constraint
             if not groups or p.procthor is None or p.procthor in groups or _reverse(p.procthor) in groups
         ]
         scene = state.scene
-        against = {r.child: r.parent for r in scene.relations if r.kind == "against"}
+        objects = object_facts(scene)
+        against = flush_walls(objects, room_facts(scene))  # the geometry: this agent runs beside the walls agent
         units: dict[str, list[str]] = {}
         for r in scene.relations:
             if r.is_support:
                 units.setdefault(r.parent, []).append(r.child)
-        return ConstraintEvidence(objects=object_facts(scene), against=against, pairs=allowed, units=units)
+        return ConstraintEvidence(objects=objects, against=against, pairs=allowed, units=units)
 
     def solve(self, evidence: ConstraintEvidence) -> ConstraintsOutput:
         return solve_constraints(evidence)

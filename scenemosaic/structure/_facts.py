@@ -54,17 +54,30 @@ def _r(x: float, nd: int = 3) -> float:
 class ObjectFacts(_Facts):
     """One object as the agents see it (metres, degrees, world Z-up)."""
 
-    id: str
+    id: str = Field(description="Object id; answers refer to objects only by these ids.")
     category: str = Field(description="Normalized category.")
-    label: str = Field(description="Category as stored in the scene.")
-    center: Vec2 = Field(description="Footprint centre (x, y).")
-    yaw_deg: float = Field(description="Heading; 0 = front faces -Y, counter-clockwise.")
-    size: Vec3 = Field(description="Width, depth, height in the object's frame.")
-    bottom: float
-    top: float
-    footprint: list[Vec2] = Field(description="Oriented footprint corners, counter-clockwise.")
-    parent: str | None = Field(default=None, description="Current support parent, if any.")
-    relation: str | None = Field(default=None, description="Kind of the current support relation.")
+    label: str | None = Field(
+        default=None, description="Category as the input spelled it, when it differs from category."
+    )
+    center: Vec2 = Field(description="Centre of the object's box seen from above: x,y (world, Z up).")
+    yaw_deg: float = Field(
+        description="Heading about Z: 0 = the object's front faces -y, 90 = +x, 180 = +y, -90 = -x (counter-clockwise)."
+    )
+    size: Vec3 = Field(
+        description="Box size in the object's own frame: width (left-right), depth (back-front), height."
+    )
+    bottom: float = Field(description="Lowest point of the box, z.")
+    top: float = Field(description="Highest point of the box, z.")
+    footprint: list[Vec2] = Field(
+        description="Box corners seen from above, counter-clockwise (follows from center, size, yaw_deg).",
+        json_schema_extra={"prompt": False},
+    )
+    parent: str | None = Field(
+        default=None, description="What currently supports it: floor, ceiling, a wall id or an object id."
+    )
+    relation: str | None = Field(
+        default=None, description="How it is supported: attach (rests on, hangs from) or contain (inside)."
+    )
 
     @property
     def area(self) -> float:
@@ -96,17 +109,17 @@ class WallFacts(_Facts):
     """A wall segment; the room's interior lies left of start -> end."""
 
     id: str
-    start: Vec2
-    end: Vec2
+    start: Vec2 = Field(description="Wall start x,y; the room lies on the left walking from start to end.")
+    end: Vec2 = Field(description="Wall end x,y.")
     height: float
 
 
 class RoomFacts(_Facts):
     """The room as the agents see it (absent before the room agent ran)."""
 
-    floor: list[Vec2]
+    floor: list[Vec2] = Field(description="Floor polygon corners x,y, counter-clockwise seen from above.")
     walls: list[WallFacts]
-    ceiling_height: float
+    ceiling_height: float = Field(description="Ceiling height above the floor (z = 0).")
 
 
 def object_facts(scene: Scene) -> list[ObjectFacts]:
@@ -125,7 +138,7 @@ def _one(scene: Scene, o: SceneObject) -> ObjectFacts:
     return ObjectFacts(
         id=o.id,
         category=normalize_category(o.category),
-        label=o.category,
+        label=o.category if o.category != normalize_category(o.category) else None,
         center=(_r(o.pose.position[0]), _r(o.pose.position[1])),
         yaw_deg=_r(math.degrees(o.pose.yaw), 2),
         size=(_r(size[0]), _r(size[1]), _r(size[2])),

@@ -341,6 +341,7 @@ class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
     depends_on: ClassVar[tuple[str, ...]] = ()
     prompt: ClassVar[str] = "room"
     output_type: ClassVar[type[BaseModel]] = RoomOutput
+    prompt_omit: ClassVar[frozenset[str]] = frozenset({"parent", "relation", "bottom"})
 
     def gather(self, state: SceneState) -> RoomEvidence:
         return RoomEvidence(objects=object_facts(state.scene), room=room_facts(state.scene))

@@ -40,7 +40,7 @@ from scenemosaic.structure._facts import (
     wall_gap,
 )
 from scenemosaic.structure._views import FloorPlanImages
-from scenemosaic.structure._walls import facing_side
+from scenemosaic.structure._walls import facing_side, flush_walls
 
 __all__ = [
     "SemanticItem",
@@ -109,7 +109,7 @@ class SemanticsEvidence(AgentOutput):
 
 def _front_facts(scene: Scene, objs: list[ObjectFacts]) -> list[FrontFacts]:
     room = room_facts(scene)
-    against = {r.child for r in scene.relations if r.kind == "against"}
+    against = set(flush_walls(objs, room))  # from the geometry: this agent runs beside the walls agent
     tables = [o for o in objs if traits(o.category).table]
     out: list[FrontFacts] = []
     for o in objs:
@@ -254,9 +254,10 @@ class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutp
     """Normalizes categories, writes descriptions and checks each object's front direction."""
 
     name: ClassVar[str] = "semantics"
-    depends_on: ClassVar[tuple[str, ...]] = ("room", "support", "walls")
+    depends_on: ClassVar[tuple[str, ...]] = ("room", "support")
     prompt: ClassVar[str] = "semantics"
     output_type: ClassVar[type[BaseModel]] = SemanticsOutput
+    prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation"})
 
     def gather(self, state: SceneState) -> SemanticsEvidence:
         objs = object_facts(state.scene)

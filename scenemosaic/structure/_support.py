@@ -55,7 +55,7 @@ from scenemosaic.structure._facts import (
 from scenemosaic.structure._views import FloorPlanImages
 
 __all__ = [
-    "ObjectHint",
+    "PlacementHints",
     "RestingSurface",
     "SupportAgent",
     "SupportAssignment",
@@ -100,13 +100,24 @@ class SupportOutput(AgentOutput):
     assignments: list[SupportAssignment] = Field(max_length=MAX_ITEMS)
 
 
-class ObjectHint(AgentOutput):
-    """Category prior of one object, given to the model as evidence."""
+class PlacementHints(AgentOutput):
+    """Category priors of the scene's objects, as id lists (given to the model as evidence)."""
 
-    id: str
-    placement: str
-    can_support: bool
-    can_contain: bool
+    floor_only: list[str] = Field(
+        default_factory=list, max_length=MAX_ITEMS, description="Objects that always stand on the floor."
+    )
+    wall_items: list[str] = Field(
+        default_factory=list, max_length=MAX_ITEMS, description="Objects usually mounted on a wall."
+    )
+    ceiling_items: list[str] = Field(
+        default_factory=list, max_length=MAX_ITEMS, description="Objects usually hung from the ceiling."
+    )
+    carriers: list[str] = Field(
+        default_factory=list, max_length=MAX_ITEMS, description="Objects that can carry others on top."
+    )
+    containers: list[str] = Field(
+        default_factory=list, max_length=MAX_ITEMS, description="Objects that can hold others inside."
+    )
 
 
 class RestingSurface(AgentOutput):
@@ -114,8 +125,10 @@ class RestingSurface(AgentOutput):
 
     child: str
     parent: str
-    z: float | None = Field(description="Height of the parent's highest surface under the child, metres; "
-                            "null when none of it lies under the child.")
+    z: float | None = Field(
+        description="Height of the candidate parent's highest real surface under the child (measured on "
+        "its mesh: a mattress, a shelf board); blank when none of it lies under the child."
+    )
 
 
 class SupportEvidence(AgentOutput):
@@ -123,7 +136,7 @@ class SupportEvidence(AgentOutput):
 
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
     room: RoomFacts | None = None
-    hints: list[ObjectHint] = Field(default_factory=list, max_length=MAX_ITEMS)
+    hints: PlacementHints = Field(default_factory=PlacementHints)
     surfaces: list[RestingSurface] = Field(default_factory=list, max_length=4 * MAX_ITEMS)
 
 
@@ -368,9 +381,14 @@ def check_parents(
             if why:
                 problems.append(why)
             if kind == "contain" and not traits(facts[parent].category).contains:
-                problems.append(f"{parent!r} ({facts[parent].category}) cannot contain {child!r}")
+                problems.append(
+                    f"{parent!r} ({facts[parent].category}) cannot contain {child!r}; "
+                    f"use kind \"attach\" for {child!r} resting on it"
+                )
         elif kind == "contain":
-            problems.append(f"only objects can contain others, not {parent!r}")
+            problems.append(
+                f"{child!r}: only objects can contain others; with parent {parent!r} use kind \"attach\""
+            )
     if complete:
         missing = sorted(set(facts) - seen)
         if missing:
@@ -394,15 +412,16 @@ class SupportAgent(FloorPlanImages, TaskAgent[SupportEvidence, SupportOutput]):
     def gather(self, state: SceneState) -> SupportEvidence:
         objs = object_facts(state.scene)
         surfaces = resting_surfaces(state.scene, objs, self.priors, state.base_dir)
-        hints = [
-            ObjectHint(
-                id=o.id,
-                placement="floor" if floor_only(o, self.priors) else traits(o.category).placement,
-                can_support=can_support(o.category, self.priors),
-                can_contain=traits(o.category).contains,
-            )
-            for o in objs
-        ]
+        placement = {
+            o.id: "floor" if floor_only(o, self.priors) else traits(o.category).placement for o in objs
+        }
+        hints = PlacementHints(
+            floor_only=[k for k, v in placement.items() if v == "floor"],
+            wall_items=[k for k, v in placement.items() if v == "wall"],
+            ceiling_items=[k for k, v in placement.items() if v == "ceiling"],
+            carriers=[o.id for o in objs if can_support(o.category, self.priors)],
+            containers=[o.id for o in objs if traits(o.category).contains],
+        )
         return SupportEvidence(objects=objs, room=room_facts(state.scene), hints=hints, surfaces=surfaces)
 
     def solve(self, evidence: SupportEvidence) -> SupportOutput:

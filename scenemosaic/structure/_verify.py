@@ -83,7 +83,10 @@ class VerificationEvidence(AgentOutput):
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
     constraints: list[CrossUnitConstraint] = Field(default_factory=list, max_length=64)
     anchors: list[str] = Field(
-        default_factory=list, max_length=MAX_ITEMS, description="Every valid anchor id."
+        default_factory=list,
+        max_length=MAX_ITEMS,
+        description="Every valid anchor id: floor, ceiling, the wall ids and the object ids.",
+        json_schema_extra={"prompt": False},
     )
     nested: list[NestedFacts] = Field(default_factory=list, max_length=MAX_ITEMS)
     floor: list[Vec2] = Field(default_factory=list, max_length=256, description="Room floor polygon, if any.")
@@ -216,6 +219,7 @@ class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
     runs_last: ClassVar[bool] = True
     prompt: ClassVar[str] = "verify"
     output_type: ClassVar[type[BaseModel]] = VerificationOutput
+    prompt_omit: ClassVar[frozenset[str]] = frozenset({"top", "relation", "label"})
 
     def gather(self, state: SceneState) -> VerificationEvidence:
         scene = state.scene
@@ -232,6 +236,11 @@ class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
 
     def solve(self, evidence: VerificationEvidence) -> VerificationOutput:
         return solve_verification(evidence)
+
+    def needs_model(self, evidence: VerificationEvidence) -> bool:
+        """Only when the rule pass finds something to fix or report: a clean scene needs no call."""
+        found = solve_verification(evidence)
+        return bool(found.fixes or found.moves or found.drop_constraints or found.problems)
 
     def check(self, output: VerificationOutput, state: SceneState) -> list[str]:
         scene = state.scene

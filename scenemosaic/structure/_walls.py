@@ -87,39 +87,45 @@ def facing_side(o: ObjectFacts, wall_out: np.ndarray) -> Literal["back", "front"
     return "side"
 
 
+def wall_item(o: ObjectFacts, room: RoomFacts) -> WallItem | None:
+    """``o``'s relation to its nearest wall (see the module docstring), or ``None`` when it is
+    out of reach of every wall or hangs from the ceiling."""
+    if not room.walls or traits(o.category).placement == "ceiling" or o.parent == "ceiling":
+        return None
+    facing = [w for w in room.walls if -0.2 <= along_wall(w, o.center) <= wall_length(w) + 0.2] or list(room.walls)
+    # nearest wall; within 0.1 m of a tie, prefer the wall the object's back is turned to
+    w = min(facing, key=lambda w: abs(wall_gap(w, o)) - (0.1 if facing_side(o, outward(w)) == "back" else 0.0))
+    gap = wall_gap(w, o)
+    if gap > WALL_REACH:
+        return None
+    side = facing_side(o, outward(w))
+    mounted = o.parent == w.id
+    reach = WALL_FURNITURE_GAP if traits(o.category).against_wall else FLUSH_GAP
+    flush = (not mounted) and o.parent in (FLOOR, None) and gap < reach and side == "back"
+    return WallItem(
+        object_id=o.id, wall_id=w.id, distance=round(max(gap, 0.0), 3), facing=side, flush=flush, mounted=mounted
+    )
+
+
+def flush_walls(objects: list[ObjectFacts], room: RoomFacts | None) -> dict[str, str]:
+    """Object id -> the wall it stands flush against, by the rule of :func:`wall_item` (agents that
+    run beside the walls agent read it from the geometry instead of waiting for its relations)."""
+    if room is None:
+        return {}
+    out: dict[str, str] = {}
+    for o in objects:
+        item = wall_item(o, room)
+        if item is not None and item.flush:
+            out[o.id] = item.wall_id
+    return out
+
+
 def solve_walls(evidence: WallEvidence) -> WallOutput:
     """The wall-attachment rule solver (see the module docstring)."""
     room = evidence.room
     if room is None or not room.walls:
         return WallOutput()
-    items: list[WallItem] = []
-    for o in evidence.objects:
-        if traits(o.category).placement == "ceiling" or o.parent == "ceiling":
-            continue
-        facing = [w for w in room.walls if -0.2 <= along_wall(w, o.center) <= wall_length(w) + 0.2] or list(
-            room.walls
-        )
-        # nearest wall; within 0.1 m of a tie, prefer the wall the object's back is turned to
-        w = min(
-            facing, key=lambda w: abs(wall_gap(w, o)) - (0.1 if facing_side(o, outward(w)) == "back" else 0.0)
-        )
-        gap = wall_gap(w, o)
-        if gap > WALL_REACH:
-            continue
-        side = facing_side(o, outward(w))
-        mounted = o.parent == w.id
-        reach = WALL_FURNITURE_GAP if traits(o.category).against_wall else FLUSH_GAP
-        flush = (not mounted) and o.parent in (FLOOR, None) and gap < reach and side == "back"
-        items.append(
-            WallItem(
-                object_id=o.id,
-                wall_id=w.id,
-                distance=round(max(gap, 0.0), 3),
-                facing=side,
-                flush=flush,
-                mounted=mounted,
-            )
-        )
+    items = [item for o in evidence.objects if (item := wall_item(o, room)) is not None]
     return WallOutput(items=items)
 
 
@@ -130,6 +136,7 @@ class WallAttachmentAgent(FloorPlanImages, TaskAgent[WallEvidence, WallOutput]):
     depends_on: ClassVar[tuple[str, ...]] = ("room", "support")
     prompt: ClassVar[str] = "walls"
     output_type: ClassVar[type[BaseModel]] = WallOutput
+    prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation"})
 
     def gather(self, state: SceneState) -> WallEvidence:
         return WallEvidence(objects=object_facts(state.scene), room=room_facts(state.scene))
@@ -161,6 +168,13 @@ class WallAttachmentAgent(FloorPlanImages, TaskAgent[WallEvidence, WallOutput]):
                 and traits(scene.get(i.object_id).category).placement == "floor"
             ):
                 problems.append(f"object {i.object_id!r} is floor furniture and cannot be wall-mounted")
+            elif i.mounted and i.object_id in objects:
+                rel = scene.support_of(i.object_id)
+                if rel is None or rel.parent != i.wall_id:
+                    problems.append(
+                        f"object {i.object_id!r} hangs from {rel.parent if rel else 'nothing'!r}, not {i.wall_id!r}: "
+                        "mark it mounted only on the wall that is already its parent"
+                    )
         return problems
 
     def apply(self, output: WallOutput, state: SceneState) -> None:

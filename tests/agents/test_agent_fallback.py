@@ -169,7 +169,7 @@ def test_generate_with_a_broken_model_still_delivers_a_scene(tmp_path: Path, rep
 
 
 async def test_a_context_refusal_compacts_the_prompt_once_then_falls_back() -> None:
-    """First a shorter prompt (compact evidence, no pasted schema); if that is refused too, the solver."""
+    """First a shorter prompt (coarser evidence, no format note or legend); if refused too, the solver."""
     from scenemosaic.exceptions import ModelContextLengthError
 
     prompts: list[str] = []
@@ -184,7 +184,8 @@ async def test_a_context_refusal_compacts_the_prompt_once_then_falls_back() -> N
     out, _ = await DoublingAgent().run(state, FunctionModel(refuse_long, vision=False))
     assert out == Answer(value=6) and state.fallbacks == []  # the compact prompt was answered
     assert len(prompts[1]) < len(prompts[0])
-    assert "matching this schema" in prompts[0] and "matching this schema" not in prompts[1]
+    assert "Evidence format" in prompts[0] and "Evidence format" not in prompts[1]
+    assert "schema" not in prompts[0].replace("requested schema", "")  # the schema goes with the request
 
     always = FailingModel(ModelContextLengthError("too long", status_code=400, body="{}"))
     state = SceneState(scene=Scene(), policy=FALLBACK)

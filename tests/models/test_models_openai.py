@@ -100,6 +100,20 @@ async def test_json_object_and_none_modes_parse_fenced_replies() -> None:
     out, _ = await none_model.request(user_messages(), Verdict, context=CTX)
     assert out.notes == ["move (chair_1) left"]
     assert "response_format" not in server.bodies[1]
+    # without a strict response_format the server never sees the schema: the system message states it
+    for body in server.bodies:
+        system = body["messages"][0]["content"]
+        assert body["messages"][0]["role"] == "system" and "must match this JSON schema" in system
+        assert '"should_modify"' in system
+
+
+async def test_a_strict_schema_request_does_not_repeat_the_schema_in_the_prompt() -> None:
+    server = FakeServer(chat_reply(VALID))
+    model, _ = server.model()
+    await model.request(user_messages(), Verdict, context=CTX)
+    body = server.bodies[0]
+    assert body["response_format"]["type"] == "json_schema"
+    assert "must match this JSON schema" not in json.dumps(body["messages"])
 
 
 async def test_429_honours_retry_after_seconds() -> None:

@@ -35,7 +35,8 @@ async def test_replay_through_the_whole_dag(sam3d_scene: Scene, tmp_path: Path, 
         sam3d_scene, ReplayModel(scripted(), cassette, mode="record"), priors_dir=procthor_dir
     )
     data = json.loads(cassette.read_text(encoding="utf-8"))
-    assert {e["agent"] for e in data["entries"].values()} == {"manager", *AGENT_NAMES}
+    # the verification pass finds nothing to fix in this scene, so it answers without a call
+    assert {e["agent"] for e in data["entries"].values()} == {"manager", *AGENT_NAMES} - {"verify"}
 
     # replay only: no wrapped model, so any request not in the cassette fails
     replayed = await structure_scene(sam3d_scene, ReplayModel(None, cassette, mode="replay"), priors_dir=procthor_dir)
