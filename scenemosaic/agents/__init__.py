@@ -10,6 +10,7 @@ as a task graph (:mod:`scenemosaic.dag`). The structuring agents live in
 from scenemosaic.agents._base import (
     MAX_ITEMS,
     PROMPTS_FOLDER,
+    AgentOutcome,
     AgentOutput,
     AgentPolicy,
     FallbackRecord,
@@ -26,6 +27,7 @@ __all__ = [
     "MAX_ITEMS",
     "PROMPTS_FOLDER",
     "TABLE_NOTE",
+    "AgentOutcome",
     "AgentOutput",
     "AgentPolicy",
     "FallbackRecord",

@@ -19,7 +19,7 @@ import inspect
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar, Generic, TypeVar
+from typing import Any, ClassVar, Generic, Literal, TypeVar
 
 import structlog
 from pydantic import BaseModel, ConfigDict
@@ -41,6 +41,7 @@ from scenemosaic.scene import MAX_OBJECTS, Scene
 __all__ = [
     "MAX_ITEMS",
     "PROMPTS_FOLDER",
+    "AgentOutcome",
     "AgentOutput",
     "AgentPolicy",
     "FallbackRecord",
@@ -174,6 +175,27 @@ class FallbackRecord:
     reason: str
 
 
+AnsweredBy = Literal["rules", "model", "solver_without_call", "solver_fallback"]
+
+
+@dataclass(frozen=True)
+class AgentOutcome:
+    """How one agent's answer came about, for run reports.
+
+    ``answered_by``: ``rules`` (the offline model: the solver), ``model`` (a model reply, perhaps
+    after repairs), ``solver_without_call`` (the evidence left nothing to decide, see
+    :meth:`TaskAgent.needs_model`) or ``solver_fallback`` (the model's replies stayed unusable or
+    it failed; ``reason`` says why). ``requests``: model requests made; ``repairs``: replies
+    sent back with their problems (a reply used at the first request has 0).
+    """
+
+    agent: str
+    answered_by: AnsweredBy
+    requests: int = 0
+    repairs: int = 0
+    reason: str = ""
+
+
 @dataclass
 class SceneState:
     """The shared state task agents read and write during a run.
@@ -181,7 +203,8 @@ class SceneState:
     ``scene`` is replaced (not mutated behind readers' backs) by ``apply``; ``lock``
     serializes applies so concurrent agents never interleave half-written changes.
     ``outputs`` keeps each agent's validated output by agent name; ``fallbacks`` lists the
-    agents that fell back to their rule solver.
+    agents that fell back to their rule solver; ``outcomes`` says how each agent's answer came
+    about (:class:`AgentOutcome`).
     """
 
     scene: Scene
@@ -191,6 +214,7 @@ class SceneState:
     policy: AgentPolicy = field(default_factory=AgentPolicy)
     outputs: dict[str, BaseModel] = field(default_factory=dict)
     fallbacks: list[FallbackRecord] = field(default_factory=list)
+    outcomes: dict[str, AgentOutcome] = field(default_factory=dict)
     lock: asyncio.Lock = field(default_factory=asyncio.Lock)
 
 
@@ -322,21 +346,31 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         One budget, ``state.policy.max_attempts``, covers every reason to ask again.
         """
         if model.uses_rule_solvers:
-            return await self._run_offline(state), Usage()
+            answer = await self._run_offline(state)
+            state.outcomes[self.name] = AgentOutcome(self.name, "rules")
+            return answer, Usage()
         async with state.lock:
             evidence, messages = await run_blocking(self._prepare, state, model.vision, offload=self.offload)
             if not self.needs_model(evidence):  # nothing to decide: the solver's answer, checked, no call
                 _log.info("agent_answered_without_model", agent=self.name)
-                return await run_blocking(self._solve_and_apply, state, offload=self.offload), Usage()
+                answer = await run_blocking(self._solve_and_apply, state, offload=self.offload)
+                state.outcomes[self.name] = AgentOutcome(self.name, "solver_without_call")
+                return answer, Usage()
         context = RequestContext(agent=self.name, node=node or self.name, evidence=evidence)
         policy = state.policy
         total = Usage()
         problems: list[str] = []
         schema_error: OutputValidationError | None = None
         compacted = False
+        asked = repairs = 0
+
+        def fell_back(reason: str) -> None:
+            state.outcomes[self.name] = AgentOutcome(self.name, "solver_fallback", asked, repairs, reason[:300])
+
         for attempt in range(policy.max_attempts):
             schema_error = None
             try:
+                asked += 1
                 output, usage = await model.request(messages, self.output_type, settings, context=context)
             except OutputValidationError as exc:  # not JSON, or not the schema: repairable
                 schema_error = exc
@@ -355,21 +389,25 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                 if not policy.solver_fallback:
                     raise
                 reason = f"{type(exc).__name__}: {exc}"
+                fell_back(reason)
                 return await self._fall_back(evidence, state, reason, problems), total
             except ModelError as exc:
                 if not (policy.solver_fallback and _recoverable(exc)):
                     raise
                 reason = f"{type(exc).__name__}: {exc}"
+                fell_back(reason)
                 return await self._fall_back(evidence, state, reason, problems), total
             else:
                 total = total + usage
                 async with state.lock:
                     problems = await run_blocking(self._check_and_apply, output, state, offload=self.offload)
                 if not problems:
+                    state.outcomes[self.name] = AgentOutcome(self.name, "model", asked, repairs)
                     return output, total  # type: ignore[return-value]
                 reply = output.model_dump_json()
                 intro = "That answer cannot be applied to this scene:"
             if attempt + 1 < policy.max_attempts:
+                repairs += 1
                 messages = [
                     *messages,
                     Message.text("assistant", reply),
@@ -379,6 +417,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                 ]
         reason = f"unusable after {policy.max_attempts} attempts: " + "; ".join(problems)
         if policy.solver_fallback:
+            fell_back(reason)
             return await self._fall_back(evidence, state, reason, problems), total
         if schema_error is not None:  # the last reply was not even schema-valid: say so, with it
             raise schema_error

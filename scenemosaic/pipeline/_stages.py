@@ -17,6 +17,7 @@ from scenemosaic.pipeline._config import PipelineRun, Stage, StageRecord
 from scenemosaic.scene import Scene
 
 if TYPE_CHECKING:
+    from scenemosaic.agents import AgentOutcome
     from scenemosaic.assets import HullCache
     from scenemosaic.models import Model, UsageTracker
 
@@ -98,6 +99,7 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     # finished agents are kept on disk, so a stopped run resumed later does not ask them again
     store = FileRunStore(run.checkpoint_dir / "agents")
     fallbacks = run.fallbacks
+    outcomes: dict[str, AgentOutcome] = {}
     try:
         run.scene = await structure_scene(
             run.scene,
@@ -110,11 +112,13 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
             priors_dir=run.config.priors_dir,
             base_dir=run.base_dir,
             fallbacks=fallbacks,
+            outcomes=outcomes,
         )
     finally:
         if not model.uses_rule_solvers:
             rec.detail["solver_fallbacks"] = [{"agent": f.agent, "reason": f.reason} for f in fallbacks]
         rec.detail["usage"] = _usage_summary(tracker)
+        rec.detail["agents"] = _agent_breakdown(outcomes, tracker)
         if isinstance(spec, str):
             await model.aclose()
     for f in fallbacks:
@@ -125,6 +129,24 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     rec.detail["units"] = len(structure.units) if structure else 0
     rec.detail["relations"] = len(run.scene.relations)
     rec.detail["constraints"] = len(run.scene.constraints)
+
+
+def _agent_breakdown(outcomes: dict[str, AgentOutcome], tracker: UsageTracker) -> dict[str, Any]:
+    """Per agent: how it was answered, model requests, repairs, tokens (``report.json``)."""
+    out: dict[str, Any] = {}
+    for name in sorted(set(outcomes) | set(tracker.by_agent)):
+        o = outcomes.get(name)
+        u = tracker.by_agent.get(name)
+        out[name] = {
+            "answered_by": o.answered_by if o else "resumed",
+            "requests": o.requests if o else 0,
+            "repairs": o.repairs if o else 0,
+            "valid_first_time": bool(o and o.answered_by == "model" and o.repairs == 0),
+            "input_tokens": u.input_tokens if u else 0,
+            "output_tokens": u.output_tokens if u else 0,
+            **({"fallback_reason": o.reason} if o and o.reason else {}),
+        }
+    return out
 
 
 def _usage_summary(tracker: UsageTracker) -> dict[str, Any]:

@@ -8,7 +8,7 @@ from typing import Any
 
 import structlog
 
-from scenemosaic.agents import AgentPolicy, FallbackRecord, SceneState, TaskAgent, run_agents
+from scenemosaic.agents import AgentOutcome, AgentPolicy, FallbackRecord, SceneState, TaskAgent, run_agents
 from scenemosaic.dag import EventListener, RunStore
 from scenemosaic.exceptions import AgentOutputError, NodeFailedError
 from scenemosaic.models import Model, ModelSettings, RulesModel
@@ -52,6 +52,7 @@ async def structure_scene(
     max_concurrency: int | None = 8,
     base_dir: str | Path | None = None,
     fallbacks: list[FallbackRecord] | None = None,
+    outcomes: dict[str, AgentOutcome] | None = None,
 ) -> Scene:
     """Structure ``scene``: room, parents, containment, walls, semantics, attributes, constraints, tree.
 
@@ -61,7 +62,8 @@ async def structure_scene(
     uses the offline rules model. ``priors_dir`` replaces the ProcTHOR priors shipped with
     the package. The input scene is never modified; a new scene with ``structure`` set is
     returned. ``policy`` sets the agents' attempt budget and solver fallback; agents that fell
-    back are appended to ``fallbacks`` when a list is given.
+    back are appended to ``fallbacks`` when a list is given, and how each agent answered is put
+    in ``outcomes`` when a dict is given.
 
     Raises :class:`~scenemosaic.exceptions.AgentOutputError` when an agent's output stays
     inconsistent with the scene and fallback is off (other run errors pass through unchanged).
@@ -105,6 +107,8 @@ async def structure_scene(
     finally:
         if fallbacks is not None:
             fallbacks.extend(state.fallbacks)
+        if outcomes is not None:
+            outcomes.update(state.outcomes)
     out = state.scene
     steps = [*out.provenance.steps, "structure"]
     return out.model_copy(update={"provenance": out.provenance.model_copy(update={"steps": steps})})
