@@ -224,6 +224,14 @@ def generate(
         float | None,
         typer.Option("--deadline", help="Seconds all model requests of the run may take; then agents use their rule solvers."),
     ] = None,
+    max_concurrency: Annotated[
+        int | None,
+        typer.Option(
+            "--max-concurrency",
+            min=1,
+            help="Most model requests in flight at once (default: the server's slots when it says).",
+        ),
+    ] = None,
     strict: Annotated[bool, typer.Option("--strict", help="Exit 1 when the result is degraded.")] = False,
     overwrite: Annotated[
         bool, typer.Option("--overwrite", help="Replace an output folder that holds another input's results.")
@@ -266,6 +274,7 @@ def generate(
         asset_dir=asset_dir,
         request_timeout_s=request_timeout,
         deadline_s=deadline,
+        max_concurrency=max_concurrency,
         strict=strict,
         overwrite=overwrite,
     )

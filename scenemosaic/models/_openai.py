@@ -68,6 +68,9 @@ by this factor: the estimate can be off by about that much either way."""
 StructuredMode = Literal["json_schema", "json_object", "none"]
 """How a reply is constrained: a strict JSON schema, any JSON object, or free text."""
 
+TIMEOUT_RETRIES = 1
+"""A timed-out request is sent once more, with twice the time-out; a second time-out ends it."""
+
 _TRANSIENT_STATUS = frozenset({408, 409, 425, 429})
 _IMAGE_REJECTED = re.compile(
     r"image input is not supported|mmproj|image_url is only supported|does not support (image|vision)"
@@ -362,6 +365,17 @@ class OpenAIChatModel(CompletionModel):
             self._client_loop = loop
         return self._client
 
+    async def server_slots(self, timeout_s: float = 3.0) -> int | None:
+        """How many requests the server says it works on at once, when it says (llama.cpp's
+        ``GET /props`` ``total_slots``); ``None`` for servers that do not (no retries, no error)."""
+        root = self.base_url[: -len("/v1")] if self.base_url.endswith("/v1") else self.base_url
+        try:
+            response = await self._http().get(f"{root}/props", timeout=timeout_s)
+            slots = response.json().get("total_slots") if response.status_code == 200 else None
+        except (httpx.HTTPError, ValueError, AttributeError):
+            return None
+        return slots if isinstance(slots, int) and not isinstance(slots, bool) and slots > 0 else None
+
     async def aclose(self) -> None:
         """Close the HTTP client this model created (a client passed in stays open)."""
         if self._owns_client and self._client is not None:
@@ -539,10 +553,12 @@ class OpenAIChatModel(CompletionModel):
         policy = self.retry
         attempt = 0
         after_drop = False
+        budget = timeout_s
+        timeouts = 0
         while True:
             attempt += 1
             # No attempt runs past the request's total budget.
-            attempt_timeout = max(0.001, min(timeout_s, give_up_at - self._clock()))
+            attempt_timeout = max(0.001, min(budget, give_up_at - self._clock()))
             try:
                 return await self._post_once(body, timeout_s=attempt_timeout, spent=spent)
             except _RETRYABLE as exc:
@@ -553,7 +569,17 @@ class OpenAIChatModel(CompletionModel):
                 raise self._transport_error(exc, attempt, timeout_s) from exc
             wait = self._backoff(failure, attempt, after_drop=after_drop)
             after_drop = isinstance(failure, httpx.RemoteProtocolError)
-            if attempt >= policy.max_attempts or self._clock() + wait >= give_up_at:
+            timed_out = isinstance(failure, _AttemptTimedOut | httpx.TimeoutException)
+            if timed_out:
+                # the same request under the same budget would most likely time out again: one
+                # more try, with twice the time, then give up (the agent then falls back)
+                timeouts += 1
+                budget = timeout_s * 2
+            if (
+                attempt >= policy.max_attempts
+                or (timed_out and timeouts > TIMEOUT_RETRIES)
+                or self._clock() + wait >= give_up_at
+            ):
                 if isinstance(failure, ModelHTTPError):
                     raise failure
                 raise self._transport_error(failure, attempt, timeout_s) from failure
@@ -570,8 +596,9 @@ class OpenAIChatModel(CompletionModel):
     def _transport_error(self, failure: BaseException, attempts: int, timeout_s: float) -> ModelError:
         tries = f"{attempts} attempt{'s' if attempts != 1 else ''}"
         if isinstance(failure, _AttemptTimedOut | httpx.TimeoutException):
+            budget = f"{timeout_s:g} s" + (f", then {2 * timeout_s:g} s" if attempts > 1 else "")
             return ModelError(
-                f"{self.name}: request to {self.base_url} timed out ({timeout_s:g} s per attempt) after {tries}: "
+                f"{self.name}: request to {self.base_url} timed out ({budget}) after {tries}: "
                 f"{type(failure).__name__}: {failure}"
             )
         return ModelError(

@@ -57,6 +57,10 @@ class GenerateConfig:
     request_timeout_s: float | None = None
     """Time-out of one model request in seconds (``--request-timeout``); ``None`` keeps the
     model's own. See ``docs/reliability.md`` for the precedence of time-outs."""
+    max_concurrency: int | None = None
+    """Most model requests in flight at once (``--max-concurrency``); more wait in the client, so
+    a request's time-out measures the server's work, not a queue. ``None``: the server's slot
+    count when it reports one (llama.cpp), else no limit beyond the task graph's."""
     deadline_s: float | None = None
     """Wall-clock budget for all model requests of the run, in seconds (``--deadline``): once it
     has passed, agents answer with their rule solvers (the run is ``degraded``)."""

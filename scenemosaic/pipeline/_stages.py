@@ -91,7 +91,13 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     assert run.scene is not None
     notes_before = len(run.scene.provenance.notes)
     spec = run.config.model
-    model = parse_model(spec, vision=run.config.vision) if isinstance(spec, str) else spec
+    if isinstance(spec, str):
+        limit = run.config.max_concurrency or await _server_slots(spec, run.config.vision)
+        model = parse_model(spec, vision=run.config.vision, **({"max_concurrency": limit} if limit else {}))
+        if limit:
+            rec.detail["max_concurrency"] = limit
+    else:
+        model = spec
     rec.detail["model"] = model.name
     tracker = UsageTracker()
     asking = _asking_model(run, model, tracker)
@@ -129,6 +135,22 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     rec.detail["units"] = len(structure.units) if structure else 0
     rec.detail["relations"] = len(run.scene.relations)
     rec.detail["constraints"] = len(run.scene.constraints)
+
+
+async def _server_slots(spec: str, vision: bool | None) -> int | None:
+    """The slot count an OpenAI-compatible server behind ``spec`` reports, if it reports one."""
+    from scenemosaic.models import OpenAIChatModel, parse_model
+
+    if spec == "rules" or spec.startswith("replay:"):
+        return None
+    probe = parse_model(spec, vision=vision)
+    inner: Any = probe
+    while not isinstance(inner, OpenAIChatModel) and getattr(inner, "wrapped", None) is not None:
+        inner = inner.wrapped
+    try:
+        return await inner.server_slots() if isinstance(inner, OpenAIChatModel) else None
+    finally:
+        await probe.aclose()
 
 
 def _agent_breakdown(outcomes: dict[str, AgentOutcome], tracker: UsageTracker) -> dict[str, Any]:

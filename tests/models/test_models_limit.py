@@ -197,3 +197,48 @@ async def test_bucket_waits_end_with_a_large_clock_value() -> None:
     await asyncio.wait_for(drain(), 10.0)
     assert len(clock.sleeps) <= 200 * 2  # one computed sleep per acquire, give or take a rounding retry
     assert clock.now - 2_000_000.123456789 == pytest.approx(400.0, abs=0.01)
+
+
+# -- one server slot: the queue is the client's, the time-out the server's ---------------------
+async def test_with_the_servers_slot_count_a_queued_request_does_not_time_out() -> None:
+    """A one-slot server works 0.3 s per request; the time-out is 0.45 s. Sent together, the second
+    request waits 0.3 s for the slot: counted in its time-out it would fail, queued in the client
+    (``max_concurrency`` = the server's slots) it does not."""
+    import httpx
+    from llm_fakes import FakeServer, chat_reply
+
+    from scenemosaic.exceptions import ModelError
+    from scenemosaic.models import HTTPRetryPolicy
+
+    slot = asyncio.Lock()
+
+    async def one_slot(request: httpx.Request) -> httpx.Response:
+        if request.url.path == "/props":
+            return httpx.Response(200, json={"total_slots": 1})
+        async with slot:
+            await asyncio.sleep(0.3)
+        return chat_reply(VALID)
+
+    server = FakeServer(default=one_slot)
+    no_retry = HTTPRetryPolicy(max_attempts=1)
+    model, _ = server.model(timeout_s=0.45, retry=no_retry)
+    assert await model.server_slots() == 1
+    limited = LimitedModel(model, max_concurrency=1)
+    both = await asyncio.gather(*(limited.request(user_messages(), Verdict) for _ in range(2)))
+    assert [out.score for out, _ in both] == [70, 70]
+
+    unlimited, _ = server.model(timeout_s=0.45, retry=no_retry)
+    results = await asyncio.gather(
+        *(unlimited.request(user_messages(), Verdict) for _ in range(2)), return_exceptions=True
+    )
+    assert sum(isinstance(r, ModelError) for r in results) == 1  # the queued one timed out
+
+
+async def test_server_slots_is_none_when_the_server_does_not_say() -> None:
+    import httpx
+    from llm_fakes import FakeServer
+
+    for reply in (httpx.Response(404, text="not found"), httpx.Response(200, json={"slots": "?"}),
+                  httpx.Response(200, text="<html>"), httpx.ConnectError("refused")):
+        model, _ = FakeServer(reply).model()
+        assert await model.server_slots() is None

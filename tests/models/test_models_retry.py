@@ -94,7 +94,7 @@ async def test_a_huge_retry_after_is_capped_at_30_s_by_default() -> None:
     assert sleeps == [30.0, 30.0, 4.0]
 
 
-async def test_each_attempt_is_cut_at_its_time_out_so_a_hung_server_costs_attempts_x_timeout() -> None:
+async def test_a_hung_server_costs_one_timeout_and_one_doubled_retry() -> None:
     async def hang(request: httpx.Request) -> httpx.Response:
         await asyncio.sleep(3600)
         raise AssertionError("unreachable")
@@ -102,11 +102,12 @@ async def test_each_attempt_is_cut_at_its_time_out_so_a_hung_server_costs_attemp
     server = FakeServer(default=hang)
     model, sleeps = server.model(timeout_s=0.05, retry=HTTPRetryPolicy(max_attempts=3, jitter_s=0.0))
     started = time.perf_counter()
-    with pytest.raises(ModelError, match=r"timed out \(0.05 s per attempt\) after 3 attempts"):
+    with pytest.raises(ModelError, match=r"timed out \(0.05 s, then 0.1 s\) after 2 attempts"):
         await model.request(user_messages(), Verdict, context=CTX)
     elapsed = time.perf_counter() - started
-    assert len(server.requests) == 3 and sleeps == [1.0, 2.0]  # the back-offs (faked) between them
-    assert 0.15 <= elapsed < 2.0  # 3 x 0.05 s, plus scheduling slack
+    # not re-sent unchanged until the attempts run out: once more with twice the time, then given up
+    assert len(server.requests) == 2 and sleeps == [1.0]  # the back-off (faked) between them
+    assert 0.15 <= elapsed < 2.0  # 0.05 s + 0.1 s, plus scheduling slack
 
 
 async def test_a_server_trickling_bytes_is_cut_by_the_attempt_time_out() -> None:
