@@ -13,6 +13,13 @@ the tests or runs that use it::
                               "reply": {...validated output as JSON...},
                               "usage": {"requests": 1, "input_tokens": ..., ...}}}}
 
+Every outcome of a request is recorded, so a replayed run takes the same path as the recorded
+one: a valid reply (``reply``), a reply that was not JSON or broke the schema (``invalid_reply``
+with its ``errors``: the agent repairs it again), and a failure after the transport's retries
+(``error``: a time-out, an HTTP error, a context-length refusal; raised again on replay, so the
+agent falls back again). The run's own limits (deadline, open circuit) are not the server's
+answer and are not recorded.
+
 On a miss in replay mode, :class:`ReplayMissError` names what differs from the nearest
 recorded request of the same agent: ``model``, ``messages[i]``, ``schema`` or ``settings``.
 """
@@ -30,7 +37,16 @@ from typing import Any, Literal
 import structlog
 from pydantic import ValidationError
 
-from scenemosaic.exceptions import ModelConfigError, OutputValidationError, ReplayMissError
+from scenemosaic.exceptions import (
+    ModelConfigError,
+    ModelContextLengthError,
+    ModelDeadlineExceeded,
+    ModelError,
+    ModelHTTPError,
+    ModelUnavailableError,
+    OutputValidationError,
+    ReplayMissError,
+)
 from scenemosaic.models._base import ImagePart, Message, Model, ModelSettings, OutputT, RequestContext, Usage
 
 __all__ = ["Cassette", "ReplayMode", "ReplayModel", "canonical_request", "request_key"]
@@ -66,6 +82,44 @@ def canonical_request(
         "schema": output_type.model_json_schema(),
         "settings": {"temperature": s.temperature, "max_tokens": s.max_tokens, "seed": s.seed},
     }
+
+
+def _usage_of(exc: BaseException) -> dict[str, Any]:
+    """What a failed request still cost, as recorded (some failures carry a ``usage``)."""
+    usage = getattr(exc, "usage", None)
+    return dataclasses.asdict(usage) if isinstance(usage, Usage) else {}
+
+
+def _error_record(exc: ModelError) -> dict[str, Any]:
+    """A model failure as cassette data (:func:`_recorded_error` turns it back)."""
+    record: dict[str, Any] = {"type": type(exc).__name__, "message": str(exc)}
+    if isinstance(exc, ModelHTTPError):
+        record.update(status_code=exc.status_code, body=exc.body[:2000])
+    if isinstance(exc, ModelContextLengthError):
+        record.update(prompt_tokens=exc.prompt_tokens, context_tokens=exc.context_tokens, sent=exc.sent)
+    return record
+
+
+def _recorded_error(record: dict[str, Any]) -> ModelError:
+    """The failure a cassette recorded, raised again the way the live model raised it."""
+    kind = record.get("type")
+    message = str(record.get("message", "recorded model failure"))
+    err: ModelError
+    if kind == "ModelContextLengthError":
+        err = ModelContextLengthError(
+            message,
+            status_code=int(record.get("status_code", 400)),
+            body=str(record.get("body", "")),
+            prompt_tokens=record.get("prompt_tokens"),
+            context_tokens=record.get("context_tokens"),
+            sent=bool(record.get("sent", True)),
+        )
+    elif kind == "ModelHTTPError":
+        err = ModelHTTPError(message, status_code=int(record.get("status_code", 500)), body=str(record.get("body", "")))
+    else:
+        err = ModelError(message)
+    err.args = (message,)  # the message as recorded, without a second "HTTP <status>:" prefix
+    return err
 
 
 def _dumps(value: Any) -> str:
@@ -289,6 +343,8 @@ class ReplayModel(Model):
         if self.mode in ("replay", "record_missing"):
             entry = self.cassette.get(key)
             if entry is not None:
+                if "error" in entry:  # a recorded failure (time-out, HTTP error): the agent meets it again
+                    raise _recorded_error(entry["error"])
                 if "invalid_reply" in entry:  # a recorded bad reply: the agent repairs it as before
                     raise OutputValidationError(
                         f"recorded reply for agent {agent!r} is not a valid {output_type.__name__}",
@@ -312,6 +368,22 @@ class ReplayModel(Model):
                     "invalid_reply": exc.raw_reply,
                     "errors": exc.errors,
                     "usage": dataclasses.asdict(exc.usage) if isinstance(exc.usage, Usage) else {},
+                },
+                model=self.name,
+                vision=self.vision,
+            )
+            raise
+        except (ModelDeadlineExceeded, ModelUnavailableError, ReplayMissError):
+            raise  # the run's own limits, not the server's answer: nothing to replay
+        except ModelError as exc:  # time-outs, HTTP errors after the retries, context refusals
+            self.cassette.put(
+                key,
+                {
+                    "agent": agent,
+                    "output_type": output_type.__name__,
+                    "request": canonical,
+                    "error": _error_record(exc),
+                    "usage": _usage_of(exc),
                 },
                 model=self.name,
                 vision=self.vision,

@@ -193,3 +193,45 @@ async def test_floats_round_trip_exactly(tmp_path: Path) -> None:
     await rec.request(user_messages(), Tiny, context=CRITIC)
     out, _ = await ReplayModel(None, path, "replay").request(user_messages(), Tiny, context=CRITIC)
     assert out.v == value
+
+
+def _asking(i: int) -> list[Message]:
+    return [Message.text("user", f"evidence {i}")]
+
+
+async def test_failures_are_recorded_and_replayed_as_they_happened(tmp_path: Path) -> None:
+    """A time-out and an HTTP 503 (after the transport's retries) and a context refusal are part
+    of a recorded run: replay raises them again, so agents fall back the same way."""
+    from scenemosaic.exceptions import ModelContextLengthError, ModelError, ModelHTTPError
+
+    failures: list[ModelError] = [
+        ModelError("openai:qwen: request to http://127.0.0.1:8089/v1 timed out (120 s, then 240 s) after 2 attempts"),
+        ModelHTTPError("server busy", status_code=503, body='{"error":"busy"}'),
+        ModelContextLengthError("too long", status_code=400, body="{}", prompt_tokens=5000, context_tokens=4096),
+    ]
+
+    def failing(messages: list[Message], context: RequestContext | None) -> object:
+        assert context is not None
+        raise failures[int(context.agent[-1])]
+
+    path = tmp_path / "failures.json"
+    recorder = ReplayModel(FunctionModel(failing, name="vlm-a"), path, "record")
+    raised: list[ModelError] = []
+    for i in range(3):
+        with pytest.raises(ModelError) as info:
+            await recorder.request(_asking(i), Verdict, context=RequestContext(agent=f"agent{i}"))
+        raised.append(info.value)
+    entries = json.loads(path.read_text())["entries"].values()
+    assert sorted(e["error"]["type"] for e in entries) == ["ModelContextLengthError", "ModelError", "ModelHTTPError"]
+
+    replay = ReplayModel(None, path, "replay")
+    for i, live in enumerate(raised):
+        with pytest.raises(ModelError) as info:
+            await replay.request(_asking(i), Verdict, context=RequestContext(agent=f"agent{i}"))
+        again = info.value
+        assert type(again) is type(live) and str(again) == str(live)
+        if isinstance(live, ModelHTTPError):
+            assert isinstance(again, ModelHTTPError) and again.status_code == live.status_code
+        if isinstance(live, ModelContextLengthError):
+            assert isinstance(again, ModelContextLengthError)
+            assert (again.prompt_tokens, again.context_tokens) == (5000, 4096)
