@@ -15,7 +15,8 @@ Figures (the last line is one JSON object):
   bedroom (40 objects) with the 22-object test bedroom's contents beside it (62 objects);
 * ``critical_path_calls_room16`` — model calls one after another on the longest dependency
   chain of the room16 plan (manager included), when every first answer is usable;
-* ``prompt_tokens_room16`` / ``prompt_tokens_room60`` — per agent.
+* ``prompt_tokens_room16`` / ``prompt_tokens_room60`` — per agent (the largest chunk's prompt
+  when an agent asks about a large scene in chunks of ``CHUNK_OBJECTS`` objects).
 
 Run: ``.venv/bin/python benchmarks/prompts.py [--tokenize-url URL]``.
 """
@@ -82,6 +83,7 @@ async def prompt_sizes(scene: Scene, count: Counter) -> tuple[dict[str, int], in
     manager = ManagerAgent()
     state = SceneState(scene)
     sizes = {"manager": count(manager.messages(manager.gather(state), state, vision=False))}
+    chunks: dict[str, int] = {}
     _plan, agents = plan_structuring(scene)
     deps = agent_dependencies(agents)
     model = RulesModel()
@@ -92,7 +94,9 @@ async def prompt_sizes(scene: Scene, count: Counter) -> tuple[dict[str, int], in
         for agent in ready:
             evidence = agent.gather(state)
             if agent.needs_model(evidence):
-                sizes[agent.name] = count(agent.messages(evidence, state, vision=False))
+                parts = agent.split(evidence, agent.chunk_size) if agent.chunk_size else [([], evidence)]
+                sizes[agent.name] = max(count(agent.messages(part, state, vision=False)) for _, part in parts)
+                chunks[agent.name] = len(parts)
             await agent.run(state, model)
             done.add(agent.name)
             pending.remove(agent)
@@ -100,7 +104,7 @@ async def prompt_sizes(scene: Scene, count: Counter) -> tuple[dict[str, int], in
 
     def depth(name: str) -> int:
         if name not in calls:
-            own = 1 if name in sizes else 0
+            own = chunks.get(name, 0)  # chunks are asked one after another
             calls[name] = own + max((depth(d) for d in deps[name]), default=0)
         return calls[name]
 

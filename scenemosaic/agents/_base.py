@@ -258,6 +258,11 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     prompt: ClassVar[str]
     output_type: ClassVar[type[BaseModel]]
     offload: ClassVar[bool] = True
+    chunk_size: ClassVar[int | None] = None
+    """Largest number of objects one request answers for; a larger scene is asked in chunks
+    (:meth:`split`), so prompt and reply fit a small model's context. Needs ``items_field``."""
+    items_field: ClassVar[str | None] = None
+    """Name of the output's per-object list (items carrying an ``object_id``), for chunking."""
     prompt_omit: ClassVar[frozenset[str]] = frozenset()
     """Evidence fields this agent's decisions do not need: left out of the prompt text (the rule
     solver still reads them), to keep prompts small."""
@@ -356,6 +361,9 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                 answer = await run_blocking(self._solve_and_apply, state, offload=self.offload)
                 state.outcomes[self.name] = AgentOutcome(self.name, "solver_without_call")
                 return answer, Usage()
+            chunks = self._chunks(evidence)
+        if len(chunks) > 1:
+            return await self._run_chunked(state, model, settings, evidence, chunks, node=node)
         context = RequestContext(agent=self.name, node=node or self.name, evidence=evidence)
         policy = state.policy
         total = Usage()
@@ -422,6 +430,120 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         if schema_error is not None:  # the last reply was not even schema-valid: say so, with it
             raise schema_error
         raise AgentOutputError(f"agent {self.name!r} gave an {reason}", agent=self.name, problems=problems)
+
+    # -- large scenes: one request per chunk of objects ------------------------------------------
+    def _chunks(self, evidence: EvidenceT) -> list[tuple[list[str], EvidenceT]]:
+        if self.chunk_size is None or self.items_field is None:
+            return [([], evidence)]
+        return self.split(evidence, self.chunk_size)
+
+    def split(self, evidence: EvidenceT, size: int) -> list[tuple[list[str], EvidenceT]]:
+        """Evidence for each chunk of at most ``size`` objects, with the ids the chunk answers for.
+
+        Agents that set ``chunk_size`` and ``items_field`` override this; a single chunk (the
+        default) means no chunking.
+        """
+        return [([], evidence)]
+
+    def _items(self, output: BaseModel) -> list[Any]:
+        assert self.items_field is not None
+        items: list[Any] = getattr(output, self.items_field)
+        return items
+
+    def _with_items(self, base: OutputT, items: list[Any]) -> OutputT:
+        assert self.items_field is not None
+        data = base.model_dump()
+        data[self.items_field] = [i.model_dump() if isinstance(i, BaseModel) else i for i in items]
+        return self.output_type.model_validate(data)  # type: ignore[return-value]
+
+    async def _run_chunked(
+        self,
+        state: SceneState,
+        model: Model,
+        settings: ModelSettings | None,
+        evidence: EvidenceT,
+        chunks: list[tuple[list[str], EvidenceT]],
+        *,
+        node: str | None,
+    ) -> tuple[OutputT, Usage]:
+        """Ask for each chunk of objects in turn; each chunk's answer is checked in the context of
+        the whole scene (the rule solver's answer stands in for the other chunks), repaired within
+        the attempt budget, and replaced by the solver's part when it stays unusable."""
+        base = self.solve(evidence)
+        policy = state.policy
+        total = Usage()
+        kept: list[Any] = []
+        asked = repairs = 0
+        failed: list[str] = []
+        for ids, part in chunks:
+            wanted = set(ids)
+            others = [i for i in self._items(base) if getattr(i, "object_id", None) not in wanted]
+            mine = [i for i in self._items(base) if getattr(i, "object_id", None) in wanted]
+            async with state.lock:
+                messages = await run_blocking(functools.partial(self.messages, vision=model.vision), part, state, offload=self.offload)
+            context = RequestContext(agent=self.name, node=node or self.name, evidence=part)
+            answer: list[Any] | None = None
+            problems: list[str] = []
+            for attempt in range(policy.max_attempts):
+                asked += 1
+                try:
+                    output, usage = await model.request(messages, self.output_type, settings, context=context)
+                except OutputValidationError as exc:
+                    total = total + (exc.usage if isinstance(exc.usage, Usage) else Usage())
+                    problems, reply = exc.errors or [str(exc)], exc.raw_reply
+                    intro = f"That reply is not a valid {self.output_type.__name__} JSON object:"
+                except ModelError as exc:
+                    if not (policy.solver_fallback and _recoverable(exc)):
+                        raise
+                    problems = [f"{type(exc).__name__}: {exc}"]
+                    break
+                else:
+                    total = total + usage
+                    # items about objects outside the chunk (shown only as context) are ignored
+                    got = [i for i in self._items(output) if getattr(i, "object_id", None) in wanted]
+                    async with state.lock:
+                        candidate = self._with_items(base, others + got)
+                        problems = await run_blocking(self.check, candidate, state, offload=self.offload)
+                    if not problems:
+                        answer = got
+                        break
+                    reply = output.model_dump_json()
+                    intro = "That answer cannot be applied to this scene:"
+                if attempt + 1 < policy.max_attempts:
+                    repairs += 1
+                    messages = [
+                        *messages,
+                        Message.text("assistant", reply),
+                        Message.text(
+                            "user",
+                            intro + "\n- " + "\n- ".join(problems) + "\nReply again with only the corrected JSON object.",
+                        ),
+                    ]
+            if answer is None:
+                if not policy.solver_fallback:
+                    raise AgentOutputError(
+                        f"agent {self.name!r} gave an unusable answer for {', '.join(ids[:8])}: " + "; ".join(problems),
+                        agent=self.name,
+                        problems=problems,
+                    )
+                failed.append(f"{len(ids)} objects ({'; '.join(problems)[:200]})")
+                answer = mine
+            kept += answer
+        merged = self._with_items(base, kept)
+        async with state.lock:
+            problems = await run_blocking(self._check_and_apply, merged, state, offload=self.offload)
+        if problems:  # chunks that each fit, together do not (a cycle across chunks): the solver
+            reason = "chunk answers inconsistent together: " + "; ".join(problems)
+            state.outcomes[self.name] = AgentOutcome(self.name, "solver_fallback", asked, repairs, reason[:300])
+            return await self._fall_back(evidence, state, reason, problems), total
+        if failed:
+            reason = "rule solver for " + ", ".join(failed)
+            state.fallbacks.append(FallbackRecord(agent=self.name, reason=reason[:500]))
+            state.scene.provenance.notes.append(f"{self.name}: model answer unusable for part of the scene, used the rule solver there")
+            state.outcomes[self.name] = AgentOutcome(self.name, "solver_fallback", asked, repairs, reason[:300])
+        else:
+            state.outcomes[self.name] = AgentOutcome(self.name, "model", asked, repairs)
+        return merged, total
 
     async def _run_offline(self, state: SceneState) -> OutputT:
         """The rules path: the agent's own solver answers; its output must pass the agent's check."""

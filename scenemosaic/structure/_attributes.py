@@ -19,7 +19,7 @@ from pydantic import BaseModel, Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.scene import CEILING, FLOOR, SimAttributes, normalize_category, traits
-from scenemosaic.structure._facts import ObjectFacts, object_facts, replace_scene
+from scenemosaic.structure._facts import CHUNK_OBJECTS, ObjectFacts, chunk_ids, object_facts, replace_scene
 
 __all__ = [
     "ATTRIBUTE_TABLE",
@@ -233,6 +233,8 @@ class AttributesAgent(TaskAgent[AttributesEvidence, AttributesOutput]):
     depends_on: ClassVar[tuple[str, ...]] = ("support",)
     prompt: ClassVar[str] = "attributes"
     output_type: ClassVar[type[BaseModel]] = AttributesOutput
+    chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
+    items_field: ClassVar[str | None] = "objects"
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"center", "yaw_deg", "bottom", "top", "relation"})
 
     def gather(self, state: SceneState) -> AttributesEvidence:
@@ -240,6 +242,13 @@ class AttributesAgent(TaskAgent[AttributesEvidence, AttributesOutput]):
 
     def solve(self, evidence: AttributesEvidence) -> AttributesOutput:
         return solve_attributes(evidence)
+
+    def split(self, evidence: AttributesEvidence, size: int) -> list[tuple[list[str], AttributesEvidence]]:
+        """Chunks of objects; each object's figures depend on it alone."""
+        return [
+            (ids, AttributesEvidence(objects=[o for o in evidence.objects if o.id in set(ids)]))
+            for ids in chunk_ids(evidence.objects, size)
+        ]
 
     def check(self, output: AttributesOutput, state: SceneState) -> list[str]:
         cats = {o.id: o.category for o in state.scene.objects}

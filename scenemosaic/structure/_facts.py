@@ -27,11 +27,13 @@ from scenemosaic.scene import (
 )
 
 __all__ = [
+    "CHUNK_OBJECTS",
     "MAX_ITEMS",
     "AgentOutput",
     "ObjectFacts",
     "RoomFacts",
     "WallFacts",
+    "chunk_ids",
     "object_facts",
     "parent_cycles",
     "replace_scene",
@@ -236,6 +238,16 @@ def replace_scene(scene: Scene, **fields: Any) -> Scene:
             )
         )
     return Scene.model_validate(data)
+
+
+CHUNK_OBJECTS = 24
+"""Objects one structuring request answers for, at most; a larger scene is asked in chunks."""
+
+
+def chunk_ids(objects: list[ObjectFacts], size: int) -> list[list[str]]:
+    """Object ids in scene order, cut into runs of at most ``size`` (one run when they fit)."""
+    ids = [o.id for o in objects]
+    return [ids[i : i + size] for i in range(0, len(ids), size)] or [[]]
 
 
 def translate_objects(scene: Scene, moves: dict[str, Vec3]) -> None:

@@ -32,7 +32,9 @@ from scenemosaic.scene import (
     traits,
 )
 from scenemosaic.structure._facts import (
+    CHUNK_OBJECTS,
     ObjectFacts,
+    chunk_ids,
     object_facts,
     outward,
     replace_scene,
@@ -257,6 +259,8 @@ class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutp
     depends_on: ClassVar[tuple[str, ...]] = ("room", "support")
     prompt: ClassVar[str] = "semantics"
     output_type: ClassVar[type[BaseModel]] = SemanticsOutput
+    chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
+    items_field: ClassVar[str | None] = "objects"
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation"})
 
     def gather(self, state: SceneState) -> SemanticsEvidence:
@@ -265,6 +269,18 @@ class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutp
 
     def solve(self, evidence: SemanticsEvidence) -> SemanticsOutput:
         return solve_semantics(evidence)
+
+    def split(self, evidence: SemanticsEvidence, size: int) -> list[tuple[list[str], SemanticsEvidence]]:
+        """Chunks of objects with their front facts, each shown with the tables its seats face."""
+        out: list[tuple[list[str], SemanticsEvidence]] = []
+        for ids in chunk_ids(evidence.objects, size):
+            mine = set(ids)
+            fronts = [f for f in evidence.fronts if f.id in mine]
+            shown = mine | {f.table_id for f in fronts if f.table_id}
+            out.append(
+                (ids, SemanticsEvidence(objects=[o for o in evidence.objects if o.id in shown], fronts=fronts))
+            )
+        return out
 
     def check(self, output: SemanticsOutput, state: SceneState) -> list[str]:
         ids = {o.id for o in state.scene.objects}

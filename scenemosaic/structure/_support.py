@@ -44,8 +44,10 @@ from scenemosaic.scene import (
     traits,
 )
 from scenemosaic.structure._facts import (
+    CHUNK_OBJECTS,
     ObjectFacts,
     RoomFacts,
+    chunk_ids,
     object_facts,
     parent_cycles,
     replace_scene,
@@ -405,6 +407,8 @@ class SupportAgent(FloorPlanImages, TaskAgent[SupportEvidence, SupportOutput]):
     depends_on: ClassVar[tuple[str, ...]] = ("room",)
     prompt: ClassVar[str] = "support"
     output_type: ClassVar[type[BaseModel]] = SupportOutput
+    chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
+    items_field: ClassVar[str | None] = "assignments"
 
     def __init__(self, priors: SupportPriors | None = None) -> None:
         self.priors = priors if priors is not None else load_priors()
@@ -426,6 +430,30 @@ class SupportAgent(FloorPlanImages, TaskAgent[SupportEvidence, SupportOutput]):
 
     def solve(self, evidence: SupportEvidence) -> SupportOutput:
         return solve_support(evidence, self.priors)
+
+    def split(self, evidence: SupportEvidence, size: int) -> list[tuple[list[str], SupportEvidence]]:
+        """Chunks of objects to parent, each shown with every object that could carry them."""
+        runs = chunk_ids(evidence.objects, size)
+        if len(runs) == 1:
+            return [(runs[0], evidence)]
+        carriers = set(evidence.hints.carriers) | set(evidence.hints.containers)
+        out: list[tuple[list[str], SupportEvidence]] = []
+        for ids in runs:
+            mine = set(ids)
+            shown = {o.id for o in evidence.objects if o.id in mine or o.id in carriers}
+            hints = evidence.hints.model_dump()
+            out.append(
+                (
+                    ids,
+                    SupportEvidence(
+                        objects=[o for o in evidence.objects if o.id in shown],
+                        room=evidence.room,
+                        hints=PlacementHints(**{k: [i for i in v if i in shown] for k, v in hints.items()}),
+                        surfaces=[x for x in evidence.surfaces if x.child in mine],
+                    ),
+                )
+            )
+        return out
 
     def check(self, output: SupportOutput, state: SceneState) -> list[str]:
         pairs = [(a.object_id, a.parent, a.kind) for a in output.assignments]

@@ -20,9 +20,11 @@ from pydantic import BaseModel, Field
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.scene import FLOOR, Relation, traits
 from scenemosaic.structure._facts import (
+    CHUNK_OBJECTS,
     ObjectFacts,
     RoomFacts,
     along_wall,
+    chunk_ids,
     object_facts,
     outward,
     replace_scene,
@@ -136,6 +138,8 @@ class WallAttachmentAgent(FloorPlanImages, TaskAgent[WallEvidence, WallOutput]):
     depends_on: ClassVar[tuple[str, ...]] = ("room", "support")
     prompt: ClassVar[str] = "walls"
     output_type: ClassVar[type[BaseModel]] = WallOutput
+    chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
+    items_field: ClassVar[str | None] = "items"
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation"})
 
     def gather(self, state: SceneState) -> WallEvidence:
@@ -143,6 +147,13 @@ class WallAttachmentAgent(FloorPlanImages, TaskAgent[WallEvidence, WallOutput]):
 
     def solve(self, evidence: WallEvidence) -> WallOutput:
         return solve_walls(evidence)
+
+    def split(self, evidence: WallEvidence, size: int) -> list[tuple[list[str], WallEvidence]]:
+        """Chunks of objects, each with the room's walls."""
+        return [
+            (ids, WallEvidence(objects=[o for o in evidence.objects if o.id in set(ids)], room=evidence.room))
+            for ids in chunk_ids(evidence.objects, size)
+        ]
 
     def check(self, output: WallOutput, state: SceneState) -> list[str]:
         scene = state.scene

@@ -1,0 +1,66 @@
+"""Large scenes are asked in chunks of objects: each chunk checked in the whole scene's context."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
+
+from agent_solvers import SOLVERS
+
+from scenemosaic.agents import AgentPolicy, SceneState
+from scenemosaic.exchange import load_scene
+from scenemosaic.models import FunctionModel, Message, RequestContext, RulesModel
+from scenemosaic.structure import RoomAgent, SupportAgent
+
+BEDROOM = Path(__file__).resolve().parents[1] / "fixtures" / "bedroom_22.json"
+
+
+class SmallChunks(SupportAgent):
+    chunk_size: ClassVar[int | None] = 5
+
+
+def _parents(state: SceneState) -> dict[str, str]:
+    return {r.child: r.parent for r in state.scene.relations if r.is_support}
+
+
+async def _roomed() -> SceneState:
+    state = SceneState(load_scene(BEDROOM), policy=AgentPolicy(solver_fallback=True))
+    await RoomAgent().run(state, RulesModel())
+    return state
+
+
+async def test_chunked_answers_match_the_one_shot_answer() -> None:
+    rules = await _roomed()
+    await SupportAgent().run(rules, RulesModel())
+    evidence_sizes: list[int] = []
+
+    def reply(messages: list[Message], context: RequestContext | None) -> Any:
+        assert context is not None and context.evidence is not None
+        evidence_sizes.append(len(context.evidence.objects))
+        return SOLVERS["support"].solve(context.evidence)  # a model that agrees with the rules
+
+    chunked = await _roomed()
+    agent = SmallChunks()
+    await agent.run(chunked, FunctionModel(reply, vision=False))
+    assert len(evidence_sizes) == 5  # 22 objects, 5 a chunk
+    assert max(evidence_sizes) < len(chunked.scene.objects)  # each prompt shows part of the scene
+    assert _parents(chunked) == _parents(rules)
+    assert chunked.outcomes["support"].answered_by == "model" and chunked.fallbacks == []
+
+
+async def test_a_chunk_that_stays_wrong_falls_back_alone() -> None:
+    def reply(messages: list[Message], context: RequestContext | None) -> Any:
+        assert context is not None and context.evidence is not None
+        answer = SOLVERS["support"].solve(context.evidence)
+        if any(o.id == "pillow_0" for o in context.evidence.objects):  # this chunk: a mug carries the bed
+            for a in answer.assignments:
+                if a.object_id == "bed":
+                    a.parent = "mug_0"
+        return answer
+
+    state = await _roomed()
+    await SmallChunks().run(state, FunctionModel(reply, vision=False))
+    assert _parents(state)["bed"] == "floor"  # the solver's part for that chunk
+    [record] = state.fallbacks
+    assert record.agent == "support" and "rule solver for 5 objects" in record.reason
+    assert state.outcomes["support"].repairs == 2  # the bad chunk was sent back twice first
