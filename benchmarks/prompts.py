@@ -6,7 +6,8 @@ with their rule solvers, as a model that agrees with them would), then counted:
 * with ``--tokenize-url http://127.0.0.1:8089`` by a llama.cpp server itself (its chat
   template applied by ``/apply-template``, then ``/tokenize``);
 * otherwise by the library's estimate (``scenemosaic.models.estimate_tokens``: 3.5 characters
-  a token; on the shared Qwen2.5 server the estimate ran within 15 % of the real count).
+  a token). The estimate undercounts these number-dense tables: on the shared Qwen2.5 server,
+  whose tokenizer splits every digit, the real counts were 25-45 % higher. Quote server counts.
 
 Figures (the last line is one JSON object):
 

@@ -266,6 +266,8 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     prompt_omit: ClassVar[frozenset[str]] = frozenset()
     """Evidence fields this agent's decisions do not need: left out of the prompt text (the rule
     solver still reads them), to keep prompts small."""
+    prompt_extra: ClassVar[frozenset[str]] = frozenset()
+    """Evidence fields marked ``prompt=False`` that this agent's prompt shows all the same."""
 
     # -- what a subclass provides ------------------------------------------------------------
     @abc.abstractmethod
@@ -303,7 +305,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     def render_evidence_text(self, evidence: EvidenceT) -> str:
         """Text rendering of the evidence (also what text-only models get instead of images):
         compact tables, numbers to 1 cm, ``prompt_omit`` left out (:func:`scenemosaic.agents.evidence_text`)."""
-        return evidence_text(evidence, omit=self.prompt_omit)
+        return evidence_text(evidence, omit=self.prompt_omit, extra=self.prompt_extra)
 
     def system_prompt(self, evidence: EvidenceT, *, legend: bool = True) -> str:
         """The template, how to read the evidence and what its fields mean (``legend``), and the
@@ -311,7 +313,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         ``response_format``; a model without one pastes it, see ``OpenAIChatModel``)."""
         parts = [load_prompt(type(self))]
         if legend:
-            parts += [TABLE_NOTE, evidence_legend(type(evidence), self.prompt_omit)]
+            parts += [TABLE_NOTE, evidence_legend(type(evidence), self.prompt_omit, self.prompt_extra)]
         parts.append("Reply with one JSON object of the requested schema, and nothing else.")
         return "\n\n".join(p for p in parts if p)
 
@@ -319,7 +321,9 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         """A shorter prompt for a model whose context the full one did not fit: no format note or
         field legend, numbers to 1 dm. Images are kept for vision models."""
         parts: list[TextPart | ImagePart] = [
-            TextPart("Evidence:\n" + evidence_text(evidence, digits=1, omit=self.prompt_omit))
+            TextPart(
+                "Evidence:\n" + evidence_text(evidence, digits=1, omit=self.prompt_omit, extra=self.prompt_extra)
+            )
         ]
         if vision:
             parts.extend(self.images(evidence, state))

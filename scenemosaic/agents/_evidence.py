@@ -31,19 +31,23 @@ def _in_prompt(model: type[BaseModel], field: str) -> bool:
     return not (isinstance(extra, dict) and extra.get("prompt") is False)
 
 
-def _plain(value: Any, digits: int, omit: frozenset[str]) -> Any:
-    """Prompt data: models as dicts of their prompt fields (``None`` and ``omit`` dropped), floats rounded."""
+def _shown(cls: type[BaseModel], field: str, omit: frozenset[str], extra: frozenset[str]) -> bool:
+    return (_in_prompt(cls, field) or field in extra) and field not in omit
+
+
+def _plain(value: Any, digits: int, omit: frozenset[str], extra: frozenset[str] = frozenset()) -> Any:
+    """Prompt data: models as dicts of their shown fields (``None`` dropped), floats rounded."""
     if isinstance(value, BaseModel):
         cls = type(value)
         return {
-            k: _plain(v, digits, omit)
-            for k, v in ((k, getattr(value, k)) for k in cls.model_fields if _in_prompt(cls, k) and k not in omit)
+            k: _plain(v, digits, omit, extra)
+            for k, v in ((k, getattr(value, k)) for k in cls.model_fields if _shown(cls, k, omit, extra))
             if v is not None
         }
     if isinstance(value, dict):
-        return {str(k): _plain(v, digits, omit) for k, v in value.items() if v is not None}
+        return {str(k): _plain(v, digits, omit, extra) for k, v in value.items() if v is not None}
     if isinstance(value, list | tuple):
-        return [_plain(v, digits, omit) for v in value]
+        return [_plain(v, digits, omit, extra) for v in value]
     if isinstance(value, float):
         r = round(value, digits)
         return int(r) if r.is_integer() else r
@@ -84,16 +88,21 @@ def _block(name: str, value: Any) -> str:
     return f"{name}: {json.dumps(value, separators=(',', ':'), sort_keys=True)}"
 
 
-def evidence_text(evidence: BaseModel, *, digits: int = 2, omit: frozenset[str] = frozenset()) -> str:
+def evidence_text(
+    evidence: BaseModel, *, digits: int = 2, omit: frozenset[str] = frozenset(), extra: frozenset[str] = frozenset()
+) -> str:
     """The evidence as compact text: one block per field, tables for lists of records, numbers
-    rounded to ``digits`` decimals (2: 1 cm), fields named in ``omit`` left out of every record."""
-    data = _plain(evidence, digits, omit)
+    rounded to ``digits`` decimals (2: 1 cm); fields named in ``omit`` are left out of every
+    record, fields named in ``extra`` shown even when marked ``prompt=False``."""
+    data = _plain(evidence, digits, omit, extra)
     return "\n".join(_block(k, v) for k, v in data.items())
 
 
-def evidence_legend(model: type[BaseModel], omit: frozenset[str] = frozenset()) -> str:
+def evidence_legend(
+    model: type[BaseModel], omit: frozenset[str] = frozenset(), extra: frozenset[str] = frozenset()
+) -> str:
     """One line per described field of ``model`` and the models it nests, each field once
-    (fields named in ``omit`` left out, as :func:`evidence_text` leaves them out)."""
+    (the fields :func:`evidence_text` shows with the same ``omit`` and ``extra``)."""
     lines: list[str] = []
     seen: set[str] = set()
     visited: set[type[BaseModel]] = set()
@@ -103,7 +112,7 @@ def evidence_legend(model: type[BaseModel], omit: frozenset[str] = frozenset()) 
             return
         visited.add(cls)
         for name, info in cls.model_fields.items():
-            if not _in_prompt(cls, name) or name in omit:
+            if not _shown(cls, name, omit, extra):
                 continue
             if info.description and name not in seen:
                 seen.add(name)

@@ -30,7 +30,7 @@ from typing import ClassVar, Literal
 import numpy as np
 from pydantic import BaseModel, Field
 
-from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent, evidence_text
 from scenemosaic.scene import (
     PROCTHOR_PRIORS_DIR,
     ConstraintClause,
@@ -463,6 +463,18 @@ def solve_constraints(evidence: ConstraintEvidence) -> ConstraintsOutput:
     return ConstraintsOutput(constraints=out, within_unit=within)
 
 
+def _functional(category: str) -> bool:
+    """Whether objects of ``category`` can take part in a functional pair."""
+    t = traits(category)
+    return (
+        t.seat
+        or t.table
+        or "bed" in category
+        or "sofa" in category
+        or category in {"nightstand", "coffee_table", "tea_table", "tv_stand", *MONITORS}
+    )
+
+
 def _weak(categories: set[str]) -> bool:
     return any(categories & a and categories & b and not (categories - a - b) for a, b in WEAK_PAIRS)
 
@@ -498,6 +510,24 @@ class ConstraintsAgent(FloorPlanImages, TaskAgent[ConstraintEvidence, Constraint
 
     def solve(self, evidence: ConstraintEvidence) -> ConstraintsOutput:
         return solve_constraints(evidence)
+
+    def render_evidence_text(self, evidence: ConstraintEvidence) -> str:
+        """Only the objects of functional categories (seats, tables, beds, nightstands, sofas,
+        screens, TV stands): no other object can take part in a constraint."""
+        keep = {o.id for o in evidence.objects if _functional(o.category)}
+        units = {
+            anchor: [c for c in kids if c in keep]
+            for anchor, kids in evidence.units.items()
+            if anchor in keep or anchor not in {o.id for o in evidence.objects}
+        }
+        slim = evidence.model_copy(
+            update={
+                "objects": [o for o in evidence.objects if o.id in keep],
+                "against": {k: v for k, v in evidence.against.items() if k in keep},
+                "units": {k: v for k, v in units.items() if v},
+            }
+        )
+        return evidence_text(slim, omit=self.prompt_omit, extra=self.prompt_extra)
 
     def check(self, output: ConstraintsOutput, state: SceneState) -> list[str]:
         scene = state.scene

@@ -12,7 +12,7 @@ from typing import ClassVar, Literal
 
 from pydantic import BaseModel, Field
 
-from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent, evidence_text
 from scenemosaic.scene import Relation, SupportPriors, load_priors, traits
 from scenemosaic.structure._facts import ObjectFacts, object_facts, replace_scene
 from scenemosaic.structure._support import check_parents, floor_only
@@ -110,6 +110,14 @@ class ContainmentAgent(FloorPlanImages, TaskAgent[ContainmentEvidence, Containme
 
     def solve(self, evidence: ContainmentEvidence) -> ContainmentOutput:
         return solve_containment(evidence, self.priors)
+
+    def render_evidence_text(self, evidence: ContainmentEvidence) -> str:
+        """Only the containers and the objects standing over one: nothing else can be inside."""
+        boxes = {c.id for c in evidence.containers}
+        shells = [o for o in evidence.objects if o.id in boxes]
+        over = {o.id for o in evidence.objects for c in shells if c.id != o.id and c.contains_point(o.center, 0.02)}
+        slim = evidence.model_copy(update={"objects": [o for o in evidence.objects if o.id in boxes | over]})
+        return evidence_text(slim, omit=self.prompt_omit, extra=self.prompt_extra)
 
     def check(self, output: ContainmentOutput, state: SceneState) -> list[str]:
         problems = check_parents(

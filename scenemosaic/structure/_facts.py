@@ -74,6 +74,11 @@ class ObjectFacts(_Facts):
         description="Box corners seen from above, counter-clockwise (follows from center, size, yaw_deg).",
         json_schema_extra={"prompt": False},
     )
+    extent: tuple[float, float, float, float] = Field(
+        default=(0.0, 0.0, 0.0, 0.0),
+        description="What the box covers seen from above: x_min,y_min,x_max,y_max.",
+        json_schema_extra={"prompt": False},
+    )
     parent: str | None = Field(
         default=None, description="What currently supports it: floor, ceiling, a wall id or an object id."
     )
@@ -147,6 +152,7 @@ def _one(scene: Scene, o: SceneObject) -> ObjectFacts:
         bottom=_r(lo[2]),
         top=_r(hi[2]),
         footprint=[(_r(p[0]), _r(p[1])) for p in fp],
+        extent=(_r(fp[:, 0].min()), _r(fp[:, 1].min()), _r(fp[:, 0].max()), _r(fp[:, 1].max())),
         parent=sup.parent if sup else None,
         relation=sup.kind if sup else None,
     )

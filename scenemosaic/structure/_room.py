@@ -341,7 +341,8 @@ class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
     depends_on: ClassVar[tuple[str, ...]] = ()
     prompt: ClassVar[str] = "room"
     output_type: ClassVar[type[BaseModel]] = RoomOutput
-    prompt_omit: ClassVar[frozenset[str]] = frozenset({"parent", "relation", "bottom"})
+    prompt_omit: ClassVar[frozenset[str]] = frozenset({"center", "size", "parent", "relation", "bottom"})
+    prompt_extra: ClassVar[frozenset[str]] = frozenset({"extent"})
 
     def gather(self, state: SceneState) -> RoomEvidence:
         return RoomEvidence(objects=object_facts(state.scene), room=room_facts(state.scene))
