@@ -14,6 +14,7 @@ from __future__ import annotations
 import abc
 import asyncio
 import contextvars
+import dataclasses
 import functools
 import inspect
 from collections.abc import Callable
@@ -266,6 +267,10 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     prompt_omit: ClassVar[frozenset[str]] = frozenset()
     """Evidence fields this agent's decisions do not need: left out of the prompt text (the rule
     solver still reads them), to keep prompts small."""
+    reply_tokens: ClassVar[tuple[int, int] | None] = None
+    """``(base, per_object)``: the reply cap is ``base + per_object x`` the objects in the evidence
+    (never above the run's ``max_tokens``), so a small model that starts repeating itself is cut
+    early instead of filling the whole default cap. ``None``: the run's cap."""
     prompt_extra: ClassVar[frozenset[str]] = frozenset()
     """Evidence fields marked ``prompt=False`` that this agent's prompt shows all the same."""
 
@@ -288,6 +293,18 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     @abc.abstractmethod
     def apply(self, output: OutputT, state: SceneState) -> None:
         """Write a checked output into the scene state."""
+
+    def reply_settings(self, settings: ModelSettings | None, evidence: BaseModel) -> ModelSettings | None:
+        """``settings`` with the reply cap of :attr:`reply_tokens` for ``evidence``."""
+        if self.reply_tokens is None:
+            return settings
+        base, per_object = self.reply_tokens
+        objects = getattr(evidence, "objects", None)
+        cap = base + per_object * (len(objects) if isinstance(objects, list) else 0)
+        current = settings or ModelSettings()
+        if current.max_tokens is not None:
+            cap = min(cap, current.max_tokens)
+        return dataclasses.replace(current, max_tokens=cap)
 
     def needs_model(self, evidence: EvidenceT) -> bool:
         """Whether ``evidence`` leaves the model anything to decide (default: always).
@@ -369,6 +386,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         if len(chunks) > 1:
             return await self._run_chunked(state, model, settings, evidence, chunks, node=node)
         context = RequestContext(agent=self.name, node=node or self.name, evidence=evidence)
+        settings = self.reply_settings(settings, evidence)
         policy = state.policy
         total = Usage()
         problems: list[str] = []
@@ -486,12 +504,13 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
             async with state.lock:
                 messages = await run_blocking(functools.partial(self.messages, vision=model.vision), part, state, offload=self.offload)
             context = RequestContext(agent=self.name, node=node or self.name, evidence=part)
+            part_settings = self.reply_settings(settings, part)
             answer: list[Any] | None = None
             problems: list[str] = []
             for attempt in range(policy.max_attempts):
                 asked += 1
                 try:
-                    output, usage = await model.request(messages, self.output_type, settings, context=context)
+                    output, usage = await model.request(messages, self.output_type, part_settings, context=context)
                 except OutputValidationError as exc:
                     total = total + (exc.usage if isinstance(exc.usage, Usage) else Usage())
                     problems, reply = exc.errors or [str(exc)], exc.raw_reply

@@ -233,6 +233,7 @@ class AttributesAgent(TaskAgent[AttributesEvidence, AttributesOutput]):
     depends_on: ClassVar[tuple[str, ...]] = ("support",)
     prompt: ClassVar[str] = "attributes"
     output_type: ClassVar[type[BaseModel]] = AttributesOutput
+    reply_tokens: ClassVar[tuple[int, int] | None] = (200, 50)
     chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
     items_field: ClassVar[str | None] = "objects"
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"center", "yaw_deg", "bottom", "top", "relation"})

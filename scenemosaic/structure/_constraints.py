@@ -486,6 +486,7 @@ class ConstraintsAgent(FloorPlanImages, TaskAgent[ConstraintEvidence, Constraint
     depends_on: ClassVar[tuple[str, ...]] = ("support", "containment")
     prompt: ClassVar[str] = "constraints"
     output_type: ClassVar[type[BaseModel]] = ConstraintsOutput
+    reply_tokens: ClassVar[tuple[int, int] | None] = (900, 10)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation", "label"})
 
     def __init__(self, priors_dir: str | Path | None = None) -> None:

@@ -95,6 +95,7 @@ class ContainmentAgent(FloorPlanImages, TaskAgent[ContainmentEvidence, Containme
     depends_on: ClassVar[tuple[str, ...]] = ("support",)
     prompt: ClassVar[str] = "containment"
     output_type: ClassVar[type[BaseModel]] = ContainmentOutput
+    reply_tokens: ClassVar[tuple[int, int] | None] = (200, 40)
 
     def __init__(self, priors: SupportPriors | None = None) -> None:
         self.priors = priors if priors is not None else load_priors()

@@ -185,6 +185,7 @@ class ManagerAgent(TaskAgent[SceneSummary, StructuringPlan]):
     name: ClassVar[str] = "manager"
     prompt: ClassVar[str] = "manager"
     output_type: ClassVar[type[BaseModel]] = StructuringPlan
+    reply_tokens: ClassVar[tuple[int, int] | None] = (700, 0)
 
     def __init__(self, agents: AgentList | None = None, priors: SupportPriors | None = None) -> None:
         self.agents: tuple[TaskAgent[Any, Any], ...] = tuple(agents if agents is not None else DEFAULT_AGENTS)

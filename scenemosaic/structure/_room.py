@@ -341,6 +341,7 @@ class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
     depends_on: ClassVar[tuple[str, ...]] = ()
     prompt: ClassVar[str] = "room"
     output_type: ClassVar[type[BaseModel]] = RoomOutput
+    reply_tokens: ClassVar[tuple[int, int] | None] = (700, 25)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"center", "size", "parent", "relation", "bottom"})
     prompt_extra: ClassVar[frozenset[str]] = frozenset({"extent"})
 

@@ -259,6 +259,7 @@ class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutp
     depends_on: ClassVar[tuple[str, ...]] = ("room", "support")
     prompt: ClassVar[str] = "semantics"
     output_type: ClassVar[type[BaseModel]] = SemanticsOutput
+    reply_tokens: ClassVar[tuple[int, int] | None] = (200, 70)
     chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
     items_field: ClassVar[str | None] = "objects"
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation"})

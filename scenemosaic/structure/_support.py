@@ -407,6 +407,7 @@ class SupportAgent(FloorPlanImages, TaskAgent[SupportEvidence, SupportOutput]):
     depends_on: ClassVar[tuple[str, ...]] = ("room",)
     prompt: ClassVar[str] = "support"
     output_type: ClassVar[type[BaseModel]] = SupportOutput
+    reply_tokens: ClassVar[tuple[int, int] | None] = (200, 45)
     chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
     items_field: ClassVar[str | None] = "assignments"
 

@@ -219,6 +219,7 @@ class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
     runs_last: ClassVar[bool] = True
     prompt: ClassVar[str] = "verify"
     output_type: ClassVar[type[BaseModel]] = VerificationOutput
+    reply_tokens: ClassVar[tuple[int, int] | None] = (400, 20)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"top", "relation", "label"})
 
     def gather(self, state: SceneState) -> VerificationEvidence:

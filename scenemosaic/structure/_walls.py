@@ -138,6 +138,7 @@ class WallAttachmentAgent(FloorPlanImages, TaskAgent[WallEvidence, WallOutput]):
     depends_on: ClassVar[tuple[str, ...]] = ("room", "support")
     prompt: ClassVar[str] = "walls"
     output_type: ClassVar[type[BaseModel]] = WallOutput
+    reply_tokens: ClassVar[tuple[int, int] | None] = (200, 40)
     chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
     items_field: ClassVar[str | None] = "items"
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation"})

@@ -64,3 +64,23 @@ async def test_a_chunk_that_stays_wrong_falls_back_alone() -> None:
     [record] = state.fallbacks
     assert record.agent == "support" and "rule solver for 5 objects" in record.reason
     assert state.outcomes["support"].repairs == 2  # the bad chunk was sent back twice first
+
+
+async def test_the_reply_cap_follows_the_objects_asked_about() -> None:
+    """A reply may take ``base + per_object x objects`` tokens, never more than the run's cap: a
+    small model that starts repeating itself is cut there, not at the run's 2048."""
+    import json
+
+    from llm_fakes import FakeServer, chat_reply
+
+    from scenemosaic.models import ModelSettings
+
+    state = await _roomed()
+    answer = SupportAgent().solve(SupportAgent().gather(state))
+    server = FakeServer(chat_reply(json.loads(answer.model_dump_json())))
+    model, _ = server.model()
+    await SupportAgent().run(state, model, ModelSettings(max_tokens=4000))
+    base, per_object = SupportAgent.reply_tokens or (0, 0)
+    assert server.bodies[0]["max_tokens"] == base + per_object * 22
+    capped = SupportAgent().reply_settings(ModelSettings(max_tokens=300), SupportAgent().gather(state))
+    assert capped is not None and capped.max_tokens == 300  # the run's cap is never raised
