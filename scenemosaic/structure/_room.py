@@ -351,6 +351,15 @@ class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
     def solve(self, evidence: RoomEvidence) -> RoomOutput:
         return solve_room(evidence)
 
+    def needs_model(self, evidence: RoomEvidence) -> bool:
+        """Not for an input room that already holds every object and has its walls and a ceiling
+        above everything: there is nothing to decide, and copying a polygon is no model's job."""
+        r = evidence.room
+        if r is None or not r.walls:
+            return True
+        answer = solve_room(evidence)
+        return not (answer.kept_input and not answer.shifts and answer.ceiling_height == r.ceiling_height)
+
     def check(self, output: RoomOutput, state: SceneState) -> list[str]:
         problems: list[str] = []
         poly = Polygon(output.floor)

@@ -30,10 +30,12 @@ def test_the_report_breaks_the_structuring_down_per_agent(tmp_path: Path) -> Non
     report = json.loads((tmp_path / "report.json").read_text(encoding="utf-8"))
     [structure] = [s for s in report["stages"] if s["name"] == "structure"]
     agents = structure["detail"]["agents"]
-    assert agents["room"] == {
+    assert agents["walls"] == {
         "answered_by": "model", "requests": 1, "repairs": 0, "valid_first_time": True,
         "input_tokens": 0, "output_tokens": 0,
     }  # a FunctionModel reports no tokens
+    # the input room already holds everything: nothing to decide, no call
+    assert agents["room"]["answered_by"] == "solver_without_call" and "room" not in asked
     assert agents["support"]["answered_by"] == "model" and agents["support"]["repairs"] == 1
     assert agents["support"]["requests"] == 2 and not agents["support"]["valid_first_time"]
     assert agents["attributes"]["answered_by"] == "solver_fallback" and agents["attributes"]["requests"] == 3
