@@ -606,7 +606,8 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
 
     async def _fall_back(self, evidence: EvidenceT, state: SceneState, reason: str, problems: list[str]) -> OutputT:
         def fall_back() -> OutputT:
-            output = self.solve(evidence)
+            # the scene as it is now: agents running beside this one may have changed it meanwhile
+            output = self.solve(self.gather(state))
             self._require_usable(output, state, problems)
             self._apply_output(output, state)
             state.fallbacks.append(FallbackRecord(agent=self.name, reason=reason[:500]))

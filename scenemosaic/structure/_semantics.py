@@ -285,6 +285,7 @@ class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutp
 
     def check(self, output: SemanticsOutput, state: SceneState) -> list[str]:
         ids = {o.id for o in state.scene.objects}
+        cats = {o.id: o.category for o in state.scene.objects}
         problems: list[str] = []
         seen: set[str] = set()
         for item in output.objects:
@@ -293,6 +294,12 @@ class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutp
             if item.object_id in seen:
                 problems.append(f"object {item.object_id!r} is listed twice")
             seen.add(item.object_id)
+            current = cats.get(item.object_id)
+            if current is not None and normalize_category(item.category) != normalize_category(current):
+                problems.append(
+                    f"{item.object_id!r} is a {normalize_category(current)}, not a {item.category}: keep its "
+                    f"category (only a variant spelling of it may change, e.g. {normalize_category(current)!r})"
+                )
             if item.front_ok and abs(item.yaw_fix_deg) > 1e-9:
                 problems.append(
                     f"{item.object_id!r}: front_ok is true but yaw_fix_deg is {item.yaw_fix_deg:g}; "

@@ -372,3 +372,20 @@ async def test_manager_rejects_a_plan_without_support(priors: Any) -> None:
     bad = {"agents": [{"name": "room"}, {"name": "verify"}]}
     with pytest.raises(AgentOutputError, match="support"):
         await ManagerAgent(priors=priors).run(state, _scripted({"manager": bad}, []))
+
+
+async def test_semantics_rejects_a_renamed_category(priors: Any) -> None:
+    """A model may fix a category's spelling, not turn a pendant lamp into a bed (a later agent
+    would then weigh it as one)."""
+    scene = Scene(room=Room.rectangle(0, 0, 4, 4), objects=[
+        box("lamp", "Pendant Lamp", (0.4, 0.4, 0.4), (2.0, 2.0, 2.2)),
+        box("bed", "double_bed", (1.6, 2.0, 0.5), (2.0, 1.5, 0.0)),
+    ])
+    state = SceneState(scene)
+    await run_chain(state, [RoomAgent(), SupportAgent(priors)])
+    renamed = {"objects": [{"object_id": "lamp", "category": "double_bed"}, {"object_id": "bed", "category": "double_bed"}]}
+    with pytest.raises(AgentOutputError, match="keep its category"):
+        await SemanticsAgent().run(state, _scripted({"semantics": renamed}, []))
+    respelled = {"objects": [{"object_id": "lamp", "category": "pendant_lamp"}, {"object_id": "bed", "category": "double_bed"}]}
+    await SemanticsAgent().run(state, _scripted({"semantics": respelled}, []))
+    assert state.scene.get("lamp").category == "pendant_lamp"
