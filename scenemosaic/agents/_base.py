@@ -219,6 +219,21 @@ class SceneState:
     lock: asyncio.Lock = field(default_factory=asyncio.Lock)
 
 
+REPAIR_ECHO_CHARS = 6000
+"""A rejected reply is quoted back at most this long (a runaway reply would fill the context)."""
+
+
+def _repair(prompt: list[Message], reply: str, intro: str, problems: list[str]) -> list[Message]:
+    """The request that asks again: the original prompt, the last reply, what is wrong with it.
+    Earlier failed tries are not repeated, so repairs do not make the prompt grow."""
+    quoted = reply if len(reply) <= REPAIR_ECHO_CHARS else reply[:REPAIR_ECHO_CHARS] + " ...(cut)"
+    return [
+        *prompt,
+        Message.text("assistant", quoted),
+        Message.text("user", intro + "\n- " + "\n- ".join(problems[:20]) + "\nReply again with only the corrected JSON object."),
+    ]
+
+
 def _recoverable(exc: ModelError) -> bool:
     """Whether a model failure is the model's (fall back) rather than the user's set-up (raise)."""
     if isinstance(exc, ReplayMissError | ModelConfigError):
@@ -393,6 +408,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         schema_error: OutputValidationError | None = None
         compacted = False
         asked = repairs = 0
+        prompt = messages  # a repair sends this with the last reply and its problems, not every try
 
         def fell_back(reason: str) -> None:
             state.outcomes[self.name] = AgentOutcome(self.name, "solver_fallback", asked, repairs, reason[:300])
@@ -413,7 +429,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                     _log.warning("agent_prompt_compacted", agent=self.name, reason=str(exc)[:200])
                     async with state.lock:
                         compact = functools.partial(self.compact_messages, vision=model.vision)
-                        messages = await run_blocking(compact, evidence, state, offload=self.offload)
+                        messages = prompt = await run_blocking(compact, evidence, state, offload=self.offload)
                     problems = [f"the prompt did not fit the model's context: {exc}"]
                     continue
                 if not policy.solver_fallback:
@@ -438,13 +454,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                 intro = "That answer cannot be applied to this scene:"
             if attempt + 1 < policy.max_attempts:
                 repairs += 1
-                messages = [
-                    *messages,
-                    Message.text("assistant", reply),
-                    Message.text(
-                        "user", intro + "\n- " + "\n- ".join(problems) + "\nReply again with only the corrected JSON object."
-                    ),
-                ]
+                messages = _repair(prompt, reply, intro, problems)
         reason = f"unusable after {policy.max_attempts} attempts: " + "; ".join(problems)
         if policy.solver_fallback:
             fell_back(reason)
@@ -502,7 +512,10 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
             others = [i for i in self._items(base) if getattr(i, "object_id", None) not in wanted]
             mine = [i for i in self._items(base) if getattr(i, "object_id", None) in wanted]
             async with state.lock:
-                messages = await run_blocking(functools.partial(self.messages, vision=model.vision), part, state, offload=self.offload)
+                prompt = await run_blocking(
+                    functools.partial(self.messages, vision=model.vision), part, state, offload=self.offload
+                )
+            messages = prompt
             context = RequestContext(agent=self.name, node=node or self.name, evidence=part)
             part_settings = self.reply_settings(settings, part)
             answer: list[Any] | None = None
@@ -534,14 +547,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                     intro = "That answer cannot be applied to this scene:"
                 if attempt + 1 < policy.max_attempts:
                     repairs += 1
-                    messages = [
-                        *messages,
-                        Message.text("assistant", reply),
-                        Message.text(
-                            "user",
-                            intro + "\n- " + "\n- ".join(problems) + "\nReply again with only the corrected JSON object.",
-                        ),
-                    ]
+                    messages = _repair(prompt, reply, intro, problems)
             if answer is None:
                 if not policy.solver_fallback:
                     raise AgentOutputError(

@@ -74,8 +74,10 @@ async def test_repair_gives_up_after_the_limit_with_the_raw_reply() -> None:
     assert any(e.startswith("notes:") for e in info.value.errors)
     assert any("should_modify" in e for e in info.value.errors)
     assert "critic" in str(info.value)
-    # Each repair request carries the whole conversation so far.
-    assert [len(b["messages"]) for b in server.bodies] == [2, 4, 6]
+    # Each repair request carries the prompt, the last reply and its problems: it does not grow.
+    assert [len(b["messages"]) for b in server.bodies] == [2, 4, 4]
+    assert server.bodies[2]["messages"][2]["content"] == '{"should_modify": "maybe"}'
+    assert "should_modify" in server.bodies[2]["messages"][3]["content"]
 
 
 async def test_function_model_prose_reply_is_repaired() -> None:
