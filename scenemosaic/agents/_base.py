@@ -319,7 +319,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         current = settings or ModelSettings()
         if current.max_tokens is not None:
             cap = min(cap, current.max_tokens)
-        return dataclasses.replace(current, max_tokens=cap)
+        return dataclasses.replace(current, max_tokens=cap, retry_truncated=False)
 
     def needs_model(self, evidence: EvidenceT) -> bool:
         """Whether ``evidence`` leaves the model anything to decide (default: always).

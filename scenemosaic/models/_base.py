@@ -67,6 +67,10 @@ class ModelSettings:
     """Sampling temperature; 0 for reproducible structured answers."""
     max_tokens: int | None = 2048
     """Cap on output tokens. A reply cut at this cap is treated as truncated, never as valid."""
+    retry_truncated: bool = True
+    """Ask once more with twice ``max_tokens`` when a reply is cut at the cap. Off for a cap sized
+    to the answer (an agent's ``reply_tokens``): a reply that outgrows it is a model repeating
+    itself, and the agent's repair asks for a shorter answer instead."""
     timeout_s: float | None = None
     """Time-out of each HTTP attempt in seconds; ``None`` (the default) means the model's own
     (``OpenAIChatModel(timeout_s=...)``, else 120 s). A value set here wins over the model's;

@@ -505,7 +505,7 @@ class OpenAIChatModel(CompletionModel):
                 if finish != "length":
                     return Completion(text=text, usage=spent.usage)
                 cap = body.get(self.max_tokens_field)
-                if cap is None or doubled:
+                if cap is None or doubled or not settings.retry_truncated:
                     return Completion(text=text, usage=spent.usage, truncated=True)
                 log.info(
                     "reply truncated; retrying with a doubled token cap",

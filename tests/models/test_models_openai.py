@@ -286,6 +286,17 @@ async def test_truncated_even_when_doubled_is_never_accepted() -> None:
     assert [b["max_tokens"] for b in server.bodies] == [8, 16]
 
 
+async def test_a_cap_sized_to_the_answer_is_not_doubled() -> None:
+    """``retry_truncated=False`` (an agent's own reply cap): a cut reply goes straight back as an
+    invalid reply the agent repairs ("answer more briefly"), without a second, longer request."""
+    server = FakeServer(chat_reply('{"should_modify": true, "notes": ["a', finish="length"))
+    model, _ = server.model()
+    with pytest.raises(OutputValidationError) as info:
+        await model.request(user_messages(), Verdict, ModelSettings(max_tokens=50, retry_truncated=False), context=CTX)
+    assert any("cut off" in e for e in info.value.errors)
+    assert [b["max_tokens"] for b in server.bodies] == [50]
+
+
 async def test_owned_client_is_closed_and_injected_client_is_not() -> None:
     server = FakeServer(chat_reply(VALID), chat_reply(VALID))
     model, _ = server.model()
