@@ -51,6 +51,7 @@ __all__ = [
     "SemanticsOutput",
     "front_problem",
     "rotate_subtree",
+    "same_kind",
 ]
 
 WALL_FACING_REACH = 0.3
@@ -179,6 +180,14 @@ def _describe(o: ObjectFacts) -> str:
     return f"{normalize_category(o.category).replace('_', ' ')}, {w:.2f} x {d:.2f} x {h:.2f} m{where}"
 
 
+def same_kind(old: str, new: str) -> bool:
+    """Whether ``new`` names the same kind of thing as ``old``: the same normalized category, or a
+    more general or more specific name sharing a word (``work_desk`` -> ``desk``), never another
+    thing (``pendant_lamp`` -> ``double_bed``)."""
+    a, b = normalize_category(old), normalize_category(new)
+    return a == b or bool(set(a.split("_")) & set(b.split("_")))
+
+
 def front_problem(category: str, f: FrontFacts | None) -> Literal["faces_wall", "seat_away"] | None:
     """What is wrong with an object's front by the evidence, if anything: wall furniture whose
     front is turned to the wall right behind it, or a seat with its back to its table."""
@@ -295,10 +304,10 @@ class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutp
                 problems.append(f"object {item.object_id!r} is listed twice")
             seen.add(item.object_id)
             current = cats.get(item.object_id)
-            if current is not None and normalize_category(item.category) != normalize_category(current):
+            if current is not None and not same_kind(current, item.category):
                 problems.append(
                     f"{item.object_id!r} is a {normalize_category(current)}, not a {item.category}: keep its "
-                    f"category (only a variant spelling of it may change, e.g. {normalize_category(current)!r})"
+                    f"category (a spelling or a more general name of the same thing, e.g. {normalize_category(current)!r})"
                 )
             if item.front_ok and abs(item.yaw_fix_deg) > 1e-9:
                 problems.append(

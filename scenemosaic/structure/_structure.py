@@ -105,10 +105,28 @@ async def structure_scene(
             raise cause from exc
         raise
     finally:
+        rank = {name: i for i, name in enumerate(["manager", *(a.name for a in available)])}
         if fallbacks is not None:
-            fallbacks.extend(state.fallbacks)
+            fallbacks.extend(sorted(state.fallbacks, key=lambda f: rank.get(f.agent, len(rank))))
         if outcomes is not None:
             outcomes.update(state.outcomes)
-    out = state.scene
-    steps = [*out.provenance.steps, "structure"]
-    return out.model_copy(update={"provenance": out.provenance.model_copy(update={"steps": steps})})
+    return _canonical(state.scene, notes_before=len(scene.provenance.notes), rank=rank)
+
+
+_KIND_ORDER = {"attach": 0, "contain": 1, "against": 2, "faces": 3, "beside": 4}
+
+
+def _canonical(out: Scene, *, notes_before: int, rank: dict[str, int]) -> Scene:
+    """The structured scene in an order that does not depend on which concurrent agent finished
+    first (a replayed run answers at once, a live one in the server's time): relations by object,
+    then kind, then parent; the notes of this run grouped by agent in the plan's order."""
+    index = {o.id: i for i, o in enumerate(out.objects)}
+    relations = sorted(
+        out.relations, key=lambda r: (index.get(r.child, len(index)), _KIND_ORDER.get(r.kind, 9), r.parent)
+    )
+    notes = out.provenance.notes
+    ours = sorted(notes[notes_before:], key=lambda n: rank.get(n.split(":", 1)[0], len(rank)))
+    provenance = out.provenance.model_copy(
+        update={"steps": [*out.provenance.steps, "structure"], "notes": [*notes[:notes_before], *ours]}
+    )
+    return out.model_copy(update={"relations": relations, "provenance": provenance})
