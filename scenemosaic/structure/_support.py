@@ -347,6 +347,29 @@ def solve_support(evidence: SupportEvidence, priors: SupportPriors) -> SupportOu
     return SupportOutput(assignments=out)
 
 
+def _anchor_problem(child: ObjectFacts, parent: str, scene: Scene, priors: SupportPriors) -> str | None:
+    """Why ``child`` cannot have the room anchor ``parent`` (floor, ceiling, a wall), if it cannot:
+    only ceiling fixtures hang from the ceiling (and are never left on the floor), and nothing
+    that stands on the floor or rests low hangs on a wall."""
+    placement = traits(child.category).placement
+    if parent == CEILING and placement != "ceiling":
+        height = scene.room.ceiling_height if scene.room is not None else None
+        near_top = height is not None and child.top >= height - 0.3
+        if floor_only(child, priors) or is_known(child.category) or not near_top:
+            return (
+                f"{child.id!r} ({child.category}) does not hang from the ceiling (only ceiling lamps and "
+                "fixtures do); give it the floor, a wall or the object it rests on"
+            )
+    if parent == FLOOR and placement == "ceiling":
+        return f"{child.id!r} ({child.category}) hangs from the ceiling: give it parent \"ceiling\", even if it sits low"
+    if scene.anchor_kind(parent) == "wall" and (floor_only(child, priors) or child.bottom <= MOUNT_MIN_HEIGHT):
+        return (
+            f"{child.id!r} ({child.category}) stands on the floor or on furniture, it does not hang on "
+            f"{parent!r}; a wall parent is for things mounted above the floor (pictures, wall shelves)"
+        )
+    return None
+
+
 def check_parents(
     pairs: Sequence[tuple[str, str, str]], state: SceneState, priors: SupportPriors, *, complete: bool
 ) -> list[str]:
@@ -378,6 +401,9 @@ def check_parents(
             problems.append(f"object {child!r} cannot support itself")
             continue
         parents[child] = parent
+        why_anchor = _anchor_problem(facts[child], parent, scene, priors)
+        if why_anchor:
+            problems.append(why_anchor)
         if parent in facts:
             why = supports_ok(facts[child], facts[parent], priors)
             if why:

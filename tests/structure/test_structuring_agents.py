@@ -389,3 +389,25 @@ async def test_semantics_rejects_a_renamed_category(priors: Any) -> None:
     respelled = {"objects": [{"object_id": "lamp", "category": "pendant_lamp"}, {"object_id": "bed", "category": "double_bed"}]}
     await SemanticsAgent().run(state, _scripted({"semantics": respelled}, []))
     assert state.scene.get("lamp").category == "pendant_lamp"
+
+
+async def test_support_rejects_furniture_hung_from_the_ceiling_or_a_wall(priors: Any) -> None:
+    """A small model once hung a bed, a shelf and a wardrobe from the ceiling: refused, with what to do."""
+    scene = Scene(room=Room.rectangle(0, 0, 4, 4, ceiling_height=2.7), objects=[
+        box("bed", "double_bed", (1.6, 2.0, 0.5), (2.0, 1.5, 0.0)),
+        box("wardrobe", "wardrobe", (1.2, 0.6, 2.0), (3.0, 3.65, 0.0)),
+        box("lamp", "pendant_lamp", (0.4, 0.4, 0.4), (2.0, 2.0, 2.3)),
+    ])
+    state = SceneState(scene)
+    await RoomAgent().run(state, RulesModel())
+    wrong = {"assignments": [
+        {"object_id": "bed", "parent": "ceiling"},
+        {"object_id": "wardrobe", "parent": "wall_2"},
+        {"object_id": "lamp", "parent": "floor"},
+    ]}
+    with pytest.raises(AgentOutputError) as info:
+        await SupportAgent(priors).run(state, _scripted({"support": wrong}, []))
+    problems = " ".join(info.value.problems)
+    assert "'bed' (double_bed) does not hang from the ceiling" in problems
+    assert "'wardrobe' (wardrobe) stands on the floor" in problems
+    assert "'lamp' (pendant_lamp) hangs from the ceiling" in problems
