@@ -436,13 +436,13 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                     raise
                 reason = f"{type(exc).__name__}: {exc}"
                 fell_back(reason)
-                return await self._fall_back(evidence, state, reason, problems), total
+                return await self._fall_back(state, reason, problems), total
             except ModelError as exc:
                 if not (policy.solver_fallback and _recoverable(exc)):
                     raise
                 reason = f"{type(exc).__name__}: {exc}"
                 fell_back(reason)
-                return await self._fall_back(evidence, state, reason, problems), total
+                return await self._fall_back(state, reason, problems), total
             else:
                 total = total + usage
                 async with state.lock:
@@ -458,7 +458,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         reason = f"unusable after {policy.max_attempts} attempts: " + "; ".join(problems)
         if policy.solver_fallback:
             fell_back(reason)
-            return await self._fall_back(evidence, state, reason, problems), total
+            return await self._fall_back(state, reason, problems), total
         if schema_error is not None:  # the last reply was not even schema-valid: say so, with it
             raise schema_error
         raise AgentOutputError(f"agent {self.name!r} gave an {reason}", agent=self.name, problems=problems)
@@ -564,7 +564,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         if problems:  # chunks that each fit, together do not (a cycle across chunks): the solver
             reason = "chunk answers inconsistent together: " + "; ".join(problems)
             state.outcomes[self.name] = AgentOutcome(self.name, "solver_fallback", asked, repairs, reason[:300])
-            return await self._fall_back(evidence, state, reason, problems), total
+            return await self._fall_back(state, reason, problems), total
         if failed:
             reason = "rule solver for " + ", ".join(failed)
             state.fallbacks.append(FallbackRecord(agent=self.name, reason=reason[:500]))
@@ -610,7 +610,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                 problems=model_problems + solver_problems,
             )
 
-    async def _fall_back(self, evidence: EvidenceT, state: SceneState, reason: str, problems: list[str]) -> OutputT:
+    async def _fall_back(self, state: SceneState, reason: str, problems: list[str]) -> OutputT:
         def fall_back() -> OutputT:
             # the scene as it is now: agents running beside this one may have changed it meanwhile
             output = self.solve(self.gather(state))
