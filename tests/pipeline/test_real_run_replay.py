@@ -1,0 +1,64 @@
+"""A run recorded against the real llama.cpp server replays byte for byte with no server at all.
+
+The cassette in ``tests/fixtures/cassettes/`` was recorded by ``benchmarks/real_model.py``
+against the shared server (Qwen2.5-Coder-0.5B, 4,096-token context, text only); its companion
+``*.expected.json`` holds what that live run wrote: the SHA-256 of every file of its ``base/``
+folder and how each agent was answered. Replaying (``--model replay:<cassette>``) must reproduce
+all of it: the same replies, the same repairs, the same fallbacks, the same bytes. A change to a
+prompt or to the evidence changes the requests, and the replay then stops with a
+``ReplayMissError`` naming what differs: re-record with the server (see the benchmark).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from scenemosaic.cli import app
+
+REPO = Path(__file__).resolve().parents[2]
+CASSETTES = REPO / "tests" / "fixtures" / "cassettes"
+RECORDED = sorted(CASSETTES.glob("real_*.expected.json"))
+
+
+def _digests(folder: Path) -> dict[str, str]:
+    return {
+        p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+@pytest.mark.parametrize("expected_file", RECORDED, ids=lambda p: p.name.split(".")[0])
+def test_a_recorded_real_run_replays_byte_for_byte(expected_file: Path, tmp_path: Path) -> None:
+    expected = json.loads(expected_file.read_text(encoding="utf-8"))
+    cassette = CASSETTES / expected["cassette"]
+    source = REPO / expected["input"]
+    runs = []
+    for name in ("first", "second"):
+        out = tmp_path / name
+        result = CliRunner().invoke(
+            app,
+            ["generate", str(source), "--out", str(out), "--no-vision", "--model", f"replay:{cassette}"],
+        )
+        assert result.exit_code == 0, result.output
+        runs.append(out)
+    report = json.loads((runs[0] / "report.json").read_text(encoding="utf-8"))
+    agents = next(s for s in report["stages"] if s["name"] == "structure")["detail"]["agents"]
+    assert {k: v["answered_by"] for k, v in agents.items()} == expected["answered_by"]
+    assert {k: v["requests"] for k, v in agents.items()} == expected["requests"]
+    assert _digests(runs[0] / "base") == expected["base_sha256"]  # what the live run wrote
+    assert _digests(runs[1] / "base") == expected["base_sha256"]  # and again
+
+
+def test_a_recording_is_shipped() -> None:
+    assert RECORDED, f"no recorded real run in {CASSETTES}"
+    for expected_file in RECORDED:
+        expected = json.loads(expected_file.read_text(encoding="utf-8"))
+        cassette = json.loads((CASSETTES / expected["cassette"]).read_text(encoding="utf-8"))
+        assert list(cassette["models"]) == ["openai:qwen2.5-coder-0.5b-instruct"]  # the real server's model
+        assert any(e.get("reply") for e in cassette["entries"].values())  # it did answer usably
