@@ -4,8 +4,10 @@ This is the lowest layer: it imports nothing from the rest of scenemosaic but
 ``scenemosaic.exceptions``. It owns the domain vocabulary every other layer shares: one
 category normalization (:func:`normalize_category`, :func:`traits`), the ProcTHOR priors the
 agents and importers read (package data, :func:`load_priors`, :func:`procthor_asset_database`),
-one room recovery (:func:`recover_room`) and one rigid "move with descendants"
-(:func:`with_unit_layout` / :func:`move_with_descendants`). It also owns the rules every input
+one room recovery (:func:`recover_room`), one rigid "move with descendants"
+(:func:`with_unit_layout` / :func:`move_with_descendants`), the planar convex geometry both the
+agents and physics use (:func:`convex_hull_2d`, :func:`sat_overlap`...) and one test of
+furniture standing inside furniture (:func:`nested_pairs`). It also owns the rules every input
 must keep: the limits on sizes, positions and counts (``MAX_OBJECTS``, ``MAX_COORDINATE``...),
 the one id sanitization (:func:`sanitize_id`, :func:`unique_id`) and the one file confinement
 check (:func:`confined_path`).
