@@ -26,12 +26,18 @@ CASSETTES = REPO / "tests" / "fixtures" / "cassettes"
 RECORDED = sorted(CASSETTES.glob("real_*.expected.json"))
 
 
-def _digests(folder: Path) -> dict[str, str]:
-    return {
-        p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
-        for p in sorted(folder.rglob("*"))
-        if p.is_file()
-    }
+def _digests(folder: Path, source: Path) -> dict[str, str]:
+    """SHA-256 per file; ``scene.json`` records where its input was read, so that path is written
+    ``<input>`` first (the live run read the same file from another checkout)."""
+    out: dict[str, str] = {}
+    for p in sorted(folder.rglob("*")):
+        if not p.is_file():
+            continue
+        data = p.read_bytes()
+        if p.name == "scene.json" and p.parent == folder:
+            data = data.replace(source.as_posix().encode("utf-8"), b"<input>")
+        out[p.relative_to(folder).as_posix()] = hashlib.sha256(data).hexdigest()
+    return out
 
 
 @pytest.mark.parametrize("expected_file", RECORDED, ids=lambda p: p.name.split(".")[0])
@@ -52,7 +58,7 @@ def test_a_recorded_real_run_replays_byte_for_byte(expected_file: Path, tmp_path
     agents = next(s for s in report["stages"] if s["name"] == "structure")["detail"]["agents"]
     assert {k: v["answered_by"] for k, v in agents.items()} == expected["answered_by"]
     assert {k: v["requests"] for k, v in agents.items()} == expected["requests"]
-    first, second = _digests(runs[0] / "base"), _digests(runs[1] / "base")
+    first, second = _digests(runs[0] / "base", source), _digests(runs[1] / "base", source)
     assert first == second  # every file, byte for byte, run after run
     assert set(first) == set(expected["base_sha256"])
     # what the live run wrote: the scene and its SceneEval state are our own bytes (the GLB and the
