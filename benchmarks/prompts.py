@@ -94,7 +94,7 @@ async def prompt_sizes(scene: Scene, count: Counter) -> tuple[dict[str, int], in
         ready = [a for a in pending if set(deps[a.name]) <= done]
         for agent in ready:
             evidence = agent.gather(state)
-            if agent.needs_model(evidence):
+            if agent.answer_without_model(evidence) is None:
                 parts = agent.split(evidence, agent.chunk_size) if agent.chunk_size else [([], evidence)]
                 sizes[agent.name] = max(count(agent.messages(part, state, vision=False)) for _, part in parts)
                 chunks[agent.name] = len(parts)

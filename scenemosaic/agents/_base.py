@@ -185,7 +185,7 @@ class AgentOutcome:
 
     ``answered_by``: ``rules`` (the offline model: the solver), ``model`` (a model reply, perhaps
     after repairs), ``solver_without_call`` (the evidence left nothing to decide, see
-    :meth:`TaskAgent.needs_model`) or ``solver_fallback`` (the model's replies stayed unusable or
+    :meth:`TaskAgent.answer_without_model`) or ``solver_fallback`` (the model's replies stayed unusable or
     it failed; ``reason`` says why). ``requests``: model requests made; ``repairs``: replies
     sent back with their problems (a reply used at the first request has 0).
     """
@@ -321,14 +321,14 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
             cap = min(cap, current.max_tokens)
         return dataclasses.replace(current, max_tokens=cap, retry_truncated=False)
 
-    def needs_model(self, evidence: EvidenceT) -> bool:
-        """Whether ``evidence`` leaves the model anything to decide (default: always).
+    def answer_without_model(self, evidence: EvidenceT) -> OutputT | None:
+        """The answer when ``evidence`` leaves a model nothing to decide, else ``None`` (default).
 
-        An agent whose evidence holds nothing to decide (a verification pass with nothing
-        to fix) returns ``False``: it then answers with :meth:`solve` without a request,
-        which keeps a model run's critical path short. The answer is still checked.
+        An agent whose evidence holds nothing to decide (a verification pass with nothing to
+        fix) returns its rule solver's answer here: it is then used without a request, which
+        keeps a model run's critical path short. The answer is still checked.
         """
-        return True
+        return None
 
     def images(self, evidence: EvidenceT, state: SceneState) -> list[ImagePart]:
         """Images to send to vision models (none by default)."""
@@ -391,12 +391,12 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
             state.outcomes[self.name] = AgentOutcome(self.name, "rules")
             return answer, Usage()
         async with state.lock:
-            evidence, messages = await run_blocking(self._prepare, state, model.vision, offload=self.offload)
-            if not self.needs_model(evidence):  # nothing to decide: the solver's answer, checked, no call
+            evidence, messages, settled = await run_blocking(self._prepare, state, model.vision, offload=self.offload)
+            if settled is not None:  # nothing to decide: the solver's answer, checked, no call
                 _log.info("agent_answered_without_model", agent=self.name)
-                answer = await run_blocking(self._solve_and_apply, state, offload=self.offload)
+                await run_blocking(self._use, settled, state, offload=self.offload)
                 state.outcomes[self.name] = AgentOutcome(self.name, "solver_without_call")
-                return answer, Usage()
+                return settled, Usage()
             chunks = self._chunks(evidence)
         if len(chunks) > 1:
             return await self._run_chunked(state, model, settings, evidence, chunks, node=node)
@@ -501,7 +501,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         """Ask for each chunk of objects in turn; each chunk's answer is checked in the context of
         the whole scene (the rule solver's answer stands in for the other chunks), repaired within
         the attempt budget, and replaced by the solver's part when it stays unusable."""
-        base = self.solve(evidence)
+        base = await run_blocking(self.solve, evidence, offload=self.offload)
         policy = state.policy
         total = Usage()
         kept: list[Any] = []
@@ -581,13 +581,19 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
 
     def _solve_and_apply(self, state: SceneState) -> OutputT:
         output = self.solve(self.gather(state))
-        self._require_usable(output, state, [])
-        self._apply_output(output, state)
+        self._use(output, state)
         return output
 
-    def _prepare(self, state: SceneState, vision: bool) -> tuple[EvidenceT, list[Message]]:
+    def _prepare(self, state: SceneState, vision: bool) -> tuple[EvidenceT, list[Message], OutputT | None]:
         evidence = self.gather(state)
-        return evidence, self.messages(evidence, state, vision=vision)
+        settled = self.answer_without_model(evidence)
+        messages = self.messages(evidence, state, vision=vision) if settled is None else []
+        return evidence, messages, settled
+
+    def _use(self, output: OutputT, state: SceneState) -> None:
+        """Check and apply a solver answer (caller holds the lock)."""
+        self._require_usable(output, state, [])
+        self._apply_output(output, state)
 
     def _apply_output(self, output: OutputT, state: SceneState) -> None:
         self.apply(output, state)

@@ -351,14 +351,15 @@ class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
     def solve(self, evidence: RoomEvidence) -> RoomOutput:
         return solve_room(evidence)
 
-    def needs_model(self, evidence: RoomEvidence) -> bool:
-        """Not for an input room that already holds every object and has its walls and a ceiling
+    def answer_without_model(self, evidence: RoomEvidence) -> RoomOutput | None:
+        """The kept input room when it already holds every object and has its walls and a ceiling
         above everything: there is nothing to decide, and copying a polygon is no model's job."""
         r = evidence.room
         if r is None or not r.walls:
-            return True
+            return None
         answer = solve_room(evidence)
-        return not (answer.kept_input and not answer.shifts and answer.ceiling_height == r.ceiling_height)
+        unchanged = answer.kept_input and not answer.shifts and answer.ceiling_height == r.ceiling_height
+        return answer if unchanged else None
 
     def check(self, output: RoomOutput, state: SceneState) -> list[str]:
         problems: list[str] = []

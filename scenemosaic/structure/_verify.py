@@ -238,10 +238,10 @@ class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
     def solve(self, evidence: VerificationEvidence) -> VerificationOutput:
         return solve_verification(evidence)
 
-    def needs_model(self, evidence: VerificationEvidence) -> bool:
-        """Only when the rule pass finds something to fix or report: a clean scene needs no call."""
+    def answer_without_model(self, evidence: VerificationEvidence) -> VerificationOutput | None:
+        """The rule pass's empty answer when it finds nothing to fix or report: a clean scene needs no call."""
         found = solve_verification(evidence)
-        return bool(found.fixes or found.moves or found.drop_constraints or found.problems)
+        return None if (found.fixes or found.moves or found.drop_constraints or found.problems) else found
 
     def check(self, output: VerificationOutput, state: SceneState) -> list[str]:
         scene = state.scene
