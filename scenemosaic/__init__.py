@@ -5,13 +5,13 @@ The names a notebook needs, in one place::
     import scenemosaic as sm
 
     scene = sm.load_scene("room.json")                    # 3D-FRONT, ProcTHOR, SAM3D, SceneEval or native
-    result = sm.generate("room.json", "out/room")         # import → structure → stabilize → export
+    result = sm.generate("room.json", "out/room")         # import → structure → stabilize → evolve → export
     print(sm.format_tree(result.scene))
 
 Everything else lives in the sub-packages, which follow the pipeline: ``scene`` (model, tree,
 categories, rooms), ``assets`` (meshes, CoACD hulls), ``render``, ``models`` (the VLM seam,
 usage), ``dag`` (task-graph runtime), ``agents`` (the task-agent framework), ``structure``
-(the structuring agents), ``physics``, ``exchange`` (every file format), ``pipeline``.
+(the structuring agents), ``physics``, ``evolve`` (the Critic-Actor stage), ``exchange`` (every file format), ``pipeline``.
 
 Names are loaded on first use, so ``import scenemosaic`` stays light (no MuJoCo, no CoACD).
 """
@@ -48,6 +48,7 @@ _EXPORTS: dict[str, str] = {
     "structure_scene": "scenemosaic.structure",
     "stabilize_scene": "scenemosaic.physics",
     "validate_scene": "scenemosaic.physics",
+    "evolve_scene": "scenemosaic.evolve",
     # agents and plugins
     "TaskAgent": "scenemosaic.agents",
     "AgentOutput": "scenemosaic.agents",
@@ -69,6 +70,7 @@ _EXPORTS: dict[str, str] = {
     "AgentOutputError": "scenemosaic.exceptions",
     "ModelError": "scenemosaic.exceptions",
     "PhysicsError": "scenemosaic.exceptions",
+    "ExpressionError": "scenemosaic.exceptions",
     "RunError": "scenemosaic.exceptions",
     # logging
     "configure_logging": "scenemosaic._logging",
@@ -79,6 +81,7 @@ __all__ = [
     "AgentOutput",
     "AgentOutputError",
     "CrossUnitConstraint",
+    "ExpressionError",
     "FunctionModel",
     "GenerateConfig",
     "GenerateResult",
@@ -106,6 +109,7 @@ __all__ = [
     "agenerate",
     "configure_logging",
     "demo_scene",
+    "evolve_scene",
     "format_tree",
     "generate",
     "load_scene",
@@ -120,8 +124,10 @@ __all__ = [
 if TYPE_CHECKING:  # what type checkers and IDEs see; at run time names load lazily
     from scenemosaic._logging import configure_logging
     from scenemosaic.agents import AgentOutput, SceneState, TaskAgent
+    from scenemosaic.evolve import evolve_scene
     from scenemosaic.exceptions import (
         AgentOutputError,
+        ExpressionError,
         ImportFormatError,
         ModelError,
         PhysicsError,

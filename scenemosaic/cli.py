@@ -196,8 +196,18 @@ def generate(
         str, typer.Option("--format", help="auto, native, front3d, procthor, holodeck, sam3d, sceneeval.")
     ] = "auto",
     variants: Annotated[
-        int, typer.Option("--variants", min=0, help="Number of diverse variants (m); not available yet: 0 only.")
+        int,
+        typer.Option(
+            "--variants", min=0, help="Number of diverse variants (m); above 0 the evolve stage also grows unit variants."
+        ),
     ] = 0,
+    evolve: Annotated[
+        bool, typer.Option("--evolve/--no-evolve", help="Refine every unit through the Critic-Actor loop (default on).")
+    ] = True,
+    rounds: Annotated[int, typer.Option("--rounds", min=1, help="Round cap of each layout's Critic-Actor loop.")] = 5,
+    save_views: Annotated[
+        bool, typer.Option("--save-views", help="Write each unit's view per round as PNG under OUT/evolve/.")
+    ] = False,
     model: Annotated[str, typer.Option("--model", help="rules | openai:<model>[@<base_url>] | replay:<cassette.json>")] = "rules",
     seed: Annotated[int, typer.Option("--seed", help="Run seed.")] = 0,
     room: Annotated[
@@ -265,6 +275,9 @@ def generate(
     config = GenerateConfig(
         format=format,
         variants=variants,
+        evolve=evolve,
+        evolve_rounds=rounds,
+        save_views=save_views,
         model=model,
         seed=seed,
         room=room,

@@ -13,6 +13,7 @@ Usage errors (the caller gave us something wrong) are kept apart from run errors
     │   ├── GraphDefinitionError        a task graph has a cycle, a missing dependency, a duplicate name
     │   │   └── GraphChangedError       a run store belongs to another graph definition
     │   ├── ModelConfigError            a model string or model setting is wrong (e.g. vision on a text-only server)
+    │   ├── ExpressionError             a pose expression is refused by the sandboxed evaluator
     │   └── MissingExtraError           an optional dependency is not installed (names the pip command)
     └── RunError                        something failed while running on valid input
         ├── NodeFailedError             a task-graph node failed after its retries
@@ -38,6 +39,7 @@ from typing import Any
 __all__ = [
     "AgentOutputError",
     "AssetError",
+    "ExpressionError",
     "GraphChangedError",
     "GraphDefinitionError",
     "ImportFormatError",
@@ -94,6 +96,19 @@ class ImportFormatError(UsageError, ValueError):
         super().__init__(f"{prefix}: {message}" if prefix else message)
         self.path = path
         self.field = field
+
+
+class ExpressionError(UsageError):
+    """A pose expression (``chair_0.center.u = table_0.bbox.max_u + 0.05``) is refused.
+
+    Raised by the sandboxed evaluator for anything outside the expression grammar, unknown ids,
+    objects that may not change, and values out of range; ``problems`` holds one message per
+    refused line, written to be sent back to the model (or shown to the user) as they are.
+    """
+
+    def __init__(self, message: str, *, problems: list[str] | None = None) -> None:
+        super().__init__(message)
+        self.problems = problems or [message]
 
 
 class AssetError(UsageError):

@@ -11,10 +11,13 @@ from typing import Any
 from pydantic import BaseModel
 
 from scenemosaic.agents import TaskAgent
+from scenemosaic.evolve import ActorAgent, ArchetypeAgent, CriticAgent, PoseAgent
 from scenemosaic.models import Message, RequestContext
 from scenemosaic.structure import DEFAULT_AGENTS, ManagerAgent
 
-SOLVERS: dict[str, TaskAgent[Any, Any]] = {a.name: a for a in (ManagerAgent(), *DEFAULT_AGENTS)}
+SOLVERS: dict[str, TaskAgent[Any, Any]] = {
+    a.name: a for a in (ManagerAgent(), *DEFAULT_AGENTS, CriticAgent(), ActorAgent(), ArchetypeAgent(), PoseAgent())
+}
 
 
 def solver_answer(messages: list[Message], context: RequestContext | None) -> BaseModel:

@@ -5,7 +5,12 @@ Entry points: :func:`stabilize_scene` (per local unit, top-down), :func:`check_c
 :mod:`scenemosaic.physics._settings`; the frames and settings are described in ``docs/physics.md``.
 """
 
-from scenemosaic.physics._checks import check_collisions, check_out_of_bounds
+from scenemosaic.physics._checks import (
+    check_collisions,
+    check_out_of_bounds,
+    collision_report_for,
+    require_finite_poses,
+)
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import (
     CollisionPair,
@@ -26,7 +31,7 @@ from scenemosaic.physics._settings import (
     SettleSettings,
     SimSettings,
 )
-from scenemosaic.physics._settle import is_thin
+from scenemosaic.physics._settle import is_thin, settle_unit
 from scenemosaic.physics._stabilize import stabilize_scene, stabilize_scene_sync
 from scenemosaic.physics._units import UnitPlan, plan_units
 from scenemosaic.physics._validate import (
@@ -58,11 +63,14 @@ __all__ = [
     "ValidationReport",
     "check_collisions",
     "check_out_of_bounds",
+    "collision_report_for",
     "is_fixed",
     "is_thin",
     "object_shape",
     "plan_units",
+    "require_finite_poses",
     "scene_world",
+    "settle_unit",
     "stabilize_scene",
     "stabilize_scene_sync",
     "support_gaps",

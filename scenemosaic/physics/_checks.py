@@ -94,16 +94,19 @@ def collision_report_for(
             if np.any(alo > bhi + reach) or np.any(blo > ahi + reach):
                 continue
             deepest: float | None = None
+            contacts = 0
             for ga, (galo, gahi) in zip(geoms[a.id], boxes[a.id], strict=True):
                 for gb, (gblo, gbhi) in zip(geoms[b.id], boxes[b.id], strict=True):
                     if np.any(galo > gbhi + reach) or np.any(gblo > gahi + reach):
                         continue
                     dist = float(mujoco.mj_geomDistance(m, d, ga, gb, reach, None))
+                    if dist < 0:
+                        contacts += 1
                     if dist < reach and (deepest is None or -dist > deepest):
                         deepest = -dist
             if deepest is None or deepest < 0:
                 continue
-            pair = CollisionPair(a=a.id, b=b.id, depth_m=round(deepest, 6))
+            pair = CollisionPair(a=a.id, b=b.id, depth_m=round(deepest, 6), contacts=contacts)
             (report.pairs if deepest > tolerance_m else report.shallow).append(pair)
     return report
 

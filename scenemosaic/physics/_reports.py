@@ -28,6 +28,7 @@ class CollisionPair(_Report):
     a: str
     b: str
     depth_m: float = Field(description="Penetration depth in metres (positive = overlapping).")
+    contacts: int = Field(default=0, description="Convex hull-piece pairs that interpenetrate (contact count).")
 
 
 class CollisionReport(_Report):

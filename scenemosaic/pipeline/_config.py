@@ -37,8 +37,16 @@ class GenerateConfig:
     """Input format (``auto`` or a registered reader: ``native``, ``front3d``, ``procthor``,
     ``holodeck``, ``sam3d``, ``sceneeval``)."""
     variants: int = 0
-    """Number of diverse variants to deliver. Only 0 (the base scene) until the evolution and
-    composition stages arrive; any other value is refused before work starts, never ignored."""
+    """Number of diverse variants asked for (m). Any value above 0 makes the evolve stage grow
+    each unit's structurally different variants (archetypes) beside the refined original, written
+    to ``evolve/``; composing m whole scenes from them is the compose stage's work (issue 12)."""
+    evolve: bool = True
+    """Run the evolve stage (the Critic-Actor refinement of every unit); ``--no-evolve`` delivers
+    the stabilized scene as it is. Skipped too when ``stabilize`` is off (it refines a stabilized scene)."""
+    evolve_rounds: int = 5
+    """Round cap of each layout's Critic-Actor loop (``--rounds``)."""
+    save_views: bool = False
+    """Write every unit view the critic sees, per round, as PNG under ``evolve/`` (``--save-views``)."""
     model: str | Model = "rules"
     """Model string (``rules``, ``openai:<model>[@<base_url>]``, ``replay:<cassette.json>``) or a
     :class:`~scenemosaic.models.Model` instance, which the caller keeps ownership of (not closed here)."""

@@ -41,9 +41,12 @@ log = structlog.get_logger(__name__)
 
 REPORT_FILE = "report.json"
 _RUN_FILE = "run.json"
-_OUTPUTS = ("base", REPORT_FILE, ".checkpoint")
+_OUTPUTS = ("base", "evolve", REPORT_FILE, ".checkpoint")
 """What a run writes into its output folder (and what ``overwrite`` may remove)."""
-_CONFIG_KEYS = ("format", "model", "seed", "room", "stabilize", "solver_fallback", "vision", "request_timeout_s", "deadline_s")
+_CONFIG_KEYS = (
+    "format", "model", "seed", "room", "stabilize", "solver_fallback", "vision", "request_timeout_s", "deadline_s",
+    "variants", "evolve", "evolve_rounds", "save_views",
+)  # fmt: skip
 """The settings that decide a run's results; a resumed run must agree on them."""
 
 
@@ -225,11 +228,10 @@ def _report(run: PipelineRun, total_s: float, failure: BaseException | None) -> 
 def _check_config(config: GenerateConfig) -> None:
     if config.variants < 0:
         raise UsageError("variants must be >= 0")
-    if config.variants > 0:
-        raise UsageError(
-            f"variants={config.variants} asked for, but variants arrive with the evolution stage, which this "
-            "version does not have yet; run with variants=0 (--variants 0) for the base scene"
-        )
+    if config.evolve_rounds < 1:
+        raise UsageError(f"evolve_rounds must be >= 1, got {config.evolve_rounds}")
+    if config.variants > 0 and not config.evolve:
+        raise UsageError("variants come from the evolve stage: drop --no-evolve, or ask for --variants 0")
     for name in ("request_timeout_s", "deadline_s"):
         value = getattr(config, name)
         if value is not None and not value > 0:

@@ -1,8 +1,8 @@
-"""The stages of ``generate``, in order: import → assets → structure → stabilize → validate → export.
+"""The stages of ``generate``, in order: import → assets → structure → stabilize → evolve → validate → export.
 
 Each stage is a small async function over a :class:`~scenemosaic.pipeline.PipelineRun`; CPU work
-runs in worker threads so the event loop stays free to notice a cancel. The method's ``evolve``
-and ``compose`` stages are two more entries of :data:`STAGES`, before ``export``.
+runs in worker threads so the event loop stays free to notice a cancel. The method's ``compose``
+stage is one more entry of :data:`STAGES`, after ``evolve``.
 """
 
 from __future__ import annotations
@@ -19,9 +19,12 @@ from scenemosaic.scene import Scene
 if TYPE_CHECKING:
     from scenemosaic.agents import AgentOutcome
     from scenemosaic.assets import HullCache
-    from scenemosaic.models import Model, UsageTracker
+    from scenemosaic.models import Model, ModelSettings, UsageTracker
 
-__all__ = ["DELIVERED_FORMATS", "STAGES", "STAGE_NAMES", "export_base", "export_scene_only"]
+__all__ = ["DELIVERED_FORMATS", "EVOLVE_FOLDER", "STAGES", "STAGE_NAMES", "export_base", "export_scene_only"]
+
+EVOLVE_FOLDER = "evolve"
+"""Where ``generate`` writes each unit's evolved layouts (and, with ``save_views``, their views)."""
 
 DELIVERED_FORMATS: tuple[tuple[str, str], ...] = (("glb", "scene.glb"), ("sceneeval", "sceneeval"), ("mjcf", ""))
 """Formats written beside ``scene.json`` in every delivered folder, with their destination in it."""
@@ -82,26 +85,41 @@ def _asking_model(run: PipelineRun, model: Model, tracker: UsageTracker) -> Mode
     return asking
 
 
+async def _open_model(run: PipelineRun, rec: StageRecord) -> tuple[Model, bool]:
+    """The run's model and whether this stage owns it (a model string: opened here, closed by
+    the caller); the slot count of a llama.cpp server bounds the concurrency."""
+    from scenemosaic.models import parse_model
+
+    spec = run.config.model
+    if not isinstance(spec, str):
+        rec.detail["model"] = spec.name
+        return spec, False
+    limit = run.config.max_concurrency or await _server_slots(spec, run.config.vision)
+    model = parse_model(spec, vision=run.config.vision, **({"max_concurrency": limit} if limit else {}))
+    if limit:
+        rec.detail["max_concurrency"] = limit
+    rec.detail["model"] = model.name
+    return model, True
+
+
+def _request_settings(run: PipelineRun) -> ModelSettings | None:
+    from scenemosaic.models import ModelSettings
+
+    return ModelSettings(timeout_s=run.config.request_timeout_s) if run.config.request_timeout_s else None
+
+
 async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     from scenemosaic.agents import AgentPolicy
     from scenemosaic.dag import FileRunStore
-    from scenemosaic.models import ModelSettings, UsageTracker, parse_model
+    from scenemosaic.models import UsageTracker
     from scenemosaic.structure import structure_scene
 
     assert run.scene is not None
     notes_before = len(run.scene.provenance.notes)
-    spec = run.config.model
-    if isinstance(spec, str):
-        limit = run.config.max_concurrency or await _server_slots(spec, run.config.vision)
-        model = parse_model(spec, vision=run.config.vision, **({"max_concurrency": limit} if limit else {}))
-        if limit:
-            rec.detail["max_concurrency"] = limit
-    else:
-        model = spec
-    rec.detail["model"] = model.name
+    model, owned = await _open_model(run, rec)
     tracker = UsageTracker()
     asking = _asking_model(run, model, tracker)
-    settings = ModelSettings(timeout_s=run.config.request_timeout_s) if run.config.request_timeout_s else None
+    settings = _request_settings(run)
     # finished agents are kept on disk, so a stopped run resumed later does not ask them again
     store = FileRunStore(run.checkpoint_dir / "agents")
     fallbacks = run.fallbacks
@@ -125,7 +143,7 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
             rec.detail["solver_fallbacks"] = [{"agent": f.agent, "reason": f.reason} for f in fallbacks]
         rec.detail["usage"] = _usage_summary(tracker)
         rec.detail["agents"] = _agent_breakdown(outcomes, tracker)
-        if isinstance(spec, str):
+        if owned:
             await model.aclose()
     for f in fallbacks:
         run.warnings.append(f"agent {f.agent!r} answered by its rule solver: {f.reason[:160]}")
@@ -205,6 +223,82 @@ async def _stage_stabilize(run: PipelineRun, rec: StageRecord) -> None:
     rec.detail.update(report.model_dump(mode="json", include=_summary_fields(report)))
 
 
+async def _stage_evolve(run: PipelineRun, rec: StageRecord) -> None:
+    """Refine every unit through the Critic-Actor loop (and grow unit variants when asked)."""
+    from scenemosaic.agents import AgentPolicy
+    from scenemosaic.evolve import evolve_scene
+    from scenemosaic.models import UsageTracker
+    from scenemosaic.physics import object_shape
+
+    assert run.scene is not None
+    if not (run.config.evolve and run.config.stabilize):  # it refines a stabilized scene
+        rec.status = "skipped"
+        rec.detail["reason"] = "evolve off" if not run.config.evolve else "stabilize off: nothing stabilized to refine"
+        return
+    scene = run.scene
+    cache = hull_cache(run)
+    shapes = await asyncio.to_thread(lambda: {o.id: object_shape(o, run.base_dir, cache=cache) for o in scene.objects})
+    model, owned = await _open_model(run, rec)
+    tracker = UsageTracker()
+    asking = _asking_model(run, model, tracker)
+    folder = run.out_dir / EVOLVE_FOLDER
+    try:
+        evolved, report = await evolve_scene(
+            scene,
+            asking,
+            shapes,
+            variants=run.config.variants > 0,
+            settings=_request_settings(run),
+            policy=AgentPolicy(solver_fallback=run.config.solver_fallback),
+            max_rounds=run.config.evolve_rounds,
+            seed=run.config.seed,
+            base_dir=run.base_dir,
+            views_dir=folder if run.config.save_views else None,
+        )
+    finally:
+        rec.detail["usage"] = _usage_summary(tracker)
+        if owned:
+            await model.aclose()
+    run.scene = evolved
+    summary = report.summary()
+    rec.detail.update({k: v for k, v in summary.items() if k != "per_layout"})
+    rec.detail["layouts"] = summary["per_layout"]
+    rec.detail["files"] = await asyncio.to_thread(_write_layouts, report, folder, run.out_dir)
+    for unit in report.units:
+        for lay in unit.layouts:
+            run.fallbacks.extend(lay.fallbacks)
+            for f in lay.fallbacks:
+                run.warnings.append(f"agent {f.agent!r} ({unit.anchor_id}/{lay.layout_id}) answered by its rule solver: {f.reason[:120]}")
+        o = unit.original
+        if o.error:
+            run.warnings.append(f"unit {unit.anchor_id}: evolution failed, kept the stabilized layout ({o.error[:160]})")
+        elif o.violations:
+            run.warnings.append(f"unit {unit.anchor_id}: refined layout still breaks rules: {'; '.join(o.violations[:5])}")
+
+
+def _write_layouts(report: Any, folder: Path, out_dir: Path) -> list[str]:
+    """``evolve/<anchor>/<layout_id>.json`` per evolved layout: the 2D state, anchor-frame poses,
+    checks and the rounds of its memory. Returns the paths relative to ``out_dir``."""
+    import json
+
+    written: list[str] = []
+    for unit in report.units:
+        for lay in unit.layouts:
+            target = folder / unit.anchor_id / f"{lay.layout_id}.json"
+            target.parent.mkdir(parents=True, exist_ok=True)
+            payload = {
+                **lay.summary(),
+                "state": lay.state.model_dump(mode="json") if lay.state else None,
+                "local_poses": {k: p.model_dump(mode="json") for k, p in lay.local_poses.items()},
+                "memory": [r.model_dump(mode="json") for r in lay.rounds],
+                "views": [str(Path(v).relative_to(out_dir)) for v in lay.views],
+            }
+            payload.pop("wall_s", None)  # timings vary between runs; the files must not
+            target.write_text(json.dumps(payload, indent=2, sort_keys=True), encoding="utf-8")
+            written.append(str(target.relative_to(out_dir)))
+    return written
+
+
 async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
     from scenemosaic.physics import validate_scene
 
@@ -275,10 +369,11 @@ STAGES: tuple[Stage, ...] = (
     Stage("assets", _stage_assets),
     Stage("structure", _stage_structure),
     Stage("stabilize", _stage_stabilize),
+    Stage("evolve", _stage_evolve),
     Stage("validate", _stage_validate),
     Stage("export", _stage_export),
 )
-"""The stages ``generate`` runs, in order (``evolve`` and ``compose`` slot in before ``export``)."""
+"""The stages ``generate`` runs, in order (``compose`` slots in after ``evolve``)."""
 
 STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in STAGES)
 """The names of :data:`STAGES`, in order."""

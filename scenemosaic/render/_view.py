@@ -18,6 +18,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import structlog
@@ -309,6 +310,29 @@ def _draw_annotations(
             )  # fmt: skip
 
 
+def _gl_image(scene: Scene, view: OrthoView, objects: Sequence[SceneObject], pm: PixelMap, base_dir: Path | None, plan: bool) -> Image.Image | None:
+    """The meshes rendered by MuJoCo's offscreen renderer, framed like ``pm``; ``None`` without GL."""
+    from scenemosaic.render._geometry import floor_mesh, wall_mesh
+    from scenemosaic.render._gl import gl_available, render_meshes_gl
+
+    if not gl_available():
+        return None
+    meshes = [(object_world_mesh(o, base_dir), category_color(o.category)) for o in objects]
+    if plan and scene.room is not None:
+        meshes.append((floor_mesh(scene.room), FLOOR_COLOR))
+        meshes += [(wall_mesh(w), WALL_COLOR) for w in scene.room.walls]
+    u0, u1, v0, v1 = view.extent
+    centre_ab = np.array([(u0 + u1) / 2.0, (v0 + v1) / 2.0])
+    u, v = np.asarray(view.u, dtype=np.float64), np.asarray(view.v, dtype=np.float64)
+    centre = np.asarray(view.origin, dtype=np.float64) + centre_ab[0] * u + centre_ab[1] * v
+    top = max((float(view.depth(np.asarray(m.vertices)).max()) for m, _ in meshes if len(m.vertices)), default=0.0)
+    image = render_meshes_gl(
+        meshes, center=centre, u=u, v=v, height_m=pm.size_px / pm.scale,
+        distance_m=max(top, 0.0) + 1.0, size_px=pm.size_px, background=BACKGROUND,
+    )  # fmt: skip
+    return None if image is None else Image.fromarray(image, mode="RGB")
+
+
 def render_view(
     scene: Scene,
     view: OrthoView,
@@ -319,6 +343,7 @@ def render_view(
     show_labels: bool = True,
     show_room: bool = True,
     show_grid: bool = True,
+    backend: Literal["pillow", "mujoco", "auto"] = "pillow",
 ) -> bytes:
     """Draw an orthographic view of a scene and return it as PNG bytes (``size_px`` square).
 
@@ -329,6 +354,12 @@ def render_view(
     is drawn as a plan (floor polygon, wall footprints, doors green, windows blue) and a metric
     grid with tick labels in metres frames the plane coordinates; other views draw no room yet.
     Equal inputs give identical bytes.
+
+    ``backend="mujoco"`` renders the meshes (and the plan's floor and walls) with MuJoCo's
+    offscreen renderer instead of the painter, lit and depth-tested, then draws the same grid and
+    annotations over them; ``"auto"`` does so when an offscreen GL context can be made
+    (``MUJOCO_GL=egl``) and falls back to the painter otherwise. GL output may differ in its last
+    bits between machines and drivers; the painter's does not.
     """
     if size_px < 64:
         raise SceneValidationError(f"size_px must be at least 64, got {size_px}")
@@ -343,22 +374,33 @@ def render_view(
             )
         objects = [o for o in scene.objects if o.id in wanted]
     pm = PixelMap.for_size(view, size_px)
-    image = Image.new("RGB", (size_px, size_px), BACKGROUND)
-    draw = ImageDraw.Draw(image)
     font = _font(max(10, size_px // 80))
     plan = view.is_top_down and show_room
-    if plan:
-        _draw_plan_room(draw, scene, pm)
-    if show_grid:
-        _draw_grid(draw, pm, font)
-    if plan:
-        _draw_plan_walls(draw, scene, pm)
-    px, keys, colors = _object_triangles(objects, view, pm, base_dir)
-    order = np.lexsort((keys[:, 2], keys[:, 1], keys[:, 0])) if len(keys) else np.zeros(0, dtype=np.int64)
-    for i in order:
-        draw.polygon(_poly(px[i]), fill=colors[i])
+    gl = _gl_image(scene, view, objects, pm, base_dir, plan) if backend != "pillow" else None
+    if backend == "mujoco" and gl is None:
+        raise SceneValidationError("backend='mujoco' needs an offscreen GL context (set MUJOCO_GL=egl or osmesa)")
+    if gl is not None:
+        image = gl
+        draw = ImageDraw.Draw(image)
+        if show_grid:
+            _draw_grid(draw, pm, font)
+        n_tri = -1
+    else:
+        image = Image.new("RGB", (size_px, size_px), BACKGROUND)
+        draw = ImageDraw.Draw(image)
+        if plan:
+            _draw_plan_room(draw, scene, pm)
+        if show_grid:
+            _draw_grid(draw, pm, font)
+        if plan:
+            _draw_plan_walls(draw, scene, pm)
+        px, keys, colors = _object_triangles(objects, view, pm, base_dir)
+        order = np.lexsort((keys[:, 2], keys[:, 1], keys[:, 0])) if len(keys) else np.zeros(0, dtype=np.int64)
+        for i in order:
+            draw.polygon(_poly(px[i]), fill=colors[i])
+        n_tri = len(order)
     _draw_annotations(draw, objects, pm, font, show_labels)
     buf = io.BytesIO()
     image.save(buf, format="PNG")
-    log.debug("view_rendered", objects=len(objects), triangles=len(order), size_px=size_px)
+    log.debug("view_rendered", objects=len(objects), triangles=n_tri, size_px=size_px, gl=gl is not None)
     return buf.getvalue()

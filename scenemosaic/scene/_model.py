@@ -18,6 +18,7 @@ Frames and units (the full statement is ``docs/conventions.md``):
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -583,6 +584,21 @@ class Scene(_Model):
                         raise SceneValidationError(
                             f"constraint {c.id!r} names unknown object {oid!r}", object_id=oid
                         )
+
+    def edit(self, expressions: str | Sequence[str], *, unit: LocalUnit | str | None = None) -> Scene:
+        """A NEW scene with exact 2D edits of one local unit, in the pose expression language.
+
+        ``scene.edit("chair_0.center.u = table_0.center.u", unit="floor")`` moves ``chair_0``
+        across the floor (u, v in metres on the unit's anchor surface; see
+        ``docs/evolution.md``); what rests on a moved object moves with it. ``unit`` (an anchor
+        id or a :class:`LocalUnit`) defaults to the one unit every target belongs to. Several
+        assignments may be given as a list or one per line. Refused input raises
+        :class:`~scenemosaic.exceptions.ExpressionError` and leaves the scene untouched; no
+        physics runs here (stabilize afterwards if needed).
+        """
+        from scenemosaic.scene._expressions import edit_scene
+
+        return edit_scene(self, expressions, unit=unit)
 
     def to_json(self, *, indent: int | None = 2) -> str:
         """Canonical JSON text (stable key order, so equal scenes give identical bytes)."""

@@ -45,7 +45,10 @@ def test_output_layout_is_complete(living_run: tuple[Path, Path]) -> None:
     assert list((base / "sceneeval" / "assets").glob("*.glb"))
     report = json.loads((out / "report.json").read_text())
     assert report["status"] == "ok"
-    assert [s["name"] for s in report["stages"]] == ["import", "assets", "structure", "stabilize", "validate", "export"]
+    assert [s["name"] for s in report["stages"]] == [
+        "import", "assets", "structure", "stabilize", "evolve", "validate", "export",
+    ]  # fmt: skip
+    assert (out / "evolve" / "floor" / "original.json").is_file()
     assert all(s["seconds"] >= 0 and s["status"] == "done" for s in report["stages"])
     assert report["objects"] == 16
 
@@ -123,15 +126,23 @@ def test_generate_replays_a_cassette_recorded_from_a_function_model(tmp_path: Pa
     source = repo_data / "layouts" / "physcene" / DINING
     cassette = tmp_path / "dining.cassette.json"
     recorder = ReplayModel(FunctionModel(_solver_answer, name="recorded-fn", vision=False), cassette, "record")
-    recorded = generate(source, tmp_path / "rec", GenerateConfig(model=recorder, stabilize=False))
+    recorded = generate(source, tmp_path / "rec", GenerateConfig(model=recorder, variants=2))
     assert cassette.is_file()
     result = CliRunner().invoke(
-        app, ["generate", str(source), "--out", str(tmp_path / "rep"), "--model", f"replay:{cassette}"]
+        app, ["generate", str(source), "--out", str(tmp_path / "rep"), "--model", f"replay:{cassette}", "--variants", "2"]
     )
     assert result.exit_code == 0, result.output
     replayed = read_scene(tmp_path / "rep" / "base")
     assert replayed.relations == recorded.scene.relations
     assert replayed.constraints == recorded.scene.constraints
+    # the evolution's critic, actor, archetype and pose requests replay too: the same evolved scene
+    entries = json.loads(cassette.read_text())["entries"].values()
+    assert {"critic", "actor", "archetypes", "pose"} <= {e["agent"] for e in entries}
+    assert replayed.objects == recorded.scene.objects
+    names = sorted(p.relative_to(tmp_path / "rec" / "evolve") for p in (tmp_path / "rec" / "evolve").rglob("*.json"))
+    assert len(names) >= 3  # the floor's original and variant, the ceiling's original
+    for name in names:
+        assert (tmp_path / "rep" / "evolve" / name).read_text() == (tmp_path / "rec" / "evolve" / name).read_text()
 
 
 def test_failed_stage_keeps_partial_results(tmp_path: Path, repo_data: Path) -> None:

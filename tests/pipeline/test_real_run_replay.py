@@ -3,7 +3,8 @@
 The cassette in ``tests/fixtures/cassettes/`` was recorded by ``benchmarks/real_model.py``
 against the shared server (Qwen2.5-Coder-0.5B, 4,096-token context, text only); its companion
 ``*.expected.json`` holds what that live run wrote: the SHA-256 of every file of its ``base/``
-folder and how each agent was answered. Replaying (``--model replay:<cassette>``) must reproduce
+folder, how each agent was answered, and the extra ``generate`` arguments it ran with
+(``extra_args``: a recording made before the evolve stage existed replays with ``--no-evolve``). Replaying (``--model replay:<cassette>``) must reproduce
 it: the same replies, the same repairs, the same fallbacks, the same ``scene.json`` bytes (and
 every file identical from one replay to the next). A change to a
 prompt or to the evidence changes the requests, and the replay then stops with a
@@ -50,7 +51,7 @@ def test_a_recorded_real_run_replays_byte_for_byte(expected_file: Path, tmp_path
         out = tmp_path / name
         result = CliRunner().invoke(
             app,
-            ["generate", str(source), "--out", str(out), "--no-vision", "--model", f"replay:{cassette}"],
+            ["generate", str(source), "--out", str(out), "--no-vision", "--model", f"replay:{cassette}", *expected.get("extra_args", [])],
         )
         assert result.exit_code == 0, result.output
         runs.append(out)

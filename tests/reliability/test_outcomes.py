@@ -41,7 +41,8 @@ def test_a_failing_rerun_does_not_leave_the_old_base_beside_its_report(tmp_path:
 
 
 def test_degraded_is_visible_and_strict_exits_one(tmp_path: Path) -> None:
-    """Five chairs at one point: the result is still written, marked degraded, and --strict fails."""
+    """Five chairs at one point in a room too small for them (1 m x 1 m: even evolution cannot
+    part them): the result is still written, marked degraded, and --strict fails."""
     scene = {
         "id": "crowded",
         "objects": [
@@ -49,13 +50,13 @@ def test_degraded_is_visible_and_strict_exits_one(tmp_path: Path) -> None:
                 "id": f"chair_{i}",
                 "category": "dining_chair",
                 "asset": {"kind": "procedural", "category": "dining_chair", "extents": [0.45, 0.5, 0.9]},
-                "pose": {"position": [1.0, 1.0, 0.0], "quaternion": [1, 0, 0, 0], "scale": [1, 1, 1]},
+                "pose": {"position": [0.5, 0.5, 0.0], "quaternion": [1, 0, 0, 0], "scale": [1, 1, 1]},
             }
             for i in range(5)
         ],
         "room": {
             "id": "room",
-            "floor": [[0, 0], [2, 0], [2, 2], [0, 2]],
+            "floor": [[0, 0], [1, 0], [1, 1], [0, 1]],
             "ceiling_height": 2.6,
         },
     }

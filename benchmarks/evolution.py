@@ -1,0 +1,126 @@
+"""Evolution benchmark: how long the Critic-Actor stage takes, offline and with a slow model.
+
+Figures (the last line is one JSON object):
+
+* ``rules_room16_cold_s`` — ``scenemosaic generate`` of the 16-object PhyScene living room
+  (LivingDiningRoom-124277) with ``--variants 5`` (base + every unit variant) on the rules model,
+  as a fresh process with an empty hull cache (interpreter start and imports included);
+* ``rules_room16_warm_s`` — the same run again inside this process (imports done, cache warm);
+* ``rules_room16_layouts`` — evolved layouts in that run (originals + variants);
+* with a model that answers every request with the asking agent's rule solver after sleeping
+  5 s (a stand-in for a slow VLM with the same answers), on the base scene (``--variants 0``):
+  ``sim_vlm_calls`` (requests made), ``sim_vlm_critical_path_s`` (5 s times the longest chain of
+  requests that must wait for each other: the structuring agents along their dependency graph,
+  then the longest evolving layout's requests, which run one after another),
+  ``sim_vlm_base_wall_s`` (wall time of the run) and ``sim_vlm_wall_over_critical`` (their ratio;
+  1.0 would be perfect overlap of everything that can overlap);
+* ``seconds`` — wall time of the whole benchmark.
+
+Targets (issue 11): warm rules run <= 20 s on a 2-core machine; simulated base <= 180 s; the
+ratio <= 1.10.
+
+Run: ``.venv/bin/python benchmarks/evolution.py``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel
+
+from scenemosaic import GenerateConfig, agenerate, generate
+from scenemosaic.agents import TaskAgent, agent_dependencies
+from scenemosaic.evolve import ActorAgent, ArchetypeAgent, CriticAgent, PoseAgent
+from scenemosaic.models import FunctionModel, Message, RequestContext
+from scenemosaic.structure import DEFAULT_AGENTS, ManagerAgent
+
+REPO = Path(__file__).resolve().parents[1]
+ROOM16 = REPO / "data" / "layouts" / "physcene" / "LivingDiningRoom-124277_livingroom.json"
+LATENCY_S = 5.0
+STRUCTURING = [ManagerAgent(), *DEFAULT_AGENTS]
+SOLVERS: dict[str, TaskAgent[Any, Any]] = {
+    a.name: a for a in (*STRUCTURING, CriticAgent(), ActorAgent(), ArchetypeAgent(), PoseAgent())
+}
+
+
+def _cold(out: Path, cache: Path) -> float:
+    env = {**os.environ, "SCENEMOSAIC_CACHE": str(cache), "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    started = time.perf_counter()
+    subprocess.run(
+        [sys.executable, "-m", "scenemosaic.cli", "generate", str(ROOM16), "--out", str(out), "--variants", "5"],
+        check=True, capture_output=True, env=env,
+    )  # fmt: skip
+    return time.perf_counter() - started
+
+
+def _structure_critical_calls(calls: dict[str, int]) -> int:
+    """Longest chain of structuring requests: the manager's, then the agents along their dependencies."""
+    agents = [a for a in DEFAULT_AGENTS if a.name in calls]
+    deps = agent_dependencies(agents)
+    memo: dict[str, int] = {}
+
+    def longest(name: str) -> int:
+        if name not in memo:
+            memo[name] = calls.get(name, 0) + max((longest(d) for d in deps.get(name, ())), default=0)
+        return memo[name]
+
+    return calls.get("manager", 0) + max((longest(a.name) for a in agents), default=0)
+
+
+async def _simulated(out: Path) -> dict[str, Any]:
+    calls: dict[str, int] = {}
+
+    async def answer(messages: list[Message], context: RequestContext) -> BaseModel:
+        assert context.evidence is not None
+        calls[context.agent] = calls.get(context.agent, 0) + 1
+        await asyncio.sleep(LATENCY_S)
+        result: BaseModel = SOLVERS[context.agent].solve(context.evidence)
+        return result
+
+    model = FunctionModel(answer, name="sim-vlm-5s", vision=False)
+    started = time.perf_counter()
+    result = await agenerate(ROOM16, out, GenerateConfig(model=model, overwrite=True))
+    wall = time.perf_counter() - started
+    evolve = next(s for s in result.report["stages"] if s["name"] == "evolve")
+    layout_calls = max((lay["requests"] for lay in evolve["detail"]["layouts"]), default=0)
+    structure_calls = {k: v for k, v in calls.items() if k in {a.name for a in STRUCTURING}}
+    critical = (_structure_critical_calls(structure_calls) + layout_calls) * LATENCY_S
+    return {
+        "sim_vlm_calls": sum(calls.values()),
+        "sim_vlm_calls_by_agent": dict(sorted(calls.items())),
+        "sim_vlm_critical_path_s": round(critical, 1),
+        "sim_vlm_base_wall_s": round(wall, 1),
+        "sim_vlm_wall_over_critical": round(wall / critical, 3) if critical else None,
+        "sim_vlm_status": result.status,
+    }
+
+
+def main() -> None:
+    t0 = time.perf_counter()
+    figures: dict[str, Any] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        figures["rules_room16_cold_s"] = round(_cold(root / "cold", root / "cache"), 2)
+        generate(ROOM16, root / "warmup", GenerateConfig(variants=5, cache_dir=root / "cache"))
+        started = time.perf_counter()
+        warm = generate(ROOM16, root / "warm", GenerateConfig(variants=5, cache_dir=root / "cache"))
+        figures["rules_room16_warm_s"] = round(time.perf_counter() - started, 2)
+        evolve = next(s for s in warm.report["stages"] if s["name"] == "evolve")
+        figures["rules_room16_layouts"] = evolve["detail"]["layout_count"]
+        figures["rules_room16_evolve_s"] = round(evolve["seconds"], 2)
+        figures["rules_room16_valid_layouts"] = evolve["detail"]["valid_layouts"]
+        figures.update(asyncio.run(_simulated(root / "sim")))
+    figures["seconds"] = round(time.perf_counter() - t0, 1)
+    print(json.dumps(figures))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,101 @@
+"""Stage 4 of the method: every local unit evolves on its orthographic 2D view.
+
+Per unit, the stabilized original and (on request) structurally different variants each run a
+Critic-Actor loop: the critic judges the layout (view, 2D state, collisions with contact
+counts, out-of-bounds objects, cross-unit clauses, layout memory) and writes notes in words;
+the actor turns the notes into pose expressions, evaluated by the sandbox of
+:mod:`scenemosaic.scene` (``chair_0.center.u = table_0.bbox.max_u + 0.3``); physics settles
+the chosen round. Entry point: :func:`evolve_scene`; one layout: :func:`evolve_layout`. The
+agents (:class:`CriticAgent`, :class:`ActorAgent`, :class:`ArchetypeAgent`, :class:`PoseAgent`)
+are task agents with rule solvers, so the loop runs offline. See ``docs/evolution.md``.
+"""
+
+from scenemosaic.evolve._agents import (
+    ActorAgent,
+    ActorEvidence,
+    ActorOutput,
+    Archetype,
+    ArchetypeAgent,
+    ArchetypeOutput,
+    CriticAgent,
+    CriticEvidence,
+    CriticOutput,
+    EvolveState,
+    PoseAgent,
+    PoseOutput,
+    PosePlacement,
+    named_objects,
+)
+from scenemosaic.evolve._analysis import (
+    BESIDE_GAP_MAX,
+    FACING_TABLE_DEG,
+    HEAD_ZONE,
+    WALL_FACING_DEG,
+    WALL_GAP_MAX,
+    Finding,
+    PhysicalCheck,
+    Target,
+    find_problems,
+    physical_check,
+    rule_violations,
+)
+from scenemosaic.evolve._archetypes import RuleArchetype, instantiate, max_alternatives, rule_archetypes
+from scenemosaic.evolve._context import UnitContext, WallLine, unit_context
+from scenemosaic.evolve._evolve import EvolutionReport, UnitEvolution, evolve_scene
+from scenemosaic.evolve._loop import (
+    EARLY_STOP_MOVE_M,
+    EARLY_STOP_TURN_DEG,
+    MAX_ROUNDS,
+    LayoutResult,
+    evolve_layout,
+)
+from scenemosaic.evolve._memory import LayoutMemory, RoundRecord
+from scenemosaic.evolve._views import VIEW_PX, unit_view, unit_view_png
+
+__all__ = [
+    "BESIDE_GAP_MAX",
+    "EARLY_STOP_MOVE_M",
+    "EARLY_STOP_TURN_DEG",
+    "FACING_TABLE_DEG",
+    "HEAD_ZONE",
+    "MAX_ROUNDS",
+    "VIEW_PX",
+    "WALL_FACING_DEG",
+    "WALL_GAP_MAX",
+    "ActorAgent",
+    "ActorEvidence",
+    "ActorOutput",
+    "Archetype",
+    "ArchetypeAgent",
+    "ArchetypeOutput",
+    "CriticAgent",
+    "CriticEvidence",
+    "CriticOutput",
+    "EvolutionReport",
+    "EvolveState",
+    "Finding",
+    "LayoutMemory",
+    "LayoutResult",
+    "PhysicalCheck",
+    "PoseAgent",
+    "PoseOutput",
+    "PosePlacement",
+    "RoundRecord",
+    "RuleArchetype",
+    "Target",
+    "UnitContext",
+    "UnitEvolution",
+    "WallLine",
+    "evolve_layout",
+    "evolve_scene",
+    "find_problems",
+    "instantiate",
+    "max_alternatives",
+    "named_objects",
+    "physical_check",
+    "rule_archetypes",
+    "rule_violations",
+    "unit_context",
+    "unit_view",
+    "unit_view_png",
+]

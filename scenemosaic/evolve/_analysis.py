@@ -1,0 +1,704 @@
+"""The rule critic's eyes: physical checks and the semantic rules of a unit's 2D layout.
+
+:func:`physical_check` counts what physics sees (hull interpenetrations, with contact counts,
+and children outside the anchor surface). :func:`find_problems` adds the semantic rules of a
+room and, for each problem, the pose that would fix it; the rule critic words the problems as
+notes, the rule actor turns the fixes into pose expressions. :func:`rule_violations` is the
+same judgement as a plain list, for reports and tests.
+
+Thresholds (metres and degrees) are named here and documented in ``docs/evolution.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection, Mapping
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+from shapely.geometry import Point, Polygon
+from shapely.ops import nearest_points
+
+from scenemosaic.evolve._context import UnitContext, WallLine, facing_degrees
+from scenemosaic.physics import (
+    OOB_MIN_INSIDE_FRACTION,
+    CollisionPair,
+    ObjectShape,
+    collision_report_for,
+)
+from scenemosaic.scene import (
+    FloatArray,
+    Scene,
+    SceneObject,
+    UnitLayout,
+    edge_axes,
+    minimal_containing_shift,
+    normalize_degrees,
+    sat_overlap,
+    traits,
+)
+
+__all__ = [
+    "BESIDE_GAP_MAX",
+    "FACING_TABLE_DEG",
+    "HEAD_ZONE",
+    "WALL_FACING_DEG",
+    "WALL_GAP_MAX",
+    "Finding",
+    "PhysicalCheck",
+    "Target",
+    "find_problems",
+    "merged_fixes",
+    "physical_check",
+    "rule_violations",
+    "table_slots",
+]
+
+WALL_GAP_MAX = 0.05
+"""Wall furniture counts as backed against a wall when its back is at most this far from it."""
+WALL_FACING_DEG = 10.0
+"""... and its front is within this many degrees of the wall's inward normal."""
+WALL_FLUSH_GAP = 0.005
+"""The gap a snapped piece keeps to its wall."""
+WALL_REACH = 2.0
+"""A wall behind a piece's back within this distance is the wall it belongs against (a TV stand
+left facing its sofa from the middle of the room goes back to the wall behind it, not sideways
+to a nearer wall that would turn it away)."""
+WALL_MIN_OVERLAP = 0.5
+"""At least this fraction of a piece's width must be in front of its wall."""
+NEAR_WALL = 0.3
+"""An object whose front is this close to a wall, and turned toward it, faces into the wall."""
+SEAT_GAP_MAX = 0.35
+"""A seat whose box is further than this from its table's box is pulled up to it, metres."""
+SEAT_GAP = 0.03
+"""The gap a pulled-up or seated chair keeps to its table, metres."""
+FACING_TABLE_DEG = 15.0
+"""A seat faces its table when its front is within this many degrees of the way to the table."""
+HEAD_ZONE = 0.75
+"""A nightstand's centre must be within this distance of the bed's head end..."""
+BESIDE_GAP_MAX = 0.35
+"""... and its box at most this far from the bed's side (and not overlapping it by more than 2 cm)."""
+BESIDE_GAP = 0.03
+"""The gap a placed nightstand keeps to the bed."""
+SEPARATION_MARGIN = 0.01
+"""Extra distance a push-apart move adds beyond the overlap, metres."""
+FRONT_CLEARANCE = 0.5
+"""Depth of the space kept free in front of doors and drawers (wardrobes, cabinets, dressers,
+shelves, TV stands), metres."""
+PASSAGE_CELL = 0.05
+"""Raster cell of the walkable-floor check, metres."""
+ROBOT_RADIUS = 0.2
+"""Half the width of the passage a person or robot needs, metres."""
+PASSAGE_MIN_SHARE = 0.9
+"""The largest connected piece of free floor should hold at least this share of all free floor."""
+PINNED_MOVE_MAX = 0.10
+PINNED_TURN_MAX = 15.0
+"""Limits on how far a clause's object may drift from where the clause fixed it."""
+
+Severity = Literal["physical", "semantic", "soft"]
+_ORDER = {
+    "out_of_bounds": 0, "clause": 1, "against_wall": 2, "beside_bed": 3, "faces_table": 4, "faces_wall": 5,
+    "seat_distance": 4, "collision": 6, "clearance": 7, "sofa_tv": 8, "passage": 9,
+}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Target:
+    """Where a fix puts one object; ``None`` leaves that part of its pose alone."""
+
+    u: float | None = None
+    v: float | None = None
+    rotation: float | None = None
+    symbolic: tuple[str, ...] = ()
+    """Pose expressions that express this fix exactly, when it is simplest said relative to others."""
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One problem of a layout: the objects, how bad, a note in words, and fixes per object."""
+
+    kind: str
+    objects: tuple[str, ...]
+    severity: Severity
+    note: str
+    fixes: Mapping[str, Target] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class PhysicalCheck:
+    """Collisions (deeper than the physics tolerance) and out-of-bounds children of a layout."""
+
+    collisions: tuple[CollisionPair, ...]
+    out_of_bounds: tuple[str, ...]
+
+    @property
+    def count(self) -> int:
+        """Colliding pairs plus objects out of bounds: what round selection minimizes."""
+        return len(self.collisions) + len(self.out_of_bounds)
+
+    @property
+    def clean(self) -> bool:
+        return self.count == 0
+
+
+def _posed(layout: UnitLayout, oid: str) -> SceneObject:
+    return layout.object(oid).model_copy(update={"pose": layout.pose(oid)})
+
+
+def physical_check(layout: UnitLayout, ctx: UnitContext, shapes: Mapping[str, ObjectShape]) -> PhysicalCheck:
+    """What physics says about the layout: hull collisions of children with each other and with
+    the fixed obstacles around them, and children less than 99 % inside the anchor surface."""
+    kids = [_posed(layout, k) for k in layout.ids]
+    near = _nearby_obstacles(layout, ctx)
+    world = Scene.model_construct(objects=kids + near)
+    report = collision_report_for(world, shapes)
+    own = set(layout.ids)
+    pairs = tuple(p for p in report.pairs if p.a in own or p.b in own)
+    region = Polygon(ctx.surface.region)
+    oob: list[str] = []
+    for k in layout.ids:
+        poly = Polygon(layout.polygon(k))
+        area = float(poly.area)
+        inside = float(poly.intersection(region).area) / area if area > 1e-12 else 1.0
+        if inside < OOB_MIN_INSIDE_FRACTION:
+            oob.append(k)
+    return PhysicalCheck(pairs, tuple(oob))
+
+
+def _nearby_obstacles(layout: UnitLayout, ctx: UnitContext) -> list[SceneObject]:
+    """Obstacles whose (u, v) box comes within 0.5 m of any child: the rest cannot collide."""
+    if not ctx.obstacles:
+        return []
+    polys = [Polygon(layout.polygon(k)) for k in layout.ids]
+    out = []
+    for o, poly in _obstacle_polygons(ctx):
+        if any(poly.distance(p) < 0.5 for p in polys):
+            out.append(o)
+    return out
+
+
+def _obstacle_polygons(ctx: UnitContext) -> list[tuple[SceneObject, Polygon]]:
+    cache = ctx.__dict__.setdefault("_obstacle_polys", None)
+    if cache is None:
+        from scenemosaic.scene import convex_hull_2d
+
+        cache = [(o, Polygon(convex_hull_2d(ctx.surface.project(o.corners())))) for o in ctx.obstacles]
+        ctx.__dict__["_obstacle_polys"] = cache
+    return list(cache)
+
+
+# -- geometry helpers on the layout ------------------------------------------------------------------
+
+
+def _facing(rotation: float) -> FloatArray:
+    r = math.radians(rotation)
+    return np.array([-math.sin(r), -math.cos(r)])
+
+
+def _off(a: float, b: float) -> float:
+    return abs(normalize_degrees(a - b))
+
+
+def _word(direction: FloatArray) -> str:
+    du, dv = float(direction[0]), float(direction[1])
+    if abs(du) >= abs(dv):
+        return "to the right" if du > 0 else "to the left"
+    return "upward in the view" if dv > 0 else "downward in the view"
+
+
+def wall_status(layout: UnitLayout, ctx: UnitContext, oid: str) -> tuple[bool, WallLine | None]:
+    """Whether ``oid`` is backed against a wall and facing into the room, and the wall it
+    belongs against (the one behind it, else the nearest)."""
+    poly = layout.polygon(oid)
+    rot = layout.rotation(oid)
+    for w in ctx.walls:
+        if _off(rot, w.facing) <= WALL_FACING_DEG and -0.01 <= w.gap(poly) <= WALL_GAP_MAX and w.overlap(poly) >= WALL_MIN_OVERLAP:
+            return True, w
+    back = -_facing(rot)
+    behind = [
+        (w.gap(poly), w.id, w)
+        for w in ctx.walls
+        if float(back @ -np.asarray(w.inward)) >= math.cos(math.radians(45)) and w.gap(poly) <= WALL_REACH and w.overlap(poly) >= 0.3
+    ]
+    if behind:
+        return False, min(behind)[2]
+    near = [(abs(w.gap(poly)), w.id, w) for w in ctx.walls if w.overlap(poly) >= 0.3]
+    if not near:
+        c = np.asarray(layout.center(oid))
+        near = [(_segment_distance(c, w), w.id, w) for w in ctx.walls]
+    return False, (min(near)[2] if near else None)
+
+
+def _segment_distance(p: FloatArray, w: WallLine) -> float:
+    a, b = np.asarray(w.a), np.asarray(w.b)
+    t = float(np.clip((p - a) @ (b - a) / max(float((b - a) @ (b - a)), 1e-12), 0.0, 1.0))
+    return float(np.linalg.norm(p - (a + t * (b - a))))
+
+
+def snap_target(layout: UnitLayout, oid: str, wall: WallLine) -> Target:
+    """Back flush against ``wall`` (``WALL_FLUSH_GAP``), front to the room, kept along the wall."""
+    trial = layout.copy()
+    trial.set_rotation(oid, wall.facing)
+    poly = trial.polygon(oid)
+    c = np.asarray(trial.center(oid))
+    shift = (WALL_FLUSH_GAP - wall.gap(poly)) * np.asarray(wall.inward)
+    lo, hi = wall.along(poly + shift)
+    if hi - lo <= wall.length:
+        if lo < 0:
+            shift = shift + (-lo + WALL_FLUSH_GAP) * wall.tangent
+        elif hi > wall.length:
+            shift = shift - (hi - wall.length + WALL_FLUSH_GAP) * wall.tangent
+    c = c + shift
+    return Target(float(c[0]), float(c[1]), wall.facing)
+
+
+def _bed_frame(layout: UnitLayout, bed: str) -> tuple[FloatArray, FloatArray, FloatArray, float, float]:
+    """Bed centre, front direction, lateral direction, depth (head to foot) and width."""
+    fb = _facing(layout.rotation(bed))
+    lat = np.array([fb[1], -fb[0]])
+    poly = layout.polygon(bed)
+    c = np.asarray(layout.center(bed))
+    depth = float(np.ptp((poly - c) @ fb))
+    width = float(np.ptp((poly - c) @ lat))
+    return c, fb, lat, depth, width
+
+
+def beside_ok(layout: UnitLayout, stand: str, bed: str) -> bool:
+    """A nightstand beside the bed's head: next to a long side, near the head end."""
+    c, fb, lat, depth, width = _bed_frame(layout, bed)
+    rel = np.asarray(layout.center(stand)) - c
+    poly = layout.polygon(stand) - np.asarray(layout.center(stand))
+    half = float(np.ptp(poly @ lat)) / 2
+    gap = abs(float(rel @ lat)) - width / 2 - half
+    return -0.02 <= gap <= BESIDE_GAP_MAX and float(rel @ -fb) >= depth / 2 - HEAD_ZONE
+
+
+def beside_target(layout: UnitLayout, stand: str, bed: str, flip: bool = False) -> Target:
+    """The nightstand at the bed's head end, against the bed's side it stands on now, facing as the bed."""
+    c, fb, lat, depth, width = _bed_frame(layout, bed)
+    rot = layout.rotation(bed)
+    trial = layout.copy()
+    trial.set_rotation(stand, rot)
+    poly = trial.polygon(stand) - np.asarray(trial.center(stand))
+    d_n, w_n = float(np.ptp(poly @ fb)), float(np.ptp(poly @ lat))
+    side = 1.0 if float((np.asarray(layout.center(stand)) - c) @ lat) >= 0 else -1.0
+    if flip:
+        side = -side
+    p = c - fb * (depth / 2 - d_n / 2) + lat * side * (width / 2 + w_n / 2 + BESIDE_GAP)
+    return Target(float(p[0]), float(p[1]), rot)
+
+
+def table_slots(layout: UnitLayout, table: str, seats: list[str]) -> list[tuple[float, float, float]]:
+    """Places (u, v, rotation) for ``seats`` around ``table``: spread evenly along the table's
+    sides, long sides first, each facing the table, ``SEAT_GAP`` from its edge. Empty when the
+    sides cannot take them all."""
+    if not seats:
+        return []
+    c, f, lat, depth, width = _bed_frame(layout, table)
+    seat_w = max(float(min(layout.object(k).size[0], layout.object(k).size[1])) for k in seats)
+    seat_w = max(max(float(layout.object(k).size[0]) for k in seats), seat_w)
+    seat_d = max(float(layout.object(k).size[1]) for k in seats)
+    sides = sorted(
+        [(f, width, depth / 2), (-f, width, depth / 2), (lat, depth, width / 2), (-lat, depth, width / 2)],
+        key=lambda s: -s[1],
+    )
+    caps = [int((length + 0.05) // (seat_w + 0.05)) for _, length, _ in sides]
+    if sum(caps) < len(seats):
+        return []
+    counts = [0, 0, 0, 0]
+    placed = 0
+    while placed < len(seats):
+        for i in range(4):
+            if placed < len(seats) and counts[i] < caps[i]:
+                counts[i] += 1
+                placed += 1
+    out: list[tuple[float, float, float]] = []
+    for (normal, length, half), m in zip(sides, counts, strict=True):
+        along = np.array([normal[1], -normal[0]])
+        for j in range(m):
+            offset = (j - (m - 1) / 2) * (length / m)
+            p = c + normal * (half + SEAT_GAP + seat_d / 2) + along * offset
+            out.append((float(p[0]), float(p[1]), facing_degrees(-normal)))
+    return out
+
+
+def _seat_target(layout: UnitLayout, ctx: UnitContext, seat: str, table: str) -> Target | None:
+    """Pull a far seat up to its table along the way to it; when that is blocked, the nearest
+    free place around the table. ``None`` when neither is clean."""
+    d = table_direction(layout, seat, table)
+    gap = float(Polygon(layout.polygon(seat)).distance(Polygon(layout.polygon(table))))
+    if d is not None:
+        for keep in (SEAT_GAP, 0.15, 0.25):
+            moved = layout.polygon(seat) + d * (gap - keep)
+            if not _blocked(layout, ctx, seat, moved, table):
+                c = np.asarray(layout.center(seat)) + d * (gap - keep)
+                return Target(float(c[0]), float(c[1]), facing_degrees(d))
+    seats = sorted(k for k, t in ctx.seat_table.items() if t == table)
+    others = [np.asarray(layout.center(k)) for k in seats if k != seat]
+    here = np.asarray(layout.center(seat))
+    for u, v, rot in sorted(table_slots(layout, table, seats), key=lambda s: math.dist(s[:2], here)):
+        if any(math.dist((u, v), o) < 0.3 for o in others):
+            continue
+        trial = layout.copy()
+        trial.set_rotation(seat, rot)
+        trial.set_center(seat, u, v)
+        if not _blocked(layout, ctx, seat, trial.polygon(seat), table):
+            return Target(u, v, rot)
+    return None
+
+
+def table_direction(layout: UnitLayout, seat: str, table: str) -> FloatArray | None:
+    """The way from a seat's centre to the nearest point of its table (to the table's centre
+    when the seat stands under it)."""
+    c = np.asarray(layout.center(seat))
+    poly = Polygon(layout.polygon(table))
+    p = Point(c)
+    if poly.contains(p):
+        d = np.asarray(layout.center(table)) - c
+    else:
+        q = nearest_points(poly, p)[0]
+        d = np.array([q.x, q.y]) - c
+    n = float(np.linalg.norm(d))
+    return d / n if n > 1e-6 else None
+
+
+def _faces_wall(layout: UnitLayout, ctx: UnitContext, oid: str) -> WallLine | None:
+    poly = layout.polygon(oid)
+    f = _facing(layout.rotation(oid))
+    for w in ctx.walls:
+        if float(f @ -np.asarray(w.inward)) >= math.cos(math.radians(45)) and w.gap(poly) <= NEAR_WALL and w.overlap(poly) > 0.3:
+            return w
+    return None
+
+
+# -- separating colliding objects ---------------------------------------------------------------------
+
+
+def _rank(ctx: UnitContext, oid: str, layout: UnitLayout) -> tuple[int, float]:
+    """Who moves first in a collision: lower rank moves (free small things before wall pieces)."""
+    big = 2 if oid in ctx.against_wall else (1 if oid in ctx.seat_table.values() else 0)
+    poly = Polygon(layout.polygon(oid))
+    return big, float(poly.area)
+
+
+def _blocked(layout: UnitLayout, ctx: UnitContext, mover: str, poly: FloatArray, partner: str) -> bool:
+    """Would ``mover`` at ``poly`` leave the surface or newly overlap another solid thing at its
+    height? Boxes it overlaps already (a chair tucked under its table) do not count: physics
+    found no collision there."""
+    region = Polygon(ctx.surface.region)
+    shape = Polygon(poly)
+    if not region.buffer(1e-6).covers(shape):
+        return True
+    here = Polygon(layout.polygon(mover))
+    lo, hi = layout.span(mover)
+    for k in layout.ids:
+        if k in (mover, partner) or k in ctx.thin:
+            continue
+        klo, khi = layout.span(k)
+        if klo >= hi - 1e-3 or khi <= lo + 1e-3:
+            continue
+        other = Polygon(layout.polygon(k))
+        if shape.intersection(other).area > 1e-4 and here.intersection(other).area <= 1e-4:
+            return True
+    for o, opoly in _obstacle_polygons(ctx):
+        if o.id != partner and shape.intersection(opoly).area > 1e-4 and here.intersection(opoly).area <= 1e-4:
+            return True
+    return False
+
+
+def _separation(
+    layout: UnitLayout, ctx: UnitContext, pair: CollisionPair, avoid: Collection[str], walls: Mapping[str, WallLine]
+) -> tuple[str, Target] | None:
+    own = set(layout.ids)
+    movers = [k for k in (pair.a, pair.b) if k in own]
+    if not movers:
+        return None
+    movers.sort(key=lambda k: (k in avoid, _rank(ctx, k, layout), k))
+    for mover in movers:
+        other = pair.b if mover == pair.a else pair.a
+        pm = layout.polygon(mover)
+        po = layout.polygon(other) if other in own else _obstacle_poly(ctx, other)
+        if po is None:
+            continue
+        axes = np.concatenate([edge_axes(pm), edge_axes(po)]) if len(pm) > 2 and len(po) > 2 else np.eye(2)
+        dirs = np.concatenate([axes, -axes])
+        if mover in walls:  # a piece backed against its wall slides along it only
+            t = walls[mover].tangent
+            dirs = np.array([t, -t])
+        options = []
+        for d in dirs:
+            need = float((po @ d).max() - (pm @ d).min()) + SEPARATION_MARGIN
+            if need > 0:
+                options.append((need, tuple(np.round(d, 12)), d))
+        options.sort(key=lambda x: (x[0], x[1]))
+        for need, _, d in options:
+            moved = pm + d * need
+            if not _blocked(layout, ctx, mover, moved, other):
+                c = np.asarray(layout.center(mover)) + d * need
+                symbolic: tuple[str, ...] = ()
+                if other in own and max(abs(d[0]), abs(d[1])) > 1 - 1e-9:
+                    ax = "u" if abs(d[0]) > 0.5 else "v"
+                    if (d[0] if ax == "u" else d[1]) > 0:
+                        expr = f"{mover}.center.{ax} = {other}.bbox.max_{ax} + {mover}.size.{ax} / 2 + {SEPARATION_MARGIN}"
+                    else:
+                        expr = f"{mover}.center.{ax} = {other}.bbox.min_{ax} - {mover}.size.{ax} / 2 - {SEPARATION_MARGIN}"
+                    symbolic = (expr,)
+                return mover, Target(float(c[0]), float(c[1]), None, symbolic)
+    # nothing clean: the least move of the first mover; physics settles the rest
+    mover = movers[0]
+    other = pair.b if mover == pair.a else pair.a
+    po = layout.polygon(other) if other in own else _obstacle_poly(ctx, other)
+    if po is None:
+        return None
+    depth, axis = sat_overlap(po, layout.polygon(mover))
+    if depth <= 0:
+        axis = np.asarray(layout.center(mover)) - np.asarray(Polygon(po).centroid.coords[0])
+        axis = axis / max(float(np.linalg.norm(axis)), 1e-9)
+        depth = 0.0
+    c = np.asarray(layout.center(mover)) + axis * (depth + SEPARATION_MARGIN)
+    return mover, Target(float(c[0]), float(c[1]))
+
+
+def _obstacle_poly(ctx: UnitContext, oid: str) -> FloatArray | None:
+    for o, poly in _obstacle_polygons(ctx):
+        if o.id == oid:
+            return np.asarray(poly.exterior.coords)[:-1]
+    return None
+
+
+# -- room to use things -----------------------------------------------------------------------------------
+
+
+def _front_zone(layout: UnitLayout, oid: str) -> Polygon:
+    """The strip in front of an object's front (its width, ``FRONT_CLEARANCE`` deep)."""
+    poly = layout.polygon(oid)
+    c = np.asarray(layout.center(oid))
+    f = _facing(layout.rotation(oid))
+    side = np.array([f[1], -f[0]])
+    depth = float(((poly - c) @ f).max())
+    half = float(np.ptp((poly - c) @ side)) / 2
+    a = c + f * depth
+    corners = [a - side * half, a + side * half, a + side * half + f * FRONT_CLEARANCE, a - side * half + f * FRONT_CLEARANCE]
+    return Polygon(corners)
+
+
+def _clearance(layout: UnitLayout, ctx: UnitContext) -> list[Finding]:
+    """Things standing in the space in front of doors and drawers; the intruder is moved out of
+    the strip when that move is clean, else the problem is only remarked."""
+    out: list[Finding] = []
+    fronts = sorted(
+        k for k in ctx.against_wall if traits(layout.object(k).category).opening == "front"
+    )
+    for k in fronts:
+        zone = _front_zone(layout, k)
+        for j in layout.ids:
+            if j in (k, *ctx.thin) or ctx.seat_table.get(j) == k or ctx.nightstand_bed.get(j) == k:
+                continue
+            poly = Polygon(layout.polygon(j))
+            if poly.intersection(zone).area < 0.02 * max(float(zone.area), 1e-9):
+                continue
+            f = _facing(layout.rotation(k))
+            pm = layout.polygon(j)
+            zc = np.asarray(zone.exterior.coords)[:-1]
+            need = float((zc @ f).max() - (pm @ f).min()) + SEPARATION_MARGIN
+            fix: dict[str, Target] = {}
+            if j not in ctx.against_wall and j not in ctx.pinned and not _blocked(layout, ctx, j, pm + f * need, k):
+                c = np.asarray(layout.center(j)) + f * need
+                fix = {j: Target(float(c[0]), float(c[1]))}
+            sev: Severity = "semantic" if fix else "soft"
+            out.append(Finding("clearance", (j, k), sev, f"Move ({j}) out of the space in front of ({k}) so its doors and drawers open.", fix))
+    return out
+
+
+def _passage(layout: UnitLayout, ctx: UnitContext) -> list[Finding]:
+    """The free floor (eroded by a robot's radius) should be one connected piece."""
+    from scipy import ndimage
+    from shapely import contains_xy
+
+    region = Polygon(ctx.surface.region)
+    U, V = ctx.surface.size
+    nu, nv = max(2, math.ceil(U / PASSAGE_CELL)), max(2, math.ceil(V / PASSAGE_CELL))
+    uu, vv = np.meshgrid((np.arange(nu) + 0.5) * U / nu, (np.arange(nv) + 0.5) * V / nv, indexing="ij")
+    free = contains_xy(region.buffer(-ROBOT_RADIUS), uu, vv)
+    solid = [k for k in layout.ids if k not in ctx.thin]
+    for k in solid:
+        free &= ~contains_xy(Polygon(layout.polygon(k)).buffer(ROBOT_RADIUS), uu, vv)
+    for _, opoly in _obstacle_polygons(ctx):
+        free &= ~contains_xy(opoly.buffer(ROBOT_RADIUS), uu, vv)
+    total = int(free.sum())
+    if total == 0:
+        return []
+    labels, n = ndimage.label(free)
+    if n <= 1:
+        return []
+    sizes = np.bincount(labels.ravel())[1:]
+    if sizes.max() / total >= PASSAGE_MIN_SHARE:
+        return []
+    return [Finding("passage", (), "soft", f"The walkable floor is cut into {n} separate parts; leave a passage of at least {2 * ROBOT_RADIUS:.1f} m between the furniture.")]
+
+
+# -- the findings ---------------------------------------------------------------------------------------
+
+
+def find_problems(
+    layout: UnitLayout, ctx: UnitContext, check: PhysicalCheck, avoid: Collection[str] = ()
+) -> list[Finding]:
+    """Every problem of the layout, most important first, each with a note and its fixes.
+
+    ``avoid``: objects the layout memory saw oscillating or hitting the boundary again and
+    again; fixes then move something else, or try the other side.
+    """
+    out: list[Finding] = []
+    ids = set(layout.ids)
+    for oid in check.out_of_bounds:
+        shift = minimal_containing_shift(layout.polygon(oid), Polygon(ctx.surface.region), inset=0.005)
+        fixes = {}
+        if shift is not None:
+            c = np.asarray(layout.center(oid)) + shift
+            fixes[oid] = Target(float(c[0]), float(c[1]))
+        out.append(
+            Finding("out_of_bounds", (oid,), "physical", f"Bring ({oid}) fully back inside the {_surface_name(ctx)}; part of it sticks out.", fixes)
+        )
+    for oid, (kind, centre, rot) in sorted(ctx.pinned.items()):
+        note = next((c.layout_note for c in ctx.clauses if oid in c.related_objects), "")
+        if kind == "orientation" and _off(layout.rotation(oid), rot) > PINNED_TURN_MAX and not ctx.frozen_rotation:
+            out.append(Finding("clause", (oid,), "semantic", f"Turn ({oid}) back as its cross-unit rule asks: {note}", {oid: Target(rotation=rot)}))
+        elif kind == "placement" and math.dist(layout.center(oid), centre) > PINNED_MOVE_MAX:
+            out.append(Finding("clause", (oid,), "semantic", f"Put ({oid}) back where its cross-unit rule needs it: {note}", {oid: Target(centre[0], centre[1])}))
+    snapped: dict[str, WallLine] = {}
+    if ctx.floor and ctx.walls:
+        for oid in sorted(ctx.against_wall):
+            if oid in ctx.nightstand_bed:
+                continue
+            ok, wall = wall_status(layout, ctx, oid)
+            if ok and wall is not None:
+                snapped[oid] = wall
+            elif wall is not None and oid not in ctx.pinned:
+                out.append(
+                    Finding(
+                        "against_wall", (oid,), "semantic",
+                        f"Push ({oid}) back so its back is flush against the wall behind it ({wall.id}) and its front faces into the room.",
+                        {oid: snap_target(layout, oid, wall)},
+                    )
+                )
+        for stand, bed in sorted(ctx.nightstand_bed.items()):
+            if bed not in ids:
+                continue
+            if beside_ok(layout, stand, bed):
+                ok, wall = wall_status(layout, ctx, stand)
+                if ok and wall is not None:
+                    snapped[stand] = wall
+                continue
+            out.append(
+                Finding(
+                    "beside_bed", (stand, bed), "semantic",
+                    f"Place ({stand}) right beside the head of the bed ({bed}), on its side, facing the same way as the bed.",
+                    {stand: beside_target(layout, stand, bed, flip=stand in avoid)},
+                )
+            )
+        for seat, table in sorted(ctx.seat_table.items()):
+            gap = float(Polygon(layout.polygon(seat)).distance(Polygon(layout.polygon(table))))
+            if gap > SEAT_GAP_MAX and seat not in ctx.pinned:
+                target = _seat_target(layout, ctx, seat, table)
+                out.append(
+                    Finding(
+                        "seat_distance", (seat, table), "semantic" if target else "soft",
+                        f"Pull ({seat}) up to its table ({table}) and face it; it stands {gap:.1f} m away.",
+                        {seat: target} if target else {},
+                    )  # fmt: skip
+                )
+                continue
+            d = table_direction(layout, seat, table)
+            if d is None or ctx.frozen_rotation:
+                continue
+            want = facing_degrees(d)
+            if _off(layout.rotation(seat), want) > FACING_TABLE_DEG:
+                out.append(
+                    Finding("faces_table", (seat, table), "semantic", f"Turn ({seat}) to face the table ({table}) squarely.", {seat: Target(rotation=want)})
+                )
+        for oid in sorted(ctx.with_front - ctx.against_wall - set(ctx.seat_table)):
+            wall = _faces_wall(layout, ctx, oid)
+            if wall is not None:
+                out.append(
+                    Finding(
+                        "faces_wall", (oid,), "semantic", f"Turn ({oid}) around: it faces the wall ({wall.id}) from close by.",
+                        {oid: Target(rotation=normalize_degrees(layout.rotation(oid) + 180.0))},
+                    )
+                )
+        out.extend(_clearance(layout, ctx))
+        for sofa, tv in sorted(ctx.sofa_tv.items()):
+            d = np.asarray(layout.center(tv)) - np.asarray(layout.center(sofa))
+            if float(np.linalg.norm(d)) > 1e-6 and _off(layout.rotation(sofa), facing_degrees(d)) > 90.0:
+                out.append(Finding("sofa_tv", (sofa, tv), "soft", f"The sofa ({sofa}) turns its back on the TV stand ({tv}); consider facing them to each other."))
+    if ctx.floor and ctx.walls:
+        out.extend(_passage(layout, ctx))
+    for pair in check.collisions:
+        sep = _separation(layout, ctx, pair, avoid, snapped)
+        names = f"({pair.a}) and ({pair.b})"
+        if sep is None:
+            out.append(Finding("collision", (pair.a, pair.b), "physical", f"{names} interpenetrate ({pair.contacts} contacts, {pair.depth_m * 100:.0f} cm deep)."))
+            continue
+        mover, target = sep
+        direction = np.array([target.u or 0.0, target.v or 0.0]) - np.asarray(layout.center(mover))
+        out.append(
+            Finding(
+                "collision", (pair.a, pair.b), "physical",
+                f"{names} interpenetrate ({pair.contacts} contacts, {pair.depth_m * 100:.0f} cm deep): move ({mover}) {_word(direction)} until they are clear.",
+                {mover: target},
+            )
+        )
+    out.sort(key=lambda f: _ORDER.get(f.kind, 99))
+    return out
+
+
+def _surface_name(ctx: UnitContext) -> str:
+    kind = ctx.unit.anchor_kind
+    if kind == "floor":
+        return "room's floor"
+    if kind == "ceiling":
+        return "ceiling"
+    if kind == "wall":
+        return f"wall ({ctx.unit.anchor_id})"
+    return f"surface of its anchor ({ctx.unit.anchor_id})"
+
+
+def merged_fixes(findings: list[Finding], allowed: Collection[str] | None = None) -> dict[str, Target]:
+    """One target per object: the first (most important) position fix and the first rotation fix."""
+    out: dict[str, Target] = {}
+    for f in findings:
+        for oid, t in f.fixes.items():
+            if allowed is not None and oid not in allowed:
+                continue
+            cur = out.get(oid)
+            if cur is None:
+                out[oid] = t
+                continue
+            pos = (cur.u, cur.v) if cur.u is not None else (t.u, t.v)
+            sym = cur.symbolic if cur.u is not None else t.symbolic
+            rot = cur.rotation if cur.rotation is not None else t.rotation
+            out[oid] = Target(pos[0], pos[1], rot, sym)
+    return out
+
+
+def rule_violations(layout: UnitLayout, ctx: UnitContext, check: PhysicalCheck) -> list[str]:
+    """The hard rules a finished layout must keep, as sentences (empty when all hold):
+    no collisions, nothing out of bounds, wall pieces backed within 5 cm and facing in within
+    10°, seats facing their tables within 15°, nightstands beside their bed's head."""
+    out = [f"collision {p.a} ~ {p.b} ({p.depth_m * 100:.1f} cm)" for p in check.collisions]
+    out += [f"{k} out of bounds" for k in check.out_of_bounds]
+    if ctx.floor and ctx.walls:
+        for oid in sorted(ctx.against_wall):
+            if oid in ctx.pinned:
+                continue
+            ok, _wall = wall_status(layout, ctx, oid)
+            if not ok:
+                out.append(f"{oid} not backed against a wall")
+        for stand, bed in sorted(ctx.nightstand_bed.items()):
+            if not beside_ok(layout, stand, bed):
+                out.append(f"{stand} not beside the head of {bed}")
+        for seat, table in sorted(ctx.seat_table.items()):
+            d = table_direction(layout, seat, table)
+            if d is not None and _off(layout.rotation(seat), facing_degrees(d)) > FACING_TABLE_DEG:
+                out.append(f"{seat} does not face {table}")
+    return out

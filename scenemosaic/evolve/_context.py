@@ -1,0 +1,189 @@
+"""What an evolving unit knows besides its own layout: walls, roles, clauses and fixed obstacles."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from scenemosaic.scene import (
+    ConstraintClause,
+    LocalUnit,
+    Scene,
+    SceneObject,
+    UnitSurface,
+    surface_for,
+    traits,
+)
+
+__all__ = ["UnitContext", "WallLine", "facing_degrees", "unit_context"]
+
+TABLE_REACH = 0.8
+"""A seat with no ``faces`` relation belongs to a table or desk whose box is this close, metres..."""
+CHAIR_REACH = 1.5
+"""... and a chair (not an armchair or a sofa) to one this close: a dining chair left 1.2 m from
+the only dining table belongs to it."""
+CHAIRS = frozenset({"chair", "dining_chair", "office_chair", "chinese_chair", "dressing_chair", "stool", "barstool"})
+BED_REACH = 1.0
+"""A nightstand with no ``beside`` relation belongs to a bed whose box is this close, metres."""
+NIGHTSTANDS = frozenset({"nightstand"})
+BEDS = frozenset({"bed", "double_bed", "single_bed", "kids_bed", "bunk_bed", "king_bed"})
+
+
+def facing_degrees(direction: tuple[float, float] | np.ndarray) -> float:
+    """The in-plane rotation (0 down, 90 left, 180 up, -90 right) of a facing direction (u, v)."""
+    a, b = float(direction[0]), float(direction[1])
+    return math.degrees(math.atan2(-a, -b))
+
+
+@dataclass(frozen=True)
+class WallLine:
+    """A wall seen in a floor unit's plane: its inner face from ``a`` to ``b`` and inward normal."""
+
+    id: str
+    a: tuple[float, float]
+    b: tuple[float, float]
+    inward: tuple[float, float]
+
+    @property
+    def length(self) -> float:
+        return math.hypot(self.b[0] - self.a[0], self.b[1] - self.a[1])
+
+    @property
+    def tangent(self) -> np.ndarray:
+        d = np.array([self.b[0] - self.a[0], self.b[1] - self.a[1]])
+        return d / max(float(np.linalg.norm(d)), 1e-12)
+
+    def gap(self, polygon: np.ndarray) -> float:
+        """Distance from the wall face to the polygon's nearest point (negative: through the wall)."""
+        return float(((polygon - np.asarray(self.a)) @ np.asarray(self.inward)).min())
+
+    def along(self, polygon: np.ndarray) -> tuple[float, float]:
+        """The polygon's span along the wall, from ``a``."""
+        t = (polygon - np.asarray(self.a)) @ self.tangent
+        return float(t.min()), float(t.max())
+
+    def overlap(self, polygon: np.ndarray) -> float:
+        """Fraction of the polygon's span along the wall that lies in front of the wall."""
+        lo, hi = self.along(polygon)
+        if hi - lo < 1e-9:
+            return 1.0 if 0 <= lo <= self.length else 0.0
+        return max(0.0, min(hi, self.length) - max(lo, 0.0)) / (hi - lo)
+
+    @property
+    def facing(self) -> float:
+        """The rotation of an object facing away from this wall into the room."""
+        return facing_degrees(self.inward)
+
+
+@dataclass
+class UnitContext:
+    """A unit's surroundings and its children's roles, fixed for the whole evolution."""
+
+    unit: LocalUnit
+    surface: UnitSurface
+    walls: list[WallLine] = field(default_factory=list)
+    """Walls in the plane (floor units only)."""
+    obstacles: list[SceneObject] = field(default_factory=list)
+    """Objects of other units, fixed, checked for collisions with the children."""
+    against_wall: set[str] = field(default_factory=set)
+    """Children that belong with their back to a wall and their front to the room."""
+    seat_table: dict[str, str] = field(default_factory=dict)
+    """Seat -> the table or desk it faces."""
+    nightstand_bed: dict[str, str] = field(default_factory=dict)
+    """Nightstand -> the bed whose head it stands beside."""
+    sofa_tv: dict[str, str] = field(default_factory=dict)
+    """Sofa -> the TV stand it faces."""
+    with_front: set[str] = field(default_factory=set)
+    """Children whose front matters (seats, storage, tables against walls...): they must not face a wall."""
+    clauses: list[ConstraintClause] = field(default_factory=list)
+    pinned: dict[str, tuple[str, tuple[float, float], float]] = field(default_factory=dict)
+    """Children a cross-unit clause ties down: id -> (constraint kind, centre, rotation) to keep."""
+    thin: set[str] = field(default_factory=set)
+
+    @property
+    def frozen_rotation(self) -> bool:
+        """Containment units keep their children's rotations (only centres change)."""
+        return self.surface.projection == "anchor_front"
+
+    @property
+    def floor(self) -> bool:
+        return self.unit.anchor_kind == "floor"
+
+
+def _box_distance(a: SceneObject, b: SceneObject) -> float:
+    from shapely.geometry import Polygon
+
+    return float(Polygon(a.footprint()).distance(Polygon(b.footprint())))
+
+
+def unit_context(scene: Scene, unit: LocalUnit, obstacles: list[SceneObject], thin: set[str]) -> UnitContext:
+    """The context of ``unit`` in ``scene`` (its stabilized state)."""
+    surface = surface_for(scene, unit.anchor_id)
+    ctx = UnitContext(unit=unit, surface=surface, obstacles=obstacles, thin=set(thin) & set(unit.children))
+    ctx.clauses = list(unit.clauses)
+    kids = [scene.get(c) for c in unit.children]
+    faces = {(r.child, r.parent) for r in scene.relations if r.kind == "faces"}
+    by_id = {o.id: o for o in kids}
+    if unit.anchor_kind == "floor" and scene.room is not None:
+        for w in scene.room.walls:
+            a = surface.to_uv(np.array([w.start[0], w.start[1], 0.0]))
+            b = surface.to_uv(np.array([w.end[0], w.end[1], 0.0]))
+            n = np.array([w.inward_normal[0], w.inward_normal[1], 0.0])
+            inward = (float(n @ surface.u_axis), float(n @ surface.v_axis))
+            ctx.walls.append(WallLine(w.id, a, b, inward))
+        for o in kids:
+            t = traits(o.category)
+            if t.against_wall and t.placement == "floor":
+                ctx.against_wall.add(o.id)
+            if t.seat or t.against_wall or t.table:
+                ctx.with_front.add(o.id)
+        beside = {(r.child, r.parent) for r in scene.relations if r.kind == "beside"}
+        for o in kids:
+            t = traits(o.category)
+            if t.seat and not t.against_wall:
+                targets = [p for c, p in faces if c == o.id and p in by_id]
+                if not targets:
+                    reach = CHAIR_REACH if o.category in CHAIRS else TABLE_REACH
+                    tables = sorted(
+                        (d, k.id) for k in kids if traits(k.category).table and (d := _box_distance(o, k)) <= reach
+                    )
+                    targets = [tables[0][1]] if tables else []
+                if targets:
+                    ctx.seat_table[o.id] = sorted(targets)[0]
+            if t.seat and t.against_wall:
+                tv = sorted(p for c, p in faces if c == o.id and p in by_id and by_id[p].category == "tv_stand")
+                if tv:
+                    ctx.sofa_tv[o.id] = tv[0]
+            if o.category in NIGHTSTANDS:
+                beds = sorted(p for c, p in beside if c == o.id and p in by_id and by_id[p].category in BEDS)
+                if not beds:
+                    near = sorted(
+                        (d, k.id) for k in kids if k.category in BEDS and (d := _box_distance(o, k)) <= BED_REACH
+                    )
+                    beds = [near[0][1]] if near else []
+                if beds:
+                    ctx.nightstand_bed[o.id] = beds[0]
+    constraints = {c.id: c for c in scene.constraints}
+    from scenemosaic.scene import UnitLayout
+
+    layout = UnitLayout.from_scene(scene, unit)
+    # clauses the semantic rules already enforce (seats at tables, nightstands at beds, sofas
+    # facing) are kept by those rules wherever the group goes; the others pin their objects
+    covered = set(ctx.seat_table) | set(ctx.seat_table.values()) | set(ctx.nightstand_bed)
+    covered |= set(ctx.nightstand_bed.values()) | set(ctx.sofa_tv) | set(ctx.sofa_tv.values())
+    covered |= {c for c, p in faces if c in by_id and p in by_id} | {p for c, p in faces if c in by_id and p in by_id}
+    for clause in ctx.clauses:
+        kind = next(
+            (
+                c.kind
+                for c in constraints.values()
+                if clause in (c.anchor_a, c.anchor_b)
+            ),
+            "placement",
+        )
+        for oid in clause.related_objects:
+            if oid in by_id and oid not in covered:
+                ctx.pinned[oid] = (kind, layout.center(oid), layout.rotation(oid))
+    return ctx

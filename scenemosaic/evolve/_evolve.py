@@ -1,0 +1,196 @@
+"""Evolve every local unit of a stabilized scene: the refined original and its variants.
+
+:func:`evolve_scene` builds one task graph (:mod:`scenemosaic.dag`): per unit, a node evolving
+the original layout and, when variants are asked for, a node asking the archetype agent, which
+adds one node per proposed archetype (pose agent, then the same Critic-Actor loop). All run
+concurrently; CPU work (physics, rendering) runs in worker threads. The base scene is then
+rebuilt top-down from the refined originals, each in its anchor's frame, so what a unit's
+children carry moves with them.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import structlog
+
+from scenemosaic.agents import AgentPolicy
+from scenemosaic.dag import Node, NodeContext, Runner
+from scenemosaic.evolve._agents import ArchetypeAgent, ArchetypeOutput, EvolveState
+from scenemosaic.evolve._context import UnitContext, unit_context
+from scenemosaic.evolve._loop import MAX_ROUNDS, LayoutResult, evolve_layout
+from scenemosaic.exceptions import ModelConfigError, ReplayMissError, SceneMosaicError, UsageError
+from scenemosaic.models import Model, ModelSettings, Usage
+from scenemosaic.physics import ObjectShape, is_thin, require_finite_poses
+from scenemosaic.scene import LocalUnit, Scene, UnitLayout, build_structure, unit_layout, with_unit_layout
+
+__all__ = ["EvolutionReport", "UnitEvolution", "evolve_scene"]
+
+log = structlog.get_logger(__name__)
+
+
+@dataclass
+class UnitEvolution:
+    """The evolved layouts of one unit: the refined original first, then the variants."""
+
+    anchor_id: str
+    original: LayoutResult
+    variants: list[LayoutResult] = field(default_factory=list)
+    archetypes_asked: bool = False
+
+    @property
+    def layouts(self) -> list[LayoutResult]:
+        return [self.original, *self.variants]
+
+
+@dataclass
+class EvolutionReport:
+    """What the evolution stage did, per unit and layout, and what it cost."""
+
+    units: list[UnitEvolution] = field(default_factory=list)
+    wall_s: float = 0.0
+
+    @property
+    def usage(self) -> Usage:
+        total = Usage()
+        for u in self.units:
+            for lay in u.layouts:
+                total = total + lay.usage
+        return total
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready record for ``report.json``."""
+        layouts = [lay for u in self.units for lay in u.layouts]
+        return {
+            "units": len(self.units),
+            "layout_count": len(layouts),
+            "variants": sum(len(u.variants) for u in self.units),
+            "valid_layouts": sum(1 for lay in layouts if lay.valid),
+            "rule_violations": sum(len(lay.violations) for lay in layouts),
+            "requests": self.usage.requests,
+            "wall_s": round(self.wall_s, 3),
+            "per_layout": [lay.summary() for lay in layouts],
+        }
+
+
+def _obstacles(scene: Scene, unit: LocalUnit, units: list[LocalUnit]) -> list[Any]:
+    """Fixed objects a unit's children may run into: for a floor, wall or ceiling unit, the
+    children of the other room-level units (a painting above a wardrobe, a low pendant lamp)."""
+    if unit.anchor_kind == "object":
+        return []
+    roots = [u for u in units if u.anchor_kind != "object" and u.anchor_id != unit.anchor_id]
+    return [scene.get(c) for u in roots for c in u.children]
+
+
+async def evolve_scene(
+    scene: Scene,
+    model: Model,
+    shapes: Mapping[str, ObjectShape],
+    *,
+    variants: bool = False,
+    settings: ModelSettings | None = None,
+    policy: AgentPolicy | None = None,
+    max_rounds: int = MAX_ROUNDS,
+    seed: int = 0,
+    base_dir: Path | None = None,
+    views_dir: Path | None = None,
+    max_concurrency: int | None = None,
+) -> tuple[Scene, EvolutionReport]:
+    """Evolve every unit of ``scene`` (stabilized, with its structure) and return the refined base
+    scene and the report with every layout (variants included when ``variants``).
+
+    ``shapes`` are the objects' collision shapes (``scenemosaic.physics.object_shape``);
+    ``views_dir``, when given, receives ``<anchor>/<layout>/round_<k>.png`` and ``final.png``.
+    The input scene is not modified.
+    """
+    t0 = time.perf_counter()
+    require_finite_poses(scene, "evolve the scene")
+    structure = scene.structure or build_structure(scene)
+    units = list(structure.units)
+    thin = {o.id for o in scene.objects if is_thin(o)}
+    contexts: dict[str, UnitContext] = {u.anchor_id: unit_context(scene, u, _obstacles(scene, u, units), thin) for u in units}
+    policy = policy or AgentPolicy()
+    nodes: list[Node] = []
+
+    def views(anchor: str, layout_id: str) -> Path | None:
+        return views_dir / anchor / layout_id if views_dir is not None else None
+
+    async def guarded(anchor: str, layout_id: str, work: Any) -> LayoutResult:
+        """A layout whose loop fails (a model that keeps failing without fallback, physics that
+        cannot settle) is kept as an error record; configuration errors and bugs still raise."""
+        try:
+            result: LayoutResult = await work
+            return result
+        except (ModelConfigError, ReplayMissError, UsageError):
+            raise
+        except SceneMosaicError as exc:
+            log.warning("layout_evolution_failed", unit=anchor, layout=layout_id, error=str(exc)[:300])
+            kept = {k: p for k, p in unit_layout(scene, anchor).items()}
+            return LayoutResult(anchor, layout_id, local_poses=kept, error=f"{type(exc).__name__}: {exc}"[:500])
+
+    def original(anchor: str) -> Node:
+        async def run(ctx: NodeContext) -> LayoutResult:
+            c = contexts[anchor]
+            return await guarded(anchor, "original", evolve_layout(
+                scene, c, UnitLayout.from_scene(scene, c.unit), shapes, model, settings=settings, policy=policy,
+                max_rounds=max_rounds, seed=ctx.node_seed, base_dir=base_dir, views_dir=views(anchor, "original"),
+            ))  # fmt: skip
+
+        return Node(f"evolve/{anchor}/original", run)
+
+    def variant_node(anchor: str, archetype: Any) -> Node:
+        async def run(ctx: NodeContext) -> LayoutResult:
+            c = contexts[anchor]
+            return await guarded(anchor, archetype.layout_id, evolve_layout(
+                scene, c, UnitLayout.from_scene(scene, c.unit), shapes, model, layout_id=archetype.layout_id,
+                archetype=archetype, settings=settings, policy=policy, max_rounds=max_rounds, seed=ctx.node_seed,
+                base_dir=base_dir, views_dir=views(anchor, archetype.layout_id),
+            ))  # fmt: skip
+
+        return Node(f"evolve/{anchor}/{archetype.layout_id}", run)
+
+    def archetypes(anchor: str) -> Node:
+        async def run(ctx: NodeContext) -> dict[str, Any]:
+            c = contexts[anchor]
+            state = EvolveState(scene=scene, seed=ctx.node_seed, base_dir=base_dir, policy=policy, layout=UnitLayout.from_scene(scene, c.unit), context=c)
+            output, usage = await ArchetypeAgent().run(state, model, settings)
+            assert isinstance(output, ArchetypeOutput)
+            ctx.add_nodes(variant_node(anchor, a) for a in output.alternative_layouts)
+            return {
+                "ids": [a.layout_id for a in output.alternative_layouts],
+                "usage": usage,
+                "outcomes": list(state.outcomes.values()),
+                "fallbacks": list(state.fallbacks),
+            }
+
+        return Node(f"archetypes/{anchor}", run)
+
+    for u in units:
+        nodes.append(original(u.anchor_id))
+        if variants:
+            nodes.append(archetypes(u.anchor_id))
+    outputs = await Runner(nodes, seed=seed, max_concurrency=max_concurrency).run() if nodes else {}
+
+    report = EvolutionReport()
+    out = scene
+    for u in units:
+        orig: LayoutResult = outputs[f"evolve/{u.anchor_id}/original"]
+        ev = UnitEvolution(u.anchor_id, orig, archetypes_asked=variants)
+        arch = outputs.get(f"archetypes/{u.anchor_id}")
+        if arch is not None:
+            orig.usage = orig.usage + arch["usage"]
+            orig.outcomes.extend(arch["outcomes"])
+            orig.fallbacks.extend(arch["fallbacks"])
+            ev.variants = [outputs[f"evolve/{u.anchor_id}/{i}"] for i in arch["ids"]]
+        report.units.append(ev)
+        # top-down: the parent's refined layout is in place, this unit's goes on in its anchor's frame
+        out = with_unit_layout(out, u.anchor_id, orig.local_poses)
+    out.provenance.steps.append("evolve")
+    report.wall_s = time.perf_counter() - t0
+    log.info("scene_evolved", units=len(units), layouts=sum(len(e.layouts) for e in report.units), wall_s=round(report.wall_s, 3))
+    return out, report
+

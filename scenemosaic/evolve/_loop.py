@@ -1,0 +1,269 @@
+"""The Critic-Actor loop of one layout of one unit, its round selection and final settle.
+
+Per round: physics checks the layout (collisions with contact counts, out-of-bounds), the
+rule findings are computed, the critic judges (objects out of bounds become mandatory notes),
+the actor writes pose expressions, the sandbox applies them, and the round goes into the
+layout memory. The loop ends when the critic asks for no change, when the round cap
+(:data:`MAX_ROUNDS`) is reached, or early, when the last round moved nothing by more than
+:data:`EARLY_STOP_MOVE_M` nor turned anything by more than :data:`EARLY_STOP_TURN_DEG` and
+the layout is physically clean. The final round is kept if clean, else the round with the
+fewest collisions + out-of-bounds objects (later rounds win ties); then the unit settles
+under gravity in MuJoCo with its anchor as the ground (:func:`scenemosaic.physics.settle_unit`).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import time
+import zlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import structlog
+
+from scenemosaic.agents import AgentOutcome, AgentPolicy, FallbackRecord, TaskAgent
+from scenemosaic.evolve._agents import (
+    ActorAgent,
+    Archetype,
+    CriticAgent,
+    CriticOutput,
+    EvolveState,
+    PoseAgent,
+)
+from scenemosaic.evolve._analysis import PhysicalCheck, find_problems, physical_check, rule_violations
+from scenemosaic.evolve._context import UnitContext
+from scenemosaic.evolve._memory import LayoutMemory, RoundRecord
+from scenemosaic.evolve._views import unit_view_png
+from scenemosaic.models import Model, ModelSettings, Usage
+from scenemosaic.physics import ObjectShape, SettleSettings, SimSettings, UnitPlan, settle_unit
+from scenemosaic.scene import LayoutState2D, Pose, Scene, UnitLayout, rigid_moves, unit_layout
+
+__all__ = ["EARLY_STOP_MOVE_M", "EARLY_STOP_TURN_DEG", "MAX_ROUNDS", "LayoutResult", "evolve_layout"]
+
+log = structlog.get_logger(__name__)
+
+MAX_ROUNDS = 5
+"""Round cap of one layout's loop."""
+EARLY_STOP_MOVE_M = 0.01
+"""Early stop: no object moved further than this in the last round..."""
+EARLY_STOP_TURN_DEG = 0.5
+"""... nor turned by more than this, and the layout is free of collisions and out-of-bounds objects."""
+
+
+@dataclass
+class LayoutResult:
+    """One evolved layout of one unit: final poses (anchor frame), checks, rounds and costs."""
+
+    anchor_id: str
+    layout_id: str
+    style_name: str = "original"
+    reasoning: str = ""
+    local_poses: dict[str, Pose] = field(default_factory=dict)
+    """Children's poses in the anchor frame after the final settle."""
+    state: LayoutState2D | None = None
+    check: PhysicalCheck | None = None
+    violations: list[str] = field(default_factory=list)
+    rounds: list[RoundRecord] = field(default_factory=list)
+    selected_round: int = 0
+    stop_reason: str = ""
+    settle_moves_m: float = 0.0
+    usage: Usage = field(default_factory=Usage)
+    outcomes: list[AgentOutcome] = field(default_factory=list)
+    fallbacks: list[FallbackRecord] = field(default_factory=list)
+    views: list[str] = field(default_factory=list)
+    wall_s: float = 0.0
+    error: str | None = None
+
+    @property
+    def valid(self) -> bool:
+        """Physically clean after the final settle (no collisions, nothing out of bounds)."""
+        return self.check is not None and self.check.clean
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready record for reports."""
+        return {
+            "anchor": self.anchor_id,
+            "layout_id": self.layout_id,
+            "style": self.style_name,
+            "reasoning": self.reasoning,
+            "valid": self.valid,
+            "collisions": [f"{p.a}~{p.b}" for p in (self.check.collisions if self.check else ())],
+            "out_of_bounds": list(self.check.out_of_bounds) if self.check else [],
+            "violations": list(self.violations),
+            "rounds": len(self.rounds),
+            "selected_round": self.selected_round,
+            "stop_reason": self.stop_reason,
+            "settle_moves_m": round(self.settle_moves_m, 4),
+            "requests": self.usage.requests,
+            "answered_by": sorted({o.answered_by for o in self.outcomes}),
+            "error": self.error,
+            "wall_s": round(self.wall_s, 3),
+        }
+
+
+def _poses(layout: UnitLayout) -> dict[str, tuple[float, float, float]]:
+    return {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids}
+
+
+def _moved(a: UnitLayout, b: UnitLayout) -> tuple[float, float]:
+    move = max((math.dist(a.center(k), b.center(k)) for k in a.ids), default=0.0)
+    turn = max((abs((a.rotation(k) - b.rotation(k) + 180) % 360 - 180) for k in a.ids), default=0.0)
+    return move, turn
+
+
+def scene_with(scene: Scene, layout: UnitLayout) -> Scene:
+    """``scene`` with the unit's children posed as ``layout`` says (what they carry moves along);
+    not re-validated: poses come from the layout's own conversion."""
+    moved = rigid_moves(scene, layout.poses())
+    objects = [o.model_copy(update={"pose": moved[o.id]}) if o.id in moved else o for o in scene.objects]
+    return scene.model_copy(update={"objects": objects})
+
+
+async def _ask(
+    agent: TaskAgent[Any, Any], state: EvolveState, model: Model, settings: ModelSettings | None, result: LayoutResult
+) -> Any:
+    output, usage = await agent.run(state, model, settings)
+    result.usage = result.usage + usage
+    if agent.name in state.outcomes:
+        result.outcomes.append(state.outcomes.pop(agent.name))
+    result.fallbacks.extend(state.fallbacks)
+    state.fallbacks.clear()
+    return output
+
+
+def _mandatory(notes: list[str], check: PhysicalCheck, state: EvolveState) -> list[str]:
+    """The critic's notes plus one for each out-of-bounds object it did not name."""
+    from scenemosaic.evolve._agents import named_objects
+
+    layout, _ = state.need()
+    named = named_objects(notes, layout)
+    extra = [f for f in state.findings if f.kind == "out_of_bounds" and f.objects[0] not in named]
+    return [*notes, *(f.note for f in extra)]
+
+
+async def evolve_layout(
+    scene: Scene,
+    ctx: UnitContext,
+    layout: UnitLayout,
+    shapes: Mapping[str, ObjectShape],
+    model: Model,
+    *,
+    layout_id: str = "original",
+    archetype: Archetype | None = None,
+    settings: ModelSettings | None = None,
+    policy: AgentPolicy | None = None,
+    max_rounds: int = MAX_ROUNDS,
+    seed: int = 0,
+    base_dir: Path | None = None,
+    views_dir: Path | None = None,
+    vision: bool | None = None,
+) -> LayoutResult:
+    """Evolve one layout of ``ctx.unit`` (the original, or an archetype instantiated first by the
+    pose agent) through the Critic-Actor loop, then settle it; never modifies ``scene``."""
+    t0 = time.perf_counter()
+    anchor = ctx.unit.anchor_id
+    result = LayoutResult(anchor_id=anchor, layout_id=layout_id)
+    if archetype is not None:
+        result.style_name, result.reasoning = archetype.layout_style_name, archetype.layout_reasoning
+    state = EvolveState(scene=scene, seed=seed, base_dir=base_dir, policy=policy or AgentPolicy(), layout=layout.copy(), context=ctx, archetype=archetype)
+    use_vision = model.vision if vision is None else vision
+    if use_vision and not model.uses_rule_solvers:
+        state.view = lambda: unit_view_png(scene, state.need()[0], base_dir=base_dir)
+
+    def save_view(name: str) -> None:
+        if views_dir is None:
+            return
+        views_dir.mkdir(parents=True, exist_ok=True)
+        path = views_dir / f"{name}.png"
+        path.write_bytes(unit_view_png(scene, state.need()[0], base_dir=base_dir))
+        result.views.append(str(path))
+
+    if archetype is not None:
+        await _ask(PoseAgent(), state, model, settings, result)
+    critic, actor = CriticAgent(), ActorAgent()
+    memory: LayoutMemory = state.memory
+    candidates: list[tuple[int, UnitLayout, PhysicalCheck]] = []
+    last_move: tuple[float, float] | None = None
+    check: PhysicalCheck | None = None
+    stop = f"round cap ({max_rounds})"
+    current, _ = state.need()
+    for rnd in range(1, max_rounds + 1):
+        current, _ = state.need()
+        check = await asyncio.to_thread(physical_check, current, ctx, shapes)
+        candidates.append((rnd, current.copy(), check))
+        if last_move is not None and last_move[0] < EARLY_STOP_MOVE_M and last_move[1] < EARLY_STOP_TURN_DEG and check.clean:
+            stop = "early stop: converged"
+            break
+        state.check = check
+        state.round = rnd
+        state.findings = await asyncio.to_thread(find_problems, current, ctx, check, memory.avoid())
+        await asyncio.to_thread(save_view, f"round_{rnd}")
+        verdict: CriticOutput = await _ask(critic, state, model, settings, result)
+        notes = _mandatory(list(verdict.modification_notes), check, state)
+        record = RoundRecord(
+            round=rnd, poses=_poses(current), collisions=[(p.a, p.b, p.contacts) for p in check.collisions],
+            out_of_bounds=list(check.out_of_bounds), score=verdict.quality_score, notes=notes,
+        )  # fmt: skip
+        if not verdict.should_modify and len(notes) == len(verdict.modification_notes):
+            memory.add(record)
+            stop = "critic asked for no change"
+            break
+        state.notes = notes
+        state.refused = []
+        before = current.copy()
+        reply = await _ask(actor, state, model, settings, result)
+        after, _ = state.need()
+        record.expressions = list(reply.pose_expressions)
+        record.resolved = _poses(after)
+        record.refused = list(state.refused)
+        memory.add(record)
+        last_move = _moved(before, after)
+    else:
+        current, _ = state.need()
+        check = await asyncio.to_thread(physical_check, current, ctx, shapes)
+        candidates.append((max_rounds + 1, current.copy(), check))
+    final_round, chosen, chosen_check = candidates[-1]
+    if not chosen_check.clean:
+        final_round, chosen, chosen_check = min(candidates, key=lambda c: (c[2].count, -c[0]))
+    result.rounds = memory.rounds
+    result.selected_round = final_round
+    result.stop_reason = stop
+    settled_layout, moves = await asyncio.to_thread(_settle, scene, ctx, chosen, shapes, seed)
+    result.settle_moves_m = moves
+    final_check = await asyncio.to_thread(physical_check, settled_layout, ctx, shapes)
+    result.check = final_check
+    result.violations = rule_violations(settled_layout, ctx, final_check)
+    result.state = settled_layout.state()
+    settled_scene = scene_with(scene, settled_layout)
+    result.local_poses = {k: p for k, p in unit_layout(settled_scene, anchor).items() if k in set(layout.ids)}
+    state.layout = settled_layout
+    await asyncio.to_thread(save_view, "final")
+    result.wall_s = time.perf_counter() - t0
+    log.info(
+        "layout_evolved", unit=anchor, layout=layout_id, rounds=len(result.rounds), stop=stop,
+        valid=result.valid, violations=len(result.violations), wall_s=round(result.wall_s, 3),
+    )  # fmt: skip
+    return result
+
+
+def _settle(
+    scene: Scene, ctx: UnitContext, layout: UnitLayout, shapes: Mapping[str, ObjectShape], seed: int
+) -> tuple[UnitLayout, float]:
+    """Gravity settle of the unit with its anchor as the ground; returns the settled layout and
+    the largest move the settle made."""
+    posed = scene_with(scene, layout)
+    plan = UnitPlan(ctx.unit.anchor_id, ctx.unit.anchor_kind, tuple(layout.ids), 0)
+    neighbours = [o.id for o in ctx.obstacles]
+    poses, _ = settle_unit(
+        posed, plan, shapes, neighbours, sim=SimSettings(), settle=SettleSettings(),
+        seed=zlib.crc32(f"{seed}:{ctx.unit.anchor_id}:settle".encode()),
+    )  # fmt: skip
+    objects = [o.model_copy(update={"pose": poses[o.id]}) if o.id in poses else o for o in posed.objects]
+    settled = posed.model_copy(update={"objects": objects})
+    out = UnitLayout.from_scene(settled, ctx.unit)
+    moves = max((math.dist(out.pose(k).position, layout.pose(k).position) for k in layout.ids), default=0.0)
+    return out, moves
+

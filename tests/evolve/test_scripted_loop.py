@@ -1,0 +1,129 @@
+"""The Critic-Actor loop driven by a scripted model (a FunctionModel standing in for a VLM).
+
+* a critic note becomes actor expressions and resolved poses, and round two's prompts carry the
+  memory of round one;
+* a hostile actor reply is refused by the sandbox and the actor is asked again with the reasons;
+* a critic that keeps pushing an object back and forth is seen oscillating.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from scenemosaic import GenerateConfig, generate
+from scenemosaic.agents import AgentPolicy
+from scenemosaic.evolve import ActorEvidence, CriticEvidence, LayoutMemory, evolve_layout, unit_context
+from scenemosaic.models import FunctionModel, Message, RequestContext
+from scenemosaic.physics import object_shape
+from scenemosaic.scene import Scene, UnitLayout
+
+DINING = Path(__file__).resolve().parents[2] / "data" / "layouts" / "physcene" / "DiningRoom-19325_diningroom.json"
+
+
+@pytest.fixture(scope="module")
+def dining(tmp_path_factory: pytest.TempPathFactory) -> Scene:
+    return generate(DINING, tmp_path_factory.mktemp("dining"), GenerateConfig(evolve=False)).scene
+
+
+def _floor(scene: Scene) -> Any:
+    assert scene.structure is not None
+    unit = next(u for u in scene.structure.units if u.anchor_id == "floor")
+    return unit_context(scene, unit, [], set())
+
+
+def _text(messages: list[Message]) -> str:
+    return "\n".join(p.text for m in messages for p in m.parts if hasattr(p, "text"))
+
+
+async def test_note_to_expressions_to_poses_with_memory_and_a_refused_hostile_reply(dining: Scene) -> None:
+    seen: dict[str, Any] = {"critic": [], "actor": []}
+
+    def critic(messages: list[Message], context: RequestContext) -> dict[str, Any]:
+        ev = context.evidence
+        assert isinstance(ev, CriticEvidence)
+        seen["critic"].append((ev, _text(messages)))
+        if ev.round == 1:
+            return {
+                "should_modify": True, "reasoning": "the chair stands a little far left",
+                "modification_notes": ["Move (dining_chair_0) ten centimetres to the right."],
+                "quality_basis": "one chair off", "quality_score": 70,
+            }  # fmt: skip
+        return {"should_modify": False, "reasoning": "fine now", "modification_notes": [], "quality_basis": "", "quality_score": 92}
+
+    def actor(messages: list[Message], context: RequestContext) -> dict[str, Any]:
+        ev = context.evidence
+        assert isinstance(ev, ActorEvidence)
+        seen["actor"].append(_text(messages))
+        assert ev.may_change == ["dining_chair_0"]  # only what the note names may change
+        if len(seen["actor"]) == 1:
+            return {"reasoning": "try", "pose_expressions": ["dining_chair_0.center.u = __import__('os').getcwd()"]}
+        return {"reasoning": "to the right", "pose_expressions": ["dining_chair_0.center.u = dining_chair_0.center.u + 0.1"]}
+
+    ctx = _floor(dining)
+    layout = UnitLayout.from_scene(dining, ctx.unit)
+    u0 = layout.center("dining_chair_0")[0]
+    model = FunctionModel({"critic": critic, "actor": actor}, vision=False)
+    shapes = {o.id: object_shape(o, None) for o in dining.objects}
+    result = await evolve_layout(dining, ctx, layout, shapes, model, policy=AgentPolicy(max_attempts=3))
+
+    first = result.rounds[0]
+    assert first.notes == ["Move (dining_chair_0) ten centimetres to the right."]
+    assert first.expressions == ["dining_chair_0.center.u = dining_chair_0.center.u + 0.1"]
+    assert first.resolved["dining_chair_0"][0] == pytest.approx(u0 + 0.1, abs=1e-9)
+    assert first.refused and "__import__" in seen["actor"][1] and "only the functions" in first.refused[0]
+    # the repair request carried the refusal back to the actor
+    assert "cannot be applied" in seen["actor"][1]
+    # round two's critic saw round one in its memory
+    ev2, prompt2 = seen["critic"][1]
+    assert ev2.round == 2 and "round 1" in ev2.memory and "dining_chair_0.center.u + 0.1" in prompt2
+    assert result.stop_reason == "critic asked for no change"
+    actor_outcome = next(o for o in result.outcomes if o.agent == "actor")
+    assert actor_outcome.answered_by == "model" and actor_outcome.repairs == 1
+
+
+async def test_an_oscillating_critic_is_detected_and_said_in_the_next_prompt(dining: Scene) -> None:
+    critics: list[CriticEvidence] = []
+    moves = iter([0.2, -0.2, 0.2, -0.2, 0.2])
+
+    def critic(messages: list[Message], context: RequestContext) -> dict[str, Any]:
+        critics.append(context.evidence)  # type: ignore[arg-type]
+        return {
+            "should_modify": True, "reasoning": "move it", "modification_notes": ["Shift (dining_chair_1) sideways."],
+            "quality_basis": "", "quality_score": 50,
+        }  # fmt: skip
+
+    def actor(messages: list[Message], context: RequestContext) -> dict[str, Any]:
+        d = next(moves)
+        return {"reasoning": "", "pose_expressions": [f"dining_chair_1.center.u = dining_chair_1.center.u + {d}"]}
+
+    ctx = _floor(dining)
+    layout = UnitLayout.from_scene(dining, ctx.unit)
+    model = FunctionModel({"critic": critic, "actor": actor}, vision=False)
+    shapes = {o.id: object_shape(o, None) for o in dining.objects}
+    result = await evolve_layout(dining, ctx, layout, shapes, model, max_rounds=4)
+    assert LayoutMemory(result.rounds).oscillating() == {"dining_chair_1": "u"}
+    assert "oscillating" not in critics[1].memory  # two poses are not an oscillation yet
+    assert "oscillating" in critics[2].memory and "dining_chair_1 along u" in critics[2].memory
+    assert result.stop_reason == "round cap (4)"
+
+
+def test_the_rule_critic_pivots_away_from_an_oscillating_object(dining: Scene) -> None:
+    """Given the memory's avoid set, a collision fix moves the other object of the pair."""
+    from scenemosaic.evolve import find_problems, physical_check
+    from scenemosaic.physics import object_shape
+
+    ctx = _floor(dining)
+    layout = UnitLayout.from_scene(dining, ctx.unit)
+    u, v = layout.center("dining_chair_3")
+    layout.set_center("dining_chair_2", u + 0.1, v)  # into its neighbour
+    shapes = {o.id: object_shape(o, None) for o in dining.objects}
+    check = physical_check(layout, ctx, shapes)
+    [pair] = [p for p in check.collisions if {p.a, p.b} == {"dining_chair_2", "dining_chair_3"}]
+    assert pair.contacts > 0
+    first = [f for f in find_problems(layout, ctx, check) if f.kind == "collision"]
+    assert set(first[0].fixes) == {"dining_chair_2"}  # equal chairs: the first id moves
+    pivot = [f for f in find_problems(layout, ctx, check, avoid={"dining_chair_2"}) if f.kind == "collision"]
+    assert set(pivot[0].fixes) == {"dining_chair_3"}
