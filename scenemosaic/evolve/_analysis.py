@@ -606,7 +606,7 @@ def find_problems(
                         "seat_distance", (seat, table), "semantic" if target else "soft",
                         f"Pull ({seat}) up to its table ({table}) and face it; it stands {gap:.1f} m away.",
                         {seat: target} if target else {},
-                    )  # fmt: skip
+                    )
                 )
                 continue
             d = table_direction(layout, seat, table)
