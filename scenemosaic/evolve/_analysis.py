@@ -32,6 +32,7 @@ from scenemosaic.scene import (
     Scene,
     SceneObject,
     UnitLayout,
+    convex_hull_2d,
     edge_axes,
     minimal_containing_shift,
     normalize_degrees,
@@ -179,13 +180,9 @@ def _nearby_obstacles(layout: UnitLayout, ctx: UnitContext) -> list[SceneObject]
 
 
 def _obstacle_polygons(ctx: UnitContext) -> list[tuple[SceneObject, Polygon]]:
-    cache = ctx.__dict__.setdefault("_obstacle_polys", None)
-    if cache is None:
-        from scenemosaic.scene import convex_hull_2d
-
-        cache = [(o, Polygon(convex_hull_2d(ctx.surface.project(o.corners())))) for o in ctx.obstacles]
-        ctx.__dict__["_obstacle_polys"] = cache
-    return list(cache)
+    if ctx.obstacle_polygons is None:  # a benign race: two layouts of a unit may both compute it
+        ctx.obstacle_polygons = [(o, Polygon(convex_hull_2d(ctx.surface.project(o.corners())))) for o in ctx.obstacles]
+    return list(ctx.obstacle_polygons)
 
 
 # -- geometry helpers on the layout ------------------------------------------------------------------

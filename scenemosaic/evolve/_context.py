@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -12,6 +13,7 @@ from scenemosaic.scene import (
     LocalUnit,
     Scene,
     SceneObject,
+    UnitLayout,
     UnitSurface,
     surface_for,
     traits,
@@ -101,6 +103,8 @@ class UnitContext:
     pinned: dict[str, tuple[str, tuple[float, float], float]] = field(default_factory=dict)
     """Children a cross-unit clause ties down: id -> (constraint kind, centre, rotation) to keep."""
     thin: set[str] = field(default_factory=set)
+    obstacle_polygons: list[tuple[SceneObject, Any]] | None = field(default=None, repr=False)
+    """The obstacles' outlines on the surface (shapely polygons), computed on first use."""
 
     @property
     def frozen_rotation(self) -> bool:
@@ -166,8 +170,6 @@ def unit_context(scene: Scene, unit: LocalUnit, obstacles: list[SceneObject], th
                 if beds:
                     ctx.nightstand_bed[o.id] = beds[0]
     constraints = {c.id: c for c in scene.constraints}
-    from scenemosaic.scene import UnitLayout
-
     layout = UnitLayout.from_scene(scene, unit)
     # clauses the semantic rules already enforce (seats at tables, nightstands at beds, sofas
     # facing) are kept by those rules wherever the group goes; the others pin their objects

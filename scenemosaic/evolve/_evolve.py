@@ -23,7 +23,14 @@ from scenemosaic.dag import Node, NodeContext, Runner
 from scenemosaic.evolve._agents import ArchetypeAgent, ArchetypeOutput, EvolveState
 from scenemosaic.evolve._context import UnitContext, unit_context
 from scenemosaic.evolve._loop import MAX_ROUNDS, LayoutResult, evolve_layout
-from scenemosaic.exceptions import ModelConfigError, ReplayMissError, SceneMosaicError, UsageError
+from scenemosaic.exceptions import (
+    ModelConfigError,
+    ReplayMissError,
+    RunCancelledError,
+    SceneMosaicError,
+    UsageError,
+    UsageLimitExceeded,
+)
 from scenemosaic.models import Model, ModelSettings, Usage
 from scenemosaic.physics import ObjectShape, is_thin, require_finite_poses
 from scenemosaic.scene import LocalUnit, Scene, UnitLayout, build_structure, unit_layout, with_unit_layout
@@ -125,7 +132,7 @@ async def evolve_scene(
         try:
             result: LayoutResult = await work
             return result
-        except (ModelConfigError, ReplayMissError, UsageError):
+        except (ModelConfigError, ReplayMissError, UsageError, UsageLimitExceeded, RunCancelledError):
             raise
         except SceneMosaicError as exc:
             log.warning("layout_evolution_failed", unit=anchor, layout=layout_id, error=str(exc)[:300])
@@ -176,7 +183,7 @@ async def evolve_scene(
     outputs = await Runner(nodes, seed=seed, max_concurrency=max_concurrency).run() if nodes else {}
 
     report = EvolutionReport()
-    out = scene
+    out = scene.model_copy(deep=True)  # the caller's scene stays as it was
     for u in units:
         orig: LayoutResult = outputs[f"evolve/{u.anchor_id}/original"]
         ev = UnitEvolution(u.anchor_id, orig, archetypes_asked=variants)
@@ -187,8 +194,10 @@ async def evolve_scene(
             orig.fallbacks.extend(arch["fallbacks"])
             ev.variants = [outputs[f"evolve/{u.anchor_id}/{i}"] for i in arch["ids"]]
         report.units.append(ev)
-        # top-down: the parent's refined layout is in place, this unit's goes on in its anchor's frame
-        out = with_unit_layout(out, u.anchor_id, orig.local_poses)
+        # top-down: the parent's refined layout is in place, this unit's goes on in its anchor's frame;
+        # a unit whose evolution failed keeps its stabilized layout exactly
+        if orig.error is None:
+            out = with_unit_layout(out, u.anchor_id, orig.local_poses)
     out.provenance.steps.append("evolve")
     report.wall_s = time.perf_counter() - t0
     log.info("scene_evolved", units=len(units), layouts=sum(len(e.layouts) for e in report.units), wall_s=round(report.wall_s, 3))

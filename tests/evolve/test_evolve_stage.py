@@ -4,14 +4,17 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
+from agent_solvers import solver_answer
 from PIL import Image
 from typer.testing import CliRunner
 
 from scenemosaic import GenerateConfig, generate
 from scenemosaic.cli import app
-from scenemosaic.exceptions import UsageError
+from scenemosaic.exceptions import ModelHTTPError, UsageError
+from scenemosaic.models import FunctionModel, Message, RequestContext
 
 BEDROOM = Path(__file__).resolve().parents[1] / "fixtures" / "bedroom_22.json"
 
@@ -70,3 +73,31 @@ def test_no_evolve_keeps_the_stabilized_scene_and_variants_need_it(tmp_path: Pat
     assert evolve["status"] == "skipped" and not (tmp_path / "off" / "evolve").exists()
     with pytest.raises(UsageError, match="variants come from the evolve stage"):
         generate(room, tmp_path / "bad", GenerateConfig(evolve=False, variants=2))
+
+
+DINING = Path(__file__).resolve().parents[2] / "data" / "layouts" / "physcene" / "DiningRoom-19325_diningroom.json"
+
+
+def _critic_fails(messages: list[Message], context: RequestContext) -> Any:
+    if context.agent == "critic":
+        raise ModelHTTPError("the critic's server answered 500", status_code=500, body="")
+    return solver_answer(messages, context)
+
+
+def test_a_failing_critic_without_fallback_keeps_the_stabilized_unit_and_says_so(tmp_path: Path) -> None:
+    stable = generate(DINING, tmp_path / "stable", GenerateConfig(evolve=False)).scene
+    model = FunctionModel(_critic_fails, vision=False)
+    result = generate(DINING, tmp_path / "run", GenerateConfig(model=model, solver_fallback=False))
+    assert result.status == "degraded"
+    assert any("evolution failed, kept the stabilized layout" in w for w in result.report["warnings"])
+    evolve = next(s for s in result.report["stages"] if s["name"] == "evolve")
+    assert all(lay["error"] and "ModelHTTPError" in lay["error"] for lay in evolve["detail"]["layouts"])
+    assert [o.pose for o in result.scene.objects] == [o.pose for o in stable.objects]
+
+
+def test_a_failing_critic_with_fallback_is_answered_by_the_rules_and_reported(tmp_path: Path) -> None:
+    rules = generate(DINING, tmp_path / "rules", GenerateConfig()).scene
+    result = generate(DINING, tmp_path / "run", GenerateConfig(model=FunctionModel(_critic_fails, vision=False)))
+    assert result.status == "degraded"
+    assert any("agent 'critic' (floor/original) answered by its rule solver" in w for w in result.report["warnings"])
+    assert [o.pose for o in result.scene.objects] == [o.pose for o in rules.objects]  # the rules' own answer
