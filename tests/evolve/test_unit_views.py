@@ -46,7 +46,7 @@ def test_the_gl_render_covers_the_same_pixels_as_the_painter(living: Scene) -> N
     rendered = render_view(living, view, backend="mujoco", **kw)  # type: ignore[arg-type]
     a, b = _objects_mask(painted), _objects_mask(rendered)
     iou = (a & b).sum() / (a | b).sum()
-    assert a.sum() > 1000 and iou > 0.9, iou
+    assert a.sum() > 1000 and iou > 0.85, iou  # 0.91 here: edges and outlines differ by a pixel
     print(f"objects mask IoU, MuJoCo vs painter: {iou:.3f}")
 
 
