@@ -231,15 +231,18 @@ async def evolve_layout(
     result.rounds = memory.rounds
     result.selected_round = final_round
     result.stop_reason = stop
-    settled_layout, moves = await asyncio.to_thread(_settle, scene, ctx, chosen, shapes, seed)
-    result.settle_moves_m = moves
-    final_check = await asyncio.to_thread(physical_check, settled_layout, ctx, shapes)
-    result.check = final_check
-    result.violations = rule_violations(settled_layout, ctx, final_check)
-    result.state = settled_layout.state()
-    settled_scene = scene_with(scene, settled_layout)
-    result.local_poses = {k: p for k, p in unit_layout(settled_scene, anchor).items() if k in set(layout.ids)}
-    state.layout = settled_layout
+    def finish() -> UnitLayout:
+        """Settle the chosen round, check it again, and keep its poses in the anchor's frame."""
+        settled, moves = _settle(scene, ctx, chosen, shapes, seed)
+        result.settle_moves_m = moves
+        result.check = physical_check(settled, ctx, shapes)
+        result.violations = rule_violations(settled, ctx, result.check)
+        result.state = settled.state()
+        local = unit_layout(scene_with(scene, settled), anchor)
+        result.local_poses = {k: p for k, p in local.items() if k in set(layout.ids)}
+        return settled
+
+    state.layout = await asyncio.to_thread(finish)
     await asyncio.to_thread(save_view, "final")
     result.wall_s = time.perf_counter() - t0
     log.info(
