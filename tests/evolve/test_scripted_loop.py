@@ -8,15 +8,17 @@
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 from typing import Any
 
 import pytest
+from PIL import Image
 
 from scenemosaic import GenerateConfig, generate
 from scenemosaic.agents import AgentPolicy
 from scenemosaic.evolve import ActorEvidence, CriticEvidence, LayoutMemory, evolve_layout, unit_context
-from scenemosaic.models import FunctionModel, Message, RequestContext
+from scenemosaic.models import FunctionModel, ImagePart, Message, RequestContext
 from scenemosaic.physics import object_shape
 from scenemosaic.scene import Scene, UnitLayout
 
@@ -127,3 +129,33 @@ def test_the_rule_critic_pivots_away_from_an_oscillating_object(dining: Scene) -
     assert set(first[0].fixes) == {"dining_chair_2"}  # equal chairs: the first id moves
     pivot = [f for f in find_problems(layout, ctx, check, avoid={"dining_chair_2"}) if f.kind == "collision"]
     assert set(pivot[0].fixes) == {"dining_chair_3"}
+
+
+async def test_a_vision_critic_sees_the_unit_view_and_hallucinated_ids_or_prose_are_sent_back(dining: Scene) -> None:
+    replies = iter(
+        [
+            "Looks fine to me!",  # not JSON
+            {"should_modify": True, "reasoning": "", "modification_notes": ["Move (sofa_9) left."], "quality_basis": "", "quality_score": 50},
+            {"should_modify": False, "reasoning": "ok", "modification_notes": [], "quality_basis": "", "quality_score": 95},
+        ]
+    )
+    seen: list[list[Message]] = []
+
+    def critic(messages: list[Message], context: RequestContext) -> Any:
+        seen.append(messages)
+        return next(replies)
+
+    ctx = _floor(dining)
+    layout = UnitLayout.from_scene(dining, ctx.unit)
+    model = FunctionModel({"critic": critic}, vision=True)
+    shapes = {o.id: object_shape(o, None) for o in dining.objects}
+    result = await evolve_layout(dining, ctx, layout, shapes, model, policy=AgentPolicy(max_attempts=3))
+    images = [p for m in seen[0] for p in m.parts if isinstance(p, ImagePart)]
+    assert len(images) == 1
+    with Image.open(io.BytesIO(images[0].png)) as view:
+        assert view.size == (1024, 1024)
+    assert "not a valid CriticOutput" in _text(seen[1])
+    assert "'sofa_9', which is not an object of this unit" in _text(seen[2])
+    critic_outcome = next(o for o in result.outcomes if o.agent == "critic")
+    assert critic_outcome.answered_by == "model" and critic_outcome.repairs == 2
+    assert result.stop_reason == "critic asked for no change"
