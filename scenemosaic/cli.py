@@ -204,7 +204,7 @@ def generate(
     evolve: Annotated[
         bool, typer.Option("--evolve/--no-evolve", help="Refine every unit through the Critic-Actor loop (default on).")
     ] = True,
-    rounds: Annotated[int, typer.Option("--rounds", min=1, help="Round cap of each layout's Critic-Actor loop.")] = 5,
+    rounds: Annotated[int, typer.Option("--rounds", min=1, help="Round cap of each layout's Critic-Actor loop.")] = 8,
     save_views: Annotated[
         bool, typer.Option("--save-views", help="Write each unit's view per round as PNG under OUT/evolve/.")
     ] = False,

@@ -271,15 +271,35 @@ def beside_ok(layout: UnitLayout, stand: str, bed: str) -> bool:
     return -0.02 <= gap <= BESIDE_GAP_MAX and float(rel @ -fb) >= depth / 2 - HEAD_ZONE
 
 
-def beside_target(layout: UnitLayout, stand: str, bed: str, flip: bool = False) -> Target:
-    """The nightstand at the bed's head end, against the bed's side it stands on now, facing as the bed."""
+def _stand_sides(layout: UnitLayout, ctx: UnitContext) -> dict[str, float]:
+    """Which side of its bed each nightstand belongs on (+1 or -1 along the bed's lateral axis):
+    the side it stands on now, except that a bed's two nightstands take one side each."""
+    sides: dict[str, float] = {}
+    by_bed: dict[str, list[str]] = {}
+    for stand, bed in sorted(ctx.nightstand_bed.items()):
+        if bed in layout.ids:
+            by_bed.setdefault(bed, []).append(stand)
+    for bed, stands in by_bed.items():
+        c, _, lat, _, _ = _bed_frame(layout, bed)
+        offsets = sorted((float((np.asarray(layout.center(k)) - c) @ lat), k) for k in stands)
+        for off, k in offsets:
+            sides[k] = 1.0 if off >= 0 else -1.0
+        if len(offsets) == 2:
+            sides[offsets[0][1]], sides[offsets[1][1]] = -1.0, 1.0
+    return sides
+
+
+def beside_target(layout: UnitLayout, stand: str, bed: str, flip: bool = False, side: float | None = None) -> Target:
+    """The nightstand at the bed's head end, against the bed's side it stands on now (or ``side``),
+    facing as the bed."""
     c, fb, lat, depth, width = _bed_frame(layout, bed)
     rot = layout.rotation(bed)
     trial = layout.copy()
     trial.set_rotation(stand, rot)
     poly = trial.polygon(stand) - np.asarray(trial.center(stand))
     d_n, w_n = float(np.ptp(poly @ fb)), float(np.ptp(poly @ lat))
-    side = 1.0 if float((np.asarray(layout.center(stand)) - c) @ lat) >= 0 else -1.0
+    if side is None:
+        side = 1.0 if float((np.asarray(layout.center(stand)) - c) @ lat) >= 0 else -1.0
     if flip:
         side = -side
     p = c - fb * (depth / 2 - d_n / 2) + lat * side * (width / 2 + w_n / 2 + BESIDE_GAP)
@@ -579,19 +599,24 @@ def find_problems(
                         {oid: snap_target(layout, oid, wall)},
                     )
                 )
+        sides = _stand_sides(layout, ctx)
+        pairs = {frozenset((p.a, p.b)) for p in check.collisions}
+        stands_of: dict[str, int] = {}
+        for b in ctx.nightstand_bed.values():
+            stands_of[b] = stands_of.get(b, 0) + 1
         for stand, bed in sorted(ctx.nightstand_bed.items()):
-            if bed not in ids:
-                continue
-            if beside_ok(layout, stand, bed):
-                ok, wall = wall_status(layout, ctx, stand)
+            if bed not in ids or frozenset((stand, bed)) in pairs:
+                continue  # touching its bed: the collision fix moves it a little first
+            ok, wall = wall_status(layout, ctx, stand)
+            if beside_ok(layout, stand, bed) and (ok or not wall_status(layout, ctx, bed)[0]):
                 if ok and wall is not None:
                     snapped[stand] = wall
-                continue
+                continue  # beside the head, and against the wall whenever the bed is
             out.append(
                 Finding(
                     "beside_bed", (stand, bed), "semantic",
                     f"Place ({stand}) right beside the head of the bed ({bed}), on its side, facing the same way as the bed.",
-                    {stand: beside_target(layout, stand, bed, flip=stand in avoid)},
+                    {stand: beside_target(layout, stand, bed, flip=stand in avoid and stands_of[bed] == 1, side=sides.get(stand))},
                 )
             )
         for seat, table in sorted(ctx.seat_table.items()):
@@ -605,7 +630,8 @@ def find_problems(
                         {seat: target} if target else {},
                     )
                 )
-                continue
+                if target is not None:
+                    continue  # the pull-up turns it to the table too
             d = table_direction(layout, seat, table)
             if d is None or ctx.frozen_rotation:
                 continue

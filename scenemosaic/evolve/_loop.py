@@ -45,8 +45,9 @@ __all__ = ["EARLY_STOP_MOVE_M", "EARLY_STOP_TURN_DEG", "MAX_ROUNDS", "LayoutResu
 
 log = structlog.get_logger(__name__)
 
-MAX_ROUNDS = 5
-"""Round cap of one layout's loop."""
+MAX_ROUNDS = 8
+"""Round cap of one layout's loop (fixes cascade: a bed pushed to its wall moves its nightstands,
+which may then meet a wardrobe; eight rounds settle the heavily disturbed layouts we tried)."""
 EARLY_STOP_MOVE_M = 0.01
 """Early stop: no object moved further than this in the last round..."""
 EARLY_STOP_TURN_DEG = 0.5

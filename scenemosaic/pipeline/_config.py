@@ -43,8 +43,8 @@ class GenerateConfig:
     evolve: bool = True
     """Run the evolve stage (the Critic-Actor refinement of every unit); ``--no-evolve`` delivers
     the stabilized scene as it is. Skipped too when ``stabilize`` is off (it refines a stabilized scene)."""
-    evolve_rounds: int = 5
-    """Round cap of each layout's Critic-Actor loop (``--rounds``)."""
+    evolve_rounds: int = 8
+    """Round cap of each layout's Critic-Actor loop (``--rounds``; ``scenemosaic.evolve.MAX_ROUNDS``)."""
     save_views: bool = False
     """Write every unit view the critic sees, per round, as PNG under ``evolve/`` (``--save-views``)."""
     model: str | Model = "rules"
