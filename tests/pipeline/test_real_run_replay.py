@@ -59,6 +59,10 @@ def test_a_recorded_real_run_replays_byte_for_byte(expected_file: Path, tmp_path
     agents = next(s for s in report["stages"] if s["name"] == "structure")["detail"]["agents"]
     assert {k: v["answered_by"] for k, v in agents.items()} == expected["answered_by"]
     assert {k: v["requests"] for k, v in agents.items()} == expected["requests"]
+    if "evolve_layouts" in expected:  # a recording with the evolve stage: the critic's replies replay too
+        evolve = next(s for s in report["stages"] if s["name"] == "evolve")["detail"]["layouts"]
+        keys = ("anchor", "layout_id", "answered_by", "requests", "rounds", "valid")
+        assert [{k: lay[k] for k in keys} for lay in evolve] == expected["evolve_layouts"]
     first, second = _digests(runs[0] / "base", source), _digests(runs[1] / "base", source)
     assert first == second  # every file, byte for byte, run after run
     assert set(first) == set(expected["base_sha256"])
@@ -70,6 +74,7 @@ def test_a_recorded_real_run_replays_byte_for_byte(expected_file: Path, tmp_path
 
 def test_a_recording_is_shipped() -> None:
     assert RECORDED, f"no recorded real run in {CASSETTES}"
+    assert any("evolve_layouts" in json.loads(p.read_text(encoding="utf-8")) for p in RECORDED)
     for expected_file in RECORDED:
         expected = json.loads(expected_file.read_text(encoding="utf-8"))
         cassette = json.loads((CASSETTES / expected["cassette"]).read_text(encoding="utf-8"))
