@@ -19,6 +19,9 @@ Figures (the last line is one JSON object):
   floor unit of every PhyScene room and of the test bedroom, stabilized, then disturbed 8 times
   each (seeded: every object moved up to 0.4 m along each axis and turned up to 25 degrees), then
   evolved: how many end with no collision, nothing out of bounds and every rule kept;
+* ``rules_archetypes_valid`` / ``rules_archetypes_total`` — every rule archetype the offline agent
+  could offer for every unit of those rooms (not only the first 1-3 it does offer), instantiated
+  and evolved: how many end valid;
 * ``seconds`` — wall time of the whole benchmark.
 
 Targets (issue 11): warm rules run <= 20 s on a 2-core machine; simulated base <= 180 s; the
@@ -148,6 +151,38 @@ def _perturbed(root: Path) -> dict[str, Any]:
     return {"rules_perturbed_valid": valid, "rules_perturbed_total": total, "rules_perturbed_failures": failures}
 
 
+def _all_archetypes(root: Path) -> dict[str, Any]:
+    """Every rule archetype of every unit, instantiated and evolved (the rooms of ``_perturbed``)."""
+    from scenemosaic.evolve import Archetype, evolve_layout, rule_archetypes, unit_context
+    from scenemosaic.models import parse_model
+    from scenemosaic.physics import is_thin, object_shape
+    from scenemosaic.scene import UnitLayout
+
+    valid = total = 0
+    failures: list[str] = []
+    for source in [*sorted((REPO / "data" / "layouts" / "physcene").glob("*.json")), BEDROOM22]:
+        scene = generate(source, root / source.stem, GenerateConfig(evolve=False)).scene
+        assert scene.structure is not None
+        units = scene.structure.units
+        shapes = {o.id: object_shape(o, root / source.stem / "base") for o in scene.objects}
+        thin = {o.id for o in scene.objects if is_thin(o)}
+        for unit in units:
+            others = [] if unit.anchor_kind == "object" else [
+                scene.get(c) for u in units if u.anchor_kind != "object" and u is not unit for c in u.children
+            ]  # fmt: skip
+            ctx = unit_context(scene, unit, others, thin)
+            layout = UnitLayout.from_scene(scene, unit)
+            for cand in rule_archetypes(layout, ctx):
+                arch = Archetype(layout_id=cand.layout_id, layout_style_name=cand.style_name, layout_reasoning=cand.reasoning)
+                result = asyncio.run(evolve_layout(scene, ctx, layout, shapes, parse_model("rules"), layout_id=cand.layout_id, archetype=arch))
+                total += 1
+                if result.valid and not result.violations:
+                    valid += 1
+                else:
+                    failures.append(f"{source.stem}/{unit.anchor_id}/{cand.layout_id}")
+    return {"rules_archetypes_valid": valid, "rules_archetypes_total": total, "rules_archetypes_failures": failures}
+
+
 def main() -> None:
     t0 = time.perf_counter()
     figures: dict[str, Any] = {}
@@ -165,6 +200,7 @@ def main() -> None:
         figures.update(asyncio.run(_simulated(root / "sim")))
         figures.update(asyncio.run(_simulated(root / "sim_bed", BEDROOM22, "sim_vlm_bedroom22")))
         figures.update(_perturbed(root / "perturbed"))
+        figures.update(_all_archetypes(root / "archetypes"))
     figures["seconds"] = round(time.perf_counter() - t0, 1)
     print(json.dumps(figures))
 
