@@ -37,9 +37,11 @@ class GenerateConfig:
     """Input format (``auto`` or a registered reader: ``native``, ``front3d``, ``procthor``,
     ``holodeck``, ``sam3d``, ``sceneeval``)."""
     variants: int = 0
-    """Number of diverse variants asked for (m). Any value above 0 makes the evolve stage grow
-    each unit's structurally different variants (archetypes) beside the refined original, written
-    to ``evolve/``; composing m whole scenes from them is the compose stage's work (issue 12)."""
+    """Number of diverse whole-scene variants to deliver (m). Above 0, the evolve stage grows each
+    unit's structurally different variants (archetypes) beside the refined original, and the
+    compose stage selects m diverse valid combinations of them (dynamic max-min greedy on the
+    novelty distance), written as ``variant_1/`` ... ``variant_m/`` beside ``base/``; fewer when
+    the pool holds fewer distinct valid ones (the report says so)."""
     evolve: bool = True
     """Run the evolve stage (the Critic-Actor refinement of every unit); ``--no-evolve`` delivers
     the stabilized scene as it is. Skipped too when ``stabilize`` is off (it refines a stabilized scene)."""
@@ -143,6 +145,8 @@ class PipelineRun:
     """Agents answered by their rule solvers instead of the model."""
     warnings: list[str] = field(default_factory=list)
     """What makes the outcome ``degraded``, in words."""
+    variants_written: int = 0
+    """Whole-scene variants the compose stage wrote (``variant_<i>/``)."""
     started: float = field(default_factory=time.monotonic)
     """``time.monotonic()`` when the run began: the run deadline counts from here."""
 

@@ -104,7 +104,7 @@ def _prepare_folders(input_path: Path, out: Path, config: GenerateConfig) -> Pat
                 "overwrite=True (--overwrite) to replace it"
             )
         if not config.resume:
-            for name in _OUTPUTS:
+            for name in (*_OUTPUTS, *(p.name for p in out.glob("variant_*"))):
                 target = out / name
                 if target.is_dir():
                     shutil.rmtree(target)
@@ -213,7 +213,7 @@ def _report(run: PipelineRun, total_s: float, failure: BaseException | None) -> 
         "total_seconds": round(total_s, 4),
         "objects": len(scene.objects) if scene else 0,
         "categories": sorted({o.category for o in scene.objects}) if scene else [],
-        "variants_written": 0,
+        "variants_written": run.variants_written,
         "stages": [
             {"name": r.name, "seconds": round(r.seconds, 4), "status": r.status, "objects": r.objects, "detail": r.detail}
             for r in run.records

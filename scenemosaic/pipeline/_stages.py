@@ -1,8 +1,7 @@
-"""The stages of ``generate``, in order: import → assets → structure → stabilize → evolve → validate → export.
+"""The stages of ``generate``, in order: import → assets → structure → stabilize → evolve → compose → validate → export.
 
 Each stage is a small async function over a :class:`~scenemosaic.pipeline.PipelineRun`; CPU work
-runs in worker threads so the event loop stays free to notice a cancel. The method's ``compose``
-stage is one more entry of :data:`STAGES`, after ``evolve``.
+runs in worker threads so the event loop stays free to notice a cancel.
 """
 
 from __future__ import annotations
@@ -13,6 +12,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import structlog
+
 from scenemosaic.pipeline._config import PipelineRun, Stage, StageRecord
 from scenemosaic.scene import Scene
 
@@ -20,6 +21,8 @@ if TYPE_CHECKING:
     from scenemosaic.agents import AgentOutcome
     from scenemosaic.assets import HullCache
     from scenemosaic.models import Model, ModelSettings, UsageTracker
+
+log = structlog.get_logger(__name__)
 
 __all__ = ["DELIVERED_FORMATS", "EVOLVE_FOLDER", "STAGES", "STAGE_NAMES", "export_base", "export_scene_only"]
 
@@ -299,6 +302,68 @@ def _write_layouts(report: Any, folder: Path, out_dir: Path) -> list[str]:
     return written
 
 
+async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
+    """Select ``variants`` diverse whole scenes from the unit layouts the evolve stage wrote, and
+    write each as ``variant_<i>/`` in the same layout as ``base/``."""
+    from scenemosaic.compose import UnitLayouts, compose_variants
+    from scenemosaic.physics import check_collisions, check_out_of_bounds, object_shape
+    from scenemosaic.scene import Pose
+
+    assert run.scene is not None
+    folder = run.out_dir / EVOLVE_FOLDER
+    if run.config.variants <= 0 or not folder.is_dir():
+        rec.status = "skipped"
+        rec.detail["reason"] = "no variants asked for" if run.config.variants <= 0 else "no evolved unit layouts"
+        return
+    scene = run.scene
+
+    def read_layouts() -> tuple[dict[str, UnitLayouts], list[str]]:
+        import json
+
+        kept: dict[str, UnitLayouts] = {}
+        dropped: list[str] = []
+        for unit_dir in sorted(p for p in folder.iterdir() if p.is_dir()):
+            records = {p.stem: json.loads(p.read_text(encoding="utf-8")) for p in unit_dir.glob("*.json")}
+            if "original" not in records:
+                continue
+            ids, poses = [], []
+            for lid in ["original", *sorted(k for k in records if k != "original")]:
+                r = records[lid]
+                if lid != "original" and (r.get("error") or not r.get("valid") or r.get("violations")):
+                    why = r.get("error") or "; ".join(r.get("violations") or []) or "not valid"
+                    dropped.append(f"{unit_dir.name}/{lid}: {why[:120]}")
+                    continue
+                ids.append(lid)
+                poses.append({k: Pose.model_validate(v) for k, v in r["local_poses"].items()})
+            kept[unit_dir.name] = UnitLayouts(unit_dir.name, tuple(ids), tuple(poses))
+        return kept, dropped
+
+    layouts, dropped = await asyncio.to_thread(read_layouts)
+    cache = hull_cache(run)
+    shapes = await asyncio.to_thread(lambda: {o.id: object_shape(o, run.base_dir, cache=cache) for o in scene.objects})
+    variants, report = await asyncio.to_thread(
+        functools.partial(compose_variants, scene, layouts, shapes, m=run.config.variants, seed=run.config.seed)
+    )
+    report.dropped = dropped + report.dropped
+    rec.detail.update(report.summary())
+    written = []
+    for i, variant in enumerate(variants, start=1):
+        target = run.out_dir / f"variant_{i}"
+        await asyncio.to_thread(export_base, variant, target, run.base_dir)
+        cols = await asyncio.to_thread(functools.partial(check_collisions, variant, run.base_dir, hull_cache=cache))
+        oob = await asyncio.to_thread(check_out_of_bounds, variant)
+        written.append({"folder": target.name, "collision_pairs": len(cols.pairs), "out_of_bounds": len(oob.objects)})
+        if cols.pairs or oob.objects:
+            run.warnings.append(f"{target.name}: {len(cols.pairs)} colliding pair(s), {len(oob.objects)} object(s) out of bounds")
+    rec.detail["variants"] = written
+    run.variants_written = len(written)
+    if len(written) < run.config.variants:  # not a fault of the scenes written: said, not degraded
+        rec.detail["shortfall"] = (
+            f"{run.config.variants} variants asked for, {len(written)} distinct valid ones in a pool of {report.pool_size}"
+        )
+        log.warning("fewer_variants_than_asked", asked=run.config.variants, written=len(written), pool=report.pool_size)
+
+
 async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
     from scenemosaic.physics import validate_scene
 
@@ -370,10 +435,11 @@ STAGES: tuple[Stage, ...] = (
     Stage("structure", _stage_structure),
     Stage("stabilize", _stage_stabilize),
     Stage("evolve", _stage_evolve),
+    Stage("compose", _stage_compose),
     Stage("validate", _stage_validate),
     Stage("export", _stage_export),
 )
-"""The stages ``generate`` runs, in order (``compose`` slots in after ``evolve``)."""
+"""The stages ``generate`` runs, in order."""
 
 STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in STAGES)
 """The names of :data:`STAGES`, in order."""

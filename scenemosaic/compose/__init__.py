@@ -1,0 +1,31 @@
+"""Stage 5 of the method: compose whole-scene variants from unit variants and select diverse ones.
+
+* :func:`novelty_distance` — the method's novelty-aware distance N(A, B) (A the reference).
+* :class:`CandidatePool` — the lazy Cartesian product of group variants, scored through per-group
+  and per-group-pair tables; :func:`select_diverse` — the dynamic max-min greedy over it.
+* :func:`compose_transform` / :func:`decompose_transform` — anchor-relative grafting and the polar
+  decomposition that recovers position, rotation and scale.
+"""
+
+from scenemosaic.compose._compose import CompositionReport, UnitLayouts, compose_variants
+from scenemosaic.compose._distance import WEIGHTS, Arrangement, distance_terms, novelty_distance
+from scenemosaic.compose._pool import ALPHA, CHUNK, CandidatePool, GroupVariants, Selection, select_diverse
+from scenemosaic.compose._transform import compose_transform, decompose_transform
+
+__all__ = [
+    "ALPHA",
+    "CHUNK",
+    "WEIGHTS",
+    "Arrangement",
+    "CandidatePool",
+    "CompositionReport",
+    "GroupVariants",
+    "Selection",
+    "UnitLayouts",
+    "compose_transform",
+    "compose_variants",
+    "decompose_transform",
+    "distance_terms",
+    "novelty_distance",
+    "select_diverse",
+]

@@ -1,0 +1,260 @@
+"""The candidate pool: a lazy Cartesian product of group variants, and max-min selection over it.
+
+A scene splits into **groups** (the root subtrees of the scene tree: the floor with everything on
+its furniture, each wall, the ceiling); a group's **variants** are its materialized arrangements
+(the product of its units' variants, composed in their anchors' frames). A candidate is one
+variant per group, identified by its flat index into the product, so the pool is never built: a
+10^6-candidate pool is a range of integers.
+
+Distances from a reference scene to many candidates use the product structure: the sums of the
+novelty distance split into pairs within a group (which depend on that group's variant only) and
+pairs across two groups (which depend on those two variants only), so per reference they are
+tabulated once per group variant and per pair of group variants, and a candidate's sums are a
+few table lookups (:meth:`CandidatePool.distances`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from scenemosaic.compose._distance import WEIGHTS, Arrangement
+from scenemosaic.scene import FloatArray
+
+__all__ = ["ALPHA", "CHUNK", "CandidatePool", "GroupVariants", "Selection", "select_diverse"]
+
+ALPHA = 0.1
+"""Pruning factor of the dynamic max-min greedy: candidates closer than ALPHA * d_max to the
+selected set are dropped after each pick (the method's value)."""
+CHUNK = 100_000
+"""Candidates scored per vectorized chunk (bounds the memory of a pass over a huge pool)."""
+
+
+@dataclass(frozen=True)
+class GroupVariants:
+    """The variants of one group: positions (V, n, 3), rotations (V, n, 3, 3), quaternions (V, n, 4).
+
+    Variant 0 is the refined original.
+    """
+
+    name: str
+    ids: tuple[str, ...]
+    positions: FloatArray
+    rotations: FloatArray
+    quaternions: FloatArray
+    labels: tuple[str, ...] = ()
+    """A name per variant (e.g. ``floor:rotated_180``)."""
+
+    @property
+    def count(self) -> int:
+        return int(self.positions.shape[0])
+
+
+@dataclass
+class _Tables:
+    within_pos: list[FloatArray]
+    within_dist: list[FloatArray]
+    rot: list[FloatArray]
+    cross_pos: dict[tuple[int, int], FloatArray]
+    cross_dist: dict[tuple[int, int], FloatArray]
+    norm: float
+
+
+class CandidatePool:
+    """All combinations of group variants, lazily."""
+
+    def __init__(self, groups: Sequence[GroupVariants]) -> None:
+        self.groups = list(groups)
+        self.shape = tuple(g.count for g in self.groups)
+        self.n_objects = sum(len(g.ids) for g in self.groups)
+
+    @property
+    def size(self) -> int:
+        """Number of candidates k (a Python int: exact even when astronomically large)."""
+        return math.prod(self.shape) if self.shape else 0
+
+    def choices(self, flat: np.ndarray) -> np.ndarray:
+        """(K, G) variant index per group of flat candidate indices."""
+        if not self.shape:
+            return np.zeros((len(flat), 0), dtype=np.int64)
+        return np.stack(np.unravel_index(np.asarray(flat, dtype=np.int64), self.shape), axis=1)
+
+    def arrangement(self, choice: Sequence[int]) -> Arrangement:
+        """The whole arrangement (groups concatenated) of one candidate."""
+        parts = [(g.positions[k], g.rotations[k], g.quaternions[k]) for g, k in zip(self.groups, choice, strict=True)]
+        return Arrangement(
+            positions=np.concatenate([p for p, _, _ in parts]) if parts else np.zeros((0, 3)),
+            rotations=np.concatenate([r for _, r, _ in parts]) if parts else np.zeros((0, 3, 3)),
+            quaternions=np.concatenate([q for _, _, q in parts]) if parts else np.zeros((0, 4)),
+        )
+
+    # -- tables for one reference ---------------------------------------------------------------------
+
+    def _tables(self, ref: Sequence[int]) -> _Tables:
+        g = self.groups
+        within_pos, within_dist, rot = [], [], []
+        for gi, k in zip(g, ref, strict=True):
+            rel_a = _rel(gi.positions[k], gi.rotations[k], gi.positions[k])  # (n, n, 3)
+            rel_all = _rel_many(gi.positions, gi.rotations, gi.positions)  # (V, n, n, 3)
+            within_pos.append(((rel_all - rel_a[None]) ** 2).sum(axis=(1, 2, 3)))
+            d_a = np.linalg.norm(gi.positions[k][None] - gi.positions[k][:, None], axis=2)
+            d_all = np.linalg.norm(gi.positions[:, None, :, :] - gi.positions[:, :, None, :], axis=3)
+            within_dist.append(((d_all - d_a[None]) ** 2).sum(axis=(1, 2)))
+            dots = np.clip(np.abs((gi.quaternions * gi.quaternions[k][None]).sum(axis=2)), 0.0, 1.0)
+            rot.append((2.0 * np.arccos(dots)).sum(axis=1))
+        cross_pos: dict[tuple[int, int], FloatArray] = {}
+        cross_dist: dict[tuple[int, int], FloatArray] = {}
+        for a in range(len(g)):
+            for b in range(a + 1, len(g)):
+                ga, gb = g[a], g[b]
+                ka, kb = ref[a], ref[b]
+                # i in a, j in b, and i in b, j in a
+                ref_ab = _rel(ga.positions[ka], ga.rotations[ka], gb.positions[kb])  # (na, nb, 3)
+                ref_ba = _rel(gb.positions[kb], gb.rotations[kb], ga.positions[ka])  # (nb, na, 3)
+                all_ab = _rel_cross(ga.positions, ga.rotations, gb.positions)  # (Va, Vb, na, nb, 3)
+                all_ba = _rel_cross(gb.positions, gb.rotations, ga.positions)  # (Vb, Va, nb, na, 3)
+                pos = ((all_ab - ref_ab) ** 2).sum(axis=(2, 3, 4)) + ((all_ba - ref_ba) ** 2).sum(axis=(2, 3, 4)).T
+                d_ref = np.linalg.norm(gb.positions[kb][None, :, :] - ga.positions[ka][:, None, :], axis=2)
+                d_all = np.linalg.norm(gb.positions[None, :, None, :, :] - ga.positions[:, None, :, None, :], axis=4)
+                dist = 2.0 * ((d_all - d_ref) ** 2).sum(axis=(2, 3))
+                cross_pos[(a, b)], cross_dist[(a, b)] = pos, dist
+        whole = self.arrangement(ref)
+        d = np.linalg.norm(whole.positions[None] - whole.positions[:, None], axis=2)
+        return _Tables(within_pos, within_dist, rot, cross_pos, cross_dist, float((d**2).sum()))
+
+    def flat_index(self, choice: Sequence[int]) -> int:
+        """The flat index (a Python int, exact for any pool size) of a candidate's choices."""
+        index = 0
+        for k, n in zip(choice, self.shape, strict=True):
+            index = index * n + int(k)
+        return index
+
+    def distances(
+        self, ref: Sequence[int], choices: np.ndarray, weights: tuple[float, float, float] = WEIGHTS
+    ) -> FloatArray:
+        """N(ref, candidate) for each row of ``choices`` ((K, G) variant indices), in chunks."""
+        t = self._tables(ref)
+        out = np.empty(len(choices), dtype=np.float64)
+        for start in range(0, len(choices), CHUNK):
+            c = choices[start : start + CHUNK]
+            pos = np.zeros(len(c))
+            dist = np.zeros(len(c))
+            rot = np.zeros(len(c))
+            for gi in range(len(self.groups)):
+                pos += t.within_pos[gi][c[:, gi]]
+                dist += t.within_dist[gi][c[:, gi]]
+                rot += t.rot[gi][c[:, gi]]
+            for (a, b), table in t.cross_pos.items():
+                pos += table[c[:, a], c[:, b]]
+                dist += t.cross_dist[(a, b)][c[:, a], c[:, b]]
+            if t.norm > 0:
+                d_pos, d_dist = np.sqrt(pos / t.norm), np.sqrt(dist / t.norm)
+            else:
+                d_pos = d_dist = np.zeros(len(c))
+            d_rot = rot / (math.pi * max(self.n_objects, 1))
+            out[start : start + len(c)] = weights[0] * d_pos + weights[1] * d_dist + weights[2] * d_rot
+        return out
+
+    def candidates(self, max_candidates: int | None, seed: int) -> tuple[np.ndarray, bool]:
+        """Every candidate but the original as (K, G) choices, or a seeded uniform sample of at
+        most ``max_candidates`` distinct ones (second value True). Pools too large to enumerate
+        (over 2**62) are always sampled."""
+        size = self.size
+        if max_candidates is None and size > 2**62:
+            max_candidates = CHUNK
+        if max_candidates is not None and size - 1 > max_candidates:
+            rng = np.random.default_rng(seed)
+            rows = np.stack([rng.integers(0, n, size=max_candidates) for n in self.shape], axis=1)
+            rows = np.unique(rows, axis=0)
+            rows = rows[np.any(rows != 0, axis=1)]  # not the original
+            return rows.astype(np.int64), True
+        return self.choices(np.arange(1, size, dtype=np.int64)), False
+
+
+def _rel(p_from: FloatArray, r_from: FloatArray, p_to: FloatArray) -> FloatArray:
+    """(n, m, 3): R_i^T (q_j - p_i) for p_i in ``p_from`` (with rotations) and q_j in ``p_to``."""
+    diff = p_to[None, :, :] - p_from[:, None, :]
+    out: FloatArray = np.einsum("iab,ija->ijb", r_from, diff)
+    return out
+
+
+def _rel_many(p_from: FloatArray, r_from: FloatArray, p_to: FloatArray) -> FloatArray:
+    diff = p_to[:, None, :, :] - p_from[:, :, None, :]  # (V, n, m, 3)
+    out: FloatArray = np.einsum("viab,vija->vijb", r_from, diff)
+    return out
+
+
+def _rel_cross(p_from: FloatArray, r_from: FloatArray, p_to: FloatArray) -> FloatArray:
+    diff = p_to[None, :, None, :, :] - p_from[:, None, :, None, :]  # (Va, Vb, na, nb, 3)
+    out: FloatArray = np.einsum("kiab,klija->klijb", r_from, diff)
+    return out
+
+
+@dataclass
+class Selection:
+    """What the max-min greedy picked (the original first) and the path there."""
+
+    picked: list[tuple[int, ...]] = field(default_factory=list)
+    """Each pick's variant per group (the original, all zeros, first)."""
+    min_distances: list[float] = field(default_factory=list)
+    """Each pick's minimum distance to what was picked before it (0 for the original)."""
+    pool_size: int = 0
+    considered: int = 0
+    """Candidates scored (the whole pool, or a seeded sample of it)."""
+    sampled: bool = False
+    rejected: list[tuple[int, ...]] = field(default_factory=list)
+    """Candidates the scene-level check turned down when the greedy reached them."""
+    pruned: int = 0
+
+
+def select_diverse(
+    pool: CandidatePool,
+    m: int = 5,
+    *,
+    alpha: float = ALPHA,
+    valid: Callable[[tuple[int, ...]], bool] | None = None,
+    max_candidates: int | None = None,
+    seed: int = 0,
+) -> Selection:
+    """Dynamic max-min greedy: start from the original (every group's variant 0); repeatedly add the
+    candidate whose minimum distance to the selected set is largest (ties: the lowest index); when
+    ``valid`` turns it down (scene-level interpenetration), drop it and take the next; after each
+    addition drop every candidate whose minimum distance is below ``alpha`` times the added one's
+    (the d_max of that step); stop at ``m`` + 1 scenes or an empty pool.
+
+    ``max_candidates`` scores a seeded uniform sample of that many candidates instead of the whole
+    pool (``Selection.sampled`` says so). Each ordered (selected, candidate) distance is computed
+    once: the minimum is updated with the newly selected scene only.
+    """
+    size = pool.size
+    sel = Selection(pool_size=size)
+    origin = (0,) * len(pool.shape)
+    sel.picked.append(origin)
+    sel.min_distances.append(0.0)
+    if size <= 1 or m <= 0:
+        return sel
+    rows, sel.sampled = pool.candidates(max_candidates, seed)
+    sel.considered = len(rows)
+    min_d = pool.distances(origin, rows)
+    alive = np.ones(len(rows), dtype=bool)
+    while len(sel.picked) < m + 1 and alive.any():
+        scores = np.where(alive, min_d, -np.inf)
+        best = int(np.argmax(scores))  # ties: the first row, i.e. the lowest flat index
+        alive[best] = False
+        choice = tuple(int(x) for x in rows[best])
+        if valid is not None and not valid(choice):
+            sel.rejected.append(choice)
+            continue
+        d_max = float(min_d[best])
+        sel.picked.append(choice)
+        sel.min_distances.append(d_max)
+        if alive.any():
+            idx = np.flatnonzero(alive)
+            min_d[idx] = np.minimum(min_d[idx], pool.distances(choice, rows[idx]))
+            low = alive & (min_d < alpha * d_max)
+            sel.pruned += int(low.sum())
+            alive &= ~low
+    return sel

@@ -1,0 +1,56 @@
+"""``generate --variants m``: m diverse, valid whole-scene variants beside the base."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from scenemosaic import GenerateConfig, generate
+from scenemosaic.compose import Arrangement, novelty_distance
+from scenemosaic.exchange import read_scene
+from scenemosaic.physics import check_collisions, check_out_of_bounds
+
+LIVING = Path(__file__).resolve().parents[2] / "data" / "layouts" / "physcene" / "LivingDiningRoom-124277_livingroom.json"
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("composed")
+    generate(LIVING, out, GenerateConfig(variants=3, seed=2))
+    return out
+
+
+def test_variants_are_written_like_the_base_and_are_valid(run: Path) -> None:
+    report = json.loads((run / "report.json").read_text())
+    assert report["status"] == "ok" and report["variants_written"] == 3
+    base_files = sorted(p.relative_to(run / "base").as_posix() for p in (run / "base").rglob("*") if p.is_file() and "assets" not in p.parts)
+    for i in (1, 2, 3):
+        folder = run / f"variant_{i}"
+        files = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file() and "assets" not in p.parts)
+        assert files == base_files
+        scene = read_scene(folder)
+        assert check_collisions(scene, folder).pairs == [] and check_out_of_bounds(scene).objects == []
+
+
+def test_the_variants_differ_from_the_base_and_each_other_as_selected(run: Path) -> None:
+    report = json.loads((run / "report.json").read_text())
+    compose = next(s for s in report["stages"] if s["name"] == "compose")["detail"]
+    scenes = [read_scene(run / "base"), *(read_scene(run / f"variant_{i}") for i in (1, 2, 3))]
+    ids = [o.id for o in scenes[0].objects]
+    arr = [Arrangement.of(s, ids) for s in scenes]
+    # each pick's minimum distance to what came before, recomputed from the written files
+    for k in (1, 2, 3):
+        d = min(novelty_distance(arr[j], arr[k]) for j in range(k))
+        assert d == pytest.approx(compose["min_distances"][k - 1], abs=1e-3)
+        assert d > 0.05
+    assert compose["min_distances"] == sorted(compose["min_distances"], reverse=True)
+    assert len({json.dumps(p, sort_keys=True) for p in compose["selected"]}) == 3
+    assert compose["pool_size"] >= 4 and compose["considered"] == compose["pool_size"] - 1
+
+
+def test_no_variants_skips_the_stage(tmp_path: Path) -> None:
+    result = generate(LIVING, tmp_path, GenerateConfig())
+    compose = next(s for s in result.report["stages"] if s["name"] == "compose")
+    assert compose["status"] == "skipped" and not list(tmp_path.glob("variant_*"))
