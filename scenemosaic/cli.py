@@ -337,6 +337,34 @@ def inspect(
 
 
 @app.command()
+def evaluate(
+    path: Annotated[
+        Path,
+        typer.Argument(metavar="DIR_OR_SCENE", help="A generate output folder (base/ and variant_*/), or one scene."),
+    ],
+    log_level: LogLevelOpt = "warning",
+) -> None:
+    """Print the scene metrics as JSON: COL, OOB, NAV of the base and each variant, RelKeep,
+    Div-IoU and Div-N over the variants (see docs/composition.md)."""
+    from scenemosaic.exchange import load_scene
+    from scenemosaic.metrics import evaluate as evaluate_scenes
+
+    base_dir = path / "base" if (path / "base").is_dir() else path
+    variant_dirs = sorted(
+        (p for p in path.glob("variant_*") if p.is_dir()), key=lambda p: int(p.name.split("_")[1]) if p.name.split("_")[1].isdigit() else 0
+    ) if path.is_dir() else []  # fmt: skip
+    try:
+        base = load_scene(base_dir)
+        variants = [load_scene(d) for d in variant_dirs]
+    except SceneMosaicError as exc:
+        _err.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+    folder = base_dir if base_dir.is_dir() else base_dir.parent
+    result = evaluate_scenes(base, variants, base_dir=folder, variant_dirs=variant_dirs)
+    _out.print_json(json.dumps(result))
+
+
+@app.command()
 def schema(
     out: Annotated[Path | None, typer.Option("--out", "-o", help="Write to this file instead of stdout.")] = None,
 ) -> None:

@@ -145,6 +145,8 @@ class PipelineRun:
     """Agents answered by their rule solvers instead of the model."""
     warnings: list[str] = field(default_factory=list)
     """What makes the outcome ``degraded``, in words."""
+    metrics: dict[str, Any] | None = None
+    """The evaluate stage's metrics (base, variants, diversity), written to ``report.json``."""
     variants_written: int = 0
     """Whole-scene variants the compose stage wrote (``variant_<i>/``)."""
     started: float = field(default_factory=time.monotonic)

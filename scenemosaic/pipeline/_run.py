@@ -147,6 +147,8 @@ def _save_checkpoint(run: PipelineRun) -> None:
             "config": _config_record(run.config),
             "records": [asdict(r) for r in run.records if r.status in ("done", "skipped", "reused")],
             "validation": run.validation,
+            "metrics": run.metrics,
+            "variants_written": run.variants_written,
             "warnings": run.warnings,
             "fallbacks": [{"agent": f.agent, "reason": f.reason} for f in run.fallbacks],
         },
@@ -171,6 +173,8 @@ def _load_checkpoint(run: PipelineRun) -> set[str]:
     if (folder / "scene.json").is_file():
         run.scene = Scene.model_validate_json((folder / "scene.json").read_text(encoding="utf-8"))
     run.validation = data.get("validation")
+    run.metrics = data.get("metrics")
+    run.variants_written = int(data.get("variants_written", 0))
     run.warnings = list(data.get("warnings", []))
     run.fallbacks = [FallbackRecord(**f) for f in data.get("fallbacks", [])]
     run.records = done
@@ -219,6 +223,7 @@ def _report(run: PipelineRun, total_s: float, failure: BaseException | None) -> 
             for r in run.records
         ],
         "validation": run.validation,
+        "metrics": run.metrics,
     }
 
 

@@ -1,4 +1,4 @@
-"""The stages of ``generate``, in order: import → assets → structure → stabilize → evolve → compose → validate → export.
+"""The stages of ``generate``, in order: import → assets → structure → stabilize → evolve → compose → validate → evaluate → export.
 
 Each stage is a small async function over a :class:`~scenemosaic.pipeline.PipelineRun`; CPU work
 runs in worker threads so the event loop stays free to notice a cancel.
@@ -396,6 +396,23 @@ def _summary_fields(report: Any) -> set[str]:
     }
 
 
+async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
+    """The field's metrics of the base scene and of every variant written, into ``report.json``."""
+    from scenemosaic.exchange import read_scene
+    from scenemosaic.metrics import evaluate
+
+    assert run.scene is not None
+    folders = sorted(run.out_dir.glob("variant_*"), key=lambda p: p.name)[: run.variants_written]
+    variants = await asyncio.to_thread(lambda: [read_scene(f) for f in folders])
+    result = await asyncio.to_thread(
+        functools.partial(
+            evaluate, run.scene, variants, base_dir=run.base_dir, variant_dirs=folders, hull_cache=hull_cache(run)
+        )
+    )
+    rec.detail.update(result)
+    run.metrics = result
+
+
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     assert run.scene is not None
     rec.detail["files"] = await asyncio.to_thread(export_base, run.scene, run.out_dir / "base", run.base_dir)
@@ -437,6 +454,7 @@ STAGES: tuple[Stage, ...] = (
     Stage("evolve", _stage_evolve),
     Stage("compose", _stage_compose),
     Stage("validate", _stage_validate),
+    Stage("evaluate", _stage_evaluate),
     Stage("export", _stage_export),
 )
 """The stages ``generate`` runs, in order."""

@@ -20,7 +20,9 @@ STAGE_SIGNALS = [
     ("assets", signal.SIGTERM),
     ("structure", signal.SIGINT),
     ("stabilize", signal.SIGTERM),
+    ("evolve", signal.SIGINT),
     ("validate", signal.SIGINT),
+    ("evaluate", signal.SIGTERM),
     ("export", signal.SIGTERM),
 ]
 
@@ -72,9 +74,9 @@ def test_a_signal_in_any_stage_stops_quickly_keeps_the_report_and_resumes(
     final = report(out)
     assert final["status"] in ("ok", "degraded")
     statuses = {s["name"]: s["status"] for s in final["stages"]}
-    before = ["import", "assets", "structure", "stabilize", "validate", "export"]
+    before = ["import", "assets", "structure", "stabilize", "evolve", "compose", "validate", "evaluate", "export"]
     for name in before[: before.index(stage)]:
-        assert statuses[name] == "reused", statuses  # finished stages are not run again
+        assert statuses[name] == ("skipped" if name == "compose" else "reused"), statuses  # not run again (compose: no --variants)
     assert (out / "base" / "scene.json").read_bytes() == reference
 
 

@@ -1,0 +1,46 @@
+"""The field's scene metrics: COL, OOB and NAV (SceneEval's physical metrics), and the diversity of
+selected variants (Div-IoU, Div-N, RelKeep). Each is a documented function; :func:`evaluate`
+gathers them for a base scene and its variants (``scenemosaic evaluate`` prints it as JSON).
+"""
+
+from scenemosaic.metrics._metrics import (
+    COL_SEPARATION_M,
+    DIV_GRID,
+    NAV_GRID,
+    NAV_MAX_HEIGHT,
+    NAV_ROBOT_RADIUS,
+    OOB_INSIDE,
+    OOB_SAMPLES,
+    RELATION_TOLERANCE_M,
+    col,
+    div_iou,
+    div_n,
+    evaluate,
+    nav,
+    occupancy,
+    oob,
+    relation_holds,
+    relkeep,
+    scene_metrics,
+)
+
+__all__ = [
+    "COL_SEPARATION_M",
+    "DIV_GRID",
+    "NAV_GRID",
+    "NAV_MAX_HEIGHT",
+    "NAV_ROBOT_RADIUS",
+    "OOB_INSIDE",
+    "OOB_SAMPLES",
+    "RELATION_TOLERANCE_M",
+    "col",
+    "div_iou",
+    "div_n",
+    "evaluate",
+    "nav",
+    "occupancy",
+    "oob",
+    "relation_holds",
+    "relkeep",
+    "scene_metrics",
+]

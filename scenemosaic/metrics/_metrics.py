@@ -1,0 +1,253 @@
+"""The field's scene metrics, each a documented function.
+
+Physical metrics (SceneEval's definitions, our implementation):
+
+* :func:`col` — COL, the fraction of objects in collision: a pair counts only when the two still
+  interpenetrate after being moved 5 mm apart, i.e. when the hull penetration is deeper than
+  ``COL_SEPARATION_M`` (SceneEval's rule; our hulls are CoACD pieces). Thin objects (rugs,
+  sheets of paper; ``physics.is_thin``) are left out, as in the method.
+* :func:`oob` — OOB, the fraction of objects of which fewer than ``OOB_INSIDE`` (99 %) of
+  ``OOB_SAMPLES`` (1000) points sampled on the visual mesh's surface land on the floor polygon when
+  cast straight down.
+* :func:`nav` — NAV, the floor rasterized at ``NAV_GRID`` x ``NAV_GRID`` over its bounding box,
+  objects whose bottom is below ``NAV_MAX_HEIGHT`` (2 m) drawn as their 2D boxes (thin objects are
+  walked over), the free floor eroded by a robot of radius ``NAV_ROBOT_RADIUS`` (0.2 m); the
+  largest connected free area over all free area (1.0 when the free floor is one piece).
+
+Diversity over selected variants (the method's evaluation):
+
+* :func:`div_iou` — the mean pairwise IoU of top-down occupancy maps (``DIV_GRID`` squared over
+  the floor's bounding box, every non-thin object's 2D box filled); lower is more diverse.
+* :func:`div_n` — the mean pairwise novelty distance N, the earlier-selected scene the reference.
+* :func:`relkeep` — the fraction of the base scene's attach/contain relations still satisfied in
+  a variant (:func:`relation_holds`).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from shapely import contains_xy
+from shapely.geometry import Polygon
+
+from scenemosaic.assets import HullCache
+from scenemosaic.compose import Arrangement, novelty_distance
+from scenemosaic.physics import check_collisions, is_thin
+from scenemosaic.render import object_world_mesh
+from scenemosaic.scene import CEILING, FLOOR, Relation, Scene, convex_hull_2d
+
+__all__ = [
+    "COL_SEPARATION_M",
+    "DIV_GRID",
+    "NAV_GRID",
+    "NAV_MAX_HEIGHT",
+    "NAV_ROBOT_RADIUS",
+    "OOB_INSIDE",
+    "OOB_SAMPLES",
+    "RELATION_TOLERANCE_M",
+    "col",
+    "div_iou",
+    "div_n",
+    "evaluate",
+    "nav",
+    "occupancy",
+    "oob",
+    "relation_holds",
+    "relkeep",
+    "scene_metrics",
+]
+
+COL_SEPARATION_M = 0.005
+"""SceneEval: a mesh pair is in collision only if it still intersects after separating the two by 5 mm."""
+OOB_SAMPLES = 1000
+"""SceneEval: at least 1000 surface samples per object."""
+OOB_INSIDE = 0.99
+"""SceneEval: an object is in bounds when at least 99 % of its samples land on the floor."""
+NAV_GRID = 256
+"""Raster side of the navigability map (the method's 256 x 256)."""
+NAV_ROBOT_RADIUS = 0.2
+"""Radius of the robot the free floor is eroded by, metres (the method's 0.2 m)."""
+NAV_MAX_HEIGHT = 2.0
+"""Objects whose bottom is below this height block the floor, metres (the method's 2 m)."""
+DIV_GRID = 256
+"""Raster side of the top-down occupancy maps compared by Div-IoU."""
+RELATION_TOLERANCE_M = 0.02
+"""How far a child may be from its support (or stick out of its container) and still count as on it."""
+
+
+def _solid(scene: Scene) -> list[str]:
+    return [o.id for o in scene.objects if not is_thin(o)]
+
+
+def col(scene: Scene, base_dir: str | Path | None = None, *, hull_cache: HullCache | None = None) -> float:
+    """COL: the fraction of (non-thin) objects in a colliding pair deeper than 5 mm."""
+    solid = _solid(scene)
+    if not solid:
+        return 0.0
+    report = check_collisions(scene, base_dir, hull_cache=hull_cache, tolerance_m=COL_SEPARATION_M)
+    return len(report.object_ids() & set(solid)) / len(solid)
+
+
+def oob(scene: Scene, base_dir: str | Path | None = None, *, seed: int = 0) -> float:
+    """OOB: the fraction of objects with under 99 % of 1000 surface samples over the floor polygon."""
+    if scene.room is None or not scene.objects:
+        return 0.0
+    floor = Polygon(scene.room.floor)
+    out = 0
+    for k, obj in enumerate(scene.objects):
+        mesh = object_world_mesh(obj, Path(base_dir) if base_dir is not None else None)
+        if len(mesh.faces) == 0 or mesh.area <= 0:
+            pts = obj.corners()
+        else:
+            rng = np.random.default_rng(seed + k)
+            weights = mesh.area_faces / mesh.area_faces.sum()
+            faces = rng.choice(len(mesh.faces), size=OOB_SAMPLES, p=weights)
+            tri = np.asarray(mesh.vertices)[np.asarray(mesh.faces)[faces]]
+            a, b = rng.random((2, OOB_SAMPLES, 1))
+            flip = (a + b) > 1
+            a, b = np.where(flip, 1 - a, a), np.where(flip, 1 - b, b)
+            pts = tri[:, 0] + a * (tri[:, 1] - tri[:, 0]) + b * (tri[:, 2] - tri[:, 0])
+        inside = contains_xy(floor.buffer(1e-6), pts[:, 0], pts[:, 1])
+        if float(inside.mean()) < OOB_INSIDE:
+            out += 1
+    return out / len(scene.objects)
+
+
+def _raster(scene: Scene, grid: int) -> tuple[np.ndarray, np.ndarray, float]:
+    assert scene.room is not None
+    floor = np.asarray(scene.room.floor, dtype=np.float64)
+    lo, hi = floor.min(axis=0), floor.max(axis=0)
+    cell = float(max(hi - lo)) / grid
+    xs = lo[0] + (np.arange(grid) + 0.5) * cell
+    ys = lo[1] + (np.arange(grid) + 0.5) * cell
+    return xs, ys, cell
+
+
+def _boxes(scene: Scene, xs: np.ndarray, ys: np.ndarray, below: float | None) -> np.ndarray:
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    occ = np.zeros(gx.shape, dtype=bool)
+    for o in scene.objects:
+        if is_thin(o):
+            continue
+        if below is not None and float(o.aabb()[0][2]) >= below:
+            continue
+        occ |= contains_xy(Polygon(convex_hull_2d(o.corners()[:, :2])), gx, gy)
+    return occ
+
+
+def occupancy(scene: Scene, grid: int = DIV_GRID) -> np.ndarray:
+    """Top-down occupancy (grid x grid booleans over the floor's bounding box) of non-thin objects."""
+    if scene.room is None:
+        raise ValueError("occupancy needs a room")
+    xs, ys, _ = _raster(scene, grid)
+    return _boxes(scene, xs, ys, None)
+
+
+def nav(scene: Scene) -> float:
+    """NAV: the largest connected piece of walkable floor over all walkable floor (1.0: one piece)."""
+    from scipy import ndimage
+
+    if scene.room is None:
+        return 1.0
+    xs, ys, cell = _raster(scene, NAV_GRID)
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    free = contains_xy(Polygon(scene.room.floor), gx, gy) & ~_boxes(scene, xs, ys, NAV_MAX_HEIGHT)
+    r = max(1, round(NAV_ROBOT_RADIUS / cell))
+    yy, xx = np.mgrid[-r : r + 1, -r : r + 1]
+    disk = (xx**2 + yy**2) <= r * r
+    free = ndimage.binary_erosion(free, structure=disk, border_value=0)
+    total = int(free.sum())
+    if total == 0:
+        return 0.0
+    labels, n = ndimage.label(free)
+    return float(np.bincount(labels.ravel())[1:].max()) / total if n else 0.0
+
+
+def div_iou(scenes: Sequence[Scene], grid: int = DIV_GRID) -> float | None:
+    """Div-IoU: the mean IoU of the top-down occupancy maps over every pair of ``scenes`` (all
+    must share one room); ``None`` with fewer than two scenes."""
+    if len(scenes) < 2:
+        return None
+    maps = [occupancy(s, grid) for s in scenes]
+    ious = []
+    for a, b in itertools.combinations(maps, 2):
+        union = int((a | b).sum())
+        ious.append(float((a & b).sum()) / union if union else 1.0)
+    return float(np.mean(ious))
+
+
+def div_n(scenes: Sequence[Scene]) -> float | None:
+    """Div-N: the mean novelty distance over every pair of ``scenes`` (same objects), the earlier
+    scene of each pair the reference; ``None`` with fewer than two scenes."""
+    if len(scenes) < 2:
+        return None
+    ids = [o.id for o in scenes[0].objects]
+    arrs = [Arrangement.of(s, ids) for s in scenes]
+    return float(np.mean([novelty_distance(a, b) for a, b in itertools.combinations(arrs, 2)]))
+
+
+def relation_holds(scene: Scene, rel: Relation, tolerance: float = RELATION_TOLERANCE_M) -> bool:
+    """Whether a support relation holds geometrically: a child on the floor stands on it, on the
+    ceiling touches it, on a wall is against it; on an object stands over its footprint at most
+    ``tolerance`` above its top; inside an object stays inside its box (within ``tolerance``)."""
+    child = scene.get(rel.child)
+    lo, hi = child.aabb()
+    if rel.parent == FLOOR:
+        return abs(float(lo[2])) <= tolerance
+    if rel.parent == CEILING:
+        return scene.room is None or abs(float(hi[2]) - scene.room.ceiling_height) <= tolerance
+    kind = scene.anchor_kind(rel.parent)
+    if kind == "wall":
+        assert scene.room is not None
+        return scene.room.wall(rel.parent).gap(child.corners()) <= tolerance
+    parent = scene.get(rel.parent)
+    plo, phi = parent.aabb()
+    if rel.kind == "contain":
+        return bool(np.all(lo >= plo - tolerance) and np.all(hi <= phi + tolerance))
+    foot = Polygon(convex_hull_2d(child.corners()[:, :2]))
+    over = foot.intersection(Polygon(convex_hull_2d(parent.corners()[:, :2]))).area / max(foot.area, 1e-12)
+    return bool(over >= 0.5 and float(plo[2]) - tolerance <= float(lo[2]) <= float(phi[2]) + tolerance)
+
+
+def relkeep(base: Scene, variant: Scene) -> float:
+    """RelKeep: the fraction of ``base``'s attach/contain relations that hold in ``variant``."""
+    rels = [r for r in base.relations if r.is_support and any(o.id == r.child for o in variant.objects)]
+    if not rels:
+        return 1.0
+    return sum(1 for r in rels if relation_holds(variant, r)) / len(rels)
+
+
+
+def scene_metrics(scene: Scene, base_dir: str | Path | None = None, *, hull_cache: HullCache | None = None) -> dict[str, float]:
+    """COL, OOB and NAV of one scene (fractions; NAV 1.0 is one connected walkable floor)."""
+    return {
+        "COL": round(col(scene, base_dir, hull_cache=hull_cache), 4),
+        "OOB": round(oob(scene, base_dir), 4),
+        "NAV": round(nav(scene), 4),
+    }
+
+
+def evaluate(base: Scene, variants: Sequence[Scene] = (), *, base_dir: str | Path | None = None,
+             variant_dirs: Sequence[str | Path | None] = (), hull_cache: HullCache | None = None) -> dict[str, object]:
+    """Every metric of a base scene and its variants, JSON-ready.
+
+    The semantic judge (POS, ROT) needs a vision model and is reported as not measured here.
+    """
+    dirs = list(variant_dirs) or [None] * len(variants)
+    out: dict[str, object] = {"base": scene_metrics(base, base_dir, hull_cache=hull_cache)}
+    out["variants"] = [
+        {**scene_metrics(v, d, hull_cache=hull_cache), "RelKeep": round(relkeep(base, v), 4)}
+        for v, d in zip(variants, dirs, strict=True)
+    ]
+    if variants:
+        iou, n = div_iou(list(variants)), div_n(list(variants))
+        out["diversity"] = {
+            "Div-IoU": None if iou is None else round(iou, 4),
+            "Div-N": None if n is None else round(n, 4),
+            "pairs": len(variants) * (len(variants) - 1) // 2,
+        }
+    out["semantic_judge"] = {"POS": None, "ROT": None, "note": "not measured: the judge needs a vision model"}
+    return out
