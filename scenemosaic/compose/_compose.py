@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -58,6 +58,9 @@ class CompositionReport:
     """Per selected variant: the layout chosen for each unit."""
     min_distances: list[float] = field(default_factory=list)
     rejected: int = 0
+    """Candidates turned down when the selection reached them (interpenetration or ``accept``)."""
+    not_accepted: int = 0
+    """Of those, the ones ``accept`` turned down."""
     pruned: int = 0
     checks: int = 0
     """Scene-level interpenetration checks run (cached ones counted once)."""
@@ -73,6 +76,7 @@ class CompositionReport:
             "selected": self.picked,
             "min_distances": [round(d, 4) for d in self.min_distances],
             "rejected_by_scene_check": self.rejected,
+            "rejected_by_accept": self.not_accepted,
             "pruned": self.pruned,
             "scene_checks": self.checks,
             "wall_s": round(self.wall_s, 3),
@@ -98,9 +102,14 @@ def compose_variants(
     alpha: float = ALPHA,
     max_candidates: int | None = None,
     seed: int = 0,
+    accept: Callable[[Scene], bool] | None = None,
 ) -> tuple[list[Scene], CompositionReport]:
     """Select ``m`` diverse whole-scene variants of ``scene`` (the refined base, every unit's
     original in place) from the units' kept layouts; returns them in selection order and the report.
+
+    ``accept`` is a last test of a whole candidate scene, run after the interpenetration checks on
+    the candidates the selection reaches (the pipeline passes one that keeps the walkable floor
+    connected); a candidate it turns down is skipped like one that interpenetrates.
     """
     t0 = time.perf_counter()
     report = CompositionReport()
@@ -168,14 +177,12 @@ def compose_variants(
                     pair_cache[key] = clean(a + b, {o.id for o in a})
             if not pair_cache[key]:
                 return False
+        if accept is not None and not accept(build(choice)[0]):
+            report.not_accepted += 1
+            return False
         return True
 
-    sel: Selection = select_diverse(pool, m, alpha=alpha, valid=valid, max_candidates=max_candidates, seed=seed)
-    report.considered, report.sampled = sel.considered, sel.sampled
-    report.rejected, report.pruned = len(sel.rejected), sel.pruned
-    report.min_distances = sel.min_distances[1:]
-    variants: list[Scene] = []
-    for choice in sel.picked[1:]:
+    def build(choice: tuple[int, ...]) -> tuple[Scene, dict[str, str]]:
         s = scene
         picked: dict[str, str] = {}
         for g, k in enumerate(choice):
@@ -185,6 +192,15 @@ def compose_variants(
                 idx = o.layout_ids.index(lid)
                 if idx:
                     s = with_unit_layout(s, uid, o.poses[idx])
+        return s, picked
+
+    sel: Selection = select_diverse(pool, m, alpha=alpha, valid=valid, max_candidates=max_candidates, seed=seed)
+    report.considered, report.sampled = sel.considered, sel.sampled
+    report.rejected, report.pruned = len(sel.rejected), sel.pruned
+    report.min_distances = sel.min_distances[1:]
+    variants: list[Scene] = []
+    for choice in sel.picked[1:]:
+        s, picked = build(choice)
         variants.append(s)
         report.picked.append(picked)
     report.wall_s = time.perf_counter() - t0

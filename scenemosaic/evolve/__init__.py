@@ -41,7 +41,13 @@ from scenemosaic.evolve._analysis import (
 )
 from scenemosaic.evolve._archetypes import RuleArchetype, instantiate, max_alternatives, rule_archetypes
 from scenemosaic.evolve._context import UnitContext, WallLine, unit_context
-from scenemosaic.evolve._evolve import EvolutionReport, UnitEvolution, evolve_scene
+from scenemosaic.evolve._evolve import (
+    MAX_ALTERNATIVES,
+    EvolutionReport,
+    UnitEvolution,
+    alternative_counts,
+    evolve_scene,
+)
 from scenemosaic.evolve._loop import (
     EARLY_STOP_MOVE_M,
     EARLY_STOP_TURN_DEG,
@@ -58,6 +64,7 @@ __all__ = [
     "EARLY_STOP_TURN_DEG",
     "FACING_TABLE_DEG",
     "HEAD_ZONE",
+    "MAX_ALTERNATIVES",
     "MAX_ROUNDS",
     "VIEW_PX",
     "WALL_FACING_DEG",
@@ -86,6 +93,7 @@ __all__ = [
     "UnitContext",
     "UnitEvolution",
     "WallLine",
+    "alternative_counts",
     "evolve_layout",
     "evolve_scene",
     "find_problems",

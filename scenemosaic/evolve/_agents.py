@@ -67,6 +67,8 @@ class EvolveState(SceneState):
     """A callable returning the unit view PNG of the current layout (for vision models)."""
     refused: list[str] = field(default_factory=list)
     """Actor replies refused this round, with the sandbox's reasons."""
+    alternatives: int | None = None
+    """How many archetypes this unit may get; ``None``: the method's count for its size."""
 
     def need(self) -> tuple[UnitLayout, UnitContext]:
         assert self.layout is not None and self.context is not None
@@ -408,7 +410,7 @@ class ArchetypeEvidence(AgentOutput):
 class ArchetypeOutput(AgentOutput):
     """Alternative arrangements of the unit."""
 
-    alternative_layouts: list[Archetype] = Field(default_factory=list, max_length=3)
+    alternative_layouts: list[Archetype] = Field(default_factory=list, max_length=6)
 
 
 class ArchetypeAgent(TaskAgent[ArchetypeEvidence, ArchetypeOutput]):
@@ -422,7 +424,7 @@ class ArchetypeAgent(TaskAgent[ArchetypeEvidence, ArchetypeOutput]):
     def gather(self, state: SceneState) -> ArchetypeEvidence:
         assert isinstance(state, EvolveState)
         layout, ctx = state.need()
-        limit = max_alternatives(len(layout.ids))
+        limit = state.alternatives if state.alternatives is not None else max_alternatives(len(layout.ids))
         return ArchetypeEvidence(
             unit=_unit_info(layout, ctx),
             objects=_rows(layout),
@@ -440,7 +442,7 @@ class ArchetypeAgent(TaskAgent[ArchetypeEvidence, ArchetypeOutput]):
     def check(self, output: ArchetypeOutput, state: SceneState) -> list[str]:
         assert isinstance(state, EvolveState)
         layout, _ = state.need()
-        limit = max_alternatives(len(layout.ids))
+        limit = state.alternatives if state.alternatives is not None else max_alternatives(len(layout.ids))
         problems = []
         if len(output.alternative_layouts) > limit:
             problems.append(f"{len(output.alternative_layouts)} alternatives for {len(layout.ids)} objects; at most {limit}")

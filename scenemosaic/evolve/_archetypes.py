@@ -210,12 +210,36 @@ def _pinned(placed: Placement, ctx: UnitContext) -> Placement:
     return out
 
 
+SWAP_FIT_M = 0.05
+"""A swap is offered only when every piece of both groups lands inside the room within this."""
+
+
+def _fits(layout: UnitLayout, ctx: UnitContext, placed: Placement, moved: set[str]) -> bool:
+    """Whether the ``moved`` objects, placed as ``placed`` says, stay on the surface (within ``SWAP_FIT_M``)."""
+    region = Polygon(ctx.surface.region).buffer(SWAP_FIT_M, join_style="mitre")
+    trial = layout.copy()
+    for k in moved:
+        u, v, r = placed[k]
+        trial.set_rotation(k, r)
+        trial.set_center(k, u, v)
+        if not region.covers(Polygon(trial.polygon(k))):
+            return False
+    return True
+
+
 def rule_archetypes(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
-    """The offline archetypes that differ from the original and from each other, preferred first."""
+    """The offline archetypes that differ from the original and from each other, preferred first.
+
+    A swap whose groups do not fit where they go (a bed and its nightstands on a wall too short
+    for them) is not offered: the loop could not make it valid."""
     base = _current(layout)
     kept: list[tuple[RuleArchetype, Placement]] = []
     for cand in _candidates(layout, ctx):
         placed = _pinned(cand.place(layout, ctx), ctx)
+        if cand.layout_id.startswith("swapped_"):
+            moved = {k for k in placed if math.dist(placed[k][:2], base[k][:2]) > 1e-6}
+            if not _fits(layout, ctx, placed, moved):
+                continue
         if _same(base, placed, layout) or any(_same(p, placed, layout) for _, p in kept):
             continue
         kept.append((cand, placed))

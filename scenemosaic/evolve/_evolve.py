@@ -10,6 +10,7 @@ children carry moves with them.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -35,7 +36,7 @@ from scenemosaic.models import Model, ModelSettings, Usage
 from scenemosaic.physics import ObjectShape, is_thin, require_finite_poses
 from scenemosaic.scene import LocalUnit, Scene, UnitLayout, build_structure, unit_layout, with_unit_layout
 
-__all__ = ["EvolutionReport", "UnitEvolution", "evolve_scene"]
+__all__ = ["MAX_ALTERNATIVES", "EvolutionReport", "UnitEvolution", "alternative_counts", "evolve_scene"]
 
 log = structlog.get_logger(__name__)
 
@@ -84,6 +85,34 @@ class EvolutionReport:
         }
 
 
+MAX_ALTERNATIVES = 6
+"""Most archetypes one unit may get when the method's counts are raised for a large m."""
+
+
+def alternative_counts(units: list[LocalUnit], m: int) -> dict[str, int]:
+    """Archetypes to ask per unit: the method's count for its size (0-1 for 1-5 children, 0-2 for
+    6-10, 0-3 above), raised one at a time for the units with most children while the product of
+    (1 + count) over units is below 2 (m + 1): room for the local filtering and the scene-level
+    check to drop some and still leave m distinct variants. A deliberate deviation for small rooms
+    (a five-object room gets one alternative by the method's count, so at most one variant)."""
+    from scenemosaic.evolve._archetypes import max_alternatives
+
+    if m <= 0:
+        return {u.anchor_id: 0 for u in units}
+    counts = {u.anchor_id: max_alternatives(len(u.children)) for u in units}
+    order = sorted(units, key=lambda u: (-len(u.children), u.anchor_id))
+    while math.prod(1 + c for c in counts.values()) < 2 * (m + 1):
+        grown = False
+        for u in order:
+            if counts[u.anchor_id] < MAX_ALTERNATIVES:
+                counts[u.anchor_id] += 1
+                grown = True
+                break
+        if not grown:
+            break
+    return counts
+
+
 def _obstacles(scene: Scene, unit: LocalUnit, units: list[LocalUnit]) -> list[Any]:
     """Fixed objects a unit's children may run into: for a floor, wall or ceiling unit, the
     children of the other room-level units (a painting above a wardrobe, a low pendant lamp)."""
@@ -98,7 +127,7 @@ async def evolve_scene(
     model: Model,
     shapes: Mapping[str, ObjectShape],
     *,
-    variants: bool = False,
+    variants: int = 0,
     settings: ModelSettings | None = None,
     policy: AgentPolicy | None = None,
     max_rounds: int = MAX_ROUNDS,
@@ -108,7 +137,12 @@ async def evolve_scene(
     max_concurrency: int | None = None,
 ) -> tuple[Scene, EvolutionReport]:
     """Evolve every unit of ``scene`` (stabilized, with its structure) and return the refined base
-    scene and the report with every layout (variants included when ``variants``).
+    scene and the report with every layout.
+
+    ``variants`` (m) > 0 asks each unit's archetype agent for alternatives: the method's count for
+    the unit's size (1, 2 or 3), raised (up to :data:`MAX_ALTERNATIVES` per unit, largest units
+    first) when those counts could not combine into twice m + 1 distinct whole scenes (see
+    :func:`alternative_counts`).
 
     ``shapes`` are the objects' collision shapes (``scenemosaic.physics.object_shape``);
     ``views_dir``, when given, receives ``<anchor>/<layout>/round_<k>.png`` and ``final.png``.
@@ -121,6 +155,7 @@ async def evolve_scene(
     thin = {o.id for o in scene.objects if is_thin(o)}
     contexts: dict[str, UnitContext] = {u.anchor_id: unit_context(scene, u, _obstacles(scene, u, units), thin) for u in units}
     policy = policy or AgentPolicy()
+    counts = alternative_counts(units, variants)
     nodes: list[Node] = []
 
     def views(anchor: str, layout_id: str) -> Path | None:
@@ -163,7 +198,10 @@ async def evolve_scene(
     def archetypes(anchor: str) -> Node:
         async def run(ctx: NodeContext) -> dict[str, Any]:
             c = contexts[anchor]
-            state = EvolveState(scene=scene, seed=ctx.node_seed, base_dir=base_dir, policy=policy, layout=UnitLayout.from_scene(scene, c.unit), context=c)
+            state = EvolveState(
+                scene=scene, seed=ctx.node_seed, base_dir=base_dir, policy=policy,
+                layout=UnitLayout.from_scene(scene, c.unit), context=c, alternatives=counts[anchor],
+            )  # fmt: skip
             output, usage = await ArchetypeAgent().run(state, model, settings)
             assert isinstance(output, ArchetypeOutput)
             ctx.add_nodes(variant_node(anchor, a) for a in output.alternative_layouts)
@@ -186,7 +224,7 @@ async def evolve_scene(
     out = scene.model_copy(deep=True)  # the caller's scene stays as it was
     for u in units:
         orig: LayoutResult = outputs[f"evolve/{u.anchor_id}/original"]
-        ev = UnitEvolution(u.anchor_id, orig, archetypes_asked=variants)
+        ev = UnitEvolution(u.anchor_id, orig, archetypes_asked=variants > 0)
         arch = outputs.get(f"archetypes/{u.anchor_id}")
         if arch is not None:
             orig.usage = orig.usage + arch["usage"]

@@ -41,7 +41,7 @@ log = structlog.get_logger(__name__)
 
 REPORT_FILE = "report.json"
 _RUN_FILE = "run.json"
-_OUTPUTS = ("base", "evolve", REPORT_FILE, ".checkpoint")
+_OUTPUTS = ("base", "evolve", "contact_sheet.png", REPORT_FILE, ".checkpoint")
 """What a run writes into its output folder (and what ``overwrite`` may remove)."""
 _CONFIG_KEYS = (
     "format", "model", "seed", "room", "stabilize", "solver_fallback", "vision", "request_timeout_s", "deadline_s",

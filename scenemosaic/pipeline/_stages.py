@@ -26,6 +26,12 @@ log = structlog.get_logger(__name__)
 
 __all__ = ["DELIVERED_FORMATS", "EVOLVE_FOLDER", "STAGES", "STAGE_NAMES", "export_base", "export_scene_only"]
 
+NAV_KEEP = 0.99
+"""A variant's NAV must reach this, or the base scene's NAV when that is lower (a room whose
+furniture already cuts the floor cannot do better)..."""
+NAV_SLACK = 0.005
+"""... less this much (one raster cell's worth of noise)."""
+
 EVOLVE_FOLDER = "evolve"
 """Where ``generate`` writes each unit's evolved layouts (and, with ``save_views``, their views)."""
 
@@ -250,7 +256,7 @@ async def _stage_evolve(run: PipelineRun, rec: StageRecord) -> None:
             scene,
             asking,
             shapes,
-            variants=run.config.variants > 0,
+            variants=run.config.variants,
             settings=_request_settings(run),
             policy=AgentPolicy(solver_fallback=run.config.solver_fallback),
             max_rounds=run.config.evolve_rounds,
@@ -341,8 +347,17 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     layouts, dropped = await asyncio.to_thread(read_layouts)
     cache = hull_cache(run)
     shapes = await asyncio.to_thread(lambda: {o.id: object_shape(o, run.base_dir, cache=cache) for o in scene.objects})
+    from scenemosaic.metrics import nav
+
+    floor_share = min(NAV_KEEP, nav(scene)) - NAV_SLACK
+
+    def walkable(candidate: Scene) -> bool:  # a variant keeps the walkable floor as connected as the base
+        return nav(candidate) >= floor_share
+
     variants, report = await asyncio.to_thread(
-        functools.partial(compose_variants, scene, layouts, shapes, m=run.config.variants, seed=run.config.seed)
+        functools.partial(
+            compose_variants, scene, layouts, shapes, m=run.config.variants, seed=run.config.seed, accept=walkable
+        )
     )
     report.dropped = dropped + report.dropped
     rec.detail.update(report.summary())
@@ -416,6 +431,37 @@ async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     assert run.scene is not None
     rec.detail["files"] = await asyncio.to_thread(export_base, run.scene, run.out_dir / "base", run.base_dir)
+    if run.variants_written:
+        await asyncio.to_thread(contact_sheet, run.out_dir, run.variants_written)
+        rec.detail["contact_sheet"] = CONTACT_SHEET
+
+
+CONTACT_SHEET = "contact_sheet.png"
+"""The base scene and its variants side by side (their top-down views), in the output folder."""
+
+
+def contact_sheet(out_dir: Path, variants: int, tile_px: int = 512) -> Path:
+    """Write ``contact_sheet.png``: the top-down views of ``base/`` and ``variant_1..n/`` in a
+    grid of up to three columns, each labelled with its folder."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    names = ["base", *(f"variant_{i}" for i in range(1, variants + 1))]
+    cols = min(3, len(names))
+    rows = (len(names) + cols - 1) // cols
+    sheet = Image.new("RGB", (cols * tile_px, rows * (tile_px + 28)), (255, 255, 255))
+    draw = ImageDraw.Draw(sheet)
+    try:
+        font: ImageFont.FreeTypeFont | ImageFont.ImageFont = ImageFont.load_default(size=20)
+    except (OSError, ValueError, ImportError):
+        font = ImageFont.load_default()
+    for i, name in enumerate(names):
+        x, y = (i % cols) * tile_px, (i // cols) * (tile_px + 28)
+        with Image.open(out_dir / name / "topdown.png") as view:
+            sheet.paste(view.convert("RGB").resize((tile_px, tile_px)), (x, y + 28))
+        draw.text((x + 8, y + 4), name, fill=(25, 25, 30), font=font)
+    target = out_dir / CONTACT_SHEET
+    sheet.save(target)
+    return target
 
 
 def export_base(scene: Scene, folder: Path, base_dir: Path | None) -> list[str]:

@@ -75,10 +75,28 @@ def _beside_head(scene: Scene, stand: str, bed: str) -> bool:
     return -0.02 <= gap <= 0.35 and float(rel @ -f) >= depth / 2 - 0.75
 
 
+def _check_variants(report: dict[str, Any], out: Path) -> None:
+    """The whole-scene variants the compose stage wrote: each valid, keeping the base's relations
+    and its walkable floor (NAV at least min(0.99, the base's) less one raster cell's slack)."""
+    metrics = report["metrics"]
+    written = report["variants_written"]
+    assert written >= 3 and len(metrics["variants"]) == written
+    assert (out / "contact_sheet.png").is_file()
+    floor_share = min(0.99, metrics["base"]["NAV"]) - 0.005
+    for i, v in enumerate(metrics["variants"], start=1):
+        assert (out / f"variant_{i}" / "scene.json").is_file()
+        assert v["COL"] == 0.0 and v["OOB"] == 0.0 and v["RelKeep"] >= 0.99, (i, v)
+        assert v["NAV"] >= floor_share, (i, v, metrics["base"])
+    div = metrics["diversity"]
+    assert div["Div-N"] > 0.2 and div["Div-IoU"] < 0.8, div
+    print(f"{out.name}: {written} variants, Div-IoU {div['Div-IoU']}, Div-N {div['Div-N']}")
+
+
 @pytest.mark.parametrize("room", PHYSCENE, ids=lambda p: p.stem)
 def test_every_evolved_layout_of_every_unit_is_valid(room: Path, tmp_path: Path) -> None:
     result = generate(room, tmp_path, GenerateConfig(variants=5))
     assert result.status == "ok", result.report["warnings"]
+    _check_variants(result.report, tmp_path)
     base = read_scene(tmp_path / "base")
     layouts = _layouts(tmp_path)
     floor = [lay for lay in layouts if lay["anchor"] == "floor"]
