@@ -54,3 +54,18 @@ def test_no_variants_skips_the_stage(tmp_path: Path) -> None:
     result = generate(LIVING, tmp_path, GenerateConfig())
     compose = next(s for s in result.report["stages"] if s["name"] == "compose")
     assert compose["status"] == "skipped" and not list(tmp_path.glob("variant_*"))
+
+
+def test_evaluate_prints_the_metrics_of_an_output_folder(run: Path) -> None:
+    from typer.testing import CliRunner
+
+    from scenemosaic.cli import app
+
+    result = CliRunner().invoke(app, ["evaluate", str(run)])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.output)
+    assert set(data["base"]) == {"COL", "OOB", "NAV"} and len(data["variants"]) == 3
+    assert data["diversity"]["pairs"] == 3 and data["semantic_judge"]["POS"] is None
+    report = json.loads((run / "report.json").read_text())
+    assert data["variants"] == report["metrics"]["variants"]  # the same figures generate wrote
+    assert (run / "contact_sheet.png").is_file()
