@@ -424,8 +424,27 @@ async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
             evaluate, run.scene, variants, base_dir=run.base_dir, variant_dirs=folders, hull_cache=hull_cache(run)
         )
     )
+    if not (isinstance(run.config.model, str) and run.config.model == "rules"):
+        result["semantic_judge"] = await _judge(run, rec, [run.scene, *variants])
     rec.detail.update(result)
     run.metrics = result
+
+
+async def _judge(run: PipelineRun, rec: StageRecord, scenes: list[Scene]) -> dict[str, Any]:
+    """POS and ROT of the base and each variant from the run's model (not measured without vision)."""
+    from scenemosaic.metrics import judge_scene
+    from scenemosaic.models import UsageTracker
+
+    model, owned = await _open_model(run, rec)
+    tracker = UsageTracker()
+    asking = _asking_model(run, model, tracker)
+    try:
+        verdicts = [await judge_scene(s, asking, settings=_request_settings(run), base_dir=run.base_dir) for s in scenes]
+    finally:
+        rec.detail["usage"] = _usage_summary(tracker)
+        if owned:
+            await model.aclose()
+    return {"base": verdicts[0], "variants": verdicts[1:]}
 
 
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
