@@ -24,13 +24,16 @@ import numpy as np
 from scenemosaic.compose._distance import WEIGHTS, Arrangement
 from scenemosaic.scene import FloatArray
 
-__all__ = ["ALPHA", "CHUNK", "CandidatePool", "GroupVariants", "Selection", "select_diverse"]
+__all__ = ["ALPHA", "CHUNK", "MAX_ENUMERATED", "CandidatePool", "GroupVariants", "Selection", "select_diverse"]
 
 ALPHA = 0.1
 """Pruning factor of the dynamic max-min greedy: candidates closer than ALPHA * d_max to the
 selected set are dropped after each pick (the method's value)."""
 CHUNK = 100_000
 """Candidates scored per vectorized chunk (bounds the memory of a pass over a huge pool)."""
+MAX_ENUMERATED = 20_000_000
+"""Largest pool scored whole (17 bytes a candidate: flat index, minimum distance, alive flag);
+a larger one is sampled uniformly (seeded) to this many, and the selection says ``sampled``."""
 
 
 @dataclass(frozen=True)
@@ -135,11 +138,14 @@ class CandidatePool:
     def distances(
         self, ref: Sequence[int], choices: np.ndarray, weights: tuple[float, float, float] = WEIGHTS
     ) -> FloatArray:
-        """N(ref, candidate) for each row of ``choices`` ((K, G) variant indices), in chunks."""
+        """N(ref, candidate) for each candidate, in chunks: ``choices`` is (K, G) variant indices, or
+        (K,) flat indices unravelled chunk by chunk (a large pool then costs 8 bytes a candidate)."""
         t = self._tables(ref)
         out = np.empty(len(choices), dtype=np.float64)
         for start in range(0, len(choices), CHUNK):
             c = choices[start : start + CHUNK]
+            if c.ndim == 1:
+                c = self.choices(c)
             pos = np.zeros(len(c))
             dist = np.zeros(len(c))
             rot = np.zeros(len(c))
@@ -159,19 +165,19 @@ class CandidatePool:
         return out
 
     def candidates(self, max_candidates: int | None, seed: int) -> tuple[np.ndarray, bool]:
-        """Every candidate but the original as (K, G) choices, or a seeded uniform sample of at
-        most ``max_candidates`` distinct ones (second value True). Pools too large to enumerate
-        (over 2**62) are always sampled."""
+        """Every candidate but the original as flat indices, or a seeded uniform sample of at most
+        ``max_candidates`` distinct ones as (K, G) choices (second value True). Pools larger than
+        :data:`MAX_ENUMERATED` are always sampled (to that many)."""
         size = self.size
-        if max_candidates is None and size > 2**62:
-            max_candidates = CHUNK
+        if max_candidates is None and size > MAX_ENUMERATED:
+            max_candidates = MAX_ENUMERATED
         if max_candidates is not None and size - 1 > max_candidates:
             rng = np.random.default_rng(seed)
             rows = np.stack([rng.integers(0, n, size=max_candidates) for n in self.shape], axis=1)
             rows = np.unique(rows, axis=0)
             rows = rows[np.any(rows != 0, axis=1)]  # not the original
             return rows.astype(np.int64), True
-        return self.choices(np.arange(1, size, dtype=np.int64)), False
+        return np.arange(1, size, dtype=np.int64), False
 
 
 def _rel(p_from: FloatArray, r_from: FloatArray, p_to: FloatArray) -> FloatArray:
@@ -244,7 +250,8 @@ def select_diverse(
         scores = np.where(alive, min_d, -np.inf)
         best = int(np.argmax(scores))  # ties: the first row, i.e. the lowest flat index
         alive[best] = False
-        choice = tuple(int(x) for x in rows[best])
+        row = rows[best : best + 1]
+        choice = tuple(int(x) for x in (pool.choices(row)[0] if rows.ndim == 1 else row[0]))
         if valid is not None and not valid(choice):
             sel.rejected.append(choice)
             continue
