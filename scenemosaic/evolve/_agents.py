@@ -410,7 +410,7 @@ class ArchetypeEvidence(AgentOutput):
 class ArchetypeOutput(AgentOutput):
     """Alternative arrangements of the unit."""
 
-    alternative_layouts: list[Archetype] = Field(default_factory=list, max_length=6)
+    alternative_layouts: list[Archetype] = Field(default_factory=list, max_length=12)
 
 
 class ArchetypeAgent(TaskAgent[ArchetypeEvidence, ArchetypeOutput]):

@@ -186,7 +186,33 @@ def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
             if table not in ctx.against_wall:
                 out.append(RuleArchetype(f"centred_{table}"[:40], f"{layout.object(table).category} group in the middle", f"the table ({table}) and its seats moved to the middle of the room, the rest kept", _centred(table)))
             out.append(RuleArchetype(f"turned_{table}"[:40], f"{layout.object(table).category} group turned a quarter", f"the table ({table}) and its seats turned a quarter turn in place, so the group runs the other way", _turn(table)))
+        # last: a whole-room pattern and a group pattern together (small rooms need them for m variants)
+        whole = [c for c in out if c.layout_id in ("rotated_180", "mirrored_lr", "mirrored_ud")]
+        groups = [c for c in out if c.layout_id.split("_", 1)[0] in ("seated", "centred", "turned")]
+        for w in whole:
+            for g in groups:
+                out.append(
+                    RuleArchetype(
+                        f"{w.layout_id}_{g.layout_id}"[:40], f"{w.style_name}, {g.style_name}",
+                        f"{w.reasoning}; then {g.reasoning}", _then(w.place, g.place),
+                    )
+                )
     return out
+
+
+def _then(
+    first: Callable[[UnitLayout, UnitContext], Placement], second: Callable[[UnitLayout, UnitContext], Placement]
+) -> Callable[[UnitLayout, UnitContext], Placement]:
+    """``second`` applied to the layout ``first`` makes."""
+
+    def place(layout: UnitLayout, ctx: UnitContext) -> Placement:
+        trial = layout.copy()
+        for k, (u, v, r) in first(layout, ctx).items():
+            trial.set_rotation(k, r)
+            trial.set_center(k, u, v)
+        return second(trial, ctx)
+
+    return place
 
 
 def _same(a: Placement, b: Placement, layout: UnitLayout) -> bool:

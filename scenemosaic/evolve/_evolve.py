@@ -85,15 +85,15 @@ class EvolutionReport:
         }
 
 
-MAX_ALTERNATIVES = 6
+MAX_ALTERNATIVES = 12
 """Most archetypes one unit may get when the method's counts are raised for a large m."""
 
 
 def alternative_counts(units: list[LocalUnit], m: int) -> dict[str, int]:
     """Archetypes to ask per unit: the method's count for its size (0-1 for 1-5 children, 0-2 for
     6-10, 0-3 above), raised one at a time for the units with most children while the product of
-    (1 + count) over units is below 2 (m + 1): room for the local filtering and the scene-level
-    check to drop some and still leave m distinct variants. A deliberate deviation for small rooms
+    (1 + count) over units is below 2 (m + 1), up to :data:`MAX_ALTERNATIVES` each: room for the
+    local filtering and the scene-level checks to drop some and still leave m distinct variants. A deliberate deviation for small rooms
     (a five-object room gets one alternative by the method's count, so at most one variant)."""
     from scenemosaic.evolve._archetypes import max_alternatives
 

@@ -80,7 +80,7 @@ def _check_variants(report: dict[str, Any], out: Path) -> None:
     and its walkable floor (NAV at least min(0.99, the base's) less one raster cell's slack)."""
     metrics = report["metrics"]
     written = report["variants_written"]
-    assert written >= 3 and len(metrics["variants"]) == written
+    assert written == 5 and len(metrics["variants"]) == written
     assert (out / "contact_sheet.png").is_file()
     floor_share = min(0.99, metrics["base"]["NAV"]) - 0.005
     for i, v in enumerate(metrics["variants"], start=1):
