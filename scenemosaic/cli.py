@@ -12,8 +12,9 @@ import json
 import os
 import signal
 import sys
+import time
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, NoReturn
 
 import typer
 from rich.console import Console
@@ -56,27 +57,47 @@ EXIT_BAD_INPUT = 2
 """A clear error about the input or the settings (a ``SceneMosaicError``)."""
 EXIT_SIGINT = 130
 EXIT_SIGTERM = 143
+REPORT_WAIT_S = 5.0
+"""Longest a second signal waits for the first one's report before exiting."""
 
 
 class _Stop:
     """Turns SIGINT/SIGTERM into a cancel of the running task; a second signal exits at once.
 
-    The pipeline writes ``report.json`` first thing when cancelled, so exiting on the second
-    signal loses no report. Worker threads and CoACD processes are not waited for.
+    The pipeline writes ``report.json`` first thing when cancelled. A second signal that comes
+    before it is on disk (two signals back to back) waits for it, at most
+    :data:`REPORT_WAIT_S`, then exits: the report is not lost. Worker threads and CoACD processes
+    are not waited for.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, report: Path | None = None) -> None:
         self.signal: int | None = None
         self.task: asyncio.Task[GenerateResult] | None = None
+        self.report = report
+        self.started = time.time()
+        self.loop: asyncio.AbstractEventLoop | None = None
 
     def install(self, loop: asyncio.AbstractEventLoop) -> None:
+        self.loop = loop
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, self._received, sig)
 
-    def _received(self, sig: int) -> None:
-        if self.signal is not None:  # second signal: the report is already on disk
-            _err.print("[red]stopped[/red] (second signal)")
+    def _reported(self) -> bool:
+        try:
+            return self.report is None or self.report.stat().st_mtime >= self.started - 1.0
+        except OSError:
+            return False
+
+    def _exit_when_reported(self, deadline: float) -> None:
+        if self._reported() or time.monotonic() >= deadline or self.loop is None:
             _hard_exit(_exit_code(self.signal))
+        self.loop.call_later(0.05, self._exit_when_reported, deadline)
+
+    def _received(self, sig: int) -> None:
+        if self.signal is not None:  # second signal: leave as soon as the report is on disk
+            _err.print("[red]stopped[/red] (second signal)")
+            self._exit_when_reported(time.monotonic() + REPORT_WAIT_S)
+            return
         self.signal = sig
         _err.print(f"[yellow]stopping[/yellow] ({signal.Signals(sig).name}): writing the report and the last good scene")
         if self.task is not None:
@@ -87,7 +108,7 @@ def _exit_code(sig: int | None) -> int:
     return EXIT_SIGTERM if sig == signal.SIGTERM else EXIT_SIGINT
 
 
-def _hard_exit(code: int) -> None:
+def _hard_exit(code: int) -> NoReturn:
     """Leave now: stop the CoACD workers, flush, and skip waiting for worker threads."""
     from scenemosaic.assets import shutdown_workers
 
@@ -100,7 +121,7 @@ def _hard_exit(code: int) -> None:
 
 
 def _run_with_progress(input_path: Path, out: Path, config: GenerateConfig) -> GenerateResult:
-    stop = _Stop()
+    stop = _Stop(out / "report.json")
     with Progress(
         SpinnerColumn(),
         TextColumn("[bold]{task.description}"),
