@@ -349,7 +349,7 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     shapes = await asyncio.to_thread(lambda: {o.id: object_shape(o, run.base_dir, cache=cache) for o in scene.objects})
     from scenemosaic.metrics import nav
 
-    floor_share = min(NAV_KEEP, nav(scene)) - NAV_SLACK
+    floor_share = min(NAV_KEEP, await asyncio.to_thread(nav, scene)) - NAV_SLACK
 
     def walkable(candidate: Scene) -> bool:  # a variant keeps the walkable floor as connected as the base
         return nav(candidate) >= floor_share
@@ -362,7 +362,9 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     report.dropped = dropped + report.dropped
     rec.detail.update(report.summary())
     written = []
-    for i, variant in enumerate(variants, start=1):
+    for i, (variant, picked) in enumerate(zip(variants, report.picked, strict=True), start=1):
+        variant.provenance.steps.append("compose")
+        variant.provenance.notes.append(f"variant {i}: " + ", ".join(f"{k} {v}" for k, v in picked.items()))
         target = run.out_dir / f"variant_{i}"
         await asyncio.to_thread(export_base, variant, target, run.base_dir)
         cols = await asyncio.to_thread(functools.partial(check_collisions, variant, run.base_dir, hull_cache=cache))
