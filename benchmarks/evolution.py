@@ -41,6 +41,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -118,70 +119,84 @@ async def _simulated(out: Path, source: Path = ROOM16, prefix: str = "sim_vlm") 
 PERTURB_TRIALS = 8
 
 
-def _perturbed(root: Path) -> dict[str, Any]:
+@dataclass
+class _Room:
+    """A stabilized room ready for the loop: its scene, collision shapes and unit contexts."""
+
+    name: str
+    scene: Any
+    shapes: dict[str, Any]
+    contexts: dict[str, Any]
+
+
+def _rooms(root: Path) -> list[_Room]:
+    """Every PhyScene room and the test bedroom, structured and stabilized (no evolve), once."""
+    from scenemosaic.evolve import unit_context, unit_obstacles
+    from scenemosaic.physics import is_thin, object_shape
+
+    out = []
+    for source in [*sorted((REPO / "data" / "layouts" / "physcene").glob("*.json")), BEDROOM22]:
+        scene = generate(source, root / source.stem, GenerateConfig(evolve=False)).scene
+        assert scene.structure is not None
+        units = scene.structure.units
+        thin = {o.id for o in scene.objects if is_thin(o)}
+        contexts = {u.anchor_id: unit_context(scene, u, unit_obstacles(scene, u, units), thin) for u in units}
+        shapes = {o.id: object_shape(o, root / source.stem / "base") for o in scene.objects}
+        out.append(_Room(source.stem, scene, shapes, contexts))
+    return out
+
+
+def _perturbed(rooms: list[_Room]) -> dict[str, Any]:
     """Seeded disturbances of stabilized floor units, each evolved by the rules."""
     import random
 
-    from scenemosaic.evolve import evolve_layout, unit_context
+    from scenemosaic.evolve import evolve_layout
     from scenemosaic.models import parse_model
-    from scenemosaic.physics import is_thin, object_shape
     from scenemosaic.scene import UnitLayout
 
     rng = random.Random(0)
     valid = total = 0
     failures: list[str] = []
-    sources = [*sorted((REPO / "data" / "layouts" / "physcene").glob("*.json")), BEDROOM22]
-    for source in sources:
-        scene = generate(source, root / source.stem, GenerateConfig(evolve=False)).scene
-        assert scene.structure is not None
-        unit = next(u for u in scene.structure.units if u.anchor_id == "floor")
-        others = [scene.get(c) for u in scene.structure.units if u.anchor_kind != "object" and u is not unit for c in u.children]
-        ctx = unit_context(scene, unit, others, {o.id for o in scene.objects if is_thin(o)})
-        shapes = {o.id: object_shape(o, root / source.stem / "base") for o in scene.objects}
+    for room in rooms:
+        ctx = room.contexts["floor"]
         for trial in range(PERTURB_TRIALS):
-            layout = UnitLayout.from_scene(scene, unit)
+            layout = UnitLayout.from_scene(room.scene, ctx.unit)
             for k in layout.ids:
                 u, v = layout.center(k)
                 layout.set_center(k, u + rng.uniform(-0.4, 0.4), v + rng.uniform(-0.4, 0.4))
                 layout.set_rotation(k, layout.rotation(k) + rng.uniform(-25, 25))
-            result = asyncio.run(evolve_layout(scene, ctx, layout, shapes, parse_model("rules"), layout_id=f"disturbed_{trial}"))
+            result = asyncio.run(
+                evolve_layout(room.scene, ctx, layout, room.shapes, parse_model("rules"), layout_id=f"disturbed_{trial}")
+            )
             total += 1
             if result.valid and not result.violations:
                 valid += 1
             else:
-                failures.append(f"{source.stem}#{trial}: {'; '.join(result.violations)[:120]}")
+                failures.append(f"{room.name}#{trial}: {'; '.join(result.violations)[:120]}")
     return {"rules_perturbed_valid": valid, "rules_perturbed_total": total, "rules_perturbed_failures": failures}
 
 
-def _all_archetypes(root: Path) -> dict[str, Any]:
-    """Every rule archetype of every unit, instantiated and evolved (the rooms of ``_perturbed``)."""
-    from scenemosaic.evolve import Archetype, evolve_layout, rule_archetypes, unit_context
+def _all_archetypes(rooms: list[_Room]) -> dict[str, Any]:
+    """Every rule archetype of every unit, instantiated and evolved."""
+    from scenemosaic.evolve import Archetype, evolve_layout, rule_archetypes
     from scenemosaic.models import parse_model
-    from scenemosaic.physics import is_thin, object_shape
     from scenemosaic.scene import UnitLayout
 
     valid = total = 0
     failures: list[str] = []
-    for source in [*sorted((REPO / "data" / "layouts" / "physcene").glob("*.json")), BEDROOM22]:
-        scene = generate(source, root / source.stem, GenerateConfig(evolve=False)).scene
-        assert scene.structure is not None
-        units = scene.structure.units
-        shapes = {o.id: object_shape(o, root / source.stem / "base") for o in scene.objects}
-        thin = {o.id for o in scene.objects if is_thin(o)}
-        for unit in units:
-            others = [] if unit.anchor_kind == "object" else [
-                scene.get(c) for u in units if u.anchor_kind != "object" and u is not unit for c in u.children
-            ]  # fmt: skip
-            ctx = unit_context(scene, unit, others, thin)
-            layout = UnitLayout.from_scene(scene, unit)
+    for room in rooms:
+        for anchor, ctx in room.contexts.items():
+            layout = UnitLayout.from_scene(room.scene, ctx.unit)
             for cand in rule_archetypes(layout, ctx):
                 arch = Archetype(layout_id=cand.layout_id, layout_style_name=cand.style_name, layout_reasoning=cand.reasoning)
-                result = asyncio.run(evolve_layout(scene, ctx, layout, shapes, parse_model("rules"), layout_id=cand.layout_id, archetype=arch))
+                result = asyncio.run(
+                    evolve_layout(room.scene, ctx, layout, room.shapes, parse_model("rules"), layout_id=cand.layout_id, archetype=arch)
+                )
                 total += 1
                 if result.valid and not result.violations:
                     valid += 1
                 else:
-                    failures.append(f"{source.stem}/{unit.anchor_id}/{cand.layout_id}")
+                    failures.append(f"{room.name}/{anchor}/{cand.layout_id}")
     return {"rules_archetypes_valid": valid, "rules_archetypes_total": total, "rules_archetypes_failures": failures}
 
 
@@ -202,8 +217,9 @@ def main() -> None:
         figures["rules_room16_valid_layouts"] = evolve["detail"]["valid_layouts"]
         figures.update(asyncio.run(_simulated(root / "sim")))
         figures.update(asyncio.run(_simulated(root / "sim_bed", BEDROOM22, "sim_vlm_bedroom22")))
-        figures.update(_perturbed(root / "perturbed"))
-        figures.update(_all_archetypes(root / "archetypes"))
+        rooms = _rooms(root / "rooms")
+        figures.update(_perturbed(rooms))
+        figures.update(_all_archetypes(rooms))
     figures["seconds"] = round(time.perf_counter() - t0, 1)
     print(json.dumps(figures))
 

@@ -46,10 +46,12 @@ class Arrangement:
         )
 
 
-def relative(positions: FloatArray, rotations: FloatArray) -> FloatArray:
-    """(N, N, 3): entry [i, j] is R_i^T (p_j - p_i), object j seen from object i."""
-    diff = positions[None, :, :] - positions[:, None, :]
-    out: FloatArray = np.einsum("iab,ija->ijb", rotations, diff)
+def relative(p_from: FloatArray, r_from: FloatArray, p_to: FloatArray | None = None) -> FloatArray:
+    """(n, m, 3): entry [i, j] is R_i^T (q_j - p_i), point j of ``p_to`` (default ``p_from``:
+    every object seen from every other) seen from object i."""
+    to = p_from if p_to is None else p_to
+    diff = to[None, :, :] - p_from[:, None, :]
+    out: FloatArray = np.einsum("iab,ija->ijb", r_from, diff)
     return out
 
 

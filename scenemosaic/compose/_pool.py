@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from scenemosaic.compose._distance import WEIGHTS, Arrangement
+from scenemosaic.compose._distance import WEIGHTS, Arrangement, relative
 from scenemosaic.scene import FloatArray
 
 __all__ = ["ALPHA", "CHUNK", "MAX_ENUMERATED", "CandidatePool", "GroupVariants", "Selection", "select_diverse"]
@@ -100,7 +100,7 @@ class CandidatePool:
         g = self.groups
         within_pos, within_dist, rot = [], [], []
         for gi, k in zip(g, ref, strict=True):
-            rel_a = _rel(gi.positions[k], gi.rotations[k], gi.positions[k])  # (n, n, 3)
+            rel_a = relative(gi.positions[k], gi.rotations[k], gi.positions[k])  # (n, n, 3)
             rel_all = _rel_many(gi.positions, gi.rotations, gi.positions)  # (V, n, n, 3)
             within_pos.append(((rel_all - rel_a[None]) ** 2).sum(axis=(1, 2, 3)))
             d_a = np.linalg.norm(gi.positions[k][None] - gi.positions[k][:, None], axis=2)
@@ -115,8 +115,8 @@ class CandidatePool:
                 ga, gb = g[a], g[b]
                 ka, kb = ref[a], ref[b]
                 # i in a, j in b, and i in b, j in a
-                ref_ab = _rel(ga.positions[ka], ga.rotations[ka], gb.positions[kb])  # (na, nb, 3)
-                ref_ba = _rel(gb.positions[kb], gb.rotations[kb], ga.positions[ka])  # (nb, na, 3)
+                ref_ab = relative(ga.positions[ka], ga.rotations[ka], gb.positions[kb])  # (na, nb, 3)
+                ref_ba = relative(gb.positions[kb], gb.rotations[kb], ga.positions[ka])  # (nb, na, 3)
                 all_ab = _rel_cross(ga.positions, ga.rotations, gb.positions)  # (Va, Vb, na, nb, 3)
                 all_ba = _rel_cross(gb.positions, gb.rotations, ga.positions)  # (Vb, Va, nb, na, 3)
                 pos = ((all_ab - ref_ab) ** 2).sum(axis=(2, 3, 4)) + ((all_ba - ref_ba) ** 2).sum(axis=(2, 3, 4)).T
@@ -178,13 +178,6 @@ class CandidatePool:
             rows = rows[np.any(rows != 0, axis=1)]  # not the original
             return rows.astype(np.int64), True
         return np.arange(1, size, dtype=np.int64), False
-
-
-def _rel(p_from: FloatArray, r_from: FloatArray, p_to: FloatArray) -> FloatArray:
-    """(n, m, 3): R_i^T (q_j - p_i) for p_i in ``p_from`` (with rotations) and q_j in ``p_to``."""
-    diff = p_to[None, :, :] - p_from[:, None, :]
-    out: FloatArray = np.einsum("iab,ija->ijb", r_from, diff)
-    return out
 
 
 def _rel_many(p_from: FloatArray, r_from: FloatArray, p_to: FloatArray) -> FloatArray:

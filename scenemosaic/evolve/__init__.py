@@ -47,6 +47,7 @@ from scenemosaic.evolve._evolve import (
     UnitEvolution,
     alternative_counts,
     evolve_scene,
+    unit_obstacles,
 )
 from scenemosaic.evolve._loop import (
     EARLY_STOP_MOVE_M,
@@ -104,6 +105,7 @@ __all__ = [
     "rule_archetypes",
     "rule_violations",
     "unit_context",
+    "unit_obstacles",
     "unit_view",
     "unit_view_png",
 ]

@@ -313,8 +313,7 @@ def table_slots(layout: UnitLayout, table: str, seats: list[str]) -> list[tuple[
     if not seats:
         return []
     c, f, lat, depth, width = _bed_frame(layout, table)
-    seat_w = max(float(min(layout.object(k).size[0], layout.object(k).size[1])) for k in seats)
-    seat_w = max(max(float(layout.object(k).size[0]) for k in seats), seat_w)
+    seat_w = max(float(layout.object(k).size[0]) for k in seats)
     seat_d = max(float(layout.object(k).size[1]) for k in seats)
     sides = sorted(
         [(f, width, depth / 2), (-f, width, depth / 2), (lat, depth, width / 2), (-lat, depth, width / 2)],

@@ -10,6 +10,7 @@ children carry moves with them.
 
 from __future__ import annotations
 
+import asyncio
 import math
 import time
 from collections.abc import Mapping
@@ -22,6 +23,7 @@ import structlog
 from scenemosaic.agents import AgentPolicy
 from scenemosaic.dag import Node, NodeContext, Runner
 from scenemosaic.evolve._agents import ArchetypeAgent, ArchetypeOutput, EvolveState
+from scenemosaic.evolve._archetypes import max_alternatives
 from scenemosaic.evolve._context import UnitContext, unit_context
 from scenemosaic.evolve._loop import MAX_ROUNDS, LayoutResult, evolve_layout
 from scenemosaic.exceptions import (
@@ -36,7 +38,7 @@ from scenemosaic.models import Model, ModelSettings, Usage
 from scenemosaic.physics import ObjectShape, is_thin, require_finite_poses
 from scenemosaic.scene import LocalUnit, Scene, UnitLayout, build_structure, unit_layout, with_unit_layout
 
-__all__ = ["MAX_ALTERNATIVES", "EvolutionReport", "UnitEvolution", "alternative_counts", "evolve_scene"]
+__all__ = ["MAX_ALTERNATIVES", "EvolutionReport", "UnitEvolution", "alternative_counts", "evolve_scene", "unit_obstacles"]
 
 log = structlog.get_logger(__name__)
 
@@ -95,8 +97,6 @@ def alternative_counts(units: list[LocalUnit], m: int) -> dict[str, int]:
     (1 + count) over units is below 2 (m + 1), up to :data:`MAX_ALTERNATIVES` each: room for the
     local filtering and the scene-level checks to drop some and still leave m distinct variants. A deliberate deviation for small rooms
     (a five-object room gets one alternative by the method's count, so at most one variant)."""
-    from scenemosaic.evolve._archetypes import max_alternatives
-
     if m <= 0:
         return {u.anchor_id: 0 for u in units}
     counts = {u.anchor_id: max_alternatives(len(u.children)) for u in units}
@@ -113,7 +113,7 @@ def alternative_counts(units: list[LocalUnit], m: int) -> dict[str, int]:
     return counts
 
 
-def _obstacles(scene: Scene, unit: LocalUnit, units: list[LocalUnit]) -> list[Any]:
+def unit_obstacles(scene: Scene, unit: LocalUnit, units: list[LocalUnit]) -> list[Any]:
     """Fixed objects a unit's children may run into: for a floor, wall or ceiling unit, the
     children of the other room-level units (a painting above a wardrobe, a low pendant lamp)."""
     if unit.anchor_kind == "object":
@@ -153,7 +153,9 @@ async def evolve_scene(
     structure = scene.structure or build_structure(scene)
     units = list(structure.units)
     thin = {o.id for o in scene.objects if is_thin(o)}
-    contexts: dict[str, UnitContext] = {u.anchor_id: unit_context(scene, u, _obstacles(scene, u, units), thin) for u in units}
+    contexts: dict[str, UnitContext] = await asyncio.to_thread(
+        lambda: {u.anchor_id: unit_context(scene, u, unit_obstacles(scene, u, units), thin) for u in units}
+    )
     policy = policy or AgentPolicy()
     counts = alternative_counts(units, variants)
     nodes: list[Node] = []
@@ -221,7 +223,6 @@ async def evolve_scene(
     outputs = await Runner(nodes, seed=seed, max_concurrency=max_concurrency).run() if nodes else {}
 
     report = EvolutionReport()
-    out = scene.model_copy(deep=True)  # the caller's scene stays as it was
     for u in units:
         orig: LayoutResult = outputs[f"evolve/{u.anchor_id}/original"]
         ev = UnitEvolution(u.anchor_id, orig, archetypes_asked=variants > 0)
@@ -232,10 +233,17 @@ async def evolve_scene(
             orig.fallbacks.extend(arch["fallbacks"])
             ev.variants = [outputs[f"evolve/{u.anchor_id}/{i}"] for i in arch["ids"]]
         report.units.append(ev)
-        # top-down: the parent's refined layout is in place, this unit's goes on in its anchor's frame;
-        # a unit whose evolution failed keeps its stabilized layout exactly
-        if orig.error is None:
-            out = with_unit_layout(out, u.anchor_id, orig.local_poses)
+
+    def refined() -> Scene:
+        """Top-down: the parent's refined layout is in place, each unit's goes on in its anchor's
+        frame; a unit whose evolution failed keeps its stabilized layout exactly."""
+        out = scene.model_copy(deep=True)  # the caller's scene stays as it was
+        for ev in report.units:
+            if ev.original.error is None:
+                out = with_unit_layout(out, ev.anchor_id, ev.original.local_poses)
+        return out
+
+    out = await asyncio.to_thread(refined)
     out.provenance.steps.append("evolve")
     report.wall_s = time.perf_counter() - t0
     log.info("scene_evolved", units=len(units), layouts=sum(len(e.layouts) for e in report.units), wall_s=round(report.wall_s, 3))

@@ -32,14 +32,15 @@ from scenemosaic.evolve._agents import (
     CriticOutput,
     EvolveState,
     PoseAgent,
+    named_objects,
 )
 from scenemosaic.evolve._analysis import PhysicalCheck, find_problems, physical_check, rule_violations
 from scenemosaic.evolve._context import UnitContext
 from scenemosaic.evolve._memory import LayoutMemory, RoundRecord
-from scenemosaic.evolve._views import unit_view_png
+from scenemosaic.evolve._views import scene_with, unit_view_png
 from scenemosaic.models import Model, ModelSettings, Usage
 from scenemosaic.physics import ObjectShape, SettleSettings, SimSettings, UnitPlan, settle_unit
-from scenemosaic.scene import LayoutState2D, Pose, Scene, UnitLayout, rigid_moves, unit_layout
+from scenemosaic.scene import LayoutState2D, Pose, Scene, UnitLayout, unit_layout
 
 __all__ = ["EARLY_STOP_MOVE_M", "EARLY_STOP_TURN_DEG", "MAX_ROUNDS", "LayoutResult", "evolve_layout"]
 
@@ -115,14 +116,6 @@ def _moved(a: UnitLayout, b: UnitLayout) -> tuple[float, float]:
     return move, turn
 
 
-def scene_with(scene: Scene, layout: UnitLayout) -> Scene:
-    """``scene`` with the unit's children posed as ``layout`` says (what they carry moves along);
-    not re-validated: poses come from the layout's own conversion."""
-    moved = rigid_moves(scene, layout.poses())
-    objects = [o.model_copy(update={"pose": moved[o.id]}) if o.id in moved else o for o in scene.objects]
-    return scene.model_copy(update={"objects": objects})
-
-
 async def _ask(
     agent: TaskAgent[Any, Any], state: EvolveState, model: Model, settings: ModelSettings | None, result: LayoutResult
 ) -> Any:
@@ -137,8 +130,6 @@ async def _ask(
 
 def _mandatory(notes: list[str], check: PhysicalCheck, state: EvolveState) -> list[str]:
     """The critic's notes plus one for each out-of-bounds object it did not name."""
-    from scenemosaic.evolve._agents import named_objects
-
     layout, _ = state.need()
     named = named_objects(notes, layout)
     extra = [f for f in state.findings if f.kind == "out_of_bounds" and f.objects[0] not in named]

@@ -17,9 +17,9 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from scenemosaic.render import OrthoView, PixelMap, render_view
-from scenemosaic.scene import Scene, UnitLayout
+from scenemosaic.scene import Scene, UnitLayout, rigid_moves
 
-__all__ = ["VIEW_MARGIN_M", "VIEW_PX", "unit_view", "unit_view_png"]
+__all__ = ["VIEW_MARGIN_M", "VIEW_PX", "scene_with", "unit_view", "unit_view_png"]
 
 VIEW_PX = 1024
 """Side of a unit view, pixels (the method's 1024 x 1024)."""
@@ -42,9 +42,11 @@ def unit_view(layout: UnitLayout) -> OrthoView:
     )
 
 
-def _posed_scene(scene: Scene, layout: UnitLayout) -> Scene:
-    poses = layout.poses()
-    objects = [o.model_copy(update={"pose": poses[o.id]}) if o.id in poses else o for o in scene.objects]
+def scene_with(scene: Scene, layout: UnitLayout) -> Scene:
+    """``scene`` with the unit's children posed as ``layout`` says (what they carry moves along);
+    not re-validated: poses come from the layout's own conversion."""
+    moved = rigid_moves(scene, layout.poses())
+    objects = [o.model_copy(update={"pose": moved[o.id]}) if o.id in moved else o for o in scene.objects]
     return scene.model_copy(update={"objects": objects})
 
 
@@ -60,7 +62,7 @@ def unit_view_png(
     render of the real meshes when GL is available (``MUJOCO_GL=egl``), else the Pillow painter;
     the grid, boxes, ids, facing arrows and the surface boundary drawn over it either way."""
     view = unit_view(layout)
-    posed = _posed_scene(scene, layout)
+    posed = scene_with(scene, layout)
     ids = list(layout.ids)
     anchor = layout.surface.anchor_id
     if layout.surface.kind == "object":

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from scenemosaic import GenerateConfig, agenerate
-from scenemosaic.evolve import evolve_layout, unit_context
+from scenemosaic.evolve import evolve_layout, unit_context, unit_obstacles
 from scenemosaic.models import parse_model
 from scenemosaic.physics import is_thin, object_shape
 from scenemosaic.scene import UnitLayout
@@ -30,7 +30,7 @@ async def test_disturbed_floor_units_end_valid(source: Path, tmp_path: Path) -> 
     scene = (await agenerate(source, tmp_path, GenerateConfig(evolve=False))).scene
     assert scene.structure is not None
     unit = next(u for u in scene.structure.units if u.anchor_id == "floor")
-    others = [scene.get(c) for u in scene.structure.units if u.anchor_kind != "object" and u is not unit for c in u.children]
+    others = unit_obstacles(scene, unit, scene.structure.units)
     ctx = unit_context(scene, unit, others, {o.id for o in scene.objects if is_thin(o)})
     shapes = {o.id: object_shape(o, tmp_path / "base") for o in scene.objects}
     rng = random.Random(11)
