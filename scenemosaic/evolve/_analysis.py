@@ -28,10 +28,15 @@ from scenemosaic.physics import (
     collision_report_for,
 )
 from scenemosaic.scene import (
+    ROBOT_RADIUS,
+    WALK_MAX_HEIGHT,
+    WALK_MIN_SHARE,
     FloatArray,
+    FloorRaster,
     Scene,
     SceneObject,
     UnitLayout,
+    Walkable,
     convex_hull_2d,
     edge_axes,
     minimal_containing_shift,
@@ -44,6 +49,7 @@ __all__ = [
     "BESIDE_GAP_MAX",
     "FACING_TABLE_DEG",
     "HEAD_ZONE",
+    "SEAT_GAP_MAX",
     "WALL_FACING_DEG",
     "WALL_GAP_MAX",
     "Finding",
@@ -87,12 +93,9 @@ SEPARATION_MARGIN = 0.01
 FRONT_CLEARANCE = 0.5
 """Depth of the space kept free in front of doors and drawers (wardrobes, cabinets, dressers,
 shelves, TV stands), metres."""
-PASSAGE_CELL = 0.05
-"""Raster cell of the walkable-floor check, metres."""
-ROBOT_RADIUS = 0.2
-"""Half the width of the passage a person or robot needs, metres."""
-PASSAGE_MIN_SHARE = 0.9
-"""The largest connected piece of free floor should hold at least this share of all free floor."""
+PASSAGE_STEPS = (0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6)
+"""How far, metres, a move that reopens a cut-off piece of floor may push one object (the
+shortest that works is taken)."""
 PINNED_MOVE_MAX = 0.10
 PINNED_TURN_MAX = 15.0
 """Limits on how far a clause's object may drift from where the clause fixed it."""
@@ -173,13 +176,14 @@ def _nearby_obstacles(layout: UnitLayout, ctx: UnitContext) -> list[SceneObject]
         return []
     polys = [Polygon(layout.polygon(k)) for k in layout.ids]
     out = []
-    for o, poly in _obstacle_polygons(ctx):
+    for o, poly in obstacle_polygons(ctx):
         if any(poly.distance(p) < 0.5 for p in polys):
             out.append(o)
     return out
 
 
-def _obstacle_polygons(ctx: UnitContext) -> list[tuple[SceneObject, Polygon]]:
+def obstacle_polygons(ctx: UnitContext) -> list[tuple[SceneObject, Polygon]]:
+    """The fixed obstacles around the unit with their outlines on its surface."""
     if ctx.obstacle_polygons is None:  # a benign race: two layouts of a unit may both compute it
         ctx.obstacle_polygons = [(o, Polygon(convex_hull_2d(ctx.surface.project(o.corners())))) for o in ctx.obstacles]
     return list(ctx.obstacle_polygons)
@@ -417,7 +421,7 @@ def _blocked(layout: UnitLayout, ctx: UnitContext, mover: str, poly: FloatArray,
         other = Polygon(layout.polygon(k))
         if shape.intersection(other).area > 1e-4 and here.intersection(other).area <= 1e-4:
             return True
-    for o, opoly in _obstacle_polygons(ctx):
+    for o, opoly in obstacle_polygons(ctx):
         if o.id != partner and shape.intersection(opoly).area > 1e-4 and here.intersection(opoly).area <= 1e-4:
             return True
     return False
@@ -477,7 +481,7 @@ def _separation(
 
 
 def _obstacle_poly(ctx: UnitContext, oid: str) -> FloatArray | None:
-    for o, poly in _obstacle_polygons(ctx):
+    for o, poly in obstacle_polygons(ctx):
         if o.id == oid:
             return np.asarray(poly.exterior.coords)[:-1]
     return None
@@ -486,17 +490,20 @@ def _obstacle_poly(ctx: UnitContext, oid: str) -> FloatArray | None:
 # -- room to use things -----------------------------------------------------------------------------------
 
 
-def _front_zone(layout: UnitLayout, oid: str) -> Polygon:
-    """The strip in front of an object's front (its width, ``FRONT_CLEARANCE`` deep)."""
-    poly = layout.polygon(oid)
-    c = np.asarray(layout.center(oid))
-    f = _facing(layout.rotation(oid))
+def front_strip(poly: FloatArray, center: FloatArray, rotation: float, depth: float = FRONT_CLEARANCE) -> Polygon:
+    """The strip in front of an object's front: its width, ``depth`` deep (the object's outline
+    ``poly``, its centre and its rotation in the view)."""
+    c = np.asarray(center, dtype=np.float64)
+    f = _facing(rotation)
     side = np.array([f[1], -f[0]])
-    depth = float(((poly - c) @ f).max())
+    reach = float(((poly - c) @ f).max())
     half = float(np.ptp((poly - c) @ side)) / 2
-    a = c + f * depth
-    corners = [a - side * half, a + side * half, a + side * half + f * FRONT_CLEARANCE, a - side * half + f * FRONT_CLEARANCE]
-    return Polygon(corners)
+    a = c + f * reach
+    return Polygon([a - side * half, a + side * half, a + side * half + f * depth, a - side * half + f * depth])
+
+
+def _front_zone(layout: UnitLayout, oid: str) -> Polygon:
+    return front_strip(layout.polygon(oid), np.asarray(layout.center(oid)), layout.rotation(oid))
 
 
 def _clearance(layout: UnitLayout, ctx: UnitContext) -> list[Finding]:
@@ -527,31 +534,83 @@ def _clearance(layout: UnitLayout, ctx: UnitContext) -> list[Finding]:
     return out
 
 
-def _passage(layout: UnitLayout, ctx: UnitContext) -> list[Finding]:
-    """The free floor (eroded by a robot's radius) should be one connected piece."""
-    from scipy import ndimage
-    from shapely import contains_xy
+def _passage(layout: UnitLayout, ctx: UnitContext, busy: Collection[str] = ()) -> list[Finding]:
+    """The free floor, eroded by a robot's radius, should be one piece (``scene.Walkable``, the
+    NAV raster, with the same bar the variants' NAV must reach). When it is not, the shortest
+    clean move of one object next to a cut-off piece that joins the floor again is the fix;
+    ``busy`` objects (in a collision, which is fixed first) are not moved for it."""
+    raster = FloorRaster(np.asarray(ctx.surface.region, dtype=np.float64))
+    masks = {k: raster.mask(layout.polygon(k)) for k in layout.ids if k not in ctx.thin}
+    fixed = raster.blocked([poly for o, poly in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < WALK_MAX_HEIGHT])
+    blocked = fixed.copy()
+    for m in masks.values():
+        blocked |= m
+    walk = raster.walkable(blocked)
+    if walk.total == 0 or walk.share >= WALK_MIN_SHARE:
+        return []
+    pieces = len(walk.sizes)
+    found = _reopen(layout, ctx, raster, masks, fixed, walk, busy)
+    lead = f"The walkable floor is cut into {pieces} parts (the largest holds {walk.share:.0%} of it)"
+    if found is None:
+        return [Finding("passage", (), "soft", f"{lead}; leave a passage of at least {2 * ROBOT_RADIUS:.1f} m between the furniture.")]
+    oid, target, way = found
+    note = f"{lead}: move ({oid}) {_word(way)} by {float(np.linalg.norm(way)):.2f} m to open a {2 * ROBOT_RADIUS:.1f} m passage."
+    return [Finding("passage", (oid,), "semantic", note, {oid: target})]
 
-    region = Polygon(ctx.surface.region)
-    U, V = ctx.surface.size
-    nu, nv = max(2, math.ceil(U / PASSAGE_CELL)), max(2, math.ceil(V / PASSAGE_CELL))
-    uu, vv = np.meshgrid((np.arange(nu) + 0.5) * U / nu, (np.arange(nv) + 0.5) * V / nv, indexing="ij")
-    free = contains_xy(region.buffer(-ROBOT_RADIUS), uu, vv)
-    solid = [k for k in layout.ids if k not in ctx.thin]
-    for k in solid:
-        free &= ~contains_xy(Polygon(layout.polygon(k)).buffer(ROBOT_RADIUS), uu, vv)
-    for _, opoly in _obstacle_polygons(ctx):
-        free &= ~contains_xy(opoly.buffer(ROBOT_RADIUS), uu, vv)
-    total = int(free.sum())
-    if total == 0:
-        return []
-    labels, n = ndimage.label(free)
-    if n <= 1:
-        return []
-    sizes = np.bincount(labels.ravel())[1:]
-    if sizes.max() / total >= PASSAGE_MIN_SHARE:
-        return []
-    return [Finding("passage", (), "soft", f"The walkable floor is cut into {n} separate parts; leave a passage of at least {2 * ROBOT_RADIUS:.1f} m between the furniture.")]
+
+def _reopen(
+    layout: UnitLayout,
+    ctx: UnitContext,
+    raster: FloorRaster,
+    masks: Mapping[str, np.ndarray],
+    fixed: np.ndarray,
+    walk: Walkable,
+    busy: Collection[str],
+) -> tuple[str, Target, FloatArray] | None:
+    """The shortest clean move of one free-standing object beside a cut-off piece of floor that
+    brings the share of the largest piece up to the bar (else the move that raises it most, by
+    at least two points)."""
+    import shapely
+
+    cut = (walk.labels > 0) & (walk.labels != walk.main)
+    ii, jj = np.nonzero(cut)
+    cells = shapely.points(np.column_stack([raster.xs[ii], raster.ys[jj]]))
+    reach = 2 * ROBOT_RADIUS + 2 * raster.cell
+    best: tuple[float, float, str, FloatArray] | None = None
+    for k in sorted(masks):
+        if k in ctx.pinned or k in ctx.nightstand_bed or k in busy:
+            continue
+        poly = Polygon(layout.polygon(k))
+        if float(shapely.distance(poly, cells).min()) > reach:
+            continue
+        backed, wall = wall_status(layout, ctx, k) if k in ctx.against_wall else (False, None)
+        if k in ctx.against_wall and not (backed and wall is not None):
+            continue
+        dirs = [wall.tangent, -wall.tangent] if wall is not None else [np.array(d, dtype=np.float64) for d in ((1, 0), (-1, 0), (0, 1), (0, -1))]
+        others = fixed.copy()
+        for j, m in masks.items():
+            if j != k:
+                others |= m
+        pm = layout.polygon(k)
+        table = ctx.seat_table.get(k)
+        for step in PASSAGE_STEPS:
+            for d in dirs:
+                moved = pm + d * step
+                if table is not None and Polygon(moved).distance(Polygon(layout.polygon(table))) > SEAT_GAP_MAX:
+                    continue
+                if _blocked(layout, ctx, k, moved, ""):
+                    continue
+                share = raster.walkable(others | raster.mask(moved)).share
+                if share >= WALK_MIN_SHARE:
+                    c = np.asarray(layout.center(k)) + d * step
+                    return k, Target(float(c[0]), float(c[1])), d * step
+                if share >= walk.share + 0.02 and (best is None or (-share, step) < (best[0], best[1])):
+                    best = (-share, step, k, d * step)
+    if best is None:
+        return None
+    _, _, k, way = best
+    c = np.asarray(layout.center(k)) + way
+    return k, Target(float(c[0]), float(c[1])), way
 
 
 # -- the findings ---------------------------------------------------------------------------------------
@@ -654,7 +713,7 @@ def find_problems(
             if float(np.linalg.norm(d)) > 1e-6 and _off(layout.rotation(sofa), facing_degrees(d)) > 90.0:
                 out.append(Finding("sofa_tv", (sofa, tv), "soft", f"The sofa ({sofa}) turns its back on the TV stand ({tv}); consider facing them to each other."))
     if ctx.floor and ctx.walls:
-        out.extend(_passage(layout, ctx))
+        out.extend(_passage(layout, ctx, {k for p in check.collisions for k in (p.a, p.b)}))
     for pair in check.collisions:
         sep = _separation(layout, ctx, pair, avoid, snapped)
         names = f"({pair.a}) and ({pair.b})"

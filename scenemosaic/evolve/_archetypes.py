@@ -9,10 +9,16 @@ the same category in the original is the same arrangement, and is skipped):
 * ``mirrored_lr`` / ``mirrored_ud`` — mirrored about the surface's vertical / horizontal centre
   line (walls and containers: centres only, so pictures stay upright and books keep their spines);
 * ``swapped_<a>_<b>`` — two wall pieces of different kinds trade places along the walls, each
-  taking its functional group (a bed its nightstands) along;
+  taking its functional group (a bed its nightstands) along, backed against its new wall and slid
+  along it to fit;
 * ``seated_<table>`` — the seats of a table spread evenly along its sides, long sides first;
 * ``centred_<table>`` — a free-standing table and its seats moved to the middle of the room;
-* ``turned_<table>`` — a table and its seats turned a quarter turn about the table.
+* ``turned_<table>`` — a table and its seats turned a quarter turn about the table;
+* ``slid_<side>_<table>`` — a free-standing table and its seats slid toward one side of the view
+  as far as they fit clear of the rest (at least 1 m);
+* ``moved_<piece>_<wall>`` — a wall piece and its group (a bed and its nightstands, a desk and
+  its chair) carried to another wall, to the free stretch farthest from where it stood: only
+  where the whole group, and the space in front of the piece, fits clear of everything else.
 
 The Critic-Actor loop then makes each instantiation valid (walls, facing, collisions, bounds).
 How many are offered follows the method: at most 1 for 1-5 objects, 2 for 6-10, 3 above.
@@ -27,8 +33,16 @@ from dataclasses import dataclass
 import numpy as np
 from shapely.geometry import Polygon
 
-from scenemosaic.evolve._analysis import SEAT_GAP_MAX, table_slots
-from scenemosaic.evolve._context import UnitContext
+from scenemosaic.evolve._analysis import (
+    SEAT_GAP_MAX,
+    WALL_FLUSH_GAP,
+    beside_target,
+    front_strip,
+    obstacle_polygons,
+    table_slots,
+    wall_status,
+)
+from scenemosaic.evolve._context import UnitContext, WallLine
 from scenemosaic.scene import UnitLayout, normalize_degrees
 
 __all__ = ["RuleArchetype", "instantiate", "max_alternatives", "rule_archetypes"]
@@ -100,6 +114,38 @@ def _move_group(place: Placement, layout: UnitLayout, members: list[str], pivot:
         place[k] = (float(p[0]), float(p[1]), normalize_degrees(layout.rotation(k) + turn))
 
 
+def _fit_to_wall(place: Placement, layout: UnitLayout, ctx: UnitContext, members: list[str], wall: WallLine | None) -> None:
+    """Put a group placed at ``wall`` right: nightstands tucked beside their bed's head, the head
+    piece's back flush against the wall, and the group slid along it until every member's span
+    lies within the wall (centred on it when longer)."""
+    if wall is None:
+        return
+    trial = layout.copy()
+    for k in members:
+        u, v, r = place[k]
+        trial.set_rotation(k, r)
+        trial.set_center(k, u, v)
+    for k in members[1:]:
+        if ctx.nightstand_bed.get(k) == members[0]:
+            t = beside_target(trial, k, members[0])
+            assert t.u is not None and t.v is not None and t.rotation is not None
+            place[k] = (t.u, t.v, t.rotation)
+            trial.set_rotation(k, t.rotation)
+            trial.set_center(k, t.u, t.v)
+    move = (WALL_FLUSH_GAP - wall.gap(trial.polygon(members[0]))) * np.asarray(wall.inward)
+    spans = [wall.along(trial.polygon(k) + move) for k in members]
+    lo, hi = min(a for a, _ in spans), max(b for _, b in spans)
+    if hi - lo > wall.length:  # longer than the wall: centred on it (the loop tucks the ends in)
+        move = move + ((wall.length - hi - lo) / 2) * wall.tangent
+    elif lo < 0:
+        move = move + (-lo + WALL_FLUSH_GAP) * wall.tangent
+    elif hi > wall.length:
+        move = move - (hi - wall.length + WALL_FLUSH_GAP) * wall.tangent
+    for k in members:
+        u, v, r = place[k]
+        place[k] = (u + float(move[0]), v + float(move[1]), r)
+
+
 def _swap(a: str, b: str) -> Callable[[UnitLayout, UnitContext], Placement]:
     def place(layout: UnitLayout, ctx: UnitContext) -> Placement:
         out = _current(layout)
@@ -107,6 +153,8 @@ def _swap(a: str, b: str) -> Callable[[UnitLayout, UnitContext], Placement]:
         ra, rb = layout.rotation(a), layout.rotation(b)
         _move_group(out, layout, _group(ctx, a), ca, cb, normalize_degrees(rb - ra))
         _move_group(out, layout, _group(ctx, b), cb, ca, normalize_degrees(ra - rb))
+        _fit_to_wall(out, layout, ctx, _group(ctx, a), wall_status(layout, ctx, b)[1])
+        _fit_to_wall(out, layout, ctx, _group(ctx, b), wall_status(layout, ctx, a)[1])
         return out
 
     return place
@@ -151,6 +199,157 @@ def _seated(table: str) -> Callable[[UnitLayout, UnitContext], Placement]:
     return place
 
 
+MOVE_STEP = 0.1
+"""Spacing, metres, of the places along a wall tried for a moved group."""
+MOVE_MARGIN = 0.05
+"""A moved group keeps at least this far, metres, from everything it does not bring along."""
+MOVE_MIN_M = 1.0
+"""A place counts as another place when the piece's centre moves at least this far, metres."""
+
+
+class _Room:
+    """What a moved group must stay clear of: the surface (inset 5 mm) and every solid object it
+    does not bring along, grown by ``MOVE_MARGIN``."""
+
+    def __init__(self, layout: UnitLayout, ctx: UnitContext, members: list[str]) -> None:
+        from shapely import prepare
+        from shapely.ops import unary_union
+
+        top = max(layout.span(k)[1] for k in members)
+        others = [Polygon(layout.polygon(k)) for k in layout.ids if k not in members and k not in ctx.thin]
+        others += [poly for o, poly in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < top]
+        self.blocked = unary_union([p.buffer(MOVE_MARGIN, join_style="mitre") for p in others]) if others else Polygon()
+        self.region = Polygon(ctx.surface.region).buffer(-0.005, join_style="mitre")
+        prepare(self.blocked)
+        prepare(self.region)
+        self.layout = layout
+        self.members = members
+
+    def placed(self, here: np.ndarray, to: np.ndarray, turn: float) -> tuple[Placement, UnitLayout] | None:
+        """The group turned by ``turn`` and carried from ``here`` to ``to``, with the layout it
+        makes, when every member lands on the surface clear of the rest."""
+        place: Placement = {}
+        _move_group(place, self.layout, self.members, here, to, turn)
+        moved = self.layout.copy()
+        for k, (u, v, r) in place.items():
+            moved.set_rotation(k, r)
+            moved.set_center(k, u, v)
+        for k in self.members:
+            shape = Polygon(moved.polygon(k))
+            if not self.region.covers(shape) or self.blocked.intersects(shape):
+                return None
+        return place, moved
+
+    def clear(self, zone: Polygon) -> bool:
+        return self.region.covers(zone) and not self.blocked.intersects(zone)
+
+
+def _spot(layout: UnitLayout, ctx: UnitContext, piece: str, wall: WallLine) -> Placement | None:
+    """The piece backed against ``wall`` with its group carried along, at the free place farthest
+    from where it stands (every member on the surface, the group and a ``FRONT_CLEARANCE`` strip
+    in front of the piece clear of everything else by ``MOVE_MARGIN``); ``None`` when no place fits."""
+    room = _Room(layout, ctx, _group(ctx, piece))
+    here = np.asarray(layout.center(piece))
+    turn = normalize_degrees(wall.facing - layout.rotation(piece))
+    trial = layout.copy()
+    trial.set_rotation(piece, wall.facing)
+    poly = trial.polygon(piece)
+    back = (WALL_FLUSH_GAP - wall.gap(poly)) * np.asarray(wall.inward)
+    lo, hi = wall.along(poly + back)
+    best: tuple[float, Placement] | None = None
+    for t in np.arange(-lo, wall.length - hi + 1e-9, MOVE_STEP):
+        to = np.asarray(trial.center(piece)) + back + t * wall.tangent
+        dist = float(np.linalg.norm(to - here))
+        if dist < MOVE_MIN_M or (best is not None and dist <= best[0]):
+            continue
+        found = room.placed(here, to, turn)
+        if found is None or not room.clear(front_strip(found[1].polygon(piece), to, wall.facing)):
+            continue
+        best = (dist, found[0])
+    return None if best is None else {**_current(layout), **best[1]}
+
+
+_SIDES = {"left": (-1.0, 0.0), "right": (1.0, 0.0), "top": (0.0, 1.0), "bottom": (0.0, -1.0)}
+
+
+def _slide_spot(layout: UnitLayout, ctx: UnitContext, table: str, side: str) -> Placement | None:
+    """A free-standing table and its seats slid toward ``side`` of the view as far as they fit
+    (at least ``MOVE_MIN_M``), clear of everything else by ``MOVE_MARGIN``; ``None`` when they cannot."""
+    room = _Room(layout, ctx, _group(ctx, table))
+    here = np.asarray(layout.center(table))
+    d = np.asarray(_SIDES[side])
+    span = max(layout.surface.size)
+    for t in np.arange(span, MOVE_MIN_M - 1e-9, -MOVE_STEP):
+        found = room.placed(here, here + d * t, 0.0)
+        if found is not None:
+            return {**_current(layout), **found[0]}
+    return None
+
+
+def _slid(table: str, side: str) -> Callable[[UnitLayout, UnitContext], Placement]:
+    def place(layout: UnitLayout, ctx: UnitContext) -> Placement:
+        spot = _slide_spot(layout, ctx, table, side)
+        return spot if spot is not None else _current(layout)
+
+    return place
+
+
+def _relocated(piece: str, wall_id: str) -> Callable[[UnitLayout, UnitContext], Placement]:
+    def place(layout: UnitLayout, ctx: UnitContext) -> Placement:
+        wall = next((w for w in ctx.walls if w.id == wall_id), None)
+        spot = _spot(layout, ctx, piece, wall) if wall is not None else None
+        return spot if spot is not None else _current(layout)
+
+    return place
+
+
+def _relocations(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
+    """Every wall piece's group carried to each other wall where it fits, the longest moves first."""
+    found: list[tuple[float, str, RuleArchetype]] = []
+    for piece in sorted(ctx.against_wall - set(ctx.nightstand_bed) - set(ctx.pinned)):
+        if any(k in ctx.pinned for k in _group(ctx, piece)):
+            continue
+        _, own = wall_status(layout, ctx, piece)
+        cat = layout.object(piece).category
+        for wall in ctx.walls:
+            if own is not None and wall.id == own.id:
+                continue
+            spot = _spot(layout, ctx, piece, wall)
+            if spot is None:
+                continue
+            dist = math.dist(spot[piece][:2], layout.center(piece))
+            lid = f"moved_{piece}_{wall.id}"[:40]
+            found.append(
+                (-dist, lid, RuleArchetype(lid, f"{cat} on another wall", f"the {cat} ({piece}) and its group carried to the wall ({wall.id}), where they fit clear of the rest", _relocated(piece, wall.id)))
+            )
+    found.sort(key=lambda x: (x[0], x[1]))
+    return [r for _, _, r in found]
+
+
+def _slides(layout: UnitLayout, ctx: UnitContext, table: str, scattered: bool) -> list[RuleArchetype]:
+    """``slid_<side>_<table>`` for each side the group fits toward; seats standing away from
+    their table are gathered around it first (a group spread over the room cannot slide)."""
+    if table in ctx.pinned:
+        return []
+    cat = layout.object(table).category
+    seats = sorted(s for s, t in ctx.seat_table.items() if t == table)
+    gather = scattered and bool(table_slots(layout, table, seats))
+    start = layout
+    if gather:
+        start = layout.copy()
+        for k, (u, v, r) in _seated(table)(layout, ctx).items():
+            start.set_rotation(k, r)
+            start.set_center(k, u, v)
+    out = []
+    for side in _SIDES:
+        if _slide_spot(start, ctx, table, side) is None:
+            continue
+        place = _then(_seated(table), _slid(table, side)) if gather else _slid(table, side)
+        why = f"the table ({table}) and its seats{' gathered around it and' if gather else ''} slid toward the {side} of the view as far as they fit clear of the rest"
+        out.append(RuleArchetype(f"slid_{side}_{table}"[:40], f"{cat} group toward the {side} of the view", why, place))
+    return out
+
+
 def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     kind = ctx.unit.anchor_kind
     out: list[RuleArchetype] = []
@@ -182,13 +381,16 @@ def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
                 out.append(RuleArchetype(f"swapped_{a}_{b}"[:40], f"{ca} and {cb} trade places", f"the {ca} ({a}) and the {cb} ({b}) swap their places along the walls, each with its group", _swap(a, b)))
         if not scattered:
             out += seated
+        out += _relocations(layout, ctx)
         for table in sorted(set(ctx.seat_table.values())):
             if table not in ctx.against_wall:
-                out.append(RuleArchetype(f"centred_{table}"[:40], f"{layout.object(table).category} group in the middle", f"the table ({table}) and its seats moved to the middle of the room, the rest kept", _centred(table)))
+                cat = layout.object(table).category
+                out.append(RuleArchetype(f"centred_{table}"[:40], f"{cat} group in the middle", f"the table ({table}) and its seats moved to the middle of the room, the rest kept", _centred(table)))
+                out += _slides(layout, ctx, table, scattered)
             out.append(RuleArchetype(f"turned_{table}"[:40], f"{layout.object(table).category} group turned a quarter", f"the table ({table}) and its seats turned a quarter turn in place, so the group runs the other way", _turn(table)))
         # last: a whole-room pattern and a group pattern together (small rooms need them for m variants)
         whole = [c for c in out if c.layout_id in ("rotated_180", "mirrored_lr", "mirrored_ud")]
-        groups = [c for c in out if c.layout_id.split("_", 1)[0] in ("seated", "centred", "turned")]
+        groups = [c for c in out if c.layout_id.split("_", 1)[0] in ("seated", "centred", "turned", "moved", "slid")]
         for w in whole:
             for g in groups:
                 out.append(
@@ -237,11 +439,15 @@ def _pinned(placed: Placement, ctx: UnitContext) -> Placement:
 
 
 SWAP_FIT_M = 0.05
-"""A swap is offered only when every piece of both groups lands inside the room within this."""
+"""A swap is offered only when every piece of both groups lands inside the room within this..."""
+SWAP_OVERLAP_M2 = 0.01
+"""... and overlaps no other solid object it was clear of by more than this area, square metres
+(the loop fixes touches, not a wardrobe standing in a bed; a chair tucked under its desk stays)."""
 
 
 def _fits(layout: UnitLayout, ctx: UnitContext, placed: Placement, moved: set[str]) -> bool:
-    """Whether the ``moved`` objects, placed as ``placed`` says, stay on the surface (within ``SWAP_FIT_M``)."""
+    """Whether the ``moved`` objects, placed as ``placed`` says, stay on the surface (within
+    ``SWAP_FIT_M``) and clear of the other solid objects (within ``SWAP_OVERLAP_M2``)."""
     region = Polygon(ctx.surface.region).buffer(SWAP_FIT_M, join_style="mitre")
     trial = layout.copy()
     for k in moved:
@@ -250,7 +456,23 @@ def _fits(layout: UnitLayout, ctx: UnitContext, placed: Placement, moved: set[st
         trial.set_center(k, u, v)
         if not region.covers(Polygon(trial.polygon(k))):
             return False
+    solid = [k for k in trial.ids if k not in ctx.thin]
+    polys = {k: Polygon(trial.polygon(k)) for k in solid}
+    before = {k: Polygon(layout.polygon(k)) for k in solid}
+    for k in sorted(moved - ctx.thin):
+        for j in solid:
+            if j == k or (j in moved and j < k) or _stacked(trial, k, j):
+                continue
+            if polys[k].intersection(polys[j]).area > SWAP_OVERLAP_M2 >= before[k].intersection(before[j]).area:
+                return False
     return True
+
+
+def _stacked(layout: UnitLayout, a: str, b: str) -> bool:
+    """Whether ``a`` and ``b`` are at different heights (a chair tucked under a table top)."""
+    alo, ahi = layout.span(a)
+    blo, bhi = layout.span(b)
+    return alo >= bhi - 1e-3 or blo >= ahi - 1e-3
 
 
 def rule_archetypes(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:

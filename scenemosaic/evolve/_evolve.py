@@ -89,19 +89,23 @@ class EvolutionReport:
 
 MAX_ALTERNATIVES = 12
 """Most archetypes one unit may get when the method's counts are raised for a large m."""
+POOL_FACTOR = 2
+"""The counts are raised until the units' layouts combine into this many times m + 1 whole
+scenes: room for the filters to drop some, and for the selection to choose among layouts that
+differ in more than one small unit."""
 
 
 def alternative_counts(units: list[LocalUnit], m: int) -> dict[str, int]:
     """Archetypes to ask per unit: the method's count for its size (0-1 for 1-5 children, 0-2 for
     6-10, 0-3 above), raised one at a time for the units with most children while the product of
-    (1 + count) over units is below 2 (m + 1), up to :data:`MAX_ALTERNATIVES` each: room for the
+    (1 + count) over units is below ``POOL_FACTOR`` (m + 1), up to :data:`MAX_ALTERNATIVES` each: room for the
     local filtering and the scene-level checks to drop some and still leave m distinct variants. A deliberate deviation for small rooms
     (a five-object room gets one alternative by the method's count, so at most one variant)."""
     if m <= 0:
         return {u.anchor_id: 0 for u in units}
     counts = {u.anchor_id: max_alternatives(len(u.children)) for u in units}
     order = sorted(units, key=lambda u: (-len(u.children), u.anchor_id))
-    while math.prod(1 + c for c in counts.values()) < 2 * (m + 1):
+    while math.prod(1 + c for c in counts.values()) < POOL_FACTOR * (m + 1):
         grown = False
         for u in order:
             if counts[u.anchor_id] < MAX_ALTERNATIVES:
@@ -141,7 +145,7 @@ async def evolve_scene(
 
     ``variants`` (m) > 0 asks each unit's archetype agent for alternatives: the method's count for
     the unit's size (1, 2 or 3), raised (up to :data:`MAX_ALTERNATIVES` per unit, largest units
-    first) when those counts could not combine into twice m + 1 distinct whole scenes (see
+    first) when those counts could not combine into ``POOL_FACTOR`` (m + 1) distinct whole scenes (see
     :func:`alternative_counts`).
 
     ``shapes`` are the objects' collision shapes (``scenemosaic.physics.object_shape``);

@@ -37,7 +37,17 @@ from scenemosaic.assets import HullCache
 from scenemosaic.compose import Arrangement, novelty_distance
 from scenemosaic.physics import check_collisions, is_thin
 from scenemosaic.render import object_world_mesh
-from scenemosaic.scene import CEILING, FLOOR, Relation, Scene, convex_hull_2d
+from scenemosaic.scene import (
+    CEILING,
+    FLOOR,
+    ROBOT_RADIUS,
+    WALK_GRID,
+    WALK_MAX_HEIGHT,
+    FloorRaster,
+    Relation,
+    Scene,
+    convex_hull_2d,
+)
 
 __all__ = [
     "COL_SEPARATION_M",
@@ -66,11 +76,11 @@ OOB_SAMPLES = 1000
 """SceneEval: at least 1000 surface samples per object."""
 OOB_INSIDE = 0.99
 """SceneEval: an object is in bounds when at least 99 % of its samples land on the floor."""
-NAV_GRID = 256
+NAV_GRID = WALK_GRID
 """Raster side of the navigability map (the method's 256 x 256)."""
-NAV_ROBOT_RADIUS = 0.2
+NAV_ROBOT_RADIUS = ROBOT_RADIUS
 """Radius of the robot the free floor is eroded by, metres (the method's 0.2 m)."""
-NAV_MAX_HEIGHT = 2.0
+NAV_MAX_HEIGHT = WALK_MAX_HEIGHT
 """Objects whose bottom is below this height block the floor, metres (the method's 2 m)."""
 DIV_GRID = 256
 """Raster side of the top-down occupancy maps compared by Div-IoU."""
@@ -116,54 +126,32 @@ def oob(scene: Scene, base_dir: str | Path | None = None, *, seed: int = 0) -> f
     return out / len(scene.objects)
 
 
-def _raster(scene: Scene, grid: int) -> tuple[np.ndarray, np.ndarray, float]:
-    assert scene.room is not None
-    floor = np.asarray(scene.room.floor, dtype=np.float64)
-    lo, hi = floor.min(axis=0), floor.max(axis=0)
-    cell = float(max(hi - lo)) / grid
-    xs = lo[0] + (np.arange(grid) + 0.5) * cell
-    ys = lo[1] + (np.arange(grid) + 0.5) * cell
-    return xs, ys, cell
-
-
-def _boxes(scene: Scene, xs: np.ndarray, ys: np.ndarray, below: float | None) -> np.ndarray:
-    gx, gy = np.meshgrid(xs, ys, indexing="ij")
-    occ = np.zeros(gx.shape, dtype=bool)
-    for o in scene.objects:
-        if is_thin(o):
-            continue
-        if below is not None and float(o.aabb()[0][2]) >= below:
-            continue
-        occ |= contains_xy(Polygon(convex_hull_2d(o.corners()[:, :2])), gx, gy)
-    return occ
+def _footprints(scene: Scene, below: float | None) -> list[np.ndarray]:
+    """The 2D boxes of the non-thin objects (whose bottom is under ``below``, when given)."""
+    return [
+        convex_hull_2d(o.corners()[:, :2])
+        for o in scene.objects
+        if not is_thin(o) and (below is None or float(o.aabb()[0][2]) < below)
+    ]
 
 
 def occupancy(scene: Scene, grid: int = DIV_GRID) -> np.ndarray:
-    """Top-down occupancy (grid x grid booleans over the floor's bounding box) of non-thin objects."""
+    """Top-down occupancy of non-thin objects: booleans over the floor's bounding box, ``grid``
+    cells along its longer side."""
     if scene.room is None:
         raise ValueError("occupancy needs a room")
-    xs, ys, _ = _raster(scene, grid)
-    return _boxes(scene, xs, ys, None)
+    floor = np.asarray(scene.room.floor, dtype=np.float64)
+    raster = FloorRaster(floor, float(max(np.ptp(floor, axis=0))) / grid)
+    return raster.blocked(_footprints(scene, None))
 
 
 def nav(scene: Scene) -> float:
-    """NAV: the largest connected piece of walkable floor over all walkable floor (1.0: one piece)."""
-    from scipy import ndimage
-
+    """NAV: the largest connected piece of walkable floor over all walkable floor (1.0: one piece;
+    ``scene.Walkable.share`` on the floor's raster)."""
     if scene.room is None:
         return 1.0
-    xs, ys, cell = _raster(scene, NAV_GRID)
-    gx, gy = np.meshgrid(xs, ys, indexing="ij")
-    free = contains_xy(Polygon(scene.room.floor), gx, gy) & ~_boxes(scene, xs, ys, NAV_MAX_HEIGHT)
-    r = max(1, round(NAV_ROBOT_RADIUS / cell))
-    yy, xx = np.mgrid[-r : r + 1, -r : r + 1]
-    disk = (xx**2 + yy**2) <= r * r
-    free = ndimage.binary_erosion(free, structure=disk, border_value=0)
-    total = int(free.sum())
-    if total == 0:
-        return 0.0
-    labels, n = ndimage.label(free)
-    return float(np.bincount(labels.ravel())[1:].max()) / total if n else 0.0
+    raster = FloorRaster(np.asarray(scene.room.floor, dtype=np.float64))
+    return raster.walkable(raster.blocked(_footprints(scene, NAV_MAX_HEIGHT)), NAV_ROBOT_RADIUS).share
 
 
 def div_iou(scenes: Sequence[Scene], grid: int = DIV_GRID) -> float | None:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import structlog
 
 from scenemosaic.pipeline._config import PipelineRun, Stage, StageRecord
-from scenemosaic.scene import Scene
+from scenemosaic.scene import WALK_MIN_SHARE, Scene
 
 if TYPE_CHECKING:
     from scenemosaic.agents import AgentOutcome
@@ -26,11 +26,10 @@ log = structlog.get_logger(__name__)
 
 __all__ = ["DELIVERED_FORMATS", "EVOLVE_FOLDER", "STAGES", "STAGE_NAMES", "export_base", "export_scene_only"]
 
-NAV_KEEP = 0.99
-"""A variant's NAV must reach this, or the base scene's NAV when that is lower (a room whose
-furniture already cuts the floor cannot do better)..."""
 NAV_SLACK = 0.005
-"""... less this much (one raster cell's worth of noise)."""
+"""A variant's NAV must reach ``scene.WALK_MIN_SHARE`` (0.99); where the base scene's own NAV is
+lower (a room whose furniture cuts the floor and the critic found no clean move that reopens
+it), the base's NAV less this much (one raster cell's worth of noise)."""
 
 EVOLVE_FOLDER = "evolve"
 """Where ``generate`` writes each unit's evolved layouts (and, with ``save_views``, their views)."""
@@ -349,7 +348,8 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     shapes = await asyncio.to_thread(lambda: {o.id: object_shape(o, run.base_dir, cache=cache) for o in scene.objects})
     from scenemosaic.metrics import nav
 
-    floor_share = min(NAV_KEEP, await asyncio.to_thread(nav, scene)) - NAV_SLACK
+    base_nav = await asyncio.to_thread(nav, scene)
+    floor_share = WALK_MIN_SHARE if base_nav >= WALK_MIN_SHARE else base_nav - NAV_SLACK
 
     def walkable(candidate: Scene) -> bool:  # a variant keeps the walkable floor as connected as the base
         return nav(candidate) >= floor_share

@@ -126,6 +126,14 @@ from scenemosaic.scene._tree import (
     unit_layout,
     with_unit_layout,
 )
+from scenemosaic.scene._walkable import (
+    ROBOT_RADIUS,
+    WALK_GRID,
+    WALK_MAX_HEIGHT,
+    WALK_MIN_SHARE,
+    FloorRaster,
+    Walkable,
+)
 
 __all__ = [
     "CEILING",
@@ -154,9 +162,13 @@ __all__ = [
     "OBJECT_ID_PATTERN",
     "PROCTHOR_PRIORS_DIR",
     "QUAT_NORM_TOLERANCE",
+    "ROBOT_RADIUS",
     "ROOM_MARGIN",
     "TOP_CLEARANCE",
     "UV",
+    "WALK_GRID",
+    "WALK_MAX_HEIGHT",
+    "WALK_MIN_SHARE",
     "WALL_SNAP_GAP",
     "AssetRef",
     "BBox2D",
@@ -164,6 +176,7 @@ __all__ = [
     "ConstraintClause",
     "CrossUnitConstraint",
     "FloatArray",
+    "FloorRaster",
     "FootprintItem",
     "LayoutState2D",
     "LocalUnit",
@@ -181,6 +194,7 @@ __all__ = [
     "SupportPriors",
     "UnitLayout",
     "UnitSurface",
+    "Walkable",
     "Wall",
     "apply_expressions",
     "build_structure",

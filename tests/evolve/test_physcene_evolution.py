@@ -77,16 +77,18 @@ def _beside_head(scene: Scene, stand: str, bed: str) -> bool:
 
 def _check_variants(report: dict[str, Any], out: Path) -> None:
     """The whole-scene variants the compose stage wrote: each valid, keeping the base's relations
-    and its walkable floor (NAV at least min(0.99, the base's) less one raster cell's slack)."""
+    and one connected walkable floor. Every shipped room allows NAV 0.99 (the critic reopens
+    passages the prior cut; without that, the refined base of LivingDiningRoom-13536 kept NAV
+    0.73 and that of DiningRoom-19325 0.94), so the base and every variant must reach it."""
     metrics = report["metrics"]
     written = report["variants_written"]
     assert written == 5 and len(metrics["variants"]) == written
     assert (out / "contact_sheet.png").is_file()
-    floor_share = min(0.99, metrics["base"]["NAV"]) - 0.005
+    assert metrics["base"]["NAV"] >= 0.99, metrics["base"]
     for i, v in enumerate(metrics["variants"], start=1):
         assert (out / f"variant_{i}" / "scene.json").is_file()
         assert v["COL"] == 0.0 and v["OOB"] == 0.0 and v["RelKeep"] >= 0.99, (i, v)
-        assert v["NAV"] >= floor_share, (i, v, metrics["base"])
+        assert v["NAV"] >= 0.99, (i, v, metrics["base"])
     div = metrics["diversity"]
     assert div["Div-N"] > 0.2 and div["Div-IoU"] < 0.8, div
     print(f"{out.name}: {written} variants, Div-IoU {div['Div-IoU']}, Div-N {div['Div-N']}")

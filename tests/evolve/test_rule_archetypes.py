@@ -1,0 +1,130 @@
+"""The offline archetypes that move whole groups, and the critic's passage fix, on shipped rooms.
+
+Each archetype is checked on its own placement (before any loop runs): groups travel rigidly,
+land on the floor, and stay clear of what they do not bring along. The passage fix is checked
+on the prior layout of LivingDiningRoom-13536, whose dining chair stands 0.3 m from the sofa and
+cuts the walkable floor in two.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from shapely.geometry import Polygon
+
+from scenemosaic import GenerateConfig, agenerate
+from scenemosaic.evolve import (
+    BESIDE_GAP_MAX,
+    SEAT_GAP_MAX,
+    UnitContext,
+    find_problems,
+    physical_check,
+    rule_archetypes,
+    unit_context,
+    unit_obstacles,
+)
+from scenemosaic.physics import is_thin, object_shape
+from scenemosaic.scene import WALK_MIN_SHARE, FloorRaster, Scene, UnitLayout
+
+PHYSCENE = Path(__file__).resolve().parents[2] / "data" / "layouts" / "physcene"
+
+
+async def _floor(name: str, out: Path) -> tuple[Scene, UnitLayout, UnitContext]:
+    scene = (await agenerate(PHYSCENE / name, out, GenerateConfig(evolve=False))).scene
+    assert scene.structure is not None
+    unit = next(u for u in scene.structure.units if u.anchor_id == "floor")
+    ctx = unit_context(scene, unit, unit_obstacles(scene, unit, scene.structure.units), {o.id for o in scene.objects if is_thin(o)})
+    return scene, UnitLayout.from_scene(scene, unit, ctx.surface), ctx
+
+
+def _placed(layout: UnitLayout, placement: dict[str, tuple[float, float, float]]) -> UnitLayout:
+    out = layout.copy()
+    for k, (u, v, r) in placement.items():
+        out.set_rotation(k, r)
+        out.set_center(k, u, v)
+    return out
+
+
+def _beside_head(layout: UnitLayout, stand: str, bed: str) -> bool:
+    """Beside a long side of the bed (gap at most ``BESIDE_GAP_MAX``), in its head half, facing as it."""
+    r = math.radians(layout.rotation(bed))
+    front = np.array([-math.sin(r), -math.cos(r)])  # rotation 0 faces down the view
+    side = np.array([front[1], -front[0]])
+    rel = np.subtract(layout.center(stand), layout.center(bed))
+    bed_half = float(np.ptp((layout.polygon(bed) - layout.center(bed)) @ side)) / 2
+    stand_half = float(np.ptp((layout.polygon(stand) - layout.center(stand)) @ side)) / 2
+    gap = abs(float(rel @ side)) - bed_half - stand_half
+    turn = abs((layout.rotation(stand) - layout.rotation(bed) + 180) % 360 - 180)
+    return -0.02 <= gap <= BESIDE_GAP_MAX and float(rel @ front) < 0 and turn < 1.0
+
+
+def _new_overlaps(before: UnitLayout, after: UnitLayout, thin: set[str]) -> list[tuple[str, str, float]]:
+    solid = [k for k in after.ids if k not in thin]
+    out = []
+    for i, a in enumerate(solid):
+        for b in solid[i + 1 :]:
+            now = Polygon(after.polygon(a)).intersection(Polygon(after.polygon(b))).area
+            was = Polygon(before.polygon(a)).intersection(Polygon(before.polygon(b))).area
+            if now > 0.01 and was <= 0.01:
+                out.append((a, b, round(now, 3)))
+    return out
+
+
+async def test_a_bed_swaps_walls_with_its_nightstands_tucked_beside_its_head(tmp_path: Path) -> None:
+    _, layout, ctx = await _floor("Bedroom-33922_bedroom.json", tmp_path)
+    offered = {a.layout_id: a for a in rule_archetypes(layout, ctx)}
+    swaps = [k for k in offered if k.startswith("swapped_double_bed_0")]
+    assert swaps, sorted(offered)
+    region = Polygon(ctx.surface.region).buffer(0.05, join_style="mitre")
+    for lid in swaps:
+        after = _placed(layout, offered[lid].place(layout, ctx))
+        turned = abs((after.rotation("double_bed_0") - layout.rotation("double_bed_0") + 180) % 360 - 180)
+        assert turned > 45.0 or math.dist(after.center("double_bed_0"), layout.center("double_bed_0")) > 1.0, lid
+        for stand in ("nightstand_0", "nightstand_1"):
+            assert _beside_head(after, stand, "double_bed_0"), (lid, stand)
+        assert all(region.covers(Polygon(after.polygon(k))) for k in after.ids), lid
+        assert _new_overlaps(layout, after, ctx.thin) == [], lid
+
+
+async def test_a_free_standing_table_slides_with_its_chairs_clear_of_the_rest(tmp_path: Path) -> None:
+    """The prior scatters the dining room's chairs over the room: a slide gathers them around the
+    table first, then carries the group at least 1 m toward one side."""
+    _, layout, ctx = await _floor("DiningRoom-19325_diningroom.json", tmp_path)
+    slides = [a for a in rule_archetypes(layout, ctx) if a.layout_id.startswith("slid_")]
+    assert slides
+    seats = sorted(s for s, t in ctx.seat_table.items() if t == "dining_table_0")
+    assert len(seats) >= 4
+    region = Polygon(ctx.surface.region)
+    for a in slides:
+        after = _placed(layout, a.place(layout, ctx))
+        assert math.dist(after.center("dining_table_0"), layout.center("dining_table_0")) >= 1.0 - 1e-9, a.layout_id
+        table = Polygon(after.polygon("dining_table_0"))
+        for k in ["dining_table_0", *seats]:
+            assert region.covers(Polygon(after.polygon(k))), (a.layout_id, k)
+        for k in seats:
+            assert Polygon(after.polygon(k)).distance(table) <= SEAT_GAP_MAX, (a.layout_id, k)
+        assert _new_overlaps(layout, after, ctx.thin) == [], a.layout_id
+
+
+async def test_the_critic_reopens_a_floor_cut_in_two(tmp_path: Path) -> None:
+    scene, layout, ctx = await _floor("LivingDiningRoom-13536_livingroom.json", tmp_path)
+    raster = FloorRaster(np.asarray(ctx.surface.region))
+
+    def share(lay: UnitLayout) -> float:
+        blocked = raster.blocked([lay.polygon(k) for k in lay.ids if k not in ctx.thin])
+        return raster.walkable(blocked).share
+
+    assert share(layout) < 0.9
+    shapes = {o.id: object_shape(o, tmp_path / "base") for o in scene.objects}
+    check = physical_check(layout, ctx, shapes)
+    passage = [f for f in find_problems(layout, ctx, check) if f.kind == "passage"]
+    assert len(passage) == 1 and passage[0].severity == "semantic" and passage[0].fixes, passage
+    ((oid, target),) = passage[0].fixes.items()
+    assert target.u is not None and target.v is not None
+    fixed = layout.copy()
+    fixed.set_center(oid, target.u, target.v)
+    assert share(fixed) >= WALK_MIN_SHARE
+    assert math.dist(fixed.center(oid), layout.center(oid)) <= 0.6
+    assert oid in passage[0].note and "passage" in passage[0].note
