@@ -534,11 +534,11 @@ def _clearance(layout: UnitLayout, ctx: UnitContext) -> list[Finding]:
     return out
 
 
-def _passage(layout: UnitLayout, ctx: UnitContext, busy: Collection[str] = ()) -> list[Finding]:
+def _passage(layout: UnitLayout, ctx: UnitContext, fixable: bool = True) -> list[Finding]:
     """The free floor, eroded by a robot's radius, should be one piece (``scene.Walkable``, the
     NAV raster, with the same bar the variants' NAV must reach). When it is not, the shortest
-    clean move of one object next to a cut-off piece that joins the floor again is the fix;
-    ``busy`` objects (in a collision, which is fixed first) are not moved for it."""
+    clean move of one object next to a cut-off piece that joins the floor again is the fix, once
+    the layout is otherwise right (``fixable``; until then the cut is only remarked)."""
     raster = FloorRaster(np.asarray(ctx.surface.region, dtype=np.float64))
     masks = {k: raster.mask(layout.polygon(k)) for k in layout.ids if k not in ctx.thin}
     fixed = raster.blocked([poly for o, poly in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < WALK_MAX_HEIGHT])
@@ -549,13 +549,24 @@ def _passage(layout: UnitLayout, ctx: UnitContext, busy: Collection[str] = ()) -
     if walk.total == 0 or walk.share >= WALK_MIN_SHARE:
         return []
     pieces = len(walk.sizes)
-    found = _reopen(layout, ctx, raster, masks, fixed, walk, busy)
+    found = _reopen(layout, ctx, raster, masks, fixed, walk) if fixable else None
     lead = f"The walkable floor is cut into {pieces} parts (the largest holds {walk.share:.0%} of it)"
     if found is None:
         return [Finding("passage", (), "soft", f"{lead}; leave a passage of at least {2 * ROBOT_RADIUS:.1f} m between the furniture.")]
     oid, target, way = found
     note = f"{lead}: move ({oid}) {_word(way)} by {float(np.linalg.norm(way)):.2f} m to open a {2 * ROBOT_RADIUS:.1f} m passage."
     return [Finding("passage", (oid,), "semantic", note, {oid: target})]
+
+
+def _still_seated(layout: UnitLayout, seat: str, table: str, shift: FloatArray) -> bool:
+    """Whether ``seat`` moved by ``shift`` still stands at its table and faces it."""
+    trial = layout.copy()
+    c = np.asarray(layout.center(seat)) + shift
+    trial.set_center(seat, float(c[0]), float(c[1]))
+    if Polygon(trial.polygon(seat)).distance(Polygon(trial.polygon(table))) > SEAT_GAP_MAX:
+        return False
+    d = table_direction(trial, seat, table)
+    return d is None or _off(trial.rotation(seat), facing_degrees(d)) <= FACING_TABLE_DEG
 
 
 def _reopen(
@@ -565,7 +576,6 @@ def _reopen(
     masks: Mapping[str, np.ndarray],
     fixed: np.ndarray,
     walk: Walkable,
-    busy: Collection[str],
 ) -> tuple[str, Target, FloatArray] | None:
     """The shortest clean move of one free-standing object beside a cut-off piece of floor that
     brings the share of the largest piece up to the bar (else the move that raises it most, by
@@ -578,7 +588,7 @@ def _reopen(
     reach = 2 * ROBOT_RADIUS + 2 * raster.cell
     best: tuple[float, float, str, FloatArray] | None = None
     for k in sorted(masks):
-        if k in ctx.pinned or k in ctx.nightstand_bed or k in busy:
+        if k in ctx.pinned or k in ctx.nightstand_bed:
             continue
         poly = Polygon(layout.polygon(k))
         if float(shapely.distance(poly, cells).min()) > reach:
@@ -596,7 +606,7 @@ def _reopen(
         for step in PASSAGE_STEPS:
             for d in dirs:
                 moved = pm + d * step
-                if table is not None and Polygon(moved).distance(Polygon(layout.polygon(table))) > SEAT_GAP_MAX:
+                if table is not None and not _still_seated(layout, k, table, d * step):
                     continue
                 if _blocked(layout, ctx, k, moved, ""):
                     continue
@@ -713,7 +723,7 @@ def find_problems(
             if float(np.linalg.norm(d)) > 1e-6 and _off(layout.rotation(sofa), facing_degrees(d)) > 90.0:
                 out.append(Finding("sofa_tv", (sofa, tv), "soft", f"The sofa ({sofa}) turns its back on the TV stand ({tv}); consider facing them to each other."))
     if ctx.floor and ctx.walls:
-        out.extend(_passage(layout, ctx, {k for p in check.collisions for k in (p.a, p.b)}))
+        out.extend(_passage(layout, ctx, fixable=check.clean and all(f.severity == "soft" for f in out)))
     for pair in check.collisions:
         sep = _separation(layout, ctx, pair, avoid, snapped)
         names = f"({pair.a}) and ({pair.b})"

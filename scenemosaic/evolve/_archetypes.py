@@ -27,6 +27,7 @@ How many are offered follows the method: at most 1 for 1-5 objects, 2 for 6-10, 
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -71,6 +72,16 @@ class RuleArchetype:
     style_name: str
     reasoning: str
     place: Callable[[UnitLayout, UnitContext], Placement]
+
+    def __post_init__(self) -> None:
+        # the agents' schema: ids of [a-z0-9_] up to 40 characters, names up to 80, reasons up to 600
+        object.__setattr__(self, "layout_id", re.sub(r"[^a-z0-9_]", "_", self.layout_id.lower())[:40])
+        object.__setattr__(self, "style_name", _clip(self.style_name, 80))
+        object.__setattr__(self, "reasoning", _clip(self.reasoning, 600))
+
+
+def _clip(text: str, limit: int) -> str:
+    return text if len(text) <= limit else text[: limit - 1].rstrip() + "…"
 
 
 def _current(layout: UnitLayout) -> Placement:
@@ -521,5 +532,5 @@ def instantiate(layout: UnitLayout, ctx: UnitContext, archetype: object) -> tupl
                     break
     if chosen is None:
         chosen = cands[0]
-        return _pinned(chosen.place(layout, ctx), ctx), f"no rule pattern matches {layout_id!r}; used {chosen.layout_id}"
-    return _pinned(chosen.place(layout, ctx), ctx), f"rule pattern {chosen.layout_id}: {chosen.reasoning}"
+        return _pinned(chosen.place(layout, ctx), ctx), _clip(f"no rule pattern matches {layout_id!r}; used {chosen.layout_id}", 300)
+    return _pinned(chosen.place(layout, ctx), ctx), _clip(f"rule pattern {chosen.layout_id}: {chosen.reasoning}", 300)

@@ -17,7 +17,7 @@ from scenemosaic.pipeline._config import (
     StageRecord,
 )
 from scenemosaic.pipeline._demo import demo_scene
-from scenemosaic.pipeline._run import REPORT_FILE, agenerate, checkpoint_config, generate
+from scenemosaic.pipeline._run import REPORT_FILE, agenerate, checkpoint_config, generate, run_sync
 from scenemosaic.pipeline._stages import DELIVERED_FORMATS, STAGE_NAMES, STAGES, export_base
 
 __all__ = [
@@ -36,4 +36,5 @@ __all__ = [
     "demo_scene",
     "export_base",
     "generate",
+    "run_sync",
 ]

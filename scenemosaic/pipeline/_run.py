@@ -13,14 +13,16 @@
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import json
 import os
 import shutil
 import time
 import traceback
+from collections.abc import Coroutine
 from dataclasses import asdict, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import structlog
 
@@ -35,7 +37,9 @@ from scenemosaic.pipeline._config import (
 from scenemosaic.pipeline._stages import STAGES, export_base, export_scene_only
 from scenemosaic.scene import Scene
 
-__all__ = ["REPORT_FILE", "agenerate", "checkpoint_config", "generate"]
+__all__ = ["REPORT_FILE", "agenerate", "checkpoint_config", "generate", "run_sync"]
+
+T = TypeVar("T")
 
 log = structlog.get_logger(__name__)
 
@@ -351,5 +355,17 @@ def generate(
     *,
     on_stage: StageCallback | None = None,
 ) -> GenerateResult:
-    """Synchronous :func:`agenerate` for scripts and notebooks without a running loop."""
-    return asyncio.run(agenerate(input_path, out_dir, config, on_stage=on_stage))
+    """Synchronous :func:`agenerate`. Inside a running event loop (a Jupyter cell), the run
+    gets its own loop in a worker thread and this call waits for it; ``await agenerate(...)``
+    there instead keeps the notebook's loop free."""
+    return run_sync(agenerate(input_path, out_dir, config, on_stage=on_stage))
+
+
+def run_sync(coro: Coroutine[Any, Any, T]) -> T:
+    """Run ``coro`` to completion from synchronous code, with or without a running loop here."""
+    try:
+        asyncio.get_running_loop()
+    except RuntimeError:
+        return asyncio.run(coro)
+    with concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="scenemosaic-sync") as pool:
+        return pool.submit(asyncio.run, coro).result()
