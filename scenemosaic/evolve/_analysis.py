@@ -12,7 +12,7 @@ Thresholds (metres and degrees) are named here and documented in ``docs/evolutio
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Mapping
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -21,6 +21,7 @@ from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points
 
 from scenemosaic.evolve._context import UnitContext, WallLine, facing_degrees
+from scenemosaic.exceptions import UsageError
 from scenemosaic.physics import (
     OOB_MIN_INSIDE_FRACTION,
     CollisionPair,
@@ -53,6 +54,7 @@ __all__ = [
     "WALL_FACING_DEG",
     "WALL_GAP_MAX",
     "Finding",
+    "LayoutRule",
     "PhysicalCheck",
     "Target",
     "find_problems",
@@ -626,13 +628,24 @@ def _reopen(
 # -- the findings ---------------------------------------------------------------------------------------
 
 
+LayoutRule = Callable[[UnitLayout, UnitContext], Sequence[Finding]]
+"""A plugin rule of the critic: ``rule(layout, ctx)`` returns the problems it sees, as findings
+whose notes the critic writes and whose fixes the rule actor applies (``docs/plugins.md``)."""
+
+
 def find_problems(
-    layout: UnitLayout, ctx: UnitContext, check: PhysicalCheck, avoid: Collection[str] = ()
+    layout: UnitLayout,
+    ctx: UnitContext,
+    check: PhysicalCheck,
+    avoid: Collection[str] = (),
+    rules: Sequence[LayoutRule] = (),
 ) -> list[Finding]:
     """Every problem of the layout, most important first, each with a note and its fixes.
 
     ``avoid``: objects the layout memory saw oscillating or hitting the boundary again and
-    again; fixes then move something else, or try the other side.
+    again; fixes then move something else, or try the other side. ``rules``: plugin rules, whose
+    findings join the built-in ones (after them at equal importance; a rule returning something
+    else than findings raises :class:`~scenemosaic.exceptions.UsageError`).
     """
     out: list[Finding] = []
     ids = set(layout.ids)
@@ -739,6 +752,13 @@ def find_problems(
                 {mover: target},
             )
         )
+    for rule in rules:
+        found = list(rule(layout, ctx))
+        bad = [f for f in found if not isinstance(f, Finding)]
+        if bad:
+            name = getattr(rule, "__name__", type(rule).__name__)
+            raise UsageError(f"layout rule {name} returned {type(bad[0]).__name__}, not a Finding")
+        out.extend(found)
     out.sort(key=lambda f: _ORDER.get(f.kind, 99))
     return out
 

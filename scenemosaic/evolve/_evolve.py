@@ -13,7 +13,7 @@ from __future__ import annotations
 import asyncio
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,6 +23,7 @@ import structlog
 from scenemosaic.agents import AgentPolicy
 from scenemosaic.dag import Node, NodeContext, Runner
 from scenemosaic.evolve._agents import ArchetypeAgent, ArchetypeOutput, EvolveState
+from scenemosaic.evolve._analysis import LayoutRule
 from scenemosaic.evolve._archetypes import max_alternatives
 from scenemosaic.evolve._context import UnitContext, unit_context
 from scenemosaic.evolve._loop import MAX_ROUNDS, LayoutResult, evolve_layout
@@ -139,6 +140,7 @@ async def evolve_scene(
     base_dir: Path | None = None,
     views_dir: Path | None = None,
     max_concurrency: int | None = None,
+    rules: Sequence[LayoutRule] = (),
 ) -> tuple[Scene, EvolutionReport]:
     """Evolve every unit of ``scene`` (stabilized, with its structure) and return the refined base
     scene and the report with every layout.
@@ -149,7 +151,8 @@ async def evolve_scene(
     :func:`alternative_counts`).
 
     ``shapes`` are the objects' collision shapes (``scenemosaic.physics.object_shape``);
-    ``views_dir``, when given, receives ``<anchor>/<layout>/round_<k>.png`` and ``final.png``.
+    ``rules`` are plugin rules of the critic (:data:`~scenemosaic.evolve.LayoutRule`), run on
+    every layout of every unit. ``views_dir``, when given, receives ``<anchor>/<layout>/round_<k>.png`` and ``final.png``.
     The input scene is not modified.
     """
     t0 = time.perf_counter()
@@ -185,7 +188,7 @@ async def evolve_scene(
             c = contexts[anchor]
             return await guarded(anchor, "original", evolve_layout(
                 scene, c, UnitLayout.from_scene(scene, c.unit), shapes, model, settings=settings, policy=policy,
-                max_rounds=max_rounds, seed=ctx.node_seed, base_dir=base_dir, views_dir=views(anchor, "original"),
+                max_rounds=max_rounds, seed=ctx.node_seed, base_dir=base_dir, views_dir=views(anchor, "original"), rules=rules,
             ))  # fmt: skip
 
         return Node(f"evolve/{anchor}/original", run)
@@ -196,7 +199,7 @@ async def evolve_scene(
             return await guarded(anchor, archetype.layout_id, evolve_layout(
                 scene, c, UnitLayout.from_scene(scene, c.unit), shapes, model, layout_id=archetype.layout_id,
                 archetype=archetype, settings=settings, policy=policy, max_rounds=max_rounds, seed=ctx.node_seed,
-                base_dir=base_dir, views_dir=views(anchor, archetype.layout_id),
+                base_dir=base_dir, views_dir=views(anchor, archetype.layout_id), rules=rules,
             ))  # fmt: skip
 
         return Node(f"evolve/{anchor}/{archetype.layout_id}", run)

@@ -17,7 +17,7 @@ import asyncio
 import math
 import time
 import zlib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,7 +34,13 @@ from scenemosaic.evolve._agents import (
     PoseAgent,
     named_objects,
 )
-from scenemosaic.evolve._analysis import PhysicalCheck, find_problems, physical_check, rule_violations
+from scenemosaic.evolve._analysis import (
+    LayoutRule,
+    PhysicalCheck,
+    find_problems,
+    physical_check,
+    rule_violations,
+)
 from scenemosaic.evolve._context import UnitContext
 from scenemosaic.evolve._memory import LayoutMemory, RoundRecord
 from scenemosaic.evolve._views import scene_with, unit_view_png
@@ -152,9 +158,11 @@ async def evolve_layout(
     base_dir: Path | None = None,
     views_dir: Path | None = None,
     vision: bool | None = None,
+    rules: Sequence[LayoutRule] = (),
 ) -> LayoutResult:
     """Evolve one layout of ``ctx.unit`` (the original, or an archetype instantiated first by the
-    pose agent) through the Critic-Actor loop, then settle it; never modifies ``scene``."""
+    pose agent) through the Critic-Actor loop, then settle it; never modifies ``scene``.
+    ``rules``: plugin rules whose findings join the critic's evidence (:data:`LayoutRule`)."""
     t0 = time.perf_counter()
     anchor = ctx.unit.anchor_id
     result = LayoutResult(anchor_id=anchor, layout_id=layout_id)
@@ -191,7 +199,7 @@ async def evolve_layout(
             break
         state.check = check
         state.round = rnd
-        state.findings = await asyncio.to_thread(find_problems, current, ctx, check, memory.avoid())
+        state.findings = await asyncio.to_thread(find_problems, current, ctx, check, memory.avoid(), rules)
         await asyncio.to_thread(save_view, f"round_{rnd}")
         verdict: CriticOutput = await _ask(critic, state, model, settings, result)
         notes = _mandatory(list(verdict.modification_notes), check, state)

@@ -14,6 +14,7 @@ from scenemosaic.scene import Scene
 if TYPE_CHECKING:
     from scenemosaic.agents import FallbackRecord, TaskAgent
     from scenemosaic.assets import HullCache
+    from scenemosaic.evolve import LayoutRule
 
 __all__ = [
     "GenerateConfig",
@@ -93,6 +94,9 @@ class GenerateConfig:
     """Structuring agents the manager may schedule; default
     :data:`~scenemosaic.structure.DEFAULT_AGENTS`. Add a plugin with
     ``agents=[*DEFAULT_AGENTS, MyAgent()]``."""
+    layout_rules: Sequence[LayoutRule] = ()
+    """Plugin rules of the evolve stage's critic (:data:`~scenemosaic.evolve.LayoutRule`): each
+    sees every layout of every unit, and its findings join the built-in ones (``docs/plugins.md``)."""
 
 
 @dataclass

@@ -262,6 +262,7 @@ async def _stage_evolve(run: PipelineRun, rec: StageRecord) -> None:
             seed=run.config.seed,
             base_dir=run.base_dir,
             views_dir=folder if run.config.save_views else None,
+            rules=run.config.layout_rules,
         )
     finally:
         rec.detail["usage"] = _usage_summary(tracker)
