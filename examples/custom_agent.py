@@ -1,6 +1,7 @@
 """A one-file agent plugin run by ``generate`` beside the built-in agents: ``python examples/custom_agent.py
 [ROOM.json] [OUT]`` writes ``OUT/base/scene.json`` with ``metadata.crowding``. A real VLM gets ``PROMPT``."""
 
+# %%
 from __future__ import annotations
 
 import sys

@@ -4,6 +4,7 @@ Run: ``python examples/generate_room.py [LAYOUT.json] [OUT_DIR]``
 (default: the 6-object dining room shipped in ``data/``).
 """
 
+# %%
 from __future__ import annotations
 
 import sys
@@ -14,6 +15,7 @@ import scenemosaic as sm
 DEFAULT = Path(__file__).resolve().parents[1] / "data/layouts/physcene/DiningRoom-19325_diningroom.json"
 
 
+# %%
 def main() -> None:
     source = Path(sys.argv[1]) if len(sys.argv) > 1 else DEFAULT
     out = Path(sys.argv[2]) if len(sys.argv) > 2 else Path("out/dining_room")

@@ -31,6 +31,14 @@ def test_oob_counts_objects_with_samples_off_the_floor() -> None:
     assert oob(scene) == pytest.approx(1 / 3)  # "edge" reaches 3.99 < 4.0: in
 
 
+def test_oob_lets_a_back_flush_on_the_wall_be_in_and_one_through_it_out() -> None:
+    # a flat TV 4 cm deep hung on the wall x = 4: its back face lies on the wall's plane
+    flush = _box("flush", (3.98 + 5e-5, 2.0), (0.04, 1.0, 0.6), z=1.0, category="television")
+    through = _box("through", (3.98 + 0.004, 2.0), (0.04, 1.0, 0.6), z=1.0, category="television")
+    assert oob(_scene([flush])) == 0.0  # 0.05 mm past the edge: float noise, in
+    assert oob(_scene([through])) == 1.0  # 4 mm through the wall: its back face is out
+
+
 def test_nav_is_one_for_an_open_room_and_drops_when_furniture_cuts_it() -> None:
     assert nav(_scene([_box("a", (1.0, 1.0), (0.5, 0.5, 0.5))])) == pytest.approx(1.0)
     wall_of_shelves = _scene([_box("s", (1.0, 2.0), (0.3, 4.0, 2.0))])  # splits the room 1 m / 2.7 m
