@@ -12,15 +12,20 @@ import json
 import os
 import signal
 import sys
+import threading
 import time
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, NoReturn
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.table import Table
 
 from scenemosaic._logging import configure_logging
+from scenemosaic.batch import SUMMARY_FILE, BatchSummary, JobRecord, load_manifest, run_batch
 from scenemosaic.exceptions import SceneMosaicError
 from scenemosaic.pipeline import STAGE_NAMES, GenerateConfig, GenerateResult, agenerate, checkpoint_config
 
@@ -383,6 +388,136 @@ def evaluate(
     folder = base_dir if base_dir.is_dir() else base_dir.parent
     result = evaluate_scenes(base, variants, base_dir=folder, variant_dirs=variant_dirs)
     _out.print_json(json.dumps(result))
+
+
+class BatchExecutor(StrEnum):
+    """Where ``scenemosaic batch`` runs its jobs."""
+
+    local = "local"
+    ray = "ray"
+
+
+_STATUS_STYLE = {
+    "ok": "green",
+    "degraded": "yellow",
+    "skipped": "cyan",
+    "failed": "red",
+    "timeout": "red",
+    "pending": "dim",
+    "running": "blue",
+}
+
+
+class _Terminated(Exception):
+    """SIGTERM reached ``scenemosaic batch``: unwinds it so the running workers are stopped."""
+
+
+def _raise_terminated(signum: int, frame: object) -> None:
+    raise _Terminated
+
+
+def _print_batch_summary(summary: BatchSummary) -> None:
+    table = Table(title=f"batch {summary.out}", title_justify="left")
+    table.add_column("job")
+    table.add_column("status")
+    table.add_column("seconds", justify="right")
+    table.add_column("variants", justify="right")
+    table.add_column("error", overflow="fold")
+    for job in summary.jobs:
+        style = _STATUS_STYLE.get(job.status, "")
+        table.add_row(
+            escape(job.id),
+            f"[{style}]{job.status}[/{style}]" if style else job.status,
+            f"{job.wall_s:.1f}",
+            str(job.variants_written),
+            escape(job.error or ""),
+        )
+    _out.print(table)
+    counts = ", ".join(f"{n} {status}" for status, n in summary.counts.items())
+    _out.print(
+        f"{counts}; {summary.scenes_written} scenes in {summary.wall_s:.1f} s; "
+        f"summary in {Path(summary.out) / SUMMARY_FILE}",
+        highlight=False,
+    )
+
+
+@app.command()
+def batch(
+    manifest: Annotated[
+        Path,
+        typer.Argument(
+            metavar="MANIFEST",
+            help='JSONL file, one job a line: {"input": "room.json", "variants": 5, "seed": 0, "id": "name", ...}.',
+        ),
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder; each job writes OUT/<id>/.")],
+    executor: Annotated[
+        BatchExecutor, typer.Option("--executor", help="local: worker processes on this machine; ray: Ray tasks.")
+    ] = BatchExecutor.local,
+    workers: Annotated[int, typer.Option("--workers", min=1, help="Jobs running at once.")] = 1,
+    timeout: Annotated[
+        float | None,
+        typer.Option("--timeout", min=0.001, help="Seconds one job may run; then it is stopped and recorded as timeout."),
+    ] = None,
+    log_level: LogLevelOpt = "warning",
+) -> None:
+    """Run every job of MANIFEST (see docs/batch.md); jobs already finished in OUT are skipped.
+
+    Exit codes: 0 every job ok, degraded or skipped, 1 a job failed or timed out, 2 bad manifest
+    or settings, 130 stopped by Ctrl-C, 143 stopped by SIGTERM (finished jobs stay recorded in
+    OUT/batch_summary.json; run again to do the rest).
+    """
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _raise_terminated) if in_main_thread else None
+    try:
+        total = len(load_manifest(manifest))  # a bad line is reported before the progress bar starts
+        with Progress(
+            SpinnerColumn(),
+            TextColumn("[bold]{task.description}"),
+            BarColumn(),
+            TextColumn("{task.completed}/{task.total} jobs"),
+            TimeElapsedColumn(),
+            console=_err,
+            transient=False,
+        ) as progress:
+            bar = progress.add_task("starting", total=total)
+            running: list[str] = []
+
+            def on_progress(record: JobRecord) -> None:
+                if record.status == "running":
+                    running.append(record.id)
+                elif record.status != "pending":
+                    if record.id in running:
+                        running.remove(record.id)
+                    progress.advance(bar)
+                    if record.status in ("failed", "timeout"):
+                        progress.console.print(f"[red]{record.status}[/red] {escape(record.id)}: {escape(record.error or '')}")
+                progress.update(bar, description=", ".join(running) or "finishing")
+
+            summary = run_batch(
+                manifest,
+                out,
+                executor=executor.value,
+                workers=workers,
+                timeout_s=timeout,
+                on_progress=on_progress,
+                log_level=log_level,
+            )
+    except SceneMosaicError as exc:
+        _err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
+        raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+    except KeyboardInterrupt as exc:
+        _err.print(f"[yellow]interrupted[/yellow]: finished jobs are recorded in {out / SUMMARY_FILE}; run again to do the rest")
+        raise typer.Exit(code=EXIT_SIGINT) from exc
+    except _Terminated as exc:
+        _err.print(f"[yellow]stopped[/yellow] (SIGTERM): finished jobs are recorded in {out / SUMMARY_FILE}")
+        raise typer.Exit(code=EXIT_SIGTERM) from exc
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, previous)
+    _print_batch_summary(summary)
+    if not summary.ok:
+        raise typer.Exit(code=EXIT_UNEXPECTED)
 
 
 @app.command()

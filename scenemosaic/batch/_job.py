@@ -1,0 +1,140 @@
+"""One batch job: what a worker needs to run it, the function both executors run, and the skip test."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from pathlib import Path
+from typing import Any, Literal
+
+import structlog
+from pydantic import BaseModel, ConfigDict
+
+from scenemosaic.batch._manifest import BatchJob
+from scenemosaic.exceptions import SceneMosaicError
+from scenemosaic.pipeline import REPORT_FILE, agenerate
+
+__all__ = ["STOP_GRACE_S", "JobOutcome", "JobSpec", "aexecute_job", "execute_job", "finished_report"]
+
+log = structlog.get_logger(__name__)
+
+STOP_GRACE_S = 5.0
+"""Seconds a stopped local worker may take to write its report before it is killed."""
+
+_FINISHED = ("ok", "degraded")
+_NOT_COMPARED = ("cache_dir", "variants_requested")
+"""Report settings that do not decide a job's results (the hull cache only saves time)."""
+
+
+class JobSpec(BaseModel):
+    """Everything a worker (a local worker process or a Ray task) needs to run one job.
+
+    Plain data: it travels as JSON to a local worker and pickled to a Ray task.
+    """
+
+    model_config = ConfigDict(frozen=True)
+
+    job: BatchJob
+    out_dir: Path
+    """The job's output folder (``OUT/<id>``)."""
+    cache_dir: Path | None = None
+    """The on-disk hull cache every job of the batch shares (``None``: the default cache folder)."""
+
+
+class JobOutcome(BaseModel):
+    """What a worker reports back about one job."""
+
+    status: Literal["ok", "degraded", "failed", "timeout"]
+    variants_written: int = 0
+    error: str | None = None
+    report_status: str | None = None
+
+
+def _read_report(out_dir: Path) -> dict[str, Any] | None:
+    try:
+        data = json.loads((out_dir / REPORT_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def _expected(value: Any) -> Any:
+    return value if isinstance(value, str | int | float | bool | type(None)) else str(value)
+
+
+def finished_report(job: BatchJob, out_dir: Path) -> dict[str, Any] | None:
+    """The report of an earlier, finished run of this very job in ``out_dir``, else ``None``.
+
+    Finished means ``report.json`` says ``ok`` or ``degraded`` (``degraded`` only counts when
+    the job is not ``strict``) and ``base/scene.json`` exists. The report must name the same
+    input and agree on every setting it records (all but the hull cache folder): a folder left
+    by another version of the manifest line is not a result of this job.
+    """
+    report = _read_report(out_dir)
+    if report is None or report.get("status") not in _FINISHED:
+        return None
+    if report["status"] == "degraded" and job.settings.get("strict"):
+        return None
+    if not (out_dir / "base" / "scene.json").is_file() or report.get("input") != str(job.input):
+        return None
+    recorded = report.get("config")
+    if not isinstance(recorded, dict):
+        return None
+    config = job.config()
+    for key, value in recorded.items():
+        if key in _NOT_COMPARED or not hasattr(config, key):
+            continue
+        if _expected(getattr(config, key)) != value:
+            log.info("batch_job_settings_changed", job=job.id, setting=key, recorded=value)
+            return None
+    return report
+
+
+def _outcome_from_report(out_dir: Path, error: str | None = None) -> JobOutcome:
+    report = _read_report(out_dir) or {}
+    status = report.get("status")
+    return JobOutcome(
+        status="failed",
+        error=error,
+        report_status=status if isinstance(status, str) else None,
+    )
+
+
+async def aexecute_job(spec: JobSpec) -> JobOutcome:
+    """Run one job with :func:`~scenemosaic.pipeline.agenerate`; errors become a ``failed`` outcome.
+
+    Only a cancel propagates (the pipeline has written its report by then).
+    """
+    job, out_dir = spec.job, spec.out_dir
+    bound = log.bind(job=job.id)
+    bound.info("batch_job_started", input=str(job.input), out=str(out_dir))
+    try:
+        result = await agenerate(job.input, out_dir, job.config(cache_dir=spec.cache_dir))
+    except SceneMosaicError as exc:
+        bound.warning("batch_job_failed", error=str(exc), error_type=type(exc).__name__)
+        return _outcome_from_report(out_dir, f"{type(exc).__name__}: {exc}")
+    except Exception as exc:  # a bug: the traceback is in the job's report.json
+        stage = (_read_report(out_dir) or {}).get("failed_stage")
+        where = f" in stage {stage!r}" if isinstance(stage, str) else ""
+        bound.error("batch_job_crashed", error=str(exc), error_type=type(exc).__name__)
+        return _outcome_from_report(
+            out_dir, f"unexpected {type(exc).__name__}{where}: {exc} (traceback in {out_dir / REPORT_FILE})"
+        )
+    report = result.report
+    variants = int(report.get("variants_written", 0))
+    if result.status == "degraded" and job.settings.get("strict"):
+        warnings = "; ".join(str(w) for w in report.get("warnings", [])[:3])
+        return JobOutcome(
+            status="failed",
+            variants_written=variants,
+            error=f"degraded under strict: {warnings}",
+            report_status=result.status,
+        )
+    status: Literal["ok", "degraded"] = "degraded" if result.status == "degraded" else "ok"
+    bound.info("batch_job_finished", status=status, variants=variants)
+    return JobOutcome(status=status, variants_written=variants, report_status=result.status)
+
+
+def execute_job(spec: JobSpec) -> JobOutcome:
+    """Run one job to its end in this process (the function a Ray task runs)."""
+    return asyncio.run(aexecute_job(spec))
