@@ -1,4 +1,5 @@
-"""Command-line interface: ``scenemosaic generate | demo | inspect | schema``.
+"""Command-line interface: ``scenemosaic generate | demo | inspect | evaluate | batch | export |
+render | edit | schema``.
 
 Errors are one line (the traceback of an unexpected one goes to ``report.json``); exit codes:
 0 done, 1 unexpected error (or degraded under ``--strict``), 2 bad input or settings, 130 SIGINT,
@@ -518,6 +519,129 @@ def batch(
     _print_batch_summary(summary)
     if not summary.ok:
         raise typer.Exit(code=EXIT_UNEXPECTED)
+
+
+def _scene_folders(path: Path) -> list[tuple[str, Path]]:
+    """``[(name, folder)]``: a generate output folder's ``base`` and ``variant_<i>`` (in order),
+    or the one scene ``path`` names (a folder or a file, named by its folder)."""
+    if (path / "base").is_dir():
+        variants = sorted(
+            (p for p in path.glob("variant_*") if p.is_dir() and p.name.split("_", 1)[1].isdigit()),
+            key=lambda p: int(p.name.split("_", 1)[1]),
+        )
+        return [("base", path / "base"), *((p.name, p) for p in variants)]
+    return [(path.stem if path.is_file() else path.name, path)]
+
+
+def _load_or_exit(path: Path) -> object:
+    from scenemosaic.exchange import load_scene
+
+    try:
+        return load_scene(path)
+    except SceneMosaicError as exc:
+        _err.print(f"[red]error:[/red] {escape(str(exc))}")
+        raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+
+
+@app.command()
+def export(
+    path: Annotated[Path, typer.Argument(metavar="SCENE", help="A scene folder or file, or a generate output folder (base/ and every variant_*/).")],
+    fmt: Annotated[str, typer.Option("--format", "-f", help="mjcf, usd, urdf, glb, sceneeval, native (any registered writer).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder; a generate output folder gets one sub-folder per scene.")],
+    log_level: LogLevelOpt = "warning",
+) -> None:
+    """Write a saved scene (or every scene of a generate run) in another format."""
+    from scenemosaic.exchange import FORMATS, write_scene
+    from scenemosaic.scene import Scene
+
+    writers = sorted(name for name, f in FORMATS.items() if f.write is not None)
+    if fmt not in writers:
+        _err.print(f"[red]error:[/red] unknown output format {fmt!r}; use one of {', '.join(writers)}")
+        raise typer.Exit(code=EXIT_BAD_INPUT)
+    folders = _scene_folders(path)
+    single = len(folders) == 1 and not (path / "base").is_dir()
+    for name, folder in folders:
+        scene = _load_or_exit(folder)
+        assert isinstance(scene, Scene)
+        base_dir = folder if folder.is_dir() else folder.parent
+        target = out if single else out / name
+        destination = target / "scene.glb" if fmt == "glb" else target
+        try:
+            target.mkdir(parents=True, exist_ok=True)
+            written = write_scene(scene, fmt, destination, base_dir)
+        except SceneMosaicError as exc:
+            _err.print(f"[red]error:[/red] {escape(str(exc))}")
+            raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+        _out.print(f"{name}: {written}", markup=False, highlight=False)
+
+
+@app.command()
+def render(
+    path: Annotated[Path, typer.Argument(metavar="SCENE", help="A scene folder or file.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="PNG file to write.")],
+    unit: Annotated[
+        str | None, typer.Option("--unit", help="Draw this unit's orthographic view (an anchor id: floor, a wall, a table...) instead of the floor plan.")
+    ] = None,
+    size: Annotated[int, typer.Option("--size", min=64, max=4096, help="Image side in pixels.")] = 1024,
+    gl: Annotated[bool, typer.Option("--gl/--no-gl", help="Render the meshes with MuJoCo (MUJOCO_GL=egl) when a GL context can be made.")] = False,
+    log_level: LogLevelOpt = "warning",
+) -> None:
+    """Draw a scene's floor plan, or one local unit's orthographic view as the critic sees it, as PNG."""
+    from scenemosaic.render import render_topdown, render_view, topdown_view
+    from scenemosaic.scene import Scene
+
+    scene = _load_or_exit(path)
+    assert isinstance(scene, Scene)
+    base_dir = path if path.is_dir() else path.parent
+    try:
+        if unit is None:
+            png = (
+                render_view(scene, topdown_view(scene), base_dir=base_dir, size_px=size, backend="auto")
+                if gl
+                else render_topdown(scene, base_dir=base_dir, size_px=size)
+            )
+        else:
+            from scenemosaic.evolve import unit_view_png
+            from scenemosaic.scene import UnitLayout
+
+            if scene.structure is None or unit not in {u.anchor_id for u in scene.structure.units}:
+                anchors = ", ".join(u.anchor_id for u in scene.structure.units) if scene.structure else "none (run generate first)"
+                _err.print(f"[red]error:[/red] no unit anchored at {unit!r}; units: {anchors}")
+                raise typer.Exit(code=EXIT_BAD_INPUT)
+            png = unit_view_png(
+                scene, UnitLayout.from_scene(scene, unit), base_dir=base_dir, size_px=size, backend="auto" if gl else "pillow"
+            )
+    except SceneMosaicError as exc:
+        _err.print(f"[red]error:[/red] {escape(str(exc))}")
+        raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_bytes(png)
+    _out.print(str(out), markup=False, highlight=False)
+
+
+@app.command()
+def edit(
+    path: Annotated[Path, typer.Argument(metavar="SCENE", help="A scene folder or file.")],
+    expressions: Annotated[list[str], typer.Argument(metavar="EXPR...", help="Pose expressions, e.g. 'chair_0.center.u = table_0.bbox.max_u + 0.3'.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Folder for the edited scene (every delivered format, like base/).")],
+    unit: Annotated[str | None, typer.Option("--unit", help="The unit (anchor id) the expressions act in; default: the one unit all targets belong to.")] = None,
+    log_level: LogLevelOpt = "warning",
+) -> None:
+    """Move objects of one local unit with the pose expression language (docs/evolution.md) and
+    write the edited scene; no physics runs (generate it again to stabilize)."""
+    from scenemosaic.pipeline import export_base
+    from scenemosaic.scene import Scene
+
+    scene = _load_or_exit(path)
+    assert isinstance(scene, Scene)
+    base_dir = path if path.is_dir() else path.parent
+    try:
+        edited = scene.edit(expressions, unit=unit)
+        files = export_base(edited, out, base_dir)
+    except SceneMosaicError as exc:
+        _err.print(f"[red]error:[/red] {escape(str(exc))}")
+        raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+    _out.print(f"{out}: {', '.join(files)}", markup=False, highlight=False)
 
 
 @app.command()
