@@ -269,6 +269,10 @@ def generate(
             help="Most model requests in flight at once (default: the server's slots when it says).",
         ),
     ] = None,
+    reply_cache: Annotated[
+        Path | None,
+        typer.Option("--reply-cache", help="Folder of an on-disk model reply cache: equal requests are answered from it at no cost."),
+    ] = None,
     strict: Annotated[bool, typer.Option("--strict", help="Exit 1 when the result is degraded.")] = False,
     overwrite: Annotated[
         bool, typer.Option("--overwrite", help="Replace an output folder that holds another input's results.")
@@ -315,6 +319,7 @@ def generate(
         request_timeout_s=request_timeout,
         deadline_s=deadline,
         max_concurrency=max_concurrency,
+        reply_cache=reply_cache,
         strict=strict,
         overwrite=overwrite,
     )

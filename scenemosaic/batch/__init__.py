@@ -28,7 +28,7 @@ from scenemosaic.batch._manifest import (
     sanitize_id,
 )
 from scenemosaic.batch._ray import RAY_INSTALL_HINT
-from scenemosaic.batch._run import BATCH_DIR, Executor, ProgressCallback, run_batch
+from scenemosaic.batch._run import BATCH_DIR, REPLY_CACHE, Executor, ProgressCallback, run_batch
 from scenemosaic.batch._summary import FINAL_STATUSES, SUMMARY_FILE, BatchSummary, JobRecord, JobStatus
 
 __all__ = [
@@ -36,6 +36,7 @@ __all__ = [
     "FINAL_STATUSES",
     "JOB_SETTINGS",
     "RAY_INSTALL_HINT",
+    "REPLY_CACHE",
     "STOP_GRACE_S",
     "SUMMARY_FILE",
     "BatchJob",

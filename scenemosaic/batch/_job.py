@@ -39,6 +39,9 @@ class JobSpec(BaseModel):
     """The job's output folder (``OUT/<id>``)."""
     cache_dir: Path | None = None
     """The on-disk hull cache every job of the batch shares (``None``: the default cache folder)."""
+    reply_cache: Path | None = None
+    """The on-disk model reply cache every job of the batch shares (``models.CachedModel``): a
+    job run again after a failure or a kill does not pay for the requests it made before."""
 
 
 class JobOutcome(BaseModel):
@@ -109,7 +112,7 @@ async def aexecute_job(spec: JobSpec) -> JobOutcome:
     bound = log.bind(job=job.id)
     bound.info("batch_job_started", input=str(job.input), out=str(out_dir))
     try:
-        result = await agenerate(job.input, out_dir, job.config(cache_dir=spec.cache_dir))
+        result = await agenerate(job.input, out_dir, job.config(cache_dir=spec.cache_dir, reply_cache=spec.reply_cache))
     except SceneMosaicError as exc:
         bound.warning("batch_job_failed", error=str(exc), error_type=type(exc).__name__)
         return _outcome_from_report(out_dir, f"{type(exc).__name__}: {exc}")

@@ -93,7 +93,7 @@ JOB_SETTINGS: tuple[str, ...] = tuple(
 """The manifest keys that map onto :class:`~scenemosaic.pipeline.GenerateConfig` fields.
 
 The other ``GenerateConfig`` fields are the batch's business (``overwrite``, ``resume``,
-``cache_dir``) or cannot be written in JSON (``agents``)."""
+``cache_dir``, ``reply_cache``) or cannot be written in JSON (``agents``)."""
 
 _unknown_settings = set(JOB_SETTINGS) - {f.name for f in fields(GenerateConfig)}
 if _unknown_settings:  # pragma: no cover - a guard for maintainers
@@ -115,7 +115,7 @@ class BatchJob(BaseModel):
     settings: dict[str, Any]
     timeout_s: float | None = None
 
-    def config(self, *, cache_dir: Path | None = None) -> GenerateConfig:
+    def config(self, *, cache_dir: Path | None = None, reply_cache: Path | None = None) -> GenerateConfig:
         """The job's :class:`~scenemosaic.pipeline.GenerateConfig`.
 
         A batch owns its job folders, so ``overwrite`` is on (a folder whose results came from
@@ -126,7 +126,7 @@ class BatchJob(BaseModel):
         for key in _PATH_SETTINGS:
             if kwargs.get(key) is not None:
                 kwargs[key] = Path(kwargs[key])
-        return GenerateConfig(**kwargs, cache_dir=cache_dir, overwrite=True, resume=False)
+        return GenerateConfig(**kwargs, cache_dir=cache_dir, reply_cache=reply_cache, overwrite=True, resume=False)
 
     @property
     def recording_cassette(self) -> Path | None:

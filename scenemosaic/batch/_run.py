@@ -18,7 +18,7 @@ from scenemosaic.batch._ray import require_ray, run_ray
 from scenemosaic.batch._summary import FINAL_STATUSES, BatchSummary, JobRecord
 from scenemosaic.exceptions import UsageError
 
-__all__ = ["BATCH_DIR", "Executor", "ProgressCallback", "run_batch"]
+__all__ = ["BATCH_DIR", "REPLY_CACHE", "Executor", "ProgressCallback", "run_batch"]
 
 log = structlog.get_logger(__name__)
 
@@ -31,8 +31,12 @@ ProgressCallback = Callable[[JobRecord], None]
 
 BATCH_DIR = ".batch"
 """The batch's own folder inside its output folder: the lock file and, for the ``local``
-executor, one log file per job (``logs/<id>.log``). Job ids never start with a dot, so it
-cannot clash with a job folder."""
+executor, one log file per job (``logs/<id>.log``), and the reply cache the jobs share
+(:data:`REPLY_CACHE`). Job ids never start with a dot, so it cannot clash with a job folder."""
+REPLY_CACHE = "replies"
+"""The model reply cache of a batch, ``OUT/.batch/replies`` (``models.CachedModel``): a job run
+again (after a failure, a time-out or a killed batch) is answered from it for every request an
+earlier attempt already paid for, whichever worker or Ray node made it."""
 
 
 @contextlib.contextmanager
@@ -158,7 +162,7 @@ def _run(
         summary.jobs.append(record)
         report = finished_report(job, job_out)
         if report is None:
-            todo.append(JobSpec(job=job, out_dir=job_out, cache_dir=cache_dir))
+            todo.append(JobSpec(job=job, out_dir=job_out, cache_dir=cache_dir, reply_cache=out / BATCH_DIR / REPLY_CACHE))
             continue
         variants = int(report.get("variants_written", 0))
         record.status = "skipped"

@@ -19,6 +19,7 @@ Wrappers that add behaviour around any model:
 """
 
 from scenemosaic.models._base import ImagePart, Message, Model, ModelSettings, RequestContext, TextPart, Usage
+from scenemosaic.models._cache import CachedModel
 from scenemosaic.models._circuit import CircuitBreakerModel, CircuitState
 from scenemosaic.models._completion import Completion, CompletionModel
 from scenemosaic.models._deadline import DeadlineModel
@@ -39,6 +40,7 @@ __all__ = [
     "MODEL_SPEC_HELP",
     "STRICT_SCHEMA_KEYWORDS",
     "AgentFunction",
+    "CachedModel",
     "Cassette",
     "CircuitBreakerModel",
     "CircuitState",

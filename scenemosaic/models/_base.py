@@ -87,7 +87,8 @@ class Usage:
     counts, whatever its status (a 429 that was retried, a reply cut at ``max_tokens`` and
     sent again, a reply that failed validation). Attempts that got no response at all
     (connection refused, time-out) are not counted. Token counts are what the server
-    reported, summed over those attempts.
+    reported, summed over those attempts. ``cached`` counts calls answered from the on-disk
+    reply cache (:class:`~scenemosaic.models.CachedModel`): nothing was sent for them.
     """
 
     requests: int = 0
@@ -95,6 +96,7 @@ class Usage:
     output_tokens: int = 0
     image_tokens: int = 0
     images: int = 0
+    cached: int = 0
 
     def __add__(self, other: Usage) -> Usage:
         return Usage(
@@ -103,6 +105,7 @@ class Usage:
             output_tokens=self.output_tokens + other.output_tokens,
             image_tokens=self.image_tokens + other.image_tokens,
             images=self.images + other.images,
+            cached=self.cached + other.cached,
         )
 
     @property

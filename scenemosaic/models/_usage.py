@@ -151,7 +151,7 @@ class UsageTracker:
         usage = call.usage
         if getattr(call, "error_type", None) == "CancelledError":
             usage = Usage()  # the run was stopping: recorded, but no request is charged
-        elif usage.requests == 0:  # a failed call, or a model that did not count the request itself
+        elif usage.requests == 0 and usage.cached == 0:  # a failed call, or a model that did not count the request itself
             usage = usage + Usage(requests=1)
         agent = call.agent or "?"
         price = self.prices.get(call.model)

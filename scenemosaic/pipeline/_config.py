@@ -87,6 +87,10 @@ class GenerateConfig:
     the structuring stage) are reused from the run's checkpoints (``--resume``)."""
     cache_dir: Path | None = None
     """Hull cache folder; default ``$SCENEMOSAIC_CACHE`` or ``~/.cache/scenemosaic``."""
+    reply_cache: Path | None = None
+    """Folder of the on-disk model reply cache (``--reply-cache``; ``models.CachedModel``): an
+    equal request is answered from it at no cost, so a re-run or retried job never pays twice.
+    ``None``: no cache (the rules model makes no requests either way)."""
     priors_dir: Path | None = None
     """ProcTHOR priors folder (receptacles, placement annotations, asset groups) replacing the
     priors shipped with the package."""

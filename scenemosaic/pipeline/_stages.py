@@ -101,13 +101,23 @@ async def _open_model(run: PipelineRun, rec: StageRecord) -> tuple[Model, bool]:
     spec = run.config.model
     if not isinstance(spec, str):
         rec.detail["model"] = spec.name
-        return spec, False
+        return _with_reply_cache(run, spec, rec), False
     limit = run.config.max_concurrency or await _server_slots(spec, run.config.vision)
     model = parse_model(spec, vision=run.config.vision, **({"max_concurrency": limit} if limit else {}))
     if limit:
         rec.detail["max_concurrency"] = limit
     rec.detail["model"] = model.name
-    return model, True
+    return _with_reply_cache(run, model, rec), True
+
+
+def _with_reply_cache(run: PipelineRun, model: Model, rec: StageRecord) -> Model:
+    """``model`` behind the run's reply cache, when the run has one and the model asks anything."""
+    from scenemosaic.models import CachedModel
+
+    if run.config.reply_cache is None or model.uses_rule_solvers:
+        return model
+    rec.detail["reply_cache"] = str(run.config.reply_cache)
+    return CachedModel(model, run.config.reply_cache)
 
 
 def _request_settings(run: PipelineRun) -> ModelSettings | None:
@@ -202,6 +212,7 @@ def _usage_summary(tracker: UsageTracker) -> dict[str, Any]:
     latencies = sorted(c.latency_s for c in tracker.calls)
     return {
         "requests": tracker.total.requests,
+        "cached": tracker.total.cached,
         "input_tokens": tracker.total.input_tokens,
         "output_tokens": tracker.total.output_tokens,
         "image_tokens": tracker.total.image_tokens,
