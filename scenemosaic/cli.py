@@ -269,6 +269,8 @@ def generate(
             help="Most model requests in flight at once (default: the server's slots when it says).",
         ),
     ] = None,
+    rpm: Annotated[float | None, typer.Option("--rpm", min=0.001, help="Most model requests per minute (client side).")] = None,
+    tpm: Annotated[float | None, typer.Option("--tpm", min=1, help="Most model tokens per minute (client side).")] = None,
     reply_cache: Annotated[
         Path | None,
         typer.Option("--reply-cache", help="Folder of an on-disk model reply cache: equal requests are answered from it at no cost."),
@@ -319,6 +321,8 @@ def generate(
         request_timeout_s=request_timeout,
         deadline_s=deadline,
         max_concurrency=max_concurrency,
+        requests_per_minute=rpm,
+        tokens_per_minute=tpm,
         reply_cache=reply_cache,
         strict=strict,
         overwrite=overwrite,

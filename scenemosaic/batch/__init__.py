@@ -28,13 +28,14 @@ from scenemosaic.batch._manifest import (
     sanitize_id,
 )
 from scenemosaic.batch._ray import RAY_INSTALL_HINT
-from scenemosaic.batch._run import BATCH_DIR, REPLY_CACHE, Executor, ProgressCallback, run_batch
+from scenemosaic.batch._run import BATCH_DIR, RATE_LIMITS, REPLY_CACHE, Executor, ProgressCallback, run_batch
 from scenemosaic.batch._summary import FINAL_STATUSES, SUMMARY_FILE, BatchSummary, JobRecord, JobStatus
 
 __all__ = [
     "BATCH_DIR",
     "FINAL_STATUSES",
     "JOB_SETTINGS",
+    "RATE_LIMITS",
     "RAY_INSTALL_HINT",
     "REPLY_CACHE",
     "STOP_GRACE_S",

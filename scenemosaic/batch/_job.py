@@ -42,6 +42,9 @@ class JobSpec(BaseModel):
     reply_cache: Path | None = None
     """The on-disk model reply cache every job of the batch shares (``models.CachedModel``): a
     job run again after a failure or a kill does not pay for the requests it made before."""
+    rate_limit_dir: Path | None = None
+    """The folder of the request and token rate buckets every job of the batch shares
+    (``models.FileTokenBucket``): a line's ``requests_per_minute`` holds for all workers together."""
 
 
 class JobOutcome(BaseModel):
@@ -112,7 +115,7 @@ async def aexecute_job(spec: JobSpec) -> JobOutcome:
     bound = log.bind(job=job.id)
     bound.info("batch_job_started", input=str(job.input), out=str(out_dir))
     try:
-        result = await agenerate(job.input, out_dir, job.config(cache_dir=spec.cache_dir, reply_cache=spec.reply_cache))
+        result = await agenerate(job.input, out_dir, job.config(cache_dir=spec.cache_dir, reply_cache=spec.reply_cache, rate_limit_dir=spec.rate_limit_dir))
     except SceneMosaicError as exc:
         bound.warning("batch_job_failed", error=str(exc), error_type=type(exc).__name__)
         return _outcome_from_report(out_dir, f"{type(exc).__name__}: {exc}")

@@ -75,6 +75,8 @@ class ManifestLine(BaseModel):
     solver_fallback: bool = True
     request_timeout_s: float | None = Field(default=None, gt=0)
     max_concurrency: int | None = Field(default=None, ge=1)
+    requests_per_minute: float | None = Field(default=None, gt=0)
+    tokens_per_minute: float | None = Field(default=None, gt=0)
     deadline_s: float | None = Field(default=None, gt=0)
     stabilize: bool = True
     strict: bool = False
@@ -93,7 +95,7 @@ JOB_SETTINGS: tuple[str, ...] = tuple(
 """The manifest keys that map onto :class:`~scenemosaic.pipeline.GenerateConfig` fields.
 
 The other ``GenerateConfig`` fields are the batch's business (``overwrite``, ``resume``,
-``cache_dir``, ``reply_cache``) or cannot be written in JSON (``agents``)."""
+``cache_dir``, ``reply_cache``, ``rate_limit_dir``) or cannot be written in JSON (``agents``)."""
 
 _unknown_settings = set(JOB_SETTINGS) - {f.name for f in fields(GenerateConfig)}
 if _unknown_settings:  # pragma: no cover - a guard for maintainers
@@ -115,7 +117,9 @@ class BatchJob(BaseModel):
     settings: dict[str, Any]
     timeout_s: float | None = None
 
-    def config(self, *, cache_dir: Path | None = None, reply_cache: Path | None = None) -> GenerateConfig:
+    def config(
+        self, *, cache_dir: Path | None = None, reply_cache: Path | None = None, rate_limit_dir: Path | None = None
+    ) -> GenerateConfig:
         """The job's :class:`~scenemosaic.pipeline.GenerateConfig`.
 
         A batch owns its job folders, so ``overwrite`` is on (a folder whose results came from
@@ -126,7 +130,9 @@ class BatchJob(BaseModel):
         for key in _PATH_SETTINGS:
             if kwargs.get(key) is not None:
                 kwargs[key] = Path(kwargs[key])
-        return GenerateConfig(**kwargs, cache_dir=cache_dir, reply_cache=reply_cache, overwrite=True, resume=False)
+        return GenerateConfig(
+            **kwargs, cache_dir=cache_dir, reply_cache=reply_cache, rate_limit_dir=rate_limit_dir, overwrite=True, resume=False
+        )
 
     @property
     def recording_cassette(self) -> Path | None:

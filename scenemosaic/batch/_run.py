@@ -18,7 +18,7 @@ from scenemosaic.batch._ray import require_ray, run_ray
 from scenemosaic.batch._summary import FINAL_STATUSES, BatchSummary, JobRecord
 from scenemosaic.exceptions import UsageError
 
-__all__ = ["BATCH_DIR", "REPLY_CACHE", "Executor", "ProgressCallback", "run_batch"]
+__all__ = ["BATCH_DIR", "RATE_LIMITS", "REPLY_CACHE", "Executor", "ProgressCallback", "run_batch"]
 
 log = structlog.get_logger(__name__)
 
@@ -33,6 +33,10 @@ BATCH_DIR = ".batch"
 """The batch's own folder inside its output folder: the lock file and, for the ``local``
 executor, one log file per job (``logs/<id>.log``), and the reply cache the jobs share
 (:data:`REPLY_CACHE`). Job ids never start with a dot, so it cannot clash with a job folder."""
+RATE_LIMITS = "limits"
+"""The request and token rate buckets of a batch, ``OUT/.batch/limits`` (``models.FileTokenBucket``):
+a manifest line's ``requests_per_minute`` / ``tokens_per_minute`` hold for all workers together,
+per model (on every Ray node too when ``OUT`` is on a file system with working POSIX locks)."""
 REPLY_CACHE = "replies"
 """The model reply cache of a batch, ``OUT/.batch/replies`` (``models.CachedModel``): a job run
 again (after a failure, a time-out or a killed batch) is answered from it for every request an
@@ -162,7 +166,15 @@ def _run(
         summary.jobs.append(record)
         report = finished_report(job, job_out)
         if report is None:
-            todo.append(JobSpec(job=job, out_dir=job_out, cache_dir=cache_dir, reply_cache=out / BATCH_DIR / REPLY_CACHE))
+            todo.append(
+                JobSpec(
+                    job=job,
+                    out_dir=job_out,
+                    cache_dir=cache_dir,
+                    reply_cache=out / BATCH_DIR / REPLY_CACHE,
+                    rate_limit_dir=out / BATCH_DIR / RATE_LIMITS,
+                )
+            )
             continue
         variants = int(report.get("variants_written", 0))
         record.status = "skipped"

@@ -25,7 +25,7 @@ from scenemosaic.models._completion import Completion, CompletionModel
 from scenemosaic.models._deadline import DeadlineModel
 from scenemosaic.models._function import AgentFunction, FunctionModel
 from scenemosaic.models._instrument import InstrumentedModel, ModelCall
-from scenemosaic.models._limit import LimitedModel, RateLimiter, TokenBucket
+from scenemosaic.models._limit import FileTokenBucket, LimitedModel, RateLimiter, TokenBucket
 from scenemosaic.models._openai import DEFAULT_TIMEOUT_S, HTTPRetryPolicy, OpenAIChatModel, StructuredMode
 from scenemosaic.models._parse import MODEL_SPEC_HELP, parse_model
 from scenemosaic.models._replay import Cassette, ReplayMode, ReplayModel, canonical_request, request_key
@@ -47,6 +47,7 @@ __all__ = [
     "Completion",
     "CompletionModel",
     "DeadlineModel",
+    "FileTokenBucket",
     "FunctionModel",
     "HTTPRetryPolicy",
     "ImagePart",

@@ -10,16 +10,20 @@ collecting 429s. Waiting is a computed ``sleep``, never a polling loop.
 from __future__ import annotations
 
 import asyncio
+import json
+import os
+import re
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable
 from contextlib import asynccontextmanager
+from pathlib import Path
 
 from scenemosaic.exceptions import ModelConfigError, ModelError
 from scenemosaic.models._base import Message, Model, ModelSettings, OutputT, RequestContext, Usage
 from scenemosaic.models._tokens import estimate_tokens
 from scenemosaic.models._wrapper import WrapperModel
 
-__all__ = ["LimitedModel", "RateLimiter", "TokenBucket", "estimate_tokens"]
+__all__ = ["FileTokenBucket", "LimitedModel", "RateLimiter", "TokenBucket", "estimate_tokens"]
 
 Clock = Callable[[], float]
 Sleep = Callable[[float], Awaitable[None]]
@@ -87,6 +91,82 @@ class TokenBucket:
         self._level = min(self.capacity, self._level - delta)
 
 
+class FileTokenBucket:
+    """A token bucket whose state lives in a small JSON file, shared by every process (and every
+    machine on a file system with working POSIX locks) that opens the same ``path``.
+
+    The same contract as :class:`TokenBucket`: ``acquire(n)`` waits until ``n`` tokens are
+    there and takes them, ``adjust(delta)`` books a correction. Each operation holds an
+    exclusive ``flock`` on the file for the read-refill-write only; a waiter sleeps the computed
+    deficit without the lock, then tries again (no FIFO order between processes). Time is wall
+    clock (``time.time``), the one clock processes share.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        rate_per_s: float,
+        capacity: float,
+        *,
+        clock: Clock = time.time,
+        sleep: Sleep | None = None,
+    ) -> None:
+        if rate_per_s <= 0 or capacity <= 0:
+            raise ModelConfigError(f"token bucket needs a positive rate and capacity, got {rate_per_s}, {capacity}")
+        self.path = Path(path)
+        self.rate_per_s = rate_per_s
+        self.capacity = capacity
+        self._clock = clock
+        self._sleep: Sleep = sleep or asyncio.sleep
+
+    def _update(self, amount: float, *, force: bool) -> float:
+        """Refill, then take ``amount`` (``force``: even into debt); returns the seconds to wait
+        before ``amount`` would be there (0.0: taken)."""
+        import fcntl
+
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with open(self.path, "a+", encoding="utf-8") as fh:
+            fcntl.flock(fh, fcntl.LOCK_EX)
+            fh.seek(0)
+            try:
+                state = json.loads(fh.read() or "{}")
+                level, updated = float(state["level"]), float(state["updated"])
+            except (ValueError, KeyError, TypeError):  # new, or torn by a crash: start full
+                level, updated = self.capacity, self._clock()
+            now = self._clock()
+            level = min(self.capacity, level + max(0.0, now - updated) * self.rate_per_s)
+            wait = 0.0
+            if force or level >= amount - 1e-9 * max(1.0, amount):
+                level = min(self.capacity, level - amount)
+            else:
+                wait = (amount - level) / self.rate_per_s
+            fh.seek(0)
+            fh.truncate()
+            fh.write(json.dumps({"level": level, "updated": now}))
+            fh.flush()
+            return wait
+
+    @property
+    def level(self) -> float:
+        """Tokens available now (negative while an overdraft is being paid back)."""
+        self._update(0.0, force=True)
+        state = json.loads(self.path.read_text(encoding="utf-8"))
+        return float(state["level"])
+
+    async def acquire(self, amount: float = 1.0) -> None:
+        """Wait until ``amount`` tokens (at most ``capacity``) are there, then take them."""
+        amount = min(amount, self.capacity)
+        while True:
+            wait = await asyncio.to_thread(self._update, amount, force=False)
+            if wait <= 0.0:
+                return
+            await self._sleep(wait)
+
+    def adjust(self, delta: float) -> None:
+        """Take ``delta`` more tokens (give back when negative) without waiting."""
+        self._update(delta, force=True)
+
+
 class RateLimiter:
     """Concurrency cap plus request and token rates, for one model (or one provider account).
 
@@ -94,6 +174,9 @@ class RateLimiter:
     * ``requests_per_minute`` — request rate; with ``request_burst=1`` (default) requests
       are spaced evenly, ``60 / requests_per_minute`` seconds apart.
     * ``tokens_per_minute`` — token rate; the bucket holds one minute of tokens.
+    * ``shared_dir`` — keep the two rate buckets in files there (:class:`FileTokenBucket`,
+      ``<key>.requests.json`` and ``<key>.tokens.json``), so every process using the same folder
+      and ``key`` shares the rates (the workers of a batch); the concurrency cap stays per process.
     * ``clock`` / ``sleep`` — injectable for tests (a fake clock advanced by the fake sleep).
     """
 
@@ -104,22 +187,23 @@ class RateLimiter:
         requests_per_minute: float | None = None,
         tokens_per_minute: float | None = None,
         request_burst: int = 1,
-        clock: Clock = time.monotonic,
+        shared_dir: str | os.PathLike[str] | None = None,
+        key: str = "model",
+        clock: Clock | None = None,
         sleep: Sleep | None = None,
     ) -> None:
         if max_concurrency is not None and max_concurrency < 1:
             raise ModelConfigError(f"max_concurrency must be at least 1, got {max_concurrency}")
         self.max_concurrency = max_concurrency
-        self.requests = (
-            TokenBucket(requests_per_minute / 60.0, max(1, request_burst), clock=clock, sleep=sleep)
-            if requests_per_minute
-            else None
-        )
-        self.tokens = (
-            TokenBucket(tokens_per_minute / 60.0, tokens_per_minute, clock=clock, sleep=sleep)
-            if tokens_per_minute
-            else None
-        )
+
+        def bucket(kind: str, rate_per_s: float, capacity: float) -> TokenBucket | FileTokenBucket:
+            if shared_dir is None:
+                return TokenBucket(rate_per_s, capacity, clock=clock or time.monotonic, sleep=sleep)
+            name = re.sub(r"[^A-Za-z0-9_.-]", "_", key)[:80]
+            return FileTokenBucket(Path(shared_dir) / f"{name}.{kind}.json", rate_per_s, capacity, clock=clock or time.time, sleep=sleep)
+
+        self.requests = bucket("requests", requests_per_minute / 60.0, max(1, request_burst)) if requests_per_minute else None
+        self.tokens = bucket("tokens", tokens_per_minute / 60.0, tokens_per_minute) if tokens_per_minute else None
         self._semaphore: asyncio.Semaphore | None = None
         self._semaphore_loop: asyncio.AbstractEventLoop | None = None
         self.in_flight = 0

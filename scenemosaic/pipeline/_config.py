@@ -87,6 +87,14 @@ class GenerateConfig:
     the structuring stage) are reused from the run's checkpoints (``--resume``)."""
     cache_dir: Path | None = None
     """Hull cache folder; default ``$SCENEMOSAIC_CACHE`` or ``~/.cache/scenemosaic``."""
+    requests_per_minute: float | None = None
+    """Client-side request rate for the model (``--rpm``; ``models.RateLimiter``)."""
+    tokens_per_minute: float | None = None
+    """Client-side token rate for the model (``--tpm``)."""
+    rate_limit_dir: Path | None = None
+    """Keep the request and token rates in files in this folder (``models.FileTokenBucket``), so
+    every run using the folder shares one budget per model: the workers of a batch
+    (``OUT/.batch/limits``). ``None``: the rates hold within this run only."""
     reply_cache: Path | None = None
     """Folder of the on-disk model reply cache (``--reply-cache``; ``models.CachedModel``): an
     equal request is answered from it at no cost, so a re-run or retried job never pays twice.

@@ -111,13 +111,30 @@ async def _open_model(run: PipelineRun, rec: StageRecord) -> tuple[Model, bool]:
 
 
 def _with_reply_cache(run: PipelineRun, model: Model, rec: StageRecord) -> Model:
-    """``model`` behind the run's reply cache, when the run has one and the model asks anything."""
-    from scenemosaic.models import CachedModel
+    """``model`` behind the run's rate limits and then its reply cache (a cached answer waits for
+    no budget), when the run has them and the model asks anything."""
+    from scenemosaic.models import CachedModel, LimitedModel, RateLimiter
 
-    if run.config.reply_cache is None or model.uses_rule_solvers:
+    if model.uses_rule_solvers:
         return model
-    rec.detail["reply_cache"] = str(run.config.reply_cache)
-    return CachedModel(model, run.config.reply_cache)
+    cfg = run.config
+    if cfg.requests_per_minute or cfg.tokens_per_minute:
+        limiter = RateLimiter(
+            requests_per_minute=cfg.requests_per_minute,
+            tokens_per_minute=cfg.tokens_per_minute,
+            shared_dir=cfg.rate_limit_dir,
+            key=model.name,
+        )
+        model = LimitedModel(model, limiter)
+        rec.detail["rate_limits"] = {
+            "requests_per_minute": cfg.requests_per_minute,
+            "tokens_per_minute": cfg.tokens_per_minute,
+            "shared": str(cfg.rate_limit_dir) if cfg.rate_limit_dir else None,
+        }
+    if cfg.reply_cache is None:
+        return model
+    rec.detail["reply_cache"] = str(cfg.reply_cache)
+    return CachedModel(model, cfg.reply_cache)
 
 
 def _request_settings(run: PipelineRun) -> ModelSettings | None:
