@@ -14,12 +14,13 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import contextlib
 import json
 import os
 import shutil
 import time
 import traceback
-from collections.abc import Coroutine
+from collections.abc import Coroutine, Iterator
 from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any, TypeVar
@@ -37,7 +38,7 @@ from scenemosaic.pipeline._config import (
 from scenemosaic.pipeline._stages import STAGES, export_base, export_scene_only
 from scenemosaic.scene import Scene
 
-__all__ = ["REPORT_FILE", "agenerate", "checkpoint_config", "generate", "run_sync"]
+__all__ = ["REPORT_FILE", "agenerate", "checkpoint_config", "generate", "run_sync", "stage_progress"]
 
 T = TypeVar("T")
 
@@ -354,11 +355,36 @@ def generate(
     config: GenerateConfig | None = None,
     *,
     on_stage: StageCallback | None = None,
+    progress: bool = False,
 ) -> GenerateResult:
     """Synchronous :func:`agenerate`. Inside a running event loop (a Jupyter cell), the run
     gets its own loop in a worker thread and this call waits for it; ``await agenerate(...)``
-    there instead keeps the notebook's loop free."""
-    return run_sync(agenerate(input_path, out_dir, config, on_stage=on_stage))
+    there instead keeps the notebook's loop free. ``progress=True`` shows a bar of the stages
+    (rich: a live bar in a terminal, a widget-free one in Jupyter)."""
+    if not progress:
+        return run_sync(agenerate(input_path, out_dir, config, on_stage=on_stage))
+    with stage_progress(on_stage) as callback:
+        return run_sync(agenerate(input_path, out_dir, config, on_stage=callback))
+
+
+@contextlib.contextmanager
+def stage_progress(then: StageCallback | None = None) -> Iterator[StageCallback]:
+    """A rich progress bar over the pipeline's stages; yields the ``on_stage`` callback that
+    advances it (and calls ``then`` too)."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn()) as bar:
+        task = bar.add_task("generate", total=len(STAGES))
+
+        def callback(name: str, status: str) -> None:
+            if status == "started":
+                bar.update(task, description=f"generate: {name}")
+            elif status in ("done", "reused", "failed"):
+                bar.advance(task)
+            if then is not None:
+                then(name, status)
+
+        yield callback
 
 
 def run_sync(coro: Coroutine[Any, Any, T]) -> T:

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 import scenemosaic as sm
+import scenemosaic.pipeline
 from scenemosaic.exchange import read_scene
 
 ROOM = Path(__file__).resolve().parents[2] / "data" / "layouts" / "physcene" / "DiningRoom-19325_diningroom.json"
@@ -50,3 +51,12 @@ def test_generate_works_inside_a_running_loop(tmp_path: Path) -> None:
     assert res.status in ("ok", "degraded") and (res.base_dir / "scene.json").is_file()
     assert res.variant_dirs == [] and res.variants == []
     assert res._repr_png_() == (res.base_dir / "topdown.png").read_bytes()
+
+
+def test_a_progress_bar_follows_the_stages_and_passes_them_on(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    seen: list[tuple[str, str]] = []
+    res = sm.generate(ROOM, tmp_path / "bar", sm.GenerateConfig(evolve=False), progress=True, on_stage=lambda n, s: seen.append((n, s)))
+    assert res.status in ("ok", "degraded")
+    assert ("import", "started") in seen and seen[-1][1] in ("done", "reused")
+    out = capsys.readouterr().out
+    assert "generate" in out and f"{len(sm.pipeline.STAGES)}/{len(sm.pipeline.STAGES)}" in out
