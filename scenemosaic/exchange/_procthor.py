@@ -14,6 +14,7 @@ Objects carry no size: each ``assetId`` is looked up in an asset database (the
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import re
@@ -28,7 +29,7 @@ from pydantic import ValidationError
 from scipy.spatial.transform import Rotation
 from shapely.geometry import Point, Polygon
 
-from scenemosaic.exceptions import ImportFormatError
+from scenemosaic.exceptions import ImportFormatError, UsageError
 from scenemosaic.exchange._common import FieldReader, read_json
 from scenemosaic.scene import (
     PROCTHOR_PRIORS_DIR,
@@ -44,6 +45,7 @@ from scenemosaic.scene import (
     Wall,
     coordinate_problem,
     object_count_problem,
+    quat_to_matrix,
     sanitize_id,
     size_problem,
     unique_id,
@@ -51,7 +53,9 @@ from scenemosaic.scene import (
 
 __all__ = [
     "DEFAULT_CEILING_HEIGHT",
+    "HOUSE_FILE",
     "AssetDatabase",
+    "export_procthor",
     "import_procthor",
     "load_asset_database",
     "looks_like_procthor",
@@ -429,3 +433,72 @@ def _add_object(
     for j, child in enumerate(r.array(item.get("children") or [], f"{f}.children")):
         cf = f"{f}.children[{j}]"
         _add_object(r, r.mapping(child, cf), cf, oid, build, db, taken)
+
+
+# -- writing a house back ---------------------------------------------------------------------------
+
+HOUSE_FILE = "house.json"
+"""The file :func:`export_procthor` writes in its folder."""
+
+
+def _unity_pose(obj: SceneObject) -> tuple[dict[str, float], dict[str, float]]:
+    """``position`` (the box centre) and ``rotation`` (Euler degrees) of an object, in Unity's
+    frame: :func:`_add_object` run backwards."""
+    rotation = quat_to_matrix(obj.pose.quaternion)
+    unity = _SWAP @ rotation @ _HALF_TURN @ _SWAP
+    ry, rx, rz = Rotation.from_matrix(unity).as_euler("YXZ", degrees=True)
+    height = float(obj.asset.extents[2]) * float(obj.pose.scale[2])
+    centre = np.asarray(obj.pose.position, dtype=np.float64) + rotation @ np.array([0.0, 0.0, height / 2.0])
+
+    def tidy(v: float) -> float:
+        return round(float(v), 6) + 0.0  # + 0.0: no "-0.0" in the file
+
+    return (
+        {"x": tidy(centre[0]), "y": tidy(centre[2]), "z": tidy(centre[1])},
+        {"x": tidy(rx), "y": tidy(ry % 360.0), "z": tidy(rz)},
+    )
+
+
+def export_procthor(scene: Scene, folder: str | os.PathLike[str], base_dir: Path | None = None) -> Path:
+    """Write ``folder/house.json``: the AI2-THOR / ProcTHOR / Holodeck house the scene was imported
+    from, with every object of this room (top-level or a child) at the scene's pose; the other
+    rooms, walls, doors, windows and every other field as the house had them. Returns its path.
+
+    Only a scene imported from a house can be written back as one (it names the house file and
+    maps its objects to the house's ids); others raise :class:`~scenemosaic.exceptions.UsageError`.
+    Objects the house does not know (none are added by the pipeline) are left out.
+    """
+    meta = scene.metadata.get("procthor")
+    source = scene.provenance.source_path
+    if scene.provenance.source_format != "procthor" or not isinstance(meta, dict) or not source:
+        raise UsageError(
+            f"scene {scene.id!r} was not imported from an AI2-THOR/ProcTHOR house "
+            f"(source format {scene.provenance.source_format!r}); only such a scene can be written back as one"
+        )
+    path = Path(source)
+    house = read_json(path)
+    if not isinstance(house, dict) or not isinstance(house.get("objects"), list):
+        raise ImportFormatError("the house the scene came from has no objects list", path=str(path), field="objects")
+    known = {o.id for o in scene.objects}
+    placed = {str(raw): scene.get(oid) for oid, raw in (meta.get("source_ids") or {}).items() if oid in known}
+    moved = 0
+
+    def visit(items: list[Any]) -> None:
+        nonlocal moved
+        for item in items:
+            if not isinstance(item, dict):
+                continue
+            obj = placed.get(str(item.get("id")))
+            if obj is not None:
+                item["position"], item["rotation"] = _unity_pose(obj)
+                moved += 1
+            children = item.get("children")
+            if isinstance(children, list):
+                visit(children)
+
+    visit(house["objects"])
+    out = Path(folder) / HOUSE_FILE
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(house, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+    log.info("procthor_exported", path=str(out), room=meta.get("room_id"), objects=moved, source=str(path))
+    return out
