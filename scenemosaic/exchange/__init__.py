@@ -9,7 +9,9 @@ scenes into files a simulator or an evaluator loads. A format is one module plus
 * ``procthor`` — AI2-THOR / ProcTHOR / Holodeck houses (one scene per room);
 * ``sam3d`` — image-to-3D object sets: ``poses.json`` + mesh files;
 * exports: GLB (:func:`export_glb`), SceneEval sceneState (:func:`export_sceneeval`),
-  MJCF (:func:`export_mjcf`).
+  MJCF (:func:`export_mjcf`), USD with UsdPhysics (:func:`export_usd`, needs the ``usd`` extra)
+  and URDF (:func:`export_urdf`); a room taken from an AI2-THOR house back into that house
+  (:func:`export_procthor`).
 
 Every malformed input raises :class:`~scenemosaic.exceptions.ImportFormatError` naming the
 file and the field, values beyond the scene limits included. A reader only opens files inside
@@ -21,7 +23,7 @@ from scenemosaic.exchange import _builtin  # noqa: F401 - registers the built-in
 from scenemosaic.exchange._glb import GLB_ROOT_NODE, Y_UP_TO_Z_UP, Z_UP_TO_Y_UP, build_glb_scene, export_glb
 from scenemosaic.exchange._mjcf import export_mjcf
 from scenemosaic.exchange._native import read_scene, save_scene
-from scenemosaic.exchange._procthor import AssetDatabase, load_asset_database
+from scenemosaic.exchange._procthor import HOUSE_FILE, AssetDatabase, export_procthor, load_asset_database
 from scenemosaic.exchange._registry import (
     FORMATS,
     ImportFormat,
@@ -44,10 +46,13 @@ from scenemosaic.exchange._sceneeval import (
     sceneeval_state,
     support_type,
 )
+from scenemosaic.exchange._urdf import export_urdf
+from scenemosaic.exchange._usd import export_usd
 
 __all__ = [
     "FORMATS",
     "GLB_ROOT_NODE",
+    "HOUSE_FILE",
     "LOCAL_TO_GLTF",
     "MODEL_ID_PREFIX",
     "Y_UP_TO_Z_UP",
@@ -61,7 +66,10 @@ __all__ = [
     "detect_format",
     "export_glb",
     "export_mjcf",
+    "export_procthor",
     "export_sceneeval",
+    "export_urdf",
+    "export_usd",
     "get_format",
     "gltf_to_world",
     "load_asset_database",

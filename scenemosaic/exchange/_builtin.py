@@ -15,11 +15,13 @@ from scenemosaic.exchange._glb import export_glb
 from scenemosaic.exchange._holodeck import import_holodeck, looks_like_holodeck
 from scenemosaic.exchange._mjcf import export_mjcf
 from scenemosaic.exchange._native import SCENE_FILE, save_scene, scene_from_data
-from scenemosaic.exchange._procthor import import_procthor, looks_like_procthor
+from scenemosaic.exchange._procthor import export_procthor, import_procthor, looks_like_procthor
 from scenemosaic.exchange._registry import ReadOptions, SceneFormat, register_format
 from scenemosaic.exchange._sam3d import POSES_FILE, import_sam3d, looks_like_sam3d
 from scenemosaic.exchange._sceneeval import export_sceneeval
 from scenemosaic.exchange._sceneeval_read import import_sceneeval, looks_like_sceneeval
+from scenemosaic.exchange._urdf import export_urdf
+from scenemosaic.exchange._usd import export_usd
 from scenemosaic.scene import Provenance, Scene
 
 __all__ = ["NATIVE_IMPORTER"]
@@ -59,6 +61,14 @@ def _write_mjcf(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
     return export_mjcf(scene, folder, base_dir=base_dir)
 
 
+def _write_usd(scene: Scene, destination: Path, base_dir: Path | None) -> Path:
+    return export_usd(scene, destination, base_dir=base_dir)
+
+
+def _write_urdf(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
+    return export_urdf(scene, folder, base_dir=base_dir)
+
+
 register_format(
     SceneFormat(
         "front3d",
@@ -88,9 +98,10 @@ register_format(  # before procthor: a Holodeck room also has rooms + objects
 register_format(
     SceneFormat(
         "procthor",
-        "AI2-THOR / ProcTHOR / Holodeck house with rooms and objects",
+        "AI2-THOR / ProcTHOR / Holodeck house with rooms and objects (written back: house.json, for a room taken from one)",
         detect=looks_like_procthor,
         read=lambda data, path, o: import_procthor(data, path, asset_database=o.asset_database),
+        write=lambda scene, folder, base_dir: export_procthor(scene, folder, base_dir),
     )
 )
 register_format(
@@ -115,3 +126,13 @@ register_format(
 )
 register_format(SceneFormat("glb", "one GLB with a node per object (Y-up, as glTF)", write=_write_glb))
 register_format(SceneFormat("mjcf", "MuJoCo scene.xml + mjcf/ meshes", write=_write_mjcf))
+register_format(
+    SceneFormat(
+        "usd",
+        "ASCII USD scene.usda with UsdPhysics + usd/ per-object geometry (needs scenemosaic[usd])",
+        write=_write_usd,
+    )
+)
+register_format(
+    SceneFormat("urdf", "URDF scene.urdf + urdf/<id>.urdf per object + urdf/meshes/", write=_write_urdf)
+)

@@ -11,7 +11,7 @@ from scenemosaic.physics._checks import (
     collision_report_for,
     require_finite_poses,
 )
-from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
+from scenemosaic.physics._hulls import HullInput, HullPiece, ObjectShape, hull_mesh, object_shape
 from scenemosaic.physics._reports import (
     CollisionPair,
     CollisionReport,
@@ -26,6 +26,7 @@ from scenemosaic.physics._settings import (
     COLLISION_TOLERANCE_M,
     FELL_DROP_M,
     OOB_MIN_INSIDE_FRACTION,
+    ROOM_FRICTION,
     THIN_RATIO,
     TIPPED_TILT_DEG,
     SettleSettings,
@@ -41,20 +42,25 @@ from scenemosaic.physics._validate import (
     validate_scene,
     write_scene_mjcf,
 )
+from scenemosaic.physics._world import ObjectInertial, RoomSlab, object_inertial, object_mass, room_slabs
 
 __all__ = [
     "COLLISION_TOLERANCE_M",
     "FELL_DROP_M",
     "OOB_MIN_INSIDE_FRACTION",
+    "ROOM_FRICTION",
     "THIN_RATIO",
     "TIPPED_TILT_DEG",
     "CollisionPair",
     "CollisionReport",
     "HullInput",
+    "HullPiece",
+    "ObjectInertial",
     "ObjectMotion",
     "ObjectShape",
     "OutOfBoundsObject",
     "OutOfBoundsReport",
+    "RoomSlab",
     "SettleSettings",
     "SimSettings",
     "StabilizationReport",
@@ -64,11 +70,15 @@ __all__ = [
     "check_collisions",
     "check_out_of_bounds",
     "collision_report_for",
+    "hull_mesh",
     "is_fixed",
     "is_thin",
+    "object_inertial",
+    "object_mass",
     "object_shape",
     "plan_units",
     "require_finite_poses",
+    "room_slabs",
     "scene_world",
     "settle_unit",
     "stabilize_scene",

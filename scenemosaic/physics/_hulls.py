@@ -21,12 +21,13 @@ from typing import Any
 
 import numpy as np
 import structlog
+import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
 from scenemosaic.assets import HullCache, object_hulls
 from scenemosaic.scene import FloatArray, SceneObject
 
-__all__ = ["HullPiece", "ObjectShape", "object_shape", "piece_from_vertices"]
+__all__ = ["HullPiece", "ObjectShape", "hull_mesh", "object_shape", "piece_from_vertices"]
 
 log = structlog.get_logger(__name__)
 
@@ -47,6 +48,10 @@ class HullPiece:
     box: tuple[FloatArray, FloatArray] | None
     """``(centre, half_extents)`` when the piece is an axis-aligned box, else ``None``."""
 
+    def mesh(self) -> trimesh.Trimesh:
+        """The piece as a closed triangle mesh: :func:`hull_mesh` of its vertices."""
+        return hull_mesh(self.vertices)
+
 
 @dataclass(frozen=True)
 class ObjectShape:
@@ -64,6 +69,14 @@ class ObjectShape:
         """Each piece's vertices under a 4x4 local-to-world transform (rotation + translation)."""
         r, t = matrix[:3, :3], matrix[:3, 3]
         return [p.vertices @ r.T + t for p in self.pieces]
+
+
+def hull_mesh(vertices: Any) -> trimesh.Trimesh:
+    """The convex hull of a point set as a triangle mesh: the solid a simulator makes of a
+    vertex-only collision mesh (MuJoCo for mesh geoms, a "convexHull" approximation in USD)."""
+    points = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    hull: trimesh.Trimesh = trimesh.Trimesh(vertices=points).convex_hull
+    return hull
 
 
 _CACHE: dict[str, HullPiece] = {}

@@ -13,6 +13,7 @@ __all__ = [
     "DEFAULT_DENSITY_KG_M3",
     "FELL_DROP_M",
     "OOB_MIN_INSIDE_FRACTION",
+    "ROOM_FRICTION",
     "SEPARATION_GAP_M",
     "THIN_RATIO",
     "TIPPED_TILT_DEG",
@@ -48,6 +49,10 @@ A few millimetres so that resting contacts do not start in penetration."""
 DEFAULT_DENSITY_KG_M3 = 400.0
 """Density used when an object has neither ``mass_kg`` nor ``density_kg_m3`` (roughly wood furniture
 with hollow parts). The resulting mass is clamped to [0.05, 500] kg."""
+
+ROOM_FRICTION = 1.0
+"""Sliding friction coefficient of the room's floor, wall and ceiling slabs (MuJoCo's default geom
+friction, which the simulated room has always used). The exports give the room this value too."""
 
 
 @dataclass(frozen=True)

@@ -29,11 +29,22 @@ import numpy as np
 import numpy.typing as npt
 import trimesh
 
-from scenemosaic.physics._hulls import ObjectShape
-from scenemosaic.physics._settings import DEFAULT_DENSITY_KG_M3, SimSettings
+from scenemosaic.physics._hulls import ObjectShape, hull_mesh
+from scenemosaic.physics._settings import DEFAULT_DENSITY_KG_M3, ROOM_FRICTION, SimSettings
 from scenemosaic.scene import FloatArray, Room, SceneObject
 
-__all__ = ["MJCF_MESH_DIR", "BuiltWorld", "DynamicBody", "JointMode", "WorldBuilder", "object_mass"]
+__all__ = [
+    "MJCF_MESH_DIR",
+    "BuiltWorld",
+    "DynamicBody",
+    "JointMode",
+    "ObjectInertial",
+    "RoomSlab",
+    "WorldBuilder",
+    "object_inertial",
+    "object_mass",
+    "room_slabs",
+]
 
 MJCF_MESH_DIR = "mjcf"
 """Folder, beside ``scene.xml``, holding the exported meshes (relative, so the folder can move)."""
@@ -61,6 +72,103 @@ def object_mass(obj: SceneObject, shape: ObjectShape) -> float:
     density = obj.sim.density_kg_m3 or DEFAULT_DENSITY_KG_M3
     volume = shape.volume if shape.volume > 0 else float(np.prod(shape.upper - shape.lower))
     return float(min(max(density * volume, 0.05), 500.0))
+
+
+@dataclass(frozen=True)
+class ObjectInertial:
+    """Mass properties of an object as every simulated and exported model uses them.
+
+    ``centre`` is the centre of mass in the object's local frame (the middle of its convex
+    pieces' bounds); ``moments`` the principal moments about it, along the local axes, of a solid
+    box of the pieces' bounds (kg m^2); ``diagonal`` the same moments raised to at least 1e-6, the
+    inertia the models carry.
+    """
+
+    mass: float
+    centre: FloatArray
+    moments: FloatArray
+
+    @property
+    def diagonal(self) -> FloatArray:
+        """The principal moments as written into a model: each at least 1e-6 kg m^2."""
+        return np.maximum(self.moments, 1e-6)
+
+
+def object_inertial(obj: SceneObject, shape: ObjectShape) -> ObjectInertial:
+    """:func:`object_mass` with the centre and box inertia of the object's collision bounds."""
+    mass = object_mass(obj, shape)
+    size = shape.upper - shape.lower
+    moments = (
+        mass
+        / 12.0
+        * np.array([size[1] ** 2 + size[2] ** 2, size[0] ** 2 + size[2] ** 2, size[0] ** 2 + size[1] ** 2])
+    )
+    return ObjectInertial(mass=mass, centre=(shape.lower + shape.upper) / 2, moments=moments)
+
+
+@dataclass(frozen=True)
+class RoomSlab:
+    """One static box of the simulated room, in world coordinates."""
+
+    name: str
+    """Name of the MuJoCo geom: ``floor``, ``ceiling`` or ``wall_<wall id>``."""
+    kind: Literal["floor", "wall", "ceiling"]
+    part_id: str
+    """``floor``, ``ceiling`` or the wall's id."""
+    centre: FloatArray
+    """Centre of the box, shape (3,)."""
+    half_extents: FloatArray
+    """Half sizes along the box's own axes, shape (3,)."""
+    yaw: float
+    """Rotation of the box about +Z, radians (0 for floor and ceiling)."""
+
+    @property
+    def quaternion(self) -> tuple[float, float, float, float]:
+        """The box's rotation as a unit quaternion (w, x, y, z)."""
+        return (math.cos(self.yaw / 2), 0.0, 0.0, math.sin(self.yaw / 2))
+
+
+def room_slabs(room: Room) -> list[RoomSlab]:
+    """The room as simulated: a floor slab under z = 0 and a ceiling slab above the ceiling height,
+    both covering the floor polygon's bounds plus 1 m on every side, and one slab per wall standing
+    outside the floor polygon, as long as the wall plus its thickness at each end and as tall as
+    the wall (openings are not cut out). The MJCF, USD and URDF exports share these boxes.
+    """
+    pts = np.asarray(room.floor)
+    lo, hi = pts.min(axis=0) - 1.0, pts.max(axis=0) + 1.0
+    centre = (lo + hi) / 2
+    half = (hi - lo) / 2
+    slabs = [
+        RoomSlab(
+            name="floor",
+            kind="floor",
+            part_id="floor",
+            centre=np.array([centre[0], centre[1], -0.05]),
+            half_extents=np.array([half[0], half[1], 0.05]),
+            yaw=0.0,
+        ),
+        RoomSlab(
+            name="ceiling",
+            kind="ceiling",
+            part_id="ceiling",
+            centre=np.array([centre[0], centre[1], room.ceiling_height + 0.05]),
+            half_extents=np.array([half[0], half[1], 0.05]),
+            yaw=0.0,
+        ),
+    ]
+    for w in room.walls:
+        mid = (np.asarray(w.start) + np.asarray(w.end)) / 2 + w.outward_normal * (w.thickness / 2)
+        slabs.append(
+            RoomSlab(
+                name=f"wall_{w.id}",
+                kind="wall",
+                part_id=w.id,
+                centre=np.array([mid[0], mid[1], w.height / 2]),
+                half_extents=np.array([w.length / 2 + w.thickness, w.thickness / 2, w.height / 2]),
+                yaw=math.atan2(float(w.direction[1]), float(w.direction[0])),
+            )
+        )
+    return slabs
 
 
 def _quat_from_matrix(r: FloatArray) -> list[float]:
@@ -175,33 +283,19 @@ class WorldBuilder:
                 g.type = mujoco.mjtGeom.mjGEOM_PLANE
                 g.size = [0.0, 0.0, 0.05]
             return
-        pts = np.asarray(room.floor)
-        lo, hi = pts.min(axis=0) - 1.0, pts.max(axis=0) + 1.0
-        centre = (lo + hi) / 2
-        half = (hi - lo) / 2
-        if floor:
+        wanted = {"floor": floor, "wall": walls, "ceiling": ceiling}
+        for slab in room_slabs(room):
+            if not wanted[slab.kind]:
+                continue
             g = wb.add_geom()
-            g.name = "floor"
+            g.name = slab.name
             g.type = mujoco.mjtGeom.mjGEOM_BOX
-            g.size = [float(half[0]), float(half[1]), 0.05]
-            g.pos = [float(centre[0]), float(centre[1]), -0.05]
-        if ceiling:
-            g = wb.add_geom()
-            g.name = "ceiling"
-            g.group = 4  # hidden in viewers by default: it would hide the scene from above
-            g.type = mujoco.mjtGeom.mjGEOM_BOX
-            g.size = [float(half[0]), float(half[1]), 0.05]
-            g.pos = [float(centre[0]), float(centre[1]), room.ceiling_height + 0.05]
-        if walls:
-            for w in room.walls:
-                mid = (np.asarray(w.start) + np.asarray(w.end)) / 2 + w.outward_normal * (w.thickness / 2)
-                angle = math.atan2(float(w.direction[1]), float(w.direction[0]))
-                g = wb.add_geom()
-                g.name = f"wall_{w.id}"
-                g.type = mujoco.mjtGeom.mjGEOM_BOX
-                g.size = [w.length / 2 + w.thickness, w.thickness / 2, w.height / 2]
-                g.pos = [float(mid[0]), float(mid[1]), w.height / 2]
-                g.quat = [math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)]
+            g.size = [float(v) for v in slab.half_extents]
+            g.pos = [float(v) for v in slab.centre]
+            g.friction = [ROOM_FRICTION, 0.005, 0.0001]
+            g.quat = list(slab.quaternion)
+            if slab.kind == "ceiling":
+                g.group = 4  # hidden in viewers by default: it would hide the scene from above
 
     def add_static(self, obj: SceneObject, shape: ObjectShape) -> None:
         """An object that never moves, at its current pose: a body welded to the world (no joint)."""
@@ -249,33 +343,25 @@ class WorldBuilder:
     ) -> None:
         """A moving object with its mass, friction and the joints of ``mode``."""
         m = obj.pose.matrix(with_scale=False)
-        mass = object_mass(obj, shape)
+        inertial = object_inertial(obj, shape)
+        mass = inertial.mass
         body = self.spec.worldbody.add_body()
         body.name = obj.id
         body.pos = m[:3, 3].tolist()
-        size = shape.upper - shape.lower
-        inertia = (
-            mass
-            / 12.0
-            * np.array(
-                [size[1] ** 2 + size[2] ** 2, size[0] ** 2 + size[2] ** 2, size[0] ** 2 + size[1] ** 2]
-            )
-        )
-        centre_local = (shape.lower + shape.upper) / 2
         body.mass = mass
         body.explicitinertial = True
         axis_aligned = mode != "free"
         if axis_aligned:
             # body frame = world axes; the object's rotation lives in the geoms and in the inertia
             r = m[:3, :3]
-            body.ipos = (r @ centre_local).tolist()
+            body.ipos = (r @ inertial.centre).tolist()
             body.iquat = _quat_from_matrix(r)
-            body.inertia = np.maximum(inertia, 1e-6).tolist()
+            body.inertia = inertial.diagonal.tolist()
             self._add_shape(body, obj.id, shape, r, np.zeros(3), obj.sim.friction)
         else:
             body.quat = list(obj.pose.quaternion)
-            body.ipos = centre_local.tolist()
-            body.inertia = np.maximum(inertia, 1e-6).tolist()
+            body.ipos = inertial.centre.tolist()
+            body.inertia = inertial.diagonal.tolist()
             self._add_shape(body, obj.id, shape, np.eye(3), np.zeros(3), obj.sim.friction)
         damping = self.settings.damping_per_kg * mass
         if mode == "free":
@@ -294,7 +380,7 @@ class WorldBuilder:
                     j.name = f"h{k}_{obj.id}"
                     j.type = mujoco.mjtJoint.mjJNT_HINGE
                     j.axis = np.asarray(axis, dtype=np.float64).tolist()
-                    j.damping = [self.settings.damping_per_kg * float(inertia.mean()), 0.0, 0.0]
+                    j.damping = [self.settings.damping_per_kg * float(inertial.moments.mean()), 0.0, 0.0]
         self._dynamic.append((obj.id, body.name, mode, axis_aligned))
         self._dynamic_ids.add(obj.id)
         self._aligned[obj.id] = axis_aligned
@@ -324,7 +410,7 @@ class WorldBuilder:
             verts = np.array(mesh.attrib.pop("vertex").split(), dtype=np.float64).reshape(-1, 3)
             faces_text = mesh.attrib.pop("face", None)
             if faces_text is None:
-                tm = trimesh.Trimesh(vertices=verts).convex_hull
+                tm = hull_mesh(verts)
             else:
                 faces = np.array(faces_text.split(), dtype=np.int64).reshape(-1, 3)
                 tm = trimesh.Trimesh(vertices=verts, faces=faces, process=False)

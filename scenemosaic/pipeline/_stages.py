@@ -34,8 +34,18 @@ it), the base's NAV less this much (one raster cell's worth of noise)."""
 EVOLVE_FOLDER = "evolve"
 """Where ``generate`` writes each unit's evolved layouts (and, with ``save_views``, their views)."""
 
-DELIVERED_FORMATS: tuple[tuple[str, str], ...] = (("glb", "scene.glb"), ("sceneeval", "sceneeval"), ("mjcf", ""))
-"""Formats written beside ``scene.json`` in every delivered folder, with their destination in it."""
+DELIVERED_FORMATS: tuple[tuple[str, str], ...] = (
+    ("glb", "scene.glb"),
+    ("sceneeval", "sceneeval"),
+    ("mjcf", ""),
+    ("urdf", ""),
+    ("usd", ""),
+)
+"""Formats written beside ``scene.json`` in every delivered folder, with their destination in it;
+plus ``procthor`` (``house.json``) for a room taken from an AI2-THOR / ProcTHOR house."""
+OPTIONAL_FORMATS: dict[str, str] = {"usd": "pip install 'scenemosaic[usd]'"}
+"""Delivered formats that need an extra: without it they are left out, and the export stage's
+report says so with the command that installs it."""
 
 
 def hull_cache(run: PipelineRun) -> HullCache:
@@ -481,6 +491,10 @@ async def _judge(run: PipelineRun, rec: StageRecord, scenes: list[Scene]) -> dic
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     assert run.scene is not None
     rec.detail["files"] = await asyncio.to_thread(export_base, run.scene, run.out_dir / "base", run.base_dir)
+    missing = {fmt: hint for fmt, hint in OPTIONAL_FORMATS.items() if not _format_available(fmt)}
+    if missing:
+        rec.detail["formats_left_out"] = missing
+        log.warning("formats_left_out", formats=sorted(missing), install=sorted(missing.values()))
     if run.variants_written:
         await asyncio.to_thread(contact_sheet, run.out_dir, run.variants_written)
         rec.detail["contact_sheet"] = CONTACT_SHEET
@@ -527,10 +541,21 @@ def export_base(scene: Scene, folder: Path, base_dir: Path | None) -> list[str]:
     write_scene(scene, "native", folder, base_dir)
     saved = read_scene(folder)
     for fmt, destination in DELIVERED_FORMATS:
+        if fmt in OPTIONAL_FORMATS and not _format_available(fmt):
+            continue
         write_scene(saved, fmt, folder / destination if destination else folder, folder)
+    if saved.provenance.source_format == "procthor":  # back into the house it came from
+        write_scene(saved, "procthor", folder, folder)
     (folder / "topdown.png").write_bytes(render_topdown(saved, base_dir=folder))
     top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir() and p.name != "assets")]
+
+
+def _format_available(fmt: str) -> bool:
+    """Whether an optional format's extra is installed (``usd``: the ``pxr`` package)."""
+    import importlib.util
+
+    return fmt != "usd" or importlib.util.find_spec("pxr") is not None
 
 
 def export_scene_only(scene: Scene, folder: Path, base_dir: Path | None) -> list[str]:

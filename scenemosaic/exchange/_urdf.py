@@ -1,0 +1,288 @@
+"""URDF export: one single-link URDF per object and a ``scene.urdf`` holding them all.
+
+Layout of the folder (every path inside the files is relative to the file that names it)::
+
+    scene.urdf                      world link, the room, one link + joint per object
+    urdf/<object id>.urdf           one link per object
+    urdf/meshes/<id>_visual.obj     visual meshes (local frame, scaled)
+    urdf/meshes/<id>_hull_<k>.obj   convex collision pieces that are not boxes
+
+An object's link is its local frame (Z up, metres, origin at the bottom centre of its footprint,
+front along local -Y). It carries the mass, centre of mass and box inertia of
+:func:`scenemosaic.physics.object_inertial`, the visual mesh painted in the category colour, and
+one ``<collision>`` per convex piece of :func:`scenemosaic.physics.object_shape` (a ``<box>`` for
+a box piece, the piece's hull as an OBJ otherwise). URDF itself has no friction, so the object's
+``sim.friction`` goes into the two extensions simulators read: PyBullet's
+``<contact><lateral_friction>`` inside the link and Gazebo's ``<gazebo reference=...>`` with
+``<mu1>``/``<mu2>``; other loaders ignore both.
+
+In ``scene.urdf`` a ``world`` link is the root; the room (:func:`scenemosaic.physics.room_slabs`,
+the slabs the MJCF export simulates) is a link on a fixed joint with one box per slab (the ceiling
+collides but has no visual, so viewers see into the room); each object
+hangs from ``world`` by a joint whose origin is its pose (rotation as fixed-axis roll-pitch-yaw):
+``floating`` for the objects the MJCF export gives a free joint, ``fixed`` for held ones
+(``static``, hung from a wall or the ceiling). The XML is written with the standard library; no
+extra is needed.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable
+from pathlib import Path
+
+import numpy as np
+import structlog
+import trimesh
+
+from scenemosaic.assets import HullCache, object_mesh
+from scenemosaic.physics import (
+    ROOM_FRICTION,
+    HullInput,
+    ObjectShape,
+    is_fixed,
+    object_inertial,
+    object_shape,
+    require_finite_poses,
+    room_slabs,
+)
+from scenemosaic.render import CEILING_COLOR, FLOOR_COLOR, WALL_COLOR, category_color
+from scenemosaic.scene import FloatArray, Scene, SceneObject, quat_to_matrix
+
+__all__ = ["URDF_MESH_DIR", "URDF_OBJECT_DIR", "URDF_SCENE_FILE", "export_urdf", "rpy_from_matrix"]
+
+log = structlog.get_logger(__name__)
+
+URDF_SCENE_FILE = "scene.urdf"
+"""The whole-scene URDF :func:`export_urdf` writes in its folder."""
+URDF_OBJECT_DIR = "urdf"
+"""Folder, beside ``scene.urdf``, holding one URDF per object."""
+URDF_MESH_DIR = "meshes"
+"""Folder, inside :data:`URDF_OBJECT_DIR`, holding the OBJ meshes."""
+
+_NO_ROOM_FLOOR_HALF = (50.0, 50.0, 0.05)
+"""Half sizes of the floor slab used when the scene has no room (URDF has no infinite plane)."""
+
+
+def _add_comment(parent: ET.Element, text: str) -> None:
+    """Append an XML comment; ``--`` (allowed in ids, not in comments) is broken up."""
+    while "--" in text:
+        text = text.replace("--", "- -")
+    parent.append(ET.Comment(f" {text.rstrip('-')} "))
+
+
+def _num(value: float) -> str:
+    return repr(float(value))
+
+
+def _vec(values: Iterable[float]) -> str:
+    return " ".join(_num(v) for v in values)
+
+
+def rpy_from_matrix(r: FloatArray) -> tuple[float, float, float]:
+    """URDF's roll, pitch, yaw of a rotation matrix: ``R = Rz(yaw) @ Ry(pitch) @ Rx(roll)``.
+
+    Pitch comes from ``atan2`` (not ``asin``), so it stays accurate near ±90°; there, where
+    roll and yaw turn about the same axis, roll is set to 0.
+    """
+    m = np.asarray(r, dtype=np.float64)
+    cos_pitch = math.hypot(float(m[0, 0]), float(m[1, 0]))
+    pitch = math.atan2(-float(m[2, 0]), cos_pitch)
+    if cos_pitch > 1e-9:
+        roll = math.atan2(float(m[2, 1]), float(m[2, 2]))
+        yaw = math.atan2(float(m[1, 0]), float(m[0, 0]))
+    else:  # gimbal lock
+        roll = 0.0
+        yaw = math.atan2(-float(m[0, 1]), float(m[1, 1]))
+    return roll, pitch, yaw
+
+
+def _origin(parent: ET.Element, xyz: Iterable[float], rpy: Iterable[float] = (0.0, 0.0, 0.0)) -> None:
+    ET.SubElement(parent, "origin", xyz=_vec(xyz), rpy=_vec(rpy))
+
+
+def _box_geometry(
+    parent: ET.Element, tag: str, name: str, centre: Iterable[float], size: Iterable[float], yaw: float = 0.0
+) -> ET.Element:
+    element = ET.SubElement(parent, tag, name=name)
+    _origin(element, centre, (0.0, 0.0, yaw))
+    ET.SubElement(ET.SubElement(element, "geometry"), "box", size=_vec(size))
+    return element
+
+
+def _material(parent: ET.Element, name: str, rgb: tuple[int, int, int]) -> None:
+    material = ET.SubElement(parent, "material", name=name)
+    ET.SubElement(material, "color", rgba=_vec([rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0, 1.0]))
+
+
+def _friction(link: ET.Element, friction: float) -> None:
+    contact = ET.SubElement(link, "contact")
+    ET.SubElement(contact, "lateral_friction", value=_num(friction))
+
+
+def _gazebo(robot: ET.Element, link_name: str, friction: float) -> None:
+    gazebo = ET.SubElement(robot, "gazebo", reference=link_name)
+    ET.SubElement(gazebo, "mu1").text = _num(friction)
+    ET.SubElement(gazebo, "mu2").text = _num(friction)
+
+
+class _ObjectFiles:
+    """The meshes of one object, written once and named from the per-object and the scene files."""
+
+    def __init__(self, obj: SceneObject, shape: ObjectShape, base_dir: Path | None, mesh_dir: Path) -> None:
+        self.obj = obj
+        self.shape = shape
+        self.visual: str | None = None
+        try:
+            visual = object_mesh(obj, base_dir)
+        except Exception as exc:  # the visual is optional: the collision pieces still describe the object
+            log.warning("urdf_visual_mesh_failed", object_id=obj.id, error=str(exc))
+        else:
+            self.visual = f"{obj.id}_visual.obj"
+            _write_obj(
+                trimesh.Trimesh(vertices=visual.vertices, faces=visual.faces, process=False),
+                mesh_dir / self.visual,
+            )
+        self.hulls: list[str | None] = []
+        for k, piece in enumerate(shape.pieces):
+            if piece.box is not None:
+                self.hulls.append(None)
+                continue
+            file_name = f"{obj.id}_hull_{k}.obj"
+            _write_obj(piece.mesh(), mesh_dir / file_name)
+            self.hulls.append(file_name)
+
+    def link(self, mesh_prefix: str) -> ET.Element:
+        """The object's ``<link>``, its mesh files named as ``<mesh_prefix><file>``."""
+        obj = self.obj
+        inertial = object_inertial(obj, self.shape)
+        link = ET.Element("link", name=obj.id)
+        inertial_el = ET.SubElement(link, "inertial")
+        _origin(inertial_el, inertial.centre)
+        ET.SubElement(inertial_el, "mass", value=_num(inertial.mass))
+        ixx, iyy, izz = inertial.diagonal
+        ET.SubElement(
+            inertial_el, "inertia", ixx=_num(ixx), ixy="0", ixz="0", iyy=_num(iyy), iyz="0", izz=_num(izz)
+        )
+        if self.visual is not None:
+            visual = ET.SubElement(link, "visual", name=f"{obj.id}_visual")
+            _origin(visual, (0.0, 0.0, 0.0))
+            ET.SubElement(ET.SubElement(visual, "geometry"), "mesh", filename=mesh_prefix + self.visual)
+            _material(visual, f"category_{obj.category}", category_color(obj.category))
+        for k, (piece, file_name) in enumerate(zip(self.shape.pieces, self.hulls, strict=True)):
+            name = f"{obj.id}_hull_{k}"
+            if piece.box is not None:
+                centre, half = piece.box
+                _box_geometry(link, "collision", name, centre, 2.0 * half)
+            else:
+                assert file_name is not None
+                collision = ET.SubElement(link, "collision", name=name)
+                _origin(collision, (0.0, 0.0, 0.0))
+                ET.SubElement(ET.SubElement(collision, "geometry"), "mesh", filename=mesh_prefix + file_name)
+        _friction(link, obj.sim.friction)
+        return link
+
+
+def _write_obj(mesh: trimesh.Trimesh, path: Path) -> None:
+    """Geometry only (no material file), so every file stands alone and equal meshes give equal bytes."""
+    plain = trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.faces, process=False)
+    text = plain.export(file_type="obj", include_normals=False, include_texture=False)
+    assert isinstance(text, str)  # trimesh returns OBJ as text
+    path.write_text(text, encoding="utf-8")
+
+
+def _write_xml(robot: ET.Element, path: Path) -> None:
+    ET.indent(robot)
+    path.write_text(
+        '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n", encoding="utf-8"
+    )
+
+
+def _free_name(candidate: str, taken: set[str]) -> str:
+    name, n = candidate, 2
+    while name in taken:
+        name, n = f"{candidate}_{n}", n + 1
+    taken.add(name)
+    return name
+
+
+def _room_link(scene: Scene, name: str) -> ET.Element:
+    link = ET.Element("link", name=name)
+    if scene.room is None:
+        half = np.array(_NO_ROOM_FLOOR_HALF)
+        slabs = [("floor", "floor", np.array([0.0, 0.0, -half[2]]), half, 0.0)]
+    else:
+        slabs = [(s.name, s.kind, s.centre, s.half_extents, s.yaw) for s in room_slabs(scene.room)]
+    colors = {"floor": FLOOR_COLOR, "wall": WALL_COLOR, "ceiling": CEILING_COLOR}
+    for slab_name, kind, centre, half, yaw in slabs:
+        if kind != "ceiling":  # no ceiling visual, so viewers can look into the room from above
+            visual = _box_geometry(link, "visual", slab_name, centre, 2.0 * half, yaw)
+            _material(visual, f"room_{kind}", colors[kind])
+        _box_geometry(link, "collision", slab_name, centre, 2.0 * half, yaw)
+    _friction(link, ROOM_FRICTION)
+    return link
+
+
+def _joint(robot: ET.Element, name: str, kind: str, parent: str, child: str, obj: SceneObject | None) -> None:
+    joint = ET.SubElement(robot, "joint", name=name, type=kind)
+    if obj is None:
+        _origin(joint, (0.0, 0.0, 0.0))
+    else:
+        _origin(joint, obj.pose.position, rpy_from_matrix(quat_to_matrix(obj.pose.quaternion)))
+    ET.SubElement(joint, "parent", link=parent)
+    ET.SubElement(joint, "child", link=child)
+
+
+def export_urdf(
+    scene: Scene,
+    folder: str | Path,
+    base_dir: str | Path | None = None,
+    *,
+    hull_cache: HullCache | None = None,
+    hulls: HullInput | None = None,
+) -> Path:
+    """Write ``folder/scene.urdf``, ``folder/urdf/<id>.urdf`` and their meshes; return ``scene.urdf``.
+
+    See the module docstring for the contents. ``base_dir`` resolves relative mesh uris;
+    ``hull_cache`` and ``hulls`` are passed to :func:`scenemosaic.physics.object_shape`, as the
+    MJCF export does. Paths in the files are relative, so the folder can be moved; equal scenes
+    give equal bytes.
+
+    Raises:
+        PhysicsError: an object's pose is not finite (nothing is written).
+    """
+    require_finite_poses(scene, "export URDF")
+    out = Path(folder)
+    base = Path(base_dir) if base_dir is not None else None
+    shapes = {o.id: object_shape(o, base, cache=hull_cache, hulls=hulls) for o in scene.objects}
+    object_dir = out / URDF_OBJECT_DIR
+    mesh_dir = object_dir / URDF_MESH_DIR
+    mesh_dir.mkdir(parents=True, exist_ok=True)
+
+    taken = {o.id for o in scene.objects}
+    world = _free_name("world", taken)
+    room = _free_name("room", taken)
+    robot = ET.Element("robot", name=scene.id)
+    _add_comment(robot, f"scenemosaic scene {scene.id}: Z up, metres, kilograms; root link {world}")
+    ET.SubElement(robot, "link", name=world)
+    robot.append(_room_link(scene, room))
+    _joint(robot, f"{room}_joint", "fixed", world, room, None)
+    _gazebo(robot, room, ROOM_FRICTION)
+    for obj in scene.objects:
+        files = _ObjectFiles(obj, shapes[obj.id], base, mesh_dir)
+        movable = not is_fixed(scene, obj)
+        single = ET.Element("robot", name=obj.id)
+        held = "movable (a free body)" if movable else "held in place: load it with a fixed base"
+        _add_comment(single, f"scenemosaic object {obj.id} ({obj.category}), {held}")
+        single.append(files.link(f"{URDF_MESH_DIR}/"))
+        _gazebo(single, obj.id, obj.sim.friction)
+        _write_xml(single, object_dir / f"{obj.id}.urdf")
+
+        robot.append(files.link(f"{URDF_OBJECT_DIR}/{URDF_MESH_DIR}/"))
+        _joint(robot, f"{obj.id}_joint", "floating" if movable else "fixed", world, obj.id, obj)
+        _gazebo(robot, obj.id, obj.sim.friction)
+    path = out / URDF_SCENE_FILE
+    _write_xml(robot, path)
+    log.info("urdf_exported", path=str(path), objects=len(scene.objects))
+    return path

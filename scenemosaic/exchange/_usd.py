@@ -1,0 +1,289 @@
+"""USD export: ``scene.usda`` plus one geometry layer per object under ``usd/``, all ASCII.
+
+The stage is Z up, one unit = one metre, one kilogram per mass unit, and its default prim is
+``/World``. Its physics is the world the MJCF export writes (:func:`scenemosaic.physics.scene_world`),
+expressed with UsdPhysics:
+
+* ``/World/PhysicsScene`` — gravity along -Z with the simulator's magnitude;
+* ``/World/Room`` — the room's slabs (:func:`scenemosaic.physics.room_slabs`) as ``Cube`` prims
+  carrying ``PhysicsCollisionAPI``: static colliders;
+* ``/World/Objects/<name>`` — one ``Xform`` per object, named by its id made into a USD
+  identifier, placed by the object's rigid pose (translate + orient). It references
+  ``usd/<name>.usda``, which holds ``visual`` (the visual mesh) and ``collision/piece_<k>`` (the
+  convex pieces, ``PhysicsMeshCollisionAPI`` approximation ``convexHull``, purpose ``guide``).
+  Objects the MJCF export gives a free joint also carry ``PhysicsRigidBodyAPI`` and
+  ``PhysicsMassAPI`` (mass, centre of mass and box inertia of
+  :func:`scenemosaic.physics.object_inertial`); held ones (``static``, hung from a wall or the
+  ceiling) only collide;
+* ``/World/PhysicsMaterials/<name>`` — a ``Material`` with ``PhysicsMaterialAPI`` per object (its
+  friction) and one for the room, bound with the ``physics`` purpose.
+
+Meshes are written in the object's local frame with its scale already applied (their bounds are
+the object's size), as in the GLB and MJCF exports, so no scale op is authored; the pose's scale is
+kept in the prim's ``customData`` for reference. Every asset path is relative, so the folder can be
+moved. ``pxr`` (``pip install 'scenemosaic[usd]'``) is imported only when writing.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import structlog
+import trimesh
+
+from scenemosaic.assets import HullCache, object_mesh
+from scenemosaic.exceptions import MissingExtraError, UsageError
+from scenemosaic.physics import (
+    ROOM_FRICTION,
+    HullInput,
+    ObjectShape,
+    SimSettings,
+    is_fixed,
+    object_inertial,
+    object_shape,
+    require_finite_poses,
+    room_slabs,
+)
+from scenemosaic.render import CEILING_COLOR, FLOOR_COLOR, RGB, WALL_COLOR, category_color
+from scenemosaic.scene import Scene, SceneObject
+
+__all__ = ["USD_GEOMETRY_DIR", "USD_INSTALL_HINT", "USD_SCENE_FILE", "export_usd", "usd_prim_name"]
+
+log = structlog.get_logger(__name__)
+
+USD_SCENE_FILE = "scene.usda"
+"""The stage :func:`export_usd` writes when given a folder."""
+USD_GEOMETRY_DIR = "usd"
+"""Folder, beside the stage, holding one geometry layer per object (referenced with a relative path)."""
+USD_INSTALL_HINT = "pip install 'scenemosaic[usd]'"
+"""The command that installs the USD extra (usd-core, which provides ``pxr``)."""
+
+_NOT_IDENTIFIER = re.compile(r"[^A-Za-z0-9_]")
+_CEILING_OPACITY = 0.25
+
+
+def usd_prim_name(object_id: str, taken: set[str]) -> str:
+    """A USD prim name for ``object_id``: ``.`` and ``-`` become ``_``, a leading digit gets a ``_``
+    in front, and a name already in ``taken`` gets ``_2``, ``_3``... (the name is added to ``taken``)."""
+    stem = _NOT_IDENTIFIER.sub("_", object_id)
+    if not stem or stem[0].isdigit():
+        stem = "_" + stem
+    name, n = stem, 2
+    while name in taken:
+        name, n = f"{stem}_{n}", n + 1
+    taken.add(name)
+    return name
+
+
+def _import_pxr() -> Any:
+    try:
+        from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
+    except ImportError as exc:
+        raise MissingExtraError(
+            f"the USD export needs usd-core (module pxr), which is not installed: {USD_INSTALL_HINT}"
+        ) from exc
+    return Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdShade, Vt
+
+
+def _color(rgb: RGB) -> tuple[float, float, float]:
+    return (rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0)
+
+
+class _Writer:
+    """Authoring helpers over the ``pxr`` modules, imported once per export."""
+
+    def __init__(self) -> None:
+        self.Gf, self.Sdf, self.Usd, self.UsdGeom, self.UsdPhysics, self.UsdShade, self.Vt = _import_pxr()
+
+    def new_stage(self, default_prim: str) -> tuple[Any, Any]:
+        """An in-memory ASCII layer and its stage, Z up, metres and kilograms, with ``/<default_prim>``."""
+        layer = self.Sdf.Layer.CreateAnonymous(".usda")
+        stage = self.Usd.Stage.Open(layer)
+        self.UsdGeom.SetStageUpAxis(stage, self.UsdGeom.Tokens.z)
+        self.UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+        self.UsdPhysics.SetStageKilogramsPerUnit(stage, 1.0)
+        root = self.UsdGeom.Xform.Define(stage, f"/{default_prim}")
+        stage.SetDefaultPrim(root.GetPrim())
+        return layer, stage
+
+    def save(self, layer: Any, path: Path) -> None:
+        """Write ``layer`` to ``path``; a copy of that file already open in this process is reloaded."""
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if not layer.Export(str(path)):
+            raise OSError(f"USD could not write {path}")
+        opened = self.Sdf.Layer.Find(str(path))
+        if opened is not None:
+            opened.Reload()
+
+    def mesh(self, stage: Any, prim_path: str, mesh: trimesh.Trimesh) -> Any:
+        """A triangle ``Mesh`` prim (no subdivision) with its points, faces and extent."""
+        usd_mesh = self.UsdGeom.Mesh.Define(stage, prim_path)
+        points = self.Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(mesh.vertices, dtype=np.float32))
+        faces = np.ascontiguousarray(mesh.faces, dtype=np.int32)
+        usd_mesh.CreatePointsAttr(points)
+        usd_mesh.CreateFaceVertexCountsAttr(
+            self.Vt.IntArray.FromNumpy(np.full(len(faces), 3, dtype=np.int32))
+        )
+        usd_mesh.CreateFaceVertexIndicesAttr(self.Vt.IntArray.FromNumpy(faces.reshape(-1)))
+        usd_mesh.CreateExtentAttr(self.UsdGeom.PointBased.ComputeExtent(points))
+        usd_mesh.CreateSubdivisionSchemeAttr(self.UsdGeom.Tokens.none)
+        return usd_mesh
+
+    def collider(self, prim: Any, approximation: str | None = None) -> None:
+        """Make ``prim`` collide; a mesh gets ``approximation`` (e.g. ``convexHull``)."""
+        self.UsdPhysics.CollisionAPI.Apply(prim)
+        if approximation is not None:
+            self.UsdPhysics.MeshCollisionAPI.Apply(prim).CreateApproximationAttr(approximation)
+
+    def physics_material(self, stage: Any, prim_path: str, friction: float) -> Any:
+        """A ``Material`` with ``PhysicsMaterialAPI``: static and dynamic friction, no restitution."""
+        material = self.UsdShade.Material.Define(stage, prim_path)
+        api = self.UsdPhysics.MaterialAPI.Apply(material.GetPrim())
+        api.CreateStaticFrictionAttr(float(friction))
+        api.CreateDynamicFrictionAttr(float(friction))
+        api.CreateRestitutionAttr(0.0)
+        return material
+
+    def bind_physics(self, prim: Any, material: Any) -> None:
+        """Bind ``material`` to ``prim`` and its descendants for the ``physics`` purpose."""
+        self.UsdShade.MaterialBindingAPI.Apply(prim).Bind(
+            material, self.UsdShade.Tokens.fallbackStrength, "physics"
+        )
+
+
+def _object_layer(w: _Writer, name: str, obj: SceneObject, shape: ObjectShape, base_dir: Path | None) -> Any:
+    """The geometry layer of one object: ``/<name>/visual`` and ``/<name>/collision/piece_<k>``."""
+    layer, stage = w.new_stage(name)
+    root = f"/{name}"
+    try:
+        visual = object_mesh(obj, base_dir)
+    except Exception as exc:  # the visual is optional: the collision pieces still describe the object
+        log.warning("usd_visual_mesh_failed", object_id=obj.id, error=str(exc))
+    else:
+        mesh = w.mesh(stage, f"{root}/visual", visual)
+        mesh.CreateDisplayColorPrimvar(w.UsdGeom.Tokens.constant).Set(
+            [w.Gf.Vec3f(*_color(category_color(obj.category)))]
+        )
+    w.UsdGeom.Scope.Define(stage, f"{root}/collision")
+    for k, piece in enumerate(shape.pieces):
+        mesh = w.mesh(stage, f"{root}/collision/piece_{k}", piece.mesh())
+        mesh.CreatePurposeAttr(w.UsdGeom.Tokens.guide)  # renderers skip it; physics does not
+        w.collider(mesh.GetPrim(), w.UsdPhysics.Tokens.convexHull)
+    return layer
+
+
+def _add_room(w: _Writer, stage: Any, scene: Scene) -> None:
+    room_prim = w.UsdGeom.Xform.Define(stage, "/World/Room").GetPrim()
+    material = w.physics_material(stage, "/World/PhysicsMaterials/room", ROOM_FRICTION)
+    w.bind_physics(room_prim, material)
+    if scene.room is None:  # no room: an unbounded ground plane, as the MJCF export
+        plane = w.UsdGeom.Plane.Define(stage, "/World/Room/floor")
+        plane.CreateAxisAttr(w.UsdGeom.Tokens.z)
+        plane.CreateDisplayColorPrimvar(w.UsdGeom.Tokens.constant).Set([w.Gf.Vec3f(*_color(FLOOR_COLOR))])
+        w.collider(plane.GetPrim())
+        return
+    colors = {"floor": FLOOR_COLOR, "wall": WALL_COLOR, "ceiling": CEILING_COLOR}
+    taken: set[str] = set()
+    for slab in room_slabs(scene.room):
+        cube = w.UsdGeom.Cube.Define(stage, f"/World/Room/{usd_prim_name(slab.part_id, taken)}")
+        cube.CreateSizeAttr(1.0)
+        cube.AddTranslateOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Vec3d(*map(float, slab.centre)))
+        cube.AddOrientOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Quatd(*slab.quaternion))
+        cube.AddScaleOp(w.UsdGeom.XformOp.PrecisionDouble).Set(
+            w.Gf.Vec3d(*(2.0 * slab.half_extents).tolist())
+        )
+        cube.CreateExtentAttr([w.Gf.Vec3f(-0.5, -0.5, -0.5), w.Gf.Vec3f(0.5, 0.5, 0.5)])  # a unit cube
+        cube.CreateDisplayColorPrimvar(w.UsdGeom.Tokens.constant).Set(
+            [w.Gf.Vec3f(*_color(colors[slab.kind]))]
+        )
+        if slab.kind == "ceiling":  # see-through, so the room stays visible from above
+            cube.CreateDisplayOpacityPrimvar(w.UsdGeom.Tokens.constant).Set([_CEILING_OPACITY])
+        w.collider(cube.GetPrim())
+
+
+def _add_object(w: _Writer, stage: Any, scene: Scene, obj: SceneObject, name: str, shape: ObjectShape) -> str:
+    """The object's prim (pose, physics, material binding); returns its path. The reference to its
+    geometry layer is added later, on the closed layer (see :func:`export_usd`)."""
+    prim_path = f"/World/Objects/{name}"
+    xform = w.UsdGeom.Xform.Define(stage, prim_path)
+    prim = xform.GetPrim()
+    xform.AddTranslateOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Vec3d(*map(float, obj.pose.position)))
+    xform.AddOrientOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Quatd(*map(float, obj.pose.quaternion)))
+    movable = not is_fixed(scene, obj)
+    prim.SetCustomDataByKey("scenemosaic:objectId", obj.id)
+    prim.SetCustomDataByKey("scenemosaic:category", obj.category)
+    prim.SetCustomDataByKey("scenemosaic:movable", movable)
+    prim.SetCustomDataByKey("scenemosaic:poseScale", w.Gf.Vec3d(*map(float, obj.pose.scale)))
+    if movable:
+        inertial = object_inertial(obj, shape)
+        w.UsdPhysics.RigidBodyAPI.Apply(prim)
+        mass = w.UsdPhysics.MassAPI.Apply(prim)
+        mass.CreateMassAttr(inertial.mass)
+        mass.CreateCenterOfMassAttr(w.Gf.Vec3f(*inertial.centre.tolist()))
+        mass.CreateDiagonalInertiaAttr(w.Gf.Vec3f(*inertial.diagonal.tolist()))
+        mass.CreatePrincipalAxesAttr(w.Gf.Quatf(1.0, 0.0, 0.0, 0.0))
+    material = w.physics_material(stage, f"/World/PhysicsMaterials/{name}", obj.sim.friction)
+    w.bind_physics(prim, material)
+    return prim_path
+
+
+def _stage_path(destination: Path) -> Path:
+    suffix = destination.suffix.lower()
+    if suffix == ".usda":
+        return destination
+    if suffix in {".usd", ".usdc", ".usdz"}:
+        raise UsageError(f"export_usd writes ASCII USD: give a folder or a .usda file, not {destination}")
+    return destination / USD_SCENE_FILE
+
+
+def export_usd(
+    scene: Scene,
+    path_or_folder: str | Path,
+    base_dir: str | Path | None = None,
+    *,
+    hull_cache: HullCache | None = None,
+    hulls: HullInput | None = None,
+) -> Path:
+    """Write the scene as an ASCII USD stage with UsdPhysics and return the stage's path.
+
+    ``path_or_folder`` is a folder (the stage is ``<folder>/scene.usda``) or a ``.usda`` path; the
+    per-object geometry layers go to ``usd/`` beside the stage (see the module docstring for the
+    prims). ``base_dir`` resolves relative mesh uris; ``hull_cache`` and ``hulls`` are passed to
+    :func:`scenemosaic.physics.object_shape`, as the MJCF export does. Equal scenes give equal bytes.
+
+    Raises:
+        MissingExtraError: ``pxr`` is not installed (``pip install 'scenemosaic[usd]'``).
+        PhysicsError: an object's pose is not finite (nothing is written).
+    """
+    w = _Writer()  # first, so a missing extra fails before any work
+    require_finite_poses(scene, "export USD")
+    stage_path = _stage_path(Path(path_or_folder))
+    base = Path(base_dir) if base_dir is not None else None
+    shapes = {o.id: object_shape(o, base, cache=hull_cache, hulls=hulls) for o in scene.objects}
+
+    layer, stage = w.new_stage("World")
+    gravity = SimSettings().gravity
+    physics_scene = w.UsdPhysics.Scene.Define(stage, "/World/PhysicsScene")
+    physics_scene.CreateGravityDirectionAttr(w.Gf.Vec3f(0.0, 0.0, -1.0))
+    physics_scene.CreateGravityMagnitudeAttr(gravity)
+    w.UsdGeom.Scope.Define(stage, "/World/PhysicsMaterials")
+    _add_room(w, stage, scene)
+    w.UsdGeom.Xform.Define(stage, "/World/Objects")
+    taken: set[str] = set()
+    references: list[tuple[str, str]] = []
+    for obj in scene.objects:
+        name = usd_prim_name(obj.id, taken)
+        relative = f"{USD_GEOMETRY_DIR}/{name}.usda"
+        w.save(_object_layer(w, name, obj, shapes[obj.id], base), stage_path.parent / relative)
+        references.append((_add_object(w, stage, scene, obj, name, shapes[obj.id]), f"./{relative}"))
+    # The references go in once the stage is gone: composing them on the in-memory layer would
+    # look for the relative files beside an anonymous layer, which has no folder.
+    del stage
+    for prim_path, asset_path in references:
+        layer.GetPrimAtPath(prim_path).referenceList.Prepend(w.Sdf.Reference(asset_path))
+    w.save(layer, stage_path)
+    log.info("usd_exported", path=str(stage_path), objects=len(scene.objects))
+    return stage_path
