@@ -66,8 +66,7 @@ def main() -> None:
         table = next(o for o in scene.objects if o.category == "coffee_table")
         gap = math.dist(sofa.pose.position[:2], table.pose.position[:2])
         print(f"{name}: coffee table {gap:.2f} m from the sofa's centre, status {result.status}")
-    layout = ruled.report["stages"]
-    evolve = next(s for s in layout if s["name"] == "evolve")["detail"]["layouts"]
+    evolve = next(s for s in ruled.report["stages"] if s["name"] == "evolve")["detail"]["layouts"]
     print(f"evolved layouts: {[(lay['anchor'], lay['layout_id'], lay['valid']) for lay in evolve]}")
 
 

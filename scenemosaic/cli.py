@@ -28,7 +28,15 @@ from rich.table import Table
 from scenemosaic._logging import configure_logging
 from scenemosaic.batch import SUMMARY_FILE, BatchSummary, JobRecord, load_manifest, run_batch
 from scenemosaic.exceptions import SceneMosaicError
-from scenemosaic.pipeline import STAGE_NAMES, GenerateConfig, GenerateResult, agenerate, checkpoint_config
+from scenemosaic.pipeline import (
+    DELIVERED_FORMATS,
+    STAGE_NAMES,
+    GenerateConfig,
+    GenerateResult,
+    agenerate,
+    checkpoint_config,
+)
+from scenemosaic.scene import Scene
 
 __all__ = ["app", "main"]
 
@@ -542,7 +550,7 @@ def _scene_folders(path: Path) -> list[tuple[str, Path]]:
     return [(path.stem if path.is_file() else path.name, path)]
 
 
-def _load_or_exit(path: Path) -> object:
+def _load_or_exit(path: Path) -> Scene:
     from scenemosaic.exchange import load_scene
 
     try:
@@ -561,7 +569,6 @@ def export(
 ) -> None:
     """Write a saved scene (or every scene of a generate run) in another format."""
     from scenemosaic.exchange import FORMATS, write_scene
-    from scenemosaic.scene import Scene
 
     writers = sorted(name for name, f in FORMATS.items() if f.write is not None)
     if fmt not in writers:
@@ -571,10 +578,9 @@ def export(
     single = len(folders) == 1 and not (path / "base").is_dir()
     for name, folder in folders:
         scene = _load_or_exit(folder)
-        assert isinstance(scene, Scene)
         base_dir = folder if folder.is_dir() else folder.parent
         target = out if single else out / name
-        destination = target / "scene.glb" if fmt == "glb" else target
+        destination = target / dict(DELIVERED_FORMATS).get(fmt, "")  # where generate puts it
         try:
             target.mkdir(parents=True, exist_ok=True)
             written = write_scene(scene, fmt, destination, base_dir)
@@ -597,10 +603,8 @@ def render(
 ) -> None:
     """Draw a scene's floor plan, or one local unit's orthographic view as the critic sees it, as PNG."""
     from scenemosaic.render import render_topdown, render_view, topdown_view
-    from scenemosaic.scene import Scene
 
     scene = _load_or_exit(path)
-    assert isinstance(scene, Scene)
     base_dir = path if path.is_dir() else path.parent
     try:
         if unit is None:
@@ -639,10 +643,8 @@ def edit(
     """Move objects of one local unit with the pose expression language (docs/evolution.md) and
     write the edited scene; no physics runs (generate it again to stabilize)."""
     from scenemosaic.pipeline import export_base
-    from scenemosaic.scene import Scene
 
     scene = _load_or_exit(path)
-    assert isinstance(scene, Scene)
     base_dir = path if path.is_dir() else path.parent
     try:
         edited = scene.edit(expressions, unit=unit)

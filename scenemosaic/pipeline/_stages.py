@@ -111,16 +111,16 @@ async def _open_model(run: PipelineRun, rec: StageRecord) -> tuple[Model, bool]:
     spec = run.config.model
     if not isinstance(spec, str):
         rec.detail["model"] = spec.name
-        return _with_reply_cache(run, spec, rec), False
+        return _wrap_model(run, spec, rec), False
     limit = run.config.max_concurrency or await _server_slots(spec, run.config.vision)
     model = parse_model(spec, vision=run.config.vision, **({"max_concurrency": limit} if limit else {}))
     if limit:
         rec.detail["max_concurrency"] = limit
     rec.detail["model"] = model.name
-    return _with_reply_cache(run, model, rec), True
+    return _wrap_model(run, model, rec), True
 
 
-def _with_reply_cache(run: PipelineRun, model: Model, rec: StageRecord) -> Model:
+def _wrap_model(run: PipelineRun, model: Model, rec: StageRecord) -> Model:
     """``model`` behind the run's rate limits and then its reply cache (a cached answer waits for
     no budget), when the run has them and the model asks anything."""
     from scenemosaic.models import CachedModel, LimitedModel, RateLimiter

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from export_reference import ReferenceRoom, build_reference_room
 
 from scenemosaic.scene import (
     PROCTHOR_PRIORS_DIR,
@@ -156,3 +157,9 @@ def build_small_scene() -> Scene:
         Relation(kind="attach", child="book", parent="table"),
     ]
     return Scene(id="small", room=room, objects=objects, relations=relations)
+
+
+@pytest.fixture(scope="session")
+def reference_room(tmp_path_factory: pytest.TempPathFactory) -> ReferenceRoom:
+    """The USD and URDF exports' reference scene and its MJCF model (``export_reference``)."""
+    return build_reference_room(tmp_path_factory.mktemp("reference_room"))

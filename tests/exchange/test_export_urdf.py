@@ -16,20 +16,10 @@ import mujoco
 import numpy as np
 import pytest
 import yourdfpy  # the [urdf] extra is part of the dev install
+from export_reference import STATIC_ID, ReferenceRoom, hull_geoms
 
-from scenemosaic import GenerateConfig, generate
-from scenemosaic.exchange import export_mjcf, export_urdf, write_scene
+from scenemosaic.exchange import export_urdf, write_scene
 from scenemosaic.scene import Scene
-
-ROOM = (
-    Path(__file__).resolve().parents[2]
-    / "data"
-    / "layouts"
-    / "physcene"
-    / "LivingDiningRoom-8714_livingroom.json"
-)
-STATIC_ID = "tv_stand_0"
-HULL_GROUP = 3  # the MJCF export's collision geoms
 
 
 @dataclass
@@ -41,26 +31,15 @@ class Exported:
 
 
 @pytest.fixture(scope="module")
-def living(tmp_path_factory: pytest.TempPathFactory) -> Exported:
+def living(reference_room: ReferenceRoom, tmp_path_factory: pytest.TempPathFactory) -> Exported:
+    ref = reference_room
     out = tmp_path_factory.mktemp("living_urdf")
-    result = generate(ROOM, out / "run", GenerateConfig(evolve=False))
-    scene = result.scene.model_copy(deep=True)
-    scene.get(STATIC_ID).sim.static = True
-    base = out / "run" / "base"
-    xml = export_mjcf(scene, out / "mjcf", base)
-    path = export_urdf(scene, out / "urdf_export", base)
-    return Exported(scene, base, path, mujoco.MjModel.from_xml_path(str(xml)))
+    return Exported(ref.scene, ref.base_dir, export_urdf(ref.scene, out / "urdf_export", ref.base_dir), ref.model)
 
 
 def _load(path: Path) -> yourdfpy.URDF:
     return yourdfpy.URDF.load(str(path), build_scene_graph=True, load_meshes=True)
 
-
-def _hull_geoms(model: mujoco.MjModel, object_id: str) -> int:
-    body = model.body(object_id).id
-    return sum(
-        1 for g in range(model.ngeom) if model.geom_bodyid[g] == body and model.geom_group[g] == HULL_GROUP
-    )
 
 
 def _mesh_files(path: Path) -> list[str]:
@@ -81,7 +60,7 @@ def test_every_file_loads_with_the_mjcf_mass_and_hulls(living: Exported) -> None
             np.testing.assert_allclose(np.diag(link.inertial.inertia), body.inertia, rtol=1e-5)
             np.testing.assert_allclose(link.inertial.origin[:3, 3], body.ipos, rtol=1e-5, atol=1e-6)
         assert np.all(np.linalg.eigvalsh(link.inertial.inertia) > 0), obj.id
-        assert len(link.collisions) == _hull_geoms(model, obj.id) >= 1, obj.id
+        assert len(link.collisions) == hull_geoms(model, obj.id) >= 1, obj.id
         assert len(urdf.scene.geometry) == 1  # the visual mesh was found and loaded
 
 
@@ -100,7 +79,7 @@ def test_scene_joints_reproduce_the_poses(living: Exported) -> None:
         assert link.inertial.mass == pytest.approx(
             _load_single(living, obj.id).link_map[obj.id].inertial.mass
         )
-        assert len(link.collisions) == _hull_geoms(living.model, obj.id)
+        assert len(link.collisions) == hull_geoms(living.model, obj.id)
     assert joints[STATIC_ID].type == "fixed"
     room = urdf.link_map["room"]
     assert living.scene.room is not None

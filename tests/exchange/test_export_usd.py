@@ -15,22 +15,12 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from export_reference import STATIC_ID, ReferenceRoom, hull_geoms
 from pxr import Usd, UsdGeom, UsdPhysics, UsdShade  # the [usd] extra is part of the dev install
 
-from scenemosaic import GenerateConfig, generate
 from scenemosaic.exceptions import MissingExtraError
-from scenemosaic.exchange import export_mjcf, export_usd, write_scene
+from scenemosaic.exchange import export_usd, write_scene
 from scenemosaic.scene import Scene
-
-ROOM = (
-    Path(__file__).resolve().parents[2]
-    / "data"
-    / "layouts"
-    / "physcene"
-    / "LivingDiningRoom-8714_livingroom.json"
-)
-STATIC_ID = "tv_stand_0"
-HULL_GROUP = 3  # the MJCF export's collision geoms
 
 
 @dataclass
@@ -42,15 +32,10 @@ class Exported:
 
 
 @pytest.fixture(scope="module")
-def living(tmp_path_factory: pytest.TempPathFactory) -> Exported:
+def living(reference_room: ReferenceRoom, tmp_path_factory: pytest.TempPathFactory) -> Exported:
+    ref = reference_room
     out = tmp_path_factory.mktemp("living_usd")
-    result = generate(ROOM, out / "run", GenerateConfig(evolve=False))
-    scene = result.scene.model_copy(deep=True)
-    scene.get(STATIC_ID).sim.static = True
-    base = out / "run" / "base"
-    xml = export_mjcf(scene, out / "mjcf", base)
-    stage_path = export_usd(scene, out / "usd", base)
-    return Exported(scene, base, stage_path, mujoco.MjModel.from_xml_path(str(xml)))
+    return Exported(ref.scene, ref.base_dir, export_usd(ref.scene, out / "usd", ref.base_dir), ref.model)
 
 
 def _object_prims(stage: Usd.Stage) -> dict[str, Usd.Prim]:
@@ -59,12 +44,6 @@ def _object_prims(stage: Usd.Stage) -> dict[str, Usd.Prim]:
         for p in stage.GetPrimAtPath("/World/Objects").GetChildren()
     }
 
-
-def _hull_geoms(model: mujoco.MjModel, object_id: str) -> int:
-    body = model.body(object_id).id
-    return sum(
-        1 for g in range(model.ngeom) if model.geom_bodyid[g] == body and model.geom_group[g] == HULL_GROUP
-    )
 
 
 def _local_points(prim: Usd.Prim) -> np.ndarray:
@@ -125,7 +104,7 @@ def test_collision_pieces_are_the_mjcf_hulls(living: Exported) -> None:
         prim = _object_prims(stage)[obj.id]
         pieces = [p for p in Usd.PrimRange(prim) if p.HasAPI(UsdPhysics.CollisionAPI)]
         assert len(pieces) >= 1
-        assert len(pieces) == _hull_geoms(living.model, obj.id), obj.id
+        assert len(pieces) == hull_geoms(living.model, obj.id), obj.id
         for piece in pieces:
             assert piece.IsA(UsdGeom.Mesh) and piece.HasAPI(UsdPhysics.MeshCollisionAPI)
             assert UsdPhysics.MeshCollisionAPI(piece).GetApproximationAttr().Get() == "convexHull"
