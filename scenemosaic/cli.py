@@ -224,12 +224,30 @@ def _summarize(result: GenerateResult) -> None:
 def generate(
     input_path: Annotated[
         Path | None,
-        typer.Argument(metavar="[INPUT]", help="Scene folder or file (layout JSON, house JSON, poses JSON, sceneState)."),
+        typer.Argument(
+            metavar="[INPUT]",
+            help="Scene folder or file (layout JSON, house JSON, poses JSON, sceneState), or a photograph (.png, .jpg).",
+        ),
     ] = None,
     out: Annotated[Path | None, typer.Option("--out", "-o", help="Output folder.")] = None,
     format: Annotated[
-        str, typer.Option("--format", help="auto, native, front3d, procthor, holodeck, sam3d, sceneeval.")
+        str, typer.Option("--format", help="auto, native, front3d, procthor, holodeck, sam3d, sceneeval, image.")
     ] = "auto",
+    detections: Annotated[
+        Path | None,
+        typer.Option("--detections", help="A photograph's object boxes: COCO JSON or an inventory JSON (needed with --model rules)."),
+    ] = None,
+    segmenter: Annotated[
+        str, typer.Option("--segmenter", help="A photograph's segmenter: auto, grabcut, box, sam3 or http://HOST:PORT/segment.")
+    ] = "auto",
+    reconstructor: Annotated[
+        str,
+        typer.Option("--reconstructor", help="A photograph's 3D lifter: auto, box-lifter, sam3d[:pipeline.yaml] or http://HOST:PORT/reconstruct."),
+    ] = "auto",
+    hfov: Annotated[
+        float | None,
+        typer.Option("--hfov", min=5.0, max=170.0, help="A photograph's horizontal field of view in degrees (default: EXIF, else 60)."),
+    ] = None,
     variants: Annotated[
         int,
         typer.Option(
@@ -315,6 +333,10 @@ def generate(
         raise typer.Exit(code=EXIT_BAD_INPUT)
     config = GenerateConfig(
         format=format,
+        detections=detections,
+        segmenter=segmenter,
+        reconstructor=reconstructor,
+        hfov_deg=hfov,
         variants=variants,
         evolve=evolve,
         evolve_rounds=rounds,

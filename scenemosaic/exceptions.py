@@ -39,6 +39,7 @@ from typing import Any
 __all__ = [
     "AgentOutputError",
     "AssetError",
+    "BackendError",
     "ExpressionError",
     "GraphChangedError",
     "GraphDefinitionError",
@@ -173,6 +174,11 @@ class UsageLimitExceeded(RunError):
     def __init__(self, message: str, *, partial: dict[str, Any] | None = None) -> None:
         super().__init__(message)
         self.partial: dict[str, Any] = dict(partial or {})
+
+
+class BackendError(RunError):
+    """A perception backend (a segmenter, a reconstructor, an image endpoint) failed or answered
+    something unusable; the message names the backend and what it returned."""
 
 
 class ModelError(RunError):

@@ -36,7 +36,20 @@ class GenerateConfig:
 
     format: str = "auto"
     """Input format (``auto`` or a registered reader: ``native``, ``front3d``, ``procthor``,
-    ``holodeck``, ``sam3d``, ``sceneeval``)."""
+    ``holodeck``, ``sam3d``, ``sceneeval``; or ``image``, which ``auto`` picks for ``.png``,
+    ``.jpg``... inputs: the image front end, ``docs/perception.md``)."""
+    detections: Path | None = None
+    """Object detections of a photograph input (``--detections``): COCO (``bbox`` = [x, y, w, h])
+    or an inventory JSON. The offline ``rules`` model needs them; a vision model takes them as hints."""
+    segmenter: Any = "auto"
+    """How a photograph's objects are cut out (``--segmenter``): ``auto``, ``grabcut``, ``box``,
+    ``sam3``, an ``http://`` segmentation server, or a :class:`~scenemosaic.perception.Segmenter`."""
+    reconstructor: Any = "auto"
+    """How a photograph's objects are lifted to 3D (``--reconstructor``): ``auto``, ``box-lifter``,
+    ``sam3d[:pipeline.yaml]``, an ``http://`` server, or a :class:`~scenemosaic.perception.Reconstructor`."""
+    hfov_deg: float | None = None
+    """Horizontal field of view of a photograph input, degrees (``--hfov``); ``None``: from its
+    EXIF focal length, else :data:`~scenemosaic.perception.DEFAULT_HFOV_DEG`."""
     variants: int = 0
     """Number of diverse whole-scene variants to deliver (m). Above 0, the evolve stage grows each
     unit's structurally different variants (archetypes) beside the refined original, and the

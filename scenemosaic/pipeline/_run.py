@@ -35,7 +35,7 @@ from scenemosaic.pipeline._config import (
     StageCallback,
     StageRecord,
 )
-from scenemosaic.pipeline._stages import STAGES, export_base, export_scene_only
+from scenemosaic.pipeline._stages import STAGES, export_base, export_scene_only, is_image_input
 from scenemosaic.scene import Scene
 
 __all__ = ["REPORT_FILE", "agenerate", "checkpoint_config", "generate", "run_sync", "stage_progress"]
@@ -46,11 +46,11 @@ log = structlog.get_logger(__name__)
 
 REPORT_FILE = "report.json"
 _RUN_FILE = "run.json"
-_OUTPUTS = ("base", "evolve", "contact_sheet.png", REPORT_FILE, ".checkpoint")
+_OUTPUTS = ("base", "evolve", "perception", "contact_sheet.png", REPORT_FILE, ".checkpoint")
 """What a run writes into its output folder (and what ``overwrite`` may remove)."""
 _CONFIG_KEYS = (
     "format", "model", "seed", "room", "stabilize", "solver_fallback", "vision", "request_timeout_s", "deadline_s",
-    "variants", "evolve", "evolve_rounds", "save_views",
+    "variants", "evolve", "evolve_rounds", "save_views", "segmenter", "reconstructor", "hfov_deg",
 )  # fmt: skip
 """The settings that decide a run's results; a resumed run must agree on them."""
 
@@ -63,7 +63,7 @@ def _config_record(config: GenerateConfig) -> dict[str, Any]:
     for key in _CONFIG_KEYS:
         value = getattr(config, key)
         out[key] = value if isinstance(value, str | int | float | bool | type(None)) else getattr(value, "name", str(value))
-    for key in ("asset_dir", "cache_dir", "priors_dir"):
+    for key in ("asset_dir", "cache_dir", "priors_dir", "detections"):
         value = getattr(config, key)
         out[key] = str(value) if value is not None else None
     return out
@@ -82,7 +82,7 @@ def checkpoint_config(out_dir: str | Path) -> tuple[Path, GenerateConfig]:
     saved = data.get("config", {})
     known = {f.name for f in fields(GenerateConfig)}
     kwargs: dict[str, Any] = {k: v for k, v in saved.items() if k in known and k in _CONFIG_KEYS}
-    for key in ("asset_dir", "cache_dir", "priors_dir"):
+    for key in ("asset_dir", "cache_dir", "priors_dir", "detections"):
         if saved.get(key):
             kwargs[key] = Path(saved[key])
     return Path(data["input"]), GenerateConfig(**kwargs, resume=True)
@@ -267,6 +267,10 @@ async def agenerate(
     _check_config(config)
     input_path, out = Path(input_path), Path(out_dir)
     base_dir = await asyncio.to_thread(_prepare_folders, input_path, out, config)
+    if is_image_input(input_path, config.format):  # a photograph's meshes are written beside what perception saw
+        from scenemosaic.perception import PERCEPTION_FOLDER
+
+        base_dir = out / PERCEPTION_FOLDER
     run = PipelineRun(input_path=input_path, out_dir=out, config=config, base_dir=base_dir)
     finished = await asyncio.to_thread(_load_checkpoint, run) if config.resume else set()
     if not config.resume:  # resumable from the first moment, even if stopped during the import

@@ -24,7 +24,15 @@ if TYPE_CHECKING:
 
 log = structlog.get_logger(__name__)
 
-__all__ = ["DELIVERED_FORMATS", "EVOLVE_FOLDER", "STAGES", "STAGE_NAMES", "export_base", "export_scene_only"]
+__all__ = [
+    "DELIVERED_FORMATS",
+    "EVOLVE_FOLDER",
+    "STAGES",
+    "STAGE_NAMES",
+    "export_base",
+    "export_scene_only",
+    "is_image_input",
+]
 
 NAV_SLACK = 0.005
 """A variant's NAV must reach ``scene.WALK_MIN_SHARE`` (0.99); where the base scene's own NAV is
@@ -57,9 +65,59 @@ def hull_cache(run: PipelineRun) -> HullCache:
     return run.hull_cache
 
 
+def is_image_input(run_input: Path, format: str) -> bool:
+    """Whether a run's input is a photograph for the image front end (``format`` ``image``, or
+    ``auto`` and an image suffix)."""
+    from scenemosaic.perception import is_image_path
+
+    return format == "image" or (format == "auto" and is_image_path(run_input))
+
+
+async def _perceive(run: PipelineRun, rec: StageRecord) -> None:
+    """The import stage of a photograph: perception (inventory, masks, 3D, world frame)."""
+    from scenemosaic.agents import AgentPolicy
+    from scenemosaic.models import UsageTracker
+    from scenemosaic.perception import perceive
+
+    cfg = run.config
+    model, owned = await _open_model(run, rec)
+    tracker = UsageTracker()
+    asking = _asking_model(run, model, tracker)
+    try:
+        result = await perceive(
+            run.input_path,
+            asking,
+            detections=cfg.detections,
+            segmenter=cfg.segmenter,
+            reconstructor=cfg.reconstructor,
+            hfov_deg=cfg.hfov_deg,
+            out_dir=run.out_dir,
+            policy=AgentPolicy(solver_fallback=cfg.solver_fallback),
+            settings=_request_settings(run),
+            seed=cfg.seed,
+        )
+    finally:
+        rec.detail["usage"] = _usage_summary(tracker)
+        if owned:
+            await model.aclose()
+    run.scene = result.scene
+    rec.detail["source_format"] = "image"
+    rec.detail["perception"] = result.report
+    run.fallbacks.extend(result.fallbacks)
+    for f in result.fallbacks:
+        run.warnings.append(f"agent {f.agent!r} answered by its rule solver: {f.reason[:160]}")
+    if result.report.get("segmenter") == "box" and cfg.segmenter == "auto":
+        from scenemosaic.perception import PERCEPTION_INSTALL
+
+        run.warnings.append(f"no segmenter installed: the objects' boxes stood in for their masks ({PERCEPTION_INSTALL})")
+
+
 async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
     from scenemosaic.exchange import load_scene
 
+    if is_image_input(run.input_path, run.config.format):
+        await _perceive(run, rec)
+        return
     scene = await asyncio.to_thread(
         functools.partial(
             load_scene, run.input_path, run.config.format, room=run.config.room, asset_dir=run.config.asset_dir

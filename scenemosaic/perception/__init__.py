@@ -1,0 +1,113 @@
+"""Perception: the image front end. A photograph becomes an ordinary :class:`~scenemosaic.scene.Scene`.
+
+Steps (``docs/perception.md``): the photograph is checked (:func:`load_image`); an inventory
+lists its objects with pixel boxes (a vision model's :class:`InventoryAgent`, or a detections
+file read by :func:`read_detections`); a :class:`Segmenter` cuts each one out; rounds of
+:class:`VerifyAgent` correct the masks; a :class:`Reconstructor` lifts every object into the
+camera frame; :func:`recover_frame` turns that into the Z-up world of ``docs/conventions.md``.
+:func:`perceive` runs them all; ``generate photo.jpg`` calls it in its import stage.
+
+Backends: segmenters ``grabcut`` (OpenCV, offline), ``box``, ``sam3`` (in-process) and any
+``http://`` server; reconstructors ``box-lifter`` (offline metrology), ``sam3d`` (in-process)
+and any ``http://`` server.
+"""
+
+from scenemosaic.perception._agents import (
+    MAX_VERIFY_ROUNDS,
+    InventoryAgent,
+    PerceptionState,
+    VerifyAgent,
+    VerifyOutput,
+    VerifyRequest,
+    mask_overlay,
+    solve_verify,
+    support_candidate,
+)
+from scenemosaic.perception._frame import recover_frame
+from scenemosaic.perception._image import (
+    DEFAULT_HFOV_DEG,
+    IMAGE_SUFFIXES,
+    MAX_IMAGE_PIXELS,
+    MAX_IMAGE_SIDE,
+    MIN_IMAGE_SIDE,
+    Camera,
+    SceneImage,
+    is_image_path,
+    load_image,
+)
+from scenemosaic.perception._inventory import DetectedObject, Inventory, inventory_problems, read_detections
+from scenemosaic.perception._lift import BoxLifter, CameraPose, size_prior
+from scenemosaic.perception._perceive import PERCEPTION_FOLDER, PerceptionResult, perceive, reconstructor_for
+from scenemosaic.perception._reconstruct import (
+    RECONSTRUCTOR_NAMES,
+    SAM3D_INSTALL,
+    HTTPReconstructor,
+    LiftedObject,
+    Reconstruction,
+    Reconstructor,
+    Sam3dReconstructor,
+    SeenObject,
+)
+from scenemosaic.perception._segment import (
+    PERCEPTION_INSTALL,
+    SAM3_INSTALL,
+    SEGMENTER_NAMES,
+    BoxSegmenter,
+    GrabCutSegmenter,
+    HTTPSegmenter,
+    ObjectMask,
+    Sam3Segmenter,
+    Segmenter,
+    segmenter_for,
+)
+
+__all__ = [
+    "DEFAULT_HFOV_DEG",
+    "IMAGE_SUFFIXES",
+    "MAX_IMAGE_PIXELS",
+    "MAX_IMAGE_SIDE",
+    "MAX_VERIFY_ROUNDS",
+    "MIN_IMAGE_SIDE",
+    "PERCEPTION_FOLDER",
+    "PERCEPTION_INSTALL",
+    "RECONSTRUCTOR_NAMES",
+    "SAM3D_INSTALL",
+    "SAM3_INSTALL",
+    "SEGMENTER_NAMES",
+    "BoxLifter",
+    "BoxSegmenter",
+    "Camera",
+    "CameraPose",
+    "DetectedObject",
+    "GrabCutSegmenter",
+    "HTTPReconstructor",
+    "HTTPSegmenter",
+    "Inventory",
+    "InventoryAgent",
+    "LiftedObject",
+    "ObjectMask",
+    "PerceptionResult",
+    "PerceptionState",
+    "Reconstruction",
+    "Reconstructor",
+    "Sam3Segmenter",
+    "Sam3dReconstructor",
+    "SceneImage",
+    "SeenObject",
+    "Segmenter",
+    "VerifyAgent",
+    "VerifyOutput",
+    "VerifyRequest",
+    "inventory_problems",
+    "is_image_path",
+    "load_image",
+    "mask_overlay",
+    "perceive",
+    "read_detections",
+    "reconstructor_for",
+    "recover_frame",
+    "segmenter_for",
+    "size_prior",
+    "solve_verify",
+    "support_candidate",
+]

@@ -1,0 +1,267 @@
+"""The image front end as one call: photograph -> inventory -> masks -> verification -> 3D -> scene.
+
+:func:`perceive` is what ``generate photo.jpg`` runs in its import stage. Every step is
+checked before the next one starts, and the photograph is checked before any of them (size,
+readability), so bad input fails early and costs nothing. What it saw is written to
+``perception/`` in the output folder: the photograph, ``inventory.json`` (which
+``--detections`` reads back), one mask PNG per object, the meshes of a mesh reconstructor and
+``perception.json`` (the camera, the fit, every verification request).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import structlog
+
+from scenemosaic.agents import AgentPolicy, FallbackRecord, run_blocking
+from scenemosaic.exceptions import ModelConfigError, UsageError
+from scenemosaic.models import Model, ModelSettings, Usage
+from scenemosaic.perception._agents import (
+    MAX_VERIFY_ROUNDS,
+    InventoryAgent,
+    PerceptionState,
+    VerifyAgent,
+    support_candidate,
+)
+from scenemosaic.perception._frame import recover_frame
+from scenemosaic.perception._image import Camera, SceneImage, load_image
+from scenemosaic.perception._inventory import DetectedObject, Inventory, clipped, read_detections
+from scenemosaic.perception._reconstruct import Reconstruction, Reconstructor, SeenObject
+from scenemosaic.perception._segment import ObjectMask, Segmenter, segmenter_for
+from scenemosaic.scene import Room, Scene, sanitize_id, traits, unique_id, write_atomic
+
+__all__ = ["PERCEPTION_FOLDER", "PerceptionResult", "perceive", "reconstructor_for"]
+
+log = structlog.get_logger(__name__)
+
+PERCEPTION_FOLDER = "perception"
+"""Where ``generate`` writes what perception saw, inside the output folder."""
+
+
+@dataclass
+class PerceptionResult:
+    """What :func:`perceive` made of a photograph."""
+
+    scene: Scene
+    inventory: list[DetectedObject]
+    masks: dict[str, ObjectMask]
+    camera: Camera
+    reconstruction: Reconstruction
+    report: dict[str, Any] = field(default_factory=dict)
+    fallbacks: list[FallbackRecord] = field(default_factory=list)
+    usage: Usage = field(default_factory=Usage)
+
+
+def reconstructor_for(spec: str | Reconstructor) -> Reconstructor:
+    """A reconstructor from its name (``auto``, ``box-lifter``, ``sam3d[:CONFIG]`` or an
+    ``http(s)://`` URL) or the object itself. ``auto``: SAM 3D when installed, else the box lifter."""
+    from scenemosaic.exceptions import MissingExtraError
+    from scenemosaic.perception._lift import BoxLifter
+    from scenemosaic.perception._reconstruct import RECONSTRUCTOR_NAMES, HTTPReconstructor, Sam3dReconstructor
+
+    if not isinstance(spec, str):
+        return spec
+    name = spec.strip()
+    if name.startswith(("http://", "https://")):
+        return HTTPReconstructor(name)
+    if name in ("box-lifter", "box_lifter", "boxlifter"):
+        return BoxLifter()
+    if name == "sam3d" or name.startswith("sam3d:"):
+        return Sam3dReconstructor(name.partition(":")[2] or None)
+    if name == "auto":
+        try:
+            return Sam3dReconstructor()
+        except (MissingExtraError, UsageError):
+            return BoxLifter()
+    raise UsageError(f"unknown reconstructor {spec!r}; choose one of: {', '.join(RECONSTRUCTOR_NAMES)}")
+
+
+def _seen(inventory: list[DetectedObject], masks: dict[str, ObjectMask]) -> list[SeenObject]:
+    """Each object with its mask, where it rests and on what: the inventory's word first, then
+    its category's usual placement; a small object on a surface rests on the furniture whose
+    box holds its lower edge (:func:`support_candidate`), else on the floor."""
+    ids = {o.id for o in inventory}
+    out = []
+    for o in inventory:
+        placement = o.placement or traits(o.category).placement
+        parent = o.on if o.on in ids else None
+        if placement == "surface" and parent is None:
+            parent = support_candidate(o, inventory)
+        if placement == "surface" and parent is None:
+            placement = "floor"
+        if parent is not None:
+            placement = "surface"
+        out.append(SeenObject(detection=o, mask=masks[o.id], placement=placement, parent=parent))
+    return out
+
+
+async def perceive(
+    image_path: str | Path,
+    model: Model,
+    *,
+    detections: str | Path | None = None,
+    segmenter: str | Segmenter = "auto",
+    reconstructor: str | Reconstructor = "auto",
+    hfov_deg: float | None = None,
+    out_dir: str | Path | None = None,
+    policy: AgentPolicy | None = None,
+    settings: ModelSettings | None = None,
+    seed: int = 0,
+    max_rounds: int = MAX_VERIFY_ROUNDS,
+) -> PerceptionResult:
+    """Turn a photograph into a scene (see the module's docstring).
+
+    The inventory comes from ``detections`` (COCO or inventory JSON) with the offline ``rules``
+    model, or from ``model`` when it is a vision model (``detections`` are then its hints). A
+    text-only model (``vision`` off) or the rules model without detections fails at once,
+    before anything is segmented. ``out_dir``: where ``perception/`` is written (nothing when
+    ``None``).
+    """
+    image = await asyncio.to_thread(load_image, image_path)
+    hints = await asyncio.to_thread(read_detections, detections, image.width, image.height, image_name=image.path.name) if detections else []
+    if not model.uses_rule_solvers and not model.vision:
+        raise ModelConfigError(
+            f"{model.name} is set up as text-only (the `vision` setting is off), and reading a photograph needs a vision "
+            "model: turn `vision` on (vision=True; drop --no-vision or SCENEMOSAIC_VISION=0), or give the objects as "
+            "detections (--detections boxes.json) with --model rules"
+        )
+    if model.uses_rule_solvers and not hints:
+        raise UsageError(
+            "no object inventory for the photograph: with the offline rules model pass detections "
+            "(--detections boxes.json, COCO or an inventory JSON), or use a vision model (--model openai:<model>)"
+        )
+    seg = await asyncio.to_thread(segmenter_for, segmenter)
+    rec_backend = await asyncio.to_thread(reconstructor_for, reconstructor)
+    camera = image.camera(hfov_deg)
+    placeholder = Scene(id="photo", room=Room.rectangle(0.0, 0.0, 1.0, 1.0), objects=[])
+    state = PerceptionState(scene=placeholder, seed=seed, policy=policy or AgentPolicy(), image=image, hints=hints)
+    usage = Usage()
+    _, used = await InventoryAgent().run(state, model, settings)
+    usage = usage + used
+    inventory = state.inventory
+    log.info("perception_inventory", objects=len(inventory), answered_by=state.outcomes["perception"].answered_by)
+
+    async def cut(objs: list[DetectedObject], seg_now: Segmenter) -> None:
+        for o in objs:
+            state.masks[o.id] = await run_blocking(seg_now.segment, image, o.label, o.box)
+
+    await cut(inventory, seg)
+    rounds: list[dict[str, Any]] = []
+    for rnd in range(1, max_rounds + 1):
+        state.round = rnd
+        verify = VerifyAgent()
+        _, used = await verify.run(state, model, settings)
+        usage = usage + used
+        requests = state.requests
+        rounds.append({"round": rnd, "answered_by": state.outcomes[verify.name].answered_by, "requests": [r.words() for r in requests]})
+        if not requests:
+            break
+        _apply_requests(state, requests)
+        redo = [o for o in state.inventory if o.id not in state.masks]
+        await cut(redo, seg)
+        for r in requests:
+            if r.action == "resegment" and r.object_id in state.masks and state.masks[r.object_id].area == 0:
+                from scenemosaic.perception._segment import BoxSegmenter
+
+                obj = next(o for o in state.inventory if o.id == r.object_id)
+                state.masks[obj.id] = BoxSegmenter().segment(image, obj.label, obj.box)
+        state.memory += [r.words() for r in requests]
+    inventory = state.inventory
+    seen = _seen(inventory, state.masks)
+    reconstruction = await run_blocking(rec_backend.reconstruct, image, camera, seen)
+    meshes = {o.id: o.mesh for o in reconstruction.objects if o.mesh is not None}
+    folder = Path(out_dir) / PERCEPTION_FOLDER if out_dir is not None else None
+    uris = {oid: f"meshes/{oid}.glb" for oid in meshes}
+    scene = recover_frame(
+        reconstruction,
+        camera,
+        scene_id=sanitize_id(image.path.stem, fallback="photo"),
+        source=str(image.path),
+        mesh_uris=uris,
+        metadata={"image": {"file": image.path.name, "width": image.width, "height": image.height}},
+    )
+    report: dict[str, Any] = {
+        "image": str(image.path),
+        "size": [image.width, image.height],
+        "camera": {"hfov_deg": round(camera.hfov_deg, 3), "focal_source": camera.source},
+        "inventory": {"objects": len(inventory), "answered_by": state.outcomes["perception"].answered_by, "hints": len(hints)},
+        "segmenter": seg.name,
+        "reconstructor": rec_backend.name,
+        "verification": rounds,
+        "mask_coverage": {o.id: round(state.masks[o.id].area / max(1.0, (o.box[2] - o.box[0]) * (o.box[3] - o.box[1])), 3) for o in inventory},
+        "placements": {s.detection.id: (s.placement if s.parent is None else f"on {s.parent}") for s in seen},
+        **{k: v for k, v in reconstruction.report.items() if k != "reconstructor"},
+    }
+    for backend in (seg, rec_backend):
+        close = getattr(backend, "close", None)
+        if callable(close):
+            close()
+    if folder is not None:
+        await asyncio.to_thread(_write_folder, folder, image, inventory, state.masks, meshes, reconstruction, report)
+    return PerceptionResult(scene, inventory, dict(state.masks), camera, reconstruction, report, list(state.fallbacks), usage)
+
+
+def _apply_requests(state: PerceptionState, requests: list[Any]) -> None:
+    image = state.need_image()
+    taken = {o.id for o in state.inventory}
+    inventory = list(state.inventory)
+    for r in requests:
+        if r.action == "remove":
+            inventory = [o for o in inventory if o.id != r.object_id]
+            state.masks.pop(r.object_id, None)
+        elif r.action == "add" and r.label and r.box:
+            oid = unique_id(sanitize_id(r.object_id or r.label), taken)
+            inventory.append(clipped(DetectedObject(id=oid, label=r.label, box=r.box, description=r.reason[:200]), image.width, image.height))
+        elif r.action == "resegment":
+            for i, o in enumerate(inventory):
+                if o.id == r.object_id:
+                    if r.box is not None:
+                        inventory[i] = clipped(o.model_copy(update={"box": r.box}), image.width, image.height)
+                    state.masks.pop(o.id, None)
+        elif r.action == "set_support":
+            inventory = [o.model_copy(update={"on": r.on, "placement": "surface"}) if o.id == r.object_id else o for o in inventory]
+    state.inventory = inventory
+
+
+def _write_folder(
+    folder: Path,
+    image: SceneImage,
+    inventory: list[DetectedObject],
+    masks: dict[str, ObjectMask],
+    meshes: dict[str, bytes],
+    reconstruction: Reconstruction,
+    report: dict[str, Any],
+) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    target = folder / f"photo{image.path.suffix.lower()}"
+    if image.path.resolve() != target.resolve():
+        shutil.copyfile(image.path, target)
+    write_atomic(folder / "inventory.json", Inventory(objects=inventory).model_dump_json(indent=2).encode("utf-8"))
+    (folder / "masks").mkdir(exist_ok=True)
+    for o in inventory:
+        write_atomic(folder / "masks" / f"{o.id}.png", masks[o.id].png(image.width, image.height))
+    if meshes:
+        (folder / "meshes").mkdir(exist_ok=True)
+        for oid, data in meshes.items():
+            write_atomic(folder / "meshes" / f"{oid}.glb", data)
+    lifted = [
+        {
+            "id": o.id,
+            "category": o.category,
+            "placement": o.placement,
+            "on": o.parent,
+            "position_camera": [round(float(v), 5) for v in o.position],
+            "rotation_camera": [round(float(v), 6) for v in np.asarray(o.rotation).ravel()],
+            "extents": [round(v, 4) for v in o.extents],
+        }
+        for o in reconstruction.objects
+    ]
+    payload = {**report, "objects": lifted}
+    write_atomic(folder / "perception.json", (json.dumps(payload, indent=2) + "\n").encode("utf-8"))
