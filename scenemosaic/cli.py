@@ -134,7 +134,7 @@ def _hard_exit(code: int) -> NoReturn:
         os._exit(code)
 
 
-def _run_with_progress(input_path: Path, out: Path, config: GenerateConfig) -> GenerateResult:
+def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfig) -> GenerateResult:
     stop = _Stop(out / "report.json")
     with Progress(
         SpinnerColumn(),
@@ -176,7 +176,7 @@ def _failed_stage(out: Path) -> str | None:
     return value if isinstance(value, str) else None
 
 
-def _run_cli(input_path: Path, out: Path, config: GenerateConfig) -> None:
+def _run_cli(input_path: Path | None, out: Path, config: GenerateConfig) -> None:
     """Run, then map the outcome to an exit code: errors are one line, never a traceback."""
     try:
         result = _run_with_progress(input_path, out, config)
@@ -244,6 +244,14 @@ def generate(
         str,
         typer.Option("--reconstructor", help="A photograph's 3D lifter: auto, box-lifter, sam3d[:pipeline.yaml] or http://HOST:PORT/reconstruct."),
     ] = "auto",
+    prompt: Annotated[
+        str | None,
+        typer.Option("--prompt", help="Draw the room from this text first (the model's /images/generations), instead of INPUT."),
+    ] = None,
+    image_model: Annotated[
+        str | None, typer.Option("--image-model", help="The images endpoint's model (default: the --model's name).")
+    ] = None,
+    image_size: Annotated[str, typer.Option("--image-size", help="Size asked of the images endpoint.")] = "1024x1024",
     hfov: Annotated[
         float | None,
         typer.Option("--hfov", min=5.0, max=170.0, help="A photograph's horizontal field of view in degrees (default: EXIF, else 60)."),
@@ -328,8 +336,10 @@ def generate(
             raise typer.Exit(code=EXIT_BAD_INPUT) from exc
         _run_cli(input_path, resume, config)
         return
-    if input_path is None or out is None:
-        _err.print("[red]error:[/red] give INPUT and --out (or --resume OUT to continue a stopped run)")
+    if (input_path is None) == (prompt is None) or out is None:
+        _err.print(
+            "[red]error:[/red] give INPUT or --prompt TEXT (one of them), and --out (or --resume OUT to continue a stopped run)"
+        )
         raise typer.Exit(code=EXIT_BAD_INPUT)
     config = GenerateConfig(
         format=format,
@@ -337,6 +347,9 @@ def generate(
         segmenter=segmenter,
         reconstructor=reconstructor,
         hfov_deg=hfov,
+        prompt=prompt,
+        image_model=image_model,
+        image_size=image_size,
         variants=variants,
         evolve=evolve,
         evolve_rounds=rounds,

@@ -162,5 +162,16 @@ class Model(abc.ABC):
         """
         return None
 
+    async def generate_image(self, prompt: str, *, size: str = "1024x1024", model: str | None = None) -> tuple[bytes, Usage]:
+        """Draw ``prompt`` as a PNG through an images endpoint (``/images/generations``); ``model``
+        names the image model when it is not this model. Models without one raise
+        :class:`~scenemosaic.exceptions.ModelConfigError`; wrappers forward the call."""
+        from scenemosaic.exceptions import ModelConfigError
+
+        raise ModelConfigError(
+            f"{self.name} cannot draw an image: a text prompt needs an OpenAI-compatible images endpoint "
+            "(--model openai:<model>@<base_url>, and --image-model when the image model has another name)"
+        )
+
     async def aclose(self) -> None:  # noqa: B027 - optional hook, most models hold nothing
         """Release connections; a no-op unless the model holds any."""

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import io
 import json
 import math
 import os
@@ -59,6 +60,8 @@ DEFAULT_TIMEOUT_S = 120.0
 """Time-out of each HTTP attempt when neither the request's settings nor the model set one."""
 
 DEFAULT_MAX_REPLY_BYTES = 1_000_000
+MAX_IMAGE_REPLY_BYTES = 64_000_000
+"""Largest reply read from an images endpoint (a base64 PNG)."""
 """Largest reply body read; a larger 200 reply is an invalid reply (no agent output is near 1 MB)."""
 
 CONTEXT_ESTIMATE_SLACK = 1.1
@@ -251,8 +254,8 @@ class _Spent:
         raw = raw if isinstance(raw, dict) else {}
         self.usage = self.usage + Usage(
             requests=1,
-            input_tokens=_count(raw.get("prompt_tokens")),
-            output_tokens=_count(raw.get("completion_tokens")),
+            input_tokens=_count(raw.get("prompt_tokens", raw.get("input_tokens"))),
+            output_tokens=_count(raw.get("completion_tokens", raw.get("output_tokens"))),
             images=self.images,
         )
 
@@ -523,6 +526,43 @@ class OpenAIChatModel(CompletionModel):
             exc.usage = spent.usage  # type: ignore[attr-defined]
             raise
 
+    async def generate_image(self, prompt: str, *, size: str = "1024x1024", model: str | None = None) -> tuple[bytes, Usage]:
+        """``POST /images/generations`` (``n`` = 1, ``response_format`` ``b64_json``) under the same
+        retries, time-outs and reply-size cap as chat requests; the PNG bytes and the usage
+        (requests, and tokens when the server reports them). A reply that is no image raises
+        :class:`~scenemosaic.exceptions.ModelError` naming what came back."""
+        if not prompt.strip():
+            raise ModelConfigError("the image prompt is empty")
+        body: dict[str, Any] = {"model": model or self.model, "prompt": prompt, "n": 1, "size": size, "response_format": "b64_json"}
+        spent = _Spent(images=0)
+        give_up_at = self._clock() + self.retry.max_total_s
+        try:
+            data = await self._post(
+                body,
+                timeout_s=max(self.timeout_s, 180.0),
+                give_up_at=give_up_at,
+                spent=spent,
+                path="/images/generations",
+                max_bytes=MAX_IMAGE_REPLY_BYTES,
+            )
+        except _UnusableReply as bad:
+            raise ModelError(f"{self.name}: the images endpoint at {self.base_url} gave no image: {bad.problem}") from bad
+        items = data.get("data")
+        first = items[0] if isinstance(items, list) and items and isinstance(items[0], dict) else {}
+        encoded = first.get("b64_json")
+        if not isinstance(encoded, str):
+            what = "a URL instead of b64_json" if "url" in first else f"keys {sorted(data)[:8]}"
+            raise ModelError(f"{self.name}: the images endpoint at {self.base_url} answered {what}; expected data[0].b64_json")
+        try:
+            png = base64.b64decode(encoded, validate=True)
+            from PIL import Image
+
+            with Image.open(io.BytesIO(png)) as img:
+                img.verify()
+        except Exception as exc:
+            raise ModelError(f"{self.name}: data[0].b64_json from {self.base_url} is not an image ({exc})") from exc
+        return png, spent.usage
+
     def _refuse_if_too_long(self, messages: list[Message]) -> None:
         """Raise :class:`ModelContextLengthError` (nothing sent) for a prompt that clearly cannot fit."""
         if self.context_tokens is None:
@@ -547,7 +587,14 @@ class OpenAIChatModel(CompletionModel):
             )
 
     async def _post(
-        self, body: dict[str, Any], *, timeout_s: float, give_up_at: float, spent: _Spent
+        self,
+        body: dict[str, Any],
+        *,
+        timeout_s: float,
+        give_up_at: float,
+        spent: _Spent,
+        path: str = "/chat/completions",
+        max_bytes: int | None = None,
     ) -> dict[str, Any]:
         """Send ``body`` until an attempt succeeds, a failure is not transient, or the policy says stop."""
         policy = self.retry
@@ -560,7 +607,7 @@ class OpenAIChatModel(CompletionModel):
             # No attempt runs past the request's total budget.
             attempt_timeout = max(0.001, min(budget, give_up_at - self._clock()))
             try:
-                return await self._post_once(body, timeout_s=attempt_timeout, spent=spent)
+                return await self._post_once(body, timeout_s=attempt_timeout, spent=spent, path=path, max_bytes=max_bytes)
             except _RETRYABLE as exc:
                 failure: BaseException = exc
             except httpx.UnsupportedProtocol as exc:
@@ -616,12 +663,20 @@ class OpenAIChatModel(CompletionModel):
         backoff: float = self.retry.initial_backoff_s * 2.0 ** max(0, attempt - 1)
         return min(backoff, self.retry.max_backoff_s) + self._rng.uniform(0.0, self.retry.jitter_s)
 
-    async def _post_once(self, body: dict[str, Any], *, timeout_s: float, spent: _Spent) -> dict[str, Any]:
+    async def _post_once(
+        self,
+        body: dict[str, Any],
+        *,
+        timeout_s: float,
+        spent: _Spent,
+        path: str = "/chat/completions",
+        max_bytes: int | None = None,
+    ) -> dict[str, Any]:
         """One attempt: the reply's JSON object, or an exception saying what went wrong."""
         headers = {"Accept": "application/json"}
         if self._api_key:
             headers["Authorization"] = f"Bearer {self._api_key}"
-        url = f"{self.base_url}/chat/completions"
+        url = f"{self.base_url}{path}"
         client = self._http()
         try:
             # httpx's time-out bounds each connect, write and read; a server that trickles
@@ -630,7 +685,7 @@ class OpenAIChatModel(CompletionModel):
                 async with client.stream(
                     "POST", url, json=body, headers=headers, timeout=timeout_s
                 ) as response:
-                    raw, whole = await self._read_body(response)
+                    raw, whole = await self._read_body(response, max_bytes or self.max_reply_bytes)
         except TimeoutError as exc:
             if scope.expired():
                 raise _AttemptTimedOut(f"no complete reply within {timeout_s:g} s") from exc
@@ -689,9 +744,8 @@ class OpenAIChatModel(CompletionModel):
             )
         raise ModelHTTPError(message, status_code=status, body=text)
 
-    async def _read_body(self, response: httpx.Response) -> tuple[bytes, bool]:
-        """The body, and whether it is whole: reading stops past ``max_reply_bytes``."""
-        cap = self.max_reply_bytes
+    async def _read_body(self, response: httpx.Response, cap: int) -> tuple[bytes, bool]:
+        """The body, and whether it is whole: reading stops past ``cap`` bytes."""
         declared = response.headers.get("content-length", "")
         if declared.isdigit() and int(declared) > cap:
             # Announced too large: read only the first chunk, for the excerpt.

@@ -26,6 +26,7 @@ recorded request of the same agent: ``model``, ``messages[i]``, ``schema`` or ``
 
 from __future__ import annotations
 
+import base64
 import dataclasses
 import hashlib
 import json
@@ -135,12 +136,12 @@ def _differences(recorded: dict[str, Any], wanted: dict[str, Any]) -> list[str]:
     diff: list[str] = []
     if recorded.get("model") != wanted["model"]:
         diff.append("model")
-    old_msgs, new_msgs = recorded.get("messages", []), wanted["messages"]
+    old_msgs, new_msgs = recorded.get("messages", []), wanted.get("messages", [])
     for i in range(max(len(old_msgs), len(new_msgs))):
         if i >= len(old_msgs) or i >= len(new_msgs) or _dumps(old_msgs[i]) != _dumps(new_msgs[i]):
             diff.append(f"messages[{i}]")
-    for part in ("schema", "settings"):
-        if _dumps(recorded.get(part)) != _dumps(wanted[part]):
+    for part in ("schema", "settings", "images"):
+        if _dumps(recorded.get(part)) != _dumps(wanted.get(part)):
             diff.append(part)
     return diff
 
@@ -400,6 +401,40 @@ class ReplayModel(Model):
         self.cassette.put(key, entry, model=self.name, vision=self.vision)
         log.debug("recorded model reply", model=self.name, agent=agent, key=key[:12])
         return output, usage
+
+    async def generate_image(self, prompt: str, *, size: str = "1024x1024", model: str | None = None) -> tuple[bytes, Usage]:
+        """Replay, record or pass through an images request (entry ``agent`` = ``"images"``, the
+        PNG stored base64 in ``image_png``)."""
+        if self.mode == "off":
+            assert self.wrapped is not None
+            return await self.wrapped.generate_image(prompt, size=size, model=model)
+        canonical = {"model": self.name, "images": {"prompt": prompt, "size": size, "image_model": model}}
+        key = request_key(canonical)
+        if self.mode in ("replay", "record_missing"):
+            entry = self.cassette.get(key)
+            if entry is not None:
+                if "error" in entry:
+                    raise _recorded_error(entry["error"])
+                return base64.b64decode(str(entry["image_png"])), Usage(**entry.get("usage", {}))
+            if self.mode == "replay":
+                raise self.cassette.miss_error("images", canonical)
+        assert self.wrapped is not None
+        try:
+            png, usage = await self.wrapped.generate_image(prompt, size=size, model=model)
+        except (ModelDeadlineExceeded, ModelUnavailableError, ReplayMissError):
+            raise
+        except ModelError as exc:
+            entry = {"agent": "images", "request": canonical, "error": _error_record(exc), "usage": _usage_of(exc)}
+            self.cassette.put(key, entry, model=self.name, vision=self.vision)
+            raise
+        entry = {
+            "agent": "images",
+            "request": canonical,
+            "image_png": base64.b64encode(png).decode("ascii"),
+            "usage": dataclasses.asdict(usage),
+        }
+        self.cassette.put(key, entry, model=self.name, vision=self.vision)
+        return png, usage
 
     def _replayed(self, entry: dict[str, Any], output_type: type[OutputT], agent: str | None) -> OutputT:
         try:

@@ -61,6 +61,10 @@ class WrapperModel(Model):
         """Forward to the wrapped model."""
         return await self.wrapped.request(messages, output_type, settings, context=context)
 
+    async def generate_image(self, prompt: str, *, size: str = "1024x1024", model: str | None = None) -> tuple[bytes, Usage]:
+        """Forward to the wrapped model."""
+        return await self.wrapped.generate_image(prompt, size=size, model=model)
+
     async def aclose(self) -> None:
         """Close the wrapped model."""
         await self.wrapped.aclose()

@@ -367,7 +367,7 @@ def _room_direction(image: SceneImage, camera: Camera, pose: CameraPose) -> tupl
         return None
     angles: list[float] = []
     weights: list[float] = []
-    for x1, y1, x2, y2 in lines[:, 0, :] / scale:
+    for x1, y1, x2, y2 in np.asarray(lines, dtype=np.float64).reshape(-1, 4) / scale:
         a = pose.floor_ray(camera, float(x1), float(y1))
         b = pose.floor_ray(camera, float(x2), float(y2))
         if a is None or b is None:

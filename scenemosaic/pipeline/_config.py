@@ -47,6 +47,14 @@ class GenerateConfig:
     reconstructor: Any = "auto"
     """How a photograph's objects are lifted to 3D (``--reconstructor``): ``auto``, ``box-lifter``,
     ``sam3d[:pipeline.yaml]``, an ``http://`` server, or a :class:`~scenemosaic.perception.Reconstructor`."""
+    prompt: str | None = None
+    """Draw the room from this text first (``--prompt``): the model's images endpoint
+    (``/images/generations``) makes ``OUT/prompt.png``, which then goes through the image front
+    end like a photograph. Give no input with it."""
+    image_model: str | None = None
+    """The images endpoint's model name (``--image-model``); ``None``: the chat model's name."""
+    image_size: str = "1024x1024"
+    """Size asked of the images endpoint (``--image-size``)."""
     hfov_deg: float | None = None
     """Horizontal field of view of a photograph input, degrees (``--hfov``); ``None``: from its
     EXIF focal length, else :data:`~scenemosaic.perception.DEFAULT_HFOV_DEG`."""

@@ -35,7 +35,7 @@ from scenemosaic.pipeline._config import (
     StageCallback,
     StageRecord,
 )
-from scenemosaic.pipeline._stages import STAGES, export_base, export_scene_only, is_image_input
+from scenemosaic.pipeline._stages import PROMPT_IMAGE, STAGES, export_base, export_scene_only, is_image_input
 from scenemosaic.scene import Scene
 
 __all__ = ["REPORT_FILE", "agenerate", "checkpoint_config", "generate", "run_sync", "stage_progress"]
@@ -51,6 +51,7 @@ _OUTPUTS = ("base", "evolve", "perception", "contact_sheet.png", REPORT_FILE, ".
 _CONFIG_KEYS = (
     "format", "model", "seed", "room", "stabilize", "solver_fallback", "vision", "request_timeout_s", "deadline_s",
     "variants", "evolve", "evolve_rounds", "save_views", "segmenter", "reconstructor", "hfov_deg",
+    "prompt", "image_model", "image_size",
 )  # fmt: skip
 """The settings that decide a run's results; a resumed run must agree on them."""
 
@@ -95,7 +96,7 @@ def _prepare_folders(input_path: Path, out: Path, config: GenerateConfig) -> Pat
     the same input (not resumed) first removes the previous results, so a failing re-run never
     leaves an old ``base/`` beside its new report.
     """
-    if not input_path.exists():
+    if not input_path.exists() and config.prompt is None:
         raise UsageError(f"input not found: {input_path}")
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out} exists and is not a folder")
@@ -117,6 +118,19 @@ def _prepare_folders(input_path: Path, out: Path, config: GenerateConfig) -> Pat
                     target.unlink()
     out.mkdir(parents=True, exist_ok=True)
     return input_path if input_path.is_dir() else input_path.parent
+
+
+def _input_of(input_path: str | Path | None, out: Path, config: GenerateConfig) -> Path:
+    """The run's input: the given path, or for a text prompt the image it is drawn into."""
+    if config.prompt is None:
+        if input_path is None:
+            raise UsageError("give an input (a scene file or folder, or a photograph), or a text prompt")
+        return Path(input_path)
+    if input_path is not None and Path(input_path).resolve() != (out / PROMPT_IMAGE).resolve():
+        raise UsageError("give an input or a text prompt, not both")
+    if not config.prompt.strip():
+        raise UsageError("the text prompt is empty")
+    return out / PROMPT_IMAGE
 
 
 def _previous_input(out: Path) -> str | None:
@@ -249,13 +263,16 @@ def _check_config(config: GenerateConfig) -> None:
 
 
 async def agenerate(
-    input_path: str | Path,
+    input_path: str | Path | None,
     out_dir: str | Path,
     config: GenerateConfig | None = None,
     *,
     on_stage: StageCallback | None = None,
 ) -> GenerateResult:
     """Run the pipeline on ``input_path`` and write the output layout under ``out_dir``.
+
+    ``input_path`` is a scene file or folder, or a photograph (the image front end); with
+    ``config.prompt`` it is ``None`` and the room is drawn from the text first (``OUT/prompt.png``).
 
     Raises the failing stage's error after writing ``report.json`` (and ``base/`` from the
     last good scene when there is one), so partial results are kept. Cancelling the task stops
@@ -265,7 +282,8 @@ async def agenerate(
     """
     config = config or GenerateConfig()
     _check_config(config)
-    input_path, out = Path(input_path), Path(out_dir)
+    out = Path(out_dir)
+    input_path = _input_of(input_path, out, config)
     base_dir = await asyncio.to_thread(_prepare_folders, input_path, out, config)
     if is_image_input(input_path, config.format):  # a photograph's meshes are written beside what perception saw
         from scenemosaic.perception import PERCEPTION_FOLDER
@@ -354,7 +372,7 @@ async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapse
 
 
 def generate(
-    input_path: str | Path,
+    input_path: str | Path | None,
     out_dir: str | Path,
     config: GenerateConfig | None = None,
     *,

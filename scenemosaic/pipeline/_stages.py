@@ -27,6 +27,7 @@ log = structlog.get_logger(__name__)
 __all__ = [
     "DELIVERED_FORMATS",
     "EVOLVE_FOLDER",
+    "PROMPT_IMAGE",
     "STAGES",
     "STAGE_NAMES",
     "export_base",
@@ -38,6 +39,9 @@ NAV_SLACK = 0.005
 """A variant's NAV must reach ``scene.WALK_MIN_SHARE`` (0.99); where the base scene's own NAV is
 lower (a room whose furniture cuts the floor and the critic found no clean move that reopens
 it), the base's NAV less this much (one raster cell's worth of noise)."""
+
+PROMPT_IMAGE = "prompt.png"
+"""The image a text prompt is drawn into, in the output folder (``prompt.json`` beside it says from what)."""
 
 EVOLVE_FOLDER = "evolve"
 """Where ``generate`` writes each unit's evolved layouts (and, with ``save_views``, their views)."""
@@ -84,6 +88,8 @@ async def _perceive(run: PipelineRun, rec: StageRecord) -> None:
     tracker = UsageTracker()
     asking = _asking_model(run, model, tracker)
     try:
+        if cfg.prompt is not None:
+            await _draw_prompt(run, rec, asking)
         result = await perceive(
             run.input_path,
             asking,
@@ -110,6 +116,30 @@ async def _perceive(run: PipelineRun, rec: StageRecord) -> None:
         from scenemosaic.perception import PERCEPTION_INSTALL
 
         run.warnings.append(f"no segmenter installed: the objects' boxes stood in for their masks ({PERCEPTION_INSTALL})")
+
+
+async def _draw_prompt(run: PipelineRun, rec: StageRecord, model: Model) -> None:
+    """Draw the text prompt into ``OUT/prompt.png`` (kept, with ``prompt.json``, so a re-run or a
+    resumed run of the same prompt does not pay for it again)."""
+    import json
+
+    from scenemosaic.scene import write_atomic
+
+    cfg = run.config
+    assert cfg.prompt is not None
+    wanted = {"prompt": cfg.prompt, "size": cfg.image_size, "image_model": cfg.image_model, "model": model.name}
+    record = run.input_path.with_suffix(".json")
+    try:
+        drawn = json.loads(record.read_text(encoding="utf-8")) == wanted and run.input_path.is_file()
+    except (OSError, ValueError):
+        drawn = False
+    rec.detail["prompt"] = {**wanted, "reused": drawn}
+    if drawn:
+        return
+    png, usage = await model.generate_image(cfg.prompt, size=cfg.image_size, model=cfg.image_model)
+    await asyncio.to_thread(write_atomic, run.input_path, png)
+    await asyncio.to_thread(write_atomic, record, json.dumps(wanted, indent=2) + "\n")
+    rec.detail["prompt"]["requests"] = usage.requests
 
 
 async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
