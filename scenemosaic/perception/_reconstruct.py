@@ -7,7 +7,7 @@ turns into a Z-up world. Adapters:
 * ``box-lifter`` (:class:`~scenemosaic.perception.BoxLifter`, ``_lift.py``) — offline
   single-view metrology: a coarse prior from boxes and category sizes;
 * ``sam3d`` (:class:`Sam3dReconstructor`) — SAM 3D Objects in-process (its ``inference``
-  module and checkpoints; ``pip install 'scenemosaic[sam3d]'`` names the set-up);
+  module and checkpoints, installed from its repository: :data:`SAM3D_INSTALL`);
 * ``http://...`` (:class:`HTTPReconstructor`) — a SAM 3D server speaking the JSON protocol of
   ``docs/perception.md``.
 """
@@ -41,7 +41,10 @@ __all__ = [
     "SeenObject",
 ]
 
-SAM3D_INSTALL = "pip install 'scenemosaic[sam3d]'"
+SAM3D_INSTALL = (
+    "SAM 3D Objects is not on PyPI: install it from https://github.com/facebookresearch/sam-3d-objects "
+    "(its environment and checkpoints) and put its notebook/ folder on PYTHONPATH"
+)
 RECONSTRUCTOR_NAMES = ("auto", "box-lifter", "sam3d[:CONFIG.yaml]", "http://HOST:PORT/reconstruct")
 """What ``--reconstructor`` accepts."""
 
@@ -185,9 +188,8 @@ class Sam3dReconstructor:
                 from inference import Inference  # SAM 3D Objects' notebook/inference.py
             except ImportError as exc:
                 raise MissingExtraError(
-                    f"the sam3d reconstructor needs SAM 3D Objects and its checkpoints, which are not installed: {SAM3D_INSTALL} "
-                    "and put its notebook/ folder on PYTHONPATH; or point to a server with --reconstructor http://HOST:PORT/reconstruct, "
-                    "or use --reconstructor box-lifter"
+                    f"the sam3d reconstructor needs SAM 3D Objects and its checkpoints, which are not installed. {SAM3D_INSTALL}; "
+                    "or point to a server with --reconstructor http://HOST:PORT/reconstruct, or use --reconstructor box-lifter"
                 ) from exc
             if not Path(path).is_file():
                 raise UsageError(f"SAM 3D checkpoint config {path} not found; set SCENEMOSAIC_SAM3D_CONFIG or pass sam3d:<pipeline.yaml>")

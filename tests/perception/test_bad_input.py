@@ -175,7 +175,7 @@ def test_missing_backends_name_the_install(monkeypatch: pytest.MonkeyPatch) -> N
     with pytest.raises(MissingExtraError, match=r"pip install 'scenemosaic\[sam3\]'.*--segmenter http://"):
         Sam3Segmenter()
     monkeypatch.setitem(__import__("sys").modules, "inference", None)
-    with pytest.raises(MissingExtraError, match=r"pip install 'scenemosaic\[sam3d\]'.*--reconstructor http://"):
+    with pytest.raises(MissingExtraError, match=r"github.com/facebookresearch/sam-3d-objects.*PYTHONPATH.*--reconstructor http://"):
         Sam3dReconstructor()
     monkeypatch.setitem(__import__("sys").modules, "cv2", None)
     with pytest.raises(MissingExtraError, match=r"pip install 'scenemosaic\[perception\]'"):
