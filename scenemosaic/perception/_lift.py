@@ -23,10 +23,12 @@ import numpy as np
 import structlog
 
 from scenemosaic.perception._image import Camera, SceneImage
+from scenemosaic.perception._inventory import Placement
 from scenemosaic.perception._reconstruct import LiftedObject, Reconstruction, SeenObject
-from scenemosaic.scene import FloatArray, normalize_category, thor_type, traits
+from scenemosaic.scene import FloatArray, load_priors, normalize_category, thor_type, traits
 
 __all__ = [
+    "CAMERA_HEIGHT_SIGMA",
     "DEFAULT_CAMERA_HEIGHT",
     "DEFAULT_PITCH_DEG",
     "BoxLifter",
@@ -36,14 +38,24 @@ __all__ = [
 
 log = structlog.get_logger(__name__)
 
-DEFAULT_CAMERA_HEIGHT = 1.5
-"""Camera height (metres) assumed when no floor object constrains it, and the prior's centre."""
+DEFAULT_CAMERA_HEIGHT = 1.6
+"""Camera height (metres) assumed when no floor object constrains it, and the prior's centre: a
+photograph taken standing, at eye level."""
+CAMERA_HEIGHT_SIGMA = 0.15
+"""Standard deviation (metres) of the camera height's prior."""
 DEFAULT_PITCH_DEG = 15.0
 """Downward pitch (degrees) assumed when no floor object constrains it, and the prior's centre."""
 
-# Sizes (w, d, h) for categories the ProcTHOR database has no type for, or a misleading one.
+# Sizes (w, d, h) for categories the ProcTHOR database has no type for, or lumps with others
+# (its "Chair" holds stools and office chairs, its "SideTable" nightstands and end tables, its
+# "Dresser" wardrobes): common retail dimensions of the piece.
 _OWN_PRIORS: dict[str, tuple[float, float, float]] = {
     "wardrobe": (1.2, 0.6, 2.0),
+    "dining_chair": (0.46, 0.53, 0.95),
+    "dining_table": (1.6, 0.9, 0.75),
+    "coffee_table": (1.1, 0.6, 0.42),
+    "nightstand": (0.5, 0.4, 0.55),
+    "tv_stand": (1.6, 0.45, 0.5),
     "rug": (2.0, 1.4, 0.01),
     "pendant_lamp": (0.5, 0.5, 0.6),
     "ceiling_lamp": (0.5, 0.5, 0.3),
@@ -226,10 +238,13 @@ class BoxLifter:
             centre = np.array([p[0], p[1], 0.0])
             placed[o.detection.id] = (centre, size)
             lifted.append(self._lifted(o, pose, centre, size, _facing_yaw(p[0], p[1], room_yaw, q)))
-        for o in others:
-            centre, size = self._fit_single(camera, pose, o, priors[o.detection.id], placed, room_yaw)
+        rests: dict[str, str] = {}
+        for o in sorted(others, key=lambda s: s.parent is not None):  # supports before what they hold
+            centre, size, rest = self._fit_single(camera, pose, o, priors[o.detection.id], placed, room_yaw)
             placed[o.detection.id] = (centre, size)
-            lifted.append(self._lifted(o, pose, centre, size, _facing_yaw(centre[0], centre[1], room_yaw)))
+            rests[o.detection.id] = rest
+            lifted.append(self._lifted(o, pose, centre, size, _facing_yaw(centre[0], centre[1], room_yaw), rest))
+        report["resting"] = rests
         up = pose.camera_from_floor @ np.array([0.0, 0.0, 1.0])
         return Reconstruction(lifted, floor_up=up, camera_height=pose.height, yaw_hint=room_yaw, report=report)
 
@@ -252,60 +267,84 @@ class BoxLifter:
         prior: tuple[tuple[float, float, float], bool],
         placed: dict[str, tuple[FloatArray, FloatArray]],
         room_yaw: float,
-    ) -> tuple[FloatArray, FloatArray]:
-        """An object off the floor, the camera fixed: its place and size from its box."""
+    ) -> tuple[FloatArray, FloatArray, str]:
+        """An object off the floor fit, the camera fixed: its place and size from its box, under
+        each hypothesis of where it rests (:func:`_hypotheses`); the one costing least wins."""
         from scipy.optimize import least_squares
 
         base = np.asarray(prior[0])
         sig = _SIGMA_KNOWN if prior[1] else _SIGMA_UNKNOWN
         box = np.asarray(o.detection.box, dtype=np.float64)
         weights = _edge_weights(box[None, :], camera)[0]
-        support_z: float | None = None
-        if o.parent is not None and o.parent in placed:
-            pc, ps = placed[o.parent]
-            support_z = float(pc[2] + ps[2])
         # first guess: at the depth where the prior's width fills the box
         width_px = max(box[2] - box[0], 2.0)
         depth = float(np.clip(camera.fx * max(base[0], base[1]) / width_px, 0.3, 20.0))
         ray = pose.camera_from_floor.T @ camera.ray((box[0] + box[2]) / 2, (box[1] + box[3]) / 2)
-        centre = ray / ray[1] * depth if ray[1] > 1e-3 else ray * depth
-        centre = centre + np.array([0.0, 0.0, pose.height])
-        if support_z is not None:
-            x0 = np.array([centre[0], centre[1], 0.0, 0.0])
-        else:
-            x0 = np.array([centre[0], centre[1], centre[2] - base[2] / 2, 0.0, 0.0])
+        guess = (ray / ray[1] * depth if ray[1] > 1e-3 else ray * depth) + np.array([0.0, 0.0, pose.height])
+        best: tuple[float, FloatArray, FloatArray, str] | None = None
+        for name, z_mean, z_sigma in _hypotheses(o, placed):
 
-        def residuals(x: FloatArray) -> FloatArray:
-            z = support_z if support_z is not None else x[2]
-            lf, lh = (x[2], x[3]) if support_z is not None else (x[3], x[4])
-            size = base * np.exp([lf, lf, lh])
-            yaw = _facing_yaw(x[0], x[1], room_yaw)
-            pred = _boxes(camera, pose, np.array([[x[0], x[1], z]]), size[None, :], np.array([yaw]))[0]
-            return np.concatenate([(pred - box) * weights, [lf / sig, lh / sig]])
+            def residuals(x: FloatArray, z_mean: float = z_mean, z_sigma: float | None = z_sigma) -> FloatArray:
+                z = z_mean if z_sigma == 0.0 else x[4]
+                size = base * np.exp([x[2], x[2], x[3]])
+                yaw = _facing_yaw(x[0], x[1], room_yaw)
+                pred = _boxes(camera, pose, np.array([[x[0], x[1], z]]), size[None, :], np.array([yaw]))[0]
+                extra = [] if not z_sigma else [(z - z_mean) / z_sigma]
+                return np.concatenate([(pred - box) * weights, [x[2] / sig, x[3] / sig], extra])
 
-        result = least_squares(residuals, x0, x_scale="jac", max_nfev=300)
-        x = result.x
-        if support_z is not None:
-            centre = np.array([x[0], x[1], support_z])
-            size = base * np.exp([x[2], x[2], x[3]])
-        else:
-            centre = np.array([x[0], x[1], max(0.0, x[2])])
-            size = base * np.exp([x[3], x[3], x[4]])
-        return centre, size
+            z0 = z_mean if z_sigma is not None else max(0.0, float(guess[2] - base[2] / 2))
+            x0 = np.array([guess[0], guess[1], 0.0, 0.0] + ([] if z_sigma == 0.0 else [z0]))
+            result = least_squares(residuals, x0, x_scale="jac", max_nfev=300)
+            x = result.x
+            z = z_mean if z_sigma == 0.0 else max(0.0, float(x[4]))
+            if best is None or result.cost < best[0]:
+                best = (float(result.cost), np.array([x[0], x[1], z]), base * np.exp([x[2], x[2], x[3]]), name)
+        assert best is not None
+        return best[1], best[2], best[3]
 
     @staticmethod
-    def _lifted(o: SeenObject, pose: CameraPose, centre: FloatArray, size: FloatArray, yaw: float) -> LiftedObject:
+    def _lifted(
+        o: SeenObject, pose: CameraPose, centre: FloatArray, size: FloatArray, yaw: float, rest: str = "floor"
+    ) -> LiftedObject:
         r_floor_obj = _yaw_matrices(np.array([yaw]))[0]
+        placement: Placement = "floor" if rest == "floor" else o.placement
         return LiftedObject(
             id=o.detection.id,
             category=o.detection.category,
-            placement=o.placement,
+            placement=placement,
             position=pose.to_camera(centre[None, :])[0],
             rotation=pose.camera_from_floor @ r_floor_obj,
             extents=(float(size[0]), float(size[1]), float(size[2])),
             parent=o.parent,
             description=o.detection.description,
         )
+
+
+RAISED_HEIGHT = (0.75, 0.25)
+"""Prior (mean, standard deviation, metres) of the bottom of a small object resting on furniture
+that is not in view: a table's or desk's top."""
+WALL_HEIGHT = (1.2, 0.6)
+"""Prior (mean, standard deviation, metres) of the bottom of a wall-mounted object."""
+
+
+def _hypotheses(o: SeenObject, placed: dict[str, tuple[FloatArray, FloatArray]]) -> list[tuple[str, float, float | None]]:
+    """Where an object off the floor fit may rest, as (name, bottom height, its standard
+    deviation): 0 fixes the height, ``None`` leaves it free. On its support's top when it has
+    one in view; on a wall or the ceiling when the inventory says so; else, for a small object
+    resting on nothing in view: on the floor, on furniture out of view (:data:`RAISED_HEIGHT`),
+    or on a wall (:data:`WALL_HEIGHT`) when its type may hang there."""
+    if o.parent is not None and o.parent in placed:
+        pc, ps = placed[o.parent]
+        return [("on", float(pc[2] + ps[2]), 0.0)]
+    if o.placement == "wall":
+        return [("wall", *WALL_HEIGHT)]
+    if o.placement == "ceiling":
+        return [("ceiling", 0.0, None)]
+    out: list[tuple[str, float, float | None]] = [("floor", 0.0, 0.0), ("raised", *RAISED_HEIGHT)]
+    kind = thor_type(o.detection.category)
+    if traits(o.detection.category).placement == "wall" or (kind is not None and kind in load_priors().wall):
+        out.append(("wall", *WALL_HEIGHT))
+    return out
 
 
 def _edge_weights(obs: FloatArray, camera: Camera) -> FloatArray:
@@ -343,7 +382,7 @@ def _floor_residuals(
     yaws = np.array([_facing_yaw(a, b, room_yaw, q) for (a, b), q in zip(p[:, :2], quarters, strict=True)])
     pred = _boxes(camera, pose, centres, sizes, yaws)
     priors = np.concatenate([p[:, 2] / sig, p[:, 3] / sig])
-    camera_prior = [(x[0] - DEFAULT_CAMERA_HEIGHT) / 1.5, (x[1] - math.radians(DEFAULT_PITCH_DEG)) / math.radians(45.0)]
+    camera_prior = [(x[0] - DEFAULT_CAMERA_HEIGHT) / CAMERA_HEIGHT_SIGMA, (x[1] - math.radians(DEFAULT_PITCH_DEG)) / math.radians(45.0)]
     return np.concatenate([((pred - obs) * weights).ravel(), priors, camera_prior])
 
 

@@ -35,7 +35,14 @@ from scenemosaic.perception._image import Camera, SceneImage, load_image
 from scenemosaic.perception._inventory import DetectedObject, Inventory, clipped, read_detections
 from scenemosaic.perception._reconstruct import Reconstruction, Reconstructor, SeenObject
 from scenemosaic.perception._segment import ObjectMask, Segmenter, segmenter_for
-from scenemosaic.scene import Room, Scene, sanitize_id, traits, unique_id, write_atomic
+from scenemosaic.scene import (
+    Room,
+    Scene,
+    sanitize_id,
+    traits,
+    unique_id,
+    write_atomic,
+)
 
 __all__ = ["PERCEPTION_FOLDER", "PerceptionResult", "perceive", "reconstructor_for"]
 
@@ -86,7 +93,9 @@ def reconstructor_for(spec: str | Reconstructor) -> Reconstructor:
 def _seen(inventory: list[DetectedObject], masks: dict[str, ObjectMask]) -> list[SeenObject]:
     """Each object with its mask, where it rests and on what: the inventory's word first, then
     its category's usual placement; a small object on a surface rests on the furniture whose
-    box holds its lower edge (:func:`support_candidate`), else on the floor."""
+    box holds its lower edge (:func:`support_candidate`). One with no such furniture in view
+    keeps ``surface`` without a parent: the reconstructor decides where it rests (on the floor,
+    on furniture out of view, on a wall), after the camera's fit, which it must not sway."""
     ids = {o.id for o in inventory}
     out = []
     for o in inventory:
@@ -94,8 +103,6 @@ def _seen(inventory: list[DetectedObject], masks: dict[str, ObjectMask]) -> list
         parent = o.on if o.on in ids else None
         if placement == "surface" and parent is None:
             parent = support_candidate(o, inventory)
-        if placement == "surface" and parent is None:
-            placement = "floor"
         if parent is not None:
             placement = "surface"
         out.append(SeenObject(detection=o, mask=masks[o.id], placement=placement, parent=parent))

@@ -1,0 +1,232 @@
+"""Render the photograph fixtures of the image front end: known scenes seen by a perspective camera.
+
+Run from the repository root (takes about 30 s): ``MUJOCO_GL=egl .venv/bin/python data/images/make_fixtures.py``
+
+For each scene the pipeline first stabilizes it (``generate``, no evolution), so what is rendered
+is a physically valid room; its MJCF is loaded in MuJoCo with the objects in their category
+colours and a camera 1.6 m above the floor (a photograph taken standing), 1024 x 768 pixels,
+60 degrees of horizontal field of view. The camera's place, heading (15-degree steps) and
+downward pitch are searched inside the room, at least 0.3 m from furniture, for the view that
+shows the most whole objects. Each folder gets:
+
+* ``photo.png`` - the render;
+* ``boxes.json`` - COCO detections: the projection of each object's 3D box (amodal: hidden
+  parts included), clipped to the image, for every object with at least half its box in the
+  image and at least 3 % of that box showing it (MuJoCo's segmentation render);
+  ``attributes.object_id`` is the scene's id;
+* ``truth.json`` - the camera (intrinsics, ``world_from_camera`` in OpenCV's frame: x right,
+  y down, z forward) and every object's true bottom centre, yaw and size in the scene's world frame.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import tempfile
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from PIL import Image
+
+from scenemosaic.exchange import read_scene, save_scene
+from scenemosaic.pipeline import GenerateConfig, demo_scene, generate
+from scenemosaic.render import category_color
+from scenemosaic.scene import Scene
+
+W, H, HFOV_DEG, CAMERA_HEIGHT = 1024, 768, 60.0, 1.6
+FX = 0.5 * W / math.tan(math.radians(HFOV_DEG / 2))
+FOVY_DEG = math.degrees(2 * math.atan(math.tan(math.radians(HFOV_DEG / 2)) * H / W))
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+
+
+def camera_axes(yaw: float, pitch: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World directions of the camera's right, down and forward axes (yaw 0 looks along +Y)."""
+    fwd = np.array([math.sin(yaw) * math.cos(pitch), math.cos(yaw) * math.cos(pitch), -math.sin(pitch)])
+    right = np.array([math.cos(yaw), -math.sin(yaw), 0.0])
+    return right, np.cross(fwd, right), fwd
+
+
+def project_boxes(scene: Scene, pos: np.ndarray, yaw: float, pitch: float) -> tuple[dict[str, tuple[float, ...]], np.ndarray]:
+    """Clipped amodal boxes of the objects at least half in view, and the world-from-camera rotation."""
+    right, down, fwd = camera_axes(yaw, pitch)
+    rot = np.stack([right, down, fwd], axis=1)
+    out: dict[str, tuple[float, ...]] = {}
+    for o in scene.objects:
+        pc = (o.corners() - pos) @ rot
+        if (pc[:, 2] < 0.1).any():
+            continue
+        u = FX * pc[:, 0] / pc[:, 2] + W / 2
+        v = FX * pc[:, 1] / pc[:, 2] + H / 2
+        x0, y0, x1, y1 = u.min(), v.min(), u.max(), v.max()
+        cx0, cy0, cx1, cy1 = max(0.0, x0), max(0.0, y0), min(float(W), x1), min(float(H), y1)
+        if cx1 - cx0 < 4 or cy1 - cy0 < 4:
+            continue
+        if (cx1 - cx0) * (cy1 - cy0) < 0.5 * (x1 - x0) * (y1 - y0):
+            continue
+        out[o.id] = (cx0, cy0, cx1, cy1)
+    return out, rot
+
+
+def free_spot(scene: Scene, p: np.ndarray, clear: float = 0.3) -> bool:
+    poly = np.array(scene.room.floor)
+    if not (poly[:, 0].min() + clear < p[0] < poly[:, 0].max() - clear and poly[:, 1].min() + clear < p[1] < poly[:, 1].max() - clear):
+        return False
+    for o in scene.objects:
+        c = o.corners()
+        near = c[:, 0].min() - clear < p[0] < c[:, 0].max() + clear and c[:, 1].min() - clear < p[1] < c[:, 1].max() + clear
+        if near and c[:, 2].max() > 0.2:
+            return False
+    return True
+
+
+def choose_camera(scene: Scene, away_from: float | None = None) -> tuple[np.ndarray, float, float]:
+    """The camera showing the most objects whole; with ``away_from`` (degrees), one looking at
+    least 90 degrees away from that heading."""
+    poly = np.array(scene.room.floor)
+    best: tuple[float, np.ndarray, float, float] | None = None
+    for x in np.linspace(poly[:, 0].min() + 0.3, poly[:, 0].max() - 0.3, 16):
+        for y in np.linspace(poly[:, 1].min() + 0.3, poly[:, 1].max() - 0.3, 16):
+            p = np.array([x, y, CAMERA_HEIGHT])
+            if not free_spot(scene, p):
+                continue
+            for yaw_deg in range(0, 360, 15):
+                if away_from is not None and abs((yaw_deg - away_from + 180) % 360 - 180) < 90:
+                    continue
+                for pitch_deg in (20, 28, 36, 44):
+                    boxes, _ = project_boxes(scene, p, math.radians(yaw_deg), math.radians(pitch_deg))
+                    score = len(boxes) + 0.01 * sum(1 for o in scene.objects if o.id in boxes and o.size[0] * o.size[1] > 0.3)
+                    if best is None or score > best[0]:
+                        best = (score, p, yaw_deg, pitch_deg)
+    assert best is not None
+    return best[1], float(best[2]), float(best[3])
+
+
+def render(base: Path, scene: Scene, pos: np.ndarray, yaw: float, pitch: float) -> tuple[np.ndarray, np.ndarray]:
+    """RGB render and the per-pixel object id (as a numpy object array) from the camera."""
+    right, down, _ = camera_axes(yaw, pitch)
+    up = -down
+    root = ET.fromstring((base / "scene.xml").read_text())
+    compiler = root.find("compiler")
+    assert compiler is not None
+    compiler.set("meshdir", str(base / "mjcf"))
+    categories = {o.id: o.category for o in scene.objects}
+    for geom in root.iter("geom"):
+        gname = geom.get("name", "")
+        if gname.endswith("_visual") and gname[: -len("_visual")] in categories:
+            r, g, b = category_color(categories[gname[: -len("_visual")]])
+            geom.set("rgba", f"{r / 255:.3f} {g / 255:.3f} {b / 255:.3f} 1")
+        elif gname == "floor":
+            geom.set("rgba", "0.62 0.5 0.38 1")
+        elif gname.startswith("wall_"):
+            geom.set("rgba", "0.86 0.84 0.78 1")
+    world = root.find("worldbody")
+    assert world is not None
+    ET.SubElement(world, "camera", name="photo", pos=" ".join(f"{v:.6f}" for v in pos),
+                  xyaxes=" ".join(f"{v:.9f}" for v in (*right, *up)), fovy=f"{FOVY_DEG:.6f}")
+    ET.SubElement(world, "light", pos=f"{pos[0]:.3f} {pos[1]:.3f} 2.4", dir="0 0 -1", diffuse="0.6 0.6 0.6")
+    visual = ET.SubElement(root, "visual")
+    ET.SubElement(visual, "global", offwidth=str(W), offheight=str(H))
+    ET.SubElement(visual, "headlight", ambient="0.35 0.35 0.35", diffuse="0.5 0.5 0.5")
+    model = mujoco.MjModel.from_xml_string(ET.tostring(root, encoding="unicode"))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    renderer = mujoco.Renderer(model, height=H, width=W)
+    renderer.update_scene(data, camera="photo")
+    rgb = renderer.render().copy()
+    renderer.enable_segmentation_rendering()
+    renderer.update_scene(data, camera="photo")
+    seg = renderer.render().copy()
+    renderer.close()
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, i) or "" for i in range(model.nbody)]
+    owner = np.full(seg.shape[:2], "", dtype=object)
+    is_geom = seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM)
+    for g in np.unique(seg[..., 0][is_geom]):
+        owner[(seg[..., 0] == g) & is_geom] = names[model.geom_bodyid[g]]
+    return rgb, owner
+
+
+def write_fixture(folder: Path, scene: Scene, source: str, base: Path, pos: np.ndarray, yaw_deg: float, pitch_deg: float) -> int:
+    yaw, pitch = math.radians(yaw_deg), math.radians(pitch_deg)
+    rgb, owner = render(base, scene, pos, yaw, pitch)
+    boxes, rot = project_boxes(scene, pos, yaw, pitch)
+    kept = {}
+    for oid, (x0, y0, x1, y1) in boxes.items():
+        window = owner[int(y0) : math.ceil(y1), int(x0) : math.ceil(x1)]
+        if window.size and float((window == oid).mean()) >= 0.03:
+            kept[oid] = (x0, y0, x1, y1)
+    folder.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(rgb).save(folder / "photo.png", optimize=True)
+    shown = [o for o in scene.objects if o.id in kept]
+    cat_id = {c: i for i, c in enumerate(sorted({o.category for o in shown}), 1)}
+    annotations = []
+    for n, o in enumerate(shown, 1):
+        x0, y0, x1, y1 = kept[o.id]
+        annotations.append({
+            "id": n, "image_id": 1, "category_id": cat_id[o.category],
+            "bbox": [round(x0, 1), round(y0, 1), round(x1 - x0, 1), round(y1 - y0, 1)],
+            "area": round((x1 - x0) * (y1 - y0), 1), "iscrowd": 0,
+            "attributes": {"object_id": o.id, "description": o.description or o.category},
+        })
+    coco = {
+        "images": [{"id": 1, "file_name": "photo.png", "width": W, "height": H}],
+        "categories": [{"id": i, "name": c} for c, i in cat_id.items()],
+        "annotations": annotations,
+    }
+    (folder / "boxes.json").write_text(json.dumps(coco, indent=1) + "\n")
+    pose = np.eye(4)
+    pose[:3, :3], pose[:3, 3] = rot, pos
+    truth = {
+        "scene": source,
+        "image": {"width": W, "height": H},
+        "camera": {
+            "hfov_deg": HFOV_DEG, "fx": FX, "fy": FX, "cx": W / 2, "cy": H / 2,
+            "position": [round(float(v), 6) for v in pos], "yaw_deg": yaw_deg, "pitch_deg": pitch_deg,
+            "world_from_camera": [round(float(v), 9) for v in pose.ravel()],
+            "frame": "OpenCV: x right, y down, z forward; world_from_camera row-major",
+        },
+        "objects": [
+            {
+                "id": o.id, "category": o.category,
+                "position": [round(float(v), 6) for v in o.pose.position],
+                "yaw_deg": round(math.degrees(o.pose.yaw), 3),
+                "extents": [round(float(v), 6) for v in o.size],
+                "in_boxes": o.id in kept,
+            }
+            for o in scene.objects
+        ],
+    }
+    (folder / "truth.json").write_text(json.dumps(truth, indent=1) + "\n")
+    return len(kept)
+
+
+def main() -> None:
+    work = Path(tempfile.mkdtemp())
+    demo_src = work / "demo"
+    save_scene(demo_scene(), demo_src)
+    physcene = ROOT / "data" / "layouts" / "physcene"
+    rooms = [
+        ("demo_bedroom", demo_src, "scenemosaic.pipeline.demo_scene()"),
+        ("livingdining_8714", physcene / "LivingDiningRoom-8714_livingroom.json", "data/layouts/physcene/LivingDiningRoom-8714_livingroom.json"),
+    ]
+    summary = {}
+    for name, src, label in rooms:
+        out = work / f"{name}_run"
+        generate(src, out, GenerateConfig(evolve=False))
+        base = out / "base"
+        scene = read_scene(base)
+        pos, yaw_deg, pitch_deg = choose_camera(scene)
+        views = [(name, pos, yaw_deg, pitch_deg)]
+        if name == "demo_bedroom":  # a second view of the same room, looking the other way
+            views.append((name + "_b", *choose_camera(scene, away_from=yaw_deg)))
+        for view, p, y, t in views:
+            summary[view] = {"boxed": write_fixture(HERE / view, scene, label, base, p, y, t), "objects": len(scene.objects),
+                             "camera": [round(float(v), 3) for v in p], "yaw_deg": y, "pitch_deg": t}
+    print(json.dumps(summary))
+
+
+if __name__ == "__main__":
+    main()
