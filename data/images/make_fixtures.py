@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
