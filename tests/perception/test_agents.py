@@ -15,14 +15,15 @@ from scenemosaic.models import FunctionModel, ImagePart, Message, RequestContext
 from scenemosaic.perception import (
     MAX_VERIFY_ROUNDS,
     DetectedObject,
+    Inventory,
     ObjectMask,
+    VerifyEvidence,
     VerifyOutput,
+    mask_rows,
     perceive,
     solve_verify,
     support_candidate,
 )
-from scenemosaic.perception._agents import mask_rows
-from scenemosaic.perception._inventory import Inventory
 
 
 @pytest.fixture
@@ -116,8 +117,6 @@ def test_rule_verifier_finds_duplicates_empty_masks_and_nesting() -> None:
     objs.append(DetectedObject(id="bed_b", label="bed", box=(151, 250, 501, 460)))
     masks = {o.id: ObjectMask((int(o.box[0]), int(o.box[1])), np.ones((10, 10), dtype=bool)) for o in objs}
     masks["desk"] = ObjectMask((0, 0), np.zeros((0, 0), dtype=bool))
-    from scenemosaic.perception._agents import VerifyEvidence
-
     ev = VerifyEvidence(image_width=640, image_height=480, round=1, objects=mask_rows(objs, masks))
     words = [r.words() for r in solve_verify(ev).requests]
     assert "resegment desk box [20, 220, 180, 380]" in words
