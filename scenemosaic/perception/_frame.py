@@ -26,6 +26,7 @@ from scenemosaic.scene import (
     FootprintItem,
     Pose,
     Provenance,
+    Relation,
     Room,
     Scene,
     SceneObject,
@@ -74,7 +75,8 @@ def recover_frame(
     """The scene of a reconstruction (see the module's docstring). ``mesh_uris`` maps object ids to
     the files their meshes were written to (relative to the scene's folder); an object without
     one gets the procedural model of its category at its reconstructed size. Objects are set
-    upright (only their yaw is kept); floor objects stand at z = 0."""
+    upright (only their yaw is kept); floor objects stand at z = 0. What an object was seen
+    resting on becomes an ``attach`` relation (evidence for the support agent, as importers' are)."""
     if not rec.objects:
         raise ImportFormatError("the reconstruction holds no object: nothing to build a scene from", path=source or None)
     up, height, floor_source = _floor_from_reconstruction(rec)
@@ -160,10 +162,17 @@ def recover_frame(
         }
     }
     meta.update(metadata or {})
+    ids = {o.id for o in objects}
+    relations = [
+        Relation(kind="attach", child=o.id, parent=o.parent, source=IMPORTER)
+        for o in rec.objects
+        if o.parent is not None and o.parent in ids and o.parent != o.id
+    ]
     return Scene(
         id=scene_id,
         room=room,
         objects=objects,
+        relations=relations,
         metadata=meta,
         provenance=Provenance(source_format="image", source_path=source or None, importer=IMPORTER),
     )

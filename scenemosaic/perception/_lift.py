@@ -233,17 +233,22 @@ class BoxLifter:
         lifted: list[LiftedObject] = []
         placed: dict[str, tuple[FloatArray, FloatArray]] = {}  # id -> (bottom centre, size), floor frame
         report["side_on"] = [o.detection.id for o, q in zip(floor, quarters, strict=True) if q]
+        yaws: dict[str, float] = {}
         for o, p, q in zip(floor, params, quarters, strict=True):
             size = np.asarray(priors[o.detection.id][0]) * np.exp([p[2], p[2], p[3]])
             centre = np.array([p[0], p[1], 0.0])
             placed[o.detection.id] = (centre, size)
-            lifted.append(self._lifted(o, pose, centre, size, _facing_yaw(p[0], p[1], room_yaw, q)))
+            yaws[o.detection.id] = _facing_yaw(p[0], p[1], room_yaw, q)
+            lifted.append(self._lifted(o, pose, centre, size, yaws[o.detection.id]))
         rests: dict[str, str] = {}
         for o in sorted(others, key=lambda s: s.parent is not None):  # supports before what they hold
             centre, size, rest = self._fit_single(camera, pose, o, priors[o.detection.id], placed, room_yaw)
+            if rest == "on" and o.parent is not None:  # what rests on a top stands over it
+                centre = _onto(centre, size, *placed[o.parent], yaws[o.parent])
             placed[o.detection.id] = (centre, size)
+            yaws[o.detection.id] = _facing_yaw(centre[0], centre[1], room_yaw)
             rests[o.detection.id] = rest
-            lifted.append(self._lifted(o, pose, centre, size, _facing_yaw(centre[0], centre[1], room_yaw), rest))
+            lifted.append(self._lifted(o, pose, centre, size, yaws[o.detection.id], rest))
         report["resting"] = rests
         up = pose.camera_from_floor @ np.array([0.0, 0.0, 1.0])
         return Reconstruction(lifted, floor_up=up, camera_height=pose.height, yaw_hint=room_yaw, report=report)
@@ -318,6 +323,18 @@ class BoxLifter:
             parent=o.parent,
             description=o.detection.description,
         )
+
+
+def _onto(centre: FloatArray, size: FloatArray, top_centre: FloatArray, top_size: FloatArray, top_yaw: float) -> FloatArray:
+    """``centre`` moved the least so a footprint of ``size`` lies over the top of the object at
+    ``top_centre`` (size ``top_size``, turned by ``top_yaw``); its height is kept."""
+    c, s = math.cos(top_yaw), math.sin(top_yaw)
+    rel = centre[:2] - top_centre[:2]
+    local = np.array([c * rel[0] + s * rel[1], -s * rel[0] + c * rel[1]])
+    room = np.maximum(0.0, (top_size[:2] - size[:2]) / 2)
+    local = np.clip(local, -room, room)
+    back = np.array([c * local[0] - s * local[1], s * local[0] + c * local[1]]) + top_centre[:2]
+    return np.array([back[0], back[1], centre[2]])
 
 
 RAISED_HEIGHT = (0.75, 0.25)
