@@ -31,7 +31,7 @@ __all__ = [
 
 _RECORDING_SCHEMES = ("record", "record_missing")
 _CASSETTE_SCHEMES = ("replay", *_RECORDING_SCHEMES)
-_PATH_SETTINGS = ("asset_dir", "priors_dir")
+_PATH_SETTINGS = ("asset_dir", "priors_dir", "detections")
 _MAX_ID_LENGTH = 100
 
 
@@ -81,6 +81,10 @@ class ManifestLine(BaseModel):
     stabilize: bool = True
     strict: bool = False
     priors_dir: str | None = None
+    detections: str | None = None
+    segmenter: str = "auto"
+    reconstructor: str = "auto"
+    hfov_deg: float | None = Field(default=None, ge=5, le=170)
 
     @model_validator(mode="after")
     def _variants_need_evolve(self) -> ManifestLine:

@@ -151,7 +151,7 @@ class GrabCutSegmenter:
 
     name = "grabcut"
 
-    def __init__(self, iterations: int = 4, margin: float = 0.15, max_side: int = 384) -> None:
+    def __init__(self, iterations: int = 4, margin: float = 0.15, max_side: int = 384, seed: int = 0) -> None:
         try:
             import cv2
         except ImportError as exc:
@@ -163,6 +163,7 @@ class GrabCutSegmenter:
         self.iterations = iterations
         self.margin = margin
         self.max_side = max_side
+        self.seed = seed
 
     def segment(self, image: SceneImage, prompt: str, box: Box) -> ObjectMask:
         cv2 = self._cv2
@@ -183,6 +184,7 @@ class GrabCutSegmenter:
             # colour to tell object from background (GrabCut's colour models degenerate, slowly)
             return BoxSegmenter().segment(image, prompt, box)
         bgd, fgd = np.zeros((1, 65), np.float64), np.zeros((1, 65), np.float64)
+        cv2.setRNGSeed(self.seed)  # GrabCut seeds its colour models by k-means: same input, same mask
         try:
             cv2.grabCut(crop, mask, (rx0, ry0, rw, rh), bgd, fgd, self.iterations, cv2.GC_INIT_WITH_RECT)
         except cv2.error as exc:  # e.g. a uniform crop: no colour model can be fitted

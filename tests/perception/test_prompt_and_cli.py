@@ -85,3 +85,27 @@ def test_cli_refuses_a_photo_without_inventory_and_both_inputs(tmp_path: Path) -
     result = runner.invoke(app, ["generate", "--prompt", "a room", "--out", str(tmp_path / "c")])
     assert result.exit_code == 2
     assert "cannot draw an image" in result.output
+
+
+def test_photo_run_replays_from_a_cassette(tmp_path: Path) -> None:
+    """The whole image path through a recorded cassette (`--model replay:...`): the perception
+    agents' replies and every later agent's are replayed, and the replayed run writes the same
+    scenes, variants included. The cassette here is recorded from the scripted model above; a
+    real vision model's cassette replays the same way."""
+    from scenemosaic.models import ReplayModel
+
+    photo = DEMO / "photo.png"
+    cassette = tmp_path / "photo_cassette.json"
+    recorder = ReplayModel(DrawingModel(), cassette, "record")
+    first = generate(photo, tmp_path / "recorded", GenerateConfig(model=recorder, variants=2))
+    recorder.cassette.save()
+    agents = {e["agent"] for e in json.loads(cassette.read_text())["entries"].values()}
+    assert {"perception", "perception_verify", "critic"} <= agents
+    replayed = generate(photo, tmp_path / "replayed", GenerateConfig(model=f"replay:{cassette}", variants=2))
+    assert replayed.status == first.status == "ok"
+    assert replayed.report["variants_written"] == first.report["variants_written"] == 2
+    for folder in ("base", "variant_1", "variant_2"):
+        a = (tmp_path / "recorded" / folder / "scene.json").read_bytes()
+        b = (tmp_path / "replayed" / folder / "scene.json").read_bytes()
+        assert a == b, folder
+    assert replayed.report["stages"][0]["detail"]["perception"]["inventory"]["answered_by"] == "model"
