@@ -34,7 +34,7 @@ from scenemosaic.perception._frame import recover_frame
 from scenemosaic.perception._image import Camera, SceneImage, load_image
 from scenemosaic.perception._inventory import DetectedObject, Inventory, clipped, read_detections
 from scenemosaic.perception._reconstruct import Reconstruction, Reconstructor, SeenObject
-from scenemosaic.perception._segment import ObjectMask, Segmenter, segmenter_for
+from scenemosaic.perception._segment import BoxSegmenter, ObjectMask, Segmenter, segmenter_for
 from scenemosaic.scene import (
     Room,
     Scene,
@@ -145,21 +145,51 @@ async def perceive(
             "(--detections boxes.json, COCO or an inventory JSON), or use a vision model (--model openai:<model>)"
         )
     seg = await asyncio.to_thread(segmenter_for, segmenter)
-    rec_backend = await asyncio.to_thread(reconstructor_for, reconstructor)
+    try:
+        rec_backend = await asyncio.to_thread(reconstructor_for, reconstructor)
+    except BaseException:
+        _close(seg)
+        raise
+    folder = Path(out_dir) / PERCEPTION_FOLDER if out_dir is not None else None
+    try:
+        return await _perceive(image, model, hints, seg, rec_backend, hfov_deg, folder, policy, settings, seed, max_rounds)
+    finally:
+        _close(seg)
+        _close(rec_backend)
+
+
+def _close(backend: object) -> None:
+    close = getattr(backend, "close", None)
+    if callable(close):
+        close()
+
+
+async def _perceive(
+    image: SceneImage,
+    model: Model,
+    hints: list[DetectedObject],
+    seg: Segmenter,
+    rec_backend: Reconstructor,
+    hfov_deg: float | None,
+    folder: Path | None,
+    policy: AgentPolicy | None,
+    settings: ModelSettings | None,
+    seed: int,
+    max_rounds: int,
+) -> PerceptionResult:
     camera = image.camera(hfov_deg)
     placeholder = Scene(id="photo", room=Room.rectangle(0.0, 0.0, 1.0, 1.0), objects=[])
     state = PerceptionState(scene=placeholder, seed=seed, policy=policy or AgentPolicy(), image=image, hints=hints)
     usage = Usage()
     _, used = await InventoryAgent().run(state, model, settings)
     usage = usage + used
-    inventory = state.inventory
-    log.info("perception_inventory", objects=len(inventory), answered_by=state.outcomes["perception"].answered_by)
+    log.info("perception_inventory", objects=len(state.inventory), answered_by=state.outcomes["perception"].answered_by)
 
-    async def cut(objs: list[DetectedObject], seg_now: Segmenter) -> None:
+    async def cut(objs: list[DetectedObject], how: Segmenter) -> None:
         for o in objs:
-            state.masks[o.id] = await run_blocking(seg_now.segment, image, o.label, o.box)
+            state.masks[o.id] = await run_blocking(how.segment, image, o.label, o.box)
 
-    await cut(inventory, seg)
+    await cut(state.inventory, seg)
     rounds: list[dict[str, Any]] = []
     for rnd in range(1, max_rounds + 1):
         state.round = rnd
@@ -170,21 +200,17 @@ async def perceive(
         rounds.append({"round": rnd, "answered_by": state.outcomes[verify.name].answered_by, "requests": [r.words() for r in requests]})
         if not requests:
             break
-        _apply_requests(state, requests)
-        redo = [o for o in state.inventory if o.id not in state.masks]
-        await cut(redo, seg)
-        for r in requests:
-            if r.action == "resegment" and r.object_id in state.masks and state.masks[r.object_id].area == 0:
-                from scenemosaic.perception._segment import BoxSegmenter
-
-                obj = next(o for o in state.inventory if o.id == r.object_id)
-                state.masks[obj.id] = BoxSegmenter().segment(image, obj.label, obj.box)
+        same_box = _apply_requests(state, requests)
+        # a segmenter gives the same mask for the same box: asked again without a new box, the box itself stands in
+        await cut([o for o in state.inventory if o.id not in state.masks and o.id not in same_box], seg)
+        await cut([o for o in state.inventory if o.id in same_box], BoxSegmenter())
         state.memory += [r.words() for r in requests]
     inventory = state.inventory
+    if folder is not None:  # kept before the 3D step, which may fail on a backend
+        await asyncio.to_thread(_write_seen, folder, image, inventory, state.masks)
     seen = _seen(inventory, state.masks)
     reconstruction = await run_blocking(rec_backend.reconstruct, image, camera, seen)
     meshes = {o.id: o.mesh for o in reconstruction.objects if o.mesh is not None}
-    folder = Path(out_dir) / PERCEPTION_FOLDER if out_dir is not None else None
     uris = {oid: f"meshes/{oid}.glb" for oid in meshes}
     scene = recover_frame(
         reconstruction,
@@ -206,17 +232,15 @@ async def perceive(
         "placements": {s.detection.id: (s.placement if s.parent is None else f"on {s.parent}") for s in seen},
         **{k: v for k, v in reconstruction.report.items() if k != "reconstructor"},
     }
-    for backend in (seg, rec_backend):
-        close = getattr(backend, "close", None)
-        if callable(close):
-            close()
     if folder is not None:
-        await asyncio.to_thread(_write_folder, folder, image, inventory, state.masks, meshes, reconstruction, report)
+        await asyncio.to_thread(_write_result, folder, meshes, reconstruction, report)
     return PerceptionResult(scene, inventory, dict(state.masks), camera, reconstruction, report, list(state.fallbacks), usage)
 
 
-def _apply_requests(state: PerceptionState, requests: list[Any]) -> None:
+def _apply_requests(state: PerceptionState, requests: list[Any]) -> set[str]:
+    """Apply one round's requests; the ids asked to be segmented again with their box unchanged."""
     image = state.need_image()
+    same_box: set[str] = set()
     taken = {o.id for o in state.inventory}
     inventory = list(state.inventory)
     for r in requests:
@@ -229,23 +253,19 @@ def _apply_requests(state: PerceptionState, requests: list[Any]) -> None:
         elif r.action == "resegment":
             for i, o in enumerate(inventory):
                 if o.id == r.object_id:
-                    if r.box is not None:
-                        inventory[i] = clipped(o.model_copy(update={"box": r.box}), image.width, image.height)
+                    new = clipped(o.model_copy(update={"box": r.box}), image.width, image.height) if r.box is not None else o
+                    if new.box == o.box:
+                        same_box.add(o.id)
+                    inventory[i] = new
                     state.masks.pop(o.id, None)
         elif r.action == "set_support":
             inventory = [o.model_copy(update={"on": r.on, "placement": "surface"}) if o.id == r.object_id else o for o in inventory]
     state.inventory = inventory
+    return same_box
 
 
-def _write_folder(
-    folder: Path,
-    image: SceneImage,
-    inventory: list[DetectedObject],
-    masks: dict[str, ObjectMask],
-    meshes: dict[str, bytes],
-    reconstruction: Reconstruction,
-    report: dict[str, Any],
-) -> None:
+def _write_seen(folder: Path, image: SceneImage, inventory: list[DetectedObject], masks: dict[str, ObjectMask]) -> None:
+    """The photograph, the inventory and the masks (before the 3D step)."""
     folder.mkdir(parents=True, exist_ok=True)
     target = folder / f"photo{image.path.suffix.lower()}"
     if image.path.resolve() != target.resolve():
@@ -254,6 +274,10 @@ def _write_folder(
     (folder / "masks").mkdir(exist_ok=True)
     for o in inventory:
         write_atomic(folder / "masks" / f"{o.id}.png", masks[o.id].png(image.width, image.height))
+
+
+def _write_result(folder: Path, meshes: dict[str, bytes], reconstruction: Reconstruction, report: dict[str, Any]) -> None:
+    """The meshes and ``perception.json`` (the report and every object's camera-frame pose)."""
     if meshes:
         (folder / "meshes").mkdir(exist_ok=True)
         for oid, data in meshes.items():

@@ -199,3 +199,28 @@ def test_generate_keeps_the_report_and_the_input_on_bad_detections(photo: Path, 
     assert report["status"] == "failed"
     assert "outside the 320x240 image" in json.dumps(report)
     assert (det.read_bytes(), photo.read_bytes()) == before
+
+
+class _BrokenReconstructor:
+    """A reconstruction server that fell over: every call fails."""
+
+    name = "broken"
+
+    def reconstruct(self, image: object, camera: object, objects: object) -> object:
+        from scenemosaic.exceptions import BackendError
+
+        raise BackendError("reconstructor http://sam3d.test/reconstruct failed after 4 attempts: HTTP 503")
+
+
+def test_a_failing_backend_keeps_what_perception_saw(photo: Path, tmp_path: Path) -> None:
+    from scenemosaic.exceptions import BackendError
+
+    det = _coco(tmp_path / "boxes.json", [[10, 10, 50, 50], [100, 60, 120, 150]])
+    out = tmp_path / "run"
+    with pytest.raises(BackendError, match="HTTP 503"):
+        generate(photo, out, GenerateConfig(detections=det, segmenter="box", reconstructor=_BrokenReconstructor()))
+    report = json.loads((out / "report.json").read_text())
+    assert report["status"] == "failed" and report["failed_stage"] == "import"
+    kept = json.loads((out / "perception" / "inventory.json").read_text())
+    assert [o["id"] for o in kept["objects"]] == ["chair_1", "desk_2"]
+    assert sorted(p.name for p in (out / "perception" / "masks").iterdir()) == ["chair_1.png", "desk_2.png"]
