@@ -27,7 +27,7 @@ from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.exceptions import UsageError
 from scenemosaic.models import ImagePart
 from scenemosaic.perception._image import SceneImage
-from scenemosaic.perception._inventory import DetectedObject, Inventory, clipped, inventory_problems
+from scenemosaic.perception._inventory import DetectedObject, Inventory, box_iou, clipped, inventory_problems
 from scenemosaic.perception._segment import ObjectMask
 from scenemosaic.scene import traits
 
@@ -75,6 +75,7 @@ class PerceptionState(SceneState):
     round: int = 0
 
     def need_image(self) -> SceneImage:
+        """The photograph (set before any agent runs)."""
         assert self.image is not None
         return self.image
 
@@ -180,14 +181,6 @@ class VerifyOutput(AgentOutput):
     requests: list[VerifyRequest] = Field(default_factory=list, max_length=MAX_ITEMS)
 
 
-def _iou(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> float:
-    ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
-    iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
-    inter = ix * iy
-    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
-    return inter / union if union > 0 else 0.0
-
-
 def support_candidate(obj: DetectedObject, others: list[DetectedObject]) -> str | None:
     """The object ``obj`` most likely rests on, from boxes alone: a small object (its category
     usually rests on surfaces) whose box's lower edge lies inside the box of furniture that
@@ -219,7 +212,7 @@ def mask_rows(inventory: list[DetectedObject], masks: dict[str, ObjectMask]) -> 
     for o in inventory:
         m = masks.get(o.id)
         box_area = max(1.0, (o.box[2] - o.box[0]) * (o.box[3] - o.box[1]))
-        dupes = [p.id for p in inventory if p.id != o.id and p.category == o.category and _iou(p.box, o.box) >= DUPLICATE_IOU]
+        dupes = [p.id for p in inventory if p.id != o.id and p.category == o.category and box_iou(p.box, o.box) >= DUPLICATE_IOU]
         rows.append(
             MaskRow(
                 id=o.id,

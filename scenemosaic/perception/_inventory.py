@@ -26,6 +26,7 @@ __all__ = [
     "DetectedObject",
     "Inventory",
     "Placement",
+    "box_iou",
     "clipped",
     "inventory_problems",
     "read_detections",
@@ -97,6 +98,15 @@ def inventory_problems(objects: list[DetectedObject], width: int, height: int) -
         if o.on is not None and (o.on == o.id or o.on not in seen):
             problems.append(f"{where}: 'on' names {o.on!r}, which is not another object of the inventory")
     return problems
+
+
+def box_iou(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> float:
+    """Intersection over union of two pixel boxes [x0, y0, x1, y1]."""
+    ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
+    iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
+    inter = ix * iy
+    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
+    return inter / union if union > 0 else 0.0
 
 
 def clipped(obj: DetectedObject, width: int, height: int) -> DetectedObject:

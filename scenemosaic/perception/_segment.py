@@ -25,6 +25,7 @@ import structlog
 
 from scenemosaic.exceptions import BackendError, MissingExtraError, UsageError
 from scenemosaic.perception._image import SceneImage
+from scenemosaic.perception._inventory import box_iou
 
 __all__ = [
     "PERCEPTION_INSTALL",
@@ -202,14 +203,6 @@ class GrabCutSegmenter:
         return ObjectMask.from_full(full)
 
 
-def _box_iou(a: Box, b: Box) -> float:
-    ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
-    iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
-    inter = ix * iy
-    union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter
-    return inter / union if union > 0 else 0.0
-
-
 def _as_numpy(value: Any) -> np.ndarray:
     if hasattr(value, "detach"):
         value = value.detach()
@@ -251,7 +244,7 @@ class Sam3Segmenter:
             masks = masks[:, 0]
         if len(boxes) == 0:
             return ObjectMask((0, 0), np.zeros((0, 0), dtype=bool))
-        best = max(range(len(boxes)), key=lambda i: _box_iou(tuple(float(v) for v in boxes[i]), box))  # type: ignore[arg-type]
+        best = max(range(len(boxes)), key=lambda i: box_iou(tuple(float(v) for v in boxes[i]), box))  # type: ignore[arg-type]
         return ObjectMask.from_full(masks[best] > 0.5)
 
 
