@@ -14,6 +14,7 @@ and any ``http://`` server.
 
 from scenemosaic.perception._agents import (
     MAX_VERIFY_ROUNDS,
+    VIEW_MAX_SIDE,
     InventoryAgent,
     PerceptionState,
     VerifyAgent,
@@ -76,6 +77,7 @@ __all__ = [
     "SAM3D_INSTALL",
     "SAM3_INSTALL",
     "SEGMENTER_NAMES",
+    "VIEW_MAX_SIDE",
     "BoxLifter",
     "BoxSegmenter",
     "Camera",

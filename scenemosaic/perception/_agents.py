@@ -17,6 +17,7 @@ Both are ordinary :class:`~scenemosaic.agents.TaskAgent` s over a :class:`Percep
 from __future__ import annotations
 
 import io
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import ClassVar, Literal
 
@@ -35,6 +36,7 @@ __all__ = [
     "DUPLICATE_IOU",
     "MAX_VERIFY_ROUNDS",
     "MIN_MASK_COVERAGE",
+    "VIEW_MAX_SIDE",
     "InventoryAgent",
     "InventoryEvidence",
     "MaskRow",
@@ -49,12 +51,17 @@ __all__ = [
     "support_candidate",
 ]
 
+VIEW_MAX_SIDE = 1024
+"""Longest side (pixels) of the pictures the perception agents are shown. Boxes in their evidence
+and replies are in the pixels of that picture and are scaled back to the photograph's."""
 MAX_VERIFY_ROUNDS = 3
 """Most verification rounds over the masks."""
 MIN_MASK_COVERAGE = 0.08
 """A mask filling less of its box than this is taken as a failed segmentation."""
 DUPLICATE_IOU = 0.7
 """Two objects of one category whose boxes overlap this much (IoU) are one object seen twice."""
+
+Box = tuple[float, float, float, float]
 
 _PHOTO_LABEL = "the photograph"
 _MASKS_LABEL = "the photograph with each object's mask tinted and its id written at its box's top-left corner"
@@ -79,6 +86,24 @@ class PerceptionState(SceneState):
         assert self.image is not None
         return self.image
 
+    def view_size(self) -> tuple[int, int]:
+        """Size of the picture the agents see (:data:`VIEW_MAX_SIDE`)."""
+        return self.need_image().view_size(VIEW_MAX_SIDE)
+
+    def to_view(self, box: Box) -> Box:
+        """A photograph box in the agents' picture's pixels."""
+        image = self.need_image()
+        vw, vh = self.view_size()
+        sx, sy = vw / image.width, vh / image.height
+        return (round(box[0] * sx, 1), round(box[1] * sy, 1), round(box[2] * sx, 1), round(box[3] * sy, 1))
+
+    def from_view(self, box: Box) -> Box:
+        """A box of the agents' picture in the photograph's pixels."""
+        image = self.need_image()
+        vw, vh = self.view_size()
+        sx, sy = image.width / vw, image.height / vh
+        return (box[0] * sx, box[1] * sy, box[2] * sx, box[3] * sy)
+
 
 # -- inventory ----------------------------------------------------------------------------------
 
@@ -102,7 +127,9 @@ class InventoryAgent(TaskAgent[InventoryEvidence, Inventory]):
     def gather(self, state: SceneState) -> InventoryEvidence:
         ps = _state(state)
         image = ps.need_image()
-        return InventoryEvidence(image_width=image.width, image_height=image.height, hints=ps.hints)
+        vw, vh = ps.view_size()
+        hints = [h.model_copy(update={"box": ps.to_view(h.box)}) for h in ps.hints] if (vw, vh) != (image.width, image.height) else ps.hints
+        return InventoryEvidence(image_width=vw, image_height=vh, hints=hints)
 
     def solve(self, evidence: InventoryEvidence) -> Inventory:
         if not evidence.hints:
@@ -114,16 +141,18 @@ class InventoryAgent(TaskAgent[InventoryEvidence, Inventory]):
         return Inventory(objects=list(evidence.hints))
 
     def images(self, evidence: InventoryEvidence, state: SceneState) -> list[ImagePart]:
-        return [ImagePart(png=_state(state).need_image().png_bytes(max_side=1024), label=_PHOTO_LABEL)]
+        return [ImagePart(png=_state(state).need_image().png_bytes(max_side=VIEW_MAX_SIDE), label=_PHOTO_LABEL)]
 
     def check(self, output: Inventory, state: SceneState) -> list[str]:
-        image = _state(state).need_image()
-        return inventory_problems(output.objects, image.width, image.height)
+        return inventory_problems(output.objects, *_state(state).view_size())
 
     def apply(self, output: Inventory, state: SceneState) -> None:
         ps = _state(state)
         image = ps.need_image()
-        ps.inventory = [clipped(o, image.width, image.height) for o in output.objects]
+        if ps.view_size() == (image.width, image.height):
+            ps.inventory = [clipped(o, image.width, image.height) for o in output.objects]
+        else:
+            ps.inventory = [clipped(o.model_copy(update={"box": ps.from_view(o.box)}), image.width, image.height) for o in output.objects]
 
 
 # -- verification -------------------------------------------------------------------------------
@@ -206,8 +235,10 @@ def support_candidate(obj: DetectedObject, others: list[DetectedObject]) -> str 
     return best[1] if best else None
 
 
-def mask_rows(inventory: list[DetectedObject], masks: dict[str, ObjectMask]) -> list[MaskRow]:
-    """The verifier's view of every object's mask."""
+def mask_rows(inventory: list[DetectedObject], masks: dict[str, ObjectMask], view: Callable[[Box], Box] | None = None) -> list[MaskRow]:
+    """The verifier's view of every object's mask; ``view`` maps photograph boxes to the picture
+    the verifier sees (identity by default)."""
+    to_view = view or (lambda b: b)
     rows = []
     for o in inventory:
         m = masks.get(o.id)
@@ -217,8 +248,8 @@ def mask_rows(inventory: list[DetectedObject], masks: dict[str, ObjectMask]) -> 
             MaskRow(
                 id=o.id,
                 label=o.label,
-                box=tuple(round(v, 1) for v in o.box),  # type: ignore[arg-type]
-                mask_box=(tuple(round(v, 1) for v in m.bbox) if m is not None and m.bbox else None),  # type: ignore[arg-type]
+                box=tuple(round(v, 1) for v in to_view(o.box)),  # type: ignore[arg-type]
+                mask_box=(tuple(round(v, 1) for v in to_view(m.bbox)) if m is not None and m.bbox else None),  # type: ignore[arg-type]
                 coverage=round((m.area if m is not None else 0) / box_area, 3),
                 on=o.on,
                 overlaps=dupes,
@@ -263,11 +294,12 @@ class VerifyAgent(TaskAgent[VerifyEvidence, VerifyOutput]):
     def gather(self, state: SceneState) -> VerifyEvidence:
         ps = _state(state)
         image = ps.need_image()
+        vw, vh = ps.view_size()
         return VerifyEvidence(
-            image_width=image.width,
-            image_height=image.height,
+            image_width=vw,
+            image_height=vh,
             round=ps.round,
-            objects=mask_rows(ps.inventory, ps.masks),
+            objects=mask_rows(ps.inventory, ps.masks, None if (vw, vh) == (image.width, image.height) else ps.to_view),
             memory=list(ps.memory),
         )
 
@@ -280,7 +312,7 @@ class VerifyAgent(TaskAgent[VerifyEvidence, VerifyOutput]):
 
     def check(self, output: VerifyOutput, state: SceneState) -> list[str]:
         ps = _state(state)
-        image = ps.need_image()
+        width, height = ps.view_size()
         ids = {o.id for o in ps.inventory}
         problems = []
         for i, r in enumerate(output.requests):
@@ -290,7 +322,7 @@ class VerifyAgent(TaskAgent[VerifyEvidence, VerifyOutput]):
                     problems.append(f"{where}: an added object needs a label and a box")
                     continue
                 new = DetectedObject(id=r.object_id or "new", label=r.label, box=r.box)
-                problems += [f"{where}: {p}" for p in inventory_problems([new], image.width, image.height)]
+                problems += [f"{where}: {p}" for p in inventory_problems([new], width, height)]
                 if r.object_id in ids:
                     problems.append(f"{where}: id {r.object_id!r} is taken; choose a new id")
                 continue
@@ -300,12 +332,14 @@ class VerifyAgent(TaskAgent[VerifyEvidence, VerifyOutput]):
                 problems.append(f"{where}: 'on' must name another object of the inventory")
             if r.box is not None:
                 probe = DetectedObject(id="probe", label="probe", box=r.box)
-                problems += [f"{where}: {p}" for p in inventory_problems([probe], image.width, image.height)]
+                problems += [f"{where}: {p}" for p in inventory_problems([probe], width, height)]
             if r.words() in ps.memory:
                 problems.append(f"{where}: this was asked in an earlier round already ({r.words()}); ask for something else or nothing")
         return problems
 
     def apply(self, output: VerifyOutput, state: SceneState) -> None:
+        """Keep the round's requests, boxes in the verifier's picture's pixels (as the memory has
+        them); the caller scales them back when it applies them."""
         _state(state).requests = list(output.requests)
 
 
@@ -341,8 +375,8 @@ def mask_overlay(image: SceneImage, inventory: list[DetectedObject], masks: dict
         colour = tuple(int(v) for v in _TINTS[i % len(_TINTS)])
         draw.rectangle(o.box, outline=colour, width=max(1, image.width // 400))
         draw.text((o.box[0] + 3, o.box[1] + 2), o.id, fill=colour)
-    if max(img.size) > max_side:
-        img.thumbnail((max_side, max_side))
+    if image.view_size(max_side) != img.size:
+        img = img.resize(image.view_size(max_side), Image.Resampling.LANCZOS)
     buf = io.BytesIO()
     img.save(buf, format="PNG")
     return buf.getvalue()

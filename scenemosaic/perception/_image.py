@@ -120,15 +120,20 @@ class SceneImage:
             return Camera(self.width, self.height, f, f, self.width / 2.0, self.height / 2.0, "exif")
         return Camera.from_hfov(self.width, self.height, DEFAULT_HFOV_DEG, "default")
 
+    def view_size(self, max_side: int | None) -> tuple[int, int]:
+        """Width and height of the image downscaled so its longer side is at most ``max_side``."""
+        s = 1.0 if max_side is None else min(1.0, max_side / max(self.width, self.height))
+        return max(1, round(self.width * s)), max(1, round(self.height * s))
+
     def png_bytes(self, max_side: int | None = None) -> bytes:
-        """The image as PNG bytes, downscaled so its longer side is at most ``max_side``."""
+        """The image as PNG bytes, downscaled to :meth:`view_size` of ``max_side``."""
         import io
 
         from PIL import Image
 
         img = Image.fromarray(self.pixels)
-        if max_side is not None and max(img.size) > max_side:
-            img.thumbnail((max_side, max_side))
+        if self.view_size(max_side) != img.size:
+            img = img.resize(self.view_size(max_side), Image.Resampling.LANCZOS)
         buf = io.BytesIO()
         img.save(buf, format="PNG")
         return buf.getvalue()

@@ -76,6 +76,10 @@ def inventory_problems(objects: list[DetectedObject], width: int, height: int) -
         return ["the inventory is empty: list every piece of furniture and object you can see"]
     if len(objects) > MAX_OBJECTS:
         problems.append(f"{len(objects)} objects listed; at most {MAX_OBJECTS} are accepted")
+    if all(max(abs(v) for v in o.box) <= 1.0 for o in objects):
+        problems.append(
+            f"every box lies within [0, 1]: boxes are pixel coordinates of the {width}x{height} image, not fractions of it"
+        )
     ids = [o.id for o in objects]
     seen: set[str] = set()
     for oid in ids:

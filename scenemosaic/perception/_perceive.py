@@ -240,6 +240,8 @@ async def _perceive(
 def _apply_requests(state: PerceptionState, requests: list[Any]) -> set[str]:
     """Apply one round's requests; the ids asked to be segmented again with their box unchanged."""
     image = state.need_image()
+    scaled = state.view_size() != (image.width, image.height)
+    requests = [r.model_copy(update={"box": state.from_view(r.box)}) if scaled and r.box is not None else r for r in requests]
     same_box: set[str] = set()
     taken = {o.id for o in state.inventory}
     inventory = list(state.inventory)

@@ -156,3 +156,35 @@ def test_rules_model_answers_from_the_detections(photo: Path, tmp_path: Path) ->
         perceive(photo, RulesModel(), detections=folder / "inventory.json", segmenter="box", reconstructor="box-lifter")
     )
     assert [o.model_dump() for o in again.inventory] == [o.model_dump() for o in result.inventory]
+
+
+async def test_agents_see_a_downscaled_picture_and_boxes_scale_back(tmp_path: Path) -> None:
+    """A 2048 x 1536 photograph is shown at 1024 x 768 (``VIEW_MAX_SIDE``): the model answers in
+    those pixels, and the inventory comes back in the photograph's."""
+    rng = np.random.default_rng(5)
+    big = tmp_path / "big.png"
+    Image.fromarray(rng.integers(0, 255, (1536, 2048, 3), dtype=np.uint8)).save(big)
+    seen: dict[str, Any] = {}
+
+    def inventory(messages: list[Message], context: RequestContext | None) -> dict[str, Any]:
+        assert context is not None
+        seen["evidence"] = context.evidence
+        image = next(p for p in messages[-1].parts if isinstance(p, ImagePart))
+        seen["size"] = Image.open(__import__("io").BytesIO(image.png)).size
+        return {"objects": [{"id": "bed", "label": "double_bed", "box": [100, 300, 600, 700]}]}
+
+    def verify(messages: list[Message], context: RequestContext | None) -> dict[str, Any]:
+        assert context is not None
+        seen.setdefault("rows", context.evidence.objects)  # type: ignore[union-attr]
+        if len(seen.setdefault("verify", [])) == 0:
+            seen["verify"].append(1)
+            return {"requests": [{"action": "add", "object_id": "rug", "label": "rug", "box": [200, 650, 500, 760]}]}
+        return {"requests": []}
+
+    model = FunctionModel({"perception": inventory, "perception_verify": verify})
+    result = await perceive(big, model, segmenter="box", reconstructor="box-lifter")
+    assert seen["size"] == (1024, 768)
+    assert (seen["evidence"].image_width, seen["evidence"].image_height) == (1024, 768)
+    assert seen["rows"][0].box == (100.0, 300.0, 600.0, 700.0)  # the verifier sees the picture's pixels too
+    boxes = {o.id: o.box for o in result.inventory}
+    assert boxes == {"bed": (200.0, 600.0, 1200.0, 1400.0), "rug": (400.0, 1300.0, 1000.0, 1520.0)}

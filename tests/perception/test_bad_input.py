@@ -104,6 +104,11 @@ def test_inverted_and_nan_boxes_are_named() -> None:
     assert any("'b'" in p and "not a finite number" in p for p in problems)
 
 
+def test_normalized_boxes_are_named() -> None:
+    objs = [DetectedObject(id="a", label="chair", box=(0.1, 0.2, 0.3, 0.5))]
+    assert any("not fractions" in p for p in inventory_problems(objs, 320, 240))
+
+
 def test_empty_inventory_is_an_error(tmp_path: Path) -> None:
     empty = tmp_path / "empty.json"
     empty.write_text(json.dumps({"objects": []}))
