@@ -241,7 +241,7 @@ class BoxLifter:
             yaws[o.detection.id] = _facing_yaw(p[0], p[1], room_yaw, q)
             lifted.append(self._lifted(o, pose, centre, size, yaws[o.detection.id]))
         rests: dict[str, str] = {}
-        for o in sorted(others, key=lambda s: s.parent is not None):  # supports before what they hold
+        for o in sorted(others, key=lambda s: _support_depth(s, others)):  # supports before what they hold
             centre, size, rest = self._fit_single(camera, pose, o, priors[o.detection.id], placed, room_yaw)
             if rest == "on" and o.parent is not None:  # what rests on a top stands over it
                 centre = _onto(centre, size, *placed[o.parent], yaws[o.parent])
@@ -323,6 +323,16 @@ class BoxLifter:
             parent=o.parent,
             description=o.detection.description,
         )
+
+
+def _support_depth(o: SeenObject, objects: Sequence[SeenObject]) -> int:
+    """How many supports stand between ``o`` and the floor (its parents have no loops)."""
+    parent_of = {s.detection.id: s.parent for s in objects}
+    depth, cur = 0, o.parent
+    while cur is not None and depth <= len(objects):
+        depth += 1
+        cur = parent_of.get(cur)
+    return depth
 
 
 def _onto(centre: FloatArray, size: FloatArray, top_centre: FloatArray, top_size: FloatArray, top_yaw: float) -> FloatArray:

@@ -32,7 +32,7 @@ from scenemosaic.perception._agents import (
 )
 from scenemosaic.perception._frame import recover_frame
 from scenemosaic.perception._image import Camera, SceneImage, load_image
-from scenemosaic.perception._inventory import DetectedObject, Inventory, clipped, read_detections
+from scenemosaic.perception._inventory import DetectedObject, Inventory, Placement, clipped, read_detections
 from scenemosaic.perception._reconstruct import Reconstruction, Reconstructor, SeenObject
 from scenemosaic.perception._segment import BoxSegmenter, ObjectMask, Segmenter, segmenter_for
 from scenemosaic.scene import (
@@ -97,15 +97,26 @@ def _seen(inventory: list[DetectedObject], masks: dict[str, ObjectMask]) -> list
     keeps ``surface`` without a parent: the reconstructor decides where it rests (on the floor,
     on furniture out of view, on a wall), after the camera's fit, which it must not sway."""
     ids = {o.id for o in inventory}
-    out = []
+    parents: dict[str, str | None] = {}
+    placements: dict[str, Placement] = {}
     for o in inventory:
         placement = o.placement or traits(o.category).placement
         parent = o.on if o.on in ids else None
         if placement == "surface" and parent is None:
             parent = support_candidate(o, inventory)
-        if parent is not None:
-            placement = "surface"
-        out.append(SeenObject(detection=o, mask=masks[o.id], placement=placement, parent=parent))
+        parents[o.id], placements[o.id] = parent, placement
+    for oid in parents:  # a loop of 'on' (a model's answer) is cut where it is found first
+        seen, cur = {oid}, parents[oid]
+        while cur is not None and cur not in seen:
+            seen.add(cur)
+            cur = parents[cur]
+        if cur == oid:
+            parents[oid] = None
+    out = []
+    for o in inventory:
+        parent = parents[o.id]
+        rest: Placement = "surface" if parent is not None else placements[o.id]
+        out.append(SeenObject(detection=o, mask=masks[o.id], placement=rest, parent=parent))
     return out
 
 

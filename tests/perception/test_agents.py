@@ -188,3 +188,20 @@ async def test_agents_see_a_downscaled_picture_and_boxes_scale_back(tmp_path: Pa
     assert seen["rows"][0].box == (100.0, 300.0, 600.0, 700.0)  # the verifier sees the picture's pixels too
     boxes = {o.id: o.box for o in result.inventory}
     assert boxes == {"bed": (200.0, 600.0, 1200.0, 1400.0), "rug": (400.0, 1300.0, 1000.0, 1520.0)}
+
+
+async def test_a_loop_of_supports_from_the_model_is_cut(photo: Path) -> None:
+    """A model that says the vase is on the box and the box on the vase: the loop is cut, so at
+    most one of them rests on the other."""
+    objs = [
+        {"id": "box", "label": "box", "box": [300, 200, 360, 260], "on": "vase"},
+        {"id": "vase", "label": "vase", "box": [310, 150, 340, 200], "on": "box"},
+        {"id": "book", "label": "book", "box": [320, 120, 335, 150], "on": "vase"},
+        BED,
+    ]
+    model = FunctionModel({"perception": lambda m, c: {"objects": objs}, "perception_verify": lambda m, c: {"requests": []}})
+    result = await perceive(photo, model, segmenter="box", reconstructor="box-lifter")
+    places = result.report["placements"]
+    assert not (places["box"] == "on vase" and places["vase"] == "on box")
+    assert places["book"] == "on vase"  # a chain without a loop is kept
+    assert {o.id for o in result.scene.objects} == {"box", "vase", "book", "bed"}
