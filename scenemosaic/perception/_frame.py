@@ -134,7 +134,7 @@ def recover_frame(
         )
     camera_pos = rz @ np.array([0.0, 0.0, height])
     world_from_camera = np.eye(4)
-    world_from_camera[:3, :3] = rz @ floor_from_camera.T
+    world_from_camera[:3, :3] = rz @ floor_from_camera
     world_from_camera[:3, 3] = camera_pos
     items = footprint_items(objects)
     k = CAMERA_CLEARANCE

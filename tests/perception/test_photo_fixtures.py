@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -86,6 +87,15 @@ def test_box_lifter_lands_near_the_truth(name: str) -> None:
     expected = (cam["yaw_deg"] + 45.0) % 90.0 - 45.0
     assert measured is not None and abs((measured - expected + 45.0) % 90.0 - 45.0) < 3.0
     assert values.max() < OUTSIDE_REACH_M, errors
+    # frame recovery: the scene's world differs from the truth's by a turn about Z of a multiple of
+    # 90 degrees (gravity from the floor, the room's axes from its edges) and a shift
+    recovered = np.array(result.scene.metadata["camera"]["world_from_camera"]).reshape(4, 4)[:3, :3]
+    turn = world_from_camera[:3, :3] @ recovered.T
+    tilt = math.degrees(math.acos(min(1.0, float(turn[2, 2]))))
+    spin = math.degrees(math.atan2(turn[1, 0], turn[0, 0]))
+    print(f"  frame: tilt {tilt:.2f} deg, turn {spin:.2f} deg (a multiple of 90 expected)")
+    assert tilt < 3.0
+    assert abs((spin + 45.0) % 90.0 - 45.0) < 3.0
     if name in DEMO_VIEWS:
         far = {k: round(v, 3) for k, v in errors.items() if k in reach and v >= LIFT_TOLERANCE_M}
         assert len(reach) >= 4 and not far, far
