@@ -230,13 +230,13 @@ class Sam3Segmenter:
                 ) from exc
             processor = Sam3Processor(build_sam3_image_model())
         self._processor = processor
-        self._state: tuple[int, Any] | None = None
+        self._state: tuple[SceneImage, Any] | None = None
 
     def segment(self, image: SceneImage, prompt: str, box: Box) -> ObjectMask:
         from PIL import Image
 
-        if self._state is None or self._state[0] != id(image):
-            self._state = (id(image), self._processor.set_image(Image.fromarray(image.pixels)))
+        if self._state is None or self._state[0] is not image:
+            self._state = (image, self._processor.set_image(Image.fromarray(image.pixels)))
         output = self._processor.set_text_prompt(state=self._state[1], prompt=prompt.replace("_", " "))
         masks = _as_numpy(output["masks"])
         boxes = _as_numpy(output["boxes"]).reshape(-1, 4)
@@ -260,11 +260,11 @@ class HTTPSegmenter:
 
         self.url = url
         self._service = JSONService(url, what="segmenter", timeout_s=timeout_s, transport=transport)
-        self._image_b64: tuple[int, str] | None = None
+        self._image_b64: tuple[SceneImage, str] | None = None
 
     def segment(self, image: SceneImage, prompt: str, box: Box) -> ObjectMask:
-        if self._image_b64 is None or self._image_b64[0] != id(image):
-            self._image_b64 = (id(image), base64.b64encode(image.png_bytes()).decode("ascii"))
+        if self._image_b64 is None or self._image_b64[0] is not image:
+            self._image_b64 = (image, base64.b64encode(image.png_bytes()).decode("ascii"))
         reply = self._service.post({"image": self._image_b64[1], "prompt": prompt, "box": [round(v, 2) for v in box]})
         encoded = reply.get("mask")
         candidates = reply.get("masks")

@@ -229,3 +229,19 @@ def test_a_failing_backend_keeps_what_perception_saw(photo: Path, tmp_path: Path
     kept = json.loads((out / "perception" / "inventory.json").read_text())
     assert [o["id"] for o in kept["objects"]] == ["chair_1", "desk_2"]
     assert sorted(p.name for p in (out / "perception" / "masks").iterdir()) == ["chair_1.png", "desk_2.png"]
+
+
+def test_lens_from_exif_else_the_default(tmp_path: Path, photo: Path) -> None:
+    """A 28 mm (35 mm-equivalent) lens is 65.5 degrees across a 36 mm frame; without EXIF, 60."""
+    img = Image.open(photo)
+    exif = Image.Exif()
+    exif.get_ifd(0x8769)[0xA405] = 28
+    shot = tmp_path / "shot.jpg"
+    img.save(shot, exif=exif)
+    cam = load_image(shot).camera()
+    assert cam.source == "exif"
+    assert cam.hfov_deg == pytest.approx(2 * np.degrees(np.arctan(18 / 28)), abs=1e-6)
+    assert load_image(photo).camera().hfov_deg == pytest.approx(60.0)
+    assert load_image(photo).camera(75.0).source == "given"
+    with pytest.raises(ImportFormatError, match="field of view"):
+        load_image(photo).camera(200.0)
