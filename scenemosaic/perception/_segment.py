@@ -59,14 +59,15 @@ class ObjectMask:
     pixels: np.ndarray
 
     @classmethod
-    def from_full(cls, full: np.ndarray) -> ObjectMask:
-        """The crop of a full-image boolean mask."""
+    def from_full(cls, full: np.ndarray, offset: tuple[int, int] = (0, 0)) -> ObjectMask:
+        """The tight crop of a boolean mask whose top-left pixel lies at ``offset`` in the image
+        (a full-image mask by default)."""
         full = np.asarray(full, dtype=bool)
         ys, xs = np.nonzero(full)
         if len(xs) == 0:
             return cls((0, 0), np.zeros((0, 0), dtype=bool))
         x0, x1, y0, y1 = int(xs.min()), int(xs.max()) + 1, int(ys.min()), int(ys.max()) + 1
-        return cls((x0, y0), full[y0:y1, x0:x1].copy())
+        return cls((offset[0] + x0, offset[1] + y0), full[y0:y1, x0:x1].copy())
 
     @property
     def area(self) -> int:
@@ -148,7 +149,8 @@ class GrabCutSegmenter:
     """OpenCV GrabCut seeded by the box: the box's outside is background, its inside probably
     foreground; colour models of both are refined for ``iterations`` rounds. The crop around
     the box (with a ``margin`` of background) is scaled so its longer side is at most
-    ``max_side`` pixels, which bounds the time per object (about 20-60 ms here)."""
+    ``max_side`` pixels, which bounds the time per object (0.1-0.25 s on the shipped renders
+    here, ``benchmarks/perception.py``)."""
 
     name = "grabcut"
 
@@ -194,13 +196,8 @@ class GrabCutSegmenter:
         fg = (mask == cv2.GC_FGD) | (mask == cv2.GC_PR_FGD)
         if scale < 1.0:
             fg = cv2.resize(fg.astype(np.uint8), (cx1 - cx0, cy1 - cy0), interpolation=cv2.INTER_NEAREST).astype(bool)
-        full = np.zeros((h, w), dtype=bool)
-        full[cy0:cy1, cx0:cx1] = fg
-        full[:, :bx0] = False
-        full[:, bx1:] = False
-        full[:by0, :] = False
-        full[by1:, :] = False
-        return ObjectMask.from_full(full)
+        inside = fg[by0 - cy0 : by1 - cy0, bx0 - cx0 : bx1 - cx0]  # nothing outside the box belongs to it
+        return ObjectMask.from_full(inside, offset=(bx0, by0))
 
 
 def _as_numpy(value: Any) -> np.ndarray:
