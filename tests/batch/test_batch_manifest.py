@@ -165,3 +165,21 @@ def test_cli_batch_help_and_bad_manifest(tmp_path: Path) -> None:
     assert result.exit_code == 2, result.output
     assert "line 2" in result.output and "colour" in result.output
     assert not (tmp_path / "out").exists()
+
+
+def test_a_photograph_job_with_its_detections(tmp_path: Path) -> None:
+    """A manifest line for a photograph: the detections path is taken relative to the manifest,
+    and the perception settings reach the job's GenerateConfig; a field of view out of range is refused."""
+    photos = Path(__file__).resolve().parents[2] / "data" / "images" / "demo_bedroom"
+    line = {
+        "input": str(photos / "photo.png"),
+        "detections": os.path.relpath(photos / "boxes.json", tmp_path),
+        "segmenter": "grabcut",
+        "reconstructor": "box-lifter",
+        "hfov_deg": 60,
+    }
+    jobs = load_manifest(_manifest(tmp_path, json.dumps(line)))
+    config = jobs[0].config()
+    assert config.detections == (photos / "boxes.json").resolve()
+    assert (config.segmenter, config.reconstructor, config.hfov_deg) == ("grabcut", "box-lifter", 60)
+    _raises_on_line(_manifest(tmp_path, json.dumps({**line, "hfov_deg": 300})), 1)
