@@ -59,7 +59,7 @@ BEDROOM22 = REPO / "tests" / "fixtures" / "bedroom_22.json"
 """A harder case: 22 objects in 9 units (floor, a wall, the ceiling, object tops, a bookshelf)."""
 LATENCY_S = 5.0
 STRUCTURING = [ManagerAgent(), *DEFAULT_AGENTS]
-SOLVERS: dict[str, TaskAgent[Any, Any]] = {
+SOLVERS: dict[str, TaskAgent[Any, Any, Any]] = {
     a.name: a for a in (*STRUCTURING, CriticAgent(), ActorAgent(), ArchetypeAgent(), PoseAgent())
 }
 

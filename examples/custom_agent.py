@@ -29,11 +29,11 @@ class Crowding(sm.AgentOutput):
     largest: list[str] = Field(max_length=3)
 
 
-class CrowdingAgent(sm.TaskAgent[Footprints, Crowding]):
+class CrowdingAgent(sm.TaskAgent[sm.SceneState, Footprints, Crowding]):
     name: ClassVar[str] = "crowding"
     depends_on: ClassVar[tuple[str, ...]] = ("room",)  # needs the recovered floor
     prompt: ClassVar[str] = PROMPT
-    output_type: ClassVar[type[BaseModel]] = Crowding
+    object_id_fields: ClassVar[tuple[str, ...]] = ("largest",)  # the base check: known ids, each once
 
     def gather(self, state: sm.SceneState) -> Footprints:
         floor = Polygon(state.scene.room.floor).area if state.scene.room else 1.0
@@ -42,10 +42,6 @@ class CrowdingAgent(sm.TaskAgent[Footprints, Crowding]):
     def solve(self, evidence: Footprints) -> Crowding:
         largest = sorted(evidence.objects, key=lambda oid: -evidence.objects[oid])[:3]
         return Crowding(covered_fraction=round(sum(evidence.objects.values()) / evidence.floor_m2, 3), largest=largest)
-
-    def check(self, output: Crowding, state: sm.SceneState) -> list[str]:
-        known = {o.id for o in state.scene.objects}
-        return [f"unknown object id {oid!r}; use ids from the evidence" for oid in output.largest if oid not in known]
 
     def apply(self, output: Crowding, state: sm.SceneState) -> None:
         state.scene.metadata["crowding"] = output.model_dump()

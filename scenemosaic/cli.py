@@ -25,18 +25,12 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from scenemosaic import pipeline  # its stages load on first use: --help stays light
 from scenemosaic._logging import configure_logging
 from scenemosaic.batch import SUMMARY_FILE, BatchSummary, JobRecord, load_manifest, run_batch
 from scenemosaic.exceptions import SceneMosaicError
-from scenemosaic.pipeline import (
-    DELIVERED_FORMATS,
-    STAGE_NAMES,
-    GenerateConfig,
-    GenerateResult,
-    agenerate,
-    checkpoint_config,
-)
-from scenemosaic.scene import Scene
+from scenemosaic.pipeline import SETTINGS, GenerateConfig, GenerateResult, SettingsError
+from scenemosaic.scene import RunFolder, Scene
 
 __all__ = ["app", "main"]
 
@@ -135,7 +129,7 @@ def _hard_exit(code: int) -> NoReturn:
 
 
 def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfig) -> GenerateResult:
-    stop = _Stop(out / "report.json")
+    stop = _Stop(RunFolder(out).report)
     with Progress(
         SpinnerColumn(),
         TextColumn("[bold]{task.description}"),
@@ -145,7 +139,7 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
         console=_err,
         transient=False,
     ) as progress:
-        bar = progress.add_task("starting", total=len(STAGE_NAMES))
+        bar = progress.add_task("starting", total=len(pipeline.STAGE_NAMES))
 
         def on_stage(name: str, status: str) -> None:
             if status == "started":
@@ -156,7 +150,7 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
         async def main() -> GenerateResult:
             stop.install(asyncio.get_running_loop())
             stop.task = asyncio.current_task()  # type: ignore[assignment]
-            return await agenerate(input_path, out, config, on_stage=on_stage)
+            return await pipeline.agenerate(input_path, out, config, on_stage=on_stage)
 
         try:
             return asyncio.run(main())
@@ -170,7 +164,7 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
 
 def _failed_stage(out: Path) -> str | None:
     try:
-        value = json.loads((out / "report.json").read_text(encoding="utf-8")).get("failed_stage")
+        value = json.loads(RunFolder(out).report.read_text(encoding="utf-8")).get("failed_stage")
     except (OSError, ValueError, AttributeError):
         return None
     return value if isinstance(value, str) else None
@@ -182,7 +176,7 @@ def _run_cli(input_path: Path | None, out: Path, config: GenerateConfig) -> None
         result = _run_with_progress(input_path, out, config)
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {exc}", highlight=False)
-        if (out / "report.json").is_file():
+        if RunFolder(out).report.is_file():
             _err.print(f"partial results and the report are in {out}", highlight=False)
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
     except Exception as exc:  # a bug: one line here, the traceback in the report
@@ -190,7 +184,7 @@ def _run_cli(input_path: Path | None, out: Path, config: GenerateConfig) -> None
         where = f" in stage {stage!r}" if stage else ""
         _err.print(
             f"[red]error:[/red] unexpected {type(exc).__name__}{where} on {input_path}: {exc} "
-            f"(traceback in {out / 'report.json'})",
+            f"(traceback in {RunFolder(out).report})",
             highlight=False,
         )
         raise typer.Exit(code=EXIT_UNEXPECTED) from exc
@@ -254,18 +248,18 @@ def generate(
     image_size: Annotated[str, typer.Option("--image-size", help="Size asked of the images endpoint.")] = "1024x1024",
     hfov: Annotated[
         float | None,
-        typer.Option("--hfov", min=5.0, max=170.0, help="A photograph's horizontal field of view in degrees (default: EXIF, else 60)."),
+        typer.Option("--hfov", help="A photograph's horizontal field of view in degrees, 5 to 170 (default: EXIF, else 60)."),
     ] = None,
     variants: Annotated[
         int,
         typer.Option(
-            "--variants", min=0, help="Number of diverse variants (m); above 0 the evolve stage also grows unit variants."
+            "--variants", help="Number of diverse variants (m); above 0 the evolve stage also grows unit variants."
         ),
     ] = 0,
     evolve: Annotated[
         bool, typer.Option("--evolve/--no-evolve", help="Refine every unit through the Critic-Actor loop (default on).")
     ] = True,
-    rounds: Annotated[int, typer.Option("--rounds", min=1, help="Round cap of each layout's Critic-Actor loop.")] = 8,
+    rounds: Annotated[int, typer.Option("--rounds", help="Round cap of each layout's Critic-Actor loop (1 or more).")] = 8,
     save_views: Annotated[
         bool, typer.Option("--save-views", help="Write each unit's view per round as PNG under OUT/evolve/.")
     ] = False,
@@ -299,15 +293,22 @@ def generate(
         int | None,
         typer.Option(
             "--max-concurrency",
-            min=1,
             help="Most model requests in flight at once (default: the server's slots when it says).",
         ),
     ] = None,
-    rpm: Annotated[float | None, typer.Option("--rpm", min=0.001, help="Most model requests per minute (client side).")] = None,
-    tpm: Annotated[float | None, typer.Option("--tpm", min=1, help="Most model tokens per minute (client side).")] = None,
+    rpm: Annotated[float | None, typer.Option("--rpm", help="Most model requests per minute (client side).")] = None,
+    tpm: Annotated[float | None, typer.Option("--tpm", help="Most model tokens per minute (client side).")] = None,
     reply_cache: Annotated[
         Path | None,
         typer.Option("--reply-cache", help="Folder of an on-disk model reply cache: equal requests are answered from it at no cost."),
+    ] = None,
+    stabilize: Annotated[
+        bool,
+        typer.Option("--stabilize/--no-stabilize", help="Run the physics stabilization (default on); off skips evolve too."),
+    ] = True,
+    cache_dir: Annotated[
+        Path | None,
+        typer.Option("--cache-dir", help="Hull cache folder (default: $SCENEMOSAIC_CACHE or ~/.cache/scenemosaic)."),
     ] = None,
     strict: Annotated[bool, typer.Option("--strict", help="Exit 1 when the result is degraded.")] = False,
     overwrite: Annotated[
@@ -330,7 +331,7 @@ def generate(
     """
     if resume is not None:
         try:
-            input_path, config = checkpoint_config(resume)
+            input_path, config = pipeline.checkpoint_config(resume)
         except SceneMosaicError as exc:
             _err.print(f"[red]error:[/red] {exc}", highlight=False)
             raise typer.Exit(code=EXIT_BAD_INPUT) from exc
@@ -341,36 +342,49 @@ def generate(
             "[red]error:[/red] give INPUT or --prompt TEXT (one of them), and --out (or --resume OUT to continue a stopped run)"
         )
         raise typer.Exit(code=EXIT_BAD_INPUT)
-    config = GenerateConfig(
-        format=format,
-        detections=detections,
-        segmenter=segmenter,
-        reconstructor=reconstructor,
-        hfov_deg=hfov,
-        prompt=prompt,
-        image_model=image_model,
-        image_size=image_size,
-        variants=variants,
-        evolve=evolve,
-        evolve_rounds=rounds,
-        save_views=save_views,
-        model=model,
-        seed=seed,
-        room=room,
-        vision=vision,
-        priors_dir=priors,
-        solver_fallback=fallback,
-        asset_dir=asset_dir,
-        request_timeout_s=request_timeout,
-        deadline_s=deadline,
-        max_concurrency=max_concurrency,
-        requests_per_minute=rpm,
-        tokens_per_minute=tpm,
-        reply_cache=reply_cache,
-        strict=strict,
-        overwrite=overwrite,
-    )
+    try:
+        config = GenerateConfig(
+            format=format,
+            detections=detections,
+            segmenter=segmenter,
+            reconstructor=reconstructor,
+            hfov_deg=hfov,
+            prompt=prompt,
+            image_model=image_model,
+            image_size=image_size,
+            variants=variants,
+            evolve=evolve,
+            evolve_rounds=rounds,
+            save_views=save_views,
+            model=model,
+            seed=seed,
+            room=room,
+            vision=vision,
+            priors_dir=priors,
+            solver_fallback=fallback,
+            asset_dir=asset_dir,
+            request_timeout_s=request_timeout,
+            deadline_s=deadline,
+            max_concurrency=max_concurrency,
+            requests_per_minute=rpm,
+            tokens_per_minute=tpm,
+            reply_cache=reply_cache,
+            stabilize=stabilize,
+            cache_dir=cache_dir,
+            strict=strict,
+            overwrite=overwrite,
+        )
+    except SettingsError as exc:  # named by their flags: one line each
+        for line in exc.describe(_flag_of):
+            _err.print(f"[red]error:[/red] {escape(line)}", highlight=False)
+        raise typer.Exit(code=EXIT_BAD_INPUT) from exc
     _run_cli(input_path, out, config)
+
+
+def _flag_of(field: str) -> str:
+    """A setting's ``generate`` flag (``evolve_rounds`` -> ``--rounds``), else its name."""
+    setting = SETTINGS.get(field)
+    return setting.flag if setting is not None and setting.flag else repr(field)
 
 
 @app.command()
@@ -381,30 +395,28 @@ def demo(
 ) -> None:
     """Run generate on the bundled procedural demo scene, offline (rules model, no key, no network)."""
     from scenemosaic.exchange import save_scene
-    from scenemosaic.pipeline import demo_scene
 
     source = out / "input"
-    save_scene(demo_scene(), source)
+    save_scene(pipeline.demo_scene(), source)
     _run_cli(source, out, GenerateConfig(model="rules", seed=seed, overwrite=True))
 
 
 @app.command()
 def inspect(
     scene_path: Annotated[
-        Path, typer.Argument(metavar="SCENE", help="A scene folder or scene.json, or any input generate reads.")
+        Path,
+        typer.Argument(
+            metavar="SCENE", help="A generate output folder (its base/), a scene folder or scene.json, or any input generate reads."
+        ),
     ],
     as_json: Annotated[bool, typer.Option("--json", help="Print the units and constraints as JSON.")] = False,
+    variant: VariantOpt = None,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Show a scene's tree: anchors, their children, units and cross-unit constraints."""
-    from scenemosaic.exchange import load_scene
     from scenemosaic.scene import format_tree
 
-    try:
-        scene = load_scene(scene_path)
-    except SceneMosaicError as exc:
-        _err.print(f"[red]error:[/red] {exc}")
-        raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+    scene, _ = _load_or_exit(scene_path, variant)
     if as_json:
         payload = {
             "units": [u.model_dump(mode="json") for u in (scene.structure.units if scene.structure else [])],
@@ -425,21 +437,12 @@ def evaluate(
 ) -> None:
     """Print the scene metrics as JSON: COL, OOB, NAV of the base and each variant, RelKeep,
     Div-IoU and Div-N over the variants (see docs/composition.md)."""
-    from scenemosaic.exchange import load_scene
     from scenemosaic.metrics import evaluate as evaluate_scenes
 
-    base_dir = path / "base" if (path / "base").is_dir() else path
-    variant_dirs = sorted(
-        (p for p in path.glob("variant_*") if p.is_dir()), key=lambda p: int(p.name.split("_")[1]) if p.name.split("_")[1].isdigit() else 0
-    ) if path.is_dir() else []  # fmt: skip
-    try:
-        base = load_scene(base_dir)
-        variants = [load_scene(d) for d in variant_dirs]
-    except SceneMosaicError as exc:
-        _err.print(f"[red]error:[/red] {exc}")
-        raise typer.Exit(code=EXIT_BAD_INPUT) from exc
-    folder = base_dir if base_dir.is_dir() else base_dir.parent
-    result = evaluate_scenes(base, variants, base_dir=folder, variant_dirs=variant_dirs)
+    (_, base_path), *variant_paths = _scene_folders(path)
+    base, folder = _load_or_exit(base_path)
+    variants = [_load_or_exit(p)[0] for _, p in variant_paths]
+    result = evaluate_scenes(base, variants, base_dir=folder, variant_dirs=[p for _, p in variant_paths])
     _out.print_json(json.dumps(result))
 
 
@@ -576,23 +579,31 @@ def batch(
 def _scene_folders(path: Path) -> list[tuple[str, Path]]:
     """``[(name, folder)]``: a generate output folder's ``base`` and ``variant_<i>`` (in order),
     or the one scene ``path`` names (a folder or a file, named by its folder)."""
-    if (path / "base").is_dir():
-        variants = sorted(
-            (p for p in path.glob("variant_*") if p.is_dir() and p.name.split("_", 1)[1].isdigit()),
-            key=lambda p: int(p.name.split("_", 1)[1]),
-        )
-        return [("base", path / "base"), *((p.name, p) for p in variants)]
+    if RunFolder.is_run(path):
+        return RunFolder(path).scenes()
     return [(path.stem if path.is_file() else path.name, path)]
 
 
-def _load_or_exit(path: Path) -> Scene:
+def _load_or_exit(path: Path, variant: str | None = None) -> tuple[Scene, Path]:
+    """The scene ``path`` names (a generate output folder gives its base, or ``variant``) and the
+    folder its mesh paths start from."""
     from scenemosaic.exchange import load_scene
 
     try:
-        return load_scene(path)
+        if RunFolder.is_run(path):
+            path = RunFolder(path).scene_folder(variant)
+        elif variant is not None:
+            raise SceneMosaicError(f"--variant needs a generate output folder; {path} is not one")
+        return load_scene(path), path if path.is_dir() else path.parent
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+
+
+VariantOpt = Annotated[
+    str | None,
+    typer.Option("--variant", help="With a generate output folder: the variant to use (2 or variant_2) instead of base/."),
+]
 
 
 @app.command()
@@ -603,17 +614,16 @@ def export(
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Write a saved scene (or every scene of a generate run) in another format."""
-    from scenemosaic.exchange import FORMATS, write_scene
+    from scenemosaic.exchange import DELIVERED_FORMATS, FORMATS, write_scene
 
     writers = sorted(name for name, f in FORMATS.items() if f.write is not None)
     if fmt not in writers:
         _err.print(f"[red]error:[/red] unknown output format {fmt!r}; use one of {', '.join(writers)}")
         raise typer.Exit(code=EXIT_BAD_INPUT)
     folders = _scene_folders(path)
-    single = len(folders) == 1 and not (path / "base").is_dir()
+    single = not RunFolder.is_run(path)
     for name, folder in folders:
-        scene = _load_or_exit(folder)
-        base_dir = folder if folder.is_dir() else folder.parent
+        scene, base_dir = _load_or_exit(folder)
         target = out if single else out / name
         destination = target / dict(DELIVERED_FORMATS).get(fmt, "")  # where generate puts it
         try:
@@ -627,20 +637,20 @@ def export(
 
 @app.command()
 def render(
-    path: Annotated[Path, typer.Argument(metavar="SCENE", help="A scene folder or file.")],
+    path: Annotated[Path, typer.Argument(metavar="SCENE", help="A generate output folder (its base/), a scene folder or file.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="PNG file to write.")],
     unit: Annotated[
         str | None, typer.Option("--unit", help="Draw this unit's orthographic view (an anchor id: floor, a wall, a table...) instead of the floor plan.")
     ] = None,
     size: Annotated[int, typer.Option("--size", min=64, max=4096, help="Image side in pixels.")] = 1024,
     gl: Annotated[bool, typer.Option("--gl/--no-gl", help="Render the meshes with MuJoCo (MUJOCO_GL=egl) when a GL context can be made.")] = False,
+    variant: VariantOpt = None,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Draw a scene's floor plan, or one local unit's orthographic view as the critic sees it, as PNG."""
     from scenemosaic.render import render_topdown, render_view, topdown_view
 
-    scene = _load_or_exit(path)
-    base_dir = path if path.is_dir() else path.parent
+    scene, base_dir = _load_or_exit(path, variant)
     try:
         if unit is None:
             png = (
@@ -669,21 +679,21 @@ def render(
 
 @app.command()
 def edit(
-    path: Annotated[Path, typer.Argument(metavar="SCENE", help="A scene folder or file.")],
+    path: Annotated[Path, typer.Argument(metavar="SCENE", help="A generate output folder (its base/), a scene folder or file.")],
     expressions: Annotated[list[str], typer.Argument(metavar="EXPR...", help="Pose expressions, e.g. 'chair_0.center.u = table_0.bbox.max_u + 0.3'.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder for the edited scene (every delivered format, like base/).")],
     unit: Annotated[str | None, typer.Option("--unit", help="The unit (anchor id) the expressions act in; default: the one unit all targets belong to.")] = None,
+    variant: VariantOpt = None,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Move objects of one local unit with the pose expression language (docs/evolution.md) and
     write the edited scene; no physics runs (generate it again to stabilize)."""
-    from scenemosaic.pipeline import export_base
+    from scenemosaic.exchange import deliver_scene
 
-    scene = _load_or_exit(path)
-    base_dir = path if path.is_dir() else path.parent
+    scene, base_dir = _load_or_exit(path, variant)
     try:
         edited = scene.edit(expressions, unit=unit)
-        files = export_base(edited, out, base_dir)
+        files = deliver_scene(edited, out, base_dir)
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc

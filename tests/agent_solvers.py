@@ -15,7 +15,7 @@ from scenemosaic.evolve import ActorAgent, ArchetypeAgent, CriticAgent, PoseAgen
 from scenemosaic.models import Message, RequestContext
 from scenemosaic.structure import DEFAULT_AGENTS, ManagerAgent
 
-SOLVERS: dict[str, TaskAgent[Any, Any]] = {
+SOLVERS: dict[str, TaskAgent[Any, Any, Any]] = {
     a.name: a for a in (ManagerAgent(), *DEFAULT_AGENTS, CriticAgent(), ActorAgent(), ArchetypeAgent(), PoseAgent())
 }
 

@@ -1,9 +1,11 @@
 """The task-agent framework: the base class, the shared scene state and the scheduler adapter.
 
-A task agent is a typed unit of work: it gathers evidence from a :class:`SceneState`, asks a
-model (or answers with its own rule solver offline), checks the answer against the scene,
-repairs it within one retry budget, and applies it. :func:`run_agents` runs a set of agents
-as a task graph (:mod:`scenemosaic.dag`). The structuring agents live in
+A task agent is a typed unit of work (``TaskAgent[StateT, EvidenceT, OutputT]``): it gathers
+evidence from its state (a :class:`SceneState` or a subclass), asks a model (or answers with its
+own rule solver offline), checks the answer against the scene (unknown and repeated object ids
+by the base class), repairs it within one retry budget, applies it, and returns an
+:class:`AgentResult`. :func:`run_agents` runs a set of agents as a task graph
+(:mod:`scenemosaic.dag`) and hands each result to its ``on_result`` callback. The structuring agents live in
 :mod:`scenemosaic.structure`; plugins are plain subclasses passed in by the caller.
 """
 
@@ -13,6 +15,7 @@ from scenemosaic.agents._base import (
     AgentOutcome,
     AgentOutput,
     AgentPolicy,
+    AgentResult,
     FallbackRecord,
     SceneState,
     TaskAgent,
@@ -21,7 +24,13 @@ from scenemosaic.agents._base import (
     run_blocking,
 )
 from scenemosaic.agents._evidence import TABLE_NOTE, evidence_legend, evidence_text
-from scenemosaic.agents._node import add_agent_nodes, agent_dependencies, agent_node, run_agents
+from scenemosaic.agents._node import (
+    ResultListener,
+    add_agent_nodes,
+    agent_dependencies,
+    agent_node,
+    run_agents,
+)
 
 __all__ = [
     "MAX_ITEMS",
@@ -30,7 +39,9 @@ __all__ = [
     "AgentOutcome",
     "AgentOutput",
     "AgentPolicy",
+    "AgentResult",
     "FallbackRecord",
+    "ResultListener",
     "SceneState",
     "TaskAgent",
     "add_agent_nodes",

@@ -1,9 +1,14 @@
-"""Task agents: typed units of work that read the shared scene state and write back to it.
+"""Task agents: typed units of work that read a scene state and write their answer back to it.
 
-A task agent declares a name, the agents it depends on, how it gathers its evidence,
-its prompt template (``prompts/<prompt>.md``), its pydantic output type, its rule solver
-(the offline path), how it checks an output against the scene, and how it applies it.
-The scheduler (``scenemosaic.dag``) turns agents into graph nodes and runs them.
+A task agent is typed on the state it works on, its evidence and its output
+(``TaskAgent[StateT, EvidenceT, OutputT]``; the output type is the third parameter). It declares a
+name, the agents it depends on, how it gathers its evidence, its prompt template
+(``prompts/<prompt>.md``), its rule solver (the offline path), which output fields name objects
+(checked for unknown and repeated ids by the base class), how else it checks an output against
+the scene, and how it applies it. :meth:`TaskAgent.run` returns an :class:`AgentResult` (the
+output, its usage, how it was answered, the problems of refused answers) and writes nothing but
+the applied output into the state; the runner (``scenemosaic.agents.run_agents``, the evolve
+loop) collects the results. The scheduler (``scenemosaic.dag``) turns agents into graph nodes.
 
 Plugins are subclasses (or any object with the same attributes) passed in by the caller;
 there is no global registry.
@@ -17,10 +22,10 @@ import contextvars
 import dataclasses
 import functools
 import inspect
-from collections.abc import Callable
+from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar, Generic, Literal, TypeVar
+from typing import Any, ClassVar, Generic, Literal, TypeVar, cast, get_args, get_origin
 
 import structlog
 from pydantic import BaseModel, ConfigDict
@@ -45,6 +50,7 @@ __all__ = [
     "AgentOutcome",
     "AgentOutput",
     "AgentPolicy",
+    "AgentResult",
     "FallbackRecord",
     "SceneState",
     "TaskAgent",
@@ -68,6 +74,7 @@ class AgentOutput(BaseModel):
 
 _log = structlog.get_logger(__name__)
 
+StateT = TypeVar("StateT", bound="SceneState", contravariant=True)
 EvidenceT = TypeVar("EvidenceT", bound=BaseModel)
 OutputT = TypeVar("OutputT", bound=BaseModel)
 R = TypeVar("R")
@@ -158,7 +165,7 @@ class AgentPolicy:
     solver_fallback: bool = False
     """When the attempts are used up, or the model fails in a way retries cannot fix (time-outs,
     5xx after the transport's own retries, dropped connections), answer with the agent's rule
-    solver and record it in :attr:`SceneState.fallbacks`, instead of failing the run.
+    solver and say so in the run's :class:`AgentResult` (``fallback``), instead of failing the run.
     Configuration errors (HTTP 401, a cassette miss, vision on a text-only server) still raise.
     Off by default for direct use (an unusable answer raises); ``generate`` turns it on
     (``GenerateConfig.solver_fallback``) so batch runs still deliver scenes."""
@@ -197,15 +204,36 @@ class AgentOutcome:
     reason: str = ""
 
 
+@dataclass(frozen=True)
+class AgentResult(Generic[OutputT]):
+    """What one :meth:`TaskAgent.run` produced; the output is already applied to the state.
+
+    ``outcome`` says how the answer came about (model, rules, solver without a call, or solver
+    fallback with the reason); ``fallback`` is the record of a solver fallback (``None`` when the
+    answer is the model's or the rules'); ``problems`` holds the check's problems with each model
+    answer that was refused, in order (schema errors not included).
+    """
+
+    output: OutputT
+    outcome: AgentOutcome
+    usage: Usage = field(default_factory=Usage)
+    problems: tuple[tuple[str, ...], ...] = ()
+    fallback: FallbackRecord | None = None
+
+    @property
+    def agent(self) -> str:
+        """The agent's name."""
+        return self.outcome.agent
+
+
 @dataclass
 class SceneState:
     """The shared state task agents read and write during a run.
 
     ``scene`` is replaced (not mutated behind readers' backs) by ``apply``; ``lock``
     serializes applies so concurrent agents never interleave half-written changes.
-    ``outputs`` keeps each agent's validated output by agent name; ``fallbacks`` lists the
-    agents that fell back to their rule solver; ``outcomes`` says how each agent's answer came
-    about (:class:`AgentOutcome`).
+    ``outputs`` keeps each agent's applied output by agent name. How each agent's answer came
+    about is not kept here: :meth:`TaskAgent.run` returns it (:class:`AgentResult`).
     """
 
     scene: Scene
@@ -214,8 +242,6 @@ class SceneState:
     """Folder relative mesh paths start from (agents that draw the scene's meshes need it)."""
     policy: AgentPolicy = field(default_factory=AgentPolicy)
     outputs: dict[str, BaseModel] = field(default_factory=dict)
-    fallbacks: list[FallbackRecord] = field(default_factory=list)
-    outcomes: dict[str, AgentOutcome] = field(default_factory=dict)
     lock: asyncio.Lock = field(default_factory=asyncio.Lock)
 
 
@@ -245,8 +271,73 @@ def _recoverable(exc: ModelError) -> bool:
     return True  # time-outs, dropped connections after the transport's retries
 
 
-class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
-    """Base class of every task agent.
+def _field_values(value: Any, path: list[str]) -> Iterator[str]:
+    """The strings at a dotted ``path`` below ``value``, walking through lists (``None`` skipped)."""
+    if isinstance(value, list | tuple):
+        for item in value:
+            yield from _field_values(item, path)
+        return
+    if value is None:
+        return
+    if not path:
+        if isinstance(value, str):
+            yield value
+        return
+    yield from _field_values(getattr(value, path[0]), path[1:])
+
+
+@dataclass
+class _Tally:
+    """Requests, repairs, usage and refused answers of one agent run, over all its requests."""
+
+    requests: int = 0
+    repairs: int = 0
+    usage: Usage = field(default_factory=Usage)
+    refused: list[tuple[str, ...]] = field(default_factory=list)
+
+    def result(self, agent: str, output: OutputT, answered_by: AnsweredBy, reason: str = "") -> AgentResult[OutputT]:
+        fallback = FallbackRecord(agent=agent, reason=reason[:500]) if answered_by == "solver_fallback" else None
+        outcome = AgentOutcome(agent, answered_by, self.requests, self.repairs, reason[:300])
+        return AgentResult(output, outcome, self.usage, tuple(self.refused), fallback)
+
+
+@dataclass
+class _Reply(Generic[OutputT]):
+    """Where one ask/check/repair loop ended: an accepted output, or the problems and why it stopped."""
+
+    output: OutputT | None = None
+    problems: list[str] = field(default_factory=list)
+    """The last answer's problems (repairable ones: schema or check)."""
+    error: str | None = None
+    """A model failure the solver may answer for (``solver_fallback`` on); ``None``: the budget ran out."""
+    schema_error: OutputValidationError | None = None
+    """The last answer's schema error, when it was one."""
+
+
+def _output_parameter(cls: type) -> type[BaseModel] | TypeVar | None:
+    """The output type a class's generic bases give ``TaskAgent``'s ``OutputT`` (a class, or a type
+    variable when the class is itself generic in its output), ``None`` when they say nothing."""
+    for base in vars(cls).get("__orig_bases__", ()):
+        origin = get_origin(base)
+        if origin is TaskAgent:
+            variable = cast(Any, TaskAgent).__parameters__[2]  # OutputT
+        else:
+            variable = getattr(origin, "_output_variable", None)
+        if variable is None:
+            continue
+        given = dict(zip(getattr(origin, "__parameters__", ()), get_args(base), strict=False))
+        found = given.get(variable)
+        if isinstance(found, TypeVar) or (isinstance(found, type) and issubclass(found, BaseModel)):
+            return found
+    return None
+
+
+class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
+    """Base class of every task agent: ``TaskAgent[StateT, EvidenceT, OutputT]``.
+
+    ``StateT`` is the state the hooks work on (:class:`SceneState`, or a subclass such as the
+    evolve stage's ``EvolveState``), ``EvidenceT`` what :meth:`gather` collects, ``OutputT`` the
+    pydantic model a reply must validate as (it becomes ``output_type``; do not set it as well).
 
     Class attributes to set in a subclass:
 
@@ -257,7 +348,8 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
       verification agent); it then depends on all agents of the run that do not run last.
     * ``prompt`` — the prompt template's name (``<name>.md`` in a ``prompts/`` folder beside
       the module defining the class, or beside the module itself), or the prompt text itself.
-    * ``output_type`` — the pydantic model a reply must validate as.
+    * ``object_id_fields`` / ``object_ref_fields`` — output fields that name objects; the base
+      check reports unknown ids (and, for ``object_id_fields``, ids listed twice).
     * ``offload`` — run :meth:`gather`, :meth:`messages`, :meth:`check` and :meth:`apply`
       in a worker thread (default), holding ``state.lock`` so they still see and leave a
       consistent scene. Set it to ``False`` for an agent whose hooks must run on the event
@@ -273,12 +365,22 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     runs_last: ClassVar[bool] = False
     prompt: ClassVar[str]
     output_type: ClassVar[type[BaseModel]]
+    """The output model: the class's third type parameter (set here only for a class whose
+    parameter is not a concrete model, e.g. one made at run time)."""
     offload: ClassVar[bool] = True
     chunk_size: ClassVar[int | None] = None
     """Largest number of objects one request answers for; a larger scene is asked in chunks
     (:meth:`split`), so prompt and reply fit a small model's context. Needs ``items_field``."""
     items_field: ClassVar[str | None] = None
     """Name of the output's per-object list (items carrying an ``object_id``), for chunking."""
+    object_id_fields: ClassVar[tuple[str, ...]] = ()
+    """Output fields that name each object at most once, as dotted paths through lists
+    (``"objects.object_id"``): an id not in :meth:`known_ids` or listed twice is a problem."""
+    object_ref_fields: ClassVar[tuple[str, ...]] = ()
+    """Output fields that may name an object more than once (``"within_unit.reference_id"``):
+    an id not in :meth:`known_ids` is a problem."""
+    id_scope: ClassVar[str] = "scene"
+    """What :meth:`known_ids` holds, in the words of the unknown-id problem ("... does not exist in this scene")."""
     prompt_omit: ClassVar[frozenset[str]] = frozenset()
     """Evidence fields this agent's decisions do not need: left out of the prompt text (the rule
     solver still reads them), to keep prompts small."""
@@ -288,26 +390,75 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
     early instead of filling the whole default cap. ``None``: the run's cap."""
     prompt_extra: ClassVar[frozenset[str]] = frozenset()
     """Evidence fields marked ``prompt=False`` that this agent's prompt shows all the same."""
+    _output_variable: ClassVar[Any] = None
+    """The type variable standing for the output in a generic subclass's own parameters."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Take ``output_type`` from the class's type parameters (declared once, there)."""
+        super().__init_subclass__(**kwargs)
+        found = _output_parameter(cls)
+        if isinstance(found, TypeVar):  # a generic subclass: its own subclasses say what it is
+            cls._output_variable = found
+        elif found is not None:
+            if "output_type" in vars(cls):
+                raise TypeError(
+                    f"{cls.__name__} declares its output type twice: the type parameter "
+                    f"{found.__name__} is the output type, leave output_type out"
+                )
+            cls.output_type = found
+            cls._output_variable = None
 
     # -- what a subclass provides ------------------------------------------------------------
     @abc.abstractmethod
-    def gather(self, state: SceneState) -> EvidenceT:
+    def gather(self, state: StateT) -> EvidenceT:
         """Collect this agent's structured evidence from the scene state."""
 
     @abc.abstractmethod
     def solve(self, evidence: EvidenceT) -> OutputT:
         """The deterministic offline solver: evidence in, output out."""
 
-    def check(self, output: OutputT, state: SceneState) -> list[str]:
-        """Problems that make ``output`` unusable on this scene (unknown ids, cycles...).
+    def check(self, output: OutputT, state: StateT) -> list[str]:
+        """Problems, beyond unknown and repeated ids, that make ``output`` unusable on this scene.
 
-        Each problem is a sentence a model can act on; an empty list means usable.
+        Each problem is a sentence a model can act on; an empty list means usable. The ids of
+        ``object_id_fields`` / ``object_ref_fields`` are checked before (:meth:`problems`), so an
+        override needs no id checks of its own (it may skip items whose id is unknown).
         """
         return []
 
     @abc.abstractmethod
-    def apply(self, output: OutputT, state: SceneState) -> None:
+    def apply(self, output: OutputT, state: StateT) -> None:
         """Write a checked output into the scene state."""
+
+    def known_ids(self, state: StateT) -> Collection[str]:
+        """The ids an output may name (default: the scene's objects)."""
+        return {o.id for o in state.scene.objects}
+
+    def id_problems(self, output: OutputT, state: StateT) -> list[str]:
+        """Unknown ids in the output's id fields, and ids listed twice in an ``object_id_fields`` field."""
+        if not (self.object_id_fields or self.object_ref_fields):
+            return []
+        known = self.known_ids(state)
+        problems: list[str] = []
+        unknown: set[str] = set()
+        for path in (*self.object_id_fields, *self.object_ref_fields):
+            once = path in self.object_id_fields
+            seen: set[str] = set()
+            repeated: set[str] = set()
+            for oid in _field_values(output, path.split(".")):
+                if oid not in known:
+                    if oid not in unknown:
+                        unknown.add(oid)
+                        problems.append(f"object id {oid!r} does not exist in this {self.id_scope}")
+                elif once and oid in seen and oid not in repeated:
+                    repeated.add(oid)
+                    problems.append(f"object {oid!r} is listed twice")
+                seen.add(oid)
+        return problems
+
+    def problems(self, output: OutputT, state: StateT) -> list[str]:
+        """Every problem with ``output``: :meth:`id_problems`, then :meth:`check`'s."""
+        return self.id_problems(output, state) + self.check(output, state)
 
     def reply_settings(self, settings: ModelSettings | None, evidence: BaseModel) -> ModelSettings | None:
         """``settings`` with the reply cap of :attr:`reply_tokens` for ``evidence``."""
@@ -330,7 +481,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         """
         return None
 
-    def images(self, evidence: EvidenceT, state: SceneState) -> list[ImagePart]:
+    def images(self, evidence: EvidenceT, state: StateT) -> list[ImagePart]:
         """Images to send to vision models (none by default)."""
         return []
 
@@ -349,7 +500,7 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         parts.append("Reply with one JSON object of the requested schema, and nothing else.")
         return "\n\n".join(p for p in parts if p)
 
-    def compact_messages(self, evidence: EvidenceT, state: SceneState, *, vision: bool) -> list[Message]:
+    def compact_messages(self, evidence: EvidenceT, state: StateT, *, vision: bool) -> list[Message]:
         """A shorter prompt for a model whose context the full one did not fit: no format note or
         field legend, numbers to 1 dm. Images are kept for vision models."""
         parts: list[TextPart | ImagePart] = [
@@ -364,104 +515,122 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
             Message(role="user", parts=tuple(parts)),
         ]
 
-    # -- the generic run loop ----------------------------------------------------------------
-    def messages(self, evidence: EvidenceT, state: SceneState, *, vision: bool) -> list[Message]:
+    def messages(self, evidence: EvidenceT, state: StateT, *, vision: bool) -> list[Message]:
         """System prompt (:meth:`system_prompt`), then the evidence as text (and images for vision models)."""
         parts: list[TextPart | ImagePart] = [TextPart("Evidence:\n" + self.render_evidence_text(evidence))]
         if vision:
             parts.extend(self.images(evidence, state))
         return [Message.text("system", self.system_prompt(evidence)), Message(role="user", parts=tuple(parts))]
 
+    # -- the generic run -----------------------------------------------------------------------
     async def run(
         self,
-        state: SceneState,
+        state: StateT,
         model: Model,
         settings: ModelSettings | None = None,
         *,
         node: str | None = None,
-    ) -> tuple[OutputT, Usage]:
-        """Gather evidence, answer (model or rule solver), check, repair, apply; return the output.
+    ) -> AgentResult[OutputT]:
+        """Gather evidence, answer (model or rule solver), check, repair, apply; return the result.
 
         Scene work runs in a worker thread under ``state.lock`` (see ``offload``); only the
         model request runs without the lock, so concurrent agents overlap on their requests.
-        One budget, ``state.policy.max_attempts``, covers every reason to ask again.
+        One budget, ``state.policy.max_attempts``, covers every reason to ask again. The state
+        receives the applied output (and ``outputs[name]``); how the answer came about is in the
+        returned :class:`AgentResult`, for the caller to collect.
         """
+        tally = _Tally()
         if model.uses_rule_solvers:
-            answer = await self._run_offline(state)
-            state.outcomes[self.name] = AgentOutcome(self.name, "rules")
-            return answer, Usage()
+            async with state.lock:
+                output = await run_blocking(self._solve_and_apply, state, offload=self.offload)
+            return tally.result(self.name, output, "rules")
         async with state.lock:
             evidence, messages, settled = await run_blocking(self._prepare, state, model.vision, offload=self.offload)
             if settled is not None:  # nothing to decide: the solver's answer, checked, no call
                 _log.info("agent_answered_without_model", agent=self.name)
                 await run_blocking(self._use, settled, state, offload=self.offload)
-                state.outcomes[self.name] = AgentOutcome(self.name, "solver_without_call")
-                return settled, Usage()
+                return tally.result(self.name, settled, "solver_without_call")
             chunks = self._chunks(evidence)
         if len(chunks) > 1:
-            return await self._run_chunked(state, model, settings, evidence, chunks, node=node)
+            return await self._run_chunked(state, model, settings, evidence, chunks, tally, node=node)
+        compact = functools.partial(self.compact_messages, evidence, state, vision=model.vision)
+        apply = functools.partial(self._check_and_apply, state=state)
+        reply = await self._ask(state, model, settings, evidence, messages, apply, tally, node=node, compact=compact)
+        if reply.output is not None:
+            return tally.result(self.name, reply.output, "model")
+        reason = reply.error or f"unusable after {state.policy.max_attempts} attempts: " + "; ".join(reply.problems)
+        if not state.policy.solver_fallback:
+            if reply.schema_error is not None:  # the last reply was not even schema-valid: say so, with it
+                raise reply.schema_error
+            raise AgentOutputError(f"agent {self.name!r} gave an {reason}", agent=self.name, problems=reply.problems)
+        return await self._fall_back(state, reason, reply.problems, tally)
+
+    async def _ask(
+        self,
+        state: StateT,
+        model: Model,
+        settings: ModelSettings | None,
+        evidence: EvidenceT,
+        prompt: list[Message],
+        accept: Callable[[OutputT], list[str]],
+        tally: _Tally,
+        *,
+        node: str | None,
+        compact: Callable[[], list[Message]] | None = None,
+    ) -> _Reply[OutputT]:
+        """The ask/check/repair loop of one request (the whole evidence, or one chunk of it).
+
+        ``accept`` (run under the lock) returns an answer's problems, applying it when there are
+        none. A reply that is not JSON, breaks the schema or has problems is sent back with them
+        (the original prompt, the last reply, the problems: repairs do not make the prompt grow)
+        while the budget lasts. ``compact``, when given, is asked once for a shorter prompt when
+        the model's context overflows. A model failure raises unless the solver may answer for it
+        (``policy.solver_fallback`` and a failure retries cannot fix): then ``error`` says why.
+        """
         context = RequestContext(agent=self.name, node=node or self.name, evidence=evidence)
         settings = self.reply_settings(settings, evidence)
         policy = state.policy
-        total = Usage()
-        problems: list[str] = []
-        schema_error: OutputValidationError | None = None
-        compacted = False
-        asked = repairs = 0
-        prompt = messages  # a repair sends this with the last reply and its problems, not every try
-
-        def fell_back(reason: str) -> None:
-            state.outcomes[self.name] = AgentOutcome(self.name, "solver_fallback", asked, repairs, reason[:300])
-
+        reply = _Reply[OutputT]()
+        messages = prompt
         for attempt in range(policy.max_attempts):
-            schema_error = None
+            reply.schema_error = None
             try:
-                asked += 1
-                output, usage = await model.request(messages, self.output_type, settings, context=context)
+                tally.requests += 1
+                answer, usage = await model.request(messages, self.output_type, settings, context=context)
             except OutputValidationError as exc:  # not JSON, or not the schema: repairable
-                schema_error = exc
-                total = total + (exc.usage if isinstance(exc.usage, Usage) else Usage())
-                problems, reply = exc.errors or [str(exc)], exc.raw_reply
+                reply.schema_error = exc
+                tally.usage = tally.usage + (exc.usage if isinstance(exc.usage, Usage) else Usage())
+                problems, text = exc.errors or [str(exc)], exc.raw_reply
                 intro = f"That reply is not a valid {self.output_type.__name__} JSON object:"
-            except ModelContextLengthError as exc:
-                if not compacted:  # once: a shorter prompt, then (if it still does not fit) the solver
-                    compacted = True
+            except ModelError as exc:
+                if isinstance(exc, ModelContextLengthError) and compact is not None:
+                    # once: a shorter prompt, then (if it still does not fit) the solver
                     _log.warning("agent_prompt_compacted", agent=self.name, reason=str(exc)[:200])
                     async with state.lock:
-                        compact = functools.partial(self.compact_messages, vision=model.vision)
-                        messages = prompt = await run_blocking(compact, evidence, state, offload=self.offload)
-                    problems = [f"the prompt did not fit the model's context: {exc}"]
+                        messages = prompt = await run_blocking(compact, offload=self.offload)
+                    compact = None
+                    reply.problems = [f"the prompt did not fit the model's context: {exc}"]
                     continue
-                if not policy.solver_fallback:
-                    raise
-                reason = f"{type(exc).__name__}: {exc}"
-                fell_back(reason)
-                return await self._fall_back(state, reason, problems), total
-            except ModelError as exc:
                 if not (policy.solver_fallback and _recoverable(exc)):
                     raise
-                reason = f"{type(exc).__name__}: {exc}"
-                fell_back(reason)
-                return await self._fall_back(state, reason, problems), total
+                reply.error = f"{type(exc).__name__}: {exc}"
+                return reply
             else:
-                total = total + usage
+                tally.usage = tally.usage + usage
+                output = cast(OutputT, answer)
                 async with state.lock:
-                    problems = await run_blocking(self._check_and_apply, output, state, offload=self.offload)
+                    problems = await run_blocking(accept, output, offload=self.offload)
                 if not problems:
-                    state.outcomes[self.name] = AgentOutcome(self.name, "model", asked, repairs)
-                    return output, total  # type: ignore[return-value]
-                reply = output.model_dump_json()
+                    reply.output, reply.problems = output, []
+                    return reply
+                tally.refused.append(tuple(problems))
+                text = output.model_dump_json()
                 intro = "That answer cannot be applied to this scene:"
+            reply.problems = problems
             if attempt + 1 < policy.max_attempts:
-                repairs += 1
-                messages = _repair(prompt, reply, intro, problems)
-        reason = f"unusable after {policy.max_attempts} attempts: " + "; ".join(problems)
-        if policy.solver_fallback:
-            fell_back(reason)
-            return await self._fall_back(state, reason, problems), total
-        if schema_error is not None:  # the last reply was not even schema-valid: say so, with it
-            raise schema_error
-        raise AgentOutputError(f"agent {self.name!r} gave an {reason}", agent=self.name, problems=problems)
+                tally.repairs += 1
+                messages = _repair(prompt, text, intro, problems)
+        return reply
 
     # -- large scenes: one request per chunk of objects ------------------------------------------
     def _chunks(self, evidence: EvidenceT) -> list[tuple[list[str], EvidenceT]]:
@@ -486,128 +655,103 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
         assert self.items_field is not None
         data = base.model_dump()
         data[self.items_field] = [i.model_dump() if isinstance(i, BaseModel) else i for i in items]
-        return self.output_type.model_validate(data)  # type: ignore[return-value]
+        return cast(OutputT, self.output_type.model_validate(data))
 
     async def _run_chunked(
         self,
-        state: SceneState,
+        state: StateT,
         model: Model,
         settings: ModelSettings | None,
         evidence: EvidenceT,
         chunks: list[tuple[list[str], EvidenceT]],
+        tally: _Tally,
         *,
         node: str | None,
-    ) -> tuple[OutputT, Usage]:
-        """Ask for each chunk of objects in turn; each chunk's answer is checked in the context of
-        the whole scene (the rule solver's answer stands in for the other chunks), repaired within
-        the attempt budget, and replaced by the solver's part when it stays unusable."""
+    ) -> AgentResult[OutputT]:
+        """Ask for each chunk of objects in turn (:meth:`_ask`); each chunk's answer is checked in
+        the context of the whole scene (the rule solver's answer stands in for the other chunks),
+        and replaced by the solver's part when it stays unusable. The merged answer is applied."""
         base = await run_blocking(self.solve, evidence, offload=self.offload)
         policy = state.policy
-        total = Usage()
         kept: list[Any] = []
-        asked = repairs = 0
         failed: list[str] = []
         for ids, part in chunks:
             wanted = set(ids)
             others = [i for i in self._items(base) if getattr(i, "object_id", None) not in wanted]
             mine = [i for i in self._items(base) if getattr(i, "object_id", None) in wanted]
+
+            def in_chunk(output: BaseModel, wanted: set[str] = wanted) -> list[Any]:
+                """The output's items about this chunk's objects (others, shown as context, are ignored)."""
+                return [i for i in self._items(output) if getattr(i, "object_id", None) in wanted]
+
+            def accept(output: OutputT, others: list[Any] = others, in_chunk: Any = in_chunk) -> list[str]:
+                return self.problems(self._with_items(base, others + in_chunk(output)), state)
+
             async with state.lock:
                 prompt = await run_blocking(
                     functools.partial(self.messages, vision=model.vision), part, state, offload=self.offload
                 )
-            messages = prompt
-            context = RequestContext(agent=self.name, node=node or self.name, evidence=part)
-            part_settings = self.reply_settings(settings, part)
-            answer: list[Any] | None = None
-            problems: list[str] = []
-            for attempt in range(policy.max_attempts):
-                asked += 1
-                try:
-                    output, usage = await model.request(messages, self.output_type, part_settings, context=context)
-                except OutputValidationError as exc:
-                    total = total + (exc.usage if isinstance(exc.usage, Usage) else Usage())
-                    problems, reply = exc.errors or [str(exc)], exc.raw_reply
-                    intro = f"That reply is not a valid {self.output_type.__name__} JSON object:"
-                except ModelError as exc:
-                    if not (policy.solver_fallback and _recoverable(exc)):
-                        raise
-                    problems = [f"{type(exc).__name__}: {exc}"]
-                    break
-                else:
-                    total = total + usage
-                    # items about objects outside the chunk (shown only as context) are ignored
-                    got = [i for i in self._items(output) if getattr(i, "object_id", None) in wanted]
-                    async with state.lock:
-                        candidate = self._with_items(base, others + got)
-                        problems = await run_blocking(self.check, candidate, state, offload=self.offload)
-                    if not problems:
-                        answer = got
-                        break
-                    reply = output.model_dump_json()
-                    intro = "That answer cannot be applied to this scene:"
-                if attempt + 1 < policy.max_attempts:
-                    repairs += 1
-                    messages = _repair(prompt, reply, intro, problems)
-            if answer is None:
-                if not policy.solver_fallback:
-                    raise AgentOutputError(
-                        f"agent {self.name!r} gave an unusable answer for {', '.join(ids[:8])}: " + "; ".join(problems),
-                        agent=self.name,
-                        problems=problems,
-                    )
-                failed.append(f"{len(ids)} objects ({'; '.join(problems)[:200]})")
-                answer = mine
-            kept += answer
+            reply = await self._ask(state, model, settings, part, prompt, accept, tally, node=node)
+            if reply.output is not None:
+                kept += in_chunk(reply.output)
+                continue
+            problems = [reply.error] if reply.error is not None else reply.problems
+            if not policy.solver_fallback:
+                raise AgentOutputError(
+                    f"agent {self.name!r} gave an unusable answer for {', '.join(ids[:8])}: " + "; ".join(problems),
+                    agent=self.name,
+                    problems=problems,
+                )
+            failed.append(f"{len(ids)} objects ({'; '.join(problems)[:200]})")
+            kept += mine
         merged = self._with_items(base, kept)
+
+        def apply_merged() -> list[str]:
+            problems = self._check_and_apply(merged, state)
+            if failed and not problems:
+                note = f"{self.name}: model answer unusable for part of the scene, used the rule solver there"
+                state.scene.provenance.notes.append(note)
+            return problems
+
         async with state.lock:
-            problems = await run_blocking(self._check_and_apply, merged, state, offload=self.offload)
+            problems = await run_blocking(apply_merged, offload=self.offload)
         if problems:  # chunks that each fit, together do not (a cycle across chunks): the solver
             reason = "chunk answers inconsistent together: " + "; ".join(problems)
-            state.outcomes[self.name] = AgentOutcome(self.name, "solver_fallback", asked, repairs, reason[:300])
-            return await self._fall_back(state, reason, problems), total
+            return await self._fall_back(state, reason, problems, tally)
         if failed:
-            reason = "rule solver for " + ", ".join(failed)
-            state.fallbacks.append(FallbackRecord(agent=self.name, reason=reason[:500]))
-            state.scene.provenance.notes.append(f"{self.name}: model answer unusable for part of the scene, used the rule solver there")
-            state.outcomes[self.name] = AgentOutcome(self.name, "solver_fallback", asked, repairs, reason[:300])
-        else:
-            state.outcomes[self.name] = AgentOutcome(self.name, "model", asked, repairs)
-        return merged, total
+            return tally.result(self.name, merged, "solver_fallback", "rule solver for " + ", ".join(failed))
+        return tally.result(self.name, merged, "model")
 
-    async def _run_offline(self, state: SceneState) -> OutputT:
+    def _solve_and_apply(self, state: StateT) -> OutputT:
         """The rules path: the agent's own solver answers; its output must pass the agent's check."""
-        async with state.lock:
-            return await run_blocking(self._solve_and_apply, state, offload=self.offload)
-
-    def _solve_and_apply(self, state: SceneState) -> OutputT:
         output = self.solve(self.gather(state))
         self._use(output, state)
         return output
 
-    def _prepare(self, state: SceneState, vision: bool) -> tuple[EvidenceT, list[Message], OutputT | None]:
+    def _prepare(self, state: StateT, vision: bool) -> tuple[EvidenceT, list[Message], OutputT | None]:
         evidence = self.gather(state)
         settled = self.answer_without_model(evidence)
         messages = self.messages(evidence, state, vision=vision) if settled is None else []
         return evidence, messages, settled
 
-    def _use(self, output: OutputT, state: SceneState) -> None:
+    def _use(self, output: OutputT, state: StateT) -> None:
         """Check and apply a solver answer (caller holds the lock)."""
         self._require_usable(output, state, [])
         self._apply_output(output, state)
 
-    def _apply_output(self, output: OutputT, state: SceneState) -> None:
+    def _apply_output(self, output: OutputT, state: StateT) -> None:
         self.apply(output, state)
         state.outputs[self.name] = output
 
-    def _check_and_apply(self, output: OutputT, state: SceneState) -> list[str]:
+    def _check_and_apply(self, output: OutputT, state: StateT) -> list[str]:
         """Problems with ``output``; when there are none, it is applied (caller holds the lock)."""
-        problems = self.check(output, state)
+        problems = self.problems(output, state)
         if not problems:
             self._apply_output(output, state)
         return problems
 
-    def _require_usable(self, output: OutputT, state: SceneState, model_problems: list[str]) -> None:
-        solver_problems = self.check(output, state)
+    def _require_usable(self, output: OutputT, state: StateT, model_problems: list[str]) -> None:
+        solver_problems = self.problems(output, state)
         if solver_problems:  # the solver itself is wrong: a bug worth failing loudly on
             what = "the model's output and the rule solver's are" if model_problems else "the rule solver's output is"
             raise AgentOutputError(
@@ -616,16 +760,16 @@ class TaskAgent(abc.ABC, Generic[EvidenceT, OutputT]):
                 problems=model_problems + solver_problems,
             )
 
-    async def _fall_back(self, state: SceneState, reason: str, problems: list[str]) -> OutputT:
+    async def _fall_back(self, state: StateT, reason: str, problems: list[str], tally: _Tally) -> AgentResult[OutputT]:
         def fall_back() -> OutputT:
             # the scene as it is now: agents running beside this one may have changed it meanwhile
             output = self.solve(self.gather(state))
             self._require_usable(output, state, problems)
             self._apply_output(output, state)
-            state.fallbacks.append(FallbackRecord(agent=self.name, reason=reason[:500]))
             state.scene.provenance.notes.append(f"{self.name}: model output unusable, used the rule solver")
             return output
 
         _log.warning("agent_fell_back_to_solver", agent=self.name, reason=reason[:200])
         async with state.lock:
-            return await run_blocking(fall_back, offload=self.offload)
+            output = await run_blocking(fall_back, offload=self.offload)
+        return tally.result(self.name, output, "solver_fallback", reason)

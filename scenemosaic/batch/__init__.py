@@ -7,8 +7,9 @@
     summary = run_batch("rooms.jsonl", "out/batch", workers=2, timeout_s=600)
     print(summary.counts)               # {"ok": 6, "skipped": 1}
 
-* :func:`load_manifest` reads and checks a manifest (one JSON object a line: ``input``, an
-  optional ``id``, ``GenerateConfig`` settings); :class:`ManifestError` names every bad line.
+* :func:`load_manifest` reads and checks a manifest (one JSON object a line: ``input`` or a
+  ``prompt``, an optional ``id`` and ``timeout_s``, and ``GenerateConfig`` settings by their field
+  names, validated by ``GenerateConfig``); :class:`ManifestError` names every bad line.
 * :func:`run_batch` runs the jobs — each in its own worker process (``executor="local"``) or
   as a Ray task (``executor="ray"``) — skips the ones already finished, stops each at its
   time-out, records failures without stopping the others, and writes
@@ -21,6 +22,8 @@ See ``docs/batch.md``.
 from scenemosaic.batch._job import STOP_GRACE_S, JobOutcome, JobSpec, execute_job, finished_report
 from scenemosaic.batch._manifest import (
     JOB_SETTINGS,
+    LINE_KEYS,
+    NOT_IN_MANIFEST,
     BatchJob,
     ManifestError,
     ManifestLine,
@@ -35,6 +38,8 @@ __all__ = [
     "BATCH_DIR",
     "FINAL_STATUSES",
     "JOB_SETTINGS",
+    "LINE_KEYS",
+    "NOT_IN_MANIFEST",
     "RATE_LIMITS",
     "RAY_INSTALL_HINT",
     "REPLY_CACHE",

@@ -10,9 +10,10 @@ from typing import Any, Literal
 import structlog
 from pydantic import BaseModel, ConfigDict
 
+from scenemosaic import pipeline  # the stages load when a job runs
 from scenemosaic.batch._manifest import BatchJob
 from scenemosaic.exceptions import SceneMosaicError
-from scenemosaic.pipeline import REPORT_FILE, agenerate
+from scenemosaic.scene import RunFolder
 
 __all__ = ["STOP_GRACE_S", "JobOutcome", "JobSpec", "aexecute_job", "execute_job", "finished_report"]
 
@@ -58,7 +59,7 @@ class JobOutcome(BaseModel):
 
 def _read_report(out_dir: Path) -> dict[str, Any] | None:
     try:
-        data = json.loads((out_dir / REPORT_FILE).read_text(encoding="utf-8"))
+        data = json.loads(RunFolder(out_dir).report.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
     return data if isinstance(data, dict) else None
@@ -81,7 +82,9 @@ def finished_report(job: BatchJob, out_dir: Path) -> dict[str, Any] | None:
         return None
     if report["status"] == "degraded" and job.settings.get("strict"):
         return None
-    if not (out_dir / "base" / "scene.json").is_file() or report.get("input") != str(job.input):
+    if not (RunFolder(out_dir).base / RunFolder.SCENE_FILE).is_file():
+        return None
+    if job.input is not None and report.get("input") != str(job.input):  # a prompt: its text is a setting
         return None
     recorded = report.get("config")
     if not isinstance(recorded, dict):
@@ -113,9 +116,9 @@ async def aexecute_job(spec: JobSpec) -> JobOutcome:
     """
     job, out_dir = spec.job, spec.out_dir
     bound = log.bind(job=job.id)
-    bound.info("batch_job_started", input=str(job.input), out=str(out_dir))
+    bound.info("batch_job_started", input=job.label, out=str(out_dir))
     try:
-        result = await agenerate(job.input, out_dir, job.config(cache_dir=spec.cache_dir, reply_cache=spec.reply_cache, rate_limit_dir=spec.rate_limit_dir))
+        result = await pipeline.agenerate(job.input, out_dir, job.config(cache_dir=spec.cache_dir, reply_cache=spec.reply_cache, rate_limit_dir=spec.rate_limit_dir))
     except SceneMosaicError as exc:
         bound.warning("batch_job_failed", error=str(exc), error_type=type(exc).__name__)
         return _outcome_from_report(out_dir, f"{type(exc).__name__}: {exc}")
@@ -124,7 +127,7 @@ async def aexecute_job(spec: JobSpec) -> JobOutcome:
         where = f" in stage {stage!r}" if isinstance(stage, str) else ""
         bound.error("batch_job_crashed", error=str(exc), error_type=type(exc).__name__)
         return _outcome_from_report(
-            out_dir, f"unexpected {type(exc).__name__}{where}: {exc} (traceback in {out_dir / REPORT_FILE})"
+            out_dir, f"unexpected {type(exc).__name__}{where}: {exc} (traceback in {RunFolder(out_dir).report})"
         )
     report = result.report
     variants = int(report.get("variants_written", 0))

@@ -1,9 +1,11 @@
 """The batch manifest: one JSON object a line, each a ``generate`` job.
 
-A line names its ``input`` (relative to the manifest's folder), an optional ``id`` and any of
-the :class:`~scenemosaic.pipeline.GenerateConfig` settings that fit in JSON. Every line is
-checked (by :class:`ManifestLine`) before any job runs; all bad lines are reported at once,
-each with its line number.
+A line is a :class:`~scenemosaic.pipeline.GenerateConfig` written as JSON, with the same names
+and the same validation (the manifest takes the settings in :data:`JOB_SETTINGS`; those in
+:data:`NOT_IN_MANIFEST` are the batch's own business or Python objects, each with the reason),
+plus the job's own keys (:data:`LINE_KEYS`): its ``input`` (relative to the manifest's folder;
+a line with a ``prompt`` has none), an optional ``id`` and ``timeout_s``. Every line is checked
+before any job runs; all bad lines are reported at once, each with its line number.
 """
 
 from __future__ import annotations
@@ -11,17 +13,20 @@ from __future__ import annotations
 import json
 import re
 from collections import Counter
-from dataclasses import fields
+from collections.abc import Mapping
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from scenemosaic.exceptions import ImportFormatError
-from scenemosaic.pipeline import GenerateConfig
+from scenemosaic.pipeline import SETTINGS, GenerateConfig, SettingsError
 
 __all__ = [
     "JOB_SETTINGS",
+    "LINE_KEYS",
+    "NOT_IN_MANIFEST",
     "BatchJob",
     "ManifestError",
     "ManifestLine",
@@ -31,8 +36,23 @@ __all__ = [
 
 _RECORDING_SCHEMES = ("record", "record_missing")
 _CASSETTE_SCHEMES = ("replay", *_RECORDING_SCHEMES)
-_PATH_SETTINGS = ("asset_dir", "priors_dir", "detections")
 _MAX_ID_LENGTH = 100
+_PROMPT_STEM = "prompt"
+
+LINE_KEYS: tuple[str, ...] = ("input", "id", "timeout_s")
+"""A manifest line's own keys, which are not ``GenerateConfig`` settings: the input (required
+unless the line has a ``prompt``), the job's id and its time-out (instead of the batch's)."""
+
+JOB_SETTINGS: tuple[str, ...] = tuple(name for name, s in SETTINGS.items() if s.no_manifest is None)
+"""The ``GenerateConfig`` settings a manifest line takes, by the field's name (every setting
+whose :class:`~scenemosaic.pipeline.Setting` has no ``no_manifest`` reason)."""
+
+NOT_IN_MANIFEST: Mapping[str, str] = MappingProxyType(
+    {name: s.no_manifest for name, s in SETTINGS.items() if s.no_manifest is not None}
+)
+"""The ``GenerateConfig`` settings a manifest line deliberately does not take, each with the reason."""
+
+_PATH_SETTINGS = tuple(name for name in JOB_SETTINGS if SETTINGS[name].path)
 
 
 class ManifestError(ImportFormatError):
@@ -48,76 +68,107 @@ class ManifestError(ImportFormatError):
         self.line = line
 
 
-class ManifestLine(BaseModel):
-    """One manifest line as written: the input, an optional id and the job's settings.
-
-    Unknown keys are refused. The settings carry the meaning of the
-    :class:`~scenemosaic.pipeline.GenerateConfig` field of the same name; ``timeout_s`` (not a
-    ``GenerateConfig`` field) overrides the batch's per-job time-out for this line.
-    """
-
+class _OwnKeys(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
 
-    input: str = Field(min_length=1)
+    input: str | None = Field(default=None, min_length=1)
     id: str | None = None
     timeout_s: float | None = Field(default=None, gt=0)
-    # GenerateConfig settings (same names, same defaults)
-    format: str = "auto"
-    variants: int = Field(default=0, ge=0)
-    evolve: bool = True
-    evolve_rounds: int = Field(default=8, ge=1)
-    save_views: bool = False
-    model: str = "rules"
-    seed: int = 0
-    room: str | None = None
-    asset_dir: str | None = None
-    vision: bool | None = None
-    solver_fallback: bool = True
-    request_timeout_s: float | None = Field(default=None, gt=0)
-    max_concurrency: int | None = Field(default=None, ge=1)
-    requests_per_minute: float | None = Field(default=None, gt=0)
-    tokens_per_minute: float | None = Field(default=None, gt=0)
-    deadline_s: float | None = Field(default=None, gt=0)
-    stabilize: bool = True
-    strict: bool = False
-    priors_dir: str | None = None
-    detections: str | None = None
-    segmenter: str = "auto"
-    reconstructor: str = "auto"
-    hfov_deg: float | None = Field(default=None, ge=5, le=170)
-
-    @model_validator(mode="after")
-    def _variants_need_evolve(self) -> ManifestLine:
-        if self.variants > 0 and not self.evolve:
-            raise ValueError("variants come from the evolve stage: drop \"evolve\": false, or ask for 0 variants")
-        return self
 
 
-JOB_SETTINGS: tuple[str, ...] = tuple(
-    name for name in ManifestLine.model_fields if name not in ("input", "id", "timeout_s")
-)
-"""The manifest keys that map onto :class:`~scenemosaic.pipeline.GenerateConfig` fields.
+class ManifestLine(BaseModel):
+    """One checked manifest line: the job's own keys and its settings.
 
-The other ``GenerateConfig`` fields are the batch's business (``overwrite``, ``resume``,
-``cache_dir``, ``reply_cache``, ``rate_limit_dir``) or cannot be written in JSON (``agents``)."""
+    ``settings`` is the job's :class:`~scenemosaic.pipeline.GenerateConfig` as the line gives it
+    (paths and cassettes already made absolute against the manifest's folder), validated by
+    ``GenerateConfig`` itself; ``timeout_s`` overrides the batch's per-job time-out for this line.
+    Build one with :meth:`parse`.
+    """
 
-_unknown_settings = set(JOB_SETTINGS) - {f.name for f in fields(GenerateConfig)}
-if _unknown_settings:  # pragma: no cover - a guard for maintainers
-    raise ImportError(f"ManifestLine settings that GenerateConfig lacks: {sorted(_unknown_settings)}")
+    model_config = ConfigDict(frozen=True)
+
+    input: Path | None
+    """The input, absolute; ``None`` for a line with a ``prompt``."""
+    id: str | None = None
+    timeout_s: float | None = None
+    settings: GenerateConfig
+
+    @classmethod
+    def parse(cls, data: Mapping[str, Any], folder: Path) -> ManifestLine:
+        """Check one line's JSON object; raises ``ValueError`` naming every problem of the line.
+
+        Unknown keys and settings a manifest does not take are refused; the settings are
+        validated by ``GenerateConfig``; the input must exist.
+        """
+        problems: list[str] = []
+        own: dict[str, Any] = {}
+        settings: dict[str, Any] = {}
+        allowed = ", ".join(sorted((*LINE_KEYS, *JOB_SETTINGS)))
+        for key, value in data.items():
+            if key in LINE_KEYS:
+                own[key] = value
+            elif key in JOB_SETTINGS:
+                settings[key] = _relative_to(folder, key, value)
+            elif key in NOT_IN_MANIFEST:
+                problems.append(f"key {key!r} is not taken in a manifest: {NOT_IN_MANIFEST[key]}")
+            else:
+                problems.append(f"unknown key {key!r} (allowed: {allowed})")
+        keys = _OwnKeys()
+        try:
+            keys = _OwnKeys.model_validate(own)
+        except ValidationError as exc:
+            problems.extend(f"{'.'.join(map(str, e['loc']))!r}: {e['msg']}" for e in exc.errors())
+        config: GenerateConfig | None = None
+        try:
+            config = GenerateConfig.model_validate(settings, context={"json_numbers": True})
+        except SettingsError as exc:
+            problems.extend(exc.describe())
+        has_prompt = settings.get("prompt") is not None
+        path: Path | None = None
+        if "input" not in own and not has_prompt:
+            problems.append("'input' is required (or a 'prompt' to draw the room from)")
+        elif "input" in own and has_prompt:
+            problems.append("give an 'input' or a 'prompt', not both")
+        elif keys.input is not None:
+            path = (folder / Path(keys.input).expanduser()).resolve()
+            if not path.exists():
+                problems.append(f"input not found: {path}")
+        if problems or config is None:
+            raise ValueError("; ".join(problems))
+        return cls(input=path, id=keys.id, timeout_s=keys.timeout_s, settings=config)
+
+
+def _relative_to(folder: Path, key: str, value: Any) -> Any:
+    """A setting's value with its path made absolute against the manifest's folder (paths are
+    folder and file settings and the cassette of a ``replay:``/``record:`` model); other values
+    as they are, for ``GenerateConfig`` to check."""
+    if not isinstance(value, str):
+        return value
+    if key in _PATH_SETTINGS:
+        return str((folder / Path(value).expanduser()).resolve())
+    if key == "model":
+        return _resolve_model(value, folder)
+    return value
+
+
+def _json_value(value: Any) -> Any:
+    return str(value) if isinstance(value, Path) else value
 
 
 class BatchJob(BaseModel):
     """One job of a batch, as the manifest defines it, with its paths made absolute.
 
-    ``settings`` holds the ``GenerateConfig`` keyword arguments the line gives or defaults
-    (JSON values; folders as absolute path strings). ``line`` is the manifest line (1-based).
+    ``settings`` holds the ``GenerateConfig`` keyword arguments of every setting in
+    :data:`JOB_SETTINGS`, as the line gives or defaults them (JSON values; folders and files as
+    absolute path strings). ``input`` is ``None`` for a job drawn from a ``prompt``. ``line`` is
+    the manifest line (1-based).
     """
 
     model_config = ConfigDict(frozen=True)
 
     id: str
     line: int
-    input: Path
+    input: Path | None
     settings: dict[str, Any]
     timeout_s: float | None = None
 
@@ -130,13 +181,19 @@ class BatchJob(BaseModel):
         another input or other settings is replaced) and ``resume`` is off (an unfinished job
         starts again).
         """
-        kwargs = dict(self.settings)
-        for key in _PATH_SETTINGS:
-            if kwargs.get(key) is not None:
-                kwargs[key] = Path(kwargs[key])
         return GenerateConfig(
-            **kwargs, cache_dir=cache_dir, reply_cache=reply_cache, rate_limit_dir=rate_limit_dir, overwrite=True, resume=False
+            **self.settings,
+            cache_dir=cache_dir,
+            reply_cache=reply_cache,
+            rate_limit_dir=rate_limit_dir,
+            overwrite=True,
+            resume=False,
         )
+
+    @property
+    def label(self) -> str:
+        """The input's absolute path, or ``prompt: <text>`` for a job drawn from a prompt."""
+        return str(self.input) if self.input is not None else f"prompt: {self.settings.get('prompt')}"
 
     @property
     def recording_cassette(self) -> Path | None:
@@ -173,45 +230,27 @@ def _resolve_model(model: str, folder: Path) -> str:
     return f"{scheme}:{resolved}{eq}{inner}"
 
 
-def _describe(error: ValidationError) -> str:
-    parts = []
-    for item in error.errors():
-        loc = ".".join(str(p) for p in item["loc"])
-        if item["type"] == "extra_forbidden":
-            allowed = ", ".join(sorted(ManifestLine.model_fields))
-            parts.append(f"unknown key {loc!r} (allowed: {allowed})")
-        elif item["type"] == "missing":
-            parts.append(f"{loc!r} is required")
-        elif loc:
-            parts.append(f"{loc!r}: {item['msg']}")
-        else:
-            parts.append(str(item["msg"]).removeprefix("Value error, "))
-    return "; ".join(parts)
-
-
-def _parse_line(text: str, folder: Path) -> tuple[ManifestLine, Path]:
-    """The validated line and its absolute input path; raises ``ValueError`` with the problem."""
+def _parse_line(text: str, folder: Path) -> ManifestLine:
+    """The checked line; raises ``ValueError`` naming its problems."""
     try:
         data = json.loads(text)
     except ValueError as exc:
         raise ValueError(f"not valid JSON ({exc})") from exc
     if not isinstance(data, dict):
         raise ValueError(f"expected a JSON object, got {type(data).__name__}")
-    try:
-        line = ManifestLine.model_validate(data)
-    except ValidationError as exc:
-        raise ValueError(_describe(exc)) from exc
-    path = (folder / Path(line.input).expanduser()).resolve()
-    if not path.exists():
-        raise ValueError(f"input not found: {path}")
-    return line, path
+    return ManifestLine.parse(data, folder)
 
 
-def _assign_ids(parsed: list[tuple[int, ManifestLine, Path]], source: str) -> list[str]:
-    """Ids for every job: the sanitized ``id`` when given, else the input's stem, numbered when shared."""
+def _stem(line: ManifestLine) -> str:
+    return sanitize_id(line.input.stem if line.input is not None else _PROMPT_STEM)
+
+
+def _assign_ids(parsed: list[tuple[int, ManifestLine]], source: str) -> list[str]:
+    """Ids for every job: the sanitized ``id`` when given, else the input's stem (``prompt`` for a
+    line with a prompt), numbered when shared."""
     explicit: dict[str, int] = {}
     problems: list[tuple[int, str]] = []
-    for number, line, _ in parsed:
+    for number, line in parsed:
         if line.id is None:
             continue
         job_id = sanitize_id(line.id)
@@ -221,14 +260,14 @@ def _assign_ids(parsed: list[tuple[int, ManifestLine, Path]], source: str) -> li
             explicit[job_id.lower()] = number
     if problems:
         raise _bad_lines(source, problems)
-    stems = Counter(sanitize_id(path.stem).lower() for _, line, path in parsed if line.id is None)
+    stems = Counter(_stem(line).lower() for _, line in parsed if line.id is None)
     taken = set(explicit)
     ids: list[str] = []
-    for _, line, path in parsed:
+    for _, line in parsed:
         if line.id is not None:
             ids.append(sanitize_id(line.id))
             continue
-        stem = sanitize_id(path.stem)
+        stem = _stem(line)
         candidate = stem
         if stems[stem.lower()] > 1 or stem.lower() in taken:
             index = 1
@@ -254,9 +293,10 @@ def load_manifest(path: str | Path) -> list[BatchJob]:
     """Read and check a JSONL manifest; returns its jobs in file order.
 
     Blank lines are skipped. Raises :class:`ManifestError` naming every bad line (not JSON, not
-    an object, an unknown key, a wrong type, a missing ``input`` key, an input that does not
-    exist, a duplicate ``id``) and when the manifest holds no job. Inputs and cassette paths in
-    ``model`` strings (``replay:``, ``record:``, ``record_missing:``) are relative to the
+    an object, an unknown key or one a manifest does not take, a setting ``GenerateConfig``
+    refuses, neither ``input`` nor ``prompt`` or both, an input that does not exist, a duplicate
+    ``id``) and when the manifest holds no job. Inputs, folder and file settings and cassette
+    paths in ``model`` strings (``replay:``, ``record:``, ``record_missing:``) are relative to the
     manifest's folder; they come back absolute (symlinks resolved), so the same manifest gives
     the same paths, and the same ``provenance.source_path`` in the scenes, from any working folder.
     """
@@ -267,28 +307,24 @@ def load_manifest(path: str | Path) -> list[BatchJob]:
     except (OSError, UnicodeDecodeError) as exc:
         raise ManifestError(f"cannot read the manifest: {exc}", path=source, problems=[str(exc)]) from exc
     folder = manifest.parent
-    parsed: list[tuple[int, ManifestLine, Path]] = []
+    parsed: list[tuple[int, ManifestLine]] = []
     problems: list[tuple[int, str]] = []
     for number, raw in enumerate(text.splitlines(), start=1):
         if not raw.strip():
             continue
         try:
-            line, input_path = _parse_line(raw, folder)
+            line = _parse_line(raw, folder)
         except ValueError as exc:
             problems.append((number, str(exc)))
             continue
-        parsed.append((number, line, input_path))
+        parsed.append((number, line))
     if problems:
         raise _bad_lines(source, problems)
     if not parsed:
         raise ManifestError("manifest holds no job", path=source, problems=["no job"])
     ids = _assign_ids(parsed, source)
     jobs: list[BatchJob] = []
-    for (number, line, input_path), job_id in zip(parsed, ids, strict=True):
-        settings = line.model_dump(include=set(JOB_SETTINGS))
-        settings["model"] = _resolve_model(line.model, folder)
-        for key in _PATH_SETTINGS:
-            if settings[key] is not None:
-                settings[key] = str((folder / Path(settings[key]).expanduser()).resolve())
-        jobs.append(BatchJob(id=job_id, line=number, input=input_path, settings=settings, timeout_s=line.timeout_s))
+    for (number, line), job_id in zip(parsed, ids, strict=True):
+        settings = {name: _json_value(getattr(line.settings, name)) for name in JOB_SETTINGS}
+        jobs.append(BatchJob(id=job_id, line=number, input=line.input, settings=settings, timeout_s=line.timeout_s))
     return jobs

@@ -161,7 +161,7 @@ def _run(
     todo: list[JobSpec] = []
     for job in jobs:
         job_out = out / job.id
-        record = JobRecord(id=job.id, input=str(job.input), out_dir=str(job_out))
+        record = JobRecord(id=job.id, input=job.label, out_dir=str(job_out))
         records[job.id] = record
         summary.jobs.append(record)
         report = finished_report(job, job_out)

@@ -31,7 +31,7 @@ class JobRecord(BaseModel):
     id: str
     """The job's id: its folder under the batch's output folder."""
     input: str
-    """The input file or folder (absolute)."""
+    """The input file or folder (absolute), or ``prompt: <text>`` for a job drawn from a prompt."""
     out_dir: str
     """The job's output folder (``OUT/<id>``)."""
     status: JobStatus = "pending"

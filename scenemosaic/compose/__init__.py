@@ -7,7 +7,7 @@
   decomposition that recovers position, rotation and scale.
 """
 
-from scenemosaic.compose._compose import CompositionReport, UnitLayouts, compose_variants
+from scenemosaic.compose._compose import CompositionReport, UnitLayouts, compose_variants, kept_layouts
 from scenemosaic.compose._distance import WEIGHTS, Arrangement, distance_terms, novelty_distance
 from scenemosaic.compose._pool import ALPHA, CHUNK, CandidatePool, GroupVariants, Selection, select_diverse
 from scenemosaic.compose._transform import compose_transform, decompose_transform
@@ -26,6 +26,7 @@ __all__ = [
     "compose_variants",
     "decompose_transform",
     "distance_terms",
+    "kept_layouts",
     "novelty_distance",
     "select_diverse",
 ]

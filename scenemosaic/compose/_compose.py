@@ -26,10 +26,11 @@ import structlog
 
 from scenemosaic.compose._distance import Arrangement
 from scenemosaic.compose._pool import ALPHA, CandidatePool, GroupVariants, Selection, select_diverse
+from scenemosaic.evolve import EvolutionReport
 from scenemosaic.physics import ObjectShape, collision_report_for
 from scenemosaic.scene import LocalUnit, Pose, Scene, build_structure, descendants, with_unit_layout
 
-__all__ = ["CompositionReport", "UnitLayouts", "compose_variants"]
+__all__ = ["CompositionReport", "UnitLayouts", "compose_variants", "kept_layouts"]
 
 log = structlog.get_logger(__name__)
 
@@ -41,6 +42,28 @@ class UnitLayouts:
     anchor_id: str
     layout_ids: tuple[str, ...]
     poses: tuple[Mapping[str, Pose], ...]
+
+
+def kept_layouts(evolution: EvolutionReport) -> tuple[dict[str, UnitLayouts], list[str]]:
+    """Local filtering: each unit's layouts that composition may use, and the dropped ones.
+
+    A unit's refined original is always kept, first; its variants follow in layout-id order,
+    except those that did not come out valid alone (an error, a collision or an object out of
+    bounds after the final settle, a broken rule), which are listed as ``unit/layout: why``.
+    """
+    kept: dict[str, UnitLayouts] = {}
+    dropped: list[str] = []
+    for unit in sorted(evolution.units, key=lambda u: u.anchor_id):
+        ids, poses = [unit.original.layout_id], [dict(unit.original.local_poses)]
+        for lay in sorted(unit.variants, key=lambda v: v.layout_id):
+            if lay.error or not lay.valid or lay.violations:
+                why = lay.error or "; ".join(lay.violations) or "not valid"
+                dropped.append(f"{unit.anchor_id}/{lay.layout_id}: {why[:120]}")
+                continue
+            ids.append(lay.layout_id)
+            poses.append(dict(lay.local_poses))
+        kept[unit.anchor_id] = UnitLayouts(unit.anchor_id, tuple(ids), tuple(poses))
+    return kept, dropped
 
 
 @dataclass

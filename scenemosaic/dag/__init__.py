@@ -23,7 +23,7 @@ from scenemosaic.dag._events import (
     RunFinished,
 )
 from scenemosaic.dag._graph import GraphFingerprint, Node, NodeFn, TaskGraph
-from scenemosaic.dag._monitor import RunMonitor
+from scenemosaic.dag._monitor import ModelCallReport, RunMonitor
 from scenemosaic.dag._policies import CachePolicy, NodePolicy, RetryPolicy, TimeoutPolicy
 from scenemosaic.dag._runner import Runner, run_graph
 from scenemosaic.dag._store import (
@@ -32,6 +32,7 @@ from scenemosaic.dag._store import (
     MemoryRunStore,
     RunStore,
     StoredOutput,
+    output_hash,
 )
 
 __all__ = [
@@ -41,6 +42,7 @@ __all__ = [
     "GraphChangedError",
     "GraphFingerprint",
     "MemoryRunStore",
+    "ModelCallReport",
     "ModelRequest",
     "Node",
     "NodeAdded",
@@ -62,5 +64,6 @@ __all__ = [
     "TimeoutPolicy",
     "current_context",
     "derive_seed",
+    "output_hash",
     "run_graph",
 ]

@@ -25,6 +25,7 @@ from scenemosaic.dag._context import _CURRENT, NodeContext
 from scenemosaic.dag._events import (
     EventListener,
     EventStream,
+    ModelRequest,
     NodeAdded,
     NodeFailed,
     NodeFinished,
@@ -198,7 +199,7 @@ class Runner:
         start = time.perf_counter()
         error: BaseException | None = None
         if self._usage is not None:
-            self._usage.bind(self._emit, self._stop_for_usage)
+            self._usage.bind(self._report_model_call, self._stop_for_usage)
         try:
             self._prepare_store()
             if self._cancel_requested:
@@ -252,6 +253,23 @@ class Runner:
     # -- hooks used by NodeContext -------------------------------------------------------------
     def _emit(self, event: RunEvent) -> None:
         self._stream.emit(event)
+
+    def _report_model_call(self, call: Any) -> None:
+        """A bound monitor's model call (see :data:`~scenemosaic.dag.ModelCallReport`), as an event."""
+        usage = call.usage
+        self._emit(
+            ModelRequest(
+                agent=call.agent,
+                node=call.node,
+                model=call.model,
+                input_tokens=usage.input_tokens,
+                output_tokens=usage.output_tokens,
+                image_tokens=usage.image_tokens,
+                latency_s=call.latency_s,
+                ok=call.ok,
+                cost=call.cost,
+            )
+        )
 
     def _add_nodes(self, nodes: list[Node], added_by: str) -> None:
         if self._tg is None or self._finished:

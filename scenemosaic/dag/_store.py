@@ -231,7 +231,8 @@ class FileRunStore(RunStore):
             "type": type_path,
             "value": value,
         }
-        _write_atomic(self._record_path(node, input_hash), json.dumps(data, indent=1, sort_keys=True))
+        # keys keep their order: a pydantic value's free-form dicts (metadata) must read back as they were
+        _write_atomic(self._record_path(node, input_hash), json.dumps(data, indent=1))
 
     def get_fingerprint(self) -> GraphFingerprint | None:
         try:

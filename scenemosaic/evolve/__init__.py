@@ -7,7 +7,8 @@ the actor turns the notes into pose expressions, evaluated by the sandbox of
 :mod:`scenemosaic.scene` (``chair_0.center.u = table_0.bbox.max_u + 0.3``); physics settles
 the chosen round. Entry point: :func:`evolve_scene`; one layout: :func:`evolve_layout`. The
 agents (:class:`CriticAgent`, :class:`ActorAgent`, :class:`ArchetypeAgent`, :class:`PoseAgent`)
-are task agents with rule solvers, so the loop runs offline. See ``docs/evolution.md``.
+are task agents with rule solvers, so the loop runs offline; the critic and the actor get each
+round's input as a frozen :class:`RoundInput` (in a :class:`RoundState`). See ``docs/evolution.md``.
 """
 
 from scenemosaic.evolve._agents import (
@@ -24,6 +25,9 @@ from scenemosaic.evolve._agents import (
     PoseAgent,
     PoseOutput,
     PosePlacement,
+    PoseState,
+    RoundInput,
+    RoundState,
     named_objects,
 )
 from scenemosaic.evolve._analysis import (
@@ -92,7 +96,10 @@ __all__ = [
     "PoseAgent",
     "PoseOutput",
     "PosePlacement",
+    "PoseState",
+    "RoundInput",
     "RoundRecord",
+    "RoundState",
     "RuleArchetype",
     "Target",
     "UnitContext",

@@ -1,8 +1,9 @@
 """The evolution's task agents: critic, actor, archetype proposal and pose instantiation.
 
 They are ordinary :class:`~scenemosaic.agents.TaskAgent` s working on an
-:class:`EvolveState` (one evolving layout of one unit). Each has a rule solver, the offline
-default and the fallback of a real model:
+:class:`EvolveState` (one evolving layout of one unit); the critic and the actor get one round's
+input with it (:class:`RoundState`, :class:`RoundInput`), the pose agent its archetype
+(:class:`PoseState`). Each has a rule solver, the offline default and the fallback of a real model:
 
 * **critic** — words the rule findings (:func:`~scenemosaic.evolve.find_problems`) as notes,
   asks for no change when only soft remarks are left, and scores the layout;
@@ -17,12 +18,14 @@ expression sandbox) and sent back with the problems when it fails; see ``docs/ev
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, Field
+from pydantic import Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.evolve._analysis import Finding, PhysicalCheck, merged_fixes
@@ -45,34 +48,62 @@ __all__ = [
     "PoseAgent",
     "PoseOutput",
     "PosePlacement",
+    "PoseState",
+    "RoundInput",
+    "RoundState",
     "named_objects",
 ]
 
 _NO_PROMPT: dict[str, Any] = {"prompt": False}
 
 
-@dataclass
+@dataclass(kw_only=True)
 class EvolveState(SceneState):
-    """One evolving layout: the scene it lives in, its unit context, current layout and memory."""
+    """One evolving layout: the scene it lives in, its unit context, current layout and memory.
 
-    layout: UnitLayout | None = None
-    context: UnitContext | None = None
+    ``layout`` is what the actor's and the pose agent's ``apply`` write; the rest stays as the
+    loop made it. What changes from round to round comes as a :class:`RoundInput`.
+    """
+
+    layout: UnitLayout
+    context: UnitContext
     memory: LayoutMemory = field(default_factory=LayoutMemory)
-    check: PhysicalCheck | None = None
-    findings: list[Finding] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
-    round: int = 0
-    archetype: Archetype | None = None
-    view: Any = None
-    """A callable returning the unit view PNG of the current layout (for vision models)."""
-    refused: list[str] = field(default_factory=list)
-    """Actor replies refused this round, with the sandbox's reasons."""
+    view: Callable[[UnitLayout], bytes] | None = None
+    """The unit view PNG of a layout (for vision models); ``None``: no images."""
     alternatives: int | None = None
     """How many archetypes this unit may get; ``None``: the method's count for its size."""
 
-    def need(self) -> tuple[UnitLayout, UnitContext]:
-        assert self.layout is not None and self.context is not None
-        return self.layout, self.context
+    def shared(self) -> dict[str, Any]:
+        """This state's fields (as :class:`EvolveState`'s), to build a :class:`RoundState` or :class:`PoseState` on:
+        ``RoundState(**state.shared(), input=round_input)``."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(EvolveState)}
+
+
+@dataclass(frozen=True)
+class RoundInput:
+    """What the critic and the actor are given for one round of the loop."""
+
+    round: int
+    check: PhysicalCheck
+    """The physics check of the round's layout."""
+    findings: tuple[Finding, ...] = ()
+    """The rule findings on the round's layout."""
+    notes: tuple[str, ...] = ()
+    """The notes the actor carries out (the critic's, and one per object out of bounds); empty for the critic."""
+
+
+@dataclass(kw_only=True)
+class RoundState(EvolveState):
+    """An evolving layout with one round's input: what the critic and the actor work on."""
+
+    input: RoundInput
+
+
+@dataclass(kw_only=True)
+class PoseState(EvolveState):
+    """An evolving layout with the archetype the pose agent instantiates."""
+
+    archetype: Archetype
 
 
 # -- evidence rows ----------------------------------------------------------------------------------
@@ -166,11 +197,10 @@ def _clauses(ctx: UnitContext) -> list[str]:
     return [f"{c.layout_note} (objects: {', '.join(c.related_objects) or 'the anchor'})" for c in ctx.clauses]
 
 
-def _view_images(state: SceneState, label: str) -> list[ImagePart]:
-    es = state if isinstance(state, EvolveState) else None
-    if es is None or es.view is None:
+def _view_images(state: EvolveState, label: str) -> list[ImagePart]:
+    if state.view is None:
         return []
-    return [ImagePart(png=es.view(), label=label)]
+    return [ImagePart(png=state.view(state.layout), label=label)]
 
 
 _VIEW_LABEL = (
@@ -239,38 +269,34 @@ def solve_critic(evidence: CriticEvidence) -> CriticOutput:
     )
 
 
-class CriticAgent(TaskAgent[CriticEvidence, CriticOutput]):
+class CriticAgent(TaskAgent[RoundState, CriticEvidence, CriticOutput]):
     """Judges one round of a unit layout and says what to change, in words."""
 
     name: ClassVar[str] = "critic"
     prompt: ClassVar[str] = "critic"
-    output_type: ClassVar[type[BaseModel]] = CriticOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (500, 40)
 
-    def gather(self, state: SceneState) -> CriticEvidence:
-        assert isinstance(state, EvolveState)
-        layout, ctx = state.need()
-        check = state.check or PhysicalCheck((), ())
+    def gather(self, state: RoundState) -> CriticEvidence:
+        layout, ctx, check = state.layout, state.context, state.input.check
         return CriticEvidence(
-            round=state.round,
+            round=state.input.round,
             unit=_unit_info(layout, ctx),
             objects=_rows(layout),
             collisions=[CollisionRow(a=p.a, b=p.b, contacts=p.contacts, depth=p.depth_m) for p in check.collisions],
             out_of_bounds=list(check.out_of_bounds),
             clauses=_clauses(ctx),
-            checks=[CheckRow(kind=f.kind, severity=f.severity, note=f.note) for f in state.findings],
+            checks=[CheckRow(kind=f.kind, severity=f.severity, note=f.note) for f in state.input.findings],
             memory=state.memory.text(),
         )
 
     def solve(self, evidence: CriticEvidence) -> CriticOutput:
         return solve_critic(evidence)
 
-    def images(self, evidence: CriticEvidence, state: SceneState) -> list[ImagePart]:
+    def images(self, evidence: CriticEvidence, state: RoundState) -> list[ImagePart]:
         return _view_images(state, _VIEW_LABEL)
 
-    def check(self, output: CriticOutput, state: SceneState) -> list[str]:
-        assert isinstance(state, EvolveState)
-        layout, ctx = state.need()
+    def check(self, output: CriticOutput, state: RoundState) -> list[str]:
+        layout, ctx = state.layout, state.context
         known = set(layout.ids) | {layout.surface.anchor_id} | {w.id for w in ctx.walls}
         known |= {o.id for o in ctx.obstacles}
         problems = []
@@ -283,7 +309,7 @@ class CriticAgent(TaskAgent[CriticEvidence, CriticOutput]):
             problems.append("should_modify is true but there are no modification_notes")
         return problems
 
-    def apply(self, output: CriticOutput, state: SceneState) -> None:
+    def apply(self, output: CriticOutput, state: RoundState) -> None:
         return None
 
 
@@ -333,23 +359,23 @@ def solve_actor(evidence: ActorEvidence) -> ActorOutput:
     return ActorOutput(reasoning="; ".join(why) or "no fix applies to the named objects", pose_expressions=lines)
 
 
-class ActorAgent(TaskAgent[ActorEvidence, ActorOutput]):
-    """Turns the critic's notes into pose expressions, applied through the sandbox."""
+class ActorAgent(TaskAgent[RoundState, ActorEvidence, ActorOutput]):
+    """Turns the critic's notes into pose expressions, applied through the sandbox.
+
+    A refused reply's reasons are in the run's result (``AgentResult.problems``)."""
 
     name: ClassVar[str] = "actor"
     prompt: ClassVar[str] = "actor"
-    output_type: ClassVar[type[BaseModel]] = ActorOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (400, 40)
 
-    def gather(self, state: SceneState) -> ActorEvidence:
-        assert isinstance(state, EvolveState)
-        layout, ctx = state.need()
-        allowed = named_objects(state.notes, layout)
-        fixes = merged_fixes(state.findings, allowed)
+    def gather(self, state: RoundState) -> ActorEvidence:
+        layout, ctx, notes = state.layout, state.context, list(state.input.notes)
+        allowed = named_objects(notes, layout)
+        fixes = merged_fixes(list(state.input.findings), allowed)
         return ActorEvidence(
             unit=_unit_info(layout, ctx),
             objects=_rows(layout),
-            notes=list(state.notes),
+            notes=notes,
             may_change=sorted(allowed),
             memory=state.memory.text(),
             fixes=[
@@ -361,26 +387,22 @@ class ActorAgent(TaskAgent[ActorEvidence, ActorOutput]):
     def solve(self, evidence: ActorEvidence) -> ActorOutput:
         return solve_actor(evidence)
 
-    def _try(self, output: ActorOutput, state: EvolveState) -> tuple[UnitLayout, list[str]]:
-        layout, ctx = state.need()
+    def _try(self, output: ActorOutput, state: RoundState) -> tuple[UnitLayout, list[str]]:
+        layout, ctx = state.layout, state.context
         trial = layout.copy()
         try:
             apply_expressions(
-                trial, output.pose_expressions, allowed=named_objects(state.notes, layout), frozen_rotation=ctx.frozen_rotation
+                trial, output.pose_expressions, allowed=named_objects(list(state.input.notes), layout), frozen_rotation=ctx.frozen_rotation
             )
         except ExpressionError as exc:
             return trial, list(exc.problems)
         return trial, []
 
-    def check(self, output: ActorOutput, state: SceneState) -> list[str]:
-        assert isinstance(state, EvolveState)
+    def check(self, output: ActorOutput, state: RoundState) -> list[str]:
         _, problems = self._try(output, state)
-        if problems:
-            state.refused.append("; ".join(problems)[:400])
         return problems
 
-    def apply(self, output: ActorOutput, state: SceneState) -> None:
-        assert isinstance(state, EvolveState)
+    def apply(self, output: ActorOutput, state: RoundState) -> None:
         trial, problems = self._try(output, state)
         if not problems:
             state.layout = trial
@@ -413,17 +435,15 @@ class ArchetypeOutput(AgentOutput):
     alternative_layouts: list[Archetype] = Field(default_factory=list, max_length=12)
 
 
-class ArchetypeAgent(TaskAgent[ArchetypeEvidence, ArchetypeOutput]):
+class ArchetypeAgent(TaskAgent[EvolveState, ArchetypeEvidence, ArchetypeOutput]):
     """Proposes 0-3 structurally different design patterns for a unit."""
 
     name: ClassVar[str] = "archetypes"
     prompt: ClassVar[str] = "archetypes"
-    output_type: ClassVar[type[BaseModel]] = ArchetypeOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (500, 0)
 
-    def gather(self, state: SceneState) -> ArchetypeEvidence:
-        assert isinstance(state, EvolveState)
-        layout, ctx = state.need()
+    def gather(self, state: EvolveState) -> ArchetypeEvidence:
+        layout, ctx = state.layout, state.context
         limit = state.alternatives if state.alternatives is not None else max_alternatives(len(layout.ids))
         return ArchetypeEvidence(
             unit=_unit_info(layout, ctx),
@@ -436,12 +456,11 @@ class ArchetypeAgent(TaskAgent[ArchetypeEvidence, ArchetypeOutput]):
     def solve(self, evidence: ArchetypeEvidence) -> ArchetypeOutput:
         return ArchetypeOutput(alternative_layouts=list(evidence.candidates[: evidence.max_alternatives]))
 
-    def images(self, evidence: ArchetypeEvidence, state: SceneState) -> list[ImagePart]:
+    def images(self, evidence: ArchetypeEvidence, state: EvolveState) -> list[ImagePart]:
         return _view_images(state, _VIEW_LABEL)
 
-    def check(self, output: ArchetypeOutput, state: SceneState) -> list[str]:
-        assert isinstance(state, EvolveState)
-        layout, _ = state.need()
+    def check(self, output: ArchetypeOutput, state: EvolveState) -> list[str]:
+        layout = state.layout
         limit = state.alternatives if state.alternatives is not None else max_alternatives(len(layout.ids))
         problems = []
         if len(output.alternative_layouts) > limit:
@@ -451,7 +470,7 @@ class ArchetypeAgent(TaskAgent[ArchetypeEvidence, ArchetypeOutput]):
             problems.append("layout_id values must be distinct and not 'original'")
         return problems
 
-    def apply(self, output: ArchetypeOutput, state: SceneState) -> None:
+    def apply(self, output: ArchetypeOutput, state: EvolveState) -> None:
         return None
 
 
@@ -490,17 +509,21 @@ class PoseOutput(AgentOutput):
     poses: list[PosePlacement] = Field(max_length=MAX_ITEMS)
 
 
-class PoseAgent(TaskAgent[PoseEvidence, PoseOutput]):
+class PoseAgent(TaskAgent[PoseState, PoseEvidence, PoseOutput]):
     """Places every child of a unit according to one archetype."""
 
     name: ClassVar[str] = "pose"
     prompt: ClassVar[str] = "pose"
-    output_type: ClassVar[type[BaseModel]] = PoseOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (200, 60)
+    object_id_fields: ClassVar[tuple[str, ...]] = ("poses.object_id",)
+    id_scope: ClassVar[str] = "unit"
 
-    def gather(self, state: SceneState) -> PoseEvidence:
-        assert isinstance(state, EvolveState) and state.archetype is not None
-        layout, ctx = state.need()
+    def known_ids(self, state: PoseState) -> Collection[str]:
+        """The unit's children."""
+        return set(state.layout.ids)
+
+    def gather(self, state: PoseState) -> PoseEvidence:
+        layout, ctx = state.layout, state.context
         placed, how = instantiate(layout, ctx, state.archetype)
         U, V = layout.surface.size  # a group carried past an edge starts at the edge: the loop pulls it in
         placed = {k: (min(max(u, 0.0), U), min(max(v, 0.0), V), r) for k, (u, v, r) in placed.items()}
@@ -521,23 +544,16 @@ class PoseAgent(TaskAgent[PoseEvidence, PoseOutput]):
     def solve(self, evidence: PoseEvidence) -> PoseOutput:
         return PoseOutput(poses=list(evidence.placements))
 
-    def images(self, evidence: PoseEvidence, state: SceneState) -> list[ImagePart]:
+    def images(self, evidence: PoseEvidence, state: PoseState) -> list[ImagePart]:
         return _view_images(state, _VIEW_LABEL)
 
-    def check(self, output: PoseOutput, state: SceneState) -> list[str]:
-        assert isinstance(state, EvolveState)
-        layout, ctx = state.need()
+    def check(self, output: PoseOutput, state: PoseState) -> list[str]:
+        layout, ctx = state.layout, state.context
         ids = set(layout.ids)
-        got = [p.object_id for p in output.poses]
         problems = []
-        unknown = sorted(set(got) - ids)
-        if unknown:
-            problems.append(f"unknown object ids: {', '.join(unknown)} (this unit has: {', '.join(layout.ids)})")
-        missing = sorted(ids - set(got))
+        missing = sorted(ids - {p.object_id for p in output.poses})
         if missing:
             problems.append(f"every child needs a pose; missing: {', '.join(missing)}")
-        if len(got) != len(set(got)):
-            problems.append("an object is placed twice")
         U, V = layout.surface.size
         for p in output.poses:
             c = p.center_coordinates
@@ -554,9 +570,8 @@ class PoseAgent(TaskAgent[PoseEvidence, PoseOutput]):
                 problems.append(f"{p.object_id}: rotations are frozen in this unit; give centres only")
         return problems
 
-    def apply(self, output: PoseOutput, state: SceneState) -> None:
-        assert isinstance(state, EvolveState)
-        layout, ctx = state.need()
+    def apply(self, output: PoseOutput, state: PoseState) -> None:
+        layout, ctx = state.layout, state.context
         trial = layout.copy()
         for p in output.poses:
             if p.rotation_degrees is not None and not ctx.frozen_rotation:

@@ -22,7 +22,7 @@ import structlog
 
 from scenemosaic.agents import AgentPolicy
 from scenemosaic.dag import Node, NodeContext, Runner
-from scenemosaic.evolve._agents import ArchetypeAgent, ArchetypeOutput, EvolveState
+from scenemosaic.evolve._agents import ArchetypeAgent, EvolveState
 from scenemosaic.evolve._analysis import LayoutRule
 from scenemosaic.evolve._archetypes import max_alternatives
 from scenemosaic.evolve._context import UnitContext, unit_context
@@ -211,14 +211,14 @@ async def evolve_scene(
                 scene=scene, seed=ctx.node_seed, base_dir=base_dir, policy=policy,
                 layout=UnitLayout.from_scene(scene, c.unit), context=c, alternatives=counts[anchor],
             )  # fmt: skip
-            output, usage = await ArchetypeAgent().run(state, model, settings)
-            assert isinstance(output, ArchetypeOutput)
-            ctx.add_nodes(variant_node(anchor, a) for a in output.alternative_layouts)
+            proposed = await ArchetypeAgent().run(state, model, settings)
+            alternatives = proposed.output.alternative_layouts
+            ctx.add_nodes(variant_node(anchor, a) for a in alternatives)
             return {
-                "ids": [a.layout_id for a in output.alternative_layouts],
-                "usage": usage,
-                "outcomes": list(state.outcomes.values()),
-                "fallbacks": list(state.fallbacks),
+                "ids": [a.layout_id for a in alternatives],
+                "usage": proposed.usage,
+                "outcomes": [proposed.outcome],
+                "fallbacks": [proposed.fallback] if proposed.fallback is not None else [],
             }
 
         return Node(f"archetypes/{anchor}", run)

@@ -3,7 +3,8 @@
 Per round: physics checks the layout (collisions with contact counts, out-of-bounds), the
 rule findings are computed, the critic judges (objects out of bounds become mandatory notes),
 the actor writes pose expressions, the sandbox applies them, and the round goes into the
-layout memory. The loop ends when the critic asks for no change, when the round cap
+layout memory. The critic and the actor get the round's check, findings and notes as a frozen
+:class:`~scenemosaic.evolve.RoundInput`; the loop collects each agent's result. The loop ends when the critic asks for no change, when the round cap
 (:data:`MAX_ROUNDS`) is reached, or early, when the last round moved nothing by more than
 :data:`EARLY_STOP_MOVE_M` nor turned anything by more than :data:`EARLY_STOP_TURN_DEG` and
 the layout is physically clean. The final round is kept if clean, else the round with the
@@ -14,27 +15,32 @@ under gravity in MuJoCo with its anchor as the ground (:func:`scenemosaic.physic
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import math
 import time
 import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import structlog
+from pydantic import BaseModel
 
-from scenemosaic.agents import AgentOutcome, AgentPolicy, FallbackRecord, TaskAgent
+from scenemosaic.agents import AgentOutcome, AgentPolicy, AgentResult, FallbackRecord, SceneState, TaskAgent
 from scenemosaic.evolve._agents import (
     ActorAgent,
     Archetype,
     CriticAgent,
-    CriticOutput,
     EvolveState,
     PoseAgent,
+    PoseState,
+    RoundInput,
+    RoundState,
     named_objects,
 )
 from scenemosaic.evolve._analysis import (
+    Finding,
     LayoutRule,
     PhysicalCheck,
     find_problems,
@@ -122,23 +128,26 @@ def _moved(a: UnitLayout, b: UnitLayout) -> tuple[float, float]:
     return move, turn
 
 
+S = TypeVar("S", bound=SceneState)
+OutT = TypeVar("OutT", bound=BaseModel)
+
+
 async def _ask(
-    agent: TaskAgent[Any, Any], state: EvolveState, model: Model, settings: ModelSettings | None, result: LayoutResult
-) -> Any:
-    output, usage = await agent.run(state, model, settings)
-    result.usage = result.usage + usage
-    if agent.name in state.outcomes:
-        result.outcomes.append(state.outcomes.pop(agent.name))
-    result.fallbacks.extend(state.fallbacks)
-    state.fallbacks.clear()
-    return output
+    agent: TaskAgent[S, Any, OutT], state: S, model: Model, settings: ModelSettings | None, result: LayoutResult
+) -> AgentResult[OutT]:
+    """Run ``agent`` and add its usage, outcome and fallback to ``result``."""
+    answer = await agent.run(state, model, settings)
+    result.usage = result.usage + answer.usage
+    result.outcomes.append(answer.outcome)
+    if answer.fallback is not None:
+        result.fallbacks.append(answer.fallback)
+    return answer
 
 
-def _mandatory(notes: list[str], check: PhysicalCheck, state: EvolveState) -> list[str]:
+def _mandatory(notes: list[str], findings: Sequence[Finding], layout: UnitLayout) -> list[str]:
     """The critic's notes plus one for each out-of-bounds object it did not name."""
-    layout, _ = state.need()
     named = named_objects(notes, layout)
-    extra = [f for f in state.findings if f.kind == "out_of_bounds" and f.objects[0] not in named]
+    extra = [f for f in findings if f.kind == "out_of_bounds" and f.objects[0] not in named]
     return [*notes, *(f.note for f in extra)]
 
 
@@ -168,41 +177,46 @@ async def evolve_layout(
     result = LayoutResult(anchor_id=anchor, layout_id=layout_id)
     if archetype is not None:
         result.style_name, result.reasoning = archetype.layout_style_name, archetype.layout_reasoning
-    state = EvolveState(scene=scene, seed=seed, base_dir=base_dir, policy=policy or AgentPolicy(), layout=layout.copy(), context=ctx, archetype=archetype)
     use_vision = model.vision if vision is None else vision
-    if use_vision and not model.uses_rule_solvers:
-        state.view = lambda: unit_view_png(scene, state.need()[0], base_dir=base_dir)
+
+    def view(shown: UnitLayout) -> bytes:
+        return unit_view_png(scene, shown, base_dir=base_dir)
+
+    state = EvolveState(
+        scene=scene, seed=seed, base_dir=base_dir, policy=policy or AgentPolicy(), layout=layout.copy(), context=ctx,
+        view=view if use_vision and not model.uses_rule_solvers else None,
+    )  # fmt: skip
 
     def save_view(name: str) -> None:
         if views_dir is None:
             return
         views_dir.mkdir(parents=True, exist_ok=True)
         path = views_dir / f"{name}.png"
-        path.write_bytes(unit_view_png(scene, state.need()[0], base_dir=base_dir))
+        path.write_bytes(view(state.layout))
         result.views.append(str(path))
 
     if archetype is not None:
-        await _ask(PoseAgent(), state, model, settings, result)
+        posing = PoseState(**state.shared(), archetype=archetype)
+        await _ask(PoseAgent(), posing, model, settings, result)
+        state.layout = posing.layout
     critic, actor = CriticAgent(), ActorAgent()
     memory: LayoutMemory = state.memory
     candidates: list[tuple[int, UnitLayout, PhysicalCheck]] = []
     last_move: tuple[float, float] | None = None
     check: PhysicalCheck | None = None
     stop = f"round cap ({max_rounds})"
-    current, _ = state.need()
     for rnd in range(1, max_rounds + 1):
-        current, _ = state.need()
+        current = state.layout
         check = await asyncio.to_thread(physical_check, current, ctx, shapes)
         candidates.append((rnd, current.copy(), check))
         if last_move is not None and last_move[0] < EARLY_STOP_MOVE_M and last_move[1] < EARLY_STOP_TURN_DEG and check.clean:
             stop = "early stop: converged"
             break
-        state.check = check
-        state.round = rnd
-        state.findings = await asyncio.to_thread(find_problems, current, ctx, check, memory.avoid(), rules)
+        findings = tuple(await asyncio.to_thread(find_problems, current, ctx, check, memory.avoid(), rules))
         await asyncio.to_thread(save_view, f"round_{rnd}")
-        verdict: CriticOutput = await _ask(critic, state, model, settings, result)
-        notes = _mandatory(list(verdict.modification_notes), check, state)
+        judged = RoundInput(round=rnd, check=check, findings=findings)
+        verdict = (await _ask(critic, RoundState(**state.shared(), input=judged), model, settings, result)).output
+        notes = _mandatory(list(verdict.modification_notes), findings, current)
         record = RoundRecord(
             round=rnd, poses=_poses(current), collisions=[(p.a, p.b, p.contacts) for p in check.collisions],
             out_of_bounds=list(check.out_of_bounds), score=verdict.quality_score, notes=notes,
@@ -211,18 +225,17 @@ async def evolve_layout(
             memory.add(record)
             stop = "critic asked for no change"
             break
-        state.notes = notes
-        state.refused = []
         before = current.copy()
-        reply = await _ask(actor, state, model, settings, result)
-        after, _ = state.need()
-        record.expressions = list(reply.pose_expressions)
+        acting = RoundState(**state.shared(), input=dataclasses.replace(judged, notes=tuple(notes)))
+        reply = await _ask(actor, acting, model, settings, result)
+        state.layout = after = acting.layout
+        record.expressions = list(reply.output.pose_expressions)
         record.resolved = _poses(after)
-        record.refused = list(state.refused)
+        record.refused = ["; ".join(problems)[:400] for problems in reply.problems]
         memory.add(record)
         last_move = _moved(before, after)
     else:
-        current, _ = state.need()
+        current = state.layout
         check = await asyncio.to_thread(physical_check, current, ctx, shapes)
         candidates.append((max_rounds + 1, current.copy(), check))
     final_round, chosen, chosen_check = candidates[-1]

@@ -20,6 +20,13 @@ Conventions and rules: ``docs/importers.md`` and ``docs/exports.md``.
 """
 
 from scenemosaic.exchange import _builtin  # noqa: F401 - registers the built-in formats
+from scenemosaic.exchange._deliver import (
+    DELIVERED_FORMATS,
+    OPTIONAL_FORMATS,
+    deliver_scene,
+    formats_left_out,
+    save_scene_only,
+)
 from scenemosaic.exchange._glb import GLB_ROOT_NODE, Y_UP_TO_Z_UP, Z_UP_TO_Y_UP, build_glb_scene, export_glb
 from scenemosaic.exchange._mjcf import export_mjcf
 from scenemosaic.exchange._native import read_scene, save_scene
@@ -50,11 +57,13 @@ from scenemosaic.exchange._urdf import export_urdf
 from scenemosaic.exchange._usd import export_usd
 
 __all__ = [
+    "DELIVERED_FORMATS",
     "FORMATS",
     "GLB_ROOT_NODE",
     "HOUSE_FILE",
     "LOCAL_TO_GLTF",
     "MODEL_ID_PREFIX",
+    "OPTIONAL_FORMATS",
     "Y_UP_TO_Z_UP",
     "Z_UP_TO_Y_UP",
     "AssetDatabase",
@@ -63,6 +72,7 @@ __all__ = [
     "SceneFormat",
     "SupportType",
     "build_glb_scene",
+    "deliver_scene",
     "detect_format",
     "export_glb",
     "export_mjcf",
@@ -70,6 +80,7 @@ __all__ = [
     "export_sceneeval",
     "export_urdf",
     "export_usd",
+    "formats_left_out",
     "get_format",
     "gltf_to_world",
     "load_asset_database",
@@ -79,6 +90,7 @@ __all__ = [
     "read_sdf_sim",
     "register_format",
     "save_scene",
+    "save_scene_only",
     "sceneeval_state",
     "support_type",
     "write_sam3d_example",

@@ -19,7 +19,7 @@ import structlog
 
 from scenemosaic.exceptions import ImportFormatError, UsageError
 from scenemosaic.exchange._common import read_json
-from scenemosaic.scene import Room, Scene
+from scenemosaic.scene import Room, RunFolder, Scene
 
 __all__ = [
     "FORMATS",
@@ -130,6 +130,7 @@ def load_scenes(
     room: Room | str | None = None,
     asset_database: Any = None,
     asset_dir: str | os.PathLike[str] | None = None,
+    variant: int | str | None = None,
 ) -> list[Scene]:
     """Import every scene ``path`` holds, in a stable order.
 
@@ -140,9 +141,15 @@ def load_scenes(
     id, room id or source room id (ProcTHOR's ``room|2``) equals it. ``asset_database`` (a path
     or a parsed mapping) replaces the ProcTHOR asset sizes shipped with the package;
     ``asset_dir`` is where SceneEval asset meshes are looked up (default: ``assets/`` beside the file).
+    A ``generate`` output folder (:class:`RunFolder`) gives its base scene, or with ``variant``
+    (a number from 1, or ``"variant_2"``) that variant.
     """
     fmt = _check_format(format, path)
     p = Path(path)
+    if RunFolder.is_run(p):
+        p = RunFolder(p).scene_folder(variant)
+    elif variant is not None:
+        raise UsageError(f"variant={variant!r} needs a generate output folder; {os.fspath(path)} is not one")
     options = ReadOptions(
         room=room if isinstance(room, Room) else None,
         asset_database=asset_database,
@@ -176,6 +183,7 @@ def load_scene(
     room: Room | str | None = None,
     asset_database: Any = None,
     asset_dir: str | os.PathLike[str] | None = None,
+    variant: int | str | None = None,
 ) -> Scene:
     """Import the one scene ``path`` holds (see :func:`load_scenes`).
 
@@ -183,7 +191,9 @@ def load_scene(
     layouts) raises :class:`~scenemosaic.exceptions.UsageError` naming them: pick one with
     ``room="<room id>"`` (``--room`` on the command line), or use :func:`load_scenes`.
     """
-    scenes = load_scenes(path, format, room=room, asset_database=asset_database, asset_dir=asset_dir)
+    scenes = load_scenes(
+        path, format, room=room, asset_database=asset_database, asset_dir=asset_dir, variant=variant
+    )
     if len(scenes) != 1:
         ids = ", ".join(s.id for s in scenes[:8])
         rooms = sorted({str(s.metadata.get("procthor", {}).get("room_id") or s.id) for s in scenes})[:8]

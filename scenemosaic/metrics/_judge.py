@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, Field
+from pydantic import Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, AgentPolicy, SceneState, TaskAgent
 from scenemosaic.exceptions import AgentOutputError, ModelError
@@ -61,13 +61,13 @@ class JudgeOutput(AgentOutput):
     objects: list[ObjectVerdict] = Field(max_length=MAX_ITEMS)
 
 
-class JudgeAgent(TaskAgent[JudgeEvidence, JudgeOutput]):
+class JudgeAgent(TaskAgent[SceneState, JudgeEvidence, JudgeOutput]):
     """Rates every object's position and rotation from the scene's floor plan."""
 
     name: ClassVar[str] = "judge"
     prompt: ClassVar[str] = "judge"
-    output_type: ClassVar[type[BaseModel]] = JudgeOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (100, 40)
+    object_id_fields: ClassVar[tuple[str, ...]] = ("objects.object_id",)
 
     def gather(self, state: SceneState) -> JudgeEvidence:
         scene = state.scene
@@ -97,18 +97,8 @@ class JudgeAgent(TaskAgent[JudgeEvidence, JudgeOutput]):
         return [ImagePart(png=png, label="top-down floor plan: +x right, +y up, grid in metres, arrows along each object's front")]
 
     def check(self, output: JudgeOutput, state: SceneState) -> list[str]:
-        ids = [o.id for o in state.scene.objects]
-        got = [v.object_id for v in output.objects]
-        problems = []
-        unknown = sorted(set(got) - set(ids))
-        if unknown:
-            problems.append(f"unknown object ids: {', '.join(unknown)}")
-        missing = sorted(set(ids) - set(got))
-        if missing:
-            problems.append(f"give a verdict for every object; missing: {', '.join(missing)}")
-        if len(got) != len(set(got)):
-            problems.append("an object is judged twice")
-        return problems
+        missing = sorted({o.id for o in state.scene.objects} - {v.object_id for v in output.objects})
+        return [f"give a verdict for every object; missing: {', '.join(missing)}"] if missing else []
 
     def apply(self, output: JudgeOutput, state: SceneState) -> None:
         return None
@@ -127,7 +117,8 @@ async def judge_scene(
         return {"POS": None, "ROT": None, "note": "not measured: the scene has no objects"}
     state = SceneState(scene=scene, base_dir=base_dir, policy=AgentPolicy(solver_fallback=False))
     try:
-        output, usage = await JudgeAgent().run(state, model, settings)
+        result = await JudgeAgent().run(state, model, settings)
+        output, usage = result.output, result.usage
     except (ModelError, AgentOutputError) as exc:
         return {"POS": None, "ROT": None, "note": f"not measured: {type(exc).__name__}: {str(exc)[:200]}"}
     n = len(output.objects)

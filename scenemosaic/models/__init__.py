@@ -15,7 +15,8 @@ Wrappers that add behaviour around any model:
 * :class:`DeadlineModel` — one wall-clock budget for all requests of a run.
 * :class:`CircuitBreakerModel` — refuse requests at once while an endpoint keeps failing.
 
-:func:`parse_model` builds any of these from a string.
+:func:`parse_model` builds any of these from a string; :func:`open_run_model` builds the one
+stack a ``generate`` run asks (wrappers, limits, breaker, deadline, usage) for its whole length.
 """
 
 from scenemosaic.models._base import ImagePart, Message, Model, ModelSettings, RequestContext, TextPart, Usage
@@ -31,6 +32,7 @@ from scenemosaic.models._parse import MODEL_SPEC_HELP, parse_model
 from scenemosaic.models._replay import Cassette, ReplayMode, ReplayModel, canonical_request, request_key
 from scenemosaic.models._rules import RulesModel
 from scenemosaic.models._schema import STRICT_SCHEMA_KEYWORDS, SchemaBounds, extract_json, strict_json_schema
+from scenemosaic.models._stack import RunModel, RunModelSettings, open_run_model, server_slots, usage_summary
 from scenemosaic.models._tokens import estimate_tokens
 from scenemosaic.models._usage import ModelCallLike, ModelPrice, UsageLimits, UsageRecord, UsageTracker
 from scenemosaic.models._wrapper import WrapperModel
@@ -65,6 +67,8 @@ __all__ = [
     "ReplayModel",
     "RequestContext",
     "RulesModel",
+    "RunModel",
+    "RunModelSettings",
     "SchemaBounds",
     "StructuredMode",
     "TextPart",
@@ -77,7 +81,10 @@ __all__ = [
     "canonical_request",
     "estimate_tokens",
     "extract_json",
+    "open_run_model",
     "parse_model",
     "request_key",
+    "server_slots",
     "strict_json_schema",
+    "usage_summary",
 ]

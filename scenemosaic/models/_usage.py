@@ -4,7 +4,8 @@
 fields of the models layer's ``ModelCall``: ``agent``, ``node``, ``model``, ``usage``
 (:class:`~scenemosaic.models._base.Usage`), ``latency_s``, ``ok``, ``error``. It keeps per-call
 records and totals per agent, per model and per run, prices calls from an optional cost
-table, emits a :class:`~scenemosaic.dag.ModelRequest` event, and enforces :class:`UsageLimits`.
+table, reports each :class:`UsageRecord` to the task-graph run it is bound to (which emits it
+as a ``ModelRequest`` event), and enforces :class:`UsageLimits`.
 
 The instrumented model swallows exceptions raised by its callback (observing must not break
 a call), so a crossed limit is not signalled by raising: the tracker tells the runner it is
@@ -19,7 +20,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from scenemosaic.dag import EventListener, ModelRequest
 from scenemosaic.exceptions import UsageLimitExceeded
 from scenemosaic.models._base import Usage
 
@@ -125,14 +125,14 @@ class UsageTracker:
     """Total priced cost."""
     exceeded: UsageLimitExceeded | None = None
     """The first limit crossing, if any."""
-    _listener: EventListener | None = field(default=None, repr=False)
+    _listener: Callable[[UsageRecord], None] | None = field(default=None, repr=False)
     _stop: Callable[[UsageLimitExceeded], None] | None = field(default=None, repr=False)
 
     def bind(
-        self, listener: EventListener | None, stop: Callable[[UsageLimitExceeded], None] | None = None
+        self, listener: Callable[[UsageRecord], None] | None, stop: Callable[[UsageLimitExceeded], None] | None = None
     ) -> None:
-        """Attach to a run (the runner does this): ``listener`` receives a
-        :class:`~scenemosaic.dag.ModelRequest` per call, ``stop`` is called when a limit is crossed."""
+        """Attach to a run (the runner does this): ``listener`` receives each call's
+        :class:`UsageRecord`, ``stop`` is called when a limit is crossed."""
         self._listener = listener
         self._stop = stop
 
@@ -156,26 +156,15 @@ class UsageTracker:
         agent = call.agent or "?"
         price = self.prices.get(call.model)
         cost = price.cost(usage) if price is not None else None
-        self.calls.append(UsageRecord(agent, call.node, call.model, usage, call.latency_s, call.ok, cost))
+        record = UsageRecord(agent, call.node, call.model, usage, call.latency_s, call.ok, cost)
+        self.calls.append(record)
         self.total = self.total + usage
         self.by_agent[agent] = self.by_agent.get(agent, Usage()) + usage
         self.by_model[call.model] = self.by_model.get(call.model, Usage()) + usage
         if cost is not None:
             self.cost += cost
         if self._listener is not None:
-            self._listener(
-                ModelRequest(
-                    agent=agent,
-                    node=call.node,
-                    model=call.model,
-                    input_tokens=usage.input_tokens,
-                    output_tokens=usage.output_tokens,
-                    image_tokens=usage.image_tokens,
-                    latency_s=call.latency_s,
-                    ok=call.ok,
-                    cost=cost,
-                )
-            )
+            self._listener(record)
         limits = self.limits
         try:
             if limits.max_requests is not None and self.total.requests > limits.max_requests:

@@ -116,19 +116,17 @@ class InventoryEvidence(AgentOutput):
     hints: list[DetectedObject] = Field(default_factory=list, max_length=MAX_ITEMS)
 
 
-class InventoryAgent(TaskAgent[InventoryEvidence, Inventory]):
+class InventoryAgent(TaskAgent[PerceptionState, InventoryEvidence, Inventory]):
     """Lists every object of the photograph (see the module's docstring)."""
 
     name: ClassVar[str] = "perception"
     prompt: ClassVar[str] = "inventory"
-    output_type: ClassVar[type[Inventory]] = Inventory
     reply_tokens: ClassVar[tuple[int, int] | None] = (4000, 0)
 
-    def gather(self, state: SceneState) -> InventoryEvidence:
-        ps = _state(state)
-        image = ps.need_image()
-        vw, vh = ps.view_size()
-        hints = [h.model_copy(update={"box": ps.to_view(h.box)}) for h in ps.hints] if (vw, vh) != (image.width, image.height) else ps.hints
+    def gather(self, state: PerceptionState) -> InventoryEvidence:
+        image = state.need_image()
+        vw, vh = state.view_size()
+        hints = [h.model_copy(update={"box": state.to_view(h.box)}) for h in state.hints] if (vw, vh) != (image.width, image.height) else state.hints
         return InventoryEvidence(image_width=vw, image_height=vh, hints=hints)
 
     def solve(self, evidence: InventoryEvidence) -> Inventory:
@@ -140,19 +138,18 @@ class InventoryAgent(TaskAgent[InventoryEvidence, Inventory]):
             )
         return Inventory(objects=list(evidence.hints))
 
-    def images(self, evidence: InventoryEvidence, state: SceneState) -> list[ImagePart]:
-        return [ImagePart(png=_state(state).need_image().png_bytes(max_side=VIEW_MAX_SIDE), label=_PHOTO_LABEL)]
+    def images(self, evidence: InventoryEvidence, state: PerceptionState) -> list[ImagePart]:
+        return [ImagePart(png=state.need_image().png_bytes(max_side=VIEW_MAX_SIDE), label=_PHOTO_LABEL)]
 
-    def check(self, output: Inventory, state: SceneState) -> list[str]:
-        return inventory_problems(output.objects, *_state(state).view_size())
+    def check(self, output: Inventory, state: PerceptionState) -> list[str]:
+        return inventory_problems(output.objects, *state.view_size())
 
-    def apply(self, output: Inventory, state: SceneState) -> None:
-        ps = _state(state)
-        image = ps.need_image()
-        if ps.view_size() == (image.width, image.height):
-            ps.inventory = [clipped(o, image.width, image.height) for o in output.objects]
+    def apply(self, output: Inventory, state: PerceptionState) -> None:
+        image = state.need_image()
+        if state.view_size() == (image.width, image.height):
+            state.inventory = [clipped(o, image.width, image.height) for o in output.objects]
         else:
-            ps.inventory = [clipped(o.model_copy(update={"box": ps.from_view(o.box)}), image.width, image.height) for o in output.objects]
+            state.inventory = [clipped(o.model_copy(update={"box": state.from_view(o.box)}), image.width, image.height) for o in output.objects]
 
 
 # -- verification -------------------------------------------------------------------------------
@@ -283,37 +280,33 @@ def solve_verify(evidence: VerifyEvidence) -> VerifyOutput:
     return VerifyOutput(requests=[r for r in out if r.words() not in asked])
 
 
-class VerifyAgent(TaskAgent[VerifyEvidence, VerifyOutput]):
+class VerifyAgent(TaskAgent[PerceptionState, VerifyEvidence, VerifyOutput]):
     """Checks the masks of one round and asks for corrections (see the module's docstring)."""
 
     name: ClassVar[str] = "perception_verify"
     prompt: ClassVar[str] = "verify"
-    output_type: ClassVar[type[VerifyOutput]] = VerifyOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (300, 60)
 
-    def gather(self, state: SceneState) -> VerifyEvidence:
-        ps = _state(state)
-        image = ps.need_image()
-        vw, vh = ps.view_size()
+    def gather(self, state: PerceptionState) -> VerifyEvidence:
+        image = state.need_image()
+        vw, vh = state.view_size()
         return VerifyEvidence(
             image_width=vw,
             image_height=vh,
-            round=ps.round,
-            objects=mask_rows(ps.inventory, ps.masks, None if (vw, vh) == (image.width, image.height) else ps.to_view),
-            memory=list(ps.memory),
+            round=state.round,
+            objects=mask_rows(state.inventory, state.masks, None if (vw, vh) == (image.width, image.height) else state.to_view),
+            memory=list(state.memory),
         )
 
     def solve(self, evidence: VerifyEvidence) -> VerifyOutput:
         return solve_verify(evidence)
 
-    def images(self, evidence: VerifyEvidence, state: SceneState) -> list[ImagePart]:
-        ps = _state(state)
-        return [ImagePart(png=mask_overlay(ps.need_image(), ps.inventory, ps.masks), label=_MASKS_LABEL)]
+    def images(self, evidence: VerifyEvidence, state: PerceptionState) -> list[ImagePart]:
+        return [ImagePart(png=mask_overlay(state.need_image(), state.inventory, state.masks), label=_MASKS_LABEL)]
 
-    def check(self, output: VerifyOutput, state: SceneState) -> list[str]:
-        ps = _state(state)
-        width, height = ps.view_size()
-        ids = {o.id for o in ps.inventory}
+    def check(self, output: VerifyOutput, state: PerceptionState) -> list[str]:
+        width, height = state.view_size()
+        ids = {o.id for o in state.inventory}
         problems = []
         for i, r in enumerate(output.requests):
             where = f"requests[{i}] ({r.action})"
@@ -333,20 +326,14 @@ class VerifyAgent(TaskAgent[VerifyEvidence, VerifyOutput]):
             if r.box is not None:
                 probe = DetectedObject(id="probe", label="probe", box=r.box)
                 problems += [f"{where}: {p}" for p in inventory_problems([probe], width, height)]
-            if r.words() in ps.memory:
+            if r.words() in state.memory:
                 problems.append(f"{where}: this was asked in an earlier round already ({r.words()}); ask for something else or nothing")
         return problems
 
-    def apply(self, output: VerifyOutput, state: SceneState) -> None:
+    def apply(self, output: VerifyOutput, state: PerceptionState) -> None:
         """Keep the round's requests, boxes in the verifier's picture's pixels (as the memory has
         them); the caller scales them back when it applies them."""
-        _state(state).requests = list(output.requests)
-
-
-def _state(state: SceneState) -> PerceptionState:
-    if not isinstance(state, PerceptionState):
-        raise TypeError(f"perception agents work on a PerceptionState, not {type(state).__name__}")
-    return state
+        state.requests = list(output.requests)
 
 
 _TINTS = np.array(

@@ -22,6 +22,7 @@ import structlog
 
 from scenemosaic.agents import AgentPolicy, FallbackRecord, run_blocking
 from scenemosaic.exceptions import ModelConfigError, UsageError
+from scenemosaic.scene import RunFolder
 from scenemosaic.models import Model, ModelSettings, Usage
 from scenemosaic.perception._agents import (
     MAX_VERIFY_ROUNDS,
@@ -48,7 +49,7 @@ __all__ = ["PERCEPTION_FOLDER", "PerceptionResult", "perceive", "reconstructor_f
 
 log = structlog.get_logger(__name__)
 
-PERCEPTION_FOLDER = "perception"
+PERCEPTION_FOLDER = RunFolder.PERCEPTION
 """Where ``generate`` writes what perception saw, inside the output folder."""
 
 
@@ -191,10 +192,10 @@ async def _perceive(
     camera = image.camera(hfov_deg)
     placeholder = Scene(id="photo", room=Room.rectangle(0.0, 0.0, 1.0, 1.0), objects=[])
     state = PerceptionState(scene=placeholder, seed=seed, policy=policy or AgentPolicy(), image=image, hints=hints)
-    usage = Usage()
-    _, used = await InventoryAgent().run(state, model, settings)
-    usage = usage + used
-    log.info("perception_inventory", objects=len(state.inventory), answered_by=state.outcomes["perception"].answered_by)
+    listed = await InventoryAgent().run(state, model, settings)
+    usage = listed.usage
+    fallbacks = [listed.fallback] if listed.fallback is not None else []
+    log.info("perception_inventory", objects=len(state.inventory), answered_by=listed.outcome.answered_by)
 
     async def cut(objs: list[DetectedObject], how: Segmenter) -> None:
         for o in objs:
@@ -204,11 +205,11 @@ async def _perceive(
     rounds: list[dict[str, Any]] = []
     for rnd in range(1, max_rounds + 1):
         state.round = rnd
-        verify = VerifyAgent()
-        _, used = await verify.run(state, model, settings)
-        usage = usage + used
+        checked = await VerifyAgent().run(state, model, settings)
+        usage = usage + checked.usage
+        fallbacks += [checked.fallback] if checked.fallback is not None else []
         requests = state.requests
-        rounds.append({"round": rnd, "answered_by": state.outcomes[verify.name].answered_by, "requests": [r.words() for r in requests]})
+        rounds.append({"round": rnd, "answered_by": checked.outcome.answered_by, "requests": [r.words() for r in requests]})
         if not requests:
             break
         same_box = _apply_requests(state, requests)
@@ -235,7 +236,7 @@ async def _perceive(
         "image": str(image.path),
         "size": [image.width, image.height],
         "camera": {"hfov_deg": round(camera.hfov_deg, 3), "focal_source": camera.source},
-        "inventory": {"objects": len(inventory), "answered_by": state.outcomes["perception"].answered_by, "hints": len(hints)},
+        "inventory": {"objects": len(inventory), "answered_by": listed.outcome.answered_by, "hints": len(hints)},
         "segmenter": seg.name,
         "reconstructor": rec_backend.name,
         "verification": rounds,
@@ -245,7 +246,7 @@ async def _perceive(
     }
     if folder is not None:
         await asyncio.to_thread(_write_result, folder, meshes, reconstruction, report)
-    return PerceptionResult(scene, inventory, dict(state.masks), camera, reconstruction, report, list(state.fallbacks), usage)
+    return PerceptionResult(scene, inventory, dict(state.masks), camera, reconstruction, report, fallbacks, usage)
 
 
 def _apply_requests(state: PerceptionState, requests: list[Any]) -> set[str]:

@@ -1,40 +1,78 @@
 """The ``generate`` pipeline: an explicit list of stages over one run.
 
 :data:`STAGES` lists the stages in order — ``import``, ``assets``, ``structure``, ``stabilize``,
-``validate``, ``export`` — each a :class:`Stage` (a name and an async function over a
-:class:`PipelineRun`). The method's ``evolve`` and ``compose`` stages are two more entries,
-between ``validate`` and ``export``. A failing or stopped stage never loses earlier work: the
-last good scene is exported to ``base/``, ``report.json`` records which stage stopped and why,
-and a stopped run continues with ``resume=True`` (``--resume``). See ``docs/reliability.md``.
+``evolve``, ``compose``, ``validate``, ``evaluate``, ``export`` — each a :class:`Stage` (a name
+and an async function over a :class:`PipelineRun`, which carries each stage's result to the
+next in memory). The run's settings are one :class:`GenerateConfig`; its output folder is an
+``exchange.RunFolder``; its model stack is opened once (``models.open_run_model``). A failing or
+stopped stage never loses earlier work: the last good scene is delivered to ``base/``,
+``report.json`` records which stage stopped and why, and a stopped run continues with
+``resume=True`` (``--resume``) from its checkpoint. See ``docs/architecture.md`` and ``docs/reliability.md``.
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from scenemosaic.pipeline._config import (
+    SETTINGS,
     GenerateConfig,
-    GenerateResult,
-    PipelineRun,
-    Stage,
-    StageCallback,
-    StageRecord,
+    Setting,
+    SettingsError,
+    config_from_record,
+    config_record,
 )
-from scenemosaic.pipeline._demo import demo_scene
-from scenemosaic.pipeline._run import REPORT_FILE, agenerate, checkpoint_config, generate, run_sync
-from scenemosaic.pipeline._stages import DELIVERED_FORMATS, STAGE_NAMES, STAGES, export_base
+from scenemosaic.pipeline._result import GenerateResult
+from scenemosaic.pipeline._state import PipelineRun, Stage, StageCallback, StageRecord
+
+if TYPE_CHECKING:
+    from scenemosaic.pipeline._checkpoint import checkpoint_config
+    from scenemosaic.pipeline._demo import demo_scene
+    from scenemosaic.pipeline._run import REPORT_FILE, agenerate, generate, run_sync
+    from scenemosaic.pipeline._stages import STAGE_NAMES, STAGES
+
+_LAZY = {
+    "REPORT_FILE": "_run",
+    "STAGES": "_stages",
+    "STAGE_NAMES": "_stages",
+    "agenerate": "_run",
+    "checkpoint_config": "_checkpoint",
+    "demo_scene": "_demo",
+    "generate": "_run",
+    "run_sync": "_run",
+}
+"""Names whose modules import the stages' backends (MuJoCo, CoACD): loaded on first use, so the
+settings (and the CLI's ``--help``) stay light."""
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'scenemosaic.pipeline' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"scenemosaic.pipeline.{module}"), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
-    "DELIVERED_FORMATS",
     "REPORT_FILE",
+    "SETTINGS",
     "STAGES",
     "STAGE_NAMES",
     "GenerateConfig",
     "GenerateResult",
     "PipelineRun",
+    "Setting",
+    "SettingsError",
     "Stage",
     "StageCallback",
     "StageRecord",
     "agenerate",
     "checkpoint_config",
+    "config_from_record",
+    "config_record",
     "demo_scene",
-    "export_base",
     "generate",
     "run_sync",
 ]

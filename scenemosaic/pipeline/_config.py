@@ -1,273 +1,398 @@
-"""What a ``generate`` run is told (:class:`GenerateConfig`) and what it carries along (:class:`PipelineRun`)."""
+"""What a ``generate`` run is told: :class:`GenerateConfig`, its settings declared and validated in one place.
+
+Each field of :class:`GenerateConfig` carries a :class:`Setting` marker: its group, whether it
+decides the run's results (recorded in ``report.json`` and the checkpoint, compared by
+``--resume`` and by a batch's skip test), its ``generate`` flag (or why there is none) and whether
+a batch manifest line takes it (or why not). The CLI, the batch manifest, the run record and the
+docs (``docs/settings.md``) all read these markers; none of them keeps its own list.
+"""
 
 from __future__ import annotations
 
-import time
-from collections.abc import Awaitable, Callable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
 
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    ValidatorFunctionWrapHandler,
+    WrapValidator,
+    model_validator,
+)
+
+from scenemosaic.exceptions import UsageError
 from scenemosaic.models import Model
-from scenemosaic.scene import Scene
 
 if TYPE_CHECKING:
-    from scenemosaic.agents import FallbackRecord, TaskAgent
-    from scenemosaic.assets import HullCache
+    from pydantic import ModelWrapValidatorHandler
+
+    from scenemosaic.agents import SceneState, TaskAgent
     from scenemosaic.evolve import LayoutRule
+    from scenemosaic.perception import Reconstructor, Segmenter
 
 __all__ = [
+    "SETTINGS",
     "GenerateConfig",
-    "GenerateResult",
-    "PipelineRun",
-    "Stage",
-    "StageCallback",
-    "StageFn",
-    "StageRecord",
+    "Setting",
+    "SettingGroup",
+    "SettingsError",
+    "check_config",
+    "config_from_record",
+    "config_record",
+    "deciding_settings",
 ]
 
-StageCallback = Callable[[str, str], None]
-"""Called as ``callback(stage_name, status)`` with status ``"started"``, ``"done"``, ``"reused"`` or ``"failed"``."""
+SettingGroup = Literal["input", "perception", "model", "evolution", "limits", "run"]
+"""The groups of :class:`GenerateConfig`'s settings (``docs/settings.md``)."""
 
 
 @dataclass(frozen=True)
-class GenerateConfig:
-    """Settings of one ``generate`` run."""
+class Setting:
+    """What a :class:`GenerateConfig` field is, declared on the field (an ``Annotated`` marker).
 
-    format: str = "auto"
+    ``group`` sorts the setting (``docs/settings.md``). ``decides``: the setting decides the
+    run's results, so it is recorded (``report.json``'s ``config``, the checkpoint) and a resumed
+    run or a skipped batch job must agree on it. ``recorded``: a folder or file recorded and
+    restored by ``--resume`` but not compared (the same data may sit at another path). ``path``:
+    a folder or file, relative to the manifest in a manifest line. ``flag`` is the ``generate``
+    option, else ``no_flag`` says why there is none; ``no_manifest`` says why a manifest line
+    does not take the setting (``None``: it does).
+    """
+
+    group: SettingGroup
+    decides: bool = False
+    recorded: bool = False
+    path: bool = False
+    flag: str | None = None
+    no_flag: str | None = None
+    no_manifest: str | None = None
+
+    def __post_init__(self) -> None:
+        if (self.flag is None) == (self.no_flag is None):
+            raise ValueError("a setting has a flag, or says why it has none (not both)")
+
+
+class SettingsError(UsageError):
+    """Settings of a run are wrong: ``problems`` holds ``(field, message)`` pairs, one per problem
+    (``field`` is ``None`` for a problem of several fields together)."""
+
+    def __init__(self, problems: Sequence[tuple[str | None, str]]) -> None:
+        self.problems = list(problems)
+        super().__init__("bad settings: " + "; ".join(self.describe()))
+
+    def describe(self, name: Callable[[str], str] | None = None) -> list[str]:
+        """One line per problem, each naming its setting through ``name`` (default: ``'field'``)."""
+        label = name or (lambda field: repr(field))
+        return [f"{label(field)}: {message}" if field else message for field, message in self.problems]
+
+
+def _problems(error: ValidationError) -> list[tuple[str | None, str]]:
+    out: list[tuple[str | None, str]] = []
+    for item in error.errors():
+        field = str(item["loc"][0]) if item["loc"] else None
+        message = str(item["msg"]).removeprefix("Value error, ")
+        if item["type"] == "extra_forbidden":
+            message = "not a setting of generate"
+        out.append((field, message))
+    return out
+
+
+def _segmenter(value: Any) -> Any:
+    if isinstance(value, str):
+        return value
+    from scenemosaic.perception import Segmenter
+
+    if isinstance(value, Segmenter):
+        return value
+    raise ValueError(f"expected a segmenter name or a Segmenter, got {type(value).__name__}")
+
+
+def _reconstructor(value: Any) -> Any:
+    if isinstance(value, str):
+        return value
+    from scenemosaic.perception import Reconstructor
+
+    if isinstance(value, Reconstructor):
+        return value
+    raise ValueError(f"expected a reconstructor name or a Reconstructor, got {type(value).__name__}")
+
+
+def _agents(value: Any) -> Any:
+    if value is None:
+        return None
+    from scenemosaic.agents import TaskAgent
+
+    if isinstance(value, str | bytes) or not isinstance(value, Sequence):
+        raise ValueError(f"expected a sequence of TaskAgent, got {type(value).__name__}")
+    bad = [type(a).__name__ for a in value if not isinstance(a, TaskAgent)]
+    if bad:
+        raise ValueError(f"expected TaskAgent instances, got {', '.join(bad)}")
+    return value
+
+
+def _layout_rules(value: Any) -> Any:
+    if isinstance(value, str | bytes) or not isinstance(value, Sequence):
+        raise ValueError(f"expected a sequence of layout rules (callables), got {type(value).__name__}")
+    bad = [type(r).__name__ for r in value if not callable(r)]
+    if bad:
+        raise ValueError(f"layout rules must be callables, got {', '.join(bad)}")
+    return value
+
+
+def _number_as_given(value: Any, handler: ValidatorFunctionWrapHandler, info: ValidationInfo) -> Any:
+    """A whole number given for a float setting from Python stays an ``int``, so the run's record
+    (``report.json``) holds what the caller wrote; from JSON (context ``json_numbers``: a manifest)
+    it becomes a ``float``, as a manifest always gave it."""
+    checked = handler(value)
+    if type(value) is int and not (info.context or {}).get("json_numbers"):
+        return value
+    return checked
+
+
+Number = Annotated[float, WrapValidator(_number_as_given)]
+
+if TYPE_CHECKING:
+    SegmenterChoice: TypeAlias = str | Segmenter
+    ReconstructorChoice: TypeAlias = str | Reconstructor
+    AgentList: TypeAlias = Sequence[TaskAgent[SceneState, Any, Any]] | None
+    LayoutRules: TypeAlias = Sequence[LayoutRule]
+else:  # checked at run time without importing perception, agents or evolve up front
+    SegmenterChoice = Annotated[Any, AfterValidator(_segmenter)]
+    ReconstructorChoice = Annotated[Any, AfterValidator(_reconstructor)]
+    AgentList = Annotated[Any, AfterValidator(_agents)]
+    LayoutRules = Annotated[Any, AfterValidator(_layout_rules)]
+
+_OBJECTS = "Python objects: no JSON form"
+_BATCH_OWNS = "the batch sets it for every job"
+
+
+class GenerateConfig(BaseModel):
+    """Settings of one ``generate`` run: a frozen, validated model.
+
+    ``GenerateConfig(model="rules", seed=0)``; a wrong value raises :class:`SettingsError` (a
+    :class:`~scenemosaic.exceptions.UsageError`) naming every bad setting. Types are strict
+    (``"5"`` is not a number); folders and files may be given as strings. Each field's
+    :class:`Setting` marker (see :data:`SETTINGS`) says its group, whether it decides the results,
+    its ``generate`` flag and whether a batch manifest line takes it (``docs/settings.md``).
+    """
+
+    model_config = ConfigDict(frozen=True, strict=True, extra="forbid", arbitrary_types_allowed=True)
+
+    # -- input -------------------------------------------------------------------------------
+    format: Annotated[str, Setting("input", decides=True, flag="--format")] = "auto"
     """Input format (``auto`` or a registered reader: ``native``, ``front3d``, ``procthor``,
     ``holodeck``, ``sam3d``, ``sceneeval``; or ``image``, which ``auto`` picks for ``.png``,
     ``.jpg``... inputs: the image front end, ``docs/perception.md``)."""
-    detections: Path | None = None
+    room: Annotated[str | None, Setting("input", decides=True, flag="--room")] = None
+    """Room id to take from a multi-room house file."""
+    asset_dir: Annotated[
+        Path | None, Field(strict=False), Setting("input", recorded=True, path=True, flag="--asset-dir")
+    ] = None
+    """Folder of asset meshes a SceneEval input names by ``assetId`` (default: ``assets/`` beside it)."""
+    priors_dir: Annotated[
+        Path | None, Field(strict=False), Setting("input", recorded=True, path=True, flag="--priors")
+    ] = None
+    """ProcTHOR priors folder (receptacles, placement annotations, asset groups) replacing the
+    priors shipped with the package."""
+
+    # -- perception (a photograph or a text prompt) ----------------------------------------
+    detections: Annotated[
+        Path | None, Field(strict=False), Setting("perception", recorded=True, path=True, flag="--detections")
+    ] = None
     """Object detections of a photograph input (``--detections``): COCO (``bbox`` = [x, y, w, h])
     or an inventory JSON. The offline ``rules`` model needs them; a vision model takes them as hints."""
-    segmenter: Any = "auto"
+    segmenter: Annotated[SegmenterChoice, Setting("perception", decides=True, flag="--segmenter")] = "auto"
     """How a photograph's objects are cut out (``--segmenter``): ``auto``, ``grabcut``, ``box``,
     ``sam3``, an ``http://`` segmentation server, or a :class:`~scenemosaic.perception.Segmenter`."""
-    reconstructor: Any = "auto"
+    reconstructor: Annotated[ReconstructorChoice, Setting("perception", decides=True, flag="--reconstructor")] = "auto"
     """How a photograph's objects are lifted to 3D (``--reconstructor``): ``auto``, ``box-lifter``,
     ``sam3d[:pipeline.yaml]``, an ``http://`` server, or a :class:`~scenemosaic.perception.Reconstructor`."""
-    prompt: str | None = None
+    hfov_deg: Annotated[Number | None, Field(ge=5, le=170), Setting("perception", decides=True, flag="--hfov")] = None
+    """Horizontal field of view of a photograph input, degrees, 5 to 170 (``--hfov``); ``None``: from
+    its EXIF focal length, else :data:`~scenemosaic.perception.DEFAULT_HFOV_DEG`."""
+    prompt: Annotated[str | None, Setting("perception", decides=True, flag="--prompt")] = None
     """Draw the room from this text first (``--prompt``): the model's images endpoint
     (``/images/generations``) makes ``OUT/prompt.png``, which then goes through the image front
     end like a photograph. Give no input with it."""
-    image_model: str | None = None
+    image_model: Annotated[str | None, Setting("perception", decides=True, flag="--image-model")] = None
     """The images endpoint's model name (``--image-model``); ``None``: the chat model's name."""
-    image_size: str = "1024x1024"
+    image_size: Annotated[str, Setting("perception", decides=True, flag="--image-size")] = "1024x1024"
     """Size asked of the images endpoint (``--image-size``)."""
-    hfov_deg: float | None = None
-    """Horizontal field of view of a photograph input, degrees (``--hfov``); ``None``: from its
-    EXIF focal length, else :data:`~scenemosaic.perception.DEFAULT_HFOV_DEG`."""
-    variants: int = 0
-    """Number of diverse whole-scene variants to deliver (m). Above 0, the evolve stage grows each
-    unit's structurally different variants (archetypes) beside the refined original, and the
-    compose stage selects m diverse valid combinations of them (dynamic max-min greedy on the
-    novelty distance), written as ``variant_1/`` ... ``variant_m/`` beside ``base/``; fewer when
-    the pool holds fewer distinct valid ones (the report says so)."""
-    evolve: bool = True
-    """Run the evolve stage (the Critic-Actor refinement of every unit); ``--no-evolve`` delivers
-    the stabilized scene as it is. Skipped too when ``stabilize`` is off (it refines a stabilized scene)."""
-    evolve_rounds: int = 8
-    """Round cap of each layout's Critic-Actor loop (``--rounds``; ``scenemosaic.evolve.MAX_ROUNDS``)."""
-    save_views: bool = False
-    """Write every unit view the critic sees, per round, as PNG under ``evolve/`` (``--save-views``)."""
-    model: str | Model = "rules"
+
+    # -- model -------------------------------------------------------------------------------
+    model: Annotated[str | Model, Setting("model", decides=True, flag="--model")] = "rules"
     """Model string (``rules``, ``openai:<model>[@<base_url>]``, ``replay:<cassette.json>``) or a
     :class:`~scenemosaic.models.Model` instance, which the caller keeps ownership of (not closed here)."""
-    seed: int = 0
-    """Run seed; every random choice derives from it, so equal inputs give identical files."""
-    room: str | None = None
-    """Room id to take from a multi-room house file."""
-    asset_dir: Path | None = None
-    """Folder of asset meshes a SceneEval input names by ``assetId`` (default: ``assets/`` beside it)."""
-    vision: bool | None = None
+    vision: Annotated[bool | None, Setting("model", decides=True, flag="--vision")] = None
     """Force the model's vision setting (``False`` for text-only local servers); ``None`` keeps its default."""
-    solver_fallback: bool = True
+    solver_fallback: Annotated[bool, Setting("model", decides=True, flag="--solver-fallback")] = True
     """When a real model's answers stay unusable (after retries and repairs), use the agent's rule
     solver and note it in the report (the run is then ``degraded``), instead of failing the run.
     Configuration errors still fail."""
-    request_timeout_s: float | None = None
-    """Time-out of one model request in seconds (``--request-timeout``); ``None`` keeps the
-    model's own. See ``docs/reliability.md`` for the precedence of time-outs."""
-    max_concurrency: int | None = None
-    """Most model requests in flight at once (``--max-concurrency``); more wait in the client, so
-    a request's time-out measures the server's work, not a queue. ``None``: the server's slot
-    count when it reports one (llama.cpp), else no limit beyond the task graph's."""
-    deadline_s: float | None = None
-    """Wall-clock budget for all model requests of the run, in seconds (``--deadline``): once it
-    has passed, agents answer with their rule solvers (the run is ``degraded``)."""
-    stabilize: bool = True
-    """Run the physics stabilization stage."""
-    strict: bool = False
-    """Treat a ``degraded`` outcome (unresolved collisions, fallen objects, solver fallbacks) as a
-    failure: the CLI exits 1 (``--strict``). The files are written either way."""
-    overwrite: bool = False
-    """Allow writing into an output folder that holds the results of another input."""
-    resume: bool = False
-    """Continue a stopped run in the same output folder: finished stages (and finished agents of
-    the structuring stage) are reused from the run's checkpoints (``--resume``)."""
-    cache_dir: Path | None = None
-    """Hull cache folder; default ``$SCENEMOSAIC_CACHE`` or ``~/.cache/scenemosaic``."""
-    requests_per_minute: float | None = None
-    """Client-side request rate for the model (``--rpm``; ``models.RateLimiter``)."""
-    tokens_per_minute: float | None = None
-    """Client-side token rate for the model (``--tpm``)."""
-    rate_limit_dir: Path | None = None
-    """Keep the request and token rates in files in this folder (``models.FileTokenBucket``), so
-    every run using the folder shares one budget per model: the workers of a batch
-    (``OUT/.batch/limits``). ``None``: the rates hold within this run only."""
-    reply_cache: Path | None = None
+    reply_cache: Annotated[
+        Path | None,
+        Field(strict=False),
+        Setting("model", path=True, flag="--reply-cache", no_manifest=f"{_BATCH_OWNS} (OUT/.batch/replies, shared)"),
+    ] = None
     """Folder of the on-disk model reply cache (``--reply-cache``; ``models.CachedModel``): an
     equal request is answered from it at no cost, so a re-run or retried job never pays twice.
     ``None``: no cache (the rules model makes no requests either way)."""
-    priors_dir: Path | None = None
-    """ProcTHOR priors folder (receptacles, placement annotations, asset groups) replacing the
-    priors shipped with the package."""
-    agents: Sequence[TaskAgent[Any, Any]] | None = None
+    agents: Annotated[AgentList, Setting("model", no_flag=_OBJECTS, no_manifest=_OBJECTS)] = None
     """Structuring agents the manager may schedule; default
     :data:`~scenemosaic.structure.DEFAULT_AGENTS`. Add a plugin with
     ``agents=[*DEFAULT_AGENTS, MyAgent()]``."""
-    layout_rules: Sequence[LayoutRule] = ()
+
+    # -- evolution ---------------------------------------------------------------------------
+    variants: Annotated[int, Field(ge=0), Setting("evolution", decides=True, flag="--variants")] = 0
+    """Number of diverse whole-scene variants to deliver (m), 0 or more. Above 0, the evolve stage
+    grows each unit's structurally different variants (archetypes) beside the refined original, and
+    the compose stage selects m diverse valid combinations of them (dynamic max-min greedy on the
+    novelty distance), written as ``variant_1/`` ... ``variant_m/`` beside ``base/``; fewer when
+    the pool holds fewer distinct valid ones (the report says so). Needs ``evolve``."""
+    evolve: Annotated[bool, Setting("evolution", decides=True, flag="--evolve")] = True
+    """Run the evolve stage (the Critic-Actor refinement of every unit); ``--no-evolve`` delivers
+    the stabilized scene as it is. Skipped too when ``stabilize`` is off (it refines a stabilized scene)."""
+    evolve_rounds: Annotated[int, Field(ge=1), Setting("evolution", decides=True, flag="--rounds")] = 8
+    """Round cap of each layout's Critic-Actor loop, 1 or more (``--rounds``; ``scenemosaic.evolve.MAX_ROUNDS``)."""
+    save_views: Annotated[bool, Setting("evolution", decides=True, flag="--save-views")] = False
+    """Write every unit view the critic sees, per round, as PNG under ``evolve/`` (``--save-views``)."""
+    layout_rules: Annotated[LayoutRules, Setting("evolution", no_flag=_OBJECTS, no_manifest=_OBJECTS)] = ()
     """Plugin rules of the evolve stage's critic (:data:`~scenemosaic.evolve.LayoutRule`): each
     sees every layout of every unit, and its findings join the built-in ones (``docs/plugins.md``)."""
 
+    # -- limits ------------------------------------------------------------------------------
+    request_timeout_s: Annotated[
+        Number | None, Field(gt=0), Setting("limits", decides=True, flag="--request-timeout")
+    ] = None
+    """Time-out of one model request in seconds, above 0 (``--request-timeout``); ``None`` keeps the
+    model's own. See ``docs/reliability.md`` for the precedence of time-outs."""
+    deadline_s: Annotated[Number | None, Field(gt=0), Setting("limits", decides=True, flag="--deadline")] = None
+    """Wall-clock budget for all model requests of the run, in seconds, above 0 (``--deadline``):
+    once it has passed, agents answer with their rule solvers (the run is ``degraded``)."""
+    max_concurrency: Annotated[int | None, Field(ge=1), Setting("limits", flag="--max-concurrency")] = None
+    """Most model requests in flight at once, 1 or more (``--max-concurrency``); more wait in the
+    client, so a request's time-out measures the server's work, not a queue. ``None``: the server's
+    slot count when it reports one (llama.cpp), else no limit beyond the task graph's."""
+    requests_per_minute: Annotated[Number | None, Field(gt=0), Setting("limits", flag="--rpm")] = None
+    """Client-side request rate for the model, above 0 (``--rpm``; ``models.RateLimiter``)."""
+    tokens_per_minute: Annotated[Number | None, Field(gt=0), Setting("limits", flag="--tpm")] = None
+    """Client-side token rate for the model, above 0 (``--tpm``)."""
+    rate_limit_dir: Annotated[
+        Path | None,
+        Field(strict=False),
+        Setting(
+            "limits",
+            path=True,
+            no_flag="the batch's business: its workers share one budget (OUT/.batch/limits)",
+            no_manifest=f"{_BATCH_OWNS} (OUT/.batch/limits, shared)",
+        ),
+    ] = None
+    """Keep the request and token rates in files in this folder (``models.FileTokenBucket``), so
+    every run using the folder shares one budget per model: the workers of a batch
+    (``OUT/.batch/limits``). ``None``: the rates hold within this run only."""
 
-@dataclass
-class StageRecord:
-    """Timing and outcome of one pipeline stage, as written to ``report.json``."""
+    # -- run ---------------------------------------------------------------------------------
+    seed: Annotated[int, Setting("run", decides=True, flag="--seed")] = 0
+    """Run seed; every random choice derives from it, so equal inputs give identical files."""
+    stabilize: Annotated[bool, Setting("run", decides=True, flag="--stabilize")] = True
+    """Run the physics stabilization stage (``--no-stabilize`` skips it, and with it evolve)."""
+    strict: Annotated[bool, Setting("run", flag="--strict")] = False
+    """Treat a ``degraded`` outcome (unresolved collisions, fallen objects, solver fallbacks) as a
+    failure: the CLI exits 1 (``--strict``). The files are written either way."""
+    overwrite: Annotated[
+        bool, Setting("run", flag="--overwrite", no_manifest=f"{_BATCH_OWNS}: on (a batch owns its job folders)")
+    ] = False
+    """Allow writing into an output folder that holds the results of another input."""
+    resume: Annotated[
+        bool,
+        Setting(
+            "run", flag="--resume", no_manifest=f"{_BATCH_OWNS}: off (a finished job is skipped, an unfinished one starts again)"
+        ),
+    ] = False
+    """Continue a stopped run in the same output folder: finished stages (and finished agents of
+    the structuring stage) are reused from the run's checkpoints (``--resume OUT``, which takes
+    the input and the settings from the checkpoint)."""
+    cache_dir: Annotated[
+        Path | None,
+        Field(strict=False),
+        Setting("run", recorded=True, path=True, flag="--cache-dir", no_manifest=f"{_BATCH_OWNS} (the batch's --cache-dir)"),
+    ] = None
+    """Hull cache folder (``--cache-dir``); default ``$SCENEMOSAIC_CACHE`` or ``~/.cache/scenemosaic``."""
 
-    name: str
-    seconds: float = 0.0
-    status: str = "pending"
-    """``pending``, ``done``, ``skipped``, ``reused`` (from a checkpoint), ``failed`` or ``interrupted``."""
-    objects: int | None = None
-    detail: dict[str, Any] = field(default_factory=dict)
-
-
-@dataclass
-class GenerateResult:
-    """What ``generate`` produced: the final base scene, the output folder and the report; its
-    variants and metrics on demand. In Jupyter it displays as a summary table and the contact
-    sheet of the base and its variants."""
-
-    scene: Scene
-    out_dir: Path
-    report: dict[str, Any]
-    _variants: list[Scene] | None = field(default=None, init=False, repr=False, compare=False)
-
-    @property
-    def base_dir(self) -> Path:
-        """The delivered base scene's folder (``out_dir / "base"``)."""
-        return self.out_dir / "base"
-
-    @property
-    def status(self) -> str:
-        """``ok`` or ``degraded`` (a failed run raises instead of returning)."""
-        return str(self.report.get("status", "ok"))
-
-    @property
-    def variant_dirs(self) -> list[Path]:
-        """The variants' folders, ``variant_1`` ... ``variant_n`` (empty without variants)."""
-        n = int(self.report.get("variants_written", 0) or 0)
-        return [self.out_dir / f"variant_{i}" for i in range(1, n + 1)]
-
-    @property
-    def variants(self) -> list[Scene]:
-        """The delivered whole-scene variants, read from their folders (on first use)."""
-        if self._variants is None:
-            from scenemosaic.exchange import read_scene
-
-            self._variants = [read_scene(d) for d in self.variant_dirs]
-        return list(self._variants)
-
-    @property
-    def metrics(self) -> dict[str, Any] | None:
-        """COL, OOB, NAV of the base and each variant, RelKeep and the diversity (``None`` when
-        the evaluate stage did not run)."""
-        value = self.report.get("metrics")
-        return value if isinstance(value, dict) else None
-
-    @property
-    def preview_path(self) -> Path | None:
-        """The contact sheet (base and variants side by side), else the base's top-down view."""
-        for p in (self.out_dir / "contact_sheet.png", self.base_dir / "topdown.png"):
-            if p.is_file():
-                return p
-        return None
-
-    def _repr_png_(self) -> bytes | None:
-        """Jupyter shows the preview image."""
-        p = self.preview_path
-        return p.read_bytes() if p is not None else None
-
-    def _repr_html_(self) -> str:
-        """Jupyter shows a summary table (status, objects, each scene's metrics) over the preview."""
-        import base64
-        import html
-
-        rows = [f"<tr><th>status</th><td>{html.escape(self.status)}</td></tr>"]
-        rows.append(f"<tr><th>objects</th><td>{len(self.scene.objects)}</td></tr>")
-        rows.append(f"<tr><th>output</th><td><code>{html.escape(str(self.out_dir))}</code></td></tr>")
-        out = [f"<table>{''.join(rows)}</table>"]
-        m = self.metrics
-        if m:
-            scenes = [("base", m.get("base") or {})] + [(f"variant_{i}", v) for i, v in enumerate(m.get("variants") or [], 1)]
-            keys = ["COL", "OOB", "NAV", "RelKeep"]
-            head = "".join(f"<th>{k}</th>" for k in keys)
-            body = "".join(
-                f"<tr><td>{name}</td>" + "".join(f"<td>{html.escape(str(v.get(k, '')))}</td>" for k in keys) + "</tr>"
-                for name, v in scenes
-            )
-            out.append(f"<table><tr><th></th>{head}</tr>{body}</table>")
-            div = m.get("diversity")
-            if isinstance(div, dict):
-                out.append(f"<p>Div-IoU {html.escape(str(div.get('Div-IoU')))}, Div-N {html.escape(str(div.get('Div-N')))}</p>")
-        png = self._repr_png_()
-        if png is not None:
-            data = base64.b64encode(png).decode("ascii")
-            out.append(f'<img src="data:image/png;base64,{data}" style="max-width:100%"/>')
-        return "\n".join(out)
+    @model_validator(mode="wrap")
+    @classmethod
+    def _validated_in_one_place(cls, data: Any, handler: ModelWrapValidatorHandler[GenerateConfig]) -> GenerateConfig:
+        """Every check of the settings: the field constraints, then those of several fields together.
+        Raises :class:`SettingsError` (a ``UsageError``, never a pydantic ``ValidationError``)."""
+        try:
+            config = handler(data)
+        except ValidationError as exc:
+            raise SettingsError(_problems(exc)) from None
+        problems: list[tuple[str | None, str]] = []
+        if config.variants > 0 and not config.evolve:
+            problems.append((None, "variants come from the evolve stage: drop --no-evolve (\"evolve\": false), or ask for 0 variants"))
+        if config.prompt is not None and not config.prompt.strip():
+            problems.append(("prompt", "the text prompt is empty"))
+        if problems:
+            raise SettingsError(problems)
+        return config
 
 
-@dataclass
-class PipelineRun:
-    """Mutable state threaded through the stages."""
-
-    input_path: Path
-    out_dir: Path
-    config: GenerateConfig
-    base_dir: Path
-    """Folder relative mesh paths of the input start from."""
-    scene: Scene | None = None
-    records: list[StageRecord] = field(default_factory=list)
-    hull_cache: HullCache | None = None
-    """The run's CoACD hull cache, opened on first use and shared by the stages."""
-    validation: dict[str, Any] | None = None
-    """The validate stage's full report (JSON-ready), written to ``report.json``."""
-    fallbacks: list[FallbackRecord] = field(default_factory=list)
-    """Agents answered by their rule solvers instead of the model."""
-    warnings: list[str] = field(default_factory=list)
-    """What makes the outcome ``degraded``, in words."""
-    metrics: dict[str, Any] | None = None
-    """The evaluate stage's metrics (base, variants, diversity), written to ``report.json``."""
-    variants_written: int = 0
-    """Whole-scene variants the compose stage wrote (``variant_<i>/``)."""
-    started: float = field(default_factory=time.monotonic)
-    """``time.monotonic()`` when the run began: the run deadline counts from here."""
-
-    @property
-    def checkpoint_dir(self) -> Path:
-        """Where stage checkpoints and the agents' run store live (``out/.checkpoint``)."""
-        return self.out_dir / ".checkpoint"
+def _settings() -> Mapping[str, Setting]:
+    out: dict[str, Setting] = {}
+    for name, info in GenerateConfig.model_fields.items():
+        marks = [m for m in info.metadata if isinstance(m, Setting)]
+        if len(marks) != 1:  # pragma: no cover - a guard for maintainers
+            raise TypeError(f"GenerateConfig.{name} needs exactly one Setting marker")
+        out[name] = marks[0]
+    return MappingProxyType(out)
 
 
-StageFn = Callable[[PipelineRun, StageRecord], Awaitable[None]]
-"""A stage's body: reads and updates the run, records its figures in the stage record."""
+SETTINGS: Mapping[str, Setting] = _settings()
+"""Every :class:`GenerateConfig` field's :class:`Setting` marker, by field name, in declaration order."""
 
 
-@dataclass(frozen=True)
-class Stage:
-    """One named step of the pipeline."""
+def deciding_settings() -> tuple[str, ...]:
+    """The names of the settings that decide a run's results (``Setting.decides``)."""
+    return tuple(name for name, s in SETTINGS.items() if s.decides)
 
-    name: str
-    run: StageFn
+
+def _json_value(value: Any) -> Any:
+    return value if isinstance(value, str | int | float | bool | type(None)) else getattr(value, "name", str(value))
+
+
+def config_record(config: GenerateConfig) -> dict[str, Any]:
+    """The JSON-ready record of a run's settings (``report.json``'s ``config``, the checkpoint):
+    every deciding setting (an object by its ``name``), then the recorded folders and files as
+    strings."""
+    out: dict[str, Any] = {name: _json_value(getattr(config, name)) for name, s in SETTINGS.items() if s.decides}
+    for name, s in SETTINGS.items():
+        if s.recorded:
+            value = getattr(config, name)
+            out[name] = str(value) if value is not None else None
+    return out
+
+
+def config_from_record(record: Mapping[str, Any], **overrides: Any) -> GenerateConfig:
+    """The settings a :func:`config_record` holds (keys that are not recorded settings are
+    ignored), with ``overrides`` on top; validated like any other."""
+    kwargs: dict[str, Any] = {k: v for k, v in record.items() if k in SETTINGS and SETTINGS[k].decides}
+    for name, s in SETTINGS.items():
+        if s.recorded and record.get(name):
+            kwargs[name] = Path(record[name])
+    return GenerateConfig(**(kwargs | overrides))
+
+
+def check_config(config: GenerateConfig) -> None:
+    """Check ``config`` again (one built with ``model_construct`` skipped the checks).
+
+    Raises :class:`SettingsError`.
+    """
+    GenerateConfig.model_validate({name: getattr(config, name) for name in SETTINGS})

@@ -1,9 +1,12 @@
 """The driver of ``generate``: runs :data:`STAGES` over one :class:`PipelineRun` and never loses work.
 
-* After every stage a checkpoint (the scene and the stage records) goes to ``out/.checkpoint``;
+* The run's model stack is opened once (``models.open_run_model``), by the first stage that asks
+  the model, and closed when the stage loop ends; each stage's usage is the difference of two
+  readings of it.
+* After every stage the run's state goes to its checkpoint (``pipeline/_checkpoint.py``);
   ``resume=True`` continues a stopped run from there (finished stages and finished agents are
   reused, hulls come from the on-disk cache).
-* A failing stage writes ``report.json`` (with the traceback of an unexpected error) and exports
+* A failing stage writes ``report.json`` (with the traceback of an unexpected error) and delivers
   the last good scene to ``base/``. A cancelled run (Ctrl-C, SIGTERM: the CLI cancels the task)
   writes the report *first*, then only ``base/scene.json``, so a second signal loses nothing.
 * The outcome is ``ok``, ``degraded`` (the files are there, but collisions, fallen objects or
@@ -16,92 +19,52 @@ import asyncio
 import concurrent.futures
 import contextlib
 import json
-import os
 import shutil
 import time
 import traceback
 from collections.abc import Coroutine, Iterator
-from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any, TypeVar
 
 import structlog
 
-from scenemosaic.exceptions import UsageError
-from scenemosaic.pipeline._config import (
-    GenerateConfig,
-    GenerateResult,
-    PipelineRun,
-    StageCallback,
-    StageRecord,
-)
-from scenemosaic.pipeline._stages import PROMPT_IMAGE, STAGES, export_base, export_scene_only, is_image_input
-from scenemosaic.scene import Scene
+from scenemosaic.dag import FileRunStore
+from scenemosaic.exceptions import SceneMosaicError, UsageError
+from scenemosaic.exchange import save_scene_only
+from scenemosaic.pipeline._checkpoint import input_digest, load_checkpoint, previous_input, save_checkpoint
+from scenemosaic.pipeline._config import GenerateConfig, check_config, config_record
+from scenemosaic.pipeline._result import GenerateResult
+from scenemosaic.pipeline._stages import STAGES, deliver_run, is_image_input
+from scenemosaic.pipeline._state import PipelineRun, StageCallback, StageRecord
+from scenemosaic.scene import RunFolder, write_atomic
 
-__all__ = ["REPORT_FILE", "agenerate", "checkpoint_config", "generate", "run_sync", "stage_progress"]
+__all__ = ["REPORT_FILE", "agenerate", "generate", "run_sync", "stage_progress"]
 
 T = TypeVar("T")
 
 log = structlog.get_logger(__name__)
 
-REPORT_FILE = "report.json"
-_RUN_FILE = "run.json"
-_OUTPUTS = ("base", "evolve", "perception", "contact_sheet.png", REPORT_FILE, ".checkpoint")
-"""What a run writes into its output folder (and what ``overwrite`` may remove)."""
-_CONFIG_KEYS = (
-    "format", "model", "seed", "room", "stabilize", "solver_fallback", "vision", "request_timeout_s", "deadline_s",
-    "variants", "evolve", "evolve_rounds", "save_views", "segmenter", "reconstructor", "hfov_deg",
-    "prompt", "image_model", "image_size",
-)  # fmt: skip
-"""The settings that decide a run's results; a resumed run must agree on them."""
+REPORT_FILE = RunFolder.REPORT
+"""The run's report in its output folder."""
 
 
-# -- folders, checkpoints ------------------------------------------------------------------------
+# -- folders --------------------------------------------------------------------------------------
 
 
-def _config_record(config: GenerateConfig) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for key in _CONFIG_KEYS:
-        value = getattr(config, key)
-        out[key] = value if isinstance(value, str | int | float | bool | type(None)) else getattr(value, "name", str(value))
-    for key in ("asset_dir", "cache_dir", "priors_dir", "detections"):
-        value = getattr(config, key)
-        out[key] = str(value) if value is not None else None
-    return out
-
-
-def checkpoint_config(out_dir: str | Path) -> tuple[Path, GenerateConfig]:
-    """The input and settings of the run whose checkpoints are in ``out_dir`` (for ``--resume``).
-
-    Raises :class:`~scenemosaic.exceptions.UsageError` when the folder holds no resumable run.
-    """
-    path = Path(out_dir) / ".checkpoint" / _RUN_FILE
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise UsageError(f"{out_dir} holds no run to resume ({path} unreadable: {exc})") from exc
-    saved = data.get("config", {})
-    known = {f.name for f in fields(GenerateConfig)}
-    kwargs: dict[str, Any] = {k: v for k, v in saved.items() if k in known and k in _CONFIG_KEYS}
-    for key in ("asset_dir", "cache_dir", "priors_dir", "detections"):
-        if saved.get(key):
-            kwargs[key] = Path(saved[key])
-    return Path(data["input"]), GenerateConfig(**kwargs, resume=True)
-
-
-def _prepare_folders(input_path: Path, out: Path, config: GenerateConfig) -> Path:
+def _prepare_folders(input_path: Path, folder: RunFolder, config: GenerateConfig) -> Path:
     """Check the input and the output folder; returns the folder relative asset paths start from.
 
     An output folder holding another input's results is refused unless ``overwrite``; a re-run of
     the same input (not resumed) first removes the previous results, so a failing re-run never
     leaves an old ``base/`` beside its new report.
     """
+    out = folder.root
     if not input_path.exists() and config.prompt is None:
         raise UsageError(f"input not found: {input_path}")
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out} exists and is not a folder")
     if out.is_dir() and any(out.iterdir()):
-        previous = _previous_input(out)
+        previous = previous_input(folder)
         same = previous is not None and Path(previous).resolve() == input_path.resolve()
         if not same and not config.overwrite:
             what = f"the results of {previous}" if previous else "files scenemosaic did not write"
@@ -110,8 +73,7 @@ def _prepare_folders(input_path: Path, out: Path, config: GenerateConfig) -> Pat
                 "overwrite=True (--overwrite) to replace it"
             )
         if not config.resume:
-            for name in (*_OUTPUTS, *(p.name for p in out.glob("variant_*"))):
-                target = out / name
+            for target in folder.outputs():
                 if target.is_dir():
                     shutil.rmtree(target)
                 elif target.exists():
@@ -120,84 +82,22 @@ def _prepare_folders(input_path: Path, out: Path, config: GenerateConfig) -> Pat
     return input_path if input_path.is_dir() else input_path.parent
 
 
-def _input_of(input_path: str | Path | None, out: Path, config: GenerateConfig) -> Path:
+def _input_of(input_path: str | Path | None, folder: RunFolder, config: GenerateConfig) -> Path:
     """The run's input: the given path, or for a text prompt the image it is drawn into."""
     if config.prompt is None:
         if input_path is None:
             raise UsageError("give an input (a scene file or folder, or a photograph), or a text prompt")
         return Path(input_path)
-    if input_path is not None and Path(input_path).resolve() != (out / PROMPT_IMAGE).resolve():
+    if input_path is not None and Path(input_path).resolve() != folder.prompt_image.resolve():
         raise UsageError("give an input or a text prompt, not both")
     if not config.prompt.strip():
         raise UsageError("the text prompt is empty")
-    return out / PROMPT_IMAGE
-
-
-def _previous_input(out: Path) -> str | None:
-    for candidate in (out / REPORT_FILE, out / ".checkpoint" / _RUN_FILE):
-        try:
-            value = json.loads(candidate.read_text(encoding="utf-8")).get("input")
-        except (OSError, ValueError, AttributeError):
-            continue
-        if isinstance(value, str):
-            return value
-    return None
+    return folder.prompt_image
 
 
 def _write_json(path: Path, payload: dict[str, Any]) -> None:
-    """Write atomically (a temporary file renamed over the target), readable by everyone (0644)."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(payload, indent=2, sort_keys=True), encoding="utf-8")
-    os.chmod(tmp, 0o644)
-    os.replace(tmp, path)
-
-
-def _save_checkpoint(run: PipelineRun) -> None:
-    folder = run.checkpoint_dir
-    folder.mkdir(parents=True, exist_ok=True)
-    if run.scene is not None:
-        tmp = folder / ".scene.json.tmp"
-        tmp.write_text(run.scene.to_json(), encoding="utf-8")
-        os.replace(tmp, folder / "scene.json")
-    _write_json(
-        folder / _RUN_FILE,
-        {
-            "input": str(run.input_path),
-            "config": _config_record(run.config),
-            "records": [asdict(r) for r in run.records if r.status in ("done", "skipped", "reused")],
-            "validation": run.validation,
-            "metrics": run.metrics,
-            "variants_written": run.variants_written,
-            "warnings": run.warnings,
-            "fallbacks": [{"agent": f.agent, "reason": f.reason} for f in run.fallbacks],
-        },
-    )
-
-
-def _load_checkpoint(run: PipelineRun) -> set[str]:
-    """Restore a stopped run's state; returns the names of the stages it finished."""
-    from scenemosaic.agents import FallbackRecord
-
-    folder = run.checkpoint_dir
-    try:
-        data = json.loads((folder / _RUN_FILE).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return set()
-    if Path(data.get("input", "")).resolve() != run.input_path.resolve():
-        raise UsageError(f"{run.out_dir} holds a run of {data.get('input')}, not of {run.input_path}; cannot resume")
-    changed = [k for k, v in _config_record(run.config).items() if k in _CONFIG_KEYS and data["config"].get(k) != v]
-    if changed:
-        raise UsageError(f"cannot resume {run.out_dir}: settings differ from the stopped run ({', '.join(changed)})")
-    done = [StageRecord(**r) for r in data.get("records", [])]
-    if (folder / "scene.json").is_file():
-        run.scene = Scene.model_validate_json((folder / "scene.json").read_text(encoding="utf-8"))
-    run.validation = data.get("validation")
-    run.metrics = data.get("metrics")
-    run.variants_written = int(data.get("variants_written", 0))
-    run.warnings = list(data.get("warnings", []))
-    run.fallbacks = [FallbackRecord(**f) for f in data.get("fallbacks", [])]
-    run.records = done
-    return {r.name for r in done}
+    """Write a JSON document atomically (``scene.write_atomic``)."""
+    write_atomic(path, json.dumps(payload, indent=2, sort_keys=True))
 
 
 # -- the report -----------------------------------------------------------------------------------
@@ -220,14 +120,12 @@ def _report(run: PipelineRun, total_s: float, failure: BaseException | None) -> 
         error = "interrupted: the run was stopped (signal or cancel); resume it with --resume"
     elif failure is not None:
         error = f"{type(failure).__name__}: {failure}"
-        from scenemosaic.exceptions import SceneMosaicError
-
         if not isinstance(failure, SceneMosaicError):  # a bug, not bad input: keep everything for the issue
             trace = "".join(traceback.format_exception(failure))
     failed_stage = next((r.name for r in run.records if r.status in ("failed", "interrupted")), None)
     return {
         "input": str(run.input_path),
-        "config": _config_record(run.config) | {"variants_requested": run.config.variants},
+        "config": config_record(run.config) | {"variants_requested": run.config.variants},
         "status": status,
         "error": error,
         "failed_stage": failed_stage,
@@ -236,7 +134,7 @@ def _report(run: PipelineRun, total_s: float, failure: BaseException | None) -> 
         "total_seconds": round(total_s, 4),
         "objects": len(scene.objects) if scene else 0,
         "categories": sorted({o.category for o in scene.objects}) if scene else [],
-        "variants_written": run.variants_written,
+        "variants_written": len(run.variants) if _delivered(run) else 0,
         "stages": [
             {"name": r.name, "seconds": round(r.seconds, 4), "status": r.status, "objects": r.objects, "detail": r.detail}
             for r in run.records
@@ -249,17 +147,9 @@ def _report(run: PipelineRun, total_s: float, failure: BaseException | None) -> 
 # -- the driver -----------------------------------------------------------------------------------
 
 
-def _check_config(config: GenerateConfig) -> None:
-    if config.variants < 0:
-        raise UsageError("variants must be >= 0")
-    if config.evolve_rounds < 1:
-        raise UsageError(f"evolve_rounds must be >= 1, got {config.evolve_rounds}")
-    if config.variants > 0 and not config.evolve:
-        raise UsageError("variants come from the evolve stage: drop --no-evolve, or ask for --variants 0")
-    for name in ("request_timeout_s", "deadline_s"):
-        value = getattr(config, name)
-        if value is not None and not value > 0:
-            raise UsageError(f"{name} must be a positive number of seconds, got {value}")
+def _delivered(run: PipelineRun) -> bool:
+    """Whether the export stage delivered the run's scenes."""
+    return any(r.name == "export" and r.status == "done" for r in run.records)
 
 
 async def agenerate(
@@ -281,20 +171,39 @@ async def agenerate(
     checkpoints. A finished run's report says ``ok`` or ``degraded`` (see ``warnings``).
     """
     config = config or GenerateConfig()
-    _check_config(config)
-    out = Path(out_dir)
-    input_path = _input_of(input_path, out, config)
-    base_dir = await asyncio.to_thread(_prepare_folders, input_path, out, config)
+    check_config(config)
+    folder = RunFolder(out_dir)
+    input_path = _input_of(input_path, folder, config)
+    base_dir = await asyncio.to_thread(_prepare_folders, input_path, folder, config)
     if is_image_input(input_path, config.format):  # a photograph's meshes are written beside what perception saw
-        from scenemosaic.perception import PERCEPTION_FOLDER
-
-        base_dir = out / PERCEPTION_FOLDER
-    run = PipelineRun(input_path=input_path, out_dir=out, config=config, base_dir=base_dir)
-    finished = await asyncio.to_thread(_load_checkpoint, run) if config.resume else set()
+        base_dir = folder.perception
+    run = PipelineRun(input_path=input_path, folder=folder, config=config, base_dir=base_dir)
+    run.store = FileRunStore(folder.checkpoint)
+    digest = await asyncio.to_thread(input_digest, input_path, config)
+    finished = await asyncio.to_thread(load_checkpoint, run, digest) if config.resume else set()
     if not config.resume:  # resumable from the first moment, even if stopped during the import
-        await asyncio.to_thread(_save_checkpoint, run)
-    failure: BaseException | None = None
+        await asyncio.to_thread(save_checkpoint, run, digest)
     started = time.perf_counter()
+    try:  # the run's one model stack, opened by the first stage that asks, closed here
+        failure = await _run_stages(run, finished, digest, on_stage)
+    finally:
+        if run.model is not None:
+            await run.model.aclose()
+    if failure is not None:
+        await _keep_partial_results(run, failure, time.perf_counter() - started)
+        raise failure
+    report = _report(run, time.perf_counter() - started, None)
+    await asyncio.to_thread(_write_json, folder.report, report)
+    if report["status"] == "degraded":
+        log.warning("run_degraded", warnings=run.warnings)
+    assert run.scene is not None
+    return GenerateResult(scene=run.scene, out_dir=folder.root, report=report)
+
+
+async def _run_stages(
+    run: PipelineRun, finished: set[str], digest: str | None, on_stage: StageCallback | None
+) -> BaseException | None:
+    """Run every stage not finished before; returns the failure that stopped the run, if any."""
     for stage in STAGES:
         name = stage.name
         if name in finished and name != "export":
@@ -309,6 +218,7 @@ async def agenerate(
         if on_stage:
             on_stage(name, "started")
         t0 = time.perf_counter()
+        run.stage_mark = run.model.mark() if run.model is not None else 0
         bound = log.bind(stage=name)
         bound.info("stage_started")
         try:
@@ -318,29 +228,27 @@ async def agenerate(
             interrupted = isinstance(exc, asyncio.CancelledError)
             rec.status = "interrupted" if interrupted else "failed"
             rec.detail["error"] = "interrupted" if interrupted else f"{type(exc).__name__}: {exc}"
+            _record_usage(run, rec)
             bound.error("stage_failed", error=str(exc) or type(exc).__name__, error_type=type(exc).__name__)
             if on_stage:
                 on_stage(name, "failed")
-            failure = exc
-            break
+            return exc
         rec.seconds = time.perf_counter() - t0
         if rec.status == "pending":
             rec.status = "done"
+        _record_usage(run, rec)
         rec.objects = len(run.scene.objects) if run.scene is not None else None
         bound.info("stage_finished", seconds=round(rec.seconds, 3), objects=rec.objects)
-        await asyncio.to_thread(_save_checkpoint, run)
+        await asyncio.to_thread(save_checkpoint, run, digest)
         if on_stage:
             on_stage(name, "done")
+    return None
 
-    if failure is not None:
-        await _keep_partial_results(run, failure, time.perf_counter() - started)
-        raise failure
-    report = _report(run, time.perf_counter() - started, None)
-    await asyncio.to_thread(_write_json, out / REPORT_FILE, report)
-    if report["status"] == "degraded":
-        log.warning("run_degraded", warnings=run.warnings)
-    assert run.scene is not None
-    return GenerateResult(scene=run.scene, out_dir=out, report=report)
+
+def _record_usage(run: PipelineRun, rec: StageRecord) -> None:
+    """A stage that asked the model (:meth:`PipelineRun.asking`) gets its usage: the calls since its start."""
+    if "usage" in rec.detail and run.model is not None:
+        rec.detail["usage"] = run.model.usage_since(run.stage_mark)
 
 
 async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapsed: float) -> None:
@@ -348,20 +256,22 @@ async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapse
 
     async def keep() -> None:
         report = _report(run, elapsed, failure)
-        await asyncio.to_thread(_write_json, run.out_dir / REPORT_FILE, report)
-        if run.scene is None or (run.out_dir / "base" / "scene.json").exists():
+        await asyncio.to_thread(_write_json, run.folder.report, report)
+        if run.scene is None or (run.folder.base / RunFolder.SCENE_FILE).exists():
             return
         quick = isinstance(failure, asyncio.CancelledError)  # stopping: no hull or render work now
         try:
-            files = await asyncio.to_thread(
-                export_scene_only if quick else export_base, run.scene, run.out_dir / "base", run.base_dir
-            )
+            if quick:
+                files = await asyncio.to_thread(save_scene_only, run.scene, run.folder.base, run.base_dir)
+            else:
+                files = await asyncio.to_thread(deliver_run, run)
         except Exception as exc:  # the original failure matters more; note this one
             log.warning("partial_export_failed", error=str(exc))
             report["partial_export_error"] = f"{type(exc).__name__}: {exc}"
         else:
             report["partial_files"] = files
-        await asyncio.to_thread(_write_json, run.out_dir / REPORT_FILE, report)
+            report["variants_written"] = len(run.variants) if not quick else 0
+        await asyncio.to_thread(_write_json, run.folder.report, report)
 
     task = asyncio.ensure_future(keep())
     try:

@@ -1,6 +1,7 @@
 """Orthographic views of scenes as PNG images, drawn with Pillow (no GL context needed).
 
 * :func:`render_topdown` — the floor plan of a whole scene (``base/topdown.png``).
+* :func:`contact_sheet` — several pictures in one labelled grid (a run's base and variants).
 * :func:`render_view` with an :class:`OrthoView` — any orthographic view of any subset of
   objects; the seam for per-unit views (wall units seen along their normal, containers from
   their front).
@@ -19,6 +20,7 @@ from scenemosaic.render._geometry import (
     wall_panels,
 )
 from scenemosaic.render._palette import CEILING_COLOR, FLOOR_COLOR, RGB, WALL_COLOR, category_color, shade
+from scenemosaic.render._sheet import contact_sheet
 from scenemosaic.render._topdown import render_topdown, topdown_view
 from scenemosaic.render._view import OrthoView, PixelMap, render_view
 
@@ -33,6 +35,7 @@ __all__ = [
     "PixelMap",
     "category_color",
     "ceiling_mesh",
+    "contact_sheet",
     "floor_mesh",
     "object_local_mesh",
     "object_world_mesh",

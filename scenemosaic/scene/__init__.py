@@ -106,6 +106,7 @@ from scenemosaic.scene._room import (
     recovered_ceiling,
     room_rectangle,
 )
+from scenemosaic.scene._run_folder import RunFolder, safe_name
 from scenemosaic.scene._surface import (
     GRID_STEP_M,
     UV,
@@ -187,6 +188,7 @@ __all__ = [
     "Provenance",
     "Relation",
     "Room",
+    "RunFolder",
     "Scene",
     "SceneObject",
     "SceneStructure",
@@ -226,6 +228,7 @@ __all__ = [
     "recovered_ceiling",
     "rigid_moves",
     "room_rectangle",
+    "safe_name",
     "sanitize_id",
     "sat_overlap",
     "scale_problem",

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
-from pydantic import BaseModel, Field
+from pydantic import Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.scene import CEILING, FLOOR, SimAttributes, normalize_category, traits
@@ -226,16 +226,16 @@ def solve_attributes(evidence: AttributesEvidence) -> AttributesOutput:
     return AttributesOutput(objects=items)
 
 
-class AttributesAgent(TaskAgent[AttributesEvidence, AttributesOutput]):
+class AttributesAgent(TaskAgent[SceneState, AttributesEvidence, AttributesOutput]):
     """Estimates mass, friction and static/dynamic per object."""
 
     name: ClassVar[str] = "attributes"
     depends_on: ClassVar[tuple[str, ...]] = ("support",)
     prompt: ClassVar[str] = "attributes"
-    output_type: ClassVar[type[BaseModel]] = AttributesOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (200, 50)
     chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
     items_field: ClassVar[str | None] = "objects"
+    object_id_fields: ClassVar[tuple[str, ...]] = ("objects.object_id",)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"center", "yaw_deg", "bottom", "top", "relation"})
 
     def gather(self, state: SceneState) -> AttributesEvidence:
@@ -254,14 +254,9 @@ class AttributesAgent(TaskAgent[AttributesEvidence, AttributesOutput]):
     def check(self, output: AttributesOutput, state: SceneState) -> list[str]:
         cats = {o.id: o.category for o in state.scene.objects}
         problems: list[str] = []
-        seen: set[str] = set()
         for a in output.objects:
             if a.object_id not in cats:
-                problems.append(f"object id {a.object_id!r} does not exist in this scene")
-                continue
-            if a.object_id in seen:
-                problems.append(f"object {a.object_id!r} is listed twice")
-            seen.add(a.object_id)
+                continue  # the base check reports it
             key, row = attribute_row(cats[a.object_id])
             lo, hi = row.mass_range_kg
             if key != "small" and not lo / 4 <= a.mass_kg <= hi * 4:

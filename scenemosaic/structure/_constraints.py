@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, Field
+from pydantic import Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent, evidence_text
 from scenemosaic.scene import (
@@ -479,15 +479,20 @@ def _weak(categories: set[str]) -> bool:
     return any(categories & a and categories & b and not (categories - a - b) for a, b in WEAK_PAIRS)
 
 
-class ConstraintsAgent(FloorPlanImages, TaskAgent[ConstraintEvidence, ConstraintsOutput]):
+class ConstraintsAgent(FloorPlanImages, TaskAgent[SceneState, ConstraintEvidence, ConstraintsOutput]):
     """Finds the strong functional relations spanning units and splits each into two clauses."""
 
     name: ClassVar[str] = "constraints"
     depends_on: ClassVar[tuple[str, ...]] = ("support", "containment")
     prompt: ClassVar[str] = "constraints"
-    output_type: ClassVar[type[BaseModel]] = ConstraintsOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (900, 10)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation", "label"})
+    object_ref_fields: ClassVar[tuple[str, ...]] = (
+        "constraints.anchor_a.related_objects",
+        "constraints.anchor_b.related_objects",
+        "within_unit.object_id",
+        "within_unit.reference_id",
+    )
 
     def __init__(self, priors_dir: str | Path | None = None) -> None:
         """``priors_dir``: ProcTHOR folder with ``asset_groups/`` (default: the priors shipped with the package)."""
@@ -554,10 +559,8 @@ class ConstraintsAgent(FloorPlanImages, TaskAgent[ConstraintEvidence, Constraint
                     involved.add(cats[clause.anchor_id])
                 for oid in clause.related_objects:
                     if oid not in cats:
-                        problems.append(
-                            f"constraint {c.id!r}: object id {oid!r} does not exist in this scene"
-                        )
-                    elif parents.get(oid) != clause.anchor_id:
+                        continue  # the base check reports it
+                    if parents.get(oid) != clause.anchor_id:
                         problems.append(
                             f"constraint {c.id!r}: ({oid}) is not in the unit of {clause.anchor_id!r} "
                             f"(its parent is {parents.get(oid)!r}); a clause may only name its own unit's objects"
@@ -574,9 +577,6 @@ class ConstraintsAgent(FloorPlanImages, TaskAgent[ConstraintEvidence, Constraint
                     f"constraint {c.id!r} relates a weak pair ({', '.join(sorted(involved))}); drop it"
                 )
         for w in output.within_unit:
-            for oid in (w.object_id, w.reference_id):
-                if oid not in cats:
-                    problems.append(f"within_unit: object id {oid!r} does not exist in this scene")
             if w.object_id in cats and w.reference_id in cats:
                 if w.object_id == w.reference_id:
                     problems.append(f"within_unit: {w.object_id!r} cannot relate to itself")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import ClassVar, Literal
 
-from pydantic import BaseModel, Field
+from pydantic import Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent, evidence_text
 from scenemosaic.scene import Relation, SupportPriors, load_priors, traits
@@ -88,14 +88,14 @@ def solve_containment(evidence: ContainmentEvidence, priors: SupportPriors) -> C
     return ContainmentOutput(items=items)
 
 
-class ContainmentAgent(FloorPlanImages, TaskAgent[ContainmentEvidence, ContainmentOutput]):
+class ContainmentAgent(FloorPlanImages, TaskAgent[SceneState, ContainmentEvidence, ContainmentOutput]):
     """Finds objects inside containers and the side each container opens to."""
 
     name: ClassVar[str] = "containment"
     depends_on: ClassVar[tuple[str, ...]] = ("support",)
     prompt: ClassVar[str] = "containment"
-    output_type: ClassVar[type[BaseModel]] = ContainmentOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (200, 40)
+    object_id_fields: ClassVar[tuple[str, ...]] = ("items.object_id",)
 
     def __init__(self, priors: SupportPriors | None = None) -> None:
         self.priors = priors if priors is not None else load_priors()

@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, Field
+from pydantic import Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.exceptions import UsageError
@@ -40,9 +40,9 @@ __all__ = [
     "select_agents",
 ]
 
-AgentList = Sequence[TaskAgent[Any, Any]]
+AgentList = Sequence[TaskAgent[SceneState, Any, Any]]
 
-DEFAULT_AGENTS: tuple[TaskAgent[Any, Any], ...] = (
+DEFAULT_AGENTS: tuple[TaskAgent[SceneState, Any, Any], ...] = (
     RoomAgent(),
     SupportAgent(),
     ContainmentAgent(),
@@ -175,7 +175,7 @@ def solve_plan(summary: SceneSummary) -> StructuringPlan:
     return StructuringPlan(agents=run, skipped=skip)
 
 
-class ManagerAgent(TaskAgent[SceneSummary, StructuringPlan]):
+class ManagerAgent(TaskAgent[SceneState, SceneSummary, StructuringPlan]):
     """Decides which of the available structuring agents to run on a scene.
 
     ``agents`` are the agents it may schedule (default :data:`DEFAULT_AGENTS`); plugins among
@@ -184,11 +184,10 @@ class ManagerAgent(TaskAgent[SceneSummary, StructuringPlan]):
 
     name: ClassVar[str] = "manager"
     prompt: ClassVar[str] = "manager"
-    output_type: ClassVar[type[BaseModel]] = StructuringPlan
     reply_tokens: ClassVar[tuple[int, int] | None] = (700, 0)
 
     def __init__(self, agents: AgentList | None = None, priors: SupportPriors | None = None) -> None:
-        self.agents: tuple[TaskAgent[Any, Any], ...] = tuple(agents if agents is not None else DEFAULT_AGENTS)
+        self.agents: tuple[TaskAgent[SceneState, Any, Any], ...] = tuple(agents if agents is not None else DEFAULT_AGENTS)
         names = [a.name for a in self.agents]
         duplicates = sorted({n for n in names if names.count(n) > 1})
         if duplicates:
@@ -234,12 +233,12 @@ class ManagerAgent(TaskAgent[SceneSummary, StructuringPlan]):
     def apply(self, output: StructuringPlan, state: SceneState) -> None:
         """Nothing to change in the scene: the plan is the manager's output (``state.outputs``)."""
 
-    def select(self, plan: StructuringPlan) -> list[TaskAgent[Any, Any]]:
+    def select(self, plan: StructuringPlan) -> list[TaskAgent[SceneState, Any, Any]]:
         """The agents ``plan`` schedules, in the order they were given."""
         return select_agents(plan, self.agents)
 
 
-def select_agents(plan: StructuringPlan, agents: AgentList) -> list[TaskAgent[Any, Any]]:
+def select_agents(plan: StructuringPlan, agents: AgentList) -> list[TaskAgent[SceneState, Any, Any]]:
     """The members of ``agents`` that ``plan`` schedules, in their given order.
 
     Dependencies need no rewiring: the scheduler trims each agent's ``depends_on`` to the
@@ -251,7 +250,7 @@ def select_agents(plan: StructuringPlan, agents: AgentList) -> list[TaskAgent[An
 
 def plan_structuring(
     scene: Scene, *, agents: AgentList | None = None, priors: SupportPriors | None = None
-) -> tuple[StructuringPlan, list[TaskAgent[Any, Any]]]:
+) -> tuple[StructuringPlan, list[TaskAgent[SceneState, Any, Any]]]:
     """The rule manager's plan for ``scene`` and the agents it schedules (no model involved)."""
     manager = ManagerAgent(agents, priors)
     plan = solve_plan(summarize(scene, manager.priors, [a.name for a in manager.agents]))

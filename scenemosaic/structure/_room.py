@@ -334,16 +334,16 @@ def _extent_problems(output: RoomOutput, poly: Polygon, state: SceneState) -> li
     return []
 
 
-class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
+class RoomAgent(FloorPlanImages, TaskAgent[SceneState, RoomEvidence, RoomOutput]):
     """Recovers (or completes) the room boundary, the walls and the ceiling height."""
 
     name: ClassVar[str] = "room"
     depends_on: ClassVar[tuple[str, ...]] = ()
     prompt: ClassVar[str] = "room"
-    output_type: ClassVar[type[BaseModel]] = RoomOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (700, 25)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"center", "size", "parent", "relation", "bottom"})
     prompt_extra: ClassVar[frozenset[str]] = frozenset({"extent"})
+    object_id_fields: ClassVar[tuple[str, ...]] = ("shifts.object_id",)
 
     def gather(self, state: SceneState) -> RoomEvidence:
         return RoomEvidence(objects=object_facts(state.scene), room=room_facts(state.scene))
@@ -375,9 +375,6 @@ class RoomAgent(FloorPlanImages, TaskAgent[RoomEvidence, RoomOutput]):
         grown = poly.buffer(CONTAIN_TOLERANCE)
         shifts = {s.object_id: s for s in output.shifts}
         facts = object_facts(state.scene)
-        known = {o.id for o in facts}
-        for oid in sorted(set(shifts) - known):
-            problems.append(f"shift names unknown object {oid!r}; use ids from the evidence")
         for o in facts:
             sh = shifts.get(o.id)
             fp = translate(o.polygon(), sh.dx, sh.dy) if sh else o.polygon()

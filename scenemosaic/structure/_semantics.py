@@ -18,7 +18,7 @@ import math
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, Field
+from pydantic import Field
 from shapely.geometry import Point
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
@@ -261,16 +261,16 @@ def rotate_subtree(scene: Scene, object_id: str, yaw_deg: float) -> list[SceneOb
     return out
 
 
-class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutput]):
+class SemanticsAgent(FloorPlanImages, TaskAgent[SceneState, SemanticsEvidence, SemanticsOutput]):
     """Normalizes categories, writes descriptions and checks each object's front direction."""
 
     name: ClassVar[str] = "semantics"
     depends_on: ClassVar[tuple[str, ...]] = ("room", "support")
     prompt: ClassVar[str] = "semantics"
-    output_type: ClassVar[type[BaseModel]] = SemanticsOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (200, 70)
     chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
     items_field: ClassVar[str | None] = "objects"
+    object_id_fields: ClassVar[tuple[str, ...]] = ("objects.object_id",)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation"})
 
     def gather(self, state: SceneState) -> SemanticsEvidence:
@@ -293,16 +293,9 @@ class SemanticsAgent(FloorPlanImages, TaskAgent[SemanticsEvidence, SemanticsOutp
         return out
 
     def check(self, output: SemanticsOutput, state: SceneState) -> list[str]:
-        ids = {o.id for o in state.scene.objects}
         cats = {o.id: o.category for o in state.scene.objects}
         problems: list[str] = []
-        seen: set[str] = set()
         for item in output.objects:
-            if item.object_id not in ids:
-                problems.append(f"object id {item.object_id!r} does not exist in this scene")
-            if item.object_id in seen:
-                problems.append(f"object {item.object_id!r} is listed twice")
-            seen.add(item.object_id)
             current = cats.get(item.object_id)
             if current is not None and not same_kind(current, item.category):
                 problems.append(

@@ -8,7 +8,15 @@ from typing import Any
 
 import structlog
 
-from scenemosaic.agents import AgentOutcome, AgentPolicy, FallbackRecord, SceneState, TaskAgent, run_agents
+from scenemosaic.agents import (
+    AgentOutcome,
+    AgentPolicy,
+    AgentResult,
+    FallbackRecord,
+    SceneState,
+    TaskAgent,
+    run_agents,
+)
 from scenemosaic.dag import EventListener, RunStore
 from scenemosaic.exceptions import AgentOutputError, NodeFailedError
 from scenemosaic.models import Model, ModelSettings, RulesModel
@@ -23,10 +31,10 @@ __all__ = ["structure_scene"]
 log = structlog.get_logger(__name__)
 
 
-def _with_priors(agents: Sequence[TaskAgent[Any, Any]], priors_dir: str | Path) -> list[TaskAgent[Any, Any]]:
+def _with_priors(agents: Sequence[TaskAgent[SceneState, Any, Any]], priors_dir: str | Path) -> list[TaskAgent[SceneState, Any, Any]]:
     """The built-in agents that read ProcTHOR priors, re-made over ``priors_dir``; others unchanged."""
     priors = load_priors(priors_dir)
-    out: list[TaskAgent[Any, Any]] = []
+    out: list[TaskAgent[SceneState, Any, Any]] = []
     for agent in agents:
         if type(agent) is SupportAgent:
             agent = SupportAgent(priors)
@@ -42,7 +50,7 @@ async def structure_scene(
     scene: Scene,
     model: Model | None = None,
     *,
-    agents: Sequence[TaskAgent[Any, Any]] | None = None,
+    agents: Sequence[TaskAgent[SceneState, Any, Any]] | None = None,
     settings: ModelSettings | None = None,
     policy: AgentPolicy | None = None,
     store: RunStore | None = None,
@@ -81,11 +89,14 @@ async def structure_scene(
         base_dir=Path(base_dir) if base_dir is not None else None,
         policy=policy or AgentPolicy(),
     )
+    results: list[AgentResult[Any]] = []  # in the order the agents finished
     try:
         # the plan and the planned agents are two graphs: each keeps its own record in the store
         plan_store = store.scoped("plan") if store is not None else None
         agents_store = store.scoped("agents") if store is not None else None
-        await run_agents([manager], state, model, settings=settings, store=plan_store, events=events)
+        await run_agents(
+            [manager], state, model, settings=settings, store=plan_store, events=events, on_result=results.append
+        )
         plan = state.outputs["manager"]
         assert isinstance(plan, StructuringPlan)
         chosen = manager.select(plan)
@@ -98,6 +109,7 @@ async def structure_scene(
             store=agents_store,
             events=events,
             max_concurrency=max_concurrency,
+            on_result=results.append,
         )
     except NodeFailedError as exc:
         cause: Any = exc.cause
@@ -107,9 +119,10 @@ async def structure_scene(
     finally:
         rank = {name: i for i, name in enumerate(["manager", *(a.name for a in available)])}
         if fallbacks is not None:
-            fallbacks.extend(sorted(state.fallbacks, key=lambda f: rank.get(f.agent, len(rank))))
+            fell_back = [r.fallback for r in results if r.fallback is not None]
+            fallbacks.extend(sorted(fell_back, key=lambda f: rank.get(f.agent, len(rank))))
         if outcomes is not None:
-            outcomes.update(state.outcomes)
+            outcomes.update((r.agent, r.outcome) for r in results)
     return _canonical(state.scene, notes_before=len(scene.provenance.notes), rank=rank)
 
 

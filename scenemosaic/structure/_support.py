@@ -27,7 +27,7 @@ from typing import ClassVar, Literal
 
 import numpy as np
 import trimesh
-from pydantic import BaseModel, Field
+from pydantic import Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.assets import object_mesh
@@ -375,9 +375,10 @@ def check_parents(
 ) -> list[str]:
     """Problems with (child, parent, kind) support triples against the scene.
 
-    Unknown ids, duplicates, self-support, parents that cannot carry or contain the child,
-    and cycles (including through the scene's other support relations). ``complete``
-    also requires every object to be covered.
+    Self-support, parents that cannot carry or contain the child, and cycles (including
+    through the scene's other support relations). ``complete`` also requires every object to
+    be covered. Unknown and repeated children are the agents' base id check's
+    (``object_id_fields``): unknown ones are skipped here.
     """
     scene = state.scene
     facts = {f.id: f for f in object_facts(scene)}
@@ -387,10 +388,7 @@ def check_parents(
     parents = {r.child: r.parent for r in scene.relations if r.is_support}
     for child, parent, kind in pairs:
         if child not in facts:
-            problems.append(f"object id {child!r} does not exist in this scene")
             continue
-        if child in seen:
-            problems.append(f"object {child!r} is given more than one parent")
         seen.add(child)
         if parent not in anchors:
             problems.append(
@@ -426,16 +424,16 @@ def check_parents(
     return problems
 
 
-class SupportAgent(FloorPlanImages, TaskAgent[SupportEvidence, SupportOutput]):
+class SupportAgent(FloorPlanImages, TaskAgent[SceneState, SupportEvidence, SupportOutput]):
     """Gives every object exactly one support parent (floor, ceiling, a wall or an object)."""
 
     name: ClassVar[str] = "support"
     depends_on: ClassVar[tuple[str, ...]] = ("room",)
     prompt: ClassVar[str] = "support"
-    output_type: ClassVar[type[BaseModel]] = SupportOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (200, 45)
     chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
     items_field: ClassVar[str | None] = "assignments"
+    object_id_fields: ClassVar[tuple[str, ...]] = ("assignments.object_id",)
 
     def __init__(self, priors: SupportPriors | None = None) -> None:
         self.priors = priors if priors is not None else load_priors()

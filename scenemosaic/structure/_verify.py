@@ -18,7 +18,7 @@ from __future__ import annotations
 from typing import ClassVar
 
 import numpy as np
-from pydantic import BaseModel, Field
+from pydantic import Field
 from shapely.affinity import translate
 from shapely.geometry import Polygon
 
@@ -212,15 +212,15 @@ def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
     return VerificationOutput(fixes=fixes, moves=moves, drop_constraints=drop, problems=problems)
 
 
-class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
+class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, VerificationOutput]):
     """Checks completeness (one parent each, no cycles, valid constraints), fixes, and builds the tree."""
 
     name: ClassVar[str] = "verify"
     runs_last: ClassVar[bool] = True
     prompt: ClassVar[str] = "verify"
-    output_type: ClassVar[type[BaseModel]] = VerificationOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (400, 20)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"top", "relation", "label"})
+    object_id_fields: ClassVar[tuple[str, ...]] = ("fixes.object_id", "moves.object_id")
 
     def gather(self, state: SceneState) -> VerificationEvidence:
         scene = state.scene
@@ -251,22 +251,16 @@ class VerificationAgent(TaskAgent[VerificationEvidence, VerificationOutput]):
         parents = {r.child: r.parent for r in scene.relations if r.is_support}
         for f in output.fixes:
             if f.object_id not in objects:
-                problems.append(f"object id {f.object_id!r} does not exist in this scene")
-            elif f.parent not in anchors or f.parent == f.object_id:
+                continue  # the base check reports it
+            if f.parent not in anchors or f.parent == f.object_id:
                 problems.append(f"parent {f.parent!r} of {f.object_id!r} is not a valid anchor")
             else:
                 parents[f.object_id] = f.parent
-        moved: set[str] = set()
         for m in output.moves:
-            if m.object_id not in objects:
-                problems.append(f"move names unknown object {m.object_id!r}; use ids from the evidence")
-            elif m.object_id in moved:
-                problems.append(f"object {m.object_id!r} is moved twice; give one move per object")
-            elif abs(m.dz) > 1e-9:
+            if abs(m.dz) > 1e-9:
                 problems.append(
                     f"move of {m.object_id!r} has dz {m.dz:g}; parting moves stay in the floor plane (dz 0)"
                 )
-            moved.add(m.object_id)
         known = {c.id for c in scene.constraints}
         for cid in output.drop_constraints:
             if cid not in known:

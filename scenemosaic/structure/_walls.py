@@ -15,7 +15,7 @@ import math
 from typing import ClassVar, Literal
 
 import numpy as np
-from pydantic import BaseModel, Field
+from pydantic import Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.scene import FLOOR, Relation, traits
@@ -131,16 +131,16 @@ def solve_walls(evidence: WallEvidence) -> WallOutput:
     return WallOutput(items=items)
 
 
-class WallAttachmentAgent(FloorPlanImages, TaskAgent[WallEvidence, WallOutput]):
+class WallAttachmentAgent(FloorPlanImages, TaskAgent[SceneState, WallEvidence, WallOutput]):
     """Reports which objects are flush against or mounted on which wall, with their distances."""
 
     name: ClassVar[str] = "walls"
     depends_on: ClassVar[tuple[str, ...]] = ("room", "support")
     prompt: ClassVar[str] = "walls"
-    output_type: ClassVar[type[BaseModel]] = WallOutput
     reply_tokens: ClassVar[tuple[int, int] | None] = (200, 40)
     chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
     items_field: ClassVar[str | None] = "items"
+    object_id_fields: ClassVar[tuple[str, ...]] = ("items.object_id",)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation"})
 
     def gather(self, state: SceneState) -> WallEvidence:
@@ -161,17 +161,11 @@ class WallAttachmentAgent(FloorPlanImages, TaskAgent[WallEvidence, WallOutput]):
         objects = {o.id for o in scene.objects}
         walls = {w.id for w in scene.room.walls} if scene.room else set()
         problems: list[str] = []
-        seen: set[str] = set()
         for i in output.items:
-            if i.object_id not in objects:
-                problems.append(f"object id {i.object_id!r} does not exist in this scene")
             if i.wall_id not in walls:
                 problems.append(
                     f"wall id {i.wall_id!r} does not exist (walls: {', '.join(sorted(walls)) or 'none'})"
                 )
-            if i.object_id in seen:
-                problems.append(f"object {i.object_id!r} is listed twice")
-            seen.add(i.object_id)
             if i.flush and i.mounted:
                 problems.append(f"object {i.object_id!r} cannot be both flush on the floor and wall-mounted")
             if (

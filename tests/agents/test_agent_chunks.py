@@ -41,11 +41,11 @@ async def test_chunked_answers_match_the_one_shot_answer() -> None:
 
     chunked = await _roomed()
     agent = SmallChunks()
-    await agent.run(chunked, FunctionModel(reply, vision=False))
+    result = await agent.run(chunked, FunctionModel(reply, vision=False))
     assert len(evidence_sizes) == 5  # 22 objects, 5 a chunk
     assert max(evidence_sizes) < len(chunked.scene.objects)  # each prompt shows part of the scene
     assert _parents(chunked) == _parents(rules)
-    assert chunked.outcomes["support"].answered_by == "model" and chunked.fallbacks == []
+    assert result.outcome.answered_by == "model" and result.fallback is None
 
 
 async def test_a_chunk_that_stays_wrong_falls_back_alone() -> None:
@@ -59,11 +59,12 @@ async def test_a_chunk_that_stays_wrong_falls_back_alone() -> None:
         return answer
 
     state = await _roomed()
-    await SmallChunks().run(state, FunctionModel(reply, vision=False))
+    result = await SmallChunks().run(state, FunctionModel(reply, vision=False))
     assert _parents(state)["bed"] == "floor"  # the solver's part for that chunk
-    [record] = state.fallbacks
-    assert record.agent == "support" and "rule solver for 5 objects" in record.reason
-    assert state.outcomes["support"].repairs == 2  # the bad chunk was sent back twice first
+    record = result.fallback
+    assert record is not None and record.agent == "support" and "rule solver for 5 objects" in record.reason
+    assert result.outcome.answered_by == "solver_fallback" and result.outcome.repairs == 2  # sent back twice first
+    assert len(result.problems) == 3 and all(p for p in result.problems)  # the bad chunk's three refusals
 
 
 async def test_the_reply_cap_follows_the_objects_asked_about() -> None:

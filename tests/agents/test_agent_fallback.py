@@ -31,12 +31,11 @@ class Number(BaseModel):
     value: int
 
 
-class DoublingAgent(TaskAgent[Number, Answer]):
+class DoublingAgent(TaskAgent[SceneState, Number, Answer]):
     """Evidence 3, rule answer 6; the model's answer is written into the scene's metadata."""
 
     name: ClassVar[str] = "demo"
     prompt: ClassVar[str] = "Double the number.\n"
-    output_type: ClassVar[type[BaseModel]] = Answer
 
     def gather(self, state: SceneState) -> Number:
         return Number(value=3)
@@ -79,10 +78,10 @@ class FailingModel(Model):
 async def test_persistent_model_failures_fall_back_to_the_solver(error: Exception) -> None:
     state = SceneState(scene=Scene(), policy=FALLBACK)
     model = FailingModel(error)
-    out, _usage = await DoublingAgent().run(state, model)
-    assert out == Answer(value=6) and state.scene.metadata["demo"] == 6
-    assert [f.agent for f in state.fallbacks] == ["demo"]
-    assert type(error).__name__ in state.fallbacks[0].reason or "attempts" in state.fallbacks[0].reason
+    result = await DoublingAgent().run(state, model)
+    assert result.output == Answer(value=6) and state.scene.metadata["demo"] == 6
+    assert result.fallback is not None and result.fallback.agent == "demo"
+    assert type(error).__name__ in result.fallback.reason or "attempts" in result.fallback.reason
     # a bad reply is repaired within the one budget; an HTTP failure (already retried by the transport) is not
     assert model.calls == (state.policy.max_attempts if isinstance(error, OutputValidationError) else 1)
 
@@ -97,8 +96,10 @@ async def test_one_budget_covers_schema_and_check_repairs() -> None:
         return next(replies)
 
     state = SceneState(scene=Scene())
-    out, usage = await DoublingAgent().run(state, FunctionModel(answer, vision=False))
-    assert out == Answer(value=8) and usage.requests == 3 and state.fallbacks == []
+    result = await DoublingAgent().run(state, FunctionModel(answer, vision=False))
+    assert result.output == Answer(value=8) and result.usage.requests == 3 and result.fallback is None
+    assert result.outcome.answered_by == "model" and result.outcome.repairs == 2
+    assert result.problems == (("7 is odd; the double of a whole number is even",),)  # the check's refusal only
     repair_1, repair_2 = seen[1][-1].parts[0].text, seen[2][-1].parts[0].text  # type: ignore[union-attr]
     assert "not a valid Answer" in repair_1
     assert "7 is odd" in repair_2 and "cannot be applied" in repair_2
@@ -123,13 +124,14 @@ async def test_setup_errors_are_not_hidden(error: Exception) -> None:
     state = SceneState(scene=Scene(), policy=FALLBACK)
     with pytest.raises(type(error)):
         await DoublingAgent().run(state, FailingModel(error))
-    assert state.fallbacks == []
+    assert "demo" not in state.scene.metadata
 
 
 async def test_the_rules_model_is_never_asked() -> None:
     state = SceneState(scene=Scene())
-    out, usage = await DoublingAgent().run(state, RulesModel())
-    assert out == Answer(value=6) and usage.requests == 0 and state.fallbacks == []
+    result = await DoublingAgent().run(state, RulesModel())
+    assert result.output == Answer(value=6) and result.usage.requests == 0 and result.fallback is None
+    assert result.outcome.answered_by == "rules"
     with pytest.raises(ModelConfigError, match="rule solver"):
         await RulesModel().request([Message.text("user", "hi")], Answer)
 
@@ -149,9 +151,10 @@ async def test_agent_falls_back_when_checked_output_stays_unusable(repo_data: Pa
         await SupportAgent().run(SceneState(scene=scene), hallucinating)
 
     state = SceneState(scene=scene, policy=FALLBACK)
-    output, _ = await SupportAgent().run(state, hallucinating)
-    assert output == SupportAgent().solve(SupportAgent().gather(SceneState(scene=scene)))
-    assert [f.agent for f in state.fallbacks] == ["support"]
+    result = await SupportAgent().run(state, hallucinating)
+    assert result.output == SupportAgent().solve(SupportAgent().gather(SceneState(scene=scene)))
+    assert result.fallback is not None and result.fallback.agent == "support"
+    assert "object id 'no_such_object' does not exist in this scene" in result.fallback.reason
     assert any("support" in note and "rule solver" in note for note in state.scene.provenance.notes)
     assert all(state.scene.support_of(o.id) is not None for o in state.scene.objects)
 
@@ -181,14 +184,29 @@ async def test_a_context_refusal_compacts_the_prompt_once_then_falls_back() -> N
         return '{"value": 6}'
 
     state = SceneState(scene=Scene(), policy=FALLBACK)
-    out, _ = await DoublingAgent().run(state, FunctionModel(refuse_long, vision=False))
-    assert out == Answer(value=6) and state.fallbacks == []  # the compact prompt was answered
+    result = await DoublingAgent().run(state, FunctionModel(refuse_long, vision=False))
+    assert result.output == Answer(value=6) and result.fallback is None  # the compact prompt was answered
     assert len(prompts[1]) < len(prompts[0])
     assert "Evidence format" in prompts[0] and "Evidence format" not in prompts[1]
     assert "schema" not in prompts[0].replace("requested schema", "")  # the schema goes with the request
 
     always = FailingModel(ModelContextLengthError("too long", status_code=400, body="{}"))
     state = SceneState(scene=Scene(), policy=FALLBACK)
-    out, _ = await DoublingAgent().run(state, always)
-    assert out == Answer(value=6) and always.calls == 2  # full prompt, compact prompt, then the solver
-    assert [f.agent for f in state.fallbacks] == ["demo"] and "ModelContextLengthError" in state.fallbacks[0].reason
+    result = await DoublingAgent().run(state, always)
+    assert result.output == Answer(value=6) and always.calls == 2  # full prompt, compact prompt, then the solver
+    assert result.fallback is not None and "ModelContextLengthError" in result.fallback.reason
+
+
+async def test_a_fallback_comes_back_in_the_result_not_in_the_state() -> None:
+    """The run's result says the solver answered and why; the shared state gets only the applied output."""
+    state = SceneState(scene=Scene(), policy=FALLBACK)
+    before = set(vars(state))
+    result = await DoublingAgent().run(state, FunctionModel(lambda m, c: '{"value": 5}', vision=False))
+    assert result.output == Answer(value=6) and result.agent == "demo"
+    outcome = result.outcome
+    assert outcome.answered_by == "solver_fallback" and outcome.requests == 3 and outcome.repairs == 2
+    assert outcome.reason.startswith("unusable after 3 attempts: 5 is odd")
+    assert result.fallback is not None and result.fallback.reason.startswith("unusable after 3 attempts")
+    assert len(result.problems) == 3  # every refused answer, in order
+    assert set(vars(state)) == before and not hasattr(state, "outcomes") and not hasattr(state, "fallbacks")
+    assert state.outputs == {"demo": Answer(value=6)} and state.scene.metadata["demo"] == 6

@@ -12,6 +12,7 @@ from pydantic import BaseModel
 
 from scenemosaic.agents import (
     AgentPolicy,
+    AgentResult,
     SceneState,
     TaskAgent,
     add_agent_nodes,
@@ -60,9 +61,8 @@ class SolverModel(Model):
         return output_type.model_validate(answer.model_dump()), Usage(requests=1, input_tokens=3)
 
 
-class _CountingAgent(TaskAgent[CountEvidence, CountOutput]):
+class _CountingAgent(TaskAgent[SceneState, CountEvidence, CountOutput]):
     prompt: ClassVar[str] = "unused"
-    output_type: ClassVar[type[BaseModel]] = CountOutput
 
     def messages(self, evidence: CountEvidence, state: SceneState, *, vision: bool) -> list[Message]:
         return [Message.text("user", evidence.model_dump_json())]
@@ -120,11 +120,15 @@ def test_agent_node_carries_name_dependencies_and_policy() -> None:
 async def test_run_agents_runs_in_dependency_order_and_applies_outputs() -> None:
     state, model = make_state(3), SolverModel()
     events: list[RunEvent] = []
-    out = await run_agents([DoubleAgent(), RoomAgent()], state, model, events=events.append)
+    results: list[AgentResult[BaseModel]] = []
+    out = await run_agents([DoubleAgent(), RoomAgent()], state, model, events=events.append, on_result=results.append)
     assert out == {"room": CountOutput(value=3), "double": CountOutput(value=6)}
     assert state.outputs == out and written(state) == {"room": 3, "double": 6}
     assert model.requests == {"room": 1, "double": 1}
     assert type(events[-1]).__name__ == "RunFinished"
+    # the runner collects each agent's result: how it was answered and what it cost
+    assert [(r.agent, r.outcome.answered_by, r.usage.requests) for r in results] == [("room", "model", 1), ("double", "model", 1)]
+    assert [r.output for r in results] == [CountOutput(value=3), CountOutput(value=6)]
 
 
 async def test_run_agents_resumes_from_a_store_and_restores_state(tmp_path: Path) -> None:
@@ -223,8 +227,8 @@ async def test_agent_scene_work_and_rule_solvers_run_off_the_event_loop() -> Non
         from_loop.set()
 
     state = make_state(3)
-    _, (out, _usage) = await asyncio.gather(answer(), agent.run(state, RulesModel()))
-    assert out == CountOutput(value=3) and written(state) == {"room": 3}
+    _, result = await asyncio.gather(answer(), agent.run(state, RulesModel()))
+    assert result.output == CountOutput(value=3) and written(state) == {"room": 3}
     assert set(threads) == {"gather", "check", "apply"}
     assert loop_thread not in threads.values() and solver_threads and loop_thread not in solver_threads
 

@@ -19,12 +19,11 @@ class Chairs(BaseModel):
     n_chairs: int = 3
 
 
-class CriticAgent(TaskAgent[Chairs, Verdict]):
+class CriticAgent(TaskAgent[SceneState, Chairs, Verdict]):
     """A critic-like agent: its evidence is a chair count, its output a :class:`Verdict`."""
 
     name: ClassVar[str] = "critic"
     prompt: ClassVar[str] = "You are a layout critic. Reply in JSON.\n"
-    output_type: ClassVar[type[BaseModel]] = Verdict
 
     def gather(self, state: SceneState) -> Chairs:
         return Chairs()
@@ -42,7 +41,8 @@ def strict_state() -> SceneState:
 
 
 async def run(model: Model, state: SceneState | None = None) -> tuple[Verdict, Usage]:
-    return await CriticAgent().run(state or strict_state(), model)
+    result = await CriticAgent().run(state or strict_state(), model)
+    return result.output, result.usage
 
 
 async def test_repair_succeeds_on_the_second_reply() -> None:

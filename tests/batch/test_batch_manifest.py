@@ -5,17 +5,25 @@ from __future__ import annotations
 import json
 import os
 import sys
-from dataclasses import fields
 from pathlib import Path
+from typing import Any
 
 import pytest
 from batch_helpers import BEDROOM, DINING, write_manifest
 from typer.testing import CliRunner
 
-from scenemosaic.batch import JOB_SETTINGS, ManifestError, load_manifest, run_batch, sanitize_id
+from scenemosaic.batch import (
+    JOB_SETTINGS,
+    LINE_KEYS,
+    NOT_IN_MANIFEST,
+    ManifestError,
+    load_manifest,
+    run_batch,
+    sanitize_id,
+)
 from scenemosaic.cli import app
 from scenemosaic.exceptions import ImportFormatError, MissingExtraError, UsageError
-from scenemosaic.pipeline import GenerateConfig
+from scenemosaic.pipeline import SETTINGS, GenerateConfig
 
 
 def _manifest(tmp_path: Path, *lines: str) -> Path:
@@ -117,9 +125,54 @@ def test_a_duplicate_id_is_an_error_naming_both_lines(tmp_path: Path) -> None:
 
 
 def test_manifest_settings_are_generate_config_fields() -> None:
-    assert set(JOB_SETTINGS) <= {f.name for f in fields(GenerateConfig)}
-    assert {"variants", "seed", "model", "evolve"} <= set(JOB_SETTINGS)
-    assert not {"overwrite", "resume", "cache_dir", "agents"} & set(JOB_SETTINGS)
+    """Every GenerateConfig field is a manifest key, or is listed as not taken with the reason."""
+    assert set(JOB_SETTINGS) | set(NOT_IN_MANIFEST) == set(GenerateConfig.model_fields)
+    assert not set(JOB_SETTINGS) & set(NOT_IN_MANIFEST) and all(NOT_IN_MANIFEST.values())
+    assert not set(LINE_KEYS) & set(GenerateConfig.model_fields)
+    assert {"variants", "seed", "model", "evolve", "prompt", "image_model", "image_size", "hfov_deg"} <= set(JOB_SETTINGS)
+    assert set(NOT_IN_MANIFEST) == {"overwrite", "resume", "cache_dir", "reply_cache", "rate_limit_dir", "agents", "layout_rules"}
+    # every setting a generate flag sets, a manifest line can set too, but the batch's own
+    assert {f for f, s in SETTINGS.items() if s.flag} - set(JOB_SETTINGS) == {"overwrite", "resume", "cache_dir", "reply_cache"}
+
+
+def test_a_line_carries_every_generate_setting(tmp_path: Path) -> None:
+    """A manifest line may set every setting in JOB_SETTINGS (the prompt too, instead of an
+    input); each reaches the job's GenerateConfig, paths taken relative to the manifest."""
+    folder = tmp_path / "lists"
+    line: dict[str, Any] = {
+        "format": "image", "room": "room|3", "asset_dir": "assets", "priors_dir": "../priors",
+        "detections": "boxes.json", "segmenter": "grabcut", "reconstructor": "box-lifter", "hfov_deg": 55.0,
+        "prompt": "a small bedroom", "image_model": "gpt-image-1", "image_size": "512x512",
+        "model": "replay:tapes/bedroom.json", "vision": False, "solver_fallback": False, "variants": 2,
+        "evolve": True, "evolve_rounds": 3, "save_views": True, "request_timeout_s": 12.5, "deadline_s": 600.0,
+        "max_concurrency": 2, "requests_per_minute": 30.0, "tokens_per_minute": 9000.0, "seed": 7,
+        "stabilize": True, "strict": True,
+    }  # fmt: skip
+    assert set(line) == set(JOB_SETTINGS)
+    (job,) = load_manifest(write_manifest(folder / "jobs.jsonl", [line]))
+    assert job.input is None and job.id == "prompt" and job.label == "prompt: a small bedroom"
+    config = job.config()
+    paths = {"asset_dir": folder / "assets", "priors_dir": tmp_path / "priors", "detections": folder / "boxes.json"}
+    expected = {**line, **{k: v.resolve() for k, v in paths.items()}}
+    expected["model"] = f"replay:{(folder / 'tapes' / 'bedroom.json').resolve()}"
+    assert {name: getattr(config, name) for name in JOB_SETTINGS} == expected
+    assert job.settings == {k: str(v) if isinstance(v, Path) else v for k, v in expected.items()}
+
+
+def test_settings_the_manifest_does_not_take_name_the_reason(tmp_path: Path) -> None:
+    path = _manifest(tmp_path, json.dumps({"input": str(DINING), "overwrite": True, "reply_cache": "r"}))
+    error = _raises_on_line(path, 1)
+    assert "key 'overwrite' is not taken in a manifest: the batch sets it" in str(error)
+    assert "key 'reply_cache' is not taken" in str(error)
+
+
+def test_input_or_prompt_but_not_both(tmp_path: Path) -> None:
+    both = _manifest(tmp_path, json.dumps({"input": str(DINING), "prompt": "a room"}))
+    assert "not both" in str(_raises_on_line(both, 1))
+    empty = _manifest(tmp_path, json.dumps({"prompt": " "}))
+    assert "the text prompt is empty" in str(_raises_on_line(empty, 1))
+    jobs = load_manifest(_manifest(tmp_path, json.dumps({"prompt": "a"}), json.dumps({"prompt": "b", "seed": 1})))
+    assert [(j.id, j.input) for j in jobs] == [("prompt-1", None), ("prompt-2", None)]
 
 
 def test_a_bad_manifest_stops_the_batch_before_anything_is_written(tmp_path: Path) -> None:

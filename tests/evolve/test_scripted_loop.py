@@ -159,3 +159,34 @@ async def test_a_vision_critic_sees_the_unit_view_and_hallucinated_ids_or_prose_
     critic_outcome = next(o for o in result.outcomes if o.agent == "critic")
     assert critic_outcome.answered_by == "model" and critic_outcome.repairs == 2
     assert result.stop_reason == "critic asked for no change"
+
+
+async def test_the_critic_and_the_actor_get_an_explicit_round_input(dining: Scene) -> None:
+    """A frozen round input, not fields the loop sets on a shared state; a refusal comes back in the result."""
+    import dataclasses
+
+    from scenemosaic.evolve import (
+        ActorAgent,
+        CriticAgent,
+        EvolveState,
+        RoundInput,
+        RoundState,
+        physical_check,
+    )
+
+    ctx = _floor(dining)
+    layout = UnitLayout.from_scene(dining, ctx.unit)
+    shapes = {o.id: object_shape(o, None) for o in dining.objects}
+    state = EvolveState(scene=dining, layout=layout, context=ctx, policy=AgentPolicy(max_attempts=2, solver_fallback=True))
+    judged = RoundInput(round=3, check=physical_check(layout, ctx, shapes))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        judged.round = 4  # type: ignore[misc]
+    assert CriticAgent().gather(RoundState(**state.shared(), input=judged)).round == 3
+
+    note = "Move (dining_chair_0) ten centimetres to the right."
+    acting = RoundState(**state.shared(), input=dataclasses.replace(judged, notes=(note,)))
+    hostile = FunctionModel(lambda m, c: {"reasoning": "x", "pose_expressions": ["__import__('os')"]}, vision=False)
+    result = await ActorAgent().run(acting, hostile)
+    assert result.outcome.answered_by == "solver_fallback" and len(result.problems) == 2
+    assert all("not one assignment" in "; ".join(p) for p in result.problems)  # the sandbox's reasons
+    assert state.layout is layout and not hasattr(acting, "refused")  # the actor wrote only its own state's layout

@@ -131,10 +131,9 @@ class Number(BaseModel):
     value: int
 
 
-class EchoAgent(TaskAgent[Number, Answer]):
+class EchoAgent(TaskAgent[SceneState, Number, Answer]):
     name = "echo"
     prompt = "Repeat the number.\n"
-    output_type = Answer
 
     def gather(self, state: SceneState) -> Number:
         return Number(value=5)
@@ -150,10 +149,10 @@ async def test_agents_fall_back_on_a_context_refusal() -> None:
     server = FakeServer(httpx.Response(400, json=LLAMA_CPP), httpx.Response(400, json=LLAMA_CPP))
     model, _ = server.model()
     state = SceneState(scene=Scene(), policy=AgentPolicy(solver_fallback=True))
-    out, _ = await EchoAgent().run(state, model)
-    assert out == Answer(value=5)
-    (record,) = state.fallbacks
-    assert record.agent == "echo" and "ModelContextLengthError" in record.reason
+    result = await EchoAgent().run(state, model)
+    assert result.output == Answer(value=5)
+    record = result.fallback
+    assert record is not None and record.agent == "echo" and "ModelContextLengthError" in record.reason
     # once more with a compact prompt (never the same prompt twice), then the rule solver
     assert len(server.requests) == 2
     first, second = (json.dumps(b["messages"]) for b in server.bodies)

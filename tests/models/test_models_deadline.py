@@ -98,12 +98,11 @@ class Number(BaseModel):
     value: int
 
 
-class TripleAgent(TaskAgent[Number, Answer]):
+class TripleAgent(TaskAgent[SceneState, Number, Answer]):
     """Evidence 3; the rule solver answers 9."""
 
     name = "triple"
     prompt = "Triple the number.\n"
-    output_type = Answer
 
     def gather(self, state: SceneState) -> Number:
         return Number(value=3)
@@ -125,15 +124,16 @@ async def test_an_agent_past_the_deadline_falls_back_to_its_rule_solver() -> Non
 
     model = DeadlineModel(FunctionModel(answer, vision=False), 30.0, clock=clock)
     state = SceneState(scene=Scene(), policy=AgentPolicy(solver_fallback=True))
-    out, _ = await TripleAgent().run(state, model)  # in time: the model answers
-    assert out == Answer(value=9) and asked == ["triple"] and state.fallbacks == []
+    result = await TripleAgent().run(state, model)  # in time: the model answers
+    assert result.output == Answer(value=9) and asked == ["triple"] and result.fallback is None
 
     clock.advance(31.0)
     state = SceneState(scene=Scene(), policy=AgentPolicy(solver_fallback=True))
-    out, usage = await TripleAgent().run(state, model)
-    assert out == Answer(value=9) and state.scene.metadata["triple"] == 9
-    assert asked == ["triple"] and usage.requests == 0  # not asked again
-    (record,) = state.fallbacks
+    result = await TripleAgent().run(state, model)
+    assert result.output == Answer(value=9) and state.scene.metadata["triple"] == 9
+    assert asked == ["triple"] and result.usage.requests == 0  # not asked again
+    record = result.fallback
+    assert record is not None
     assert record.agent == "triple" and record.reason.startswith("ModelDeadlineExceeded")
 
 

@@ -199,10 +199,9 @@ class Number(BaseModel):
     value: int
 
 
-class EvenAgent(TaskAgent[Number, Answer]):
+class EvenAgent(TaskAgent[SceneState, Number, Answer]):
     name = "even"
     prompt = "Answer with an even number.\n"
-    output_type = Answer
 
     def gather(self, state: SceneState) -> Number:
         return Number(value=2)
@@ -219,16 +218,16 @@ async def test_an_agent_repairs_after_an_html_page_and_falls_back_after_repeated
     server = FakeServer(page, chat_reply({"value": 4}))
     model, _ = server.model()
     state = SceneState(scene=Scene(), policy=AgentPolicy(max_attempts=2))
-    out, usage = await EvenAgent().run(state, model)
-    assert out == Answer(value=4) and usage.requests == 2
+    result = await EvenAgent().run(state, model)
+    assert result.output == Answer(value=4) and result.usage.requests == 2
     repair = json.loads(server.requests[1].content)["messages"][-1]["content"]
     assert "not JSON" in repair
 
     always_html = FakeServer(default=page)
     model, _ = always_html.model()
     state = SceneState(scene=Scene(), policy=AgentPolicy(max_attempts=2, solver_fallback=True))
-    out, _ = await EvenAgent().run(state, model)
-    assert out == Answer(value=2) and [f.agent for f in state.fallbacks] == ["even"]
+    result = await EvenAgent().run(state, model)
+    assert result.output == Answer(value=2) and result.fallback is not None and result.fallback.agent == "even"
     assert len(always_html.requests) == 2
 
 

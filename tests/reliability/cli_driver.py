@@ -12,7 +12,7 @@ import asyncio
 import sys
 
 from scenemosaic.pipeline import _run
-from scenemosaic.pipeline._config import PipelineRun, Stage, StageRecord
+from scenemosaic.pipeline import PipelineRun, Stage, StageRecord
 
 
 def _patched(stage_name: str, action: str) -> tuple[Stage, ...]:

@@ -90,13 +90,13 @@ def damaged(draw: st.DrawFn, value: Any, ids: list[str]) -> Any:
     return value
 
 
-def _accepted(agent: TaskAgent[Any, Any], state: SceneState, data: Any) -> Any | None:
+def _accepted(agent: TaskAgent[SceneState, Any, Any], state: SceneState, data: Any) -> Any | None:
     """The damaged answer as an output, if it parses and the agent's check accepts it."""
     try:
         output = agent.output_type.model_validate(data)
     except ValidationError:
         return None  # a schema-invalid reply never reaches check (the model layer repairs it)
-    return output if not agent.check(output, state) else None
+    return output if not agent.problems(output, state) else None
 
 
 def _room_ok(before: Scene, after: Scene) -> None:
@@ -189,7 +189,7 @@ def test_an_accepted_damaged_answer_leaves_the_room_valid(room: str, name: str) 
         assert rejected > 0  # not vacuous: damage was drawn, and the check caught some of it
 
 
-def _has_defaults(agent: TaskAgent[Any, Any]) -> bool:
+def _has_defaults(agent: TaskAgent[SceneState, Any, Any]) -> bool:
     """Whether the agent's output type can be built empty (then an empty answer has nothing to damage)."""
     try:
         agent.output_type()

@@ -34,7 +34,7 @@ def box(oid: str, cat: str, size: tuple[float, float, float], pos: tuple[float, 
     return SceneObject(id=oid, category=cat, asset=AssetRef(kind="box", extents=size), pose=Pose.from_yaw(pos, yaw))
 
 
-async def run_chain(state: SceneState, agents: list[TaskAgent[Any, Any]]) -> None:
+async def run_chain(state: SceneState, agents: list[TaskAgent[SceneState, Any, Any]]) -> None:
     model = RulesModel()
     for a in agents:
         await a.run(state, model)
@@ -50,7 +50,7 @@ async def test_room_keeps_input_room_and_completes_walls() -> None:
     room = Room(floor=[(0, 0), (4, 0), (4, 3), (0, 3)], ceiling_height=2.5)
     scene = Scene(room=room, objects=[box("t", "table", (1, 1, 0.7), (2, 1.5, 0))])
     state = SceneState(scene)
-    out, _ = await RoomAgent().run(state, RulesModel())
+    out = (await RoomAgent().run(state, RulesModel())).output
     assert out.kept_input
     assert state.scene.room is not None
     assert state.scene.room.floor == room.floor and state.scene.room.ceiling_height == 2.5
@@ -71,7 +71,7 @@ async def test_room_fits_rotated_rectangle_and_snaps_to_wall_furniture() -> None
         box("chair", "chair", (0.5, 0.5, 0.9), at(1.8, 0.0), yaw),
     ])
     state = SceneState(scene)
-    out, _ = await RoomAgent().run(state, RulesModel())
+    out = (await RoomAgent().run(state, RulesModel())).output
     assert abs(out.yaw_deg - 30.0) < 1e-6
     poly = Polygon(out.floor)
     assert poly.area < 0.95 * Polygon(out.floor).envelope.area  # rotated, not axis-aligned
@@ -160,7 +160,7 @@ async def test_repair_succeeds_on_second_reply(priors: Any) -> None:
     await RoomAgent().run(state, RulesModel())
     replies = [_support_reply(**BASE, mug="ghost"), _support_reply(**BASE, mug="desk")]
     model = FunctionModel({"support": lambda m, c: replies.pop(0)})
-    _out, _ = await SupportAgent(priors).run(state, model)
+    _out = (await SupportAgent(priors).run(state, model)).output
     assert not replies
     assert state.scene.support_of("mug").parent == "desk"  # type: ignore[union-attr]
 
@@ -208,7 +208,7 @@ def wall_scene() -> Scene:
 
 async def test_walls_flush_and_mounted(priors: Any) -> None:
     state = SceneState(wall_scene())
-    out, _ = await run_wall_chain(state, priors)
+    out = (await run_wall_chain(state, priors)).output
     items = {i.object_id: i for i in out.items}
     assert items["wardrobe"].wall_id == "wall_2" and items["wardrobe"].flush and items["wardrobe"].facing == "back"
     assert abs(items["wardrobe"].distance - 0.05) < 0.01
@@ -252,7 +252,7 @@ async def test_semantics_turns_wardrobe_facing_the_wall_and_reports_chairs(prior
     scene = Scene.model_validate(scene.model_dump())
     state = SceneState(scene)
     await run_chain(state, [RoomAgent(), SupportAgent(priors), WallAttachmentAgent()])
-    out, _ = await SemanticsAgent().run(state, RulesModel())
+    out = (await SemanticsAgent().run(state, RulesModel())).output
     items = {i.object_id: i for i in out.objects}
     assert items["wardrobe"].yaw_fix_deg == 180 and not items["wardrobe"].front_ok
     w = state.scene.get("wardrobe")
@@ -268,7 +268,7 @@ async def test_semantics_turns_wardrobe_facing_the_wall_and_reports_chairs(prior
 async def test_attributes_table(priors: Any) -> None:
     state = SceneState(wall_scene())
     await run_chain(state, [RoomAgent(), SupportAgent(priors)])
-    out, _ = await AttributesAgent().run(state, RulesModel())
+    out = (await AttributesAgent().run(state, RulesModel())).output
     sim = {o.id: o.sim for o in state.scene.objects}
     # wall-mounted: dynamic in their wall unit (gravity toward the wall settles them onto it), held
     # where they hang in the whole scene under real gravity
@@ -336,7 +336,7 @@ async def test_verification_fixes_missing_parents_and_builds_the_tree() -> None:
         relations=[Relation(kind="attach", child="cup", parent="table")],
     )
     state = SceneState(scene)
-    out, _ = await VerificationAgent().run(state, RulesModel())
+    out = (await VerificationAgent().run(state, RulesModel())).output
     assert {(f.object_id, f.parent) for f in out.fixes} == {("table", FLOOR), ("lamp", CEILING)}
     assert state.scene.structure is not None
     assert [u.anchor_id for u in state.scene.structure.units] == [FLOOR, CEILING, "table"]

@@ -136,7 +136,7 @@ async def test_verification_solver_breaks_a_parent_cycle() -> None:
         relations=[Relation(kind="attach", child="a", parent="b"), Relation(kind="attach", child="b", parent="a")],
     )
     state = SceneState(scene)
-    out, _ = await VerificationAgent().run(state, RulesModel())
+    out = (await VerificationAgent().run(state, RulesModel())).output
     assert [(f.object_id, f.parent) for f in out.fixes] == [("a", FLOOR)]  # the lower one stands on the floor
     assert state.scene.support_of("a").parent == FLOOR  # type: ignore[union-attr]
     assert state.scene.support_of("b").parent == "a"  # type: ignore[union-attr]
@@ -178,7 +178,7 @@ async def test_verification_drops_and_reports_a_constraint_leaving_its_unit(
                             anchor_b=desk_clause)
     )
     state = SceneState(scene)
-    out, _ = await VerificationAgent().run(state, RulesModel())
+    out = (await VerificationAgent().run(state, RulesModel())).output
     assert out.drop_constraints == ["c7"]
     assert state.scene.constraints == []
     note = next(n for n in state.scene.provenance.notes if "c7" in n)
@@ -191,7 +191,7 @@ async def test_verification_keeps_a_valid_constraint() -> None:
     desk = ConstraintClause(anchor_id="desk", related_objects=["mug"], layout_note="(desk) is the reference")
     c = CrossUnitConstraint(id="c1", kind="orientation", description="d", anchor_a=floor, anchor_b=desk)
     state = SceneState(_desk_scene_with(c))
-    out, _ = await VerificationAgent().run(state, RulesModel())
+    out = (await VerificationAgent().run(state, RulesModel())).output
     assert out.drop_constraints == [] and out.fixes == []
     assert state.scene.constraints == [c]
     units = {u.anchor_id: u for u in state.scene.structure.units}  # type: ignore[union-attr]

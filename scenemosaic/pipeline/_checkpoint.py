@@ -1,0 +1,170 @@
+"""Resuming a stopped run: its state kept in the run store of ``OUT/.checkpoint/``.
+
+One mechanism keeps everything a stopped run needs (``dag``'s :class:`~scenemosaic.dag.FileRunStore`):
+
+* the node ``pipeline`` holds the run's state after its last finished stage (:class:`RunCheckpoint`:
+  the scene, the stage records, evolve's kept unit layouts, compose's variants, the warnings...),
+  stored under a key made of the settings that decide the results and the input's content hash,
+  so a record is only found again by the same input with the same settings;
+* the scope ``agents`` holds the structuring agents' outputs (the task graph's own resume);
+* ``run.json`` beside them says which input and settings the run had (what ``--resume OUT``
+  reads to know what to continue).
+
+The output files (``base/``, ``evolve/``...) are never read back.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict
+
+from scenemosaic.dag import StoredOutput, output_hash
+from scenemosaic.exceptions import UsageError
+from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record, deciding_settings
+from scenemosaic.pipeline._state import PipelineRun, StageRecord
+from scenemosaic.scene import Pose, RunFolder, Scene
+
+__all__ = ["RunCheckpoint", "checkpoint_config", "input_digest", "load_checkpoint", "previous_input", "save_checkpoint"]
+
+PIPELINE_NODE = "pipeline"
+"""The run store node that holds the pipeline's state."""
+
+
+class RunCheckpoint(BaseModel):
+    """A run's state after its last finished stage."""
+
+    model_config = ConfigDict(arbitrary_types_allowed=False)
+
+    scene: Scene | None = None
+    records: list[dict[str, Any]] = []
+    layouts: dict[str, tuple[list[str], list[dict[str, Pose]]]] | None = None
+    dropped_layouts: list[str] = []
+    variants: list[Scene] = []
+    validation: dict[str, Any] | None = None
+    metrics: dict[str, Any] | None = None
+    warnings: list[str] = []
+    fallbacks: list[dict[str, str]] = []
+
+
+def input_digest(path: Path, config: GenerateConfig) -> str | None:
+    """SHA-256 of the input's bytes (a folder: of its files' relative paths and bytes); ``None``
+    for a text prompt (the prompt is a setting) or an input that is not there."""
+    if config.prompt is not None or not path.exists():
+        return None
+    h = hashlib.sha256()
+    files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+    for f in files:
+        h.update(str(f.relative_to(path) if path.is_dir() else f.name).encode() + b"\0")
+        with f.open("rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                h.update(block)
+    return h.hexdigest()
+
+
+def _key(record: dict[str, Any], digest: str | None) -> str:
+    payload = json.dumps([record, digest], sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(payload.encode()).hexdigest()
+
+
+def _write_json(path: Path, payload: dict[str, Any]) -> None:
+    """Write atomically (a temporary file renamed over the target), readable by everyone (0644)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(payload, indent=2, sort_keys=True), encoding="utf-8")
+    os.chmod(tmp, 0o644)
+    os.replace(tmp, path)
+
+
+def save_checkpoint(run: PipelineRun, digest: str | None) -> None:
+    """Keep the run's state (after a finished stage, and once at the start)."""
+    assert run.store is not None
+    record = config_record(run.config)
+    _write_json(run.folder.run_record, {"input": str(run.input_path), "input_sha256": digest, "config": record})
+    state = RunCheckpoint(
+        scene=run.scene,
+        records=[asdict(r) for r in run.records if r.status in ("done", "skipped", "reused")],
+        layouts={u: (list(ids), [dict(p) for p in poses]) for u, (ids, poses) in run.layouts.items()}
+        if run.layouts is not None
+        else None,
+        dropped_layouts=run.dropped_layouts,
+        variants=run.variants,
+        validation=run.validation,
+        metrics=run.metrics,
+        warnings=run.warnings,
+        fallbacks=[{"agent": f.agent, "reason": f.reason} for f in run.fallbacks],
+    )
+    run.store.put(PIPELINE_NODE, _key(record, digest), StoredOutput(state, output_hash(state)))
+
+
+def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:
+    """Restore a stopped run's state; returns the names of the stages it finished.
+
+    Refuses (:class:`~scenemosaic.exceptions.UsageError`) a folder that holds a run of another
+    input, of the same input with other settings, or of an input whose content changed since.
+    """
+    from scenemosaic.agents import FallbackRecord
+
+    assert run.store is not None
+    try:
+        data = json.loads(run.folder.run_record.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return set()
+    if Path(data.get("input", "")).resolve() != run.input_path.resolve():
+        raise UsageError(f"{run.out_dir} holds a run of {data.get('input')}, not of {run.input_path}; cannot resume")
+    record = config_record(run.config)
+    keys = set(deciding_settings())
+    changed = [k for k, v in record.items() if k in keys and data.get("config", {}).get(k) != v]
+    if changed:
+        raise UsageError(f"cannot resume {run.out_dir}: settings differ from the stopped run ({', '.join(changed)})")
+    if data.get("input_sha256") != digest:
+        raise UsageError(
+            f"cannot resume {run.out_dir}: {run.input_path} changed since the stopped run; "
+            "run it again without --resume"
+        )
+    stored = run.store.get(PIPELINE_NODE, _key(record, digest))
+    if stored is None:
+        return set()
+    state: RunCheckpoint = stored.output
+    run.scene = state.scene
+    run.records = [StageRecord(**r) for r in state.records]
+    run.layouts = (
+        {u: (tuple(ids), tuple(poses)) for u, (ids, poses) in state.layouts.items()} if state.layouts is not None else None
+    )
+    run.dropped_layouts = list(state.dropped_layouts)
+    run.variants = list(state.variants)
+    run.validation = state.validation
+    run.metrics = state.metrics
+    run.warnings = list(state.warnings)
+    run.fallbacks = [FallbackRecord(**f) for f in state.fallbacks]
+    return {r.name for r in run.records}
+
+
+def checkpoint_config(out_dir: str | Path) -> tuple[Path, GenerateConfig]:
+    """The input and settings of the run whose checkpoint is in ``out_dir`` (for ``--resume``).
+
+    Raises :class:`~scenemosaic.exceptions.UsageError` when the folder holds no resumable run.
+    """
+    path = RunFolder(out_dir).run_record
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise UsageError(f"{out_dir} holds no run to resume ({path} unreadable: {exc})") from exc
+    return Path(data["input"]), config_from_record(data.get("config", {}), resume=True)
+
+
+def previous_input(folder: RunFolder) -> str | None:
+    """The input of the run whose results (or checkpoint) are in ``folder``, if any."""
+    for candidate in (folder.report, folder.run_record):
+        try:
+            value = json.loads(candidate.read_text(encoding="utf-8")).get("input")
+        except (OSError, ValueError, AttributeError):
+            continue
+        if isinstance(value, str):
+            return value
+    return None

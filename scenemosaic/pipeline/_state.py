@@ -1,0 +1,148 @@
+"""What one ``generate`` run carries from stage to stage (:class:`PipelineRun`) and how a stage is declared."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Awaitable, Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from scenemosaic.pipeline._config import GenerateConfig
+from scenemosaic.scene import Pose, RunFolder, Scene
+
+if TYPE_CHECKING:
+    from scenemosaic.agents import AgentPolicy, FallbackRecord
+    from scenemosaic.assets import HullCache
+    from scenemosaic.dag import FileRunStore
+    from scenemosaic.models import RunModel
+    from scenemosaic.physics import ObjectShape
+
+__all__ = ["PipelineRun", "Stage", "StageCallback", "StageFn", "StageRecord", "UnitLayoutRecord"]
+
+StageCallback = Callable[[str, str], None]
+"""Called as ``callback(stage_name, status)`` with status ``"started"``, ``"done"``, ``"reused"`` or ``"failed"``."""
+
+UnitLayoutRecord = tuple[tuple[str, ...], tuple[Mapping[str, Pose], ...]]
+"""One unit's kept layouts for composition: their ids (the refined original first) and their
+anchor-frame poses."""
+
+
+@dataclass
+class StageRecord:
+    """Timing and outcome of one pipeline stage, as written to ``report.json``."""
+
+    name: str
+    seconds: float = 0.0
+    status: str = "pending"
+    """``pending``, ``done``, ``skipped``, ``reused`` (from a checkpoint), ``failed`` or ``interrupted``."""
+    objects: int | None = None
+    detail: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class PipelineRun:
+    """The state threaded through the stages: each stage reads what the ones before it left here
+    and leaves its own result, in memory. Files are outputs (and the checkpoint, for ``--resume``)."""
+
+    input_path: Path
+    folder: RunFolder
+    config: GenerateConfig
+    base_dir: Path
+    """Folder relative mesh paths of the input start from."""
+    scene: Scene | None = None
+    """The scene as the last finished stage left it."""
+    records: list[StageRecord] = field(default_factory=list)
+    layouts: dict[str, UnitLayoutRecord] | None = None
+    """Evolve's kept unit layouts, by anchor id: what compose combines."""
+    dropped_layouts: list[str] = field(default_factory=list)
+    """Unit variants local filtering dropped (``unit/layout: why``)."""
+    variants: list[Scene] = field(default_factory=list)
+    """Compose's whole-scene variants, in selection order."""
+    validation: dict[str, Any] | None = None
+    """The validate stage's full report (JSON-ready), written to ``report.json``."""
+    metrics: dict[str, Any] | None = None
+    """The evaluate stage's metrics (base, variants, diversity), written to ``report.json``."""
+    fallbacks: list[FallbackRecord] = field(default_factory=list)
+    """Agents answered by their rule solvers instead of the model."""
+    warnings: list[str] = field(default_factory=list)
+    """What makes the outcome ``degraded``, in words."""
+    model: RunModel | None = None
+    """The run's one model stack (``models.open_run_model``), once a stage has asked for it."""
+    store: FileRunStore | None = None
+    """The run's store in ``.checkpoint/``: the stages' state and the structuring agents' outputs."""
+    stage_mark: int = 0
+    """The model usage reading when the current stage began (its usage is the difference)."""
+    hull_cache: HullCache | None = None
+    """The run's CoACD hull cache, opened on first use and shared by the stages."""
+    started: float = field(default_factory=time.monotonic)
+    """``time.monotonic()`` when the run began: the run deadline counts from here."""
+
+    @property
+    def out_dir(self) -> Path:
+        """The output folder."""
+        return self.folder.root
+
+    @property
+    def policy(self) -> AgentPolicy:
+        """How agents treat the model's answers in this run."""
+        from scenemosaic.agents import AgentPolicy
+
+        return AgentPolicy(solver_fallback=self.config.solver_fallback)
+
+    async def asking(self, rec: StageRecord) -> RunModel:
+        """The run's one model stack, for a stage that asks the model: opened by the first stage
+        that needs it and kept for the rest of the run (the driver closes it). The stage's record
+        gets the model's description now and its usage when the stage ends."""
+        if self.model is None:
+            from scenemosaic.models import RunModelSettings, open_run_model
+
+            cfg = self.config
+            settings = RunModelSettings(
+                vision=cfg.vision, max_concurrency=cfg.max_concurrency, request_timeout_s=cfg.request_timeout_s,
+                deadline_s=cfg.deadline_s, requests_per_minute=cfg.requests_per_minute,
+                tokens_per_minute=cfg.tokens_per_minute, rate_limit_dir=cfg.rate_limit_dir, reply_cache=cfg.reply_cache,
+            )  # fmt: skip
+            self.model = await open_run_model(cfg.model, settings, started=self.started)
+        rec.detail.update(self.model.detail)
+        rec.detail["usage"] = {}  # filled by the driver: the usage between the stage's marks
+        return self.model
+
+    @property
+    def uses_rules(self) -> bool:
+        """Whether the run's model is the offline rules model (which makes no requests)."""
+        spec = self.config.model
+        return spec == "rules" if isinstance(spec, str) else spec.uses_rule_solvers
+
+    def cache(self) -> HullCache:
+        """The run's hull cache (opened on first use: a resumed run skips the assets stage)."""
+        from scenemosaic.assets import HullCache
+
+        if self.hull_cache is None:
+            self.hull_cache = HullCache(self.config.cache_dir / "hulls" if self.config.cache_dir else None)
+        return self.hull_cache
+
+    def shapes(self, scene: Scene) -> dict[str, ObjectShape]:
+        """Every object's collision shape (hulls from the cache)."""
+        from scenemosaic.physics import object_shape
+
+        cache = self.cache()
+        return {o.id: object_shape(o, self.base_dir, cache=cache) for o in scene.objects}
+
+    def note_fallbacks(self, fallbacks: list[FallbackRecord], where: str = "", width: int = 160) -> None:
+        """Record agents answered by their rule solvers (each a warning: the run is ``degraded``)."""
+        self.fallbacks.extend(fallbacks)
+        for f in fallbacks:
+            self.warnings.append(f"agent {f.agent!r}{where} answered by its rule solver: {f.reason[:width]}")
+
+
+StageFn = Callable[[PipelineRun, StageRecord], Awaitable[None]]
+"""A stage's body: reads the run, leaves its result on it, records its figures in the stage record."""
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One named step of the pipeline."""
+
+    name: str
+    run: StageFn

@@ -1,0 +1,171 @@
+"""The output folder of one ``generate`` run: the one owner of every path in it.
+
+Layout (``docs/architecture.md`` draws it)::
+
+    OUT/report.json            what ran, how it ended, per-stage figures
+    OUT/base/                  the delivered base scene (scene.json and every delivered format)
+    OUT/variant_<i>/           the i-th whole-scene variant, laid out like base/ (i from 1)
+    OUT/contact_sheet.png      base and variants side by side
+    OUT/evolve/<unit>/<layout>.json   each unit's evolved layouts (and, on request, their views)
+    OUT/perception/            what perception saw in a photograph input
+    OUT/prompt.png (+ .json)   the image a text prompt was drawn into
+    OUT/.checkpoint/           the run's resumable state (one run store: stages and agents)
+
+The pipeline, the CLI, batch, :class:`~scenemosaic.pipeline.GenerateResult` and the readers
+(:func:`~scenemosaic.exchange.load_scene` with ``variant=``) all ask a :class:`RunFolder` for
+these paths; no other module spells them.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+from scenemosaic.exceptions import UsageError
+
+__all__ = ["RunFolder", "safe_name"]
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9._+\-]")
+
+
+def safe_name(name: str) -> str:
+    """``name`` as one file-name component that stays inside its folder: characters other than
+    letters, digits, ``. _ + -`` become ``_``, and ``.``/``..``/empty become ``_``."""
+    cleaned = _UNSAFE.sub("_", name)
+    return "_" if cleaned in ("", ".", "..") else cleaned
+
+
+class RunFolder:
+    """The paths of one run's output folder (nothing is created until a writer asks).
+
+    ``RunFolder(out)`` names the folder; :meth:`is_run` says whether a folder on disk is one
+    (it has ``report.json`` or ``base/scene.json``).
+    """
+
+    BASE = "base"
+    """The base scene's folder."""
+    VARIANT_PREFIX = "variant_"
+    """Variant folders are ``variant_1``, ``variant_2``..."""
+    EVOLVE = "evolve"
+    """Each unit's evolved layouts (``evolve/<unit>/<layout>.json``) and, on request, views."""
+    PERCEPTION = "perception"
+    """What perception saw in a photograph input (photo, inventory, masks, meshes)."""
+    REPORT = "report.json"
+    """The run's report."""
+    CONTACT_SHEET = "contact_sheet.png"
+    """The base scene and its variants side by side."""
+    PROMPT_IMAGE = "prompt.png"
+    """The image a text prompt is drawn into (``prompt.json`` beside it says from what)."""
+    CHECKPOINT = ".checkpoint"
+    """The run's resumable state."""
+    RUN_RECORD = "run.json"
+    """In the checkpoint folder: the input and settings of the run (what ``--resume`` reads)."""
+    SCENE_FILE = "scene.json"
+    """The native scene file in ``base/`` and every ``variant_<i>/``."""
+    TOPDOWN = "topdown.png"
+    """The top-down picture in ``base/`` and every ``variant_<i>/``."""
+
+    def __init__(self, root: str | os.PathLike[str]) -> None:
+        self.root = Path(root)
+        """The output folder."""
+
+    def __repr__(self) -> str:
+        return f"RunFolder({str(self.root)!r})"
+
+    def __fspath__(self) -> str:
+        return os.fspath(self.root)
+
+    # -- paths ----------------------------------------------------------------------------------
+    @property
+    def base(self) -> Path:
+        """``base/``: the delivered base scene."""
+        return self.root / self.BASE
+
+    def variant(self, index: int) -> Path:
+        """``variant_<index>/`` (``index`` from 1)."""
+        if index < 1:
+            raise UsageError(f"variants are numbered from 1, got {index}")
+        return self.root / f"{self.VARIANT_PREFIX}{index}"
+
+    @property
+    def report(self) -> Path:
+        """``report.json``."""
+        return self.root / self.REPORT
+
+    @property
+    def contact_sheet(self) -> Path:
+        """``contact_sheet.png``."""
+        return self.root / self.CONTACT_SHEET
+
+    @property
+    def evolve(self) -> Path:
+        """``evolve/``."""
+        return self.root / self.EVOLVE
+
+    def evolve_layout(self, unit: str, layout_id: str) -> Path:
+        """``evolve/<unit>/<layout_id>.json``, both names made safe (an id cannot leave the folder)."""
+        return self.evolve / safe_name(unit) / f"{safe_name(layout_id)}.json"
+
+    @property
+    def perception(self) -> Path:
+        """``perception/``."""
+        return self.root / self.PERCEPTION
+
+    @property
+    def prompt_image(self) -> Path:
+        """``prompt.png``."""
+        return self.root / self.PROMPT_IMAGE
+
+    @property
+    def checkpoint(self) -> Path:
+        """``.checkpoint/``."""
+        return self.root / self.CHECKPOINT
+
+    @property
+    def run_record(self) -> Path:
+        """``.checkpoint/run.json``."""
+        return self.checkpoint / self.RUN_RECORD
+
+    # -- what is there --------------------------------------------------------------------------
+    def variants(self) -> list[Path]:
+        """The variant folders present, in number order."""
+        found: list[tuple[int, Path]] = []
+        if self.root.is_dir():
+            for p in self.root.iterdir():
+                tail = p.name[len(self.VARIANT_PREFIX) :]
+                if p.name.startswith(self.VARIANT_PREFIX) and tail.isdigit() and p.is_dir():
+                    found.append((int(tail), p))
+        return [p for _, p in sorted(found)]
+
+    def scenes(self) -> list[tuple[str, Path]]:
+        """``[(name, folder)]`` of the base and every variant present, in order."""
+        return [(self.BASE, self.base), *((p.name, p) for p in self.variants())]
+
+    def scene_folder(self, variant: int | str | None = None) -> Path:
+        """The folder of the base (``variant`` ``None``, ``0`` or ``"base"``) or of a variant
+        (its number, or its folder name ``"variant_2"``); raises
+        :class:`~scenemosaic.exceptions.UsageError` naming the ones present when it is absent."""
+        if variant is None or variant in (0, self.BASE):
+            folder = self.base
+        elif isinstance(variant, int) or (isinstance(variant, str) and variant.isdigit()):
+            folder = self.variant(int(variant))
+        elif isinstance(variant, str) and variant.startswith(self.VARIANT_PREFIX):
+            folder = self.root / variant
+        else:
+            raise UsageError(f"variant must be a number, 'base' or 'variant_<i>', got {variant!r}")
+        if not (folder / self.SCENE_FILE).is_file():
+            present = ", ".join(name for name, _ in self.scenes() if (_ / self.SCENE_FILE).is_file()) or "none"
+            raise UsageError(f"{self.root} has no {folder.name}/ scene (present: {present})")
+        return folder
+
+    def outputs(self) -> list[Path]:
+        """Every path a run writes here (what a fresh run or ``overwrite`` removes first)."""
+        fixed = [self.base, self.evolve, self.perception, self.contact_sheet, self.report, self.checkpoint]
+        return [*fixed, *self.variants()]
+
+    @classmethod
+    def is_run(cls, path: str | os.PathLike[str]) -> bool:
+        """Whether ``path`` is a run's output folder (``report.json`` or ``base/scene.json`` in it)."""
+        p = Path(path)
+        return p.is_dir() and ((p / cls.REPORT).is_file() or (p / cls.BASE / cls.SCENE_FILE).is_file())
