@@ -22,7 +22,6 @@ import structlog
 
 from scenemosaic.agents import AgentPolicy, FallbackRecord, run_blocking
 from scenemosaic.exceptions import ModelConfigError, UsageError
-from scenemosaic.scene import RunFolder
 from scenemosaic.models import Model, ModelSettings, Usage
 from scenemosaic.perception._agents import (
     MAX_VERIFY_ROUNDS,
@@ -38,6 +37,7 @@ from scenemosaic.perception._reconstruct import Reconstruction, Reconstructor, S
 from scenemosaic.perception._segment import BoxSegmenter, ObjectMask, Segmenter, segmenter_for
 from scenemosaic.scene import (
     Room,
+    RunFolder,
     Scene,
     sanitize_id,
     traits,

@@ -11,8 +11,7 @@ from __future__ import annotations
 import asyncio
 import sys
 
-from scenemosaic.pipeline import _run
-from scenemosaic.pipeline import PipelineRun, Stage, StageRecord
+from scenemosaic.pipeline import PipelineRun, Stage, StageRecord, _run
 
 
 def _patched(stage_name: str, action: str) -> tuple[Stage, ...]:
