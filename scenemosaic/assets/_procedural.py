@@ -13,6 +13,7 @@ absolute thickness of boards, legs and rails, so any positive size gives a valid
 from __future__ import annotations
 
 import functools
+import itertools
 import re
 from collections.abc import Callable, Sequence
 
@@ -26,6 +27,9 @@ from scenemosaic.scene import normalize_category
 
 __all__ = [
     "MAX_PARTS",
+    "SHELF_PITCH",
+    "Box6",
+    "interior_boards",
     "known_categories",
     "procedural_key",
     "procedural_mesh",
@@ -37,6 +41,8 @@ log = structlog.get_logger(__name__)
 FloatArray = npt.NDArray[np.float64]
 Parts = list[trimesh.Trimesh]
 Builder = Callable[[float, float, float], Parts]
+Box6 = tuple[float, float, float, float, float, float]
+"""An axis-aligned box in the object frame: ``(x0, x1, y0, y1, z_bottom, z_top)``."""
 
 MAX_PARTS = 20
 """Upper bound on the parts of one procedural model (each part becomes a physics geom)."""
@@ -116,6 +122,113 @@ def _blob(x: Interval, y: Interval, z: Interval) -> trimesh.Trimesh:
 def _hull(points: Sequence[Sequence[float]]) -> trimesh.Trimesh:
     hull: trimesh.Trimesh = trimesh.convex.convex_hull(np.asarray(points, dtype=np.float64))
     return hull
+
+
+_FACE = float(np.cos(np.pi / _SECTIONS))
+"""Apothem of a unit-circumradius ``_SECTIONS``-gon: ``_rod`` and ``_vessel`` turn a face (not a corner)
+to each side of their box, so a lying rod rests on a face and a vessel's wall is flush with the box."""
+
+
+@functools.cache
+def _unit_rod(radii: tuple[float, ...], axis: int, flat: bool) -> trimesh.Trimesh:
+    """A solid of revolution along ``axis`` with faces (not corners) at the four sides of its box.
+
+    ``flat`` (for a horizontal axis): every ring is lifted so that its lowest face lies on the same
+    plane, which gives a tapered rod lying down a flat, stable underside instead of a rolling edge.
+    """
+    angles = np.pi / _SECTIONS + np.arange(_SECTIONS) * (2.0 * np.pi / _SECTIONS)
+    top = max(radii)
+    rings = []
+    for r, s in zip(radii, np.linspace(0.0, 1.0, len(radii)), strict=True):
+        u, v = r * np.cos(angles), r * np.sin(angles)
+        if flat and axis != 2:
+            v = v + (top - r) * _FACE
+        cols = {
+            0: (np.full(_SECTIONS, s), u, v),
+            1: (u, np.full(_SECTIONS, s), v),
+            2: (u, v, np.full(_SECTIONS, s)),
+        }
+        rings.append(np.column_stack(cols[axis]))
+    hull: trimesh.Trimesh = trimesh.convex.convex_hull(np.vstack(rings))
+    return hull
+
+
+def _rod(
+    x: Interval, y: Interval, z: Interval, radii: Sequence[float], *, axis: int = 2, flat: bool = True
+) -> trimesh.Trimesh:
+    """A few-sided rod/frustum along ``axis`` through rings of relative ``radii`` filling the box."""
+    return _place(_unit_rod(tuple(radii), axis, flat), x, y, z)
+
+
+def _rod_in(spans: Sequence[Interval], radii: Sequence[float], *, axis: int) -> trimesh.Trimesh:
+    return _rod(spans[0], spans[1], spans[2], radii, axis=axis)
+
+
+@functools.cache
+def _unit_lump(cut: float) -> trimesh.Trimesh:
+    """A low-poly sphere with its bottom cut flat at ``z = -cut``: a rounded lump that rests on a face."""
+    sphere = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+    points = np.asarray(sphere.vertices, dtype=np.float64).copy()
+    points[:, 2] = np.maximum(points[:, 2], -cut)
+    hull: trimesh.Trimesh = trimesh.convex.convex_hull(points)
+    return hull
+
+
+def _lump(x: Interval, y: Interval, z: Interval, *, cut: float = 0.7) -> trimesh.Trimesh:
+    return _place(_unit_lump(cut), x, y, z)
+
+
+def _vessel(x: Interval, y: Interval, z: Interval, *, floor: float, wall: float, bottom: float) -> Parts:
+    """An open-top round vessel (bowl, pot): a floor disc and ``_SECTIONS`` convex wall segments.
+
+    The outer wall is flush with the sides of the box at the rim and narrows to ``bottom`` (relative)
+    at the foot; ``floor`` and ``wall`` are metres. The inside is hollow.
+    """
+    cx, cy = 0.5 * (x[0] + x[1]), 0.5 * (y[0] + y[1])
+    ax, ay = 0.5 * (x[1] - x[0]), 0.5 * (y[1] - y[0])
+    height = z[1] - z[0]
+    floor = min(floor, 0.5 * height)
+    wall_u = min(wall / min(ax, ay), 0.3 * bottom)
+    angles = np.pi / _SECTIONS + np.arange(_SECTIONS + 1) * (2.0 * np.pi / _SECTIONS)
+    circ = 1.0 / _FACE  # circumradius of the polygon whose faces touch the box
+
+    def ring(radius: float, zz: float, a: float) -> tuple[float, float, float]:
+        return (cx + ax * radius * circ * np.cos(a), cy + ay * radius * circ * np.sin(a), zz)
+
+    parts: Parts = [
+        _hull([ring(bottom, zz, a) for a in angles[:-1] for zz in (z[0], z[0] + floor)]),
+    ]
+    for a0, a1 in itertools.pairwise(angles):
+        points = []
+        for radius, zz in ((bottom, z[0]), (1.0, z[1])):
+            for a in (a0, a1):
+                points.append(ring(radius, zz, a))
+                points.append(ring(radius - wall_u, zz, a))
+        parts.append(_hull(points))
+    return parts
+
+
+def _tub(
+    x: Interval, y: Interval, z: Interval, *, floor: float, wall: float, lid: float = 0.0
+) -> tuple[Parts, Box6]:
+    """A rectangular container: floor, four walls, an optional lid. Returns the parts and the inside."""
+    wx = min(wall, 0.2 * (x[1] - x[0]))
+    wy = min(wall, 0.2 * (y[1] - y[0]))
+    height = z[1] - z[0]
+    floor = min(floor, 0.2 * height)
+    lid = min(lid, 0.2 * height)
+    ix, iy = (x[0] + wx, x[1] - wx), (y[0] + wy, y[1] - wy)
+    top = z[1] - lid
+    parts = [
+        _box(x, y, (z[0], z[0] + floor)),
+        _box((x[0], ix[0]), y, (z[0], top)),
+        _box((ix[1], x[1]), y, (z[0], top)),
+        _box(ix, (y[0], iy[0]), (z[0], top)),
+        _box(ix, (iy[1], y[1]), (z[0], top)),
+    ]
+    if lid > 0:
+        parts.append(_box(x, y, (top, z[1])))
+    return parts, (ix[0], ix[1], iy[0], iy[1], z[0] + floor, top)
 
 
 def _cap(size: float, fraction: float, limit: float) -> float:
@@ -212,28 +325,96 @@ def _nightstand(w: float, d: float, h: float) -> Parts:
     return parts
 
 
-def _dresser(w: float, d: float, h: float) -> Parts:
+SHELF_PITCH = 0.4
+"""Target height (m) of one compartment of a hollow container: a board every 0.35-0.45 m or so."""
+
+
+def _shelf_centres(z0: float, z1: float, board: float, most: int = 5) -> list[float]:
+    """Centres of evenly spaced boards between the free heights ``z0`` and ``z1`` (one per ~0.4 m)."""
+    free = z1 - z0
+    n = int(np.clip(round(free / SHELF_PITCH) - 1, 0, most))
+    if n == 0 or free <= n * board:
+        return []
+    gap = (free - n * board) / (n + 1)
+    return [z0 + i * gap + (i - 0.5) * board for i in range(1, n + 1)]
+
+
+def _hollow_case(
+    w: float,
+    d: float,
+    h: float,
+    *,
+    plinth: float,
+    top: float,
+    front: float,
+    boards: Sequence[float] | None = None,
+) -> tuple[Parts, list[Box6], Interval]:
+    """A hollow carcass open to -Y behind a front band of depth ``front`` (left for doors/drawer fronts).
+
+    Side walls and back from the floor up, an inset plinth, a bottom board on it, a full-size top
+    board, and interior boards at ``boards`` (their centre heights; default: one per ~0.4 m of
+    inner height). Returns the parts, the free compartments (inside the walls, from the carcass
+    front plane to the back, from one board's top to the next one's underside) and the body's z
+    (plinth top to top board), where the fronts go.
+    """
+    hx, hy = w / 2, d / 2
+    wall = _cap(w, 0.04, 0.018)
+    back = _cap(d, 0.04, 0.012)
+    board = _cap(h, 0.03, 0.018)
+    y0 = -hy + front
+    ceiling = h - top
+    ix, iy = (-hx + wall, hx - wall), (y0, hy - back)
+    floor = plinth + board
+    parts = [
+        _box((-hx, -hx + wall), (y0, hy), (0.0, ceiling)),
+        _box((hx - wall, hx), (y0, hy), (0.0, ceiling)),
+        _box(ix, (hy - back, hy), (0.0, ceiling)),
+        _box(ix, (y0 + 0.05 * (iy[1] - y0), iy[1]), (0.0, plinth)),
+        _box(ix, iy, (plinth, floor)),
+        _box((-hx, hx), (-hy, hy), (ceiling, h)),
+    ]
+    centres = _shelf_centres(floor, ceiling, board) if boards is None else list(boards)
+    levels = [floor]
+    for zc in centres:
+        lo_z, hi_z = max(zc - board / 2, levels[-1]), min(zc + board / 2, ceiling)
+        if hi_z - lo_z <= 0.2 * board or hi_z >= ceiling:
+            continue
+        parts.append(_box(ix, iy, (lo_z, hi_z)))
+        levels += [lo_z, hi_z]
+    levels.append(ceiling)
+    compartments = [
+        (ix[0], ix[1], iy[0], iy[1], levels[i], levels[i + 1])
+        for i in range(0, len(levels), 2)
+        if levels[i + 1] > levels[i]
+    ]
+    return parts, compartments, (plinth, ceiling)
+
+
+def _dresser_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
+    """Hollow chest: one compartment per row of drawers (a board behind each gap between rows)."""
     hx, hy = w / 2, d / 2
     handle, front = _cap(d, 0.04, 0.02), _cap(d, 0.04, 0.02)
-    parts, body_z = _case(w, d, h, plinth=0.07 * h, top=_cap(h, 0.05, 0.03), front=handle + front)
-    cols = 2 if w > 0.9 else 1
-    parts += _drawer_fronts(
-        (-hx + 0.04 * w, hx - 0.04 * w),
-        (body_z[0] + 0.03 * h, body_z[1] - 0.03 * h),
-        -hy,
-        3,
-        cols,
-        handle=handle,
-        thickness=front,
+    plinth, top = 0.07 * h, _cap(h, 0.05, 0.03)
+    rows, cols = 3, (2 if w > 0.9 else 1)
+    fronts_z = (plinth + 0.03 * h, h - top - 0.03 * h)
+    row_z = _split(fronts_z[0], fronts_z[1], rows, 0.01)
+    boards = [0.5 * (a[1] + b[0]) for a, b in itertools.pairwise(row_z)]
+    parts, compartments, _ = _hollow_case(
+        w, d, h, plinth=plinth, top=top, front=handle + front, boards=boards
     )
-    return parts
+    parts += _drawer_fronts(
+        (-hx + 0.04 * w, hx - 0.04 * w), fronts_z, -hy, rows, cols, handle=handle, thickness=front
+    )
+    return parts, compartments
 
 
-def _doored(w: float, d: float, h: float, *, cornice: float) -> Parts:
-    """Wardrobe/cabinet: carcass with one or two doors at the front (-Y) and vertical handles."""
+def _doored_layout(w: float, d: float, h: float, *, cornice: float) -> tuple[Parts, list[Box6]]:
+    """Wardrobe/cabinet: hollow carcass with shelves, one or two doors at the front (-Y), vertical handles."""
     hx, hy = w / 2, d / 2
     handle, door = _cap(d, 0.04, 0.025), _cap(d, 0.04, 0.025)
-    parts, body_z = _case(w, d, h, plinth=_cap(h, 0.05, 0.1), top=cornice, front=handle + door)
+    parts, compartments, body_z = _hollow_case(
+        w, d, h, plinth=_cap(h, 0.05, 0.1), top=cornice, front=handle + door
+    )
     n_doors = 2 if w > 0.6 else 1
     door_z = (body_z[0] + 0.01 * h, body_z[1] - 0.01 * h)
     for i, xr in enumerate(_split(-hx + 0.02 * w, hx - 0.02 * w, n_doors, 0.01)):
@@ -243,15 +424,42 @@ def _doored(w: float, d: float, h: float, *, cornice: float) -> Parts:
         hw = 0.02 * (xr[1] - xr[0])
         zc, zh = 0.5 * (door_z[0] + door_z[1]), 0.12 * (door_z[1] - door_z[0])
         parts.append(_box((edge - hw, edge + hw), (-hy, -hy + handle), (zc - zh, zc + zh)))
-    return parts
+    return parts, compartments
 
 
-def _wardrobe(w: float, d: float, h: float) -> Parts:
-    return _doored(w, d, h, cornice=_cap(h, 0.04, 0.06))
+def _wardrobe_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
+    return _doored_layout(w, d, h, cornice=_cap(h, 0.04, 0.06))
 
 
-def _cabinet(w: float, d: float, h: float) -> Parts:
-    return _doored(w, d, h, cornice=_cap(h, 0.05, 0.03))
+def _cabinet_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
+    return _doored_layout(w, d, h, cornice=_cap(h, 0.05, 0.03))
+
+
+def _fridge_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
+    """Hollow fridge: a freezer door above a larger fridge door, a board behind the split, shelves."""
+    hx, hy = w / 2, d / 2
+    handle, door = _cap(d, 0.05, 0.035), _cap(d, 0.05, 0.04)
+    plinth, top = _cap(h, 0.03, 0.04), _cap(h, 0.03, 0.03)
+    board = _cap(h, 0.03, 0.018)
+    floor, ceiling = plinth + board, h - top
+    split = floor + 0.68 * (ceiling - floor)
+    boards = [
+        *_shelf_centres(floor, split - board / 2, board),
+        split,
+        *_shelf_centres(split + board / 2, ceiling, board, most=3),
+    ]
+    parts, compartments, body_z = _hollow_case(
+        w, d, h, plinth=plinth, top=top, front=handle + door, boards=boards
+    )
+    gap = 0.005 * h
+    door_x = (-hx + 0.01 * w, hx - 0.01 * w)
+    for zr in ((body_z[0], split - gap), (split + gap, body_z[1])):
+        parts.append(_box(door_x, (-hy + handle, -hy + handle + door), zr))
+        span = zr[1] - zr[0]
+        parts.append(
+            _box((hx - 0.14 * w, hx - 0.1 * w), (-hy, -hy + handle), (zr[0] + 0.2 * span, zr[1] - 0.2 * span))
+        )
+    return parts, compartments
 
 
 def _table(w: float, d: float, h: float) -> Parts:
@@ -468,31 +676,38 @@ def _stool(w: float, d: float, h: float) -> Parts:
     return parts
 
 
-def _bookshelf(w: float, d: float, h: float) -> Parts:
+def _bookshelf_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
     """Open shelving: side boards, top and bottom, back panel at +Y, shelves open to -Y."""
     hx, hy = w / 2, d / 2
     board = _cap(min(w, h), 0.05, 0.025)
     back = _cap(d, 0.05, 0.01)
-    inner_x = (-hx + board, hx - board)
+    inner_x, inner_y = (-hx + board, hx - board), (-hy, hy - back)
     parts = [
         _box((-hx, -hx + board), (-hy, hy), (0.0, h)),
         _box((hx - board, hx), (-hy, hy), (0.0, h)),
-        _box(inner_x, (-hy, hy - back), (0.0, board)),
-        _box(inner_x, (-hy, hy - back), (h - board, h)),
+        _box(inner_x, inner_y, (0.0, board)),
+        _box(inner_x, inner_y, (h - board, h)),
         _box(inner_x, (hy - back, hy), (0.0, h)),
     ]
     n_shelves = int(np.clip(round(h / 0.35) - 1, 0, 6))
     step = (h - board) / (n_shelves + 1)
+    levels = [board]
     for i in range(1, n_shelves + 1):
         z0 = i * step
-        parts.append(_box(inner_x, (-hy, hy - back), (z0, z0 + board)))
-    return parts
+        parts.append(_box(inner_x, inner_y, (z0, z0 + board)))
+        levels += [z0, z0 + board]
+    levels.append(h - board)
+    compartments = [(*inner_x, *inner_y, levels[i], levels[i + 1]) for i in range(0, len(levels), 2)]
+    return parts, compartments
 
 
-def _tv_stand(w: float, d: float, h: float) -> Parts:
+def _tv_stand_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
+    """Low hollow cabinet with a row of drawer fronts at -Y (a shelf inside when it is tall enough)."""
     hx, hy = w / 2, d / 2
     handle, front = _cap(d, 0.04, 0.015), _cap(d, 0.04, 0.02)
-    parts, body_z = _case(w, d, h, plinth=0.12 * h, top=_cap(h, 0.08, 0.03), front=handle + front)
+    parts, compartments, body_z = _hollow_case(
+        w, d, h, plinth=0.12 * h, top=_cap(h, 0.08, 0.03), front=handle + front
+    )
     cols = int(np.clip(round(w / 0.6), 1, 4))
     parts += _drawer_fronts(
         (-hx + 0.03 * w, hx - 0.03 * w),
@@ -503,7 +718,7 @@ def _tv_stand(w: float, d: float, h: float) -> Parts:
         handle=handle,
         thickness=front,
     )
-    return parts
+    return parts, compartments
 
 
 def _tv(w: float, d: float, h: float) -> Parts:
@@ -514,6 +729,7 @@ def _tv(w: float, d: float, h: float) -> Parts:
         return [
             _box((-hx + 0.02 * w, hx - 0.02 * w), (-hy + bezel, hy), (0.02 * h, 0.98 * h)),
             _box((-hx, hx), (-hy, -hy + bezel), (0.0, h)),
+            _box(_centered(hx, 0.5), (-hy, hy), (0.0, 0.02 * h)),  # a low foot under the full depth
         ]
     screen_t = _cap(d, 0.25, 0.06)
     screen_z = (0.12 * h, h)
@@ -679,42 +895,623 @@ def _painting(w: float, d: float, h: float) -> Parts:
 
 
 def _pillow(w: float, d: float, h: float) -> Parts:
-    return [_blob((-w / 2, w / 2), (-d / 2, d / 2), (0.0, h))]
+    """One low-poly lump with a flat underside (it rests on a face, not on a vertex)."""
+    return [_lump((-w / 2, w / 2), (-d / 2, d / 2), (0.0, h), cut=0.6)]
+
+
+# --------------------------------------------------------------------------------------------
+# household objects: small things on surfaces and in containers, kitchen and bathroom fixtures
+# --------------------------------------------------------------------------------------------
+def _frame(w: float, d: float, h: float) -> list[Interval]:
+    return [(-w / 2, w / 2), (-d / 2, d / 2), (0.0, h)]
+
+
+def _frac(span: Interval, a: float, b: float) -> Interval:
+    """The part ``[a, b]`` (fractions) of an interval."""
+    size = span[1] - span[0]
+    return (span[0] + a * size, span[0] + b * size)
+
+
+def _narrow(spans: list[Interval], axis: int, fraction: float) -> Interval:
+    """A ``fraction`` of the span on ``axis``: centred across, resting on the bottom when vertical."""
+    lo, hi = spans[axis]
+    if axis == 2:
+        return (lo, lo + fraction * (hi - lo))
+    mid, half = 0.5 * (lo + hi), 0.5 * fraction * (hi - lo)
+    return (mid - half, mid + half)
+
+
+def _with(spans: list[Interval], **changes: Interval) -> trimesh.Trimesh:
+    """A box over ``spans`` with some axes (``a0``, ``a1``, ``a2``) replaced."""
+    out = list(spans)
+    for key, value in changes.items():
+        out[int(key[1])] = value
+    return _box(out[0], out[1], out[2])
+
+
+def _axes(w: float, d: float, h: float) -> tuple[int, int, int]:
+    """The long axis (longest of the three), then the wide and the thin one of the other two."""
+    size = (w, d, h)
+    long = int(np.argmax(size))
+    a, b = (i for i in range(3) if i != long)
+    wide, thin = (a, b) if size[a] >= size[b] else (b, a)
+    return long, wide, thin
+
+
+def _along(spans: list[Interval], axis: int, part: Interval, **across: Interval) -> list[Interval]:
+    out = list(spans)
+    out[axis] = _frac(spans[axis], *part)
+    for key, value in across.items():
+        out[int(key[1])] = value
+    return out
+
+
+def _fruit(w: float, d: float, h: float) -> Parts:
+    """Apple, tomato, orange...: a rounded lump with a flat underside and a short stem."""
+    hx, hy = w / 2, d / 2
+    return [
+        _lump((-hx, hx), (-hy, hy), (0.0, 0.9 * h)),
+        _rod(_centered(hx, 0.1), _centered(hy, 0.1), (0.8 * h, h), (1.0, 0.7)),
+    ]
+
+
+def _potato(w: float, d: float, h: float) -> Parts:
+    """Potato, lettuce, bread, egg, soap bar: one rounded lump resting on a flat underside."""
+    return [_lump((-w / 2, w / 2), (-d / 2, d / 2), (0.0, h))]
+
+
+def _ball(w: float, d: float, h: float) -> Parts:
+    """Sports ball: a low-poly sphere with a small flat patch underneath (it rests, barely rolls)."""
+    return [_lump((-w / 2, w / 2), (-d / 2, d / 2), (0.0, h), cut=0.9)]
+
+
+def _garbage_bag(w: float, d: float, h: float) -> Parts:
+    hx, hy = w / 2, d / 2
+    return [
+        _lump((-hx, hx), (-hy, hy), (0.0, 0.85 * h), cut=0.6),
+        _rod(_centered(hx, 0.2), _centered(hy, 0.2), (0.8 * h, h), (0.6, 1.0)),
+    ]
+
+
+def _baseball_bat(w: float, d: float, h: float) -> Parts:
+    """A bat along its longest axis: barrel, tapering handle, knob. Upright it stands on the barrel;
+    lying down its underside is flat, so it does not roll."""
+    spans = _frame(w, d, h)
+    long, _, _ = _axes(w, d, h)
+    if long == 2:
+        return [
+            _rod(spans[0], spans[1], (0.0, 0.96 * h), (1.0, 0.85, 0.4, 0.3)),
+            _rod(_centered(w / 2, 0.45), _centered(d / 2, 0.45), (0.95 * h, h), (1.0, 1.0)),
+        ]
+    across = 1 - long  # the other horizontal axis
+    knob = _along(
+        spans, long, (0.0, 0.05), **{f"a{across}": _narrow(spans, across, 0.45), "a2": (0.0, 0.45 * h)}
+    )
+    body = _along(spans, long, (0.04, 1.0))
+    return [
+        _rod_in(body, (0.3, 0.35, 0.85, 1.0), axis=long),
+        _rod_in(knob, (1.0, 1.0), axis=long),
+    ]
+
+
+def _bottle(w: float, d: float, h: float) -> Parts:
+    """Body, shoulder, neck and cap."""
+    hx, hy = w / 2, d / 2
+    return [
+        _cyl((-hx, hx), (-hy, hy), (0.0, 0.62 * h)),
+        _frustum((-hx, hx), (-hy, hy), (0.6 * h, 0.8 * h), bottom=1.0, top=0.4),
+        _cyl(_centered(hx, 0.36), _centered(hy, 0.36), (0.78 * h, 0.94 * h)),
+        _cyl(_centered(hx, 0.42), _centered(hy, 0.42), (0.92 * h, h)),
+    ]
+
+
+def _jar(w: float, d: float, h: float) -> Parts:
+    """Salt/pepper shaker, jar, canister: a round body and a slightly narrower domed lid."""
+    hx, hy = w / 2, d / 2
+    return [
+        _cyl((-hx, hx), (-hy, hy), (0.0, 0.8 * h)),
+        _frustum(_centered(hx, 0.92), _centered(hy, 0.92), (0.78 * h, h), bottom=1.0, top=0.6),
+    ]
+
+
+def _candle(w: float, d: float, h: float) -> Parts:
+    hx, hy = w / 2, d / 2
+    return [
+        _cyl((-hx, hx), (-hy, hy), (0.0, 0.93 * h)),
+        _cyl(_centered(hx, 0.08), _centered(hy, 0.08), (0.9 * h, h)),
+    ]
+
+
+def _plate(w: float, d: float, h: float) -> Parts:
+    """A low dish: a foot ring under a flat, flaring plate."""
+    hx, hy = w / 2, d / 2
+    return [
+        _cyl(_centered(hx, 0.6), _centered(hy, 0.6), (0.0, 0.3 * h)),
+        _frustum((-hx, hx), (-hy, hy), (0.25 * h, h), bottom=0.6, top=1.0),
+    ]
+
+
+def _bowl(w: float, d: float, h: float) -> Parts:
+    """Open, hollow bowl: a floor disc and flaring wall segments."""
+    return _vessel(
+        (-w / 2, w / 2),
+        (-d / 2, d / 2),
+        (0.0, h),
+        floor=_cap(h, 0.15, 0.01),
+        wall=_cap(min(w, d), 0.06, 0.008),
+        bottom=0.6,
+    )
+
+
+def _pot(w: float, d: float, h: float) -> Parts:
+    """Cooking pot: a hollow straight-walled vessel with two handles at +-X."""
+    hx, hy = w / 2, d / 2
+    lug = 0.1 * w
+    parts = _vessel(
+        (-hx + lug, hx - lug),
+        (-hy, hy),
+        (0.0, h),
+        floor=_cap(h, 0.1, 0.01),
+        wall=_cap(min(w, d), 0.05, 0.008),
+        bottom=0.95,
+    )
+    for xr in ((-hx, -hx + lug + 0.02 * w), (hx - lug - 0.02 * w, hx)):
+        parts.append(_box(xr, _centered(hy, 0.3), (0.72 * h, 0.86 * h)))
+    return parts
+
+
+def _pan(w: float, d: float, h: float) -> Parts:
+    """Frying pan: a shallow hollow vessel and a long handle toward +X."""
+    hx, hy = w / 2, d / 2
+    handle = float(np.clip(w - d, 0.15 * w, 0.55 * w))
+    parts = _vessel(
+        (-hx, hx - handle),
+        (-hy, hy),
+        (0.0, h),
+        floor=_cap(h, 0.2, 0.006),
+        wall=_cap(min(w, d), 0.04, 0.006),
+        bottom=0.85,
+    )
+    parts.append(_box((hx - handle - 0.03 * w, hx), _centered(hy, 0.12), (0.45 * h, 0.75 * h)))
+    return parts
+
+
+def _knife(w: float, d: float, h: float) -> Parts:
+    """Knife, fork: a handle and a thinner blade along the longest axis."""
+    spans = _frame(w, d, h)
+    long, _, thin = _axes(w, d, h)
+    return [
+        _box(*_along(spans, long, (0.0, 0.4))),
+        _box(*_along(spans, long, (0.38, 1.0), **{f"a{thin}": _narrow(spans, thin, 0.45)})),
+    ]
+
+
+def _spoon(w: float, d: float, h: float) -> Parts:
+    """Spoon, ladle: a narrow handle and a rounded bowl at the far end of the longest axis."""
+    spans = _frame(w, d, h)
+    long, wide, thin = _axes(w, d, h)
+    handle = _along(
+        spans,
+        long,
+        (0.0, 0.7),
+        **{f"a{wide}": _narrow(spans, wide, 0.3), f"a{thin}": _narrow(spans, thin, 0.5)},
+    )
+    return [_box(*handle), _lump(*_along(spans, long, (0.62, 1.0)))]
+
+
+def _paddle(w: float, d: float, h: float) -> Parts:
+    """Spatula, tennis racket: a handle and a flat head across the thinnest axis."""
+    spans = _frame(w, d, h)
+    long, wide, thin = _axes(w, d, h)
+    handle = _along(spans, long, (0.0, 0.45), **{f"a{wide}": _narrow(spans, wide, 0.2)})
+    head = _along(spans, long, (0.4, 1.0))
+    return [_box(*handle), _rod_in(head, (1.0, 1.0), axis=thin)]
+
+
+def _pencil(w: float, d: float, h: float) -> Parts:
+    """Pencil, pen: an eight-sided body along the longest axis (resting on a face) and a pointed tip."""
+    spans = _frame(w, d, h)
+    long, _, _ = _axes(w, d, h)
+    return [
+        _rod_in(_along(spans, long, (0.0, 0.84)), (1.0, 1.0), axis=long),
+        _rod_in(_along(spans, long, (0.82, 1.0)), (1.0, 0.25), axis=long),
+    ]
+
+
+def _cell_phone(w: float, d: float, h: float) -> Parts:
+    """Phone, remote control, card, sponge: a slab across its thinnest axis with an inset face on top."""
+    spans = _frame(w, d, h)
+    _, wide, thin = _axes(w, d, h)
+    long = 3 - wide - thin
+    body = _with(spans, **{f"a{thin}": _frac(spans[thin], 0.0, 0.85)})
+    face = _with(
+        spans,
+        **{
+            f"a{thin}": _frac(spans[thin], 0.8, 1.0),
+            f"a{wide}": _frac(spans[wide], 0.08, 0.92),
+            f"a{long}": _frac(spans[long], 0.06, 0.94),
+        },
+    )
+    return [body, face]
+
+
+def _disc(w: float, d: float, h: float) -> Parts:
+    """CD, coaster, burner: a flat eight-sided disc across the thinnest axis."""
+    spans = _frame(w, d, h)
+    _, _, thin = _axes(w, d, h)
+    return [_rod_in(spans, (1.0, 1.0), axis=thin)]
+
+
+def _watch(w: float, d: float, h: float) -> Parts:
+    """A wrist watch lying down: a strap slab along the longest horizontal axis and a round face."""
+    hx, hy = w / 2, d / 2
+    strap_x, strap_y = ((-hx, hx), _centered(hy, 0.55)) if w >= d else (_centered(hx, 0.55), (-hy, hy))
+    side = min(w, d)
+    return [
+        _box(strap_x, strap_y, (0.0, 0.35 * h)),
+        _cyl((-side / 2, side / 2), (-side / 2, side / 2), (0.0, h)),
+    ]
+
+
+def _key_chain(w: float, d: float, h: float) -> Parts:
+    """A ring at one end of the longest axis and a key slab beside it."""
+    spans = _frame(w, d, h)
+    long, wide, thin = _axes(w, d, h)
+    ring = _along(spans, long, (0.0, 0.35))
+    key = _along(
+        spans,
+        long,
+        (0.3, 1.0),
+        **{f"a{wide}": _narrow(spans, wide, 0.6), f"a{thin}": _narrow(spans, thin, 0.7)},
+    )
+    return [_rod_in(ring, (1.0, 1.0), axis=thin), _box(*key)]
+
+
+def _alarm_clock(w: float, d: float, h: float) -> Parts:
+    """A body with its face toward -Y on two feet, a bell button on top."""
+    hx, hy = w / 2, d / 2
+    foot = 0.08 * h
+    return [
+        _rod((-hx, hx), (-hy, hy), (foot, 0.9 * h), (1.0, 1.0), axis=1),
+        _box((-hx + 0.1 * w, -hx + 0.3 * w), _centered(hy, 0.6), (0.0, foot + 0.05 * h)),
+        _box((hx - 0.3 * w, hx - 0.1 * w), _centered(hy, 0.6), (0.0, foot + 0.05 * h)),
+        _cyl(_centered(hx, 0.15), _centered(hy, 0.3), (0.85 * h, h)),
+    ]
+
+
+def _dumbbell(w: float, d: float, h: float) -> Parts:
+    spans = _frame(w, d, h)
+    long, wide, thin = _axes(w, d, h)
+    if long == 2:
+        long, wide, thin = (0, 1, 2) if w >= d else (1, 0, 2)
+    bar = _along(
+        spans,
+        long,
+        (0.2, 0.8),
+        **{f"a{wide}": _narrow(spans, wide, 0.3), f"a{thin}": _narrow(spans, thin, 0.3)},
+    )
+    bar[2] = _frac(spans[2], 0.35, 0.65)
+    return [
+        _rod_in(_along(spans, long, (0.0, 0.25)), (1.0, 1.0), axis=long),
+        _box(*bar),
+        _rod_in(_along(spans, long, (0.75, 1.0)), (1.0, 1.0), axis=long),
+    ]
+
+
+def _toilet(w: float, d: float, h: float) -> Parts:
+    """Bowl and seat toward -Y on a pedestal, cistern at the back (+Y)."""
+    hx, hy = w / 2, d / 2
+    tank_d = _cap(d, 0.25, 0.22)
+    seat = 0.42 * h
+    bowl_y = (-hy, hy - tank_d + 0.02 * d)
+    return [
+        _frustum(_centered(hx, 0.7), (-hy + 0.2 * d, hy - tank_d), (0.0, 0.25 * h), bottom=1.0, top=0.8),
+        _profile((-hx + 0.04 * w, hx - 0.04 * w), bowl_y, (0.2 * h, seat), (0.55, 0.9, 1.0)),
+        _cyl((-hx + 0.03 * w, hx - 0.03 * w), bowl_y, (seat, seat + _cap(h, 0.04, 0.035))),
+        _box((-hx, hx), (hy - tank_d, hy), (0.4 * h, h)),
+        _box(_centered(hx, 0.6), (hy - tank_d - 0.03 * d, hy), (0.2 * h, 0.42 * h)),
+    ]
+
+
+def _toilet_paper(w: float, d: float, h: float) -> Parts:
+    """A roll standing on its end, with its cardboard core showing at the top."""
+    hx, hy = w / 2, d / 2
+    return [
+        _cyl((-hx, hx), (-hy, hy), (0.0, 0.97 * h)),
+        _cyl(_centered(hx, 0.4), _centered(hy, 0.4), (0.5 * h, h)),
+    ]
+
+
+def _paper_towel_roll(w: float, d: float, h: float) -> Parts:
+    """A roll on a holder: base disc, the roll, a pole knob on top."""
+    hx, hy = w / 2, d / 2
+    return [
+        _cyl((-hx, hx), (-hy, hy), (0.0, 0.05 * h)),
+        _cyl(_centered(hx, 0.92), _centered(hy, 0.92), (0.04 * h, 0.94 * h)),
+        _cyl(_centered(hx, 0.25), _centered(hy, 0.25), (0.9 * h, h)),
+    ]
+
+
+def _plunger(w: float, d: float, h: float) -> Parts:
+    """Plunger, broom, mop, toilet brush: a wide foot on the floor and a handle."""
+    hx, hy = w / 2, d / 2
+    return [
+        _frustum((-hx, hx), (-hy, hy), (0.0, 0.2 * h), bottom=1.0, top=0.55),
+        _cyl(_centered(hx, 0.18), _centered(hy, 0.18), (0.15 * h, h)),
+    ]
+
+
+def _garbage_can_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
+    """Open-top bin (garbage can, hamper, basket): a floor and four walls, hollow."""
+    parts, inside = _tub(
+        _frame(w, d, h)[0],
+        _frame(w, d, h)[1],
+        (0.0, h),
+        floor=_cap(h, 0.05, 0.02),
+        wall=_cap(min(w, d), 0.05, 0.015),
+    )
+    return parts, [inside]
+
+
+def _box_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
+    """A closed box: floor, four walls and a lid, hollow inside."""
+    wall = _cap(min(w, d), 0.05, 0.01)
+    parts, inside = _tub(
+        (-w / 2, w / 2),
+        (-d / 2, d / 2),
+        (0.0, h),
+        floor=_cap(h, 0.05, 0.01),
+        wall=wall,
+        lid=_cap(h, 0.05, 0.01),
+    )
+    return parts, [inside]
+
+
+def _sink(w: float, d: float, h: float) -> Parts:
+    """Pedestal sink: a column and an open basin on top (a low box is the basin alone)."""
+    hx, hy = w / 2, d / 2
+    basin_z = (0.75 * h, h) if h > 0.5 else (0.0, h)
+    parts, _ = _tub(
+        (-hx, hx), (-hy, hy), basin_z, floor=_cap(h, 0.04, 0.03), wall=_cap(min(w, d), 0.08, 0.04)
+    )
+    if h > 0.5:
+        parts.append(
+            _frustum(
+                _centered(hx, 0.35),
+                (-hy + 0.3 * d, hy - 0.05 * d),
+                (0.0, basin_z[0] + 0.01 * h),
+                bottom=1.2,
+                top=0.8,
+            )
+        )
+    return parts
+
+
+def _faucet(w: float, d: float, h: float) -> Parts:
+    """A base at the back (+Y), a riser, a spout reaching to -Y, two handles at +-X."""
+    hx, hy = w / 2, d / 2
+    riser = min(0.2 * w, 0.8 * d)
+    return [
+        _box((-hx, hx), (0.0, hy), (0.0, 0.1 * h)),
+        _cyl((-riser / 2, riser / 2), (hy - 0.5 * d, hy - 0.1 * d), (0.0, h)),
+        _box(_centered(hx, 0.1), (-hy, hy - 0.3 * d), (0.8 * h, 0.95 * h)),
+        _cyl((-hx, -hx + 0.12 * w), (0.1 * d, 0.4 * d), (0.0, 0.45 * h)),
+        _cyl((hx - 0.12 * w, hx), (0.1 * d, 0.4 * d), (0.0, 0.45 * h)),
+    ]
+
+
+def _microwave(w: float, d: float, h: float) -> Parts:
+    """Microwave, oven: a body, a door on the left of the front (-Y), a control panel on the right."""
+    hx, hy = w / 2, d / 2
+    door = _cap(d, 0.06, 0.03)
+    return [
+        _box((-hx, hx), (-hy + door, hy), (0.0, h)),
+        _box((-hx + 0.03 * w, hx - 0.3 * w), (-hy, -hy + door), (0.06 * h, 0.94 * h)),
+        _box((hx - 0.27 * w, hx - 0.03 * w), (-hy + 0.4 * door, -hy + door), (0.06 * h, 0.94 * h)),
+    ]
+
+
+def _washing_machine(w: float, d: float, h: float) -> Parts:
+    """Washing machine, dryer: a body, a round door at the front (-Y), a control strip on top."""
+    hx, hy = w / 2, d / 2
+    door = _cap(d, 0.06, 0.05)
+    side = min(0.7 * w, 0.55 * h)
+    return [
+        _box((-hx, hx), (-hy + door, hy), (0.0, h)),
+        _rod((-side / 2, side / 2), (-hy, -hy + door), (0.3 * h, 0.3 * h + side), (1.0, 1.0), axis=1),
+        _box((-hx + 0.05 * w, hx - 0.05 * w), (-hy + 0.5 * door, -hy + door), (0.85 * h, 0.97 * h)),
+    ]
+
+
+def _toaster(w: float, d: float, h: float) -> Parts:
+    """A rounded body and a lever on the +X side."""
+    hx, hy = w / 2, d / 2
+    lever = 0.12 * w
+    return [
+        _rod((-hx, hx - lever), (-hy, hy), (0.0, h), (1.0, 1.0), axis=0),
+        _box((hx - lever - 0.02 * w, hx), _centered(hy, 0.2), (0.45 * h, 0.6 * h)),
+    ]
+
+
+def _coffee_machine(w: float, d: float, h: float) -> Parts:
+    """A base, a column at the back (+Y), a head over the front, a carafe standing on the base."""
+    hx, hy = w / 2, d / 2
+    base = 0.12 * h
+    column = (hy - 0.45 * d, hy)
+    return [
+        _box((-hx, hx), (-hy, hy), (0.0, base)),
+        _box((-hx, hx), column, (base, h)),
+        _box(_centered(hx, 0.8), (-hy + 0.1 * d, column[0] + 0.01 * d), (0.78 * h, h)),
+        _cyl(_centered(hx, 0.5), (-hy + 0.12 * d, column[0]), (base, 0.62 * h)),
+    ]
+
+
+def _kettle(w: float, d: float, h: float) -> Parts:
+    """Kettle, watering can: a body, a lid knob, a spout to -X and a handle over the +X side."""
+    hx, hy = w / 2, d / 2
+    spout, grip = 0.2 * w, 0.14 * w
+    body_x = (-hx + spout, hx - grip)
+    cx = 0.5 * (body_x[0] + body_x[1])
+    knob = 0.1 * (body_x[1] - body_x[0])
+    tip = _cap(d, 0.06, 0.015)
+    return [
+        _frustum(body_x, (-hy, hy), (0.0, 0.85 * h), bottom=1.0, top=0.7),
+        _cyl((cx - knob, cx + knob), _centered(hy, 0.1), (0.8 * h, 0.92 * h)),
+        _hull(
+            [(body_x[0] + 0.1 * w, s * 0.12 * d, z) for s in (-1, 1) for z in (0.15 * h, 0.45 * h)]
+            + [(-hx, s * tip, z) for s in (-1, 1) for z in (0.66 * h, 0.76 * h)]
+        ),
+        _box((hx - 0.06 * w, hx), _centered(hy, 0.12), (0.25 * h, h)),
+        _box((cx, hx), _centered(hy, 0.12), (0.92 * h, h)),
+    ]
+
+
+def _teddy_bear(w: float, d: float, h: float) -> Parts:
+    """A sitting bear facing -Y: body, head, ears, arms, legs reaching forward; it sits on its body and legs."""
+    hx, hy = w / 2, d / 2
+    return [
+        _lump(_centered(hx, 0.6), (-hy + 0.25 * d, hy), (0.0, 0.62 * h)),
+        _lump(_centered(hx, 0.46), (-hy + 0.2 * d, hy - 0.1 * d), (0.55 * h, 0.95 * h)),
+        _lump((-hx * 0.46, -hx * 0.2), (-hy + 0.4 * d, hy - 0.3 * d), (0.85 * h, h)),
+        _lump((hx * 0.2, hx * 0.46), (-hy + 0.4 * d, hy - 0.3 * d), (0.85 * h, h)),
+        _lump((-hx, -hx + 0.3 * w), (-hy + 0.2 * d, hy - 0.2 * d), (0.2 * h, 0.5 * h)),
+        _lump((hx - 0.3 * w, hx), (-hy + 0.2 * d, hy - 0.2 * d), (0.2 * h, 0.5 * h)),
+        _lump((-hx + 0.15 * w, -0.02 * w), (-hy, hy - 0.35 * d), (0.0, 0.25 * h)),
+        _lump((0.02 * w, hx - 0.15 * w), (-hy, hy - 0.35 * d), (0.0, 0.25 * h)),
+    ]
+
+
+def _statue(w: float, d: float, h: float) -> Parts:
+    """Statue, figurine, decor piece: a plinth, a rounded body and a head."""
+    hx, hy = w / 2, d / 2
+    return [
+        _box(_centered(hx, 0.85), _centered(hy, 0.85), (0.0, 0.1 * h)),
+        _profile((-hx, hx), (-hy, hy), (0.08 * h, 0.75 * h), (0.7, 1.0, 0.55)),
+        _lump(_centered(hx, 0.5), _centered(hy, 0.5), (0.7 * h, h)),
+    ]
+
+
+def _towel_holder(w: float, d: float, h: float) -> Parts:
+    """Wall bar (towel holder, paper hanger): two brackets at the wall (+Y) and a bar toward -Y."""
+    hx, hy = w / 2, d / 2
+    post = _cap(w, 0.08, 0.03)
+    return [
+        _box((-hx, -hx + post), (-hy, hy), (0.0, h)),
+        _box((hx - post, hx), (-hy, hy), (0.0, h)),
+        _box((-hx, hx), (-hy, -hy + 0.4 * d), (0.3 * h, 0.7 * h)),
+    ]
+
+
+def _vacuum_cleaner(w: float, d: float, h: float) -> Parts:
+    """Upright vacuum: a floor head at the front (-Y), a body behind it, a handle up to the top."""
+    hx, hy = w / 2, d / 2
+    return [
+        _box((-hx, hx), (-hy, hy - 0.2 * d), (0.0, 0.12 * h)),
+        _box(_centered(hx, 0.6), (-hy + 0.3 * d, hy), (0.05 * h, 0.6 * h)),
+        _cyl(_centered(hx, 0.15), (hy - 0.35 * d, hy - 0.15 * d), (0.55 * h, 0.95 * h)),
+        _box(_centered(hx, 0.35), (hy - 0.35 * d, hy - 0.1 * d), (0.93 * h, h)),
+    ]
+
+
+def _boots(w: float, d: float, h: float) -> Parts:
+    """A pair of boots side by side: a foot toward -Y and a shaft at the back, each."""
+    hx, hy = w / 2, d / 2
+    parts: Parts = []
+    for xr in _split(-hx, hx, 2, 0.05 * w):
+        parts.append(_box(xr, (-hy, hy), (0.0, 0.25 * h)))
+        parts.append(_box(xr, (0.0, hy), (0.2 * h, h)))
+    return parts
+
+
+Layout = Callable[[float, float, float], tuple[Parts, list[Box6]]]
+
+# Hollow containers: their builders also say where the free compartments are (``interior_boards``).
+_LAYOUTS: dict[str, Layout] = {
+    "bookshelf": _bookshelf_layout,
+    "box": _box_layout,
+    "cabinet": _cabinet_layout,
+    "dresser": _dresser_layout,
+    "fridge": _fridge_layout,
+    "garbage_can": _garbage_can_layout,
+    "tv_stand": _tv_stand_layout,
+    "wardrobe": _wardrobe_layout,
+}
+
+
+def _parts_only(layout: Layout) -> Builder:
+    def build(w: float, d: float, h: float) -> Parts:
+        return layout(w, d, h)[0]
+
+    build.__doc__ = layout.__doc__
+    return build
 
 
 _BUILDERS: dict[str, Builder] = {
+    "alarm_clock": _alarm_clock,
     "armchair": _armchair,
+    "ball": _ball,
+    "baseball_bat": _baseball_bat,
     "bed": _bed,
     "book": _book,
-    "bookshelf": _bookshelf,
-    "box": _plain_box,
-    "cabinet": _cabinet,
+    "boots": _boots,
+    "bottle": _bottle,
+    "bowl": _bowl,
+    "candle": _candle,
+    "cd": _disc,
     "ceiling_lamp": _ceiling_lamp,
+    "cell_phone": _cell_phone,
     "chair": _chair,
+    "coffee_machine": _coffee_machine,
     "coffee_table": _coffee_table,
     "desk": _desk,
-    "dresser": _dresser,
     "dressing_table": _dressing_table,
+    "dumbbell": _dumbbell,
+    "faucet": _faucet,
     "floor_lamp": _floor_lamp,
+    "fruit": _fruit,
+    "garbage_bag": _garbage_bag,
+    "jar": _jar,
+    "kettle": _kettle,
+    "key_chain": _key_chain,
+    "knife": _knife,
     "l_shaped_sofa": _l_shaped_sofa,
     "laptop": _laptop,
+    "microwave": _microwave,
     "mug": _mug,
     "nightstand": _nightstand,
     "office_chair": _office_chair,
+    "paddle": _paddle,
     "painting": _painting,
+    "pan": _pan,
+    "paper_towel_roll": _paper_towel_roll,
+    "pencil": _pencil,
     "pillow": _pillow,
     "plant": _plant,
+    "plate": _plate,
+    "plunger": _plunger,
+    "pot": _pot,
+    "potato": _potato,
     "printer": _printer,
     "rug": _rug,
     "side_table": _side_table,
+    "sink": _sink,
     "sofa": _sofa,
+    "spoon": _spoon,
+    "statue": _statue,
     "stool": _stool,
     "table": _table,
     "table_lamp": _table_lamp,
+    "teddy_bear": _teddy_bear,
     "television": _tv,
-    "tv_stand": _tv_stand,
+    "toaster": _toaster,
+    "toilet": _toilet,
+    "toilet_paper": _toilet_paper,
+    "towel_holder": _towel_holder,
+    "vacuum_cleaner": _vacuum_cleaner,
     "vase": _vase,
-    "wardrobe": _wardrobe,
+    "washing_machine": _washing_machine,
+    "watch": _watch,
+    **{key: _parts_only(layout) for key, layout in _LAYOUTS.items()},
 }
 
 # Builder keys are categories of the scene vocabulary (``scene.normalize_category``), which maps the
@@ -723,7 +1520,7 @@ _BUILDERS: dict[str, Builder] = {
 # ``_snake`` and ``normalize_category`` write the category.
 _SYNONYMS: dict[str, tuple[str, ...]] = {
     "bed": ("double_bed", "single_bed", "kids_bed", "king_bed", "queen_bed", "bunk_bed", "dog_bed"),
-    "bookshelf": ("bookcase", "shelf", "shelving_unit", "shelves"),
+    "bookshelf": ("bookcase", "shelf", "shelving_unit", "shelves", "cart", "kitchen_cart"),
     "cabinet": (
         "wine_cabinet",
         "children_cabinet",
@@ -758,13 +1555,74 @@ _SYNONYMS: dict[str, tuple[str, ...]] = {
     "floor_lamp": ("floor_light", "standing_lamp"),
     "table_lamp": ("desk_lamp", "lamp", "bedside_lamp"),
     "plant": ("flower_pot",),
-    "rug": ("carpet", "mat", "floor_mat"),
+    "rug": ("carpet", "mat", "floor_mat", "towel", "hand_towel", "cloth", "blanket", "bath_mat"),
     "mug": ("cup", "coffee_mug", "teacup"),
     "book": ("notebook", "newspaper", "magazine"),
     "vase": ("flower_vase",),
     "painting": ("picture", "picture_frame", "poster", "mirror", "wall_art", "artwork", "photo_frame"),
     "pillow": ("cushion", "throw_pillow"),
-    "box": ("cardboard_box", "storage_box", "crate"),
+    "box": ("cardboard_box", "storage_box", "crate", "tissue_box", "aluminum_foil", "shoe_box"),
+    # household objects (AI2-THOR / ProcTHOR object types and common names)
+    "fruit": ("apple", "tomato", "orange", "lemon", "lime", "peach", "pear", "plum", "pomegranate", "mango"),
+    "potato": ("lettuce", "bread", "egg", "onion", "cabbage", "loaf", "soap_bar", "vegetable", "avocado"),
+    "ball": ("basket_ball", "basketball", "soccer_ball", "football", "tennis_ball", "baseball", "volleyball"),
+    "baseball_bat": ("bat", "cricket_bat", "rolling_pin"),
+    "bottle": ("wine_bottle", "soap_bottle", "spray_bottle", "water_bottle", "beer_bottle", "shampoo"),
+    "jar": ("salt_shaker", "pepper_shaker", "shaker", "canister", "spice_jar", "glass_jar"),
+    "candle": ("candlestick", "tea_light"),
+    "plate": ("dish", "saucer", "platter", "stove_burner"),
+    "bowl": ("salad_bowl", "mixing_bowl", "fruit_bowl"),
+    "pot": ("cooking_pot", "saucepan", "stock_pot"),
+    "pan": ("frying_pan", "skillet", "wok"),
+    "knife": ("butter_knife", "kitchen_knife", "fork", "table_knife"),
+    "spoon": ("ladle", "teaspoon", "tablespoon"),
+    "paddle": ("spatula", "tennis_racket", "racket", "hairbrush"),
+    "pencil": ("pen", "marker", "crayon", "chopsticks", "toothbrush"),
+    "cell_phone": (
+        "remote_control",
+        "remote",
+        "phone",
+        "smartphone",
+        "mobile_phone",
+        "credit_card",
+        "card",
+        "tablet",
+        "calculator",
+        "dish_sponge",
+        "sponge",
+        "keyboard",
+    ),
+    "cd": ("disc", "dvd", "coaster"),
+    "watch": ("wristwatch", "bracelet"),
+    "key_chain": ("keys", "key", "keychain"),
+    "alarm_clock": ("clock", "table_clock"),
+    "toilet_paper": ("toilet_roll", "toilet_paper_roll"),
+    "paper_towel_roll": ("paper_towel", "kitchen_roll"),
+    "plunger": ("broom", "mop", "scrub_brush", "toilet_brush"),
+    "garbage_can": (
+        "laundry_hamper",
+        "hamper",
+        "basket",
+        "storage_bin",
+        "bin",
+        "trash_bin",
+        "recycling_bin",
+        "wastebasket",
+        "waste_basket",
+    ),
+    "garbage_bag": ("trash_bag", "sack", "bag"),
+    "fridge": ("refrigerator", "freezer"),
+    "microwave": ("oven", "stove", "range", "toaster_oven", "dishwasher"),
+    "washing_machine": ("clothes_dryer", "dryer", "washer", "laundry_machine"),
+    "coffee_machine": ("coffee_maker", "espresso_machine"),
+    "kettle": ("watering_can", "teapot", "tea_kettle"),
+    "teddy_bear": ("stuffed_animal", "plush_toy", "toy"),
+    "statue": ("sculpture", "figurine", "room_decor", "table_top_decor", "decoration", "decor", "trophy"),
+    "faucet": ("shower_head", "tap"),
+    "sink": ("sink_basin", "wash_basin", "basin"),
+    "towel_holder": ("hand_towel_holder", "toilet_paper_hanger", "towel_rack", "towel_bar"),
+    "boots": ("shoes", "shoe", "sneakers"),
+    "dumbbell": ("kettlebell", "weights"),
 }
 _ALIASES: dict[str, str] = {synonym: key for key, names in _SYNONYMS.items() for synonym in names}
 
@@ -868,6 +1726,41 @@ def procedural_parts(category: str, extents: tuple[float, float, float]) -> list
     w, d, h = _check_extents(category, extents)
     key = procedural_key(category)
     return [p.copy() for p in _build(key, w, d, h)]
+
+
+@functools.lru_cache(maxsize=512)
+def _compartments(key: str, w: float, d: float, h: float) -> tuple[Box6, ...]:
+    layout = _LAYOUTS.get(key)
+    if layout is None:
+        return ()
+    parts, compartments = layout(w, d, h)
+    lo = np.min([p.bounds[0] for p in parts], axis=0)
+    hi = np.max([p.bounds[1] for p in parts], axis=0)
+    if not (
+        np.allclose(lo, [-w / 2, -d / 2, 0.0], atol=1e-9) and np.allclose(hi, [w / 2, d / 2, h], atol=1e-9)
+    ):
+        raise AssetError(f"procedural {key!r}: container layout does not fill its box")  # pragma: no cover
+    out: list[Box6] = []
+    for x0, x1, y0, y1, z0, z1 in compartments:
+        if x1 > x0 and y1 > y0 and z1 > z0:
+            out.append((float(x0), float(x1), float(y0), float(y1), float(z0), float(z1)))
+    return tuple(out)
+
+
+def interior_boards(category: str, extents: tuple[float, float, float]) -> list[Box6]:
+    """The free compartments of a hollow procedural container, bottom to top.
+
+    Each is an axis-aligned box ``(x0, x1, y0, y1, z_bottom, z_top)`` in the object frame (the
+    frame of :func:`procedural_parts`: ``x in [-w/2, w/2]``, ``y in [-d/2, d/2]``, ``z in [0, h]``,
+    front toward -Y): inside the side walls, from the inner face of the doors/drawer fronts (or the
+    open front of a bookshelf) to the back panel, from the top of one board to the underside of the
+    next. An item whose box lies inside a compartment, resting on ``z_bottom``, touches no part.
+    Front-opening containers (cabinet, wardrobe, dresser, tv stand, fridge, bookshelf and what the
+    alias table draws with them) have one compartment per board; top-opening ones (garbage can,
+    hamper, basket, box) have one, above the floor. Any other category gives ``[]``.
+    """
+    w, d, h = _check_extents(category, extents)
+    return list(_compartments(procedural_key(category), w, d, h))
 
 
 def procedural_mesh(category: str, extents: tuple[float, float, float]) -> trimesh.Trimesh:

@@ -27,6 +27,7 @@ from scenemosaic.physics import (
     CollisionPair,
     ObjectShape,
     collision_report_for,
+    resting_footprint,
 )
 from scenemosaic.scene import (
     ROBOT_RADIUS,
@@ -163,13 +164,24 @@ def physical_check(layout: UnitLayout, ctx: UnitContext, shapes: Mapping[str, Ob
     pairs = tuple(p for p in report.pairs if p.a in own or p.b in own)
     region = Polygon(ctx.surface.region)
     oob: list[str] = []
+    on_object = ctx.unit.anchor_kind == "object" and ctx.surface.projection != "anchor_front"
     for k in layout.ids:
-        poly = Polygon(layout.polygon(k))
+        # on an object, what a child stands on must be over the top (a television's foot, not its screen)
+        poly = _resting_uv(layout, k, shapes[k], ctx) if on_object and k in shapes else Polygon(layout.polygon(k))
         area = float(poly.area)
         inside = float(poly.intersection(region).area) / area if area > 1e-12 else 1.0
         if inside < OOB_MIN_INSIDE_FRACTION:
             oob.append(k)
     return PhysicalCheck(pairs, tuple(oob))
+
+
+def _resting_uv(layout: UnitLayout, oid: str, shape: ObjectShape, ctx: UnitContext) -> Polygon:
+    """What a child stands on (``physics.resting_footprint``), in the unit's (u, v) plane."""
+    foot = resting_footprint(_posed(layout, oid), shape)
+    surface = ctx.surface
+    pts = np.asarray(foot.exterior.coords)[:, :2]
+    world = np.concatenate([pts, np.zeros((len(pts), 1))], axis=1) - surface.origin * np.array([1.0, 1.0, 0.0])
+    return Polygon(convex_hull_2d(np.stack([world @ surface.u_axis, world @ surface.v_axis], axis=1)))
 
 
 def _nearby_obstacles(layout: UnitLayout, ctx: UnitContext) -> list[SceneObject]:

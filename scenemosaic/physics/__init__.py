@@ -10,6 +10,7 @@ from scenemosaic.physics._checks import (
     check_out_of_bounds,
     collision_report_for,
     require_finite_poses,
+    resting_footprint,
 )
 from scenemosaic.physics._hulls import HullInput, HullPiece, ObjectShape, hull_mesh, object_shape
 from scenemosaic.physics._reports import (
@@ -78,6 +79,7 @@ __all__ = [
     "object_shape",
     "plan_units",
     "require_finite_poses",
+    "resting_footprint",
     "room_slabs",
     "scene_world",
     "settle_unit",

@@ -32,6 +32,7 @@ __all__ = [
     "collision_report_for",
     "nested_furniture",
     "require_finite_poses",
+    "resting_footprint",
     "support_polygon",
 ]
 
@@ -149,15 +150,28 @@ def support_polygon(scene: Scene, anchor_id: str) -> Polygon | None:
     return _footprint(scene.get(anchor_id))
 
 
+def resting_footprint(obj: SceneObject, shape: ObjectShape) -> Polygon:
+    """What ``obj`` stands on, seen from above (world XY): the outline of its pieces within
+    ``BASE_BAND_M`` of its lowest point. A television on a foot rests on the foot; a box on its box."""
+    m = obj.pose.matrix(with_scale=False)
+    world = shape.base_vertices() @ m[:3, :3].T + m[:3, 3]
+    return Polygon(convex_hull_2d(world[:, :2]))
+
+
 def check_out_of_bounds(
-    scene: Scene, *, min_inside_fraction: float = OOB_MIN_INSIDE_FRACTION
+    scene: Scene,
+    *,
+    min_inside_fraction: float = OOB_MIN_INSIDE_FRACTION,
+    shapes: Mapping[str, ObjectShape] | None = None,
 ) -> OutOfBoundsReport:
     """Objects with less than ``min_inside_fraction`` of their footprint over their support surface.
 
     Floor, ceiling and unsupported objects are judged against the floor polygon (SceneEval's
     rule); objects on objects against the anchor's footprint; wall objects against the wall
-    rectangle, in the wall's plane. Footprints are the objects' oriented boxes. Raises
-    :class:`PhysicsError` for a non-finite pose.
+    rectangle, in the wall's plane. Footprints are the objects' oriented boxes, except that with
+    ``shapes`` an object resting on another object is judged by what it stands on
+    (:func:`resting_footprint`: a television wider than its stand is in bounds when its foot is).
+    Raises :class:`PhysicsError` for a non-finite pose.
     """
     require_finite_poses(scene, "check bounds")
     report = OutOfBoundsReport(min_inside_fraction=min_inside_fraction)
@@ -175,6 +189,8 @@ def check_out_of_bounds(
             e1 = np.array([w.direction[0], w.direction[1], 0.0])
             uv = np.stack([c @ e1, c[:, 2]], axis=1)
             foot = Polygon(convex_hull_2d(uv))
+        elif shapes is not None and obj.id in shapes and scene.anchor_kind(anchor) == "object":
+            foot = resting_footprint(obj, shapes[obj.id])
         else:
             foot = _footprint(obj)
         report.checked_objects += 1

@@ -27,7 +27,7 @@ from scipy.spatial import ConvexHull, QhullError
 from scenemosaic.assets import HullCache, object_hulls
 from scenemosaic.scene import FloatArray, SceneObject
 
-__all__ = ["HullPiece", "ObjectShape", "hull_mesh", "object_shape", "piece_from_vertices"]
+__all__ = ["BASE_BAND_M", "HullPiece", "ObjectShape", "hull_mesh", "object_shape", "piece_from_vertices"]
 
 log = structlog.get_logger(__name__)
 
@@ -53,6 +53,10 @@ class HullPiece:
         return hull_mesh(self.vertices)
 
 
+BASE_BAND_M = 0.02
+"""Pieces whose bottom lies within this height of an object's lowest point are what it stands on (m)."""
+
+
 @dataclass(frozen=True)
 class ObjectShape:
     """All convex pieces of one object, with the local bounds they span."""
@@ -69,6 +73,13 @@ class ObjectShape:
         """Each piece's vertices under a 4x4 local-to-world transform (rotation + translation)."""
         r, t = matrix[:3, :3], matrix[:3, 3]
         return [p.vertices @ r.T + t for p in self.pieces]
+
+    def base_vertices(self, band: float = BASE_BAND_M) -> FloatArray:
+        """Local vertices of the pieces the object stands on: those reaching within ``band`` of
+        its lowest point (a television's foot, a lamp's base, a whole box for a box)."""
+        low = float(self.lower[2])
+        base = [p.vertices for p in self.pieces if float(p.vertices[:, 2].min()) <= low + band]
+        return np.concatenate(base) if base else np.concatenate([p.vertices for p in self.pieces])
 
 
 def hull_mesh(vertices: Any) -> trimesh.Trimesh:

@@ -93,7 +93,12 @@ class UnitReport(_Report):
     containment_moves: dict[str, float] = Field(
         default_factory=dict, description="Objects moved inside the anchor's surface, and by how far (m)."
     )
-    larger_than_anchor: list[str] = Field(default_factory=list)
+    larger_than_anchor: list[str] = Field(
+        default_factory=list, description="Children that found no free place on the anchor's surface."
+    )
+    turned: list[str] = Field(
+        default_factory=list, description="Loose items turned a quarter to fit the anchor's free surface."
+    )
     separation_moves: dict[str, float] = Field(
         default_factory=dict,
         description="Objects moved to resolve initial interpenetration, and by how far (m).",

@@ -27,6 +27,7 @@ import numpy as np
 import structlog
 from shapely.geometry import Polygon
 
+from scenemosaic.assets import interior_boards
 from scenemosaic.physics._hulls import ObjectShape
 from scenemosaic.physics._planar import UnitFrame, unit_frame
 from scenemosaic.physics._reports import UnitReport
@@ -42,14 +43,18 @@ from scenemosaic.physics._units import UnitPlan
 from scenemosaic.physics._world import BuiltWorld, JointMode, WorldBuilder
 from scenemosaic.scene import (
     FloatArray,
+    PackItem,
+    PackResult,
     Pose,
     Scene,
     SceneObject,
     convex_hull_2d,
     edge_axes,
     minimal_containing_shift,
+    pack_surface,
     quat_multiply,
     sat_overlap,
+    traits,
 )
 
 __all__ = ["is_thin", "settle_unit"]
@@ -134,6 +139,102 @@ def _support_height(
         if below:
             return max(below)
     return max(p.hi for p in under)
+
+
+def _pack_children(
+    scene: Scene, plan: UnitPlan, frame: UnitFrame, shapes: Mapping[str, ObjectShape]
+) -> tuple[PackResult, dict[str, float]] | None:
+    """Lay an object anchor's children out without overlap (``scene.pack_surface``): those on its
+    top over the top, those inside it in its compartments (``assets.interior_boards``: each on
+    the board its bottom is nearest above, or the next one it fits under). What fits where it
+    stands stays; the rest goes to the nearest free place, small loose items may turn a quarter;
+    a child wider than the top (a television on a narrower stand) is placed by what it stands on
+    (its foot) and its box kept clear of the others. Returns the layout and, for children inside,
+    the height (along ``frame.up``) of the board each rests on."""
+    if frame.region is None:
+        return None
+    anchor = scene.get(plan.anchor_id)
+    inside = [c for c in plan.children if (rel := scene.support_of(c)) is not None and rel.kind == "contain"]
+    compartments = (
+        interior_boards(anchor.asset.category or anchor.category, anchor.size) if anchor.asset.kind == "procedural" else []
+    )
+    if not compartments:
+        inside = []
+    result = _pack_region(scene, [c for c in plan.children if c not in inside], frame, frame.region, shapes)
+    heights: dict[str, float] = {}
+    am = anchor.pose.matrix(with_scale=False)
+    groups: dict[int, list[str]] = {}
+    for cid in inside:
+        k = _compartment_for(scene.get(cid), anchor, compartments)
+        if k is None:
+            result.unplaced.append(cid)
+        else:
+            groups.setdefault(k, []).append(cid)
+    for k, members in sorted(groups.items()):
+        x0, x1, y0, y1, zb, _ = compartments[k]
+        rect = np.array([[x0, y0, zb], [x1, y0, zb], [x1, y1, zb], [x0, y1, zb]]) @ am[:3, :3].T + am[:3, 3]
+        part = _pack_region(scene, members, frame, Polygon(convex_hull_2d(frame.uv(rect))), shapes)
+        result.shifts.update(part.shifts)
+        result.turned |= part.turned
+        result.kept += part.kept
+        result.unplaced += part.unplaced
+        board = float(frame.h(rect[:1])[0])
+        heights.update({cid: board for cid in members if cid not in part.unplaced})
+    return result, heights
+
+
+def _compartment_for(
+    child: SceneObject, anchor: SceneObject, compartments: list[tuple[float, float, float, float, float, float]]
+) -> int | None:
+    """The compartment a contained child goes in: the one whose board its bottom is nearest above
+    (it must fit under the next board), else the nearest one it fits in."""
+    bottom = float(child.aabb()[0][2]) - float(anchor.pose.position[2])
+    tall = float(child.size[2])
+    fits = [k for k, c in enumerate(compartments) if c[5] - c[4] >= tall + 0.005]
+    if not fits:
+        return None
+    return min(fits, key=lambda k: (compartments[k][4] > bottom + 0.05, abs(compartments[k][4] - bottom)))
+
+
+def _pack_region(
+    scene: Scene, children: list[str], frame: UnitFrame, region: Polygon, shapes: Mapping[str, ObjectShape]
+) -> PackResult:
+    """``pack_surface`` of ``children`` over ``region``, then those wider than it placed by their base."""
+    items = []
+    for cid in children:
+        obj = scene.get(cid)
+        loose = not obj.sim.static and traits(obj.category).placement == "surface"
+        items.append(PackItem(cid, _box_uv(obj, obj.pose.matrix(with_scale=False), frame), movable=not obj.sim.static, may_turn=loose))
+    first = pack_surface(region, items)
+    if not first.unplaced:
+        return first
+    placed_by_base: dict[str, FloatArray] = {}
+    for cid in first.unplaced:
+        obj = scene.get(cid)
+        m = obj.pose.matrix(with_scale=False)
+        base = shapes[cid].base_vertices() @ m[:3, :3].T + m[:3, 3]
+        shift = minimal_containing_shift(convex_hull_2d(frame.uv(base)), region)
+        if shift is not None:
+            placed_by_base[cid] = shift
+    if not placed_by_base:
+        return first
+    items = [
+        PackItem(i.id, i.corners + placed_by_base[i.id], movable=False) if i.id in placed_by_base else i for i in items
+    ]
+    second = pack_surface(region, items)
+    for cid, shift in placed_by_base.items():
+        second.shifts[cid] = shift
+    return second
+
+
+def _quarter_turn(matrix: FloatArray, frame: UnitFrame) -> FloatArray:
+    """``matrix`` turned 90 degrees about the support's up axis through the object's origin."""
+    axis = frame.up / np.linalg.norm(frame.up)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    turn = np.eye(3) + k + k @ k  # Rodrigues' formula at 90 degrees
+    out = matrix.copy()
+    out[:3, :3] = turn @ matrix[:3, :3]
+    return out
 
 
 def _pair_push(a: _Body, b: _Body, gap: float) -> tuple[float, FloatArray] | None:
@@ -279,6 +380,8 @@ def settle_unit(
         else []
     )
 
+    laid_out = _pack_children(scene, plan, frame, shapes) if plan.anchor_kind == "object" else None
+    packed, boards = laid_out if laid_out is not None else (None, {})
     bodies: list[_Body] = []
     for cid in plan.children:
         obj = scene.get(cid)
@@ -287,9 +390,15 @@ def settle_unit(
         # static children (hung lamps, mounted TVs) are still placed inside and onto their anchor;
         # "static" only keeps them fixed while the dynamic siblings settle
         movable = not obj.sim.static
+        if packed is not None and cid in packed.turned:
+            matrix = _quarter_turn(matrix, frame)
+            report.turned.append(cid)
         box_uv = _box_uv(obj, matrix, frame)
         if frame.region is not None:
-            shift = minimal_containing_shift(box_uv, frame.region)
+            if packed is not None and (cid in packed.shifts or cid in packed.unplaced):
+                shift: FloatArray | None = packed.shifts.get(cid)
+            else:
+                shift = minimal_containing_shift(box_uv, frame.region)
             if shift is None:
                 report.larger_than_anchor.append(cid)
                 centre = np.asarray(frame.region.centroid.coords[0])
@@ -302,6 +411,8 @@ def settle_unit(
         hi = max(p.hi for p in pieces)
         if frame.support_h is not None:
             target = frame.support_h
+        elif cid in boards:  # inside: on the board of its compartment
+            target = boards[cid]
         else:
             rel = scene.support_of(cid)
             contained = rel is not None and rel.kind == "contain"
@@ -357,7 +468,7 @@ def settle_unit(
                 pieces = _world_pieces(b.shape, b.matrix, frame)
                 lo, hi = min(p.lo for p in pieces), max(p.hi for p in pieces)
                 rel = scene.support_of(b.obj.id)
-                target = _support_height(
+                target = boards.get(b.obj.id) or _support_height(
                     convex_hull_2d(np.concatenate([p.uv for p in pieces])),
                     lo,
                     hi,

@@ -173,7 +173,7 @@ def validate_scene(
     require_finite_poses(scene, "validate the scene")
     shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
     collisions = collision_report_for(scene, shapes)
-    oob = check_out_of_bounds(scene)
+    oob = check_out_of_bounds(scene, shapes=shapes)
     gaps = support_gaps(scene, shapes) if scene.objects else {}
 
     world = scene_world(scene, shapes, sim).compile()

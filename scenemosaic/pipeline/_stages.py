@@ -255,7 +255,8 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
         variant.provenance.steps.append("compose")
         variant.provenance.notes.append(f"variant {i}: " + ", ".join(f"{k} {v}" for k, v in picked.items()))
         check = functools.partial(check_collisions, variant, run.base_dir, hull_cache=run.cache())
-        cols, oob = await asyncio.to_thread(check), await asyncio.to_thread(check_out_of_bounds, variant)
+        bounds = functools.partial(check_out_of_bounds, variant, shapes=shapes)
+        cols, oob = await asyncio.to_thread(check), await asyncio.to_thread(bounds)
         name = run.folder.variant(i).name
         checked.append({"folder": name, "collision_pairs": len(cols.pairs), "out_of_bounds": len(oob.objects)})
         if cols.pairs or oob.objects:

@@ -92,6 +92,7 @@ from scenemosaic.scene._nesting import (
     may_share_floor,
     nested_pairs,
 )
+from scenemosaic.scene._packing import PACK_CLEARANCE_M, PackItem, PackResult, pack_surface
 from scenemosaic.scene._planar import convex_hull_2d, edge_axes, minimal_containing_shift, sat_overlap
 from scenemosaic.scene._room import (
     CEILING_LAMP_CATEGORIES,
@@ -161,6 +162,7 @@ __all__ = [
     "MIN_SCALE",
     "NESTED_FRACTION",
     "OBJECT_ID_PATTERN",
+    "PACK_CLEARANCE_M",
     "PROCTHOR_PRIORS_DIR",
     "QUAT_NORM_TOLERANCE",
     "ROBOT_RADIUS",
@@ -184,6 +186,8 @@ __all__ = [
     "NestedPair",
     "ObjectState2D",
     "Opening",
+    "PackItem",
+    "PackResult",
     "Pose",
     "Provenance",
     "Relation",
@@ -219,6 +223,7 @@ __all__ = [
     "normalize_category",
     "normalize_degrees",
     "object_count_problem",
+    "pack_surface",
     "quat_from_matrix",
     "quat_from_yaw",
     "quat_multiply",

@@ -364,6 +364,33 @@ class SupportPriors:
             return None
         return child in self.on[parent]
 
+    def type_of(self, category: str) -> str | None:
+        """The AI2-THOR type of a category: :func:`thor_type`, else the category in CamelCase when
+        the priors know that type (``baseball_bat`` -> ``BaseballBat``, as ProcTHOR's own labels)."""
+        t = thor_type(category)
+        if t is not None:
+            return t
+        camel = "".join(w.capitalize() for w in normalize_category(category).split("_"))
+        return camel if camel in self.on or camel in self.floor or camel in self.pickupable else None
+
+    def probability(self, child_category: str, parent_category: str) -> float | None:
+        """The share of a receptacle type's items that were of the child's type in ProcTHOR (0 when
+        never seen on it); ``None`` when either type is unmapped or the parent is no receptacle."""
+        child, parent = self.type_of(child_category), self.type_of(parent_category)
+        if child is None or parent is None or parent not in self.on:
+            return None
+        return self.on[parent].get(child, 0.0)
+
+    def is_pickupable(self, category: str) -> bool:
+        """Whether the category's type is a small thing one picks up (AI2-THOR's ``isPickupable``)."""
+        t = self.type_of(category)
+        return t is not None and t in self.pickupable
+
+    def on_floor(self, category: str) -> bool:
+        """Whether the category's type may lie on the floor (AI2-THOR's ``onFloor`` annotation)."""
+        t = self.type_of(category)
+        return t is not None and t in self.floor
+
     def is_receptacle(self, category: str) -> bool | None:
         """Whether the category's type is a ProcTHOR receptacle; None when unmapped."""
         t = thor_type(category)

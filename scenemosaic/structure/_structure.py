@@ -25,6 +25,7 @@ from scenemosaic.structure._constraints import ConstraintsAgent
 from scenemosaic.structure._containment import ContainmentAgent
 from scenemosaic.structure._manager import DEFAULT_AGENTS, ManagerAgent, StructuringPlan
 from scenemosaic.structure._support import SupportAgent
+from scenemosaic.structure._verify import VerificationAgent
 
 __all__ = ["structure_scene"]
 
@@ -42,6 +43,8 @@ def _with_priors(agents: Sequence[TaskAgent[SceneState, Any, Any]], priors_dir: 
             agent = ContainmentAgent(priors)
         elif type(agent) is ConstraintsAgent:
             agent = ConstraintsAgent(priors_dir)
+        elif type(agent) is VerificationAgent:
+            agent = VerificationAgent(priors)
         out.append(agent)
     return out
 

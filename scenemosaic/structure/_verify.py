@@ -8,6 +8,13 @@ seat are put on it; two floor-standing pieces of furniture whose boxes stand ins
 (:func:`scenemosaic.scene.nested_pairs`: a TV stand slid under a dressing table) are parted by
 moving the smaller one the least distance that separates them, provided it stays inside the
 room and clear of every other piece; otherwise the larger one, otherwise the pair is reported.
+Receptacles (``docs/structuring.md``, "Crowded surfaces"): a small item whose receptacle is
+implausible by the ProcTHOR priors (seen there on that receptacle's type less than
+``PLAUSIBLE_P`` of the time: toilet paper in a garbage can, a bowl on a chair) moves to the
+nearest plausible receptacle of the room with room for it, or to the floor when its type may lie
+there; fruit on top of a fridge goes inside it; and a top that cannot take all its items
+(``scene.pack_surface``) sends the ones that do not fit the same way. Each move is a fix with its
+reason, so the report lists every re-parenting.
 Apply then builds the
 scene tree (:func:`scenemosaic.scene._tree.build_structure`) so every unit is non-empty by
 construction; anything left over is reported in the scene's provenance notes.
@@ -15,7 +22,7 @@ construction; anything left over is reported in the scene's provenance notes.
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
@@ -27,9 +34,13 @@ from scenemosaic.scene import (
     CEILING,
     FLOOR,
     CrossUnitConstraint,
+    PackItem,
     Relation,
+    SupportPriors,
     build_structure,
+    load_priors,
     nested_pairs,
+    pack_surface,
     traits,
 )
 from scenemosaic.structure._constraints import foreign_note_ids
@@ -43,7 +54,17 @@ from scenemosaic.structure._facts import (
 )
 from scenemosaic.structure._room import MAX_PULL_IN, ObjectShift
 
-__all__ = ["NestedFacts", "ParentFix", "VerificationAgent", "VerificationEvidence", "VerificationOutput"]
+__all__ = [
+    "PLAUSIBLE_P",
+    "ItemPlacement",
+    "NestedFacts",
+    "ParentFix",
+    "ReceptacleOption",
+    "VerificationAgent",
+    "VerificationEvidence",
+    "VerificationOutput",
+    "placement_options",
+]
 
 
 class ParentFix(AgentOutput):
@@ -52,6 +73,33 @@ class ParentFix(AgentOutput):
     object_id: str = Field(max_length=64)
     parent: str = Field(max_length=64)
     reason: str = Field(default="", max_length=200)
+    kind: Literal["attach", "contain"] = Field(
+        default="attach", description="attach: rests on (or hangs from) the parent; contain: inside it."
+    )
+    at: Vec2 | None = Field(
+        default=None, description="Where the object's centre goes (x, y), when it moves to another receptacle."
+    )
+
+
+class ReceptacleOption(AgentOutput):
+    """A receptacle of the room where an item would be plausible."""
+
+    receptacle_id: str
+    p: float = Field(description="How often ProcTHOR found the item's type on this receptacle's type (share of its items).")
+    distance_m: float = Field(description="From the item's centre to the receptacle's footprint.")
+    contain: bool = Field(description="Items go inside it (a fridge), not on top.")
+
+
+class ItemPlacement(AgentOutput):
+    """A small item resting on (or in) another object, and where else it would be plausible."""
+
+    object_id: str
+    parent_p: float | None = Field(
+        description="How often ProcTHOR found the item's type on its parent's type; null when unknown."
+    )
+    into_parent: bool = Field(description="The parent is a tall front-opening container: the item belongs inside.")
+    floor_ok: bool = Field(description="Its type may lie on the floor.")
+    options: list[ReceptacleOption] = Field(default_factory=list, max_length=8)
 
 
 class VerificationOutput(AgentOutput):
@@ -90,6 +138,7 @@ class VerificationEvidence(AgentOutput):
     )
     nested: list[NestedFacts] = Field(default_factory=list, max_length=MAX_ITEMS)
     floor: list[Vec2] = Field(default_factory=list, max_length=256, description="Room floor polygon, if any.")
+    items: list[ItemPlacement] = Field(default_factory=list, max_length=MAX_ITEMS)
 
 
 SOFT_ON_FURNITURE = frozenset({"pillow", "throw_pillow", "cushion"})
@@ -180,6 +229,181 @@ def _parting_moves(evidence: VerificationEvidence) -> tuple[list[ObjectShift], l
     return moves, problems
 
 
+PLAUSIBLE_P = 0.04
+"""An item ProcTHOR found on its receptacle's type less often than this (share of that receptacle
+type's items) is implausible there: toilet paper in a garbage can (0.036), a candle in one (0.005),
+a bowl on a chair (0.007), a baseball bat on a bed (0.024) or a chair (0)."""
+REHOME_REACH_M = 6.0
+"""Receptacles farther than this from an item are not offered as its new place."""
+TALL_CONTAINER_M = 1.2
+"""A front-opening container taller than this (a fridge) holds its items inside, not on top."""
+
+
+def placement_options(
+    objects: list[ObjectFacts], parents: dict[str, str | None], priors: SupportPriors
+) -> list[ItemPlacement]:
+    """For every small item resting on or in another object: how plausible its parent is and the
+    plausible receptacles of the room, nearest first."""
+    facts = {o.id: o for o in objects}
+    carriers = [o for o in objects if traits(o.category).supports or priors.is_receptacle(o.category) is True]
+    out: list[ItemPlacement] = []
+    for o in objects:
+        parent = facts.get(parents.get(o.id) or "")
+        if parent is None or not priors.is_pickupable(o.category):
+            continue
+        options: list[ReceptacleOption] = []
+        for c in carriers:
+            if c.id in (o.id, parent.id):
+                continue
+            p = priors.probability(o.category, c.category)
+            dist = float(c.polygon().distance(o.polygon()))
+            if p is not None and p >= PLAUSIBLE_P and dist <= REHOME_REACH_M:
+                options.append(
+                    ReceptacleOption(receptacle_id=c.id, p=round(p, 4), distance_m=round(dist, 3), contain=_holds_inside(c))
+                )
+        options.sort(key=lambda r: (r.distance_m, -r.p, r.receptacle_id))
+        p_parent = priors.probability(o.category, parent.category)
+        out.append(
+            ItemPlacement(
+                object_id=o.id,
+                parent_p=round(p_parent, 4) if p_parent is not None else None,
+                into_parent=_holds_inside(parent) and o.relation != "contain",
+                floor_ok=priors.on_floor(o.category),
+                options=options[:8],
+            )
+        )
+    return out
+
+
+def _holds_inside(o: ObjectFacts) -> bool:
+    t = traits(o.category)
+    return t.contains and t.opening == "front" and o.size[2] > TALL_CONTAINER_M
+
+
+def _receptacle_fixes(
+    evidence: VerificationEvidence, parents: dict[str, str]
+) -> tuple[list[ParentFix], list[ObjectShift], list[str]]:
+    """Implausible receptacles and over-full tops: the fixes that re-home items, and the moves that
+    lay each top out so that what stays fits (see the module docstring)."""
+    facts = {o.id: o for o in evidence.objects}
+    items = {i.object_id: i for i in evidence.items}
+    kids: dict[str, list[ObjectFacts]] = {}
+    for o in evidence.objects:
+        if parents.get(o.id) in facts and o.relation != "contain":
+            kids.setdefault(parents[o.id], []).append(o)
+    fixes: list[ParentFix] = []
+    moves: list[ObjectShift] = []
+    problems: list[str] = []
+    leaving: list[tuple[str, str]] = []
+    inside: set[str] = set()
+    for i in evidence.items:
+        if i.object_id not in facts or parents.get(i.object_id) not in facts:
+            continue
+        if i.parent_p is not None and i.parent_p < PLAUSIBLE_P and (i.options or i.floor_ok):
+            leaving.append((i.object_id, f"{facts[i.object_id].category} is implausible on its receptacle (p {i.parent_p:g})"))
+        elif i.into_parent:
+            parent = parents[i.object_id]
+            fixes.append(ParentFix(object_id=i.object_id, parent=parent, kind="contain", reason="belongs inside it, not on top"))
+            inside.add(i.object_id)
+    gone = {oid for oid, _ in leaving} | inside
+    layout: dict[str, list[np.ndarray]] = {}
+    for parent, on_top in sorted(kids.items()):
+        staying = [k for k in on_top if k.id not in gone]
+        if not staying:
+            continue
+        packed = pack_surface(
+            facts[parent].polygon(), [PackItem(k.id, np.asarray(k.footprint), may_turn=k.id in items) for k in staying]
+        )
+        for k in staying:
+            if k.id in packed.unplaced:
+                if k.id in items:
+                    leaving.append((k.id, f"no room left on {parent}"))
+                    gone.add(k.id)
+                continue
+            shift = packed.shifts.get(k.id, np.zeros(2))
+            layout.setdefault(parent, []).append(np.asarray(k.footprint) + shift)
+            if k.id not in packed.kept and k.id not in packed.turned and float(np.hypot(*shift)) > 1e-3:
+                moves.append(
+                    ObjectShift(
+                        object_id=k.id,
+                        dx=round(float(shift[0]), 4),
+                        dy=round(float(shift[1]), 4),
+                        reason=f"made room on the crowded {facts[parent].category}",
+                    )
+                )
+    for oid, why in leaving:
+        fix = _rehome(facts[oid], items.get(oid), why, facts, layout, evidence, parents)
+        if fix is None:
+            problems.append(f"{oid}: {why}, and no plausible receptacle or floor spot has room for it")
+            continue
+        fixes.append(fix)
+        parents[oid] = fix.parent
+    return fixes, moves, problems
+
+
+def _rehome(
+    item: ObjectFacts,
+    placement: ItemPlacement | None,
+    why: str,
+    facts: dict[str, ObjectFacts],
+    layout: dict[str, list[np.ndarray]],
+    evidence: VerificationEvidence,
+    parents: dict[str, str],
+) -> ParentFix | None:
+    """The nearest plausible receptacle with room for ``item`` (its laid-out top packed again with
+    the item set down at its centre), else a free floor spot near it when its type may lie there.
+    ``layout`` holds each top's footprints as laid out so far and gains the item's."""
+    corners = np.asarray(item.footprint)
+    centre = corners.mean(axis=0)
+    for opt in placement.options if placement is not None else []:
+        host = facts.get(opt.receptacle_id)
+        if host is None or _within(host.id, item.id, parents):
+            continue
+        here = np.asarray(host.center) - centre
+        others = [PackItem(f"placed_{n}", c, movable=False) for n, c in enumerate(layout.get(host.id, []))]
+        packed = pack_surface(host.polygon(), [*others, PackItem(item.id, corners + here, may_turn=False)])
+        if item.id in packed.unplaced:
+            continue
+        spot = corners + here + packed.shifts[item.id]
+        layout.setdefault(host.id, []).append(spot)
+        at = spot.mean(axis=0)
+        return ParentFix(
+            object_id=item.id,
+            parent=host.id,
+            kind="contain" if opt.contain else "attach",
+            at=(round(float(at[0]), 4), round(float(at[1]), 4)),
+            reason=f"{why}; moved to {host.id} (p {opt.p:g})",
+        )
+    if placement is None or not placement.floor_ok or len(evidence.floor) < 3:
+        return None
+    standing = [PackItem(o.id, np.asarray(o.footprint), movable=False) for o in evidence.objects if parents.get(o.id) == FLOOR and o.id != item.id]
+    standing += [PackItem(f"placed_{n}", c, movable=False) for n, c in enumerate(layout.get(FLOOR, []))]
+    packed = pack_surface(Polygon(evidence.floor), [*standing, PackItem(item.id, corners, may_turn=False)], clearance=0.02, edge=0.05)
+    if item.id in packed.unplaced:
+        return None
+    spot = corners + packed.shifts[item.id]
+    layout.setdefault(FLOOR, []).append(spot)
+    at = spot.mean(axis=0)
+    return ParentFix(
+        object_id=item.id,
+        parent=FLOOR,
+        at=(round(float(at[0]), 4), round(float(at[1]), 4)),
+        reason=f"{why}; set on the floor beside it",
+    )
+
+
+def _within(candidate: str, item: str, parents: dict[str, str]) -> bool:
+    """Whether ``candidate`` rests (directly or not) on ``item``: an item cannot move onto what it carries."""
+    seen = set()
+    node = candidate
+    while node in parents and node not in seen:
+        seen.add(node)
+        node = parents[node]
+        if node == item:
+            return True
+    return False
+
+
 def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
     """The verification rule solver (see the module docstring)."""
     facts = {o.id: o for o in evidence.objects}
@@ -196,6 +420,10 @@ def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
         parents[low.id] = FLOOR
     fixes += _soft_things_on_the_floor(evidence.objects, parents)
     moves, problems = _parting_moves(evidence)
+    rehomed, room_made, unhoused = _receptacle_fixes(evidence, parents)
+    fixes += rehomed
+    moves += room_made
+    problems += unhoused
     drop: list[str] = []
     for c in evidence.constraints:
         for clause in (c.anchor_a, c.anchor_b):
@@ -222,10 +450,14 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"top", "relation", "label"})
     object_id_fields: ClassVar[tuple[str, ...]] = ("fixes.object_id", "moves.object_id")
 
+    def __init__(self, priors: SupportPriors | None = None) -> None:
+        self.priors = priors if priors is not None else load_priors()
+
     def gather(self, state: SceneState) -> VerificationEvidence:
         scene = state.scene
+        objs = object_facts(scene)
         return VerificationEvidence(
-            objects=object_facts(scene),
+            objects=objs,
             constraints=list(scene.constraints),
             anchors=sorted(scene.anchor_ids()),
             nested=[
@@ -233,6 +465,7 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
                 for p in nested_pairs(scene)
             ],
             floor=[(round(x, 3), round(y, 3)) for x, y in scene.room.floor] if scene.room is not None else [],
+            items=placement_options(objs, {o.id: o.parent for o in objs}, self.priors),
         )
 
     def solve(self, evidence: VerificationEvidence) -> VerificationOutput:
@@ -276,10 +509,7 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
         scene = state.scene
         fixed = {f.object_id: f for f in output.fixes}
         rels = [r for r in scene.relations if not (r.is_support and r.child in fixed)]
-        rels += [
-            Relation(kind="attach", child=f.object_id, parent=f.parent, source=self.name)
-            for f in output.fixes
-        ]
+        rels += [Relation(kind=f.kind, child=f.object_id, parent=f.parent, source=self.name) for f in output.fixes]
         drop = set(output.drop_constraints)
         constraints = [c for c in scene.constraints if c.id not in drop]
         notes = [*scene.provenance.notes, *(f"verify: {p}" for p in output.problems)]
@@ -293,4 +523,10 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
         )
         if output.moves:
             translate_objects(scene, {m.object_id: (m.dx, m.dy, 0.0) for m in output.moves})
+        placed = {f.object_id: f.at for f in output.fixes if f.at is not None}
+        if placed:  # a re-homed item goes to its new receptacle; physics sets it down on the surface
+            centres = {o.id: o.center for o in object_facts(scene) if o.id in placed}
+            translate_objects(
+                scene, {k: (at[0] - centres[k][0], at[1] - centres[k][1], 0.0) for k, at in placed.items() if at is not None}
+            )
         state.scene = replace_scene(scene, structure=build_structure(scene))
