@@ -142,7 +142,7 @@ def _support_height(
 
 
 def _pack_children(
-    scene: Scene, plan: UnitPlan, frame: UnitFrame, shapes: Mapping[str, ObjectShape]
+    scene: Scene, plan: UnitPlan, frame: UnitFrame, shapes: Mapping[str, ObjectShape], anchor_pieces: list[_Piece]
 ) -> tuple[PackResult, dict[str, float]] | None:
     """Lay an object anchor's children out without overlap (``scene.pack_surface``): those on its
     top over the top, those inside it in its compartments (``assets.interior_boards``: each on
@@ -160,7 +160,17 @@ def _pack_children(
     )
     if not compartments:
         inside = []
-    result = _pack_region(scene, [c for c in plan.children if c not in inside], frame, frame.region, shapes)
+    levels: dict[float, list[str]] = {}
+    for cid in plan.children:
+        if cid not in inside:
+            levels.setdefault(_resting_level(scene.get(cid), anchor_pieces, frame), []).append(cid)
+    result = PackResult()
+    for level, members in sorted(levels.items()):
+        part = _pack_region(scene, members, frame, _surface_at(level, anchor_pieces, frame.region), shapes)
+        result.shifts.update(part.shifts)
+        result.turned |= part.turned
+        result.kept += part.kept
+        result.unplaced += part.unplaced
     heights: dict[str, float] = {}
     am = anchor.pose.matrix(with_scale=False)
     groups: dict[int, list[str]] = {}
@@ -181,6 +191,40 @@ def _pack_children(
         board = float(frame.h(rect[:1])[0])
         heights.update({cid: board for cid in members if cid not in part.unplaced})
     return result, heights
+
+
+LEVEL_BAND_M = 0.03
+"""Anchor pieces whose tops lie within this height of the level a child rests at make up the
+surface it is laid out on (a bed's mattress, not its headboard; a toilet's tank lid, not its bowl)."""
+
+
+def _resting_level(child: SceneObject, anchor_pieces: list[_Piece], frame: UnitFrame) -> float:
+    """The height of the anchor surface ``child`` rests on: the highest piece top under its footprint
+    that is not above its bottom (by more than the band), rounded to a centimetre."""
+    bottom = float(frame.h(child.corners()).min())
+    foot = Polygon(_box_uv(child, child.pose.matrix(with_scale=False), frame))
+    under = [p.hi for p in anchor_pieces if len(p.uv) >= 3 and Polygon(p.uv).intersects(foot)]
+    below = [h for h in under if h <= bottom + LEVEL_BAND_M]
+    level = max(below) if below else max((p.hi for p in anchor_pieces), default=bottom)
+    return round(level, 2)
+
+
+def _surface_at(level: float, anchor_pieces: list[_Piece], region: Polygon) -> Polygon:
+    """The anchor's free surface at ``level``: the outline of its pieces whose tops lie there,
+    less what rises above it, within ``region``; ``region`` itself when that leaves too little."""
+    from shapely.ops import unary_union
+
+    flat = [Polygon(p.uv) for p in anchor_pieces if len(p.uv) >= 3 and abs(p.hi - level) <= LEVEL_BAND_M]
+    above = [Polygon(p.uv) for p in anchor_pieces if len(p.uv) >= 3 and p.hi > level + LEVEL_BAND_M and p.lo < level + 0.1]
+    if not flat:
+        return region
+    surface = unary_union(flat)
+    if above:
+        surface = surface.difference(unary_union(above))
+    surface = surface.intersection(region)
+    if surface.is_empty or surface.area < 0.2 * region.area or surface.geom_type not in ("Polygon", "MultiPolygon"):
+        return region
+    return surface
 
 
 def _compartment_for(
@@ -380,7 +424,7 @@ def settle_unit(
         else []
     )
 
-    laid_out = _pack_children(scene, plan, frame, shapes) if plan.anchor_kind == "object" else None
+    laid_out = _pack_children(scene, plan, frame, shapes, anchor_pieces) if plan.anchor_kind == "object" else None
     packed, boards = laid_out if laid_out is not None else (None, {})
     bodies: list[_Body] = []
     for cid in plan.children:

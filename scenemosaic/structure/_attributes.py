@@ -80,6 +80,7 @@ ATTRIBUTE_TABLE: dict[str, AttributeRow] = {
     "box": _R((0.3, 8), 80, 0.45),
     "rug": _R((1, 15), 300, 0.7),
     "fixture": _R((20, 200), 200, 0.6, static=True),
+    "faucet": _R((0.5, 4), 400, 0.5, static=True),
     "small": _R((0.1, 3), 300, 0.45),
 }
 """Category group -> figures. Sources and reasoning: ``docs/structuring.md``."""
@@ -130,6 +131,9 @@ _GROUP: dict[str, str] = {
     "basket": "box",
     "keyboard": "small",
     "bowl": "small",
+    "towel_holder": "faucet",
+    "toilet_paper_hanger": "faucet",
+    "soap_dispenser": "faucet",
     "plate": "small",
 }
 
