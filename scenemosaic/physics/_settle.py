@@ -203,9 +203,11 @@ def _resting_level(child: SceneObject, anchor_pieces: list[_Piece], frame: UnitF
     that is not above its bottom (by more than the band), rounded to a centimetre."""
     bottom = float(frame.h(child.corners()).min())
     foot = Polygon(_box_uv(child, child.pose.matrix(with_scale=False), frame))
-    under = [p.hi for p in anchor_pieces if len(p.uv) >= 3 and Polygon(p.uv).intersects(foot)]
-    below = [h for h in under if h <= bottom + LEVEL_BAND_M]
+    under = [p for p in anchor_pieces if len(p.uv) >= 3 and Polygon(p.uv).intersects(foot)]
+    below = [p.hi for p in under if p.hi <= bottom + LEVEL_BAND_M]
     level = max(below) if below else max((p.hi for p in anchor_pieces), default=bottom)
+    if any(p.lo > level + 0.01 for p in under):  # a board over it: it was inside, it goes on top
+        level = max(p.hi for p in under)
     return round(level, 2)
 
 

@@ -22,6 +22,7 @@ construction; anything left over is reported in the scene's provenance notes.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import ClassVar, Literal
 
 import numpy as np
@@ -30,12 +31,14 @@ from shapely.affinity import translate
 from shapely.geometry import Polygon
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.assets import interior_boards
 from scenemosaic.scene import (
     CEILING,
     FLOOR,
     CrossUnitConstraint,
     PackItem,
     Relation,
+    Scene,
     SupportPriors,
     build_structure,
     load_priors,
@@ -98,6 +101,10 @@ class ItemPlacement(AgentOutput):
         description="How often ProcTHOR found the item's type on its parent's type; null when unknown."
     )
     into_parent: bool = Field(description="The parent is a tall front-opening container: the item belongs inside.")
+    fits_inside: bool | None = Field(
+        default=None,
+        description="Whether any compartment of its parent can take it; null when the parent has none known.",
+    )
     floor_ok: bool = Field(description="Its type may lie on the floor.")
     options: list[ReceptacleOption] = Field(default_factory=list, max_length=8)
 
@@ -240,7 +247,10 @@ TALL_CONTAINER_M = 1.2
 
 
 def placement_options(
-    objects: list[ObjectFacts], parents: dict[str, str | None], priors: SupportPriors
+    objects: list[ObjectFacts],
+    parents: dict[str, str | None],
+    priors: SupportPriors,
+    compartments: Mapping[str, list[tuple[float, float, float, float, float, float]]] | None = None,
 ) -> list[ItemPlacement]:
     """For every small item resting on or in another object: how plausible its parent is and the
     plausible receptacles of the room, nearest first."""
@@ -263,16 +273,28 @@ def placement_options(
                 )
         options.sort(key=lambda r: (r.distance_m, -r.p, r.receptacle_id))
         p_parent = priors.probability(o.category, parent.category)
+        boxes = (compartments or {}).get(parent.id)
         out.append(
             ItemPlacement(
                 object_id=o.id,
                 parent_p=round(p_parent, 4) if p_parent is not None else None,
                 into_parent=_holds_inside(parent) and o.relation != "contain",
+                fits_inside=_fits_a_compartment(o, boxes) if boxes else None,
                 floor_ok=priors.on_floor(o.category),
                 options=options[:8],
             )
         )
     return out
+
+
+def _fits_a_compartment(o: ObjectFacts, boxes: list[tuple[float, float, float, float, float, float]]) -> bool:
+    """Whether the item's box fits some compartment (either way round in plan)."""
+    w, d, h = [*sorted(o.size[:2], reverse=True), o.size[2]]
+    for x0, x1, y0, y1, zb, zt in boxes:
+        a, b = sorted((x1 - x0, y1 - y0), reverse=True)
+        if w <= a and d <= b and h <= zt - zb:
+            return True
+    return False
 
 
 def _holds_inside(o: ObjectFacts) -> bool:
@@ -296,15 +318,19 @@ def _receptacle_fixes(
     problems: list[str] = []
     leaving: list[tuple[str, str]] = []
     inside: set[str] = set()
+    on_top_now: set[str] = set()
     for i in evidence.items:
         if i.object_id not in facts or parents.get(i.object_id) not in facts:
             continue
         if i.parent_p is not None and i.parent_p < PLAUSIBLE_P and (i.options or i.floor_ok):
             leaving.append((i.object_id, f"{facts[i.object_id].category} is implausible on its receptacle (p {i.parent_p:g})"))
-        elif i.into_parent:
+        elif i.into_parent and i.fits_inside is not False:
             parent = parents[i.object_id]
             fixes.append(ParentFix(object_id=i.object_id, parent=parent, kind="contain", reason="belongs inside it, not on top"))
             inside.add(i.object_id)
+        elif i.fits_inside is False and facts[i.object_id].relation == "contain":  # too big for every shelf: on top
+            kids.setdefault(parents[i.object_id], []).append(facts[i.object_id])
+            on_top_now.add(i.object_id)
     gone = {oid for oid, _ in leaving} | inside
     layout: dict[str, list[np.ndarray]] = {}
     for parent, on_top in sorted(kids.items()):
@@ -320,6 +346,8 @@ def _receptacle_fixes(
                     leaving.append((k.id, f"no room left on {parent}"))
                     gone.add(k.id)
                 continue
+            if k.id in on_top_now:
+                fixes.append(ParentFix(object_id=k.id, parent=parent, reason="too big for its compartments; set on top"))
             shift = packed.shifts.get(k.id, np.zeros(2))
             layout.setdefault(parent, []).append(np.asarray(k.footprint) + shift)
             if k.id not in packed.kept and k.id not in packed.turned and float(np.hypot(*shift)) > 1e-3:
@@ -440,6 +468,17 @@ def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
     return VerificationOutput(fixes=fixes, moves=moves, drop_constraints=drop, problems=problems)
 
 
+def _compartments(scene: Scene) -> dict[str, list[tuple[float, float, float, float, float, float]]]:
+    """The compartments of every procedural container of the scene (``assets.interior_boards``)."""
+    out = {}
+    for o in scene.objects:
+        if o.asset.kind == "procedural" and traits(o.category).contains:
+            boxes = interior_boards(o.asset.category or o.category, o.size)
+            if boxes:
+                out[o.id] = boxes
+    return out
+
+
 class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, VerificationOutput]):
     """Checks completeness (one parent each, no cycles, valid constraints), fixes, and builds the tree."""
 
@@ -465,7 +504,7 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
                 for p in nested_pairs(scene)
             ],
             floor=[(round(x, 3), round(y, 3)) for x, y in scene.room.floor] if scene.room is not None else [],
-            items=placement_options(objs, {o.id: o.parent for o in objs}, self.priors),
+            items=placement_options(objs, {o.id: o.parent for o in objs}, self.priors, _compartments(scene)),
         )
 
     def solve(self, evidence: VerificationEvidence) -> VerificationOutput:
