@@ -7,8 +7,8 @@ with ``scenemosaic generate <house>.json --room <id> --model rules`` (``variants
 * ``status`` — ``ok``, ``degraded`` or ``failed`` (an exception is counted as ``failed``);
 * ``validation.collisions.pairs`` — colliding pairs left in the delivered base scene;
 * ``validation.out_of_bounds.objects`` — objects outside their room or their anchor's bounds;
-* re-parentings — items of the stages' ``detail`` that mention re-parenting (a key or a text
-  with ``reparent`` / ``re-parent`` in it); 0 until the pipeline reports such moves.
+* re-parentings — the moves the structure stage lists in its ``reparented`` (verification's
+  re-homing of implausible items and of what a crowded top cannot take).
 
 One line per room comes first (house, room id, status, objects, collision pairs, objects out of
 bounds, seconds, the first warning's first 100 characters), then ONE JSON line of figures:
@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 import tempfile
 import time
@@ -40,7 +39,6 @@ from scenemosaic.exchange import load_scenes
 
 REPO = Path(__file__).resolve().parents[1]
 HOUSES = REPO / "data" / "houses" / "procthor"
-_REPARENT = re.compile(r"re-?_?parent", re.IGNORECASE)
 
 
 def houses(names: list[str] | None = None) -> list[Path]:
@@ -51,24 +49,11 @@ def houses(names: list[str] | None = None) -> list[Path]:
     return found
 
 
-def count_reparented(node: Any) -> int:
-    """Items under a key that mentions re-parenting (each list entry counts), plus texts that do."""
-    if isinstance(node, dict):
-        total = 0
-        for key, value in node.items():
-            if _REPARENT.search(str(key)):
-                total += (
-                    len(value)
-                    if isinstance(value, list)
-                    else (int(value) if isinstance(value, int) and not isinstance(value, bool) else 1)
-                )
-            else:
-                total += count_reparented(value)
-        return total
-    if isinstance(node, list):
-        return sum(count_reparented(v) for v in node)
-    if isinstance(node, str):
-        return 1 if _REPARENT.search(node) else 0
+def count_reparented(report: dict[str, Any]) -> int:
+    """Re-parentings the structure stage lists (``detail.reparented``: verification's moves)."""
+    for stage in report.get("stages") or []:
+        if isinstance(stage, dict) and stage.get("name") == "structure":
+            return len((stage.get("detail") or {}).get("reparented") or [])
     return 0
 
 
@@ -90,11 +75,7 @@ def run_room(house: Path, room_id: str, out: Path) -> dict[str, Any]:
     oob = ((validation.get("out_of_bounds") or {}).get("objects")) or []
     warnings = [str(w) for w in report.get("warnings") or []]
     status = "failed" if error else str(report.get("status", "failed"))
-    reparented = sum(
-        count_reparented(stage.get("detail"))
-        for stage in report.get("stages") or []
-        if isinstance(stage, dict)
-    )
+    reparented = count_reparented(report)
     return {
         "house": house.stem,
         "room": room_id,

@@ -131,6 +131,8 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     run.note_fallbacks(fallbacks)
     # what the agents changed to make the input consistent (objects pulled inside walls...)
     rec.detail["repairs"] = run.scene.provenance.notes[notes_before:]
+    # every re-parenting verification made ("verify: <object> -> <new parent> (<reason>)")
+    rec.detail["reparented"] = [n[len("verify: ") :] for n in rec.detail["repairs"] if n.startswith("verify: ") and " -> " in n]
     structure = run.scene.structure
     rec.detail["units"] = len(structure.units) if structure else 0
     rec.detail["relations"] = len(run.scene.relations)
