@@ -52,6 +52,7 @@ from scenemosaic.scene import (
     edge_axes,
     minimal_containing_shift,
     pack_surface,
+    quat_from_matrix,
     quat_multiply,
     sat_overlap,
     traits,
@@ -180,16 +181,21 @@ def _pack_children(
             result.unplaced.append(cid)
         else:
             groups.setdefault(k, []).append(cid)
+    placed: dict[int, list[FloatArray]] = {}
+    overflow: list[str] = []
     for k, members in sorted(groups.items()):
-        x0, x1, y0, y1, zb, _ = compartments[k]
-        rect = np.array([[x0, y0, zb], [x1, y0, zb], [x1, y1, zb], [x0, y1, zb]]) @ am[:3, :3].T + am[:3, 3]
-        part = _pack_region(scene, members, frame, Polygon(convex_hull_2d(frame.uv(rect))), shapes)
-        result.shifts.update(part.shifts)
-        result.turned |= part.turned
-        result.kept += part.kept
-        result.unplaced += part.unplaced
-        board = float(frame.h(rect[:1])[0])
-        heights.update({cid: board for cid in members if cid not in part.unplaced})
+        overflow += _fill_compartment(scene, members, k, compartments, am, frame, shapes, placed, result, heights)
+    for cid in overflow:  # a full board: the nearest other compartment it fits in that has room
+        bottom = float(scene.get(cid).aabb()[0][2]) - float(anchor.pose.position[2])
+        others = sorted(
+            (k for k, c in enumerate(compartments) if c[5] - c[4] >= scene.get(cid).size[2] + 0.005),
+            key=lambda k: abs(compartments[k][4] - bottom),
+        )
+        for k in others:
+            if not _fill_compartment(scene, [cid], k, compartments, am, frame, shapes, placed, result, heights):
+                break
+        else:
+            result.unplaced.append(cid)
     return result, heights
 
 
@@ -227,6 +233,52 @@ def _surface_at(level: float, anchor_pieces: list[_Piece], region: Polygon) -> P
     if surface.is_empty or surface.area < 0.2 * region.area or surface.geom_type not in ("Polygon", "MultiPolygon"):
         return region
     return surface
+
+
+def _fill_compartment(
+    scene: Scene,
+    members: list[str],
+    k: int,
+    compartments: list[tuple[float, float, float, float, float, float]],
+    am: FloatArray,
+    frame: UnitFrame,
+    shapes: Mapping[str, ObjectShape],
+    placed: dict[int, list[FloatArray]],
+    result: PackResult,
+    heights: dict[str, float],
+) -> list[str]:
+    """Pack ``members`` into compartment ``k`` beside what it holds already (``placed``); record
+    their shifts and board height in ``result`` / ``heights``; returns those that did not fit."""
+    x0, x1, y0, y1, zb, _ = compartments[k]
+    rect = np.array([[x0, y0, zb], [x1, y0, zb], [x1, y1, zb], [x0, y1, zb]]) @ am[:3, :3].T + am[:3, 3]
+    region = Polygon(convex_hull_2d(frame.uv(rect)))
+    fixed = [PackItem(f"placed_{n}", c, movable=False) for n, c in enumerate(placed.get(k, []))]
+    items = []
+    for cid in members:
+        obj = scene.get(cid)
+        loose = not obj.sim.static and traits(obj.category).placement == "surface"
+        box = _box_uv(obj, obj.pose.matrix(with_scale=False), frame)
+        centre = np.asarray(region.centroid.coords[0]) - box.mean(axis=0)
+        start = box if region.contains(Polygon(box).centroid) else box + centre  # from another board: start at its middle
+        items.append(PackItem(cid, start, may_turn=loose))
+    part = pack_surface(region, [*fixed, *items])
+    board = float(frame.h(rect[:1])[0])
+    for item in items:
+        if item.id in part.unplaced:
+            continue
+        shift = part.shifts[item.id]
+        obj = scene.get(item.id)
+        offset = item.corners.mean(axis=0) - _box_uv(obj, obj.pose.matrix(with_scale=False), frame).mean(axis=0)
+        result.shifts[item.id] = shift + offset
+        if item.id in part.turned:
+            result.turned.add(item.id)
+        heights[item.id] = board
+        corners = item.corners + shift
+        if item.id in part.turned:
+            c = corners.mean(axis=0)
+            corners = np.stack([-(corners - c)[:, 1], (corners - c)[:, 0]], axis=1) + c
+        placed.setdefault(k, []).append(corners)
+    return list(part.unplaced)
 
 
 def _compartment_for(
@@ -392,8 +444,13 @@ def _simulate(
 
 
 def _pose_from_matrix(matrix: FloatArray, like: Pose) -> Pose:
+    """The pose of a body's matrix: its position, and its rotation when it differs from ``like``'s
+    (a child turned a quarter to fit its surface); ``like``'s own quaternion otherwise, bit for bit."""
     position = (float(matrix[0, 3]), float(matrix[1, 3]), float(matrix[2, 3]))
-    return Pose(position=position, quaternion=like.quaternion, scale=like.scale)
+    quaternion = like.quaternion
+    if not np.allclose(matrix[:3, :3], like.matrix(with_scale=False)[:3, :3], atol=1e-9):
+        quaternion = quat_from_matrix(matrix[:3, :3])
+    return Pose(position=position, quaternion=quaternion, scale=like.scale)
 
 
 def settle_unit(
@@ -577,7 +634,7 @@ def settle_unit(
         for wb in world.bodies:
             obj = scene.get(wb.object_id)
             xq = world.data.xquat[wb.body_id]
-            quat = quat_multiply(xq, obj.pose.quaternion)
+            quat = quat_multiply(xq, poses[wb.object_id].quaternion)  # the pose it was laid out in (turned or not)
             pos = world.data.xpos[wb.body_id]
             poses[wb.object_id] = Pose(
                 position=(float(pos[0]), float(pos[1]), float(pos[2])), quaternion=quat, scale=obj.pose.scale

@@ -35,13 +35,14 @@ from scenemosaic.structure._room import RoomAgent, RoomOutput, WallSpec
 from scenemosaic.structure._semantics import SemanticItem, SemanticsAgent, SemanticsOutput
 from scenemosaic.structure._structure import structure_scene
 from scenemosaic.structure._support import SupportAgent, SupportAssignment, SupportOutput
-from scenemosaic.structure._verify import ParentFix, VerificationAgent, VerificationOutput
+from scenemosaic.structure._verify import PLAUSIBLE_P, ParentFix, VerificationAgent, VerificationOutput
 from scenemosaic.structure._walls import WallAttachmentAgent, WallItem, WallOutput
 
 __all__ = [
     "ATTRIBUTE_TABLE",
     "DEFAULT_AGENTS",
     "FUNCTIONAL_PAIRS",
+    "PLAUSIBLE_P",
     "REQUIRED_AGENTS",
     "WEAK_PAIRS",
     "AttributesAgent",

@@ -22,6 +22,7 @@ construction; anything left over is reported in the scene's provenance notes.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import ClassVar, Literal
 
@@ -120,6 +121,11 @@ class VerificationOutput(AgentOutput):
     )
     drop_constraints: list[str] = Field(default_factory=list, max_length=64)
     problems: list[str] = Field(default_factory=list, max_length=64)
+    lay_down: list[str] = Field(
+        default_factory=list,
+        max_length=MAX_ITEMS,
+        description="Tall, thin loose things (a baseball bat, a broom) laid down on their side, long side along their width.",
+    )
 
 
 class NestedFacts(AgentOutput):
@@ -146,6 +152,11 @@ class VerificationEvidence(AgentOutput):
     nested: list[NestedFacts] = Field(default_factory=list, max_length=MAX_ITEMS)
     floor: list[Vec2] = Field(default_factory=list, max_length=256, description="Room floor polygon, if any.")
     items: list[ItemPlacement] = Field(default_factory=list, max_length=MAX_ITEMS)
+    standing_thin: list[str] = Field(
+        default_factory=list,
+        max_length=MAX_ITEMS,
+        description="Loose things standing on end that are taller than LIE_DOWN_RATIO times their width: they would topple.",
+    )
 
 
 SOFT_ON_FURNITURE = frozenset({"pillow", "throw_pillow", "cushion"})
@@ -240,6 +251,9 @@ PLAUSIBLE_P = 0.04
 """An item ProcTHOR found on its receptacle's type less often than this (share of that receptacle
 type's items) is implausible there: toilet paper in a garbage can (0.036), a candle in one (0.005),
 a bowl on a chair (0.007), a baseball bat on a bed (0.024) or a chair (0)."""
+LIE_DOWN_RATIO = 4.0
+"""A loose thing standing taller than this many times its largest width (a baseball bat on end) is
+laid down: standing, it would topple (or pierce what hangs behind it)."""
 REHOME_REACH_M = 6.0
 """Receptacles farther than this from an item are not offered as its new place."""
 TALL_CONTAINER_M = 1.2
@@ -432,8 +446,23 @@ def _within(candidate: str, item: str, parents: dict[str, str]) -> bool:
     return False
 
 
+def laid_down(o: ObjectFacts) -> ObjectFacts:
+    """``o`` lying on its side: its height becomes its width (along its own x), its footprint grows."""
+    w, d, h = o.size
+    yaw = math.radians(o.yaw_deg)
+    c, s_ = math.cos(yaw), math.sin(yaw)
+    half = [(-h / 2, -d / 2), (h / 2, -d / 2), (h / 2, d / 2), (-h / 2, d / 2)]
+    foot = [(o.center[0] + x * c - y * s_, o.center[1] + x * s_ + y * c) for x, y in half]
+    return o.model_copy(update={"size": (h, d, w), "top": o.bottom + w, "footprint": foot})
+
+
 def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
     """The verification rule solver (see the module docstring)."""
+    lay = [oid for oid in evidence.standing_thin if any(o.id == oid for o in evidence.objects)]
+    if lay:  # decided on the objects as they will lie
+        evidence = evidence.model_copy(
+            update={"objects": [laid_down(o) if o.id in lay else o for o in evidence.objects]}
+        )
     facts = {o.id: o for o in evidence.objects}
     fixes: list[ParentFix] = []
     parents = {o.id: o.parent for o in evidence.objects if o.parent}
@@ -465,7 +494,7 @@ def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
                     f"constraint {c.id} dropped: {', '.join(bad)} not in the unit of {clause.anchor_id}"
                 )
                 break
-    return VerificationOutput(fixes=fixes, moves=moves, drop_constraints=drop, problems=problems)
+    return VerificationOutput(fixes=fixes, moves=moves, drop_constraints=drop, problems=problems, lay_down=lay)
 
 
 def _compartments(scene: Scene) -> dict[str, list[tuple[float, float, float, float, float, float]]]:
@@ -487,7 +516,7 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
     prompt: ClassVar[str] = "verify"
     reply_tokens: ClassVar[tuple[int, int] | None] = (400, 20)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"top", "relation", "label"})
-    object_id_fields: ClassVar[tuple[str, ...]] = ("fixes.object_id", "moves.object_id")
+    object_id_fields: ClassVar[tuple[str, ...]] = ("fixes.object_id", "moves.object_id", "lay_down")
 
     def __init__(self, priors: SupportPriors | None = None) -> None:
         self.priors = priors if priors is not None else load_priors()
@@ -505,6 +534,13 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
             ],
             floor=[(round(x, 3), round(y, 3)) for x, y in scene.room.floor] if scene.room is not None else [],
             items=placement_options(objs, {o.id: o.parent for o in objs}, self.priors, _compartments(scene)),
+            standing_thin=[
+                o.id
+                for o in objs
+                if self.priors.is_pickupable(o.category)
+                and scene.get(o.id).asset.kind == "procedural"
+                and o.size[2] > LIE_DOWN_RATIO * max(o.size[0], o.size[1])
+            ],
         )
 
     def solve(self, evidence: VerificationEvidence) -> VerificationOutput:
@@ -513,7 +549,8 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
     def answer_without_model(self, evidence: VerificationEvidence) -> VerificationOutput | None:
         """The rule pass's empty answer when it finds nothing to fix or report: a clean scene needs no call."""
         found = solve_verification(evidence)
-        return None if (found.fixes or found.moves or found.drop_constraints or found.problems) else found
+        busy = found.fixes or found.moves or found.drop_constraints or found.problems or found.lay_down
+        return None if busy else found
 
     def check(self, output: VerificationOutput, state: SceneState) -> list[str]:
         scene = state.scene
@@ -552,14 +589,23 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
         drop = set(output.drop_constraints)
         constraints = [c for c in scene.constraints if c.id not in drop]
         notes = [*scene.provenance.notes, *(f"verify: {p}" for p in output.problems)]
-        notes += [f"verify: {f.object_id} -> {f.parent} ({f.reason})" for f in output.fixes]
+        before = {r.child: r.parent for r in scene.relations if r.is_support}
+        notes += [
+            f"verify: {f.object_id} -> {f.parent} ({f.reason}; was on {before.get(f.object_id) or 'nothing'})"
+            for f in output.fixes
+        ]
         notes += [f"verify: {m.object_id} {m.reason} ({m.dx:+.2f}, {m.dy:+.2f}) m" for m in output.moves]
+        notes += [f"verify: {oid} laid down (too tall and thin to stand)" for oid in output.lay_down]
         scene = replace_scene(
             scene,
             relations=rels,
             constraints=constraints,
             provenance=scene.provenance.model_copy(update={"notes": notes}),
         )
+        for oid in output.lay_down:  # the procedural stand-in is drawn lying in its new box
+            obj = scene.get(oid)
+            w, d, h = obj.asset.extents
+            obj.asset = obj.asset.model_copy(update={"extents": (h, d, w)})
         if output.moves:
             translate_objects(scene, {m.object_id: (m.dx, m.dy, 0.0) for m in output.moves})
         placed = {f.object_id: f.at for f in output.fixes if f.at is not None}

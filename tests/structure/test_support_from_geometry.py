@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from scenemosaic.exchange import load_scenes
@@ -11,28 +12,42 @@ from scenemosaic.structure import structure_scene
 HOUSES = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor"
 
 
-async def _inferred_vs_truth() -> tuple[int, int, list[tuple[str, str, str | None, str]]]:
-    total = matched = 0
+def _read_parents(out: Scene) -> dict[str, str]:
+    """Each object's parent as the agents *read* it: verification's deliberate re-homings (listed
+    in the notes as ``verify: X -> Y (why; was on Z)``) are undone, so the reading is scored."""
+    read = {r.child: r.parent for r in out.relations if r.is_support}
+    for note in out.provenance.notes:
+        m = re.match(r"verify: (\S+) -> (\S+) \(.*; was on (\S+)\)$", note)
+        if m and m.group(3) != "nothing":
+            read[m.group(1)] = m.group(3)
+    return read
+
+
+async def _inferred_vs_truth() -> tuple[int, int, list[tuple[str, str, str | None, str]], int]:
+    total = matched = moved = 0
     misses: list[tuple[str, str, str | None, str]] = []
-    for path in sorted(HOUSES.glob("procthor_*.json")):
+    for path in sorted(HOUSES.glob("procthor*.json")):
         for scene in load_scenes(path):
             truth = {r.child: r.parent for r in scene.relations if r.is_support}
             bare = scene.model_copy(update={"relations": []})  # the nesting is not shown to the agents
             out = await structure_scene(bare)
-            got = {r.child: r.parent for r in out.relations if r.is_support}
+            got = _read_parents(out)
+            final = {r.child: r.parent for r in out.relations if r.is_support}
+            moved += sum(1 for k in truth if final.get(k) != got.get(k))
             for child, parent in truth.items():
                 total += 1
                 if got.get(child) == parent:
                     matched += 1
                 else:
                     misses.append((path.stem, child, got.get(child), parent))
-    return matched, total, misses
+    return matched, total, misses, moved
 
 
 async def test_support_matches_the_generators_nesting_on_the_procthor_houses() -> None:
-    matched, total, misses = await _inferred_vs_truth()
-    assert total >= 120
+    matched, total, misses, moved = await _inferred_vs_truth()
+    assert total >= 300  # the nested items of six real houses, 27 rooms
     assert matched / total >= 0.95, misses
+    assert moved > 0  # crowded tops and implausible receptacles were re-homed, each with its reason
     # the generator's own imprecision: baseball bats lying on the floor while listed under furniture
     for house, child, got, _listed in misses:
         scene = next(s for s in load_scenes(HOUSES / f"{house}.json") if any(o.id == child for o in s.objects))
