@@ -28,6 +28,7 @@ from scenemosaic.physics import (
     ObjectShape,
     collision_report_for,
     resting_footprint,
+    rests_within,
 )
 from scenemosaic.scene import (
     ROBOT_RADIUS,
@@ -166,8 +167,11 @@ def physical_check(layout: UnitLayout, ctx: UnitContext, shapes: Mapping[str, Ob
     oob: list[str] = []
     on_object = ctx.unit.anchor_kind == "object" and ctx.surface.projection != "anchor_front"
     for k in layout.ids:
-        # on an object, what a child stands on must be over the top (a television's foot, not its screen)
-        poly = _resting_uv(layout, k, shapes[k], ctx) if on_object and k in shapes else Polygon(layout.polygon(k))
+        if on_object and k in shapes:  # what a child stands on must be over the top (a television's foot)
+            if not rests_within(_resting_uv(layout, k, shapes[k], ctx), region)[1]:
+                oob.append(k)
+            continue
+        poly = Polygon(layout.polygon(k))
         area = float(poly.area)
         inside = float(poly.intersection(region).area) / area if area > 1e-12 else 1.0
         if inside < OOB_MIN_INSIDE_FRACTION:

@@ -6,11 +6,13 @@ Entry points: :func:`stabilize_scene` (per local unit, top-down), :func:`check_c
 """
 
 from scenemosaic.physics._checks import (
+    RESTING_MIN_INSIDE_FRACTION,
     check_collisions,
     check_out_of_bounds,
     collision_report_for,
     require_finite_poses,
     resting_footprint,
+    rests_within,
 )
 from scenemosaic.physics._hulls import HullInput, HullPiece, ObjectShape, hull_mesh, object_shape
 from scenemosaic.physics._reports import (
@@ -49,6 +51,7 @@ __all__ = [
     "COLLISION_TOLERANCE_M",
     "FELL_DROP_M",
     "OOB_MIN_INSIDE_FRACTION",
+    "RESTING_MIN_INSIDE_FRACTION",
     "ROOM_FRICTION",
     "THIN_RATIO",
     "TIPPED_TILT_DEG",
@@ -80,6 +83,7 @@ __all__ = [
     "plan_units",
     "require_finite_poses",
     "resting_footprint",
+    "rests_within",
     "room_slabs",
     "scene_world",
     "settle_unit",

@@ -27,12 +27,14 @@ from scenemosaic.scene import (
 )
 
 __all__ = [
+    "RESTING_MIN_INSIDE_FRACTION",
     "check_collisions",
     "check_out_of_bounds",
     "collision_report_for",
     "nested_furniture",
     "require_finite_poses",
     "resting_footprint",
+    "rests_within",
     "support_polygon",
 ]
 
@@ -158,6 +160,23 @@ def resting_footprint(obj: SceneObject, shape: ObjectShape) -> Polygon:
     return Polygon(convex_hull_2d(world[:, :2]))
 
 
+RESTING_MIN_INSIDE_FRACTION = 0.85
+"""What an object stands on may reach past the top it stands on, up to this fraction inside, when
+its centre is over the top (a television's foot a little deeper than its stand): it still stands,
+its centre of mass over its support."""
+
+
+def rests_within(foot: Polygon, surface: Polygon) -> tuple[float, bool]:
+    """``(inside fraction, in bounds)`` of what an object stands on, over the top it stands on: in
+    bounds at ``OOB_MIN_INSIDE_FRACTION``, or at ``RESTING_MIN_INSIDE_FRACTION`` with its centre over the top."""
+    area = float(foot.area)
+    inside = float(foot.intersection(surface).area) / area if area > 1e-12 else 1.0
+    ok = inside >= OOB_MIN_INSIDE_FRACTION or (
+        inside >= RESTING_MIN_INSIDE_FRACTION and surface.contains(foot.centroid)
+    )
+    return inside, ok
+
+
 def check_out_of_bounds(
     scene: Scene,
     *,
@@ -190,7 +209,13 @@ def check_out_of_bounds(
             uv = np.stack([c @ e1, c[:, 2]], axis=1)
             foot = Polygon(convex_hull_2d(uv))
         elif shapes is not None and obj.id in shapes and scene.anchor_kind(anchor) == "object":
-            foot = resting_footprint(obj, shapes[obj.id])
+            report.checked_objects += 1
+            inside, ok = rests_within(resting_footprint(obj, shapes[obj.id]), surface)
+            if not ok:
+                report.objects.append(
+                    OutOfBoundsObject(object_id=obj.id, anchor_id=anchor, inside_fraction=round(inside, 6))
+                )
+            continue
         else:
             foot = _footprint(obj)
         report.checked_objects += 1

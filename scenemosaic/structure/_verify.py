@@ -281,9 +281,11 @@ def placement_options(
                 continue
             p = priors.probability(o.category, c.category)
             dist = float(c.polygon().distance(o.polygon()))
-            if p is not None and p >= PLAUSIBLE_P and dist <= REHOME_REACH_M:
+            inside_only = _holds_inside(c)
+            fits = not inside_only or (boxes_of := (compartments or {}).get(c.id)) is None or _fits_a_compartment(o, boxes_of)
+            if p is not None and p >= PLAUSIBLE_P and dist <= REHOME_REACH_M and fits:
                 options.append(
-                    ReceptacleOption(receptacle_id=c.id, p=round(p, 4), distance_m=round(dist, 3), contain=_holds_inside(c))
+                    ReceptacleOption(receptacle_id=c.id, p=round(p, 4), distance_m=round(dist, 3), contain=inside_only)
                 )
         options.sort(key=lambda r: (r.distance_m, -r.p, r.receptacle_id))
         p_parent = priors.probability(o.category, parent.category)
