@@ -311,7 +311,10 @@ def _pack_region(
         obj = scene.get(cid)
         m = obj.pose.matrix(with_scale=False)
         base = shapes[cid].base_vertices() @ m[:3, :3].T + m[:3, 3]
-        shift = minimal_containing_shift(convex_hull_2d(frame.uv(base)), region)
+        base_uv = convex_hull_2d(frame.uv(base))
+        shift = minimal_containing_shift(base_uv, region)
+        if shift is None and frame.region is not None:  # not even its foot fits the level: the anchor's box top
+            shift = minimal_containing_shift(base_uv, frame.region)
         if shift is not None:
             placed_by_base[cid] = shift
     if not placed_by_base:

@@ -353,9 +353,14 @@ def _receptacle_fixes(
         staying = [k for k in on_top if k.id not in gone]
         if not staying:
             continue
-        packed = pack_surface(
-            facts[parent].polygon(), [PackItem(k.id, np.asarray(k.footprint), may_turn=k.id in items) for k in staying]
-        )
+        top = facts[parent].polygon()
+        packed = pack_surface(top, [PackItem(k.id, np.asarray(k.footprint), may_turn=k.id in items) for k in staying])
+        wide = [k for k in staying if k.id in packed.unplaced and k.id not in items]
+        if wide:  # wider than the top (a television): it stays where it stands, and its box takes room
+            packed = pack_surface(
+                top,
+                [PackItem(k.id, np.asarray(k.footprint), movable=k not in wide, may_turn=k.id in items) for k in staying],
+            )
         for k in staying:
             if k.id in packed.unplaced:
                 if k.id in items:
