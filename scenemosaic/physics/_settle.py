@@ -157,7 +157,7 @@ def _pack_children(
     anchor = scene.get(plan.anchor_id)
     inside = [c for c in plan.children if (rel := scene.support_of(c)) is not None and rel.kind == "contain"]
     compartments = (
-        interior_boards(anchor.asset.category or anchor.category, anchor.size) if anchor.asset.kind == "procedural" else []
+        interior_boards(anchor.asset.category or anchor.category, _size(anchor)) if anchor.asset.kind == "procedural" else []
     )
     if not compartments:
         inside = []
@@ -279,6 +279,12 @@ def _fill_compartment(
             corners = np.stack([-(corners - c)[:, 1], (corners - c)[:, 0]], axis=1) + c
         placed.setdefault(k, []).append(corners)
     return list(part.unplaced)
+
+
+def _size(obj: SceneObject) -> tuple[float, float, float]:
+    """The object's box size (extents times scale) as a plain triple."""
+    sx, sy, sz = (float(v) for v in obj.size)
+    return sx, sy, sz
 
 
 def _compartment_for(

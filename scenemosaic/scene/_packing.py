@@ -82,7 +82,8 @@ def _raster(poly: Polygon, x0: float, y0: float, nx: int, ny: int, cell: float) 
 def _turned(corners: FloatArray) -> FloatArray:
     centre = corners.mean(axis=0)
     rel = corners - centre
-    return np.stack([-rel[:, 1], rel[:, 0]], axis=1) + centre
+    turned: FloatArray = np.stack([-rel[:, 1], rel[:, 0]], axis=1) + centre
+    return turned
 
 
 def pack_surface(

@@ -509,7 +509,8 @@ def _compartments(scene: Scene) -> dict[str, list[tuple[float, float, float, flo
     out = {}
     for o in scene.objects:
         if o.asset.kind == "procedural" and traits(o.category).contains:
-            boxes = interior_boards(o.asset.category or o.category, o.size)
+            size = o.size
+            boxes = interior_boards(o.asset.category or o.category, (float(size[0]), float(size[1]), float(size[2])))
             if boxes:
                 out[o.id] = boxes
     return out
