@@ -359,7 +359,7 @@ def _receptacle_fixes(
         if wide:  # wider than the top (a television): it stays where it stands, and its box takes room
             packed = pack_surface(
                 top,
-                [PackItem(k.id, np.asarray(k.footprint), movable=k not in wide, may_turn=k.id in items) for k in staying],
+                [PackItem(k.id, np.asarray(k.footprint), movable=k.id not in {w.id for w in wide}, may_turn=k.id in items) for k in staying],
             )
         for k in staying:
             if k.id in packed.unplaced:
@@ -371,7 +371,8 @@ def _receptacle_fixes(
                 fixes.append(ParentFix(object_id=k.id, parent=parent, reason="too big for its compartments; set on top"))
             shift = packed.shifts.get(k.id, np.zeros(2))
             layout.setdefault(parent, []).append(np.asarray(k.footprint) + shift)
-            if k.id not in packed.kept and k.id not in packed.turned and float(np.hypot(*shift)) > 1e-3:
+            # physics packs the top the same way; a move here only tells the model and the report
+            if k.id not in packed.kept and k.id not in packed.turned and 1e-3 < float(np.hypot(*shift)) <= MAX_PULL_IN:
                 moves.append(
                     ObjectShift(
                         object_id=k.id,
