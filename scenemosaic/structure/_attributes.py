@@ -174,10 +174,6 @@ SOFT_FURNISHINGS = frozenset(
 )
 """Soft things that mould to what they lie on; a rigid stand-in of one rocks and tips, so one resting
 on an object is fixed there (a pillow on a bed, a cushion on a sofa)."""
-SOFT_HOSTS = ("bed", "sofa", "armchair", "couch", "loveseat")
-"""Category fragments of soft furniture: a rigid stand-in of a mattress or a cushion is neither soft
-nor flat, so a loose thing lying on one rocks and tips; it is held where it lies, as a real one
-sinks in and stays."""
 THIN_BASE_RATIO = 0.15
 """A standing object whose narrower base side is below this fraction of its height (a TV plate, a
 picture frame, a book on edge) is fixed on its support rather than left to tip over."""
@@ -192,7 +188,6 @@ class AttributesEvidence(AgentOutput):
 def solve_attributes(evidence: AttributesEvidence) -> AttributesOutput:
     """The attributes rule solver (see the module docstring)."""
     items: list[ObjectAttributes] = []
-    category = {o.id: o.category for o in evidence.objects}
     for o in evidence.objects:
         key, row = attribute_row(o.category)
         volume = o.size[0] * o.size[1] * o.size[2]
@@ -215,9 +210,7 @@ def solve_attributes(evidence: AttributesEvidence) -> AttributesOutput:
             and base / o.size[2] < THIN_BASE_RATIO
         )
         soft = o.category in SOFT_FURNISHINGS and o.parent not in (None, FLOOR)
-        host = category.get(o.parent or "", "")
-        cushioned = not soft and traits(o.category).placement == "surface" and any(h in host for h in SOFT_HOSTS)
-        static = row.static or thin or soft or cushioned
+        static = row.static or thin or soft
         items.append(
             ObjectAttributes(
                 object_id=o.id,
@@ -231,8 +224,7 @@ def solve_attributes(evidence: AttributesEvidence) -> AttributesOutput:
                     else ""
                 )
                 + ("; fixed on its support (too thin to stand)" if thin and not row.static else "")
-                + ("; soft: keeps its shape on its support" if soft and not (row.static or thin) else "")
-                + ("; lies on soft furniture: held where it lies" if cushioned and not (row.static or thin) else ""),
+                + ("; soft: keeps its shape on its support" if soft and not (row.static or thin) else ""),
             )
         )
     return AttributesOutput(objects=items)
