@@ -95,7 +95,7 @@ async def test_a_model_answer_with_an_unknown_id_is_sent_back_with_the_base_word
         (SupportAgent(), ("assignments.object_id",)),
         (AttributesAgent(), ("objects.object_id",)),
         (SemanticsAgent(), ("objects.object_id",)),
-        (VerificationAgent(), ("fixes.object_id", "moves.object_id")),
+        (VerificationAgent(), ("fixes.object_id", "moves.object_id", "lay_down")),
     ],
     ids=lambda a: getattr(a, "name", ""),
 )
