@@ -164,7 +164,7 @@ def _pack_children(
     levels: dict[float, list[str]] = {}
     for cid in plan.children:
         if cid not in inside:
-            levels.setdefault(_resting_level(scene.get(cid), anchor_pieces, frame), []).append(cid)
+            levels.setdefault(_resting_level(scene.get(cid), anchor_pieces, frame, frame.region), []).append(cid)
     result = PackResult()
     for level, members in sorted(levels.items()):
         part = _pack_region(scene, members, frame, _surface_at(level, anchor_pieces, frame.region), shapes)
@@ -204,17 +204,22 @@ LEVEL_BAND_M = 0.03
 surface it is laid out on (a bed's mattress, not its headboard; a toilet's tank lid, not its bowl)."""
 
 
-def _resting_level(child: SceneObject, anchor_pieces: list[_Piece], frame: UnitFrame) -> float:
-    """The height of the anchor surface ``child`` rests on: the highest piece top under its footprint
-    that is not above its bottom (by more than the band), rounded to a centimetre."""
+def _resting_level(child: SceneObject, anchor_pieces: list[_Piece], frame: UnitFrame, region: Polygon) -> float:
+    """The height of the anchor surface ``child`` rests on, rounded to a centimetre: the highest
+    piece top under its footprint not above its bottom (by more than the band) that offers a real
+    surface (a bed's side rail just above its mattress does not: the mattress does)."""
     bottom = float(frame.h(child.corners()).min())
     foot = Polygon(_box_uv(child, child.pose.matrix(with_scale=False), frame))
     under = [p for p in anchor_pieces if len(p.uv) >= 3 and Polygon(p.uv).intersects(foot)]
-    below = [p.hi for p in under if p.hi <= bottom + LEVEL_BAND_M]
-    level = max(below) if below else max((p.hi for p in anchor_pieces), default=bottom)
-    if any(p.lo > level + 0.01 for p in under):  # a board over it: it was inside, it goes on top
-        level = max(p.hi for p in under)
-    return round(level, 2)
+    below = sorted({round(p.hi, 2) for p in under if p.hi <= bottom + LEVEL_BAND_M}, reverse=True)
+    if not below:
+        return round(max((p.hi for p in anchor_pieces), default=bottom), 2)
+    if any(p.lo > below[0] + 0.01 for p in under):  # a board over it: it was inside, it goes on top
+        return round(max(p.hi for p in under), 2)
+    for level in below:
+        if _surface_at(level, anchor_pieces, region) is not region:
+            return level
+    return below[0]
 
 
 def _surface_at(level: float, anchor_pieces: list[_Piece], region: Polygon) -> Polygon:

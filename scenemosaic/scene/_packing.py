@@ -121,7 +121,10 @@ def pack_surface(
         shift = minimal_containing_shift(item.corners, surface)  # what stands inside stays put
         if shift is not None:
             moved = affinity.translate(poly, float(shift[0]), float(shift[1]))
-            if not any(moved.buffer(clearance / 2).intersects(p) for p in placed):
+            # the corner test behind the least shift is exact for a convex surface only (a mattress
+            # less its pillows is not): the moved footprint itself must lie on the surface
+            on_surface = contains(surface.buffer(1e-6), moved)
+            if on_surface and not any(moved.buffer(clearance / 2).intersects(p) for p in placed):
                 result.shifts[item.id] = np.asarray(shift, dtype=np.float64)
                 result.kept.append(item.id)
                 block(moved)
