@@ -40,10 +40,10 @@ def test_the_public_surface_is_short() -> None:
 
 
 def test_importing_the_package_loads_no_heavy_backend() -> None:
-    """``import scenemosaic`` and the CLI's ``--help`` must not import MuJoCo or CoACD."""
+    """``import scenemosaic`` and the CLI's ``--help`` must not import MuJoCo, CoACD or scipy.signal (0.7 s)."""
     code = (
         "import sys, scenemosaic, scenemosaic.cli; "
-        "heavy = sorted(m for m in sys.modules if m.split('.')[0] in ('mujoco', 'coacd')); "
+        "heavy = sorted(m for m in sys.modules if m.split('.')[0] in ('mujoco', 'coacd') or m.startswith('scipy.signal')); "
         "print(','.join(heavy))"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)

@@ -83,3 +83,17 @@ def test_packed_items_never_overlap_and_stay_on_the_surface(boxes: list[tuple[fl
         assert top.buffer(1e-9).contains(poly)
     for a, b in itertools.combinations(placed, 2):
         assert placed[a].distance(placed[b]) >= PACK_CLEARANCE_M / 2 - 1e-9, (a, b)
+
+
+def test_the_free_space_correlation_matches_a_direct_count() -> None:
+    from scenemosaic.scene._packing import _correlate_valid
+
+    rng = np.random.default_rng(7)
+    for _ in range(10):
+        image = (rng.random((23, 31)) > 0.6).astype(float)
+        kernel = (rng.random((4, 6)) > 0.3).astype(float)
+        got = _correlate_valid(image, kernel)
+        want = np.array(
+            [[float((image[i : i + 4, j : j + 6] * kernel).sum()) for j in range(31 - 6 + 1)] for i in range(23 - 4 + 1)]
+        )
+        assert got.shape == want.shape and np.allclose(got, want, atol=1e-9)
