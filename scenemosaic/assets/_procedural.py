@@ -1763,6 +1763,19 @@ def interior_boards(category: str, extents: tuple[float, float, float]) -> list[
     return list(_compartments(procedural_key(category), w, d, h))
 
 
+COMPARTMENT_CLEARANCE_M = 0.005
+"""Headroom an item needs under the next board to count as fitting a compartment, metres."""
+
+
+def compartment_fits(size: tuple[float, float, float], compartment: Box6) -> bool:
+    """Whether a box of ``size`` (width, depth, height) fits ``compartment`` (one of
+    :func:`interior_boards`), either way round in plan and under the next board."""
+    x0, x1, y0, y1, zb, zt = compartment
+    w, d = sorted(size[:2], reverse=True)
+    a, b = sorted((x1 - x0, y1 - y0), reverse=True)
+    return w <= a and d <= b and size[2] + COMPARTMENT_CLEARANCE_M <= zt - zb
+
+
 def procedural_mesh(category: str, extents: tuple[float, float, float]) -> trimesh.Trimesh:
     """The procedural model as one mesh: the concatenation of :func:`procedural_parts`."""
     parts = procedural_parts(category, extents)

@@ -27,7 +27,7 @@ import numpy as np
 import structlog
 from shapely.geometry import Polygon
 
-from scenemosaic.assets import interior_boards
+from scenemosaic.assets import compartment_fits, interior_boards
 from scenemosaic.physics._hulls import ObjectShape
 from scenemosaic.physics._planar import UnitFrame, unit_frame
 from scenemosaic.physics._reports import UnitReport
@@ -161,40 +161,24 @@ def _pack_children(
     )
     if not compartments:
         inside = []
-    levels: dict[float, list[str]] = {}
+    levels: dict[float, tuple[Polygon, list[str]]] = {}
     for cid in plan.children:
         if cid not in inside:
-            levels.setdefault(_resting_level(scene.get(cid), anchor_pieces, frame, frame.region), []).append(cid)
+            level, surface = _resting_surface(scene.get(cid), anchor_pieces, frame, frame.region)
+            levels.setdefault(level, (surface, []))[1].append(cid)
     result = PackResult()
-    for level, members in sorted(levels.items()):
-        part = _pack_region(scene, members, frame, _surface_at(level, anchor_pieces, frame.region), shapes)
-        result.shifts.update(part.shifts)
-        result.turned |= part.turned
-        result.kept += part.kept
-        result.unplaced += part.unplaced
+    for _, (surface, members) in sorted(levels.items()):
+        result.merge(_pack_region(scene, members, frame, surface, shapes))
     heights: dict[str, float] = {}
     am = anchor.pose.matrix(with_scale=False)
-    groups: dict[int, list[str]] = {}
-    for cid in inside:
-        k = _compartment_for(scene.get(cid), anchor, compartments)
-        if k is None:
-            result.unplaced.append(cid)
-        else:
-            groups.setdefault(k, []).append(cid)
     placed: dict[int, list[FloatArray]] = {}
-    overflow: list[str] = []
-    for k, members in sorted(groups.items()):
-        overflow += _fill_compartment(scene, members, k, compartments, am, frame, shapes, placed, result, heights)
-    for cid in overflow:  # a full board: the nearest other compartment it fits in that has room
-        bottom = float(scene.get(cid).aabb()[0][2]) - float(anchor.pose.position[2])
-        others = sorted(
-            (k for k, c in enumerate(compartments) if c[5] - c[4] >= scene.get(cid).size[2] + 0.005),
-            key=lambda k: abs(compartments[k][4] - bottom),
-        )
-        for k in others:
-            if not _fill_compartment(scene, [cid], k, compartments, am, frame, shapes, placed, result, heights):
-                break
-        else:
+    inside.sort(key=lambda c: -float(np.prod(_size(scene.get(c))[:2])))  # largest first, as pack_surface does
+    for cid in inside:  # on the board its bottom is nearest above, else the nearest other with room
+        child = scene.get(cid)
+        bottom = float(child.aabb()[0][2]) - float(anchor.pose.position[2])
+        fits = [k for k, c in enumerate(compartments) if compartment_fits(_size(child), c)]
+        order = sorted(fits, key=lambda k: (compartments[k][4] > bottom + 0.05, abs(compartments[k][4] - bottom)))
+        if not any(_fill_compartment(scene, cid, compartments[k], k, am, frame, placed, result, heights) for k in order):
             result.unplaced.append(cid)
     return result, heights
 
@@ -204,22 +188,25 @@ LEVEL_BAND_M = 0.03
 surface it is laid out on (a bed's mattress, not its headboard; a toilet's tank lid, not its bowl)."""
 
 
-def _resting_level(child: SceneObject, anchor_pieces: list[_Piece], frame: UnitFrame, region: Polygon) -> float:
-    """The height of the anchor surface ``child`` rests on, rounded to a centimetre: the highest
+def _resting_surface(
+    child: SceneObject, anchor_pieces: list[_Piece], frame: UnitFrame, region: Polygon
+) -> tuple[float, Polygon]:
+    """The anchor surface ``child`` rests on, and its height rounded to a centimetre: the highest
     piece top under its footprint not above its bottom (by more than the band) that offers a real
-    surface (a bed's side rail just above its mattress does not: the mattress does)."""
+    surface (a bed's side rail or built-in pillows just above its mattress do not: the mattress does)."""
     bottom = float(frame.h(child.corners()).min())
     foot = Polygon(_box_uv(child, child.pose.matrix(with_scale=False), frame))
     under = [p for p in anchor_pieces if len(p.uv) >= 3 and Polygon(p.uv).intersects(foot)]
     below = sorted({round(p.hi, 2) for p in under if p.hi <= bottom + LEVEL_BAND_M}, reverse=True)
     if not below:
-        return round(max((p.hi for p in anchor_pieces), default=bottom), 2)
-    if any(p.lo > below[0] + 0.01 for p in under):  # a board over it: it was inside, it goes on top
-        return round(max(p.hi for p in under), 2)
+        below = [round(max((p.hi for p in anchor_pieces), default=bottom), 2)]
+    elif any(p.lo > below[0] + 0.01 for p in under):  # a board over it: it was inside, it goes on top
+        below = [round(max(p.hi for p in under), 2)]
     for level in below:
-        if _surface_at(level, anchor_pieces, region) is not region:
-            return level
-    return below[0]
+        surface = _surface_at(level, anchor_pieces, region)
+        if surface is not region:
+            return level, surface
+    return below[0], region
 
 
 def _surface_at(level: float, anchor_pieces: list[_Piece], region: Polygon) -> Polygon:
@@ -240,50 +227,45 @@ def _surface_at(level: float, anchor_pieces: list[_Piece], region: Polygon) -> P
     return surface
 
 
+def _child_item(scene: Scene, cid: str, frame: UnitFrame, region: Polygon | None = None) -> PackItem:
+    """A child as a packing item: its box in the plane (moved to the middle of ``region`` when it
+    stands elsewhere: an item overflowing from another board); loose small things may turn."""
+    obj = scene.get(cid)
+    box = _box_uv(obj, obj.pose.matrix(with_scale=False), frame)
+    if region is not None and not region.contains(Polygon(box).centroid):
+        box = box + (np.asarray(region.centroid.coords[0]) - box.mean(axis=0))
+    loose = not obj.sim.static and traits(obj.category).placement == "surface"
+    return PackItem(cid, box, movable=not obj.sim.static, may_turn=loose)
+
+
 def _fill_compartment(
     scene: Scene,
-    members: list[str],
+    cid: str,
+    compartment: tuple[float, float, float, float, float, float],
     k: int,
-    compartments: list[tuple[float, float, float, float, float, float]],
     am: FloatArray,
     frame: UnitFrame,
-    shapes: Mapping[str, ObjectShape],
     placed: dict[int, list[FloatArray]],
     result: PackResult,
     heights: dict[str, float],
-) -> list[str]:
-    """Pack ``members`` into compartment ``k`` beside what it holds already (``placed``); record
-    their shifts and board height in ``result`` / ``heights``; returns those that did not fit."""
-    x0, x1, y0, y1, zb, _ = compartments[k]
+) -> bool:
+    """Pack child ``cid`` into compartment ``k`` beside what it holds already (``placed``); on
+    success record its shift and its board's height in ``result`` / ``heights``."""
+    x0, x1, y0, y1, zb, _ = compartment
     rect = np.array([[x0, y0, zb], [x1, y0, zb], [x1, y1, zb], [x0, y1, zb]]) @ am[:3, :3].T + am[:3, 3]
     region = Polygon(convex_hull_2d(frame.uv(rect)))
+    item = _child_item(scene, cid, frame, region)
     fixed = [PackItem(f"placed_{n}", c, movable=False) for n, c in enumerate(placed.get(k, []))]
-    items = []
-    for cid in members:
-        obj = scene.get(cid)
-        loose = not obj.sim.static and traits(obj.category).placement == "surface"
-        box = _box_uv(obj, obj.pose.matrix(with_scale=False), frame)
-        centre = np.asarray(region.centroid.coords[0]) - box.mean(axis=0)
-        start = box if region.contains(Polygon(box).centroid) else box + centre  # from another board: start at its middle
-        items.append(PackItem(cid, start, may_turn=loose))
-    part = pack_surface(region, [*fixed, *items])
-    board = float(frame.h(rect[:1])[0])
-    for item in items:
-        if item.id in part.unplaced:
-            continue
-        shift = part.shifts[item.id]
-        obj = scene.get(item.id)
-        offset = item.corners.mean(axis=0) - _box_uv(obj, obj.pose.matrix(with_scale=False), frame).mean(axis=0)
-        result.shifts[item.id] = shift + offset
-        if item.id in part.turned:
-            result.turned.add(item.id)
-        heights[item.id] = board
-        corners = item.corners + shift
-        if item.id in part.turned:
-            c = corners.mean(axis=0)
-            corners = np.stack([-(corners - c)[:, 1], (corners - c)[:, 0]], axis=1) + c
-        placed.setdefault(k, []).append(corners)
-    return list(part.unplaced)
+    part = pack_surface(region, [*fixed, item])
+    if cid in part.unplaced:
+        return False
+    own = _box_uv(scene.get(cid), scene.get(cid).pose.matrix(with_scale=False), frame)
+    result.shifts[cid] = part.shifts[cid] + item.corners.mean(axis=0) - own.mean(axis=0)
+    if cid in part.turned:
+        result.turned.add(cid)
+    heights[cid] = float(frame.h(rect[:1])[0])
+    placed.setdefault(k, []).append(part.footprint(item))
+    return True
 
 
 def _size(obj: SceneObject) -> tuple[float, float, float]:
@@ -292,28 +274,11 @@ def _size(obj: SceneObject) -> tuple[float, float, float]:
     return sx, sy, sz
 
 
-def _compartment_for(
-    child: SceneObject, anchor: SceneObject, compartments: list[tuple[float, float, float, float, float, float]]
-) -> int | None:
-    """The compartment a contained child goes in: the one whose board its bottom is nearest above
-    (it must fit under the next board), else the nearest one it fits in."""
-    bottom = float(child.aabb()[0][2]) - float(anchor.pose.position[2])
-    tall = float(child.size[2])
-    fits = [k for k, c in enumerate(compartments) if c[5] - c[4] >= tall + 0.005]
-    if not fits:
-        return None
-    return min(fits, key=lambda k: (compartments[k][4] > bottom + 0.05, abs(compartments[k][4] - bottom)))
-
-
 def _pack_region(
     scene: Scene, children: list[str], frame: UnitFrame, region: Polygon, shapes: Mapping[str, ObjectShape]
 ) -> PackResult:
     """``pack_surface`` of ``children`` over ``region``, then those wider than it placed by their base."""
-    items = []
-    for cid in children:
-        obj = scene.get(cid)
-        loose = not obj.sim.static and traits(obj.category).placement == "surface"
-        items.append(PackItem(cid, _box_uv(obj, obj.pose.matrix(with_scale=False), frame), movable=not obj.sim.static, may_turn=loose))
+    items = [_child_item(scene, cid, frame) for cid in children]
     first = pack_surface(region, items)
     if not first.unplaced:
         return first

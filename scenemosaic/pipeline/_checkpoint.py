@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -28,9 +27,17 @@ from scenemosaic.dag import StoredOutput, output_hash
 from scenemosaic.exceptions import UsageError
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record, deciding_settings
 from scenemosaic.pipeline._state import PipelineRun, StageRecord
-from scenemosaic.scene import Pose, RunFolder, Scene
+from scenemosaic.scene import Pose, RunFolder, Scene, write_atomic
 
-__all__ = ["RunCheckpoint", "checkpoint_config", "input_digest", "load_checkpoint", "previous_input", "save_checkpoint"]
+__all__ = [
+    "RunCheckpoint",
+    "checkpoint_config",
+    "input_digest",
+    "load_checkpoint",
+    "previous_input",
+    "save_checkpoint",
+    "write_json",
+]
 
 PIPELINE_NODE = "pipeline"
 """The run store node that holds the pipeline's state."""
@@ -72,20 +79,17 @@ def _key(record: dict[str, Any], digest: str | None) -> str:
     return hashlib.sha256(payload.encode()).hexdigest()
 
 
-def _write_json(path: Path, payload: dict[str, Any]) -> None:
-    """Write atomically (a temporary file renamed over the target), readable by everyone (0644)."""
+def write_json(path: Path, payload: dict[str, Any]) -> None:
+    """Write a JSON document of the run atomically (``scene.write_atomic``), its folder made first."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(payload, indent=2, sort_keys=True), encoding="utf-8")
-    os.chmod(tmp, 0o644)
-    os.replace(tmp, path)
+    write_atomic(path, json.dumps(payload, indent=2, sort_keys=True))
 
 
 def save_checkpoint(run: PipelineRun, digest: str | None) -> None:
     """Keep the run's state (after a finished stage, and once at the start)."""
     assert run.store is not None
     record = config_record(run.config)
-    _write_json(run.folder.run_record, {"input": str(run.input_path), "input_sha256": digest, "config": record})
+    write_json(run.folder.run_record, {"input": str(run.input_path), "input_sha256": digest, "config": record})
     state = RunCheckpoint(
         scene=run.scene,
         records=[asdict(r) for r in run.records if r.status in ("done", "skipped", "reused")],

@@ -18,7 +18,6 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
-import json
 import shutil
 import time
 import traceback
@@ -31,12 +30,18 @@ import structlog
 from scenemosaic.dag import FileRunStore
 from scenemosaic.exceptions import SceneMosaicError, UsageError
 from scenemosaic.exchange import save_scene_only
-from scenemosaic.pipeline._checkpoint import input_digest, load_checkpoint, previous_input, save_checkpoint
+from scenemosaic.pipeline._checkpoint import (
+    input_digest,
+    load_checkpoint,
+    previous_input,
+    save_checkpoint,
+    write_json,
+)
 from scenemosaic.pipeline._config import GenerateConfig, check_config, config_record
 from scenemosaic.pipeline._result import GenerateResult
 from scenemosaic.pipeline._stages import STAGES, deliver_run, is_image_input
 from scenemosaic.pipeline._state import PipelineRun, StageCallback, StageRecord
-from scenemosaic.scene import RunFolder, write_atomic
+from scenemosaic.scene import RunFolder
 
 __all__ = ["REPORT_FILE", "agenerate", "generate", "run_sync", "stage_progress"]
 
@@ -93,11 +98,6 @@ def _input_of(input_path: str | Path | None, folder: RunFolder, config: Generate
     if not config.prompt.strip():
         raise UsageError("the text prompt is empty")
     return folder.prompt_image
-
-
-def _write_json(path: Path, payload: dict[str, Any]) -> None:
-    """Write a JSON document atomically (``scene.write_atomic``)."""
-    write_atomic(path, json.dumps(payload, indent=2, sort_keys=True))
 
 
 # -- the report -----------------------------------------------------------------------------------
@@ -193,7 +193,7 @@ async def agenerate(
         await _keep_partial_results(run, failure, time.perf_counter() - started)
         raise failure
     report = _report(run, time.perf_counter() - started, None)
-    await asyncio.to_thread(_write_json, folder.report, report)
+    await asyncio.to_thread(write_json, folder.report, report)
     if report["status"] == "degraded":
         log.warning("run_degraded", warnings=run.warnings)
     assert run.scene is not None
@@ -256,7 +256,7 @@ async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapse
 
     async def keep() -> None:
         report = _report(run, elapsed, failure)
-        await asyncio.to_thread(_write_json, run.folder.report, report)
+        await asyncio.to_thread(write_json, run.folder.report, report)
         if run.scene is None or (run.folder.base / RunFolder.SCENE_FILE).exists():
             return
         quick = isinstance(failure, asyncio.CancelledError)  # stopping: no hull or render work now
@@ -271,7 +271,7 @@ async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapse
         else:
             report["partial_files"] = files
             report["variants_written"] = len(run.variants) if not quick else 0
-        await asyncio.to_thread(_write_json, run.folder.report, report)
+        await asyncio.to_thread(write_json, run.folder.report, report)
 
     task = asyncio.ensure_future(keep())
     try:

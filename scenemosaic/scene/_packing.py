@@ -67,6 +67,19 @@ class PackResult:
         """Whether every item found a place."""
         return not self.unplaced
 
+    def footprint(self, item: PackItem) -> FloatArray:
+        """Where ``item``'s footprint ended: turned (when it turned) and shifted; as given when unplaced."""
+        corners = _turned(item.corners) if item.id in self.turned else item.corners
+        shift = self.shifts.get(item.id)
+        return corners + shift if shift is not None else corners
+
+    def merge(self, other: PackResult) -> None:
+        """Add the outcome of another packing (of other items) to this one."""
+        self.shifts.update(other.shifts)
+        self.turned |= other.turned
+        self.kept += other.kept
+        self.unplaced += other.unplaced
+
 
 def _raster(poly: Polygon, x0: float, y0: float, nx: int, ny: int, cell: float) -> np.ndarray:
     """Cells whose centre lies inside ``poly`` (rows: y, columns: x)."""

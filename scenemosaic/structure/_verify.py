@@ -32,7 +32,7 @@ from shapely.affinity import translate
 from shapely.geometry import Polygon
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
-from scenemosaic.assets import interior_boards
+from scenemosaic.assets import compartment_fits, interior_boards
 from scenemosaic.scene import (
     CEILING,
     FLOOR,
@@ -304,13 +304,9 @@ def placement_options(
 
 
 def _fits_a_compartment(o: ObjectFacts, boxes: list[tuple[float, float, float, float, float, float]]) -> bool:
-    """Whether the item's box fits some compartment (either way round in plan)."""
-    w, d, h = [*sorted(o.size[:2], reverse=True), o.size[2]]
-    for x0, x1, y0, y1, zb, zt in boxes:
-        a, b = sorted((x1 - x0, y1 - y0), reverse=True)
-        if w <= a and d <= b and h <= zt - zb:
-            return True
-    return False
+    """Whether the item's box fits some compartment (``assets.compartment_fits``)."""
+    size = (float(o.size[0]), float(o.size[1]), float(o.size[2]))
+    return any(compartment_fits(size, box) for box in boxes)
 
 
 def _holds_inside(o: ObjectFacts) -> bool:
@@ -354,13 +350,12 @@ def _receptacle_fixes(
         if not staying:
             continue
         top = facts[parent].polygon()
-        packed = pack_surface(top, [PackItem(k.id, np.asarray(k.footprint), may_turn=k.id in items) for k in staying])
-        wide = [k for k in staying if k.id in packed.unplaced and k.id not in items]
+        pack = {k.id: PackItem(k.id, np.asarray(k.footprint), may_turn=k.id in items) for k in staying}
+        packed = pack_surface(top, list(pack.values()))
+        wide = {oid for oid in packed.unplaced if oid not in items}
         if wide:  # wider than the top (a television): it stays where it stands, and its box takes room
-            packed = pack_surface(
-                top,
-                [PackItem(k.id, np.asarray(k.footprint), movable=k.id not in {w.id for w in wide}, may_turn=k.id in items) for k in staying],
-            )
+            pack = {oid: PackItem(oid, i.corners, movable=False) if oid in wide else i for oid, i in pack.items()}
+            packed = pack_surface(top, list(pack.values()))
         for k in staying:
             if k.id in packed.unplaced:
                 if k.id in items:
@@ -370,7 +365,7 @@ def _receptacle_fixes(
             if k.id in on_top_now:
                 fixes.append(ParentFix(object_id=k.id, parent=parent, reason="too big for its compartments; set on top"))
             shift = packed.shifts.get(k.id, np.zeros(2))
-            layout.setdefault(parent, []).append(np.asarray(k.footprint) + shift)
+            layout.setdefault(parent, []).append(packed.footprint(pack[k.id]))
             # physics packs the top the same way; a move here only tells the model and the report
             if k.id not in packed.kept and k.id not in packed.turned and 1e-3 < float(np.hypot(*shift)) <= MAX_PULL_IN:
                 moves.append(
