@@ -203,7 +203,19 @@ def _summarize(result: GenerateResult) -> None:
     for stage in report["stages"]:
         _out.print(f"  {stage['name']:<10} {stage['status']:<8} {stage['seconds']:7.2f} s")
     validation = report.get("validation") or {}
-    if validation:
+    house = report.get("house")
+    if isinstance(house, dict) and validation:
+        figures = {
+            "rooms": len(house.get("rooms") or []),
+            "collision pairs": validation.get("collision_pairs", 0),
+            "out of bounds": validation.get("out_of_bounds", 0),
+            "blocked doors": len(validation.get("door_blockers") or []),
+            "unreachable rooms": len(validation.get("unreachable_rooms") or []),
+            "across walls": len(validation.get("wall_crossings") or []),
+            "house NAV": validation.get("house_nav"),
+        }
+        _out.print("  house: " + ", ".join(f"{k} {v}" for k, v in figures.items()), highlight=False)
+    elif validation:
         figures = {
             "collision pairs": len(validation.get("collisions", {}).get("pairs", [])),
             "out of bounds": len(validation.get("out_of_bounds", {}).get("objects", [])),
@@ -266,7 +278,7 @@ def generate(
     model: Annotated[str, typer.Option("--model", help="rules | openai:<model>[@<base_url>] | replay:<cassette.json>")] = "rules",
     seed: Annotated[int, typer.Option("--seed", help="Run seed.")] = 0,
     room: Annotated[
-        str | None, typer.Option("--room", help="Room id for multi-room house files (e.g. 'room|3').")
+        str | None, typer.Option("--room", help="Take one room of a multi-room house (e.g. 'room|3'); without it the whole house is generated.")
     ] = None,
     asset_dir: Annotated[
         Path | None,
@@ -309,6 +321,10 @@ def generate(
     cache_dir: Annotated[
         Path | None,
         typer.Option("--cache-dir", help="Hull cache folder (default: $SCENEMOSAIC_CACHE or ~/.cache/scenemosaic)."),
+    ] = None,
+    room_workers: Annotated[
+        int | None,
+        typer.Option("--room-workers", help="Processes for a house's rooms (default: one per core, at most one per room)."),
     ] = None,
     strict: Annotated[bool, typer.Option("--strict", help="Exit 1 when the result is degraded.")] = False,
     overwrite: Annotated[
@@ -371,6 +387,7 @@ def generate(
             reply_cache=reply_cache,
             stabilize=stabilize,
             cache_dir=cache_dir,
+            room_workers=room_workers,
             strict=strict,
             overwrite=overwrite,
         )

@@ -3,11 +3,20 @@
 * :func:`novelty_distance` — the method's novelty-aware distance N(A, B) (A the reference).
 * :class:`CandidatePool` — the lazy Cartesian product of group variants, scored through per-group
   and per-group-pair tables; :func:`select_diverse` — the dynamic max-min greedy over it.
+* :func:`compose_variants` — a scene's m diverse valid variants; :func:`compose_house` — a
+  house's, over one pool spanning every room.
 * :func:`compose_transform` / :func:`decompose_transform` — anchor-relative grafting and the polar
   decomposition that recovers position, rotation and scale.
 """
 
-from scenemosaic.compose._compose import CompositionReport, UnitLayouts, compose_variants, kept_layouts
+from scenemosaic.compose._compose import (
+    HOUSE_MAX_CANDIDATES,
+    CompositionReport,
+    UnitLayouts,
+    compose_house,
+    compose_variants,
+    kept_layouts,
+)
 from scenemosaic.compose._distance import WEIGHTS, Arrangement, distance_terms, novelty_distance
 from scenemosaic.compose._pool import ALPHA, CHUNK, CandidatePool, GroupVariants, Selection, select_diverse
 from scenemosaic.compose._transform import compose_transform, decompose_transform
@@ -15,6 +24,7 @@ from scenemosaic.compose._transform import compose_transform, decompose_transfor
 __all__ = [
     "ALPHA",
     "CHUNK",
+    "HOUSE_MAX_CANDIDATES",
     "WEIGHTS",
     "Arrangement",
     "CandidatePool",
@@ -22,6 +32,7 @@ __all__ = [
     "GroupVariants",
     "Selection",
     "UnitLayouts",
+    "compose_house",
     "compose_transform",
     "compose_variants",
     "decompose_transform",

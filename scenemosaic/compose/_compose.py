@@ -25,14 +25,18 @@ import numpy as np
 import structlog
 
 from scenemosaic.compose._distance import Arrangement
-from scenemosaic.compose._pool import ALPHA, CandidatePool, GroupVariants, Selection, select_diverse
+from scenemosaic.compose._pool import ALPHA, CandidatePool, GroupVariants, Selection, Veto, select_diverse
 from scenemosaic.evolve import EvolutionReport
 from scenemosaic.physics import ObjectShape, collision_report_for
 from scenemosaic.scene import LocalUnit, Pose, Scene, build_structure, descendants, with_unit_layout
 
-__all__ = ["CompositionReport", "UnitLayouts", "compose_variants", "kept_layouts"]
+__all__ = ["HOUSE_MAX_CANDIDATES", "CompositionReport", "UnitLayouts", "compose_house", "compose_variants", "kept_layouts"]
 
 log = structlog.get_logger(__name__)
+
+HOUSE_MAX_CANDIDATES = 200_000
+"""Candidates a house's selection scores (a seeded uniform sample of its pool): six arrangements
+in each of ten rooms make 6^10 (6 x 10^7) houses."""
 
 
 @dataclass(frozen=True)
@@ -116,6 +120,109 @@ def _groups(scene: Scene, units: Sequence[LocalUnit]) -> list[tuple[str, list[Lo
     return out
 
 
+class _Composer:
+    """One scene's groups, their variants and the cached scene-level checks of its candidates."""
+
+    def __init__(
+        self,
+        scene: Scene,
+        layouts: Mapping[str, UnitLayouts],
+        shapes: Mapping[str, ObjectShape],
+        report: CompositionReport,
+        accept: Callable[[Scene], bool] | None,
+    ) -> None:
+        self.scene, self.layouts, self.shapes, self.report, self.accept = scene, layouts, shapes, report, accept
+        self.groups: list[GroupVariants] = []
+        self.group_scenes: list[list[Scene]] = []
+        self.group_labels: list[list[dict[str, str]]] = []
+        self.own_cache: dict[tuple[int, int], bool] = {}
+        self.pair_cache: dict[tuple[int, int, int, int], bool] = {}
+        self.verdicts: dict[tuple[int, ...], bool | Veto] = {}
+        units = list((scene.structure or build_structure(scene)).units)
+        for name, members, objects in _groups(scene, units):
+            options = [layouts.get(u.anchor_id) for u in members]
+            ranges = [range(len(o.layout_ids)) if o is not None else range(1) for o in options]
+            scenes: list[Scene] = []
+            labels: list[dict[str, str]] = []
+            for combo in itertools.product(*ranges):
+                s = scene
+                label: dict[str, str] = {}
+                for u, o, k in zip(members, options, combo, strict=True):
+                    if o is None:
+                        continue
+                    label[u.anchor_id] = o.layout_ids[k]
+                    if k:  # the refined original is in place already
+                        s = with_unit_layout(s, u.anchor_id, o.poses[k])
+                scenes.append(s)
+                labels.append(label)
+            arrs = [Arrangement.of(s, objects) for s in scenes]
+            self.groups.append(
+                GroupVariants(
+                    name, tuple(objects), np.stack([a.positions for a in arrs]), np.stack([a.rotations for a in arrs]),
+                    np.stack([a.quaternions for a in arrs]), tuple(",".join(f"{k}:{v}" for k, v in lab.items()) for lab in labels),
+                )
+            )  # fmt: skip
+            self.group_scenes.append(scenes)
+            self.group_labels.append(labels)
+
+    def _clean(self, objs: list[Any], split: set[str] | None) -> bool:
+        self.report.checks += 1
+        world = Scene.model_construct(objects=objs)
+        pairs = collision_report_for(world, self.shapes).pairs
+        if split is None:
+            return not pairs
+        return not any((p.a in split) != (p.b in split) for p in pairs)
+
+    def _group_objects(self, g: int, k: int) -> list[Any]:
+        s = self.group_scenes[g][k]
+        return [s.get(i) for i in self.groups[g].ids]
+
+    def valid(self, choice: tuple[int, ...], offset: int = 0) -> bool | Veto:
+        """Whether a candidate (one variant per group) is free of interpenetration and accepted;
+        when not, the :data:`Veto` that condemns it (its groups numbered from ``offset``: this
+        scene's place among a house's groups). Each answer is kept: candidates share arrangements."""
+        known = self.verdicts.get(choice)
+        if known is None:
+            known = self.verdicts[choice] = self._valid(choice)
+        if known is True or not offset:
+            return known
+        return tuple((g + offset, k) for g, k in known)
+
+    def _valid(self, choice: tuple[int, ...]) -> bool | Veto:
+        for g, k in enumerate(choice):
+            if (g, k) not in self.own_cache:
+                self.own_cache[(g, k)] = self._clean(self._group_objects(g, k), None) if k else True  # the base is validated
+            if not self.own_cache[(g, k)]:
+                return ((g, k),)
+        for g, h in itertools.combinations(range(len(choice)), 2):
+            key = (g, choice[g], h, choice[h])
+            if key not in self.pair_cache:
+                if choice[g] == 0 and choice[h] == 0:
+                    self.pair_cache[key] = True
+                else:
+                    a, b = self._group_objects(g, choice[g]), self._group_objects(h, choice[h])
+                    self.pair_cache[key] = self._clean(a + b, {o.id for o in a})
+            if not self.pair_cache[key]:
+                return ((g, choice[g]), (h, choice[h]))
+        if self.accept is not None and not self.accept(self.build(choice)[0]):
+            self.report.not_accepted += 1
+            return tuple(enumerate(choice))
+        return True
+
+    def build(self, choice: tuple[int, ...]) -> tuple[Scene, dict[str, str]]:
+        """The candidate's scene and the layout it takes for each unit."""
+        s = self.scene
+        picked: dict[str, str] = {}
+        for g, k in enumerate(choice):
+            picked.update(self.group_labels[g][k])
+            for uid, lid in self.group_labels[g][k].items():
+                o = self.layouts[uid]
+                idx = o.layout_ids.index(lid)
+                if idx:
+                    s = with_unit_layout(s, uid, o.poses[idx])
+        return (s.model_copy(deep=True) if s is self.scene else s), picked  # never the base itself
+
+
 def compose_variants(
     scene: Scene,
     layouts: Mapping[str, UnitLayouts],
@@ -132,100 +239,92 @@ def compose_variants(
 
     ``accept`` is a last test of a whole candidate scene, run after the interpenetration checks on
     the candidates the selection reaches (the pipeline passes one that keeps the walkable floor
-    connected); a candidate it turns down is skipped like one that interpenetrates.
+    connected and the doors clear); a candidate it turns down is skipped like one that
+    interpenetrates.
     """
     t0 = time.perf_counter()
     report = CompositionReport()
-    units = list((scene.structure or build_structure(scene)).units)
-    groups: list[GroupVariants] = []
-    group_scenes: list[list[Scene]] = []
-    group_labels: list[list[dict[str, str]]] = []
-    for name, members, objects in _groups(scene, units):
-        options = [layouts.get(u.anchor_id) for u in members]
-        ranges = [range(len(o.layout_ids)) if o is not None else range(1) for o in options]
-        scenes: list[Scene] = []
-        labels: list[dict[str, str]] = []
-        for combo in itertools.product(*ranges):
-            s = scene
-            label: dict[str, str] = {}
-            for u, o, k in zip(members, options, combo, strict=True):
-                if o is None:
-                    continue
-                label[u.anchor_id] = o.layout_ids[k]
-                if k:  # the refined original is in place already
-                    s = with_unit_layout(s, u.anchor_id, o.poses[k])
-            scenes.append(s)
-            labels.append(label)
-        arrs = [Arrangement.of(s, objects) for s in scenes]
-        groups.append(
-            GroupVariants(
-                name, tuple(objects), np.stack([a.positions for a in arrs]), np.stack([a.rotations for a in arrs]),
-                np.stack([a.quaternions for a in arrs]), tuple(",".join(f"{k}:{v}" for k, v in lab.items()) for lab in labels),
-            )
-        )
-        group_scenes.append(scenes)
-        group_labels.append(labels)
-        report.groups[name] = len(scenes)
-    pool = CandidatePool(groups)
+    composer = _Composer(scene, layouts, shapes, report, accept)
+    for g in composer.groups:
+        report.groups[g.name] = g.count
+    pool = CandidatePool(composer.groups)
     report.pool_size = pool.size
-
-    own_cache: dict[tuple[int, int], bool] = {}
-    pair_cache: dict[tuple[int, int, int, int], bool] = {}
-
-    def clean(objs: list[Any], split: set[str] | None) -> bool:
-        report.checks += 1
-        world = Scene.model_construct(objects=objs)
-        pairs = collision_report_for(world, shapes).pairs
-        if split is None:
-            return not pairs
-        return not any((p.a in split) != (p.b in split) for p in pairs)
-
-    def group_objects(g: int, k: int) -> list[Any]:
-        s = group_scenes[g][k]
-        return [s.get(i) for i in groups[g].ids]
-
-    def valid(choice: tuple[int, ...]) -> bool:
-        for g, k in enumerate(choice):
-            if (g, k) not in own_cache:
-                own_cache[(g, k)] = clean(group_objects(g, k), None) if k else True  # the base is validated
-            if not own_cache[(g, k)]:
-                return False
-        for g, h in itertools.combinations(range(len(choice)), 2):
-            key = (g, choice[g], h, choice[h])
-            if key not in pair_cache:
-                if choice[g] == 0 and choice[h] == 0:
-                    pair_cache[key] = True
-                else:
-                    a, b = group_objects(g, choice[g]), group_objects(h, choice[h])
-                    pair_cache[key] = clean(a + b, {o.id for o in a})
-            if not pair_cache[key]:
-                return False
-        if accept is not None and not accept(build(choice)[0]):
-            report.not_accepted += 1
-            return False
-        return True
-
-    def build(choice: tuple[int, ...]) -> tuple[Scene, dict[str, str]]:
-        s = scene
-        picked: dict[str, str] = {}
-        for g, k in enumerate(choice):
-            picked.update(group_labels[g][k])
-            for uid, lid in group_labels[g][k].items():
-                o = layouts[uid]
-                idx = o.layout_ids.index(lid)
-                if idx:
-                    s = with_unit_layout(s, uid, o.poses[idx])
-        return s, picked
-
-    sel: Selection = select_diverse(pool, m, alpha=alpha, valid=valid, max_candidates=max_candidates, seed=seed)
-    report.considered, report.sampled = sel.considered, sel.sampled
-    report.rejected, report.pruned = len(sel.rejected), sel.pruned
-    report.min_distances = sel.min_distances[1:]
+    sel: Selection = select_diverse(pool, m, alpha=alpha, valid=composer.valid, max_candidates=max_candidates, seed=seed)
+    _selection_figures(report, sel)
     variants: list[Scene] = []
     for choice in sel.picked[1:]:
-        s, picked = build(choice)
+        s, picked = composer.build(choice)
         variants.append(s)
         report.picked.append(picked)
     report.wall_s = time.perf_counter() - t0
     log.info("variants_composed", pool=report.pool_size, selected=len(variants), checks=report.checks, wall_s=round(report.wall_s, 3))
+    return variants, report
+
+
+def _selection_figures(report: CompositionReport, sel: Selection) -> None:
+    report.considered, report.sampled = sel.considered, sel.sampled
+    report.rejected, report.pruned = len(sel.rejected) + sel.vetoed, sel.pruned
+    report.min_distances = sel.min_distances[1:]
+
+
+def compose_house(
+    rooms: Sequence[Scene],
+    room_variants: Sequence[Sequence[Scene]],
+    *,
+    m: int = 5,
+    alpha: float = ALPHA,
+    max_candidates: int | None = HOUSE_MAX_CANDIDATES,
+    seed: int = 0,
+    accept: Callable[[list[Scene]], bool] | None = None,
+) -> tuple[list[list[Scene]], CompositionReport]:
+    """Select ``m`` diverse whole-house variants from each room's valid variants.
+
+    Each room is one group of the candidate pool: its refined base (variant 0) and its own
+    variants (``room_variants[i]``, each already valid on its own: composed and checked in the
+    room, doors clear), so a candidate is one arrangement per room and the pool, the product over
+    the rooms, stays lazy. Rooms are walled apart, so no interpenetration check spans two rooms;
+    ``accept`` tests what only the whole house can say (every room reachable from every other).
+    The novelty distance and the max-min greedy run over all of the house's objects. Returns each
+    variant as its room scenes (in ``rooms`` order) and the report (``picked``: the room variant
+    each house took, ``"base"`` or ``"variant_<k>"``).
+    """
+    t0 = time.perf_counter()
+    report = CompositionReport()
+    groups: list[GroupVariants] = []
+    options: list[list[Scene]] = []
+    for base, extra in zip(rooms, room_variants, strict=True):
+        scenes = [base, *extra]
+        ids = [o.id for o in base.objects]
+        arrs = [Arrangement.of(s, ids) for s in scenes]
+        labels = ("base", *(f"variant_{k}" for k in range(1, len(scenes))))
+        groups.append(
+            GroupVariants(
+                base.id, tuple(ids), np.stack([a.positions for a in arrs]), np.stack([a.rotations for a in arrs]),
+                np.stack([a.quaternions for a in arrs]), labels,
+            )
+        )  # fmt: skip
+        options.append(scenes)
+        report.groups[base.id] = len(scenes)
+    pool = CandidatePool(groups)
+    report.pool_size = pool.size
+
+    def build(choice: tuple[int, ...]) -> list[Scene]:
+        return [opts[k] if k else opts[0].model_copy(deep=True) for opts, k in zip(options, choice, strict=True)]
+
+    def valid(choice: tuple[int, ...]) -> bool:
+        report.checks += 1
+        if accept is None or accept(build(choice)):
+            return True
+        report.not_accepted += 1
+        return False
+
+    sel: Selection = select_diverse(pool, m, alpha=alpha, valid=valid, max_candidates=max_candidates, seed=seed)
+    _selection_figures(report, sel)
+    variants: list[list[Scene]] = []
+    for choice in sel.picked[1:]:
+        house = build(choice)
+        variants.append([s.model_copy(deep=True) if k else s for s, k in zip(house, choice, strict=True)])
+        report.picked.append({g.name: g.labels[k] for g, k in zip(groups, choice, strict=True)})
+    report.wall_s = time.perf_counter() - t0
+    log.info("house_variants_composed", rooms=len(rooms), pool=report.pool_size, selected=len(variants), wall_s=round(report.wall_s, 3))
     return variants, report

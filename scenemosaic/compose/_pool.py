@@ -24,7 +24,17 @@ import numpy as np
 from scenemosaic.compose._distance import WEIGHTS, Arrangement, relative
 from scenemosaic.scene import FloatArray
 
-__all__ = ["ALPHA", "CHUNK", "MAX_ENUMERATED", "CandidatePool", "GroupVariants", "Selection", "select_diverse"]
+__all__ = [
+    "ALPHA",
+    "CHUNK",
+    "MAX_ENUMERATED",
+    "VETO_MAX_ROWS",
+    "CandidatePool",
+    "GroupVariants",
+    "Selection",
+    "Veto",
+    "select_diverse",
+]
 
 ALPHA = 0.1
 """Pruning factor of the dynamic max-min greedy: candidates closer than ALPHA * d_max to the
@@ -206,7 +216,18 @@ class Selection:
     sampled: bool = False
     rejected: list[tuple[int, ...]] = field(default_factory=list)
     """Candidates the scene-level check turned down when the greedy reached them."""
+    vetoed: int = 0
+    """Candidates dropped unchecked because they share a turned-down part (a :data:`Veto`)."""
     pruned: int = 0
+
+
+Veto = tuple[tuple[int, int], ...]
+"""Why a candidate is invalid, as ``((group, variant), ...)``: every candidate that takes all of
+these group variants is invalid too (a group variant that interpenetrates itself, a pair that
+interpenetrates each other, a room arrangement turned down)."""
+VETO_MAX_ROWS = 2_000_000
+"""Vetoes are applied to the candidates scored when there are at most this many (the (K, G) table
+of their group variants is built for it); above, each candidate is checked on its own."""
 
 
 def select_diverse(
@@ -214,7 +235,7 @@ def select_diverse(
     m: int = 5,
     *,
     alpha: float = ALPHA,
-    valid: Callable[[tuple[int, ...]], bool] | None = None,
+    valid: Callable[[tuple[int, ...]], bool | Veto] | None = None,
     max_candidates: int | None = None,
     seed: int = 0,
 ) -> Selection:
@@ -226,7 +247,9 @@ def select_diverse(
 
     ``max_candidates`` scores a seeded uniform sample of that many candidates instead of the whole
     pool (``Selection.sampled`` says so). Each ordered (selected, candidate) distance is computed
-    once: the minimum is updated with the newly selected scene only.
+    once: the minimum is updated with the newly selected scene only. ``valid`` may answer a
+    :data:`Veto` instead of ``False``: every candidate scored that takes those group variants is
+    dropped with it (``Selection.vetoed``).
     """
     size = pool.size
     sel = Selection(pool_size=size)
@@ -239,15 +262,35 @@ def select_diverse(
     sel.considered = len(rows)
     min_d = pool.distances(origin, rows)
     alive = np.ones(len(rows), dtype=bool)
+    grid = rows if rows.ndim == 2 else (pool.choices(rows) if len(rows) <= VETO_MAX_ROWS else None)
     while len(sel.picked) < m + 1 and alive.any():
-        scores = np.where(alive, min_d, -np.inf)
-        best = int(np.argmax(scores))  # ties: the first row, i.e. the lowest flat index
-        alive[best] = False
-        row = rows[best : best + 1]
-        choice = tuple(int(x) for x in (pool.choices(row)[0] if rows.ndim == 1 else row[0]))
-        if valid is not None and not valid(choice):
+        # the alive rows, farthest first (a stable sort: ties in flat-index order); a rejection
+        # changes no distance, so the next best is the next alive one in this order
+        idx = np.flatnonzero(alive)
+        order = idx[np.argsort(-min_d[idx], kind="stable")]
+        picked = None
+        for best in order:
+            best = int(best)
+            if not alive[best]:
+                continue  # vetoed with an earlier rejection
+            alive[best] = False
+            row = rows[best : best + 1]
+            choice = tuple(int(x) for x in (pool.choices(row)[0] if rows.ndim == 1 else row[0]))
+            verdict = True if valid is None else valid(choice)
+            if verdict is True:
+                picked = (best, choice)
+                break
             sel.rejected.append(choice)
-            continue
+            if verdict and grid is not None:  # a veto: drop every candidate sharing the parts
+                hit = np.ones(len(rows), dtype=bool)
+                for g, k in verdict:
+                    hit &= grid[:, g] == k
+                hit &= alive
+                sel.vetoed += int(hit.sum())
+                alive &= ~hit
+        if picked is None:
+            break
+        best, choice = picked
         d_max = float(min_d[best])
         sel.picked.append(choice)
         sel.min_distances.append(d_max)

@@ -3,18 +3,49 @@
 :func:`deliver_scene` writes ``scene.json`` (+ ``assets/``) through the native writer, then every
 format of :data:`DELIVERED_FORMATS` from that saved copy (whose mesh uris the native writer
 rewrote), the house file of a room taken from an AI2-THOR house, and the top-down picture.
+
+:func:`deliver_house` does the same for a whole house: ``house_scene.json`` and
+``rooms/<room id>/`` (:func:`~scenemosaic.exchange.save_house`), then every format written for the
+whole house at once (one MuJoCo world, one USD stage, ...), the house plan as ``topdown.png``, and
+the AI2-THOR house file with every room's objects moved.
 """
 
 from __future__ import annotations
 
 import importlib.util
-from pathlib import Path
+from collections.abc import Callable
+from pathlib import Path, PurePosixPath
 
-from scenemosaic.exchange._native import read_scene
+import structlog
+
+from scenemosaic.exchange._glb import export_house_glb
+from scenemosaic.exchange._native import read_house, read_scene, save_house
+from scenemosaic.exchange._procthor import export_procthor_house
 from scenemosaic.exchange._registry import write_scene
-from scenemosaic.scene import RunFolder, Scene
+from scenemosaic.exchange._sceneeval import export_house_sceneeval
+from scenemosaic.exchange._urdf import export_house_urdf
+from scenemosaic.exchange._usd import export_house_usd
+from scenemosaic.physics import write_house_mjcf
+from scenemosaic.scene import House, RunFolder, Scene, safe_name
 
-__all__ = ["DELIVERED_FORMATS", "OPTIONAL_FORMATS", "deliver_scene", "formats_left_out", "save_scene_only"]
+__all__ = [
+    "DELIVERED_FORMATS",
+    "HOUSE_INDEX_FILE",
+    "HOUSE_ROOMS_DIR",
+    "OPTIONAL_FORMATS",
+    "deliver_house",
+    "deliver_scene",
+    "formats_left_out",
+    "save_scene_only",
+]
+
+log = structlog.get_logger(__name__)
+
+HOUSE_INDEX_FILE = RunFolder.HOUSE_FILE
+"""The native house index in a delivered house folder, ``house_scene.json``: ``{"format":
+"scenemosaic-house", "version": 1, "id", "rooms": [room ids in order], "metadata", "provenance"}``."""
+HOUSE_ROOMS_DIR = RunFolder.ROOMS
+"""The folder of a delivered house holding one native scene folder per room, ``rooms/<room id>/``."""
 
 DELIVERED_FORMATS: tuple[tuple[str, str], ...] = (
     ("glb", "scene.glb"),
@@ -58,6 +89,59 @@ def deliver_scene(scene: Scene, folder: Path, base_dir: Path | None) -> list[str
     (folder / RunFolder.TOPDOWN).write_bytes(render_topdown(saved, base_dir=folder))
     top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir() and p.name != "assets")]
+
+
+def _rooted(house: House) -> House:
+    """``house`` with each room's relative mesh uris made relative to the house folder (they were
+    relative to the room's own folder, ``rooms/<room id>/``), so one ``base_dir`` serves them all."""
+    rooms: list[Scene] = []
+    for scene in house.rooms:
+        prefix = PurePosixPath(HOUSE_ROOMS_DIR, safe_name(scene.id))
+        objects = []
+        for obj in scene.objects:
+            uri = obj.asset.uri
+            if obj.asset.kind == "mesh" and uri is not None and not Path(uri).is_absolute():
+                obj = obj.model_copy(
+                    update={"asset": obj.asset.model_copy(update={"uri": str(prefix / uri)})}
+                )
+            objects.append(obj)
+        rooms.append(scene.model_copy(update={"objects": objects}))
+    return house.with_rooms(rooms)
+
+
+def deliver_house(house: House, folder: Path, base_dir: Path | None) -> list[str]:
+    """Write a whole house in the delivered layout; returns the files written (relative to ``folder``).
+
+    ``house_scene.json`` and ``rooms/<room id>/scene.json`` (+ ``assets/``) through the native
+    writer, then, from that saved copy, the whole house in every format of
+    :data:`DELIVERED_FORMATS` (those whose extra is installed): ``scene.glb``, ``sceneeval/``,
+    ``scene.xml`` + ``mjcf/``, ``scene.urdf`` + ``urdf/``, ``scene.usda`` + ``usd/``; the house
+    plan as ``topdown.png``; and, for a house imported from one AI2-THOR / ProcTHOR house file,
+    that file as ``house.json`` with every room's objects at their new poses.
+    ``base_dir`` resolves the input's relative mesh uris. :func:`~scenemosaic.exchange.read_house`
+    reads the folder back.
+    """
+    from scenemosaic.render import render_house_plan
+
+    folder.mkdir(parents=True, exist_ok=True)
+    save_house(house, folder, base_dir=base_dir)
+    saved = _rooted(read_house(folder))
+    writers: dict[str, Callable[[], Path]] = {
+        "glb": lambda: export_house_glb(saved, folder / "scene.glb", folder),
+        "sceneeval": lambda: export_house_sceneeval(saved, folder / "sceneeval", folder),
+        "mjcf": lambda: write_house_mjcf(saved, folder, folder),
+        "urdf": lambda: export_house_urdf(saved, folder, folder),
+        "usd": lambda: export_house_usd(saved, folder, folder),
+    }
+    for fmt, _ in DELIVERED_FORMATS:
+        if _available(fmt):
+            writers[fmt]()
+    if all(s.provenance.source_format == "procthor" for s in saved.rooms):  # back into its house file
+        export_procthor_house(saved, folder)
+    (folder / RunFolder.TOPDOWN).write_bytes(render_house_plan(saved, base_dir=folder))
+    log.info("house_delivered", folder=str(folder), rooms=len(saved.rooms), objects=len(saved.objects))
+    top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
+    return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir())]
 
 
 def save_scene_only(scene: Scene, folder: Path, base_dir: Path | None) -> list[str]:

@@ -6,6 +6,10 @@ X). Everything below it is in our world frame: Z up, metres, objects facing thei
 A glTF viewer therefore shows the scene upright; a reader that wants our Z-up frame back
 either reads each child node's matrix relative to the root (it *is* the Z-up pose) or maps
 Y-up world points with ``(x, y, z) -> (x, -z, y)`` (:data:`Y_UP_TO_Z_UP`).
+
+A house (:func:`export_house_glb`) has, under the same root, one node per room named by the
+room's id (identity matrix), holding ``<room id>/floor``, ``<room id>/<wall id>`` (openings cut,
+each shared wall once), ``<room id>/ceiling`` and a node per object of the room.
 """
 
 from __future__ import annotations
@@ -17,18 +21,23 @@ import structlog
 import trimesh
 from trimesh.visual.material import PBRMaterial
 
+from scenemosaic.exceptions import UsageError
 from scenemosaic.render import (
     CEILING_COLOR,
     FLOOR_COLOR,
     RGB,
     WALL_COLOR,
+    WallPiece,
     category_color,
     ceiling_mesh,
     floor_mesh,
+    house_wall_pieces,
     object_local_mesh,
+    wall_ends,
     wall_mesh,
+    wall_pieces,
 )
-from scenemosaic.scene import Scene
+from scenemosaic.scene import House, Room, Scene
 
 __all__ = [
     "GLB_ROOT_NODE",
@@ -36,7 +45,9 @@ __all__ = [
     "Y_UP_TO_Z_UP",
     "Z_UP_TO_Y_UP",
     "build_glb_scene",
+    "build_house_glb_scene",
     "export_glb",
+    "export_house_glb",
 ]
 
 log = structlog.get_logger(__name__)
@@ -84,32 +95,74 @@ def with_visual(mesh: trimesh.Trimesh, category: str) -> trimesh.Trimesh:
     return paint_mesh(mesh, category_color(category), name=category)
 
 
-def build_glb_scene(scene: Scene, base_dir: Path | None = None) -> trimesh.Scene:
-    """The trimesh scene :func:`export_glb` writes (root node, object nodes, room nodes)."""
+def _root() -> trimesh.Scene:
     out = trimesh.Scene()
     out.graph.update(  # type: ignore[no-untyped-call]
         frame_from=out.graph.base_frame, frame_to=GLB_ROOT_NODE, matrix=Z_UP_TO_Y_UP
     )
+    return out
+
+
+def _add_objects(out: trimesh.Scene, scene: Scene, parent: str, base_dir: Path | None) -> None:
     for obj in scene.objects:
         mesh = with_visual(object_local_mesh(obj, base_dir), obj.category)
         out.add_geometry(
-            mesh, node_name=obj.id, geom_name=obj.id, parent_node_name=GLB_ROOT_NODE,
+            mesh, node_name=obj.id, geom_name=obj.id, parent_node_name=parent,
             transform=obj.pose.matrix(with_scale=False),
         )  # fmt: skip
-    room = scene.room
-    if room is None:
-        log.warning("glb_without_room", scene=scene.id)
-        return out
+
+
+def _add_room(
+    out: trimesh.Scene, room: Room, prefix: str, parent: str, pieces: dict[str, list[WallPiece]]
+) -> None:
+    """Floor, walls (each of its ``pieces``; a wall with none is left out) and ceiling, named
+    ``<prefix><part>``, under ``parent``."""
     room_meshes: list[tuple[str, trimesh.Trimesh]] = [
         ("floor", paint_mesh(floor_mesh(room), FLOOR_COLOR, name="floor"))
     ]
-    room_meshes += [(w.id, paint_mesh(wall_mesh(w), WALL_COLOR, name="wall")) for w in room.walls]
+    for w in room.walls:
+        if pieces[w.id]:
+            room_meshes.append((w.id, paint_mesh(wall_mesh(w, pieces[w.id]), WALL_COLOR, name="wall")))
+        else:
+            log.debug("glb_wall_left_out", wall=w.id)  # wholly open, or kept by a neighbour
     room_meshes.append(
         ("ceiling", paint_mesh(ceiling_mesh(room), CEILING_COLOR, name="ceiling", alpha=CEILING_ALPHA))
     )
     for name, mesh in room_meshes:
-        node = ROOM_NODE_PREFIX + name
-        out.add_geometry(mesh, node_name=node, geom_name=node, parent_node_name=GLB_ROOT_NODE)
+        node = prefix + name
+        out.add_geometry(mesh, node_name=node, geom_name=node, parent_node_name=parent)
+
+
+def build_glb_scene(scene: Scene, base_dir: Path | None = None) -> trimesh.Scene:
+    """The trimesh scene :func:`export_glb` writes (root node, object nodes, room nodes)."""
+    out = _root()
+    _add_objects(out, scene, GLB_ROOT_NODE, base_dir)
+    room = scene.room
+    if room is None:
+        log.warning("glb_without_room", scene=scene.id)
+        return out
+    pieces = {w.id: wall_pieces(w, wall_ends(room, w)) for w in room.walls}
+    _add_room(out, room, ROOM_NODE_PREFIX, GLB_ROOT_NODE, pieces)
+    return out
+
+
+def build_house_glb_scene(house: House, base_dir: Path | None = None) -> trimesh.Scene:
+    """The trimesh scene :func:`export_house_glb` writes: under the root node, a node per room
+    (its id) holding the room's floor, walls and ceiling (``<room id>/<part>``) and its objects."""
+    objects = {o.id for o in house.objects}
+    clash = sorted(objects & set(house.room_ids))
+    if clash:
+        raise UsageError(f"object id(s) {clash} are also room ids: a GLB node name must be unique")
+    out = _root()
+    pieces = house_wall_pieces(house)
+    for scene in house.rooms:
+        out.graph.update(  # type: ignore[no-untyped-call]
+            frame_from=GLB_ROOT_NODE, frame_to=scene.id, matrix=np.eye(4)
+        )
+        if scene.room is not None:
+            mine = {w.id: pieces[(scene.id, w.id)] for w in scene.room.walls}
+            _add_room(out, scene.room, f"{scene.id}/", scene.id, mine)
+        _add_objects(out, scene, scene.id, base_dir)
     return out
 
 
@@ -127,4 +180,24 @@ def export_glb(scene: Scene, path: str | Path, base_dir: Path | None = None) -> 
     data: bytes = build_glb_scene(scene, base_dir).export(file_type="glb")  # type: ignore[no-untyped-call]
     path.write_bytes(data)
     log.info("glb_exported", path=str(path), objects=len(scene.objects), bytes=len(data))
+    return path
+
+
+def export_house_glb(house: House, path: str | Path, base_dir: Path | None = None) -> Path:
+    """Write a whole house as one binary glTF file and return its path.
+
+    Under the Z-up root node (:data:`GLB_ROOT_NODE`), one node per room, named by the room's id,
+    holds ``<room id>/floor``, ``<room id>/<wall id>`` (openings cut out, each wall shared by two
+    rooms kept once, with the first room that has it: :func:`scenemosaic.render.house_wall_pieces`),
+    ``<room id>/ceiling`` and one node per object of the room, named by its id, whose matrix is the
+    object's rigid pose (room nodes carry the identity, so it is also the pose in the world).
+    ``base_dir`` resolves every room's relative mesh paths. Equal houses give identical bytes.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data: bytes = build_house_glb_scene(house, base_dir).export(file_type="glb")  # type: ignore[no-untyped-call]
+    path.write_bytes(data)
+    log.info(
+        "glb_exported", path=str(path), rooms=len(house.rooms), objects=len(house.objects), bytes=len(data)
+    )
     return path

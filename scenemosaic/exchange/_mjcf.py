@@ -6,7 +6,7 @@ joint, explicit mass and box inertia; objects hung from the ceiling or a wall, a
 ones, welded to the world. Collision geometry is the objects' convex pieces (group 3); the
 visual mesh, when the assets layer can provide one, is a non-colliding geom in group 2. Paths
 are relative, so the folder can be moved. Frames: Z up, metres, object front along local -Y
-(see docs/conventions.md).
+(see docs/conventions.md). :func:`export_house_mjcf` writes a whole house as one such world.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from scenemosaic.assets import HullCache
-from scenemosaic.physics import HullInput, SimSettings, write_scene_mjcf
-from scenemosaic.scene import Scene
+from scenemosaic.physics import HullInput, SimSettings, write_house_mjcf, write_scene_mjcf
+from scenemosaic.scene import House, Scene
 
-__all__ = ["export_mjcf"]
+__all__ = ["export_house_mjcf", "export_mjcf"]
 
 
 def export_mjcf(
@@ -35,3 +35,18 @@ def export_mjcf(
     finite, before anything is written (MuJoCo cannot load a ``nan`` position).
     """
     return write_scene_mjcf(scene, out_dir, base_dir, hull_cache=hull_cache, hulls=hulls, sim=settings)
+
+
+def export_house_mjcf(
+    house: House,
+    out_dir: str | Path,
+    base_dir: str | Path | None = None,
+    *,
+    hull_cache: HullCache | None = None,
+    hulls: HullInput | None = None,
+    settings: SimSettings | None = None,
+) -> Path:
+    """Write a whole house as ``out_dir/scene.xml`` and ``out_dir/mjcf/*.obj``; return the XML path
+    (:func:`scenemosaic.physics.write_house_mjcf`: one floor, every room's walls with their doors
+    and windows cut and shared walls once, each room's ceiling, every object)."""
+    return write_house_mjcf(house, out_dir, base_dir, hull_cache=hull_cache, hulls=hulls, sim=settings)

@@ -37,9 +37,19 @@ from pydantic import ValidationError
 from scenemosaic.assets import referenced_files
 from scenemosaic.exceptions import AssetError, ImportFormatError, SceneValidationError, UnsafePathError
 from scenemosaic.exchange._common import FieldReader
-from scenemosaic.scene import Scene, SceneObject, confined_path, real_path, write_atomic
+from scenemosaic.scene import (
+    House,
+    Provenance,
+    RunFolder,
+    Scene,
+    SceneObject,
+    confined_path,
+    real_path,
+    safe_name,
+    write_atomic,
+)
 
-__all__ = ["ASSETS_DIR", "SCENE_FILE", "read_scene", "save_scene"]
+__all__ = ["ASSETS_DIR", "HOUSE_FORMAT", "SCENE_FILE", "read_house", "read_scene", "save_house", "save_scene"]
 
 log = structlog.get_logger(__name__)
 
@@ -49,6 +59,8 @@ ASSETS_DIR = "assets"
 """Name of the folder (inside a native scene folder) that holds the copied mesh files."""
 
 _HASH_CHARS = 12
+HOUSE_FORMAT = "scenemosaic-house"
+"""The ``format`` a native house index (``house_scene.json``) declares."""
 
 
 def save_scene(
@@ -238,3 +250,53 @@ def copy_mesh(src: Path, folder: Path, object_id: str, subfolder: str = ASSETS_D
         to_path.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(from_path, to_path)
     return (rel_dir / src.name).as_posix()
+
+
+# -- houses ----------------------------------------------------------------------------------------
+
+
+def save_house(house: House, folder: str | os.PathLike[str], *, base_dir: str | os.PathLike[str] | None = None) -> Path:
+    """Write ``house`` as a native house folder: ``house_scene.json`` (its id, room order, metadata
+    and provenance) and one native scene folder per room, ``rooms/<room id>/``; returns the index."""
+    root = Path(folder)
+    for scene in house.rooms:
+        save_scene(scene, root / RunFolder.ROOMS / safe_name(scene.id), base_dir=base_dir)
+    index = {
+        "format": HOUSE_FORMAT,
+        "version": 1,
+        "id": house.id,
+        "rooms": house.room_ids,
+        "metadata": house.metadata,
+        "provenance": house.provenance.model_dump(mode="json"),
+    }
+    target = root / RunFolder.HOUSE_FILE
+    write_atomic(target, json.dumps(index, indent=2, ensure_ascii=False) + "\n")
+    return target
+
+
+def read_house(path: str | os.PathLike[str]) -> House:
+    """Read a native house folder (or its ``house_scene.json``): every room's scene, in the index's
+    order. The rooms' files are checked as :func:`read_scene` checks a scene's."""
+    p = Path(path)
+    file = p / RunFolder.HOUSE_FILE if p.is_dir() else p
+    r = FieldReader(file)
+    try:
+        data = json.loads(file.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ImportFormatError(f"cannot read the house index: {exc.strerror or exc}", path=str(file)) from exc
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ImportFormatError(f"the house index is not JSON: {exc}", path=str(file)) from exc
+    top = r.mapping(data, "")
+    if top.get("format") != HOUSE_FORMAT:
+        r.fail("format", f"expected {HOUSE_FORMAT!r}, got {top.get('format')!r}")
+    ids = r.array(r.get(top, "rooms", ""), "rooms")
+    rooms = [read_scene(file.parent / RunFolder.ROOMS / safe_name(r.text(rid, f"rooms[{i}]"))) for i, rid in enumerate(ids)]
+    try:
+        return House(
+            id=str(top.get("id") or "house"),
+            rooms=rooms,
+            metadata=dict(r.mapping(top.get("metadata") or {}, "metadata")),
+            provenance=Provenance.model_validate(top.get("provenance") or {}),
+        )
+    except ValidationError as exc:
+        raise ImportFormatError(f"not a valid house: {exc.errors()[0]['msg']}", path=str(file)) from exc

@@ -27,7 +27,8 @@ import numpy as np
 import structlog
 from pydantic import ValidationError
 from scipy.spatial.transform import Rotation
-from shapely.geometry import Point, Polygon
+from shapely.geometry import LineString, Point, Polygon
+from shapely.ops import unary_union
 
 from scenemosaic.exceptions import ImportFormatError, UsageError
 from scenemosaic.exchange._common import FieldReader, read_json
@@ -35,6 +36,7 @@ from scenemosaic.scene import (
     PROCTHOR_PRIORS_DIR,
     AssetRef,
     FloatArray,
+    House,
     Opening,
     Pose,
     Provenance,
@@ -54,8 +56,10 @@ from scenemosaic.scene import (
 __all__ = [
     "DEFAULT_CEILING_HEIGHT",
     "HOUSE_FILE",
+    "SHARED_WALL_THICKNESS_M",
     "AssetDatabase",
     "export_procthor",
+    "export_procthor_house",
     "import_procthor",
     "load_asset_database",
     "looks_like_procthor",
@@ -67,6 +71,14 @@ DEFAULT_CEILING_HEIGHT = 2.5
 """Ceiling height (metres) of a room none of whose walls gives a height."""
 IMPORTER = "scenemosaic.exchange.procthor"
 _WALL_MATCH_TOL = 1e-3  # metres: an opening's point must lie this close to one of our walls
+MIN_SHARED_M = 0.05
+"""An edge of a room's floor counts as shared with another room when at least this much of it (metres) is."""
+SHARED_WALL_THICKNESS_M = 0.1
+"""Thickness (metres) of a wall two rooms of a house share. AI2-THOR's walls have none: its rooms
+meet on a line. Each room's floor is cut back by half this along every stretch of its boundary
+another room shares, so the two rooms' walls there (each standing outside its own floor, this
+thick) are the same slab, centred on the line: one wall, and neither room loses more floor than
+half of it. Exterior walls keep the polygon as it is."""
 
 # swaps Unity's y and z: Unity coordinates <-> our Z-up world (its own inverse)
 _SWAP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
@@ -164,6 +176,8 @@ class _RoomBuild:
     asset_ids: dict[str, str] = field(default_factory=dict)
     source_ids: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    cut: list[tuple[FloatArray, FloatArray, FloatArray]] = field(default_factory=list)
+    """The stretches of boundary given up to shared walls: (start, end, inward unit normal)."""
 
 
 def import_procthor(data: Any, path: Path, *, asset_database: Any = None) -> list[Scene]:
@@ -184,7 +198,9 @@ def import_procthor(data: Any, path: Path, *, asset_database: Any = None) -> lis
     room_ids: set[str] = set()
     for i, raw in enumerate(rooms_raw):
         builds.append(_build_room(r, raw, f"rooms[{i}]", walls_by_id, room_ids))
+    _cut_back_shared_walls(builds)
     by_source = {b.source_id: b for b in builds}
+    _open_empty_walls(walls_by_id, by_source)
     for key in ("doors", "windows"):
         for i, raw in enumerate(r.array(top.get(key) or [], key)):
             _add_opening(r, raw, f"{key}[{i}]", key, walls_by_id, by_source)
@@ -199,6 +215,8 @@ def import_procthor(data: Any, path: Path, *, asset_database: Any = None) -> lis
             build.notes.append(f"{field_name} lies outside every floor polygon; assigned to the nearest room")
         _add_object(r, item, field_name, None, build, db, taken)
 
+    for b in builds:
+        _clear_shared_walls(b)
     scenes = []
     for i, b in enumerate(builds):
         r.check(object_count_problem(len(b.objects)), "objects", what=f"room {b.source_id!r} (rooms[{i}])")
@@ -237,6 +255,8 @@ class _SourceWall:
     start: tuple[float, float]
     end: tuple[float, float]
     height: float | None
+    empty: bool = False
+    """AI2-THOR's ``empty`` wall: no wall at all, the room is open to its neighbour there."""
 
 
 def _walls_by_id(r: FieldReader, top: Mapping[str, Any]) -> dict[str, _SourceWall]:
@@ -264,6 +284,7 @@ def _walls_by_id(r: FieldReader, top: Mapping[str, Any]) -> dict[str, _SourceWal
             start=base[0],
             end=base[1],
             height=(high - low) if high - low > 1e-6 else None,
+            empty=w.get("empty") is True,
         )
     return out
 
@@ -297,6 +318,112 @@ def _build_room(
         source_id=source_id,
         room_type=room_type if isinstance(room_type, str) else "",
     )
+
+
+def _cut_back_shared_walls(builds: list[_RoomBuild], thickness: float = SHARED_WALL_THICKNESS_M) -> None:
+    """Move each edge of a room's floor that another room shares (any stretch of it at least
+    ``MIN_SHARED_M`` long) in by half ``thickness`` (see :data:`SHARED_WALL_THICKNESS_M`); its walls
+    follow the new floor. A whole edge moves, not only the shared stretch, so no wall shorter than
+    the room's own edges appears."""
+    if len(builds) < 2:
+        return
+    for b in builds:
+        others = unary_union([o.polygon.exterior for o in builds if o is not b])
+        pts = [np.asarray(p, dtype=np.float64) for p in b.room.floor]  # counter-clockwise
+        k = len(pts)
+        moved = []
+        for e in range(k):
+            a, c = pts[e], pts[(e + 1) % k]
+            shared = LineString([tuple(a), tuple(c)]).intersection(others)
+            moved.append(float(shared.length) >= MIN_SHARED_M)
+        if not any(moved):
+            continue
+        lines = []
+        for e in range(k):
+            a, c = pts[e], pts[(e + 1) % k]
+            d = (c - a) / max(float(np.linalg.norm(c - a)), 1e-12)
+            n = np.array([-d[1], d[0]])  # inward: left of a counter-clockwise edge
+            off = n * (thickness / 2) if moved[e] else np.zeros(2)
+            lines.append((a + off, d))
+            if moved[e]:
+                b.cut.append((a, c, n))
+        floor = []
+        for e in range(k):
+            (p0, d0), (p1, d1) = lines[e - 1], lines[e]
+            cross = d0[0] * d1[1] - d0[1] * d1[0]
+            if abs(cross) < 1e-9:  # collinear edges: the corner stays on the line
+                floor.append(tuple(float(v) for v in p1))
+                continue
+            t = ((p1[0] - p0[0]) * d1[1] - (p1[1] - p0[1]) * d1[0]) / cross
+            q = p0 + d0 * t
+            floor.append((float(q[0]), float(q[1])))
+        cut = Polygon(floor)
+        if not cut.is_valid or cut.area < 0.5 * b.polygon.area:
+            b.cut.clear()
+            b.notes.append("the floor is too narrow to give up half a shared wall; kept as drawn")
+            continue
+        b.room = Room.from_polygon(floor, ceiling_height=b.room.ceiling_height, room_id=b.room.id)
+        for w in b.room.walls:
+            w.thickness = thickness
+
+
+def _clear_shared_walls(b: _RoomBuild, thickness: float = SHARED_WALL_THICKNESS_M) -> None:
+    """Move each top-level object (with what it carries) off the half of a shared wall its room
+    gave up: by as much as its footprint reaches into it, plus 5 mm, along the wall's inward
+    normal (ProcTHOR stands furniture and hangs pictures on the line the rooms meet on)."""
+    if not b.cut:
+        return
+    children: dict[str, list[str]] = {}
+    for rel in b.relations:
+        children.setdefault(rel.parent, []).append(rel.child)
+    carried = {c for kids in children.values() for c in kids}
+    by_id = {o.id: o for o in b.objects}
+    for obj in b.objects:
+        if obj.id in carried:
+            continue
+        foot = obj.footprint()
+        push: dict[tuple[float, float], tuple[FloatArray, float]] = {}  # per wall direction: the deepest reach
+        for a, c, n in b.cut:
+            d = c - a
+            length = float(np.linalg.norm(d))
+            along = (foot - a) @ (d / max(length, 1e-12))
+            if along.max() <= 0.0 or along.min() >= length:
+                continue  # beside this stretch, not against it
+            reach = thickness / 2 - float(((foot - a) @ n).min())
+            key = (round(float(n[0]), 3), round(float(n[1]), 3))
+            if 0.0 < reach <= thickness and reach > push.get(key, (n, 0.0))[1]:
+                push[key] = (n, reach)
+        shift = sum((n * (reach + 0.005) for n, reach in push.values()), np.zeros(2))
+        if not shift.any():
+            continue
+        stack = [obj.id]
+        while stack:
+            moved = by_id[stack.pop()]
+            x, y, z = moved.pose.position
+            moved.pose = moved.pose.model_copy(update={"position": (x + float(shift[0]), y + float(shift[1]), z)})
+            stack += children.get(moved.id, [])
+        b.notes.append(f"{obj.id} moved {float(np.linalg.norm(shift)):.3f} m off a shared wall")
+
+
+def _open_empty_walls(walls_by_id: Mapping[str, _SourceWall], by_source: Mapping[str, _RoomBuild]) -> None:
+    """An ``empty`` wall of the house is open floor between two rooms: the stretch of the room's
+    wall along it becomes an opening of kind ``opening``, floor to wall top."""
+    for sw in walls_by_id.values():
+        build = by_source.get(sw.room_id or "")
+        if not sw.empty or build is None:
+            continue
+        a, b = np.asarray(sw.start, dtype=np.float64), np.asarray(sw.end, dtype=np.float64)
+        for w in build.room.walls:
+            ws = np.asarray(w.start)
+            if abs(float(np.dot(w.direction, b - a))) < 0.999 * float(np.linalg.norm(b - a)):
+                continue  # not parallel
+            off = [float(np.dot(p - ws, w.outward_normal)) for p in (a, b)]
+            if not all(-_WALL_MATCH_TOL < o < SHARED_WALL_THICKNESS_M / 2 + _WALL_MATCH_TOL for o in off):
+                continue
+            t = sorted(float(np.dot(p - ws, w.direction)) for p in (a, b))
+            lo, hi = max(0.0, t[0]), min(w.length, t[1])
+            if hi - lo > 0.05:
+                w.openings = [*w.openings, Opening(kind="opening", center=(lo + hi) / 2, width=hi - lo, height=w.height)]
 
 
 def _add_opening(
@@ -338,7 +465,7 @@ def _add_opening(
         build = by_source.get(src)
         if build is None:  # the outside, or a room this file does not hold
             continue
-        target = _wall_through(build.room.walls, centre)
+        target = _wall_through(build.room.walls, centre, SHARED_WALL_THICKNESS_M / 2 + _WALL_MATCH_TOL)
         if target is None:
             build.notes.append(f"{f} does not lie on any wall of room {build.source_id!r}; dropped")
             continue
@@ -349,14 +476,19 @@ def _add_opening(
         ]
 
 
-def _wall_through(walls: list[Wall], point: FloatArray) -> Wall | None:
+def _wall_through(walls: list[Wall], point: FloatArray, reach: float) -> Wall | None:
+    """The wall whose line passes within ``reach`` of ``point`` (behind it: a shared wall's room
+    side was cut back from the line the house draws), with ``point`` along its length; the
+    nearest such wall."""
+    best: tuple[float, Wall] | None = None
     for w in walls:
         rel = point - np.asarray(w.start)
         along = float(np.dot(rel, w.direction))
-        off = abs(float(np.dot(rel, w.inward_normal)))
-        if off < _WALL_MATCH_TOL and -_WALL_MATCH_TOL <= along <= w.length + _WALL_MATCH_TOL:
-            return w
-    return None
+        off = float(np.dot(rel, w.outward_normal))
+        inside = -_WALL_MATCH_TOL < off < reach and -_WALL_MATCH_TOL <= along <= w.length + _WALL_MATCH_TOL
+        if inside and (best is None or abs(off) < best[0]):
+            best = (abs(off), w)
+    return None if best is None else best[1]
 
 
 def _room_for(builds: list[_RoomBuild], x: float, z: float) -> _RoomBuild:
@@ -459,28 +591,36 @@ def _unity_pose(obj: SceneObject) -> tuple[dict[str, float], dict[str, float]]:
     )
 
 
-def export_procthor(scene: Scene, folder: str | os.PathLike[str], base_dir: Path | None = None) -> Path:
-    """Write ``folder/house.json``: the AI2-THOR / ProcTHOR / Holodeck house the scene was imported
-    from, with every object of this room (top-level or a child) at the scene's pose; the other
-    rooms, walls, doors, windows and every other field as the house had them. Returns its path.
-
-    Only a scene imported from a house can be written back as one (it names the house file and
-    maps its objects to the house's ids); others raise :class:`~scenemosaic.exceptions.UsageError`.
-    Objects the house does not know (none are added by the pipeline) are left out.
-    """
-    meta = scene.metadata.get("procthor")
-    source = scene.provenance.source_path
-    if scene.provenance.source_format != "procthor" or not isinstance(meta, dict) or not source:
-        raise UsageError(
-            f"scene {scene.id!r} was not imported from an AI2-THOR/ProcTHOR house "
-            f"(source format {scene.provenance.source_format!r}); only such a scene can be written back as one"
+def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) -> Path:
+    """Write ``folder/house.json``: the house file the ``scenes`` (rooms of one house) came from,
+    with every object of theirs at its scene's pose; everything else as the house had it."""
+    sources: set[str] = set()
+    placed: dict[str, SceneObject] = {}
+    rooms: list[str] = []
+    for scene in scenes:
+        meta = scene.metadata.get("procthor")
+        source = scene.provenance.source_path
+        if scene.provenance.source_format != "procthor" or not isinstance(meta, dict) or not source:
+            raise UsageError(
+                f"scene {scene.id!r} was not imported from an AI2-THOR/ProcTHOR house "
+                f"(source format {scene.provenance.source_format!r}); only such a scene can be written back as one"
+            )
+        sources.add(source)
+        known = {o.id for o in scene.objects}
+        placed.update(
+            {str(raw): scene.get(oid) for oid, raw in (meta.get("source_ids") or {}).items() if oid in known}
         )
-    path = Path(source)
+        rooms.append(str(meta.get("room_id")))
+    if len(sources) != 1:
+        raise UsageError(
+            f"the {what} comes from several house files ({', '.join(sorted(sources))}); write one at a time"
+        )
+    path = Path(sources.pop())
     house = read_json(path)
     if not isinstance(house, dict) or not isinstance(house.get("objects"), list):
-        raise ImportFormatError("the house the scene came from has no objects list", path=str(path), field="objects")
-    known = {o.id for o in scene.objects}
-    placed = {str(raw): scene.get(oid) for oid, raw in (meta.get("source_ids") or {}).items() if oid in known}
+        raise ImportFormatError(
+            "the house the scene came from has no objects list", path=str(path), field="objects"
+        )
     moved = 0
 
     def visit(items: list[Any]) -> None:
@@ -500,5 +640,29 @@ def export_procthor(scene: Scene, folder: str | os.PathLike[str], base_dir: Path
     out = Path(folder) / HOUSE_FILE
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(house, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
-    log.info("procthor_exported", path=str(out), room=meta.get("room_id"), objects=moved, source=str(path))
+    log.info("procthor_exported", path=str(out), rooms=rooms, objects=moved, source=str(path))
     return out
+
+
+def export_procthor(scene: Scene, folder: str | os.PathLike[str], base_dir: Path | None = None) -> Path:
+    """Write ``folder/house.json``: the AI2-THOR / ProcTHOR / Holodeck house the scene was imported
+    from, with every object of this room (top-level or a child) at the scene's pose; the other
+    rooms, walls, doors, windows and every other field as the house had them. Returns its path.
+
+    Only a scene imported from a house can be written back as one (it names the house file and
+    maps its objects to the house's ids); others raise :class:`~scenemosaic.exceptions.UsageError`.
+    Objects the house does not know (none are added by the pipeline) are left out.
+    """
+    return _write_back([scene], folder, f"scene {scene.id!r}")
+
+
+def export_procthor_house(house: House, folder: str | os.PathLike[str], base_dir: Path | None = None) -> Path:
+    """Write ``folder/house.json``: the AI2-THOR / ProcTHOR / Holodeck house ``house`` was imported
+    from, with every object of every one of its rooms at its new pose (as :func:`export_procthor`
+    writes one room); rooms of the file the house does not hold, walls, doors, windows and every
+    other field stay as they were. Returns its path.
+
+    Every room must come from the same house file; otherwise, or for a room not imported from such
+    a house, raises :class:`~scenemosaic.exceptions.UsageError`.
+    """
+    return _write_back(list(house.rooms), folder, f"house {house.id!r}")

@@ -19,7 +19,8 @@ import structlog
 
 from scenemosaic.exceptions import ImportFormatError, UsageError
 from scenemosaic.exchange._common import read_json
-from scenemosaic.scene import Room, RunFolder, Scene
+from scenemosaic.exchange._native import read_house
+from scenemosaic.scene import House, Provenance, Room, RunFolder, Scene, safe_name
 
 __all__ = [
     "FORMATS",
@@ -28,6 +29,7 @@ __all__ = [
     "SceneFormat",
     "detect_format",
     "get_format",
+    "load_house",
     "load_scene",
     "load_scenes",
     "register_format",
@@ -156,7 +158,9 @@ def load_scenes(
         asset_dir=Path(asset_dir) if asset_dir is not None else None,
     )
     scenes: list[Scene] = []
-    if p.is_dir():
+    if p.is_dir() and RunFolder.holds_house(p):
+        scenes = read_house(p).rooms
+    elif p.is_dir():
         inner = _folder_format(p)
         if inner is not None and fmt in ("auto", inner.name):
             assert inner.folder_file is not None
@@ -184,24 +188,63 @@ def load_scene(
     asset_database: Any = None,
     asset_dir: str | os.PathLike[str] | None = None,
     variant: int | str | None = None,
-) -> Scene:
-    """Import the one scene ``path`` holds (see :func:`load_scenes`).
+) -> Scene | House:
+    """Import the one scene ``path`` holds (see :func:`load_scenes`), or the whole house.
 
-    A source holding several scenes (a ProcTHOR house with several rooms, a folder of
-    layouts) raises :class:`~scenemosaic.exceptions.UsageError` naming them: pick one with
-    ``room="<room id>"`` (``--room`` on the command line), or use :func:`load_scenes`.
+    A multi-room house (an AI2-THOR / ProcTHOR house file, or the ``base/`` or a variant of a
+    house run) gives a :class:`~scenemosaic.scene.House` (:func:`load_house`); ``room="<room id>"``
+    gives that one room's scene. Any other source holding several scenes (a folder of layouts)
+    raises :class:`~scenemosaic.exceptions.UsageError` naming them: use :func:`load_scenes`.
     """
     scenes = load_scenes(
         path, format, room=room, asset_database=asset_database, asset_dir=asset_dir, variant=variant
     )
-    if len(scenes) != 1:
-        ids = ", ".join(s.id for s in scenes[:8])
-        rooms = sorted({str(s.metadata.get("procthor", {}).get("room_id") or s.id) for s in scenes})[:8]
-        raise UsageError(
-            f"{os.fspath(path)} holds {len(scenes)} scenes ({ids}); pick one with room=<id> "
-            f"(--room on the command line; e.g. {rooms[0]!r}) or use load_scenes()"
-        )
-    return scenes[0]
+    if len(scenes) == 1:
+        return scenes[0]
+    if room is None and _one_house(scenes):
+        return load_house(path, format, asset_database=asset_database, variant=variant)
+    ids = ", ".join(s.id for s in scenes[:8])
+    raise UsageError(
+        f"{os.fspath(path)} holds {len(scenes)} scenes ({ids}); use load_scenes() to read them all"
+    )
+
+
+HOUSE_FORMATS = frozenset({"procthor"})
+"""Formats whose files hold a whole house (rooms sharing walls and doors in one world frame)."""
+
+
+def _one_house(scenes: list[Scene]) -> bool:
+    sources = {(s.provenance.source_format, s.provenance.source_path) for s in scenes}
+    return len(sources) == 1 and next(iter(sources))[0] in HOUSE_FORMATS
+
+
+def load_house(
+    path: str | os.PathLike[str],
+    format: ImportFormat | str = "auto",
+    *,
+    asset_database: Any = None,
+    variant: int | str | None = None,
+) -> House:
+    """Import a whole house: every room of an AI2-THOR / ProcTHOR house file, in its room order,
+    or a delivered house (the ``base/`` or ``variant_<i>/`` of a house run; ``variant`` picks one
+    of a run folder). Raises :class:`~scenemosaic.exceptions.UsageError` for a source that is
+    not a house."""
+    p = Path(path)
+    if RunFolder.is_run(p):
+        p = RunFolder(p).scene_folder(variant)
+    elif variant is not None:
+        raise UsageError(f"variant={variant!r} needs a generate output folder; {os.fspath(path)} is not one")
+    if p.is_dir() and RunFolder.holds_house(p):
+        return read_house(p)
+    scenes = load_scenes(p, format, asset_database=asset_database)
+    if not _one_house(scenes):
+        raise UsageError(f"{os.fspath(path)} is not a house (a multi-room AI2-THOR / ProcTHOR house file or a delivered house)")
+    first = scenes[0].provenance
+    return House(
+        id=safe_name(p.stem) if p.is_file() else safe_name(p.name),
+        rooms=scenes,
+        provenance=Provenance(source_format=first.source_format, source_path=first.source_path, importer=first.importer),
+    )
 
 
 def write_scene(scene: Scene, format: str, destination: str | os.PathLike[str], base_dir: Path | None = None) -> Path:

@@ -11,6 +11,11 @@ Frames (the full statement is ``docs/exports.md``):
 * Each object's ``transform`` is the rigid ``M = T(position) · R(pose) · Rx(+90°)``, written
   column-major; for an upright pose ``R = Rz(yaw)``, so yaw 0 faces world -Y. SceneEval reads it
   with ``np.asarray(data).reshape(4, 4).T`` and applies it to the GLB's raw vertices.
+
+A whole house (:func:`export_house_sceneeval`) is one sceneState: the format's ``arch`` is a list
+of elements each naming its ``roomId`` (SceneEval builds one floor per ``roomId`` and every wall
+with its holes), so every room's floor, walls and ceiling go into the one ``arch`` and every
+object of every room into ``object``.
 """
 
 from __future__ import annotations
@@ -27,15 +32,17 @@ import trimesh
 
 from scenemosaic.exchange._glb import with_visual
 from scenemosaic.render import object_local_mesh
-from scenemosaic.scene import CEILING, FLOOR, FloatArray, Room, Scene, SceneObject
+from scenemosaic.scene import CEILING, FLOOR, FloatArray, House, Room, Scene, SceneObject
 
 __all__ = [
     "LOCAL_TO_GLTF",
     "MAX_OBJECT_NAME_BYTES",
     "MODEL_ID_PREFIX",
     "SupportType",
+    "export_house_sceneeval",
     "export_sceneeval",
     "gltf_to_world",
+    "house_sceneeval_state",
     "sceneeval_state",
     "support_type",
 ]
@@ -107,9 +114,29 @@ def _asset_id(category: str, digest: str, budget: int) -> str:
 
 
 def _arch(room: Room) -> dict[str, Any]:
+    return _arch_of(room.id, [(room.id, room)])
+
+
+def _arch_of(arch_id: str, rooms: list[tuple[str, Room]]) -> dict[str, Any]:
+    elements: list[dict[str, Any]] = []
+    for room_id, room in rooms:
+        elements += _room_elements(room_id, room)
+    return {
+        "version": "arch@1.0.2",
+        "id": arch_id,
+        "up": [0, 0, 1],
+        "front": [0, 1, 0],
+        "coords2d": [0, 1],
+        "scaleToMeters": 1,
+        "elements": elements,
+    }
+
+
+def _room_elements(room_id: str, room: Room) -> list[dict[str, Any]]:
+    """A room's ``Floor``, ``Wall`` (holes and all) and ``Ceiling`` elements, ids ``<room id>|...``."""
     floor3 = [[float(x), float(y), 0.0] for x, y in room.floor]
     elements: list[dict[str, Any]] = [
-        {"id": f"{room.id}|floor", "type": "Floor", "roomId": room.id, "points": floor3}
+        {"id": f"{room_id}|floor", "type": "Floor", "roomId": room_id, "points": floor3}
     ]
     for wall in room.walls:
         holes = []
@@ -121,34 +148,73 @@ def _arch(room: Room) -> dict[str, Any]:
                 log.warning("opening_outside_wall", wall=wall.id, opening=k)
                 continue
             holes.append({
-                "id": f"{room.id}|{wall.id}|{op.kind}_{k}",
+                "id": f"{room_id}|{wall.id}|{op.kind}_{k}",
                 "type": _HOLE_TYPES[op.kind],
                 "box": {"min": [a, op.bottom], "max": [b, top]},
             })  # fmt: skip
         elements.append({
-            "id": f"{room.id}|{wall.id}",
+            "id": f"{room_id}|{wall.id}",
             "type": "Wall",
-            "roomId": room.id,
+            "roomId": room_id,
             "points": [[wall.start[0], wall.start[1], 0.0], [wall.end[0], wall.end[1], 0.0]],
             "height": wall.height,
             "depth": wall.thickness,
             "holes": holes,
         })  # fmt: skip
     elements.append({
-        "id": f"{room.id}|ceiling",
+        "id": f"{room_id}|ceiling",
         "type": "Ceiling",
-        "roomId": room.id,
+        "roomId": room_id,
         "points": [[p[0], p[1], room.ceiling_height] for p in floor3],
     })  # fmt: skip
-    return {
-        "version": "arch@1.0.2",
-        "id": room.id,
+    return elements
+
+
+def _state(
+    state_id: str, rooms: list[Scene], arch: dict[str, Any] | None, base_dir: Path | None
+) -> tuple[dict[str, Any], dict[str, trimesh.Trimesh]]:
+    """The sceneState of the objects of ``rooms`` (in order, indexed across all of them) with ``arch``."""
+    n = sum(len(scene.objects) for scene in rooms)
+    longest_prefix = len(f"idx{max(n - 1, 0)}_{MODEL_ID_PREFIX}".encode())
+    budget = MAX_OBJECT_NAME_BYTES - longest_prefix
+    assets: dict[str, trimesh.Trimesh] = {}
+    by_key: dict[tuple[str, str], str] = {}
+    objects: list[dict[str, Any]] = []
+    for scene in rooms:
+        for obj in scene.objects:
+            local = object_local_mesh(obj, base_dir)
+            gltf = local.copy()
+            gltf.apply_transform(LOCAL_TO_GLTF)
+            key = (obj.category, _mesh_digest(gltf))
+            asset_id = by_key.get(key)
+            if asset_id is None:
+                asset_id = _asset_id(obj.category, key[1], budget)
+                if asset_id in assets:  # a category slug collision; the full digest keeps ids distinct
+                    asset_id = _asset_id(f"{obj.category}_{key[1][ASSET_HASH_CHARS:]}", key[1], budget)
+                gltf = with_visual(gltf, obj.category)
+                assets[asset_id] = gltf
+                by_key[key] = asset_id
+            objects.append({
+                "id": obj.id,
+                "index": len(objects),
+                "modelId": MODEL_ID_PREFIX + asset_id,
+                "category": obj.category,
+                "transform": {"rows": 4, "cols": 4, "data": _column_major(gltf_to_world(obj))},
+                "sceneeval": {"supportType": support_type(scene, obj)},
+            })  # fmt: skip
+    body: dict[str, Any] = {
+        "version": "scene@1.0.2",
+        "id": state_id,
         "up": [0, 0, 1],
         "front": [0, 1, 0],
-        "coords2d": [0, 1],
-        "scaleToMeters": 1,
-        "elements": elements,
+        "unit": 1.0,
     }
+    if arch is not None:
+        body["arch"] = arch
+    else:
+        log.warning("sceneeval_without_room", scene=state_id)
+    body["object"] = objects
+    return {"format": "sceneState", "scene": body}, assets
 
 
 def sceneeval_state(
@@ -159,59 +225,33 @@ def sceneeval_state(
     Objects whose baked meshes (vertices to 1 µm, faces) and categories are equal share one
     asset. Asset meshes keep their own UV texture, else carry a PBR material of the category colour.
     """
-    n = len(scene.objects)
-    longest_prefix = len(f"idx{max(n - 1, 0)}_{MODEL_ID_PREFIX}".encode())
-    budget = MAX_OBJECT_NAME_BYTES - longest_prefix
-    assets: dict[str, trimesh.Trimesh] = {}
-    by_key: dict[tuple[str, str], str] = {}
-    objects: list[dict[str, Any]] = []
-    for index, obj in enumerate(scene.objects):
-        local = object_local_mesh(obj, base_dir)
-        gltf = local.copy()
-        gltf.apply_transform(LOCAL_TO_GLTF)
-        key = (obj.category, _mesh_digest(gltf))
-        asset_id = by_key.get(key)
-        if asset_id is None:
-            asset_id = _asset_id(obj.category, key[1], budget)
-            if asset_id in assets:  # a category slug collision; the full digest keeps ids distinct
-                asset_id = _asset_id(f"{obj.category}_{key[1][ASSET_HASH_CHARS:]}", key[1], budget)
-            gltf = with_visual(gltf, obj.category)
-            assets[asset_id] = gltf
-            by_key[key] = asset_id
-        objects.append({
-            "id": obj.id,
-            "index": index,
-            "modelId": MODEL_ID_PREFIX + asset_id,
-            "category": obj.category,
-            "transform": {"rows": 4, "cols": 4, "data": _column_major(gltf_to_world(obj))},
-            "sceneeval": {"supportType": support_type(scene, obj)},
-        })  # fmt: skip
-    body: dict[str, Any] = {
-        "version": "scene@1.0.2",
-        "id": scene.id,
-        "up": [0, 0, 1],
-        "front": [0, 1, 0],
-        "unit": 1.0,
-    }
-    if scene.room is not None:
-        body["arch"] = _arch(scene.room)
-    else:
-        log.warning("sceneeval_without_room", scene=scene.id)
-    body["object"] = objects
-    return {"format": "sceneState", "scene": body}, assets
+    arch = _arch(scene.room) if scene.room is not None else None
+    return _state(scene.id, [scene], arch, base_dir)
 
 
-def export_sceneeval(scene: Scene, out_dir: str | Path, base_dir: Path | None = None) -> Path:
-    """Write ``out_dir/scene_base.json`` and ``out_dir/assets/<assetId>.glb``; return the JSON path.
+def house_sceneeval_state(
+    house: House, base_dir: Path | None = None
+) -> tuple[dict[str, Any], dict[str, trimesh.Trimesh]]:
+    """A whole house as one sceneState document, and the asset meshes it names.
 
-    Also writes ``out_dir/assets/metadata.json`` (assetId -> category and size in metres), which
-    an asset source for SceneEval can read for descriptions. A scene without a room gets no
-    ``arch`` (SceneEval then builds its simple rectangular room around the objects).
+    The ``arch`` (id: the house's) holds every room's ``Floor``, ``Wall`` and ``Ceiling``
+    elements, ``roomId`` being the room scene's id and element ids ``<room id>|floor``,
+    ``<room id>|<wall id>``, ``<room id>|ceiling``; each room keeps its own walls, so a wall between
+    two rooms appears once per side, on each room's floor edge, as SceneEval's rooms have it.
+    ``object`` lists every object of every room, in room order (``index`` counts across the
+    house); each object's ``supportType`` comes from its own room. Assets are shared as in
+    :func:`sceneeval_state`.
     """
+    rooms = [(scene.id, scene.room) for scene in house.rooms if scene.room is not None]
+    return _state(house.id, list(house.rooms), _arch_of(house.id, rooms), base_dir)
+
+
+def _write(
+    out_dir: str | Path, state: dict[str, Any], assets: dict[str, trimesh.Trimesh], count: int
+) -> Path:
     out_dir = Path(out_dir)
     asset_dir = out_dir / "assets"
     asset_dir.mkdir(parents=True, exist_ok=True)
-    state, assets = sceneeval_state(scene, base_dir)
     categories = {o["modelId"][len(MODEL_ID_PREFIX) :]: o["category"] for o in state["scene"]["object"]}
     metadata: dict[str, dict[str, Any]] = {}
     for asset_id, mesh in sorted(assets.items()):
@@ -223,5 +263,23 @@ def export_sceneeval(scene: Scene, out_dir: str | Path, base_dir: Path | None = 
     (asset_dir / "metadata.json").write_text(json.dumps(metadata, indent=2, sort_keys=True) + "\n")
     path = out_dir / "scene_base.json"
     path.write_text(json.dumps(state, indent=2) + "\n")
-    log.info("sceneeval_exported", path=str(path), objects=len(scene.objects), assets=len(assets))
+    log.info("sceneeval_exported", path=str(path), objects=count, assets=len(assets))
     return path
+
+
+def export_sceneeval(scene: Scene, out_dir: str | Path, base_dir: Path | None = None) -> Path:
+    """Write ``out_dir/scene_base.json`` and ``out_dir/assets/<assetId>.glb``; return the JSON path.
+
+    Also writes ``out_dir/assets/metadata.json`` (assetId -> category and size in metres), which
+    an asset source for SceneEval can read for descriptions. A scene without a room gets no
+    ``arch`` (SceneEval then builds its simple rectangular room around the objects).
+    """
+    state, assets = sceneeval_state(scene, base_dir)
+    return _write(out_dir, state, assets, len(scene.objects))
+
+
+def export_house_sceneeval(house: House, out_dir: str | Path, base_dir: Path | None = None) -> Path:
+    """Write a whole house as one sceneState (:func:`house_sceneeval_state`): ``out_dir/scene_base.json``
+    and ``out_dir/assets/`` as :func:`export_sceneeval` writes them; return the JSON path."""
+    state, assets = house_sceneeval_state(house, base_dir)
+    return _write(out_dir, state, assets, len(house.objects))

@@ -23,6 +23,11 @@ hangs from ``world`` by a joint whose origin is its pose (rotation as fixed-axis
 ``floating`` for the objects the MJCF export gives a free joint, ``fixed`` for held ones
 (``static``, hung from a wall or the ceiling). The XML is written with the standard library; no
 extra is needed.
+
+:func:`export_house_urdf` writes a whole house the same way: ``scene.urdf`` holds a ``floor`` link
+(the house's one floor slab), one link per room named by its id (its walls cut around their
+openings, each shared wall once, and its ceiling: :func:`scenemosaic.physics.house_slabs`), all
+fixed to ``world``, and every object of every room; ``urdf/`` one file per object, as for a room.
 """
 
 from __future__ import annotations
@@ -41,6 +46,8 @@ from scenemosaic.physics import (
     ROOM_FRICTION,
     HullInput,
     ObjectShape,
+    RoomSlab,
+    house_slabs,
     is_fixed,
     object_inertial,
     object_shape,
@@ -48,9 +55,16 @@ from scenemosaic.physics import (
     room_slabs,
 )
 from scenemosaic.render import CEILING_COLOR, FLOOR_COLOR, WALL_COLOR, category_color
-from scenemosaic.scene import FloatArray, Scene, SceneObject, quat_to_matrix
+from scenemosaic.scene import FloatArray, House, Scene, SceneObject, quat_to_matrix
 
-__all__ = ["URDF_MESH_DIR", "URDF_OBJECT_DIR", "URDF_SCENE_FILE", "export_urdf", "rpy_from_matrix"]
+__all__ = [
+    "URDF_MESH_DIR",
+    "URDF_OBJECT_DIR",
+    "URDF_SCENE_FILE",
+    "export_house_urdf",
+    "export_urdf",
+    "rpy_from_matrix",
+]
 
 log = structlog.get_logger(__name__)
 
@@ -207,21 +221,29 @@ def _free_name(candidate: str, taken: set[str]) -> str:
     return name
 
 
-def _room_link(scene: Scene, name: str) -> ET.Element:
+def _slab_link(name: str, slabs: list[tuple[str, str, FloatArray, FloatArray, float]]) -> ET.Element:
+    """A link of static boxes ``(name, kind, centre, half extents, yaw)``: each a collision, and a
+    visual too except the ceiling's (so viewers see in from above)."""
     link = ET.Element("link", name=name)
-    if scene.room is None:
-        half = np.array(_NO_ROOM_FLOOR_HALF)
-        slabs = [("floor", "floor", np.array([0.0, 0.0, -half[2]]), half, 0.0)]
-    else:
-        slabs = [(s.name, s.kind, s.centre, s.half_extents, s.yaw) for s in room_slabs(scene.room)]
     colors = {"floor": FLOOR_COLOR, "wall": WALL_COLOR, "ceiling": CEILING_COLOR}
     for slab_name, kind, centre, half, yaw in slabs:
-        if kind != "ceiling":  # no ceiling visual, so viewers can look into the room from above
+        if kind != "ceiling":
             visual = _box_geometry(link, "visual", slab_name, centre, 2.0 * half, yaw)
             _material(visual, f"room_{kind}", colors[kind])
         _box_geometry(link, "collision", slab_name, centre, 2.0 * half, yaw)
     _friction(link, ROOM_FRICTION)
     return link
+
+
+def _boxes(slabs: list[RoomSlab]) -> list[tuple[str, str, FloatArray, FloatArray, float]]:
+    return [(s.name, s.kind, s.centre, s.half_extents, s.yaw) for s in slabs]
+
+
+def _room_link(scene: Scene, name: str) -> ET.Element:
+    if scene.room is None:
+        half = np.array(_NO_ROOM_FLOOR_HALF)
+        return _slab_link(name, [("floor", "floor", np.array([0.0, 0.0, -half[2]]), half, 0.0)])
+    return _slab_link(name, _boxes(room_slabs(scene.room)))
 
 
 def _joint(robot: ET.Element, name: str, kind: str, parent: str, child: str, obj: SceneObject | None) -> None:
@@ -232,6 +254,50 @@ def _joint(robot: ET.Element, name: str, kind: str, parent: str, child: str, obj
         _origin(joint, obj.pose.position, rpy_from_matrix(quat_to_matrix(obj.pose.quaternion)))
     ET.SubElement(joint, "parent", link=parent)
     ET.SubElement(joint, "child", link=child)
+
+
+class _UrdfWriter:
+    """The folder being written: ``scene.urdf``'s root, and one file per object under ``urdf/``."""
+
+    def __init__(self, folder: str | Path, name: str, taken: set[str], comment: str) -> None:
+        self.out = Path(folder)
+        self.object_dir = self.out / URDF_OBJECT_DIR
+        self.mesh_dir = self.object_dir / URDF_MESH_DIR
+        self.mesh_dir.mkdir(parents=True, exist_ok=True)
+        self.taken = taken
+        self.world = _free_name("world", taken)
+        self.robot = ET.Element("robot", name=name)
+        _add_comment(self.robot, f"{comment}: Z up, metres, kilograms; root link {self.world}")
+        ET.SubElement(self.robot, "link", name=self.world)
+
+    def fixed(self, link: ET.Element) -> None:
+        """A static link on a fixed joint to the world."""
+        name = link.attrib["name"]
+        self.robot.append(link)
+        _joint(self.robot, f"{name}_joint", "fixed", self.world, name, None)
+        _gazebo(self.robot, name, ROOM_FRICTION)
+
+    def objects(self, scene: Scene, shapes: dict[str, ObjectShape], base: Path | None) -> None:
+        """Every object of ``scene``: its own ``urdf/<id>.urdf`` and its link and joint here."""
+        for obj in scene.objects:
+            files = _ObjectFiles(obj, shapes[obj.id], base, self.mesh_dir)
+            movable = not is_fixed(scene, obj)
+            single = ET.Element("robot", name=obj.id)
+            held = "movable (a free body)" if movable else "held in place: load it with a fixed base"
+            _add_comment(single, f"scenemosaic object {obj.id} ({obj.category}), {held}")
+            single.append(files.link(f"{URDF_MESH_DIR}/"))
+            _gazebo(single, obj.id, obj.sim.friction)
+            _write_xml(single, self.object_dir / f"{obj.id}.urdf")
+
+            self.robot.append(files.link(f"{URDF_OBJECT_DIR}/{URDF_MESH_DIR}/"))
+            _joint(self.robot, f"{obj.id}_joint", "floating" if movable else "fixed", self.world, obj.id, obj)
+            _gazebo(self.robot, obj.id, obj.sim.friction)
+
+    def save(self, count: int) -> Path:
+        path = self.out / URDF_SCENE_FILE
+        _write_xml(self.robot, path)
+        log.info("urdf_exported", path=str(path), objects=count)
+        return path
 
 
 def export_urdf(
@@ -253,36 +319,46 @@ def export_urdf(
         PhysicsError: an object's pose is not finite (nothing is written).
     """
     require_finite_poses(scene, "export URDF")
-    out = Path(folder)
     base = Path(base_dir) if base_dir is not None else None
     shapes = {o.id: object_shape(o, base, cache=hull_cache, hulls=hulls) for o in scene.objects}
-    object_dir = out / URDF_OBJECT_DIR
-    mesh_dir = object_dir / URDF_MESH_DIR
-    mesh_dir.mkdir(parents=True, exist_ok=True)
+    writer = _UrdfWriter(folder, scene.id, {o.id for o in scene.objects}, f"scenemosaic scene {scene.id}")
+    writer.fixed(_room_link(scene, _free_name("room", writer.taken)))
+    writer.objects(scene, shapes, base)
+    return writer.save(len(scene.objects))
 
-    taken = {o.id for o in scene.objects}
-    world = _free_name("world", taken)
-    room = _free_name("room", taken)
-    robot = ET.Element("robot", name=scene.id)
-    _add_comment(robot, f"scenemosaic scene {scene.id}: Z up, metres, kilograms; root link {world}")
-    ET.SubElement(robot, "link", name=world)
-    robot.append(_room_link(scene, room))
-    _joint(robot, f"{room}_joint", "fixed", world, room, None)
-    _gazebo(robot, room, ROOM_FRICTION)
-    for obj in scene.objects:
-        files = _ObjectFiles(obj, shapes[obj.id], base, mesh_dir)
-        movable = not is_fixed(scene, obj)
-        single = ET.Element("robot", name=obj.id)
-        held = "movable (a free body)" if movable else "held in place: load it with a fixed base"
-        _add_comment(single, f"scenemosaic object {obj.id} ({obj.category}), {held}")
-        single.append(files.link(f"{URDF_MESH_DIR}/"))
-        _gazebo(single, obj.id, obj.sim.friction)
-        _write_xml(single, object_dir / f"{obj.id}.urdf")
 
-        robot.append(files.link(f"{URDF_OBJECT_DIR}/{URDF_MESH_DIR}/"))
-        _joint(robot, f"{obj.id}_joint", "floating" if movable else "fixed", world, obj.id, obj)
-        _gazebo(robot, obj.id, obj.sim.friction)
-    path = out / URDF_SCENE_FILE
-    _write_xml(robot, path)
-    log.info("urdf_exported", path=str(path), objects=len(scene.objects))
-    return path
+def export_house_urdf(
+    house: House,
+    folder: str | Path,
+    base_dir: str | Path | None = None,
+    *,
+    hull_cache: HullCache | None = None,
+    hulls: HullInput | None = None,
+) -> Path:
+    """Write a whole house as ``folder/scene.urdf`` plus ``folder/urdf/<id>.urdf`` per object; return
+    ``scene.urdf``.
+
+    As :func:`export_urdf`, with the house's static boxes (:func:`scenemosaic.physics.house_slabs`,
+    those its MJCF simulates) on fixed links: ``floor`` (the one floor slab) and one link per room,
+    named by the room's id (its walls and ceiling; a name an object already has gets ``_2``...).
+    Every object of every room hangs from ``world``, ``floating`` or ``fixed`` as in its own room.
+
+    Raises:
+        PhysicsError: an object's pose is not finite (nothing is written).
+    """
+    for scene in house.rooms:
+        require_finite_poses(scene, "export URDF")
+    base = Path(base_dir) if base_dir is not None else None
+    objects = house.objects
+    shapes = {o.id: object_shape(o, base, cache=hull_cache, hulls=hulls) for o in objects}
+    writer = _UrdfWriter(folder, house.id, {o.id for o in objects}, f"scenemosaic house {house.id}")
+    slabs = house_slabs(house)
+    writer.fixed(
+        _slab_link(_free_name("floor", writer.taken), _boxes([s for s in slabs if s.room_id is None]))
+    )
+    for scene in house.rooms:
+        mine = [s for s in slabs if s.room_id == scene.id]
+        writer.fixed(_slab_link(_free_name(scene.id, writer.taken), _boxes(mine)))
+    for scene in house.rooms:
+        writer.objects(scene, shapes, base)
+    return writer.save(len(objects))

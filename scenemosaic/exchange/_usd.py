@@ -6,7 +6,8 @@ expressed with UsdPhysics:
 
 * ``/World/PhysicsScene`` — gravity along -Z with the simulator's magnitude;
 * ``/World/Room`` — the room's slabs (:func:`scenemosaic.physics.room_slabs`) as ``Cube`` prims
-  carrying ``PhysicsCollisionAPI``: static colliders;
+  carrying ``PhysicsCollisionAPI``: static colliders. A wall cut around its openings is an
+  ``Xform`` named by the wall holding one such ``Cube`` per piece, ``piece_<k>``;
 * ``/World/Objects/<name>`` — one ``Xform`` per object, named by its id made into a USD
   identifier, placed by the object's rigid pose (translate + orient). It references
   ``usd/<name>.usda``, which holds ``visual`` (the visual mesh) and ``collision/piece_<k>`` (the
@@ -22,6 +23,10 @@ Meshes are written in the object's local frame with its scale already applied (t
 the object's size), as in the GLB and MJCF exports, so no scale op is authored; the pose's scale is
 kept in the prim's ``customData`` for reference. Every asset path is relative, so the folder can be
 moved. ``pxr`` (``pip install 'scenemosaic[usd]'``) is imported only when writing.
+
+:func:`export_house_usd` writes a whole house the same way on one stage: ``/World/floor`` (the
+house's one floor slab), then per room ``/World/<room>`` holding ``Room/`` (its walls, shared
+walls once, and its ceiling, :func:`scenemosaic.physics.house_slabs`) and ``Objects/``.
 """
 
 from __future__ import annotations
@@ -40,7 +45,9 @@ from scenemosaic.physics import (
     ROOM_FRICTION,
     HullInput,
     ObjectShape,
+    RoomSlab,
     SimSettings,
+    house_slabs,
     is_fixed,
     object_inertial,
     object_shape,
@@ -48,9 +55,16 @@ from scenemosaic.physics import (
     room_slabs,
 )
 from scenemosaic.render import CEILING_COLOR, FLOOR_COLOR, RGB, WALL_COLOR, category_color
-from scenemosaic.scene import Scene, SceneObject
+from scenemosaic.scene import House, Scene, SceneObject
 
-__all__ = ["USD_GEOMETRY_DIR", "USD_INSTALL_HINT", "USD_SCENE_FILE", "export_usd", "usd_prim_name"]
+__all__ = [
+    "USD_GEOMETRY_DIR",
+    "USD_INSTALL_HINT",
+    "USD_SCENE_FILE",
+    "export_house_usd",
+    "export_usd",
+    "usd_prim_name",
+]
 
 log = structlog.get_logger(__name__)
 
@@ -63,6 +77,8 @@ USD_INSTALL_HINT = "pip install 'scenemosaic[usd]'"
 
 _NOT_IDENTIFIER = re.compile(r"[^A-Za-z0-9_]")
 _CEILING_OPACITY = 0.25
+_ROOM_MATERIAL = "room"
+"""The room's physics material, ``/World/PhysicsMaterials/room``; no object's material takes the name."""
 
 
 def usd_prim_name(object_id: str, taken: set[str]) -> str:
@@ -175,9 +191,41 @@ def _object_layer(w: _Writer, name: str, obj: SceneObject, shape: ObjectShape, b
     return layer
 
 
+def _add_cube(w: _Writer, stage: Any, prim_path: str, slab: RoomSlab) -> None:
+    """One static box: a unit ``Cube`` placed, turned and scaled to the slab, colliding."""
+    cube = w.UsdGeom.Cube.Define(stage, prim_path)
+    cube.CreateSizeAttr(1.0)
+    cube.AddTranslateOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Vec3d(*map(float, slab.centre)))
+    cube.AddOrientOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Quatd(*slab.quaternion))
+    cube.AddScaleOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Vec3d(*(2.0 * slab.half_extents).tolist()))
+    cube.CreateExtentAttr([w.Gf.Vec3f(-0.5, -0.5, -0.5), w.Gf.Vec3f(0.5, 0.5, 0.5)])  # a unit cube
+    colors = {"floor": FLOOR_COLOR, "wall": WALL_COLOR, "ceiling": CEILING_COLOR}
+    cube.CreateDisplayColorPrimvar(w.UsdGeom.Tokens.constant).Set([w.Gf.Vec3f(*_color(colors[slab.kind]))])
+    if slab.kind == "ceiling":  # see-through, so the room stays visible from above
+        cube.CreateDisplayOpacityPrimvar(w.UsdGeom.Tokens.constant).Set([_CEILING_OPACITY])
+    w.collider(cube.GetPrim())
+
+
+def _add_slabs(w: _Writer, stage: Any, parent: str, slabs: list[RoomSlab]) -> None:
+    """The slabs under ``parent``: a part that is one box is a ``Cube`` named by the part (``floor``,
+    ``ceiling``, the wall's id); a part of several boxes an ``Xform`` so named, one ``Cube``
+    ``piece_<k>`` per box."""
+    taken: set[str] = set()
+    names: dict[str, str] = {}
+    for slab in slabs:
+        if slab.part_id not in names:
+            names[slab.part_id] = usd_prim_name(slab.part_id, taken)
+        path = f"{parent}/{names[slab.part_id]}"
+        if slab.piece is None:
+            _add_cube(w, stage, path, slab)
+        else:
+            w.UsdGeom.Xform.Define(stage, path)
+            _add_cube(w, stage, f"{path}/piece_{slab.piece}", slab)
+
+
 def _add_room(w: _Writer, stage: Any, scene: Scene) -> None:
     room_prim = w.UsdGeom.Xform.Define(stage, "/World/Room").GetPrim()
-    material = w.physics_material(stage, "/World/PhysicsMaterials/room", ROOM_FRICTION)
+    material = w.physics_material(stage, f"/World/PhysicsMaterials/{_ROOM_MATERIAL}", ROOM_FRICTION)
     w.bind_physics(room_prim, material)
     if scene.room is None:  # no room: an unbounded ground plane, as the MJCF export
         plane = w.UsdGeom.Plane.Define(stage, "/World/Room/floor")
@@ -185,29 +233,14 @@ def _add_room(w: _Writer, stage: Any, scene: Scene) -> None:
         plane.CreateDisplayColorPrimvar(w.UsdGeom.Tokens.constant).Set([w.Gf.Vec3f(*_color(FLOOR_COLOR))])
         w.collider(plane.GetPrim())
         return
-    colors = {"floor": FLOOR_COLOR, "wall": WALL_COLOR, "ceiling": CEILING_COLOR}
-    taken: set[str] = set()
-    for slab in room_slabs(scene.room):
-        cube = w.UsdGeom.Cube.Define(stage, f"/World/Room/{usd_prim_name(slab.part_id, taken)}")
-        cube.CreateSizeAttr(1.0)
-        cube.AddTranslateOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Vec3d(*map(float, slab.centre)))
-        cube.AddOrientOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Quatd(*slab.quaternion))
-        cube.AddScaleOp(w.UsdGeom.XformOp.PrecisionDouble).Set(
-            w.Gf.Vec3d(*(2.0 * slab.half_extents).tolist())
-        )
-        cube.CreateExtentAttr([w.Gf.Vec3f(-0.5, -0.5, -0.5), w.Gf.Vec3f(0.5, 0.5, 0.5)])  # a unit cube
-        cube.CreateDisplayColorPrimvar(w.UsdGeom.Tokens.constant).Set(
-            [w.Gf.Vec3f(*_color(colors[slab.kind]))]
-        )
-        if slab.kind == "ceiling":  # see-through, so the room stays visible from above
-            cube.CreateDisplayOpacityPrimvar(w.UsdGeom.Tokens.constant).Set([_CEILING_OPACITY])
-        w.collider(cube.GetPrim())
+    _add_slabs(w, stage, "/World/Room", room_slabs(scene.room))
 
 
-def _add_object(w: _Writer, stage: Any, scene: Scene, obj: SceneObject, name: str, shape: ObjectShape) -> str:
-    """The object's prim (pose, physics, material binding); returns its path. The reference to its
-    geometry layer is added later, on the closed layer (see :func:`export_usd`)."""
-    prim_path = f"/World/Objects/{name}"
+def _add_object(
+    w: _Writer, stage: Any, scene: Scene, obj: SceneObject, prim_path: str, name: str, shape: ObjectShape
+) -> None:
+    """The object's prim at ``prim_path`` (pose, physics, material binding ``name``). The reference
+    to its geometry layer is added later, on the closed layer (see :func:`_Export.save`)."""
     xform = w.UsdGeom.Xform.Define(stage, prim_path)
     prim = xform.GetPrim()
     xform.AddTranslateOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Vec3d(*map(float, obj.pose.position)))
@@ -227,7 +260,6 @@ def _add_object(w: _Writer, stage: Any, scene: Scene, obj: SceneObject, name: st
         mass.CreatePrincipalAxesAttr(w.Gf.Quatf(1.0, 0.0, 0.0, 0.0))
     material = w.physics_material(stage, f"/World/PhysicsMaterials/{name}", obj.sim.friction)
     w.bind_physics(prim, material)
-    return prim_path
 
 
 def _stage_path(destination: Path) -> Path:
@@ -237,6 +269,48 @@ def _stage_path(destination: Path) -> Path:
     if suffix in {".usd", ".usdc", ".usdz"}:
         raise UsageError(f"export_usd writes ASCII USD: give a folder or a .usda file, not {destination}")
     return destination / USD_SCENE_FILE
+
+
+class _Export:
+    """One stage being written: the physics scene, then rooms and objects, then the files."""
+
+    def __init__(self, w: _Writer, stage_path: Path, base_dir: Path | None) -> None:
+        self.w = w
+        self.stage_path = stage_path
+        self.base_dir = base_dir
+        self.layer, self.stage = w.new_stage("World")
+        physics_scene = w.UsdPhysics.Scene.Define(self.stage, "/World/PhysicsScene")
+        physics_scene.CreateGravityDirectionAttr(w.Gf.Vec3f(0.0, 0.0, -1.0))
+        physics_scene.CreateGravityMagnitudeAttr(SimSettings().gravity)
+        w.UsdGeom.Scope.Define(self.stage, "/World/PhysicsMaterials")
+        self.taken: set[str] = {_ROOM_MATERIAL}  # object names: materials and geometry files
+        self.references: list[tuple[str, str]] = []
+        self.count = 0
+
+    def objects(self, scene: Scene, parent: str, shapes: dict[str, ObjectShape]) -> None:
+        """Every object of ``scene`` under ``parent`` (an ``Xform``), with its geometry layer."""
+        w = self.w
+        w.UsdGeom.Xform.Define(self.stage, parent)
+        for obj in scene.objects:
+            name = usd_prim_name(obj.id, self.taken)
+            relative = f"{USD_GEOMETRY_DIR}/{name}.usda"
+            w.save(
+                _object_layer(w, name, obj, shapes[obj.id], self.base_dir), self.stage_path.parent / relative
+            )
+            prim_path = f"{parent}/{name}"
+            _add_object(w, self.stage, scene, obj, prim_path, name, shapes[obj.id])
+            self.references.append((prim_path, f"./{relative}"))
+            self.count += 1
+
+    def save(self) -> Path:
+        # The references go in once the stage is gone: composing them on the in-memory layer would
+        # look for the relative files beside an anonymous layer, which has no folder.
+        del self.stage
+        for prim_path, asset_path in self.references:
+            self.layer.GetPrimAtPath(prim_path).referenceList.Prepend(self.w.Sdf.Reference(asset_path))
+        self.w.save(self.layer, self.stage_path)
+        log.info("usd_exported", path=str(self.stage_path), objects=self.count)
+        return self.stage_path
 
 
 def export_usd(
@@ -260,30 +334,55 @@ def export_usd(
     """
     w = _Writer()  # first, so a missing extra fails before any work
     require_finite_poses(scene, "export USD")
-    stage_path = _stage_path(Path(path_or_folder))
     base = Path(base_dir) if base_dir is not None else None
     shapes = {o.id: object_shape(o, base, cache=hull_cache, hulls=hulls) for o in scene.objects}
+    export = _Export(w, _stage_path(Path(path_or_folder)), base)
+    _add_room(w, export.stage, scene)
+    export.objects(scene, "/World/Objects", shapes)
+    return export.save()
 
-    layer, stage = w.new_stage("World")
-    gravity = SimSettings().gravity
-    physics_scene = w.UsdPhysics.Scene.Define(stage, "/World/PhysicsScene")
-    physics_scene.CreateGravityDirectionAttr(w.Gf.Vec3f(0.0, 0.0, -1.0))
-    physics_scene.CreateGravityMagnitudeAttr(gravity)
-    w.UsdGeom.Scope.Define(stage, "/World/PhysicsMaterials")
-    _add_room(w, stage, scene)
-    w.UsdGeom.Xform.Define(stage, "/World/Objects")
-    taken: set[str] = set()
-    references: list[tuple[str, str]] = []
-    for obj in scene.objects:
-        name = usd_prim_name(obj.id, taken)
-        relative = f"{USD_GEOMETRY_DIR}/{name}.usda"
-        w.save(_object_layer(w, name, obj, shapes[obj.id], base), stage_path.parent / relative)
-        references.append((_add_object(w, stage, scene, obj, name, shapes[obj.id]), f"./{relative}"))
-    # The references go in once the stage is gone: composing them on the in-memory layer would
-    # look for the relative files beside an anonymous layer, which has no folder.
-    del stage
-    for prim_path, asset_path in references:
-        layer.GetPrimAtPath(prim_path).referenceList.Prepend(w.Sdf.Reference(asset_path))
-    w.save(layer, stage_path)
-    log.info("usd_exported", path=str(stage_path), objects=len(scene.objects))
-    return stage_path
+
+def export_house_usd(
+    house: House,
+    path_or_folder: str | Path,
+    base_dir: str | Path | None = None,
+    *,
+    hull_cache: HullCache | None = None,
+    hulls: HullInput | None = None,
+) -> Path:
+    """Write a whole house as one ASCII USD stage with UsdPhysics; return the stage's path.
+
+    As :func:`export_usd`, on one stage: ``/World/floor`` is the house's floor slab; each room is
+    ``/World/<room>`` (its id made a prim name; ``customData`` ``scenemosaic:roomId`` holds the
+    id) with ``Room/`` (its walls cut around their openings, each shared wall once, and its
+    ceiling: :func:`scenemosaic.physics.house_slabs`, the boxes the house's MJCF simulates) and
+    ``Objects/<name>`` (every object of the room, rigid or static as in its own room). Object
+    names are unique over the house; their geometry layers share ``usd/``.
+
+    Raises:
+        MissingExtraError: ``pxr`` is not installed (``pip install 'scenemosaic[usd]'``).
+        PhysicsError: an object's pose is not finite (nothing is written).
+    """
+    w = _Writer()
+    for scene in house.rooms:
+        require_finite_poses(scene, "export USD")
+    base = Path(base_dir) if base_dir is not None else None
+    shapes = {o.id: object_shape(o, base, cache=hull_cache, hulls=hulls) for o in house.objects}
+    export = _Export(w, _stage_path(Path(path_or_folder)), base)
+    stage = export.stage
+    slabs = house_slabs(house)
+    material = w.physics_material(stage, f"/World/PhysicsMaterials/{_ROOM_MATERIAL}", ROOM_FRICTION)
+    rooms_taken = {"PhysicsScene", "PhysicsMaterials", "floor"}
+    floor = [slab for slab in slabs if slab.room_id is None]
+    _add_slabs(w, stage, "/World", floor)
+    w.bind_physics(stage.GetPrimAtPath("/World/floor"), material)
+    for scene in house.rooms:
+        room_path = f"/World/{usd_prim_name(scene.id, rooms_taken)}"
+        room_prim = w.UsdGeom.Xform.Define(stage, room_path).GetPrim()
+        room_prim.SetCustomDataByKey("scenemosaic:roomId", scene.id)
+        shell = w.UsdGeom.Xform.Define(stage, f"{room_path}/Room").GetPrim()
+        w.bind_physics(shell, material)
+        _add_slabs(w, stage, f"{room_path}/Room", [slab for slab in slabs if slab.room_id == scene.id])
+        export.objects(scene, f"{room_path}/Objects", shapes)
+    del stage  # no stage may stay open on the layer while the references go in (see _Export.save)
+    return export.save()

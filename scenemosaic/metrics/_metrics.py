@@ -40,10 +40,13 @@ from scenemosaic.render import object_world_mesh
 from scenemosaic.scene import (
     CEILING,
     FLOOR,
+    HOUSE_CELL_M,
     ROBOT_RADIUS,
     WALK_GRID,
     WALK_MAX_HEIGHT,
+    FloatArray,
     FloorRaster,
+    House,
     Relation,
     Scene,
     convex_hull_2d,
@@ -63,6 +66,8 @@ __all__ = [
     "div_iou",
     "div_n",
     "evaluate",
+    "house_diversity",
+    "house_occupancy",
     "nav",
     "occupancy",
     "oob",
@@ -180,6 +185,39 @@ def div_n(scenes: Sequence[Scene]) -> float | None:
     ids = [o.id for o in scenes[0].objects]
     arrs = [Arrangement.of(s, ids) for s in scenes]
     return float(np.mean([novelty_distance(a, b) for a, b in itertools.combinations(arrs, 2)]))
+
+
+def house_occupancy(house: House, cell: float = HOUSE_CELL_M, *, bounds: FloatArray | None = None) -> np.ndarray:
+    """Top-down occupancy of a whole house's non-thin objects on one raster of ``cell`` metres
+    over ``bounds`` (a (2, 2) min/max corner pair; default: the house's floors)."""
+    if bounds is None:
+        pts = np.concatenate([np.asarray(s.room.floor, dtype=np.float64) for s in house.rooms if s.room is not None])
+        bounds = np.stack([pts.min(axis=0), pts.max(axis=0)])
+    (x0, y0), (x1, y1) = bounds
+    raster = FloorRaster(np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]), cell=cell)
+    out = np.zeros(raster.shape, dtype=bool)
+    for s in house.rooms:
+        out |= raster.blocked(_footprints(s, None))
+    return out
+
+
+def house_diversity(houses: Sequence[House]) -> dict[str, float | int | None]:
+    """Div-IoU and Div-N of whole-house variants: the mean IoU of their house-wide occupancy maps
+    over every pair (:func:`house_occupancy`, one raster for all), and the mean novelty distance
+    over every pair with all of the house's objects (the earlier house the reference)."""
+    if len(houses) < 2:
+        return {"Div-IoU": None, "Div-N": None, "pairs": 0}
+    pts = np.concatenate([np.asarray(s.room.floor, dtype=np.float64) for s in houses[0].rooms if s.room is not None])
+    bounds = np.stack([pts.min(axis=0), pts.max(axis=0)])
+    maps = [house_occupancy(h, bounds=bounds) for h in houses]
+    ious = []
+    for a, b in itertools.combinations(maps, 2):
+        union = int((a | b).sum())
+        ious.append(float((a & b).sum()) / union if union else 1.0)
+    ids = [o.id for o in houses[0].objects]
+    arrs = [Arrangement.of(Scene.model_construct(objects=h.objects), ids) for h in houses]
+    n = float(np.mean([novelty_distance(a, b) for a, b in itertools.combinations(arrs, 2)]))
+    return {"Div-IoU": round(float(np.mean(ious)), 4), "Div-N": round(n, 4), "pairs": len(ious)}
 
 
 def relation_holds(scene: Scene, rel: Relation, tolerance: float = RELATION_TOLERANCE_M) -> bool:

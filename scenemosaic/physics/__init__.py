@@ -14,6 +14,7 @@ from scenemosaic.physics._checks import (
     resting_footprint,
     rests_within,
 )
+from scenemosaic.physics._doors import DOOR_PACK_CELL_M, DoorRepair, clear_doors
 from scenemosaic.physics._hulls import HullInput, HullPiece, ObjectShape, hull_mesh, object_shape
 from scenemosaic.physics._reports import (
     CollisionPair,
@@ -30,25 +31,35 @@ from scenemosaic.physics._settings import (
     FELL_DROP_M,
     OOB_MIN_INSIDE_FRACTION,
     ROOM_FRICTION,
-    THIN_RATIO,
     TIPPED_TILT_DEG,
     SettleSettings,
     SimSettings,
 )
-from scenemosaic.physics._settle import is_thin, settle_unit
+from scenemosaic.physics._settle import settle_unit
 from scenemosaic.physics._stabilize import stabilize_scene, stabilize_scene_sync
 from scenemosaic.physics._units import UnitPlan, plan_units
 from scenemosaic.physics._validate import (
+    house_world,
     is_fixed,
     scene_world,
     support_gaps,
     validate_scene,
+    write_house_mjcf,
     write_scene_mjcf,
 )
-from scenemosaic.physics._world import ObjectInertial, RoomSlab, object_inertial, object_mass, room_slabs
+from scenemosaic.physics._world import (
+    ObjectInertial,
+    RoomSlab,
+    house_slabs,
+    object_inertial,
+    object_mass,
+    room_slabs,
+)
+from scenemosaic.scene import THIN_RATIO, is_thin
 
 __all__ = [
     "COLLISION_TOLERANCE_M",
+    "DOOR_PACK_CELL_M",
     "FELL_DROP_M",
     "OOB_MIN_INSIDE_FRACTION",
     "RESTING_MIN_INSIDE_FRACTION",
@@ -57,6 +68,7 @@ __all__ = [
     "TIPPED_TILT_DEG",
     "CollisionPair",
     "CollisionReport",
+    "DoorRepair",
     "HullInput",
     "HullPiece",
     "ObjectInertial",
@@ -73,7 +85,10 @@ __all__ = [
     "ValidationReport",
     "check_collisions",
     "check_out_of_bounds",
+    "clear_doors",
     "collision_report_for",
+    "house_slabs",
+    "house_world",
     "hull_mesh",
     "is_fixed",
     "is_thin",
@@ -91,5 +106,6 @@ __all__ = [
     "stabilize_scene_sync",
     "support_gaps",
     "validate_scene",
+    "write_house_mjcf",
     "write_scene_mjcf",
 ]

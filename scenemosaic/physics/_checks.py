@@ -14,7 +14,6 @@ from scenemosaic.exceptions import PhysicsError
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import CollisionPair, CollisionReport, OutOfBoundsObject, OutOfBoundsReport
 from scenemosaic.physics._settings import COLLISION_TOLERANCE_M, OOB_MIN_INSIDE_FRACTION, SimSettings
-from scenemosaic.physics._settle import is_thin
 from scenemosaic.physics._world import WorldBuilder
 from scenemosaic.scene import (
     CEILING,
@@ -23,6 +22,7 @@ from scenemosaic.scene import (
     Scene,
     SceneObject,
     convex_hull_2d,
+    is_thin,
     nested_pairs,
 )
 
@@ -67,19 +67,14 @@ def require_finite_poses(scene: Scene, action: str) -> None:
 def collision_report_for(
     scene: Scene, shapes: Mapping[str, ObjectShape], *, tolerance_m: float = COLLISION_TOLERANCE_M
 ) -> CollisionReport:
-    """Pairwise hull penetration of every non-thin object pair whose bounds overlap."""
+    """Pairwise hull penetration of every non-thin object pair whose bounds overlap (only the
+    objects of such pairs go into the MuJoCo world that measures it)."""
     objs = [o for o in scene.objects]
     thin = [o.id for o in objs if is_thin(o)]
     solid = [o for o in objs if o.id not in thin]
-    builder = WorldBuilder(SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
-    for o in solid:
-        builder.add_static(o, shapes[o.id])
     report = CollisionReport(tolerance_m=tolerance_m, thin_excluded=thin, checked_objects=len(solid))
     if len(solid) < 2:
         return report
-    world = builder.compile()
-    m, d = world.model, world.data
-    geoms = world.object_geoms
     # per-geom world AABBs from the hull vertices, for a cheap broad phase
     boxes: dict[str, list[tuple[FloatArray, FloatArray]]] = {}
     obj_box: dict[str, tuple[FloatArray, FloatArray]] = {}
@@ -90,27 +85,39 @@ def collision_report_for(
         allv = np.concatenate(verts)
         obj_box[o.id] = (allv.min(axis=0), allv.max(axis=0))
     reach = tolerance_m + 0.002
+    near: list[tuple[SceneObject, SceneObject]] = []
     for i, a in enumerate(solid):
         alo, ahi = obj_box[a.id]
         for b in solid[i + 1 :]:
             blo, bhi = obj_box[b.id]
-            if np.any(alo > bhi + reach) or np.any(blo > ahi + reach):
-                continue
-            deepest: float | None = None
-            contacts = 0
-            for ga, (galo, gahi) in zip(geoms[a.id], boxes[a.id], strict=True):
-                for gb, (gblo, gbhi) in zip(geoms[b.id], boxes[b.id], strict=True):
-                    if np.any(galo > gbhi + reach) or np.any(gblo > gahi + reach):
-                        continue
-                    dist = float(mujoco.mj_geomDistance(m, d, ga, gb, reach, None))
-                    if dist < 0:
-                        contacts += 1
-                    if dist < reach and (deepest is None or -dist > deepest):
-                        deepest = -dist
-            if deepest is None or deepest < 0:
-                continue
-            pair = CollisionPair(a=a.id, b=b.id, depth_m=round(deepest, 6), contacts=contacts)
-            (report.pairs if deepest > tolerance_m else report.shallow).append(pair)
+            if not (np.any(alo > bhi + reach) or np.any(blo > ahi + reach)):
+                near.append((a, b))
+    if not near:
+        return report
+    builder = WorldBuilder(SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
+    involved = {o.id for pair in near for o in pair}
+    for o in solid:
+        if o.id in involved:
+            builder.add_static(o, shapes[o.id])
+    world = builder.compile()
+    m, d = world.model, world.data
+    geoms = world.object_geoms
+    for a, b in near:
+        deepest: float | None = None
+        contacts = 0
+        for ga, (galo, gahi) in zip(geoms[a.id], boxes[a.id], strict=True):
+            for gb, (gblo, gbhi) in zip(geoms[b.id], boxes[b.id], strict=True):
+                if np.any(galo > gbhi + reach) or np.any(gblo > gahi + reach):
+                    continue
+                dist = float(mujoco.mj_geomDistance(m, d, ga, gb, reach, None))
+                if dist < 0:
+                    contacts += 1
+                if dist < reach and (deepest is None or -dist > deepest):
+                    deepest = -dist
+        if deepest is None or deepest < 0:
+            continue
+        pair = CollisionPair(a=a.id, b=b.id, depth_m=round(deepest, 6), contacts=contacts)
+        (report.pairs if deepest > tolerance_m else report.shallow).append(pair)
     return report
 
 

@@ -15,7 +15,6 @@ __all__ = [
     "OOB_MIN_INSIDE_FRACTION",
     "ROOM_FRICTION",
     "SEPARATION_GAP_M",
-    "THIN_RATIO",
     "TIPPED_TILT_DEG",
     "SettleSettings",
     "SimSettings",
@@ -27,9 +26,6 @@ COLLISION_TOLERANCE_M = 0.005
 SceneEval counts a pair as colliding when it still intersects after one object is moved
 5 mm apart, which is the same as a penetration depth above 5 mm."""
 
-THIN_RATIO = 0.02
-"""An object is *thin* (rug, sheet of paper) when its vertical extent is below this fraction of
-its larger planar extent; thin objects are left out of collision counting, as the method does."""
 
 OOB_MIN_INSIDE_FRACTION = 0.99
 """SceneEval's out-of-bounds rule: an object is out of bounds when less than this fraction of its

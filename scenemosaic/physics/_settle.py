@@ -34,7 +34,6 @@ from scenemosaic.physics._reports import UnitReport
 from scenemosaic.physics._settings import (
     COLLISION_TOLERANCE_M,
     SEPARATION_GAP_M,
-    THIN_RATIO,
     SettleSettings,
     SimSettings,
 )
@@ -50,6 +49,7 @@ from scenemosaic.scene import (
     SceneObject,
     convex_hull_2d,
     edge_axes,
+    is_thin,
     minimal_containing_shift,
     pack_surface,
     quat_from_matrix,
@@ -58,7 +58,7 @@ from scenemosaic.scene import (
     traits,
 )
 
-__all__ = ["is_thin", "settle_unit"]
+__all__ = ["settle_unit"]
 
 log = structlog.get_logger(__name__)
 
@@ -67,12 +67,6 @@ _VERTICAL_EPS = 0.004
 _MAX_SWEEPS = 80
 _MAX_SETTLE_TILT_DEG = 6.0
 """A child rocking further than this while settling is settled again with its tilt locked."""
-
-
-def is_thin(obj: SceneObject) -> bool:
-    """Vertical extent below ``THIN_RATIO`` of the larger planar extent (rugs, paper)."""
-    sx, sy, sz = (float(v) for v in obj.size)
-    return sz < THIN_RATIO * max(sx, sy)
 
 
 @dataclass

@@ -21,10 +21,11 @@ from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import ObjectMotion, ValidationReport
 from scenemosaic.physics._settings import FELL_DROP_M, TIPPED_TILT_DEG, SettleSettings, SimSettings
 from scenemosaic.physics._simulate import run_until_settled
-from scenemosaic.physics._world import WorldBuilder
+from scenemosaic.physics._world import WorldBuilder, house_slabs
 from scenemosaic.scene import (
     CEILING,
     FLOOR,
+    House,
     Pose,
     Scene,
     SceneObject,
@@ -33,7 +34,16 @@ from scenemosaic.scene import (
     yaw_from_quat,
 )
 
-__all__ = ["is_fixed", "motion_between", "scene_world", "support_gaps", "validate_scene", "write_scene_mjcf"]
+__all__ = [
+    "house_world",
+    "is_fixed",
+    "motion_between",
+    "scene_world",
+    "support_gaps",
+    "validate_scene",
+    "write_house_mjcf",
+    "write_scene_mjcf",
+]
 
 log = structlog.get_logger(__name__)
 
@@ -41,7 +51,9 @@ _VALIDATION_SETTLE = SettleSettings(max_time_s=1.0)
 _VALIDATION_MIN_S = 0.3
 
 
-def scene_world(scene: Scene, shapes: Mapping[str, ObjectShape], sim: SimSettings | None = None) -> WorldBuilder:
+def scene_world(
+    scene: Scene, shapes: Mapping[str, ObjectShape], sim: SimSettings | None = None
+) -> WorldBuilder:
     """The whole scene as one MuJoCo world with gravity down: the room static, objects hung from
     the ceiling or a wall and ``static`` ones welded, every other object on a free joint.
 
@@ -55,6 +67,47 @@ def scene_world(scene: Scene, shapes: Mapping[str, ObjectShape], sim: SimSetting
         else:
             builder.add_dynamic(o, shapes[o.id], mode="free")
     return builder
+
+
+def house_world(
+    house: House, shapes: Mapping[str, ObjectShape], sim: SimSettings | None = None
+) -> WorldBuilder:
+    """A whole house as one MuJoCo world with gravity down: the static boxes of
+    :func:`~scenemosaic.physics.house_slabs` (one floor, every room's walls cut around their
+    openings with shared walls once, each room's ceiling over its own floor), and every object of
+    every room placed as :func:`scene_world` places it in its own room (:func:`is_fixed` asked of
+    that room's scene)."""
+    builder = WorldBuilder(sim or SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
+    builder.add_slabs(house_slabs(house))
+    for scene in house.rooms:
+        for o in scene.objects:
+            if is_fixed(scene, o):
+                builder.add_static(o, shapes[o.id])
+            else:
+                builder.add_dynamic(o, shapes[o.id], mode="free")
+    return builder
+
+
+def _write_world(
+    builder: WorldBuilder,
+    objects: list[SceneObject],
+    base_dir: str | Path | None,
+    out_dir: str | Path,
+    name: str,
+) -> Path:
+    """Add each object's visual mesh to ``builder`` and write its MJCF under ``out_dir``."""
+    for obj in objects:
+        try:
+            mesh = object_mesh(obj, base_dir)
+        except Exception as exc:  # the visual is optional: the collision pieces still describe the object
+            log.warning("mjcf_visual_mesh_failed", object_id=obj.id, error=str(exc))
+            continue
+        builder.add_visual(obj, np.asarray(mesh.vertices), np.asarray(mesh.faces))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    path = builder.write_mjcf(out, model_name=name)
+    log.info("mjcf_exported", path=str(path), objects=len(objects))
+    return path
 
 
 def write_scene_mjcf(
@@ -73,19 +126,31 @@ def write_scene_mjcf(
     """
     require_finite_poses(scene, "export MJCF")
     shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
-    builder = scene_world(scene, shapes, sim)
-    for obj in scene.objects:
-        try:
-            mesh = object_mesh(obj, base_dir)
-        except Exception as exc:  # the visual is optional: the collision pieces still describe the object
-            log.warning("mjcf_visual_mesh_failed", object_id=obj.id, error=str(exc))
-            continue
-        builder.add_visual(obj, np.asarray(mesh.vertices), np.asarray(mesh.faces))
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    path = builder.write_mjcf(out, model_name=scene.id)
-    log.info("mjcf_exported", path=str(path), objects=len(scene.objects))
-    return path
+    return _write_world(scene_world(scene, shapes, sim), list(scene.objects), base_dir, out_dir, scene.id)
+
+
+def write_house_mjcf(
+    house: House,
+    out_dir: str | Path,
+    base_dir: str | Path | None = None,
+    *,
+    hull_cache: HullCache | None = None,
+    hulls: HullInput | None = None,
+    sim: SimSettings | None = None,
+) -> Path:
+    """Write a whole house as ``out_dir/scene.xml`` + ``out_dir/mjcf/`` for plain MuJoCo.
+
+    The world is :func:`house_world`; every object carries its visual mesh as
+    :func:`write_scene_mjcf` gives it. Bodies are named by object id; the static boxes by
+    ``floor``, ``<room id>/<wall id>[/<k>]`` and ``<room id>/ceiling[/<k>]``. ``base_dir``
+    resolves every room's relative mesh uris. Raises
+    :class:`~scenemosaic.exceptions.PhysicsError` naming any object whose pose is not finite.
+    """
+    for scene in house.rooms:
+        require_finite_poses(scene, "export MJCF")
+    objects = house.objects
+    shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in objects}
+    return _write_world(house_world(house, shapes, sim), objects, base_dir, out_dir, house.id)
 
 
 def is_fixed(scene: Scene, obj: SceneObject) -> bool:

@@ -27,11 +27,13 @@ from typing import Literal
 import mujoco
 import numpy as np
 import numpy.typing as npt
+import shapely
 import trimesh
 
 from scenemosaic.physics._hulls import ObjectShape, hull_mesh
 from scenemosaic.physics._settings import DEFAULT_DENSITY_KG_M3, ROOM_FRICTION, SimSettings
-from scenemosaic.scene import FloatArray, Room, SceneObject
+from scenemosaic.render import WallPiece, house_wall_pieces, polygon_rectangles, wall_ends, wall_pieces
+from scenemosaic.scene import FloatArray, House, Room, SceneObject, Wall
 
 __all__ = [
     "MJCF_MESH_DIR",
@@ -41,6 +43,7 @@ __all__ = [
     "ObjectInertial",
     "RoomSlab",
     "WorldBuilder",
+    "house_slabs",
     "object_inertial",
     "object_mass",
     "room_slabs",
@@ -108,10 +111,13 @@ def object_inertial(obj: SceneObject, shape: ObjectShape) -> ObjectInertial:
 
 @dataclass(frozen=True)
 class RoomSlab:
-    """One static box of the simulated room, in world coordinates."""
+    """One static box of the simulated room (or house), in world coordinates."""
 
     name: str
-    """Name of the MuJoCo geom: ``floor``, ``ceiling`` or ``wall_<wall id>``."""
+    """Name of the MuJoCo geom. A room: ``floor``, ``ceiling``, ``wall_<wall id>`` for a wall
+    that is one box, ``wall_<wall id>/<k>`` for the pieces of a wall cut around its openings. A
+    house: ``floor`` (one for the whole house), ``<room id>/<wall id>[/<k>]`` and
+    ``<room id>/ceiling[/<k>]``. Ids never hold a ``/``, so names never clash."""
     kind: Literal["floor", "wall", "ceiling"]
     part_id: str
     """``floor``, ``ceiling`` or the wall's id."""
@@ -121,6 +127,11 @@ class RoomSlab:
     """Half sizes along the box's own axes, shape (3,)."""
     yaw: float
     """Rotation of the box about +Z, radians (0 for floor and ceiling)."""
+    room_id: str | None = None
+    """In a house: the id of the room scene the part belongs to (``None`` for the house's floor)."""
+    piece: int | None = None
+    """Which box of a part made of several (a wall cut around its openings, a ceiling over a
+    non-rectangular floor); ``None`` when the part is one box."""
 
     @property
     def quaternion(self) -> tuple[float, float, float, float]:
@@ -128,46 +139,109 @@ class RoomSlab:
         return (math.cos(self.yaw / 2), 0.0, 0.0, math.sin(self.yaw / 2))
 
 
+SLAB_THICKNESS_M = 0.1
+"""Thickness (metres) of the simulated floor and ceiling slabs (floor top at z = 0, ceiling
+bottom at the ceiling height)."""
+SLAB_MARGIN_M = 1.0
+"""How far (metres) a room's floor and ceiling slabs (a house's floor slab) reach past the floor
+polygons' bounds, so nothing falls off an edge."""
+
+
+def _piece_slab(wall: Wall, box: WallPiece, **fields: object) -> RoomSlab:
+    """The box of one wall piece, which stands outside the floor (``w`` from 0 to the thickness)."""
+    mid = (
+        np.asarray(wall.start, dtype=np.float64)
+        + wall.direction * ((box.s0 + box.s1) / 2.0)
+        + wall.outward_normal * ((box.w0 + box.w1) / 2.0)
+    )
+    return RoomSlab(
+        kind="wall",
+        part_id=wall.id,
+        centre=np.array([mid[0], mid[1], (box.z0 + box.z1) / 2.0]),
+        half_extents=np.array([(box.s1 - box.s0) / 2.0, (box.w1 - box.w0) / 2.0, (box.z1 - box.z0) / 2.0]),
+        yaw=math.atan2(float(wall.direction[1]), float(wall.direction[0])),
+        **fields,  # type: ignore[arg-type]
+    )
+
+
+def _flat_slab(
+    kind: Literal["floor", "ceiling"], lo: FloatArray, hi: FloatArray, z: float, **fields: object
+) -> RoomSlab:
+    """A horizontal slab over the rectangle ``lo``-``hi``, :data:`SLAB_THICKNESS_M` thick, centred at height ``z``."""
+    return RoomSlab(
+        kind=kind,
+        part_id=kind,
+        centre=np.array([(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0, z]),
+        half_extents=np.array([(hi[0] - lo[0]) / 2.0, (hi[1] - lo[1]) / 2.0, SLAB_THICKNESS_M / 2.0]),
+        yaw=0.0,
+        **fields,  # type: ignore[arg-type]
+    )
+
+
+def _wall_slabs(wall: Wall, pieces: list[WallPiece], prefix: str, room_id: str | None) -> list[RoomSlab]:
+    if len(pieces) == 1:
+        return [_piece_slab(wall, pieces[0], name=f"{prefix}{wall.id}", room_id=room_id)]
+    return [
+        _piece_slab(wall, box, name=f"{prefix}{wall.id}/{k}", room_id=room_id, piece=k)
+        for k, box in enumerate(pieces)
+    ]
+
+
 def room_slabs(room: Room) -> list[RoomSlab]:
     """The room as simulated: a floor slab under z = 0 and a ceiling slab above the ceiling height,
-    both covering the floor polygon's bounds plus 1 m on every side, and one slab per wall standing
-    outside the floor polygon, as long as the wall plus its thickness at each end and as tall as
-    the wall (openings are not cut out). The MJCF, USD and URDF exports share these boxes.
+    both covering the floor polygon's bounds plus :data:`SLAB_MARGIN_M` on every side, and the
+    walls standing outside the floor polygon, as tall as each wall, reaching past each end as
+    :func:`scenemosaic.render.wall_ends` says, with their doors, windows and open stretches cut
+    out (:func:`scenemosaic.render.wall_panels`): a wall without openings is one box, a wall
+    with openings the boxes around them. The MJCF, USD and URDF exports share these boxes.
     """
     pts = np.asarray(room.floor)
-    lo, hi = pts.min(axis=0) - 1.0, pts.max(axis=0) + 1.0
-    centre = (lo + hi) / 2
-    half = (hi - lo) / 2
+    lo, hi = pts.min(axis=0) - SLAB_MARGIN_M, pts.max(axis=0) + SLAB_MARGIN_M
+    half = SLAB_THICKNESS_M / 2.0
     slabs = [
-        RoomSlab(
-            name="floor",
-            kind="floor",
-            part_id="floor",
-            centre=np.array([centre[0], centre[1], -0.05]),
-            half_extents=np.array([half[0], half[1], 0.05]),
-            yaw=0.0,
-        ),
-        RoomSlab(
-            name="ceiling",
-            kind="ceiling",
-            part_id="ceiling",
-            centre=np.array([centre[0], centre[1], room.ceiling_height + 0.05]),
-            half_extents=np.array([half[0], half[1], 0.05]),
-            yaw=0.0,
-        ),
+        _flat_slab("floor", lo, hi, -half, name="floor"),
+        _flat_slab("ceiling", lo, hi, room.ceiling_height + half, name="ceiling"),
     ]
     for w in room.walls:
-        mid = (np.asarray(w.start) + np.asarray(w.end)) / 2 + w.outward_normal * (w.thickness / 2)
-        slabs.append(
-            RoomSlab(
-                name=f"wall_{w.id}",
-                kind="wall",
-                part_id=w.id,
-                centre=np.array([mid[0], mid[1], w.height / 2]),
-                half_extents=np.array([w.length / 2 + w.thickness, w.thickness / 2, w.height / 2]),
-                yaw=math.atan2(float(w.direction[1]), float(w.direction[0])),
+        slabs += _wall_slabs(w, wall_pieces(w, wall_ends(room, w)), "wall_", None)
+    return slabs
+
+
+def house_slabs(house: House) -> list[RoomSlab]:
+    """The house as simulated: one floor slab under z = 0 over every room's floor polygon's bounds
+    plus :data:`SLAB_MARGIN_M`; per room, its walls cut around their openings, each shared wall
+    once and no wall on any room's floor (:func:`scenemosaic.render.house_wall_pieces`), and its
+    ceiling over exactly its own floor (:func:`scenemosaic.render.polygon_rectangles`), so that a
+    room's ceiling never reaches into its neighbour, whatever their heights. Names carry the room
+    id (see :class:`RoomSlab`).
+    """
+    pts = np.concatenate([np.asarray(s.room.floor) for s in house.rooms if s.room is not None])
+    lo, hi = pts.min(axis=0) - SLAB_MARGIN_M, pts.max(axis=0) + SLAB_MARGIN_M
+    half = SLAB_THICKNESS_M / 2.0
+    slabs = [_flat_slab("floor", lo, hi, -half, name="floor")]
+    pieces = house_wall_pieces(house)
+    for scene in house.rooms:
+        room = scene.room
+        if room is None:
+            continue
+        for w in room.walls:
+            slabs += _wall_slabs(w, pieces[(scene.id, w.id)], f"{scene.id}/", scene.id)
+        rects = polygon_rectangles(shapely.Polygon(room.floor))
+        z = room.ceiling_height + half
+        for k, (x0, y0, x1, y1) in enumerate(rects):
+            piece = None if len(rects) == 1 else k
+            name = f"{scene.id}/ceiling" if piece is None else f"{scene.id}/ceiling/{k}"
+            slabs.append(
+                _flat_slab(
+                    "ceiling",
+                    np.array([x0, y0]),
+                    np.array([x1, y1]),
+                    z,
+                    name=name,
+                    room_id=scene.id,
+                    piece=piece,
+                )
             )
-        )
     return slabs
 
 
@@ -274,19 +348,22 @@ class WorldBuilder:
     def add_room(
         self, room: Room | None, *, floor: bool = True, walls: bool = True, ceiling: bool = True
     ) -> None:
-        """Static room slabs: a floor slab under z = 0, wall slabs outside each edge, a ceiling slab."""
-        wb = self.spec.worldbody
+        """Static room slabs (:func:`room_slabs`): a floor slab under z = 0, wall slabs outside
+        each edge with their openings cut, a ceiling slab. No room: an infinite floor plane."""
         if room is None:
             if floor:
-                g = wb.add_geom()
+                g = self.spec.worldbody.add_geom()
                 g.name = "floor"
                 g.type = mujoco.mjtGeom.mjGEOM_PLANE
                 g.size = [0.0, 0.0, 0.05]
             return
         wanted = {"floor": floor, "wall": walls, "ceiling": ceiling}
-        for slab in room_slabs(room):
-            if not wanted[slab.kind]:
-                continue
+        self.add_slabs([slab for slab in room_slabs(room) if wanted[slab.kind]])
+
+    def add_slabs(self, slabs: Sequence[RoomSlab]) -> None:
+        """Static boxes welded to the world, each a geom named by its slab (ceilings in group 4)."""
+        wb = self.spec.worldbody
+        for slab in slabs:
             g = wb.add_geom()
             g.name = slab.name
             g.type = mujoco.mjtGeom.mjGEOM_BOX

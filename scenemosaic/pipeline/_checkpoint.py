@@ -32,6 +32,7 @@ from scenemosaic.scene import Pose, RunFolder, Scene, write_atomic
 __all__ = [
     "RunCheckpoint",
     "checkpoint_config",
+    "checkpoint_state",
     "input_digest",
     "load_checkpoint",
     "previous_input",
@@ -85,12 +86,9 @@ def write_json(path: Path, payload: dict[str, Any]) -> None:
     write_atomic(path, json.dumps(payload, indent=2, sort_keys=True))
 
 
-def save_checkpoint(run: PipelineRun, digest: str | None) -> None:
-    """Keep the run's state (after a finished stage, and once at the start)."""
-    assert run.store is not None
-    record = config_record(run.config)
-    write_json(run.folder.run_record, {"input": str(run.input_path), "input_sha256": digest, "config": record})
-    state = RunCheckpoint(
+def checkpoint_state(run: PipelineRun) -> RunCheckpoint:
+    """The run's state as its checkpoint keeps it (finished stages only)."""
+    return RunCheckpoint(
         scene=run.scene,
         records=[asdict(r) for r in run.records if r.status in ("done", "skipped", "reused")],
         layouts={u: (list(ids), [dict(p) for p in poses]) for u, (ids, poses) in run.layouts.items()}
@@ -103,6 +101,14 @@ def save_checkpoint(run: PipelineRun, digest: str | None) -> None:
         warnings=run.warnings,
         fallbacks=[{"agent": f.agent, "reason": f.reason} for f in run.fallbacks],
     )
+
+
+def save_checkpoint(run: PipelineRun, digest: str | None) -> None:
+    """Keep the run's state (after a finished stage, and once at the start)."""
+    assert run.store is not None
+    record = config_record(run.config)
+    write_json(run.folder.run_record, {"input": str(run.input_path), "input_sha256": digest, "config": record})
+    state = checkpoint_state(run)
     run.store.put(PIPELINE_NODE, _key(record, digest), StoredOutput(state, output_hash(state)))
 
 

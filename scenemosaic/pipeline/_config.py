@@ -319,6 +319,11 @@ class GenerateConfig(BaseModel):
     """Continue a stopped run in the same output folder: finished stages (and finished agents of
     the structuring stage) are reused from the run's checkpoints (``--resume OUT``, which takes
     the input and the settings from the checkpoint)."""
+    room_workers: Annotated[int | None, Field(ge=1), Setting("run", flag="--room-workers")] = None
+    """Processes that work on a house's rooms at once, 1 or more (``--room-workers``; a house input
+    only, ``docs/houses.md``). ``None``: one per CPU core, at most one per room. With 1, or with a
+    model other than ``rules`` (one model stack serves every room) or Python-object settings, the
+    rooms run concurrently in this process instead. The results do not depend on it."""
     cache_dir: Annotated[
         Path | None,
         Field(strict=False),

@@ -38,9 +38,11 @@ from scenemosaic.pipeline._checkpoint import (
     write_json,
 )
 from scenemosaic.pipeline._config import GenerateConfig, check_config, config_record
+from scenemosaic.pipeline._driver import run_stages
+from scenemosaic.pipeline._house import agenerate_house, is_house_input
 from scenemosaic.pipeline._result import GenerateResult
 from scenemosaic.pipeline._stages import STAGES, deliver_run, is_image_input
-from scenemosaic.pipeline._state import PipelineRun, StageCallback, StageRecord
+from scenemosaic.pipeline._state import PipelineRun, StageCallback
 from scenemosaic.scene import RunFolder
 
 __all__ = ["REPORT_FILE", "agenerate", "generate", "run_sync", "stage_progress"]
@@ -163,6 +165,8 @@ async def agenerate(
 
     ``input_path`` is a scene file or folder, or a photograph (the image front end); with
     ``config.prompt`` it is ``None`` and the room is drawn from the text first (``OUT/prompt.png``).
+    A multi-room house (without ``config.room``) is generated whole (``docs/houses.md``): the
+    result's ``scene`` is then a :class:`~scenemosaic.scene.House`.
 
     Raises the failing stage's error after writing ``report.json`` (and ``base/`` from the
     last good scene when there is one), so partial results are kept. Cancelling the task stops
@@ -175,6 +179,8 @@ async def agenerate(
     folder = RunFolder(out_dir)
     input_path = _input_of(input_path, folder, config)
     base_dir = await asyncio.to_thread(_prepare_folders, input_path, folder, config)
+    if await asyncio.to_thread(is_house_input, input_path, config):  # every room at once (docs/houses.md)
+        return await agenerate_house(input_path, folder, config, base_dir, on_stage)
     if is_image_input(input_path, config.format):  # a photograph's meshes are written beside what perception saw
         base_dir = folder.perception
     run = PipelineRun(input_path=input_path, folder=folder, config=config, base_dir=base_dir)
@@ -185,7 +191,7 @@ async def agenerate(
         await asyncio.to_thread(save_checkpoint, run, digest)
     started = time.perf_counter()
     try:  # the run's one model stack, opened by the first stage that asks, closed here
-        failure = await _run_stages(run, finished, digest, on_stage)
+        failure = await run_stages(run, finished, digest, on_stage)
     finally:
         if run.model is not None:
             await run.model.aclose()
@@ -198,57 +204,6 @@ async def agenerate(
         log.warning("run_degraded", warnings=run.warnings)
     assert run.scene is not None
     return GenerateResult(scene=run.scene, out_dir=folder.root, report=report)
-
-
-async def _run_stages(
-    run: PipelineRun, finished: set[str], digest: str | None, on_stage: StageCallback | None
-) -> BaseException | None:
-    """Run every stage not finished before; returns the failure that stopped the run, if any."""
-    for stage in STAGES:
-        name = stage.name
-        if name in finished and name != "export":
-            for rec in run.records:
-                if rec.name == name and rec.status == "done":
-                    rec.status = "reused"
-            if on_stage:
-                on_stage(name, "reused")
-            continue
-        rec = StageRecord(name=name)
-        run.records.append(rec)
-        if on_stage:
-            on_stage(name, "started")
-        t0 = time.perf_counter()
-        run.stage_mark = run.model.mark() if run.model is not None else 0
-        bound = log.bind(stage=name)
-        bound.info("stage_started")
-        try:
-            await stage.run(run, rec)
-        except (Exception, asyncio.CancelledError) as exc:
-            rec.seconds = time.perf_counter() - t0
-            interrupted = isinstance(exc, asyncio.CancelledError)
-            rec.status = "interrupted" if interrupted else "failed"
-            rec.detail["error"] = "interrupted" if interrupted else f"{type(exc).__name__}: {exc}"
-            _record_usage(run, rec)
-            bound.error("stage_failed", error=str(exc) or type(exc).__name__, error_type=type(exc).__name__)
-            if on_stage:
-                on_stage(name, "failed")
-            return exc
-        rec.seconds = time.perf_counter() - t0
-        if rec.status == "pending":
-            rec.status = "done"
-        _record_usage(run, rec)
-        rec.objects = len(run.scene.objects) if run.scene is not None else None
-        bound.info("stage_finished", seconds=round(rec.seconds, 3), objects=rec.objects)
-        await asyncio.to_thread(save_checkpoint, run, digest)
-        if on_stage:
-            on_stage(name, "done")
-    return None
-
-
-def _record_usage(run: PipelineRun, rec: StageRecord) -> None:
-    """A stage that asked the model (:meth:`PipelineRun.asking`) gets its usage: the calls since its start."""
-    if "usage" in rec.detail and run.model is not None:
-        rec.detail["usage"] = run.model.usage_since(run.stage_mark)
 
 
 async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapsed: float) -> None:

@@ -25,15 +25,21 @@ from scenemosaic.exchange import deliver_scene, formats_left_out, load_scene
 from scenemosaic.metrics import evaluate, judge_scene, nav
 from scenemosaic.models import UsageRecord, usage_summary
 from scenemosaic.perception import PERCEPTION_INSTALL, is_image_path, perceive
-from scenemosaic.physics import check_collisions, check_out_of_bounds, stabilize_scene, validate_scene
+from scenemosaic.physics import (
+    check_collisions,
+    check_out_of_bounds,
+    clear_doors,
+    stabilize_scene,
+    validate_scene,
+)
 from scenemosaic.pipeline._state import PipelineRun, Stage, StageRecord
 from scenemosaic.render import contact_sheet
-from scenemosaic.scene import WALK_MIN_SHARE, RunFolder, Scene, write_atomic
+from scenemosaic.scene import WALK_MIN_SHARE, RunFolder, Scene, cut_off_doors, door_blockers, write_atomic
 from scenemosaic.structure import structure_scene
 
 log = structlog.get_logger(__name__)
 
-__all__ = ["NAV_SLACK", "STAGES", "STAGE_NAMES", "deliver_run", "is_image_input"]
+__all__ = ["HOUSE_ROOM_STAGES", "NAV_SLACK", "STAGES", "STAGE_NAMES", "deliver_run", "floor_share", "is_image_input"]
 
 NAV_SLACK = 0.005
 """A variant's NAV must reach ``scene.WALK_MIN_SHARE`` (0.99); where the base scene's own NAV is
@@ -230,6 +236,27 @@ def _write_layouts(report: EvolutionReport, folder: RunFolder) -> list[str]:
     return written
 
 
+async def _stage_doors(run: PipelineRun, rec: StageRecord) -> None:
+    """A house's room: move furniture out of its doors' clearance zones and out of the way from
+    them into the room (``physics.clear_doors``)."""
+    assert run.scene is not None
+    shapes = await asyncio.to_thread(run.shapes, run.scene)
+    run.scene, repair = await asyncio.to_thread(clear_doors, run.scene, shapes)
+    rec.detail["moved"] = {k: round(v, 3) for k, v in repair.moved.items()}
+    rec.detail["blocking"] = repair.stuck
+    rec.detail["cut_off"] = repair.cut_off
+    if repair.stuck:
+        run.warnings.append(f"door clearance: {', '.join(repair.stuck)} still stand(s) in front of a door")
+    if repair.cut_off:
+        run.warnings.append(f"door clearance: door(s) {', '.join(repair.cut_off)} open onto a pocket cut off from the room")
+
+
+def floor_share(base_nav: float) -> float:
+    """The NAV a variant must keep: ``WALK_MIN_SHARE``, or where the base's own NAV is lower, the
+    base's less :data:`NAV_SLACK`."""
+    return WALK_MIN_SHARE if base_nav >= WALK_MIN_SHARE else base_nav - NAV_SLACK
+
+
 async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     """Select ``variants`` diverse whole scenes from evolve's unit layouts (held by the run)."""
     from scenemosaic.compose import UnitLayouts
@@ -242,11 +269,14 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     scene, m = run.scene, run.config.variants
     layouts = {unit: UnitLayouts(unit, ids, poses) for unit, (ids, poses) in run.layouts.items()}
     shapes = await asyncio.to_thread(run.shapes, scene)
-    base_nav = await asyncio.to_thread(nav, scene)
-    floor_share = WALK_MIN_SHARE if base_nav >= WALK_MIN_SHARE else base_nav - NAV_SLACK
+    share = floor_share(await asyncio.to_thread(nav, scene))
+    blocked = {b.object_id for b in await asyncio.to_thread(door_blockers, scene)}
+    cut = set(await asyncio.to_thread(cut_off_doors, scene))
 
-    def walkable(candidate: Scene) -> bool:  # a variant keeps the walkable floor as connected as the base
-        return nav(candidate) >= floor_share
+    def walkable(candidate: Scene) -> bool:  # as connected a walkable floor as the base, no door blocked anew
+        if nav(candidate) < share or not {b.object_id for b in door_blockers(candidate)} <= blocked:
+            return False
+        return set(cut_off_doors(candidate)) <= cut
 
     compose = functools.partial(compose_variants, scene, layouts, shapes, m=m, seed=run.config.seed, accept=walkable)
     variants, report = await asyncio.to_thread(compose)
@@ -349,4 +379,9 @@ STAGES: tuple[Stage, ...] = (
 """The stages ``generate`` runs, in order."""
 
 STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in STAGES)
+
+HOUSE_ROOM_STAGES: tuple[Stage, ...] = (*STAGES[:5], Stage("doors", _stage_doors), STAGES[5])
+"""What each room of a house runs on its own (``pipeline/_house.py``): :data:`STAGES` up to
+evolve, the door clearance repair, then the room's own variants (compose); the house composes
+whole-house variants from those, and checks and delivers the house."""
 """The names of :data:`STAGES`, in order."""

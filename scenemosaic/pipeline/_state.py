@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from scenemosaic.models import RunModel
     from scenemosaic.physics import ObjectShape
 
-__all__ = ["PipelineRun", "Stage", "StageCallback", "StageFn", "StageRecord", "UnitLayoutRecord"]
+__all__ = ["PipelineRun", "Stage", "StageCallback", "StageFn", "StageRecord", "UnitLayoutRecord", "open_model"]
 
 StageCallback = Callable[[str, str], None]
 """Called as ``callback(stage_name, status)`` with status ``"started"``, ``"done"``, ``"reused"`` or ``"failed"``."""
@@ -95,15 +95,7 @@ class PipelineRun:
         that needs it and kept for the rest of the run (the driver closes it). The stage's record
         gets the model's description now and its usage when the stage ends."""
         if self.model is None:
-            from scenemosaic.models import RunModelSettings, open_run_model
-
-            cfg = self.config
-            settings = RunModelSettings(
-                vision=cfg.vision, max_concurrency=cfg.max_concurrency, request_timeout_s=cfg.request_timeout_s,
-                deadline_s=cfg.deadline_s, requests_per_minute=cfg.requests_per_minute,
-                tokens_per_minute=cfg.tokens_per_minute, rate_limit_dir=cfg.rate_limit_dir, reply_cache=cfg.reply_cache,
-            )  # fmt: skip
-            self.model = await open_run_model(cfg.model, settings, started=self.started)
+            self.model = await open_model(self.config, self.started)
         rec.detail.update(self.model.detail)
         rec.detail["usage"] = {}  # filled by the driver: the usage between the stage's marks
         return self.model
@@ -134,6 +126,19 @@ class PipelineRun:
         self.fallbacks.extend(fallbacks)
         for f in fallbacks:
             self.warnings.append(f"agent {f.agent!r}{where} answered by its rule solver: {f.reason[:width]}")
+
+
+async def open_model(config: GenerateConfig, started: float) -> RunModel:
+    """The run's model stack (``models.open_run_model``) as the settings describe it; ``started``
+    is when the run began (``time.monotonic``: the deadline counts from it)."""
+    from scenemosaic.models import RunModelSettings, open_run_model
+
+    settings = RunModelSettings(
+        vision=config.vision, max_concurrency=config.max_concurrency, request_timeout_s=config.request_timeout_s,
+        deadline_s=config.deadline_s, requests_per_minute=config.requests_per_minute,
+        tokens_per_minute=config.tokens_per_minute, rate_limit_dir=config.rate_limit_dir, reply_cache=config.reply_cache,
+    )  # fmt: skip
+    return await open_run_model(config.model, settings, started=started)
 
 
 StageFn = Callable[[PipelineRun, StageRecord], Awaitable[None]]

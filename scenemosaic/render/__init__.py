@@ -1,6 +1,7 @@
 """Orthographic views of scenes as PNG images, drawn with Pillow (no GL context needed).
 
-* :func:`render_topdown` — the floor plan of a whole scene (``base/topdown.png``).
+* :func:`render_topdown` — the floor plan of a whole scene (``base/topdown.png``);
+  :func:`render_house_plan` — the plan of a whole house, each room named.
 * :func:`contact_sheet` — several pictures in one labelled grid (a run's base and variants).
 * :func:`render_view` with an :class:`OrthoView` — any orthographic view of any subset of
   objects; the seam for per-unit views (wall units seen along their normal, containers from
@@ -12,16 +13,30 @@
 from scenemosaic.render._geometry import (
     CEILING_THICKNESS,
     FLOOR_THICKNESS,
+    SHARED_WALL_TOLERANCE_M,
+    WallPanel,
+    WallPiece,
     ceiling_mesh,
     floor_mesh,
+    house_wall_pieces,
     object_local_mesh,
     object_world_mesh,
+    polygon_rectangles,
+    subtract_panels,
+    wall_ends,
     wall_mesh,
     wall_panels,
+    wall_pieces,
 )
 from scenemosaic.render._palette import CEILING_COLOR, FLOOR_COLOR, RGB, WALL_COLOR, category_color, shade
 from scenemosaic.render._sheet import contact_sheet
-from scenemosaic.render._topdown import render_topdown, topdown_view
+from scenemosaic.render._topdown import (
+    house_view,
+    render_house_plan,
+    render_topdown,
+    room_label,
+    topdown_view,
+)
 from scenemosaic.render._view import OrthoView, PixelMap, render_view
 
 __all__ = [
@@ -30,19 +45,30 @@ __all__ = [
     "FLOOR_COLOR",
     "FLOOR_THICKNESS",
     "RGB",
+    "SHARED_WALL_TOLERANCE_M",
     "WALL_COLOR",
     "OrthoView",
     "PixelMap",
+    "WallPanel",
+    "WallPiece",
     "category_color",
     "ceiling_mesh",
     "contact_sheet",
     "floor_mesh",
+    "house_view",
+    "house_wall_pieces",
     "object_local_mesh",
     "object_world_mesh",
+    "polygon_rectangles",
+    "render_house_plan",
     "render_topdown",
     "render_view",
+    "room_label",
     "shade",
+    "subtract_panels",
     "topdown_view",
+    "wall_ends",
     "wall_mesh",
     "wall_panels",
+    "wall_pieces",
 ]

@@ -25,7 +25,7 @@ import structlog
 from PIL import Image, ImageDraw, ImageFont
 
 from scenemosaic.exceptions import SceneValidationError
-from scenemosaic.render._geometry import object_world_mesh
+from scenemosaic.render._geometry import WallPiece, object_world_mesh, wall_ends, wall_pieces
 from scenemosaic.render._palette import (
     BACKGROUND,
     DOOR_COLOR,
@@ -38,7 +38,7 @@ from scenemosaic.render._palette import (
     category_color,
     shade,
 )
-from scenemosaic.scene import FloatArray, Scene, SceneObject
+from scenemosaic.scene import FloatArray, Scene, SceneObject, Wall
 
 __all__ = ["GRID_STEPS_M", "OrthoView", "PixelMap", "render_view"]
 
@@ -190,37 +190,44 @@ def _grid_step(span: float) -> float:
     return GRID_STEPS_M[-1] * math.ceil(span / (GRID_STEPS_M[-1] * MAX_GRID_LINES))
 
 
-def _draw_plan_room(draw: ImageDraw.ImageDraw, scene: Scene, pm: PixelMap) -> None:
-    """Floor polygon, wall footprints and opening footprints of a top-down view."""
-    room = scene.room
-    if room is None:
-        return
-    floor = np.array([[x, y, 0.0] for x, y in room.floor])
-    draw.polygon(_poly(pm.world_to_px(floor)), fill=FLOOR_COLOR)
+def _draw_plan_floors(draw: ImageDraw.ImageDraw, rooms: Sequence[Scene], pm: PixelMap) -> None:
+    """The floor polygon of each room of a top-down view."""
+    for scene in rooms:
+        if scene.room is not None:
+            floor = np.array([[x, y, 0.0] for x, y in scene.room.floor])
+            draw.polygon(_poly(pm.world_to_px(floor)), fill=FLOOR_COLOR)
 
 
-def _draw_plan_walls(draw: ImageDraw.ImageDraw, scene: Scene, pm: PixelMap) -> None:
+def room_walls(scene: Scene) -> list[tuple[Wall, list[WallPiece]]]:
+    """(Package-internal.) Each wall of a room with its pieces (openings cut, room-aware ends)."""
     room = scene.room
-    if room is None:
-        return
-    for wall in room.walls:
-        d = np.array([*wall.direction, 0.0])
-        out = np.array([*wall.outward_normal, 0.0])
+    return [] if room is None else [(w, wall_pieces(w, wall_ends(room, w))) for w in room.walls]
+
+
+def _draw_plan_walls(
+    draw: ImageDraw.ImageDraw, walls: Sequence[tuple[Wall, Sequence[WallPiece]]], pm: PixelMap
+) -> None:
+    """Wall footprints at floor level (the pieces standing on the floor: a door leaves a gap),
+    then every opening's footprint over them: doors green, windows blue."""
+
+    def rect(wall: Wall, s0: float, s1: float, w0: float, w1: float) -> FloatArray:
+        d, out = np.array([*wall.direction, 0.0]), np.array([*wall.outward_normal, 0.0])
         start = np.array([wall.start[0], wall.start[1], 0.0])
+        corners = [start + d * s + out * w for s, w in ((s0, w0), (s1, w0), (s1, w1), (s0, w1))]
+        return pm.world_to_px(np.asarray(corners))
 
-        def rect(s0: float, s1: float, w0: float, w1: float) -> FloatArray:
-            corners = [start + d * s + out * w for s, w in ((s0, w0), (s1, w0), (s1, w1), (s0, w1))]  # noqa: B023
-            return pm.world_to_px(np.asarray(corners))
-
-        t = wall.thickness
-        draw.polygon(_poly(rect(-t, wall.length + t, 0.0, t)), fill=WALL_COLOR)
+    for wall, pieces in walls:
+        for piece in pieces:
+            if piece.z0 <= 1e-9:
+                draw.polygon(_poly(rect(wall, piece.s0, piece.s1, piece.w0, piece.w1)), fill=WALL_COLOR)
+    for wall, _ in walls:
         for op in wall.openings:
             a = max(op.center - op.width / 2.0, 0.0)
             b = min(op.center + op.width / 2.0, wall.length)
             if b <= a:
                 continue
             color = WINDOW_COLOR if op.kind == "window" else DOOR_COLOR
-            draw.polygon(_poly(rect(a, b, 0.0, t)), fill=color, outline=INK_COLOR)
+            draw.polygon(_poly(rect(wall, a, b, 0.0, wall.thickness)), fill=color, outline=INK_COLOR)
 
 
 def _draw_grid(
@@ -310,7 +317,15 @@ def _draw_annotations(
             )  # fmt: skip
 
 
-def _gl_image(scene: Scene, view: OrthoView, objects: Sequence[SceneObject], pm: PixelMap, base_dir: Path | None, plan: bool) -> Image.Image | None:
+def _gl_image(
+    rooms: Sequence[Scene],
+    walls: Sequence[tuple[Wall, Sequence[WallPiece]]],
+    view: OrthoView,
+    objects: Sequence[SceneObject],
+    pm: PixelMap,
+    base_dir: Path | None,
+    plan: bool,
+) -> Image.Image | None:
     """The meshes rendered by MuJoCo's offscreen renderer, framed like ``pm``; ``None`` without GL."""
     from scenemosaic.render._geometry import floor_mesh, wall_mesh
     from scenemosaic.render._gl import gl_available, render_meshes_gl
@@ -318,14 +333,16 @@ def _gl_image(scene: Scene, view: OrthoView, objects: Sequence[SceneObject], pm:
     if not gl_available():
         return None
     meshes = [(object_world_mesh(o, base_dir), category_color(o.category)) for o in objects]
-    if plan and scene.room is not None:
-        meshes.append((floor_mesh(scene.room), FLOOR_COLOR))
-        meshes += [(wall_mesh(w), WALL_COLOR) for w in scene.room.walls]
+    if plan:
+        meshes += [(floor_mesh(s.room), FLOOR_COLOR) for s in rooms if s.room is not None]
+        meshes += [(wall_mesh(w, pieces), WALL_COLOR) for w, pieces in walls if pieces]
     u0, u1, v0, v1 = view.extent
     centre_ab = np.array([(u0 + u1) / 2.0, (v0 + v1) / 2.0])
     u, v = np.asarray(view.u, dtype=np.float64), np.asarray(view.v, dtype=np.float64)
     centre = np.asarray(view.origin, dtype=np.float64) + centre_ab[0] * u + centre_ab[1] * v
-    top = max((float(view.depth(np.asarray(m.vertices)).max()) for m, _ in meshes if len(m.vertices)), default=0.0)
+    top = max(
+        (float(view.depth(np.asarray(m.vertices)).max()) for m, _ in meshes if len(m.vertices)), default=0.0
+    )
     image = render_meshes_gl(
         meshes, center=centre, u=u, v=v, height_m=pm.size_px / pm.scale,
         distance_m=max(top, 0.0) + 1.0, size_px=pm.size_px, background=BACKGROUND,
@@ -373,12 +390,43 @@ def render_view(
                 f"unknown object ids in view: {sorted(unknown)}", object_id=sorted(unknown)[0]
             )
         objects = [o for o in scene.objects if o.id in wanted]
+    plan = view.is_top_down and show_room
+    image, draw, pm, font = _paint(
+        [scene], room_walls(scene), objects, view,
+        base_dir=base_dir, size_px=size_px, plan=plan, show_grid=show_grid, backend=backend,
+    )  # fmt: skip
+    _draw_annotations(draw, objects, pm, font, show_labels)
+    return _png(image)
+
+
+def _png(image: Image.Image) -> bytes:
+    buf = io.BytesIO()
+    image.save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def _paint(
+    rooms: Sequence[Scene],
+    walls: Sequence[tuple[Wall, Sequence[WallPiece]]],
+    objects: Sequence[SceneObject],
+    view: OrthoView,
+    *,
+    base_dir: Path | None,
+    size_px: int,
+    plan: bool,
+    show_grid: bool,
+    backend: Literal["pillow", "mujoco", "auto"],
+) -> tuple[Image.Image, ImageDraw.ImageDraw, PixelMap, ImageFont.FreeTypeFont | ImageFont.ImageFont]:
+    """(Package-internal.) The picture of a view before its annotations: with ``plan``, the rooms'
+    floors and ``walls`` (openings drawn over them); the grid; the objects' meshes. Returns the
+    image, a drawing context on it, its pixel map and the font for labels."""
     pm = PixelMap.for_size(view, size_px)
     font = _font(max(10, size_px // 80))
-    plan = view.is_top_down and show_room
-    gl = _gl_image(scene, view, objects, pm, base_dir, plan) if backend != "pillow" else None
+    gl = _gl_image(rooms, walls, view, objects, pm, base_dir, plan) if backend != "pillow" else None
     if backend == "mujoco" and gl is None:
-        raise SceneValidationError("backend='mujoco' needs an offscreen GL context (set MUJOCO_GL=egl or osmesa)")
+        raise SceneValidationError(
+            "backend='mujoco' needs an offscreen GL context (set MUJOCO_GL=egl or osmesa)"
+        )
     if gl is not None:
         image = gl
         draw = ImageDraw.Draw(image)
@@ -389,18 +437,15 @@ def render_view(
         image = Image.new("RGB", (size_px, size_px), BACKGROUND)
         draw = ImageDraw.Draw(image)
         if plan:
-            _draw_plan_room(draw, scene, pm)
+            _draw_plan_floors(draw, rooms, pm)
         if show_grid:
             _draw_grid(draw, pm, font)
         if plan:
-            _draw_plan_walls(draw, scene, pm)
+            _draw_plan_walls(draw, walls, pm)
         px, keys, colors = _object_triangles(objects, view, pm, base_dir)
         order = np.lexsort((keys[:, 2], keys[:, 1], keys[:, 0])) if len(keys) else np.zeros(0, dtype=np.int64)
         for i in order:
             draw.polygon(_poly(px[i]), fill=colors[i])
         n_tri = len(order)
-    _draw_annotations(draw, objects, pm, font, show_labels)
-    buf = io.BytesIO()
-    image.save(buf, format="PNG")
     log.debug("view_rendered", objects=len(objects), triangles=n_tri, size_px=size_px, gl=gl is not None)
-    return buf.getvalue()
+    return image, draw, pm, font

@@ -10,6 +10,10 @@ Layout (``docs/architecture.md`` draws it)::
     OUT/perception/            what perception saw in a photograph input
     OUT/prompt.png (+ .json)   the image a text prompt was drawn into
     OUT/.checkpoint/           the run's resumable state (one run store: stages and agents)
+    OUT/rooms/<room>/          a house run: each room's own work (checkpoint, evolve/), a run folder
+
+A house run's ``base/`` and ``variant_<i>/`` each hold a whole house: ``house_scene.json`` (the
+room order) and ``rooms/<room>/scene.json`` per room, beside the house-wide formats.
 
 The pipeline, the CLI, batch, :class:`~scenemosaic.pipeline.GenerateResult` and the readers
 (:func:`~scenemosaic.exchange.load_scene` with ``variant=``) all ask a :class:`RunFolder` for
@@ -63,6 +67,10 @@ class RunFolder:
     """In the checkpoint folder: the input and settings of the run (what ``--resume`` reads)."""
     SCENE_FILE = "scene.json"
     """The native scene file in ``base/`` and every ``variant_<i>/``."""
+    HOUSE_FILE = "house_scene.json"
+    """Instead of ``scene.json``, in a house run's ``base/`` and ``variant_<i>/``: the house's index."""
+    ROOMS = "rooms"
+    """A house run's per-room work (``OUT/rooms/<room>/``); in a delivered house, its room scenes."""
     TOPDOWN = "topdown.png"
     """The top-down picture in ``base/`` and every ``variant_<i>/``."""
 
@@ -118,6 +126,25 @@ class RunFolder:
         return self.root / self.PROMPT_IMAGE
 
     @property
+    def rooms(self) -> Path:
+        """``rooms/``: a house run's per-room run folders."""
+        return self.root / self.ROOMS
+
+    def room(self, room_id: str) -> RunFolder:
+        """``rooms/<room_id>/`` (the id made safe) as a run folder of its own."""
+        return RunFolder(self.rooms / safe_name(room_id))
+
+    @classmethod
+    def holds_scene(cls, folder: Path) -> bool:
+        """Whether a delivered folder holds a scene (``scene.json``) or a house (``house_scene.json``)."""
+        return (folder / cls.SCENE_FILE).is_file() or (folder / cls.HOUSE_FILE).is_file()
+
+    @classmethod
+    def holds_house(cls, folder: Path) -> bool:
+        """Whether a delivered folder holds a whole house (``house_scene.json``)."""
+        return (folder / cls.HOUSE_FILE).is_file()
+
+    @property
     def checkpoint(self) -> Path:
         """``.checkpoint/``."""
         return self.root / self.CHECKPOINT
@@ -154,18 +181,19 @@ class RunFolder:
             folder = self.root / variant
         else:
             raise UsageError(f"variant must be a number, 'base' or 'variant_<i>', got {variant!r}")
-        if not (folder / self.SCENE_FILE).is_file():
-            present = ", ".join(name for name, _ in self.scenes() if (_ / self.SCENE_FILE).is_file()) or "none"
+        if not self.holds_scene(folder):
+            present = ", ".join(name for name, f in self.scenes() if self.holds_scene(f)) or "none"
             raise UsageError(f"{self.root} has no {folder.name}/ scene (present: {present})")
         return folder
 
     def outputs(self) -> list[Path]:
         """Every path a run writes here (what a fresh run or ``overwrite`` removes first)."""
-        fixed = [self.base, self.evolve, self.perception, self.contact_sheet, self.report, self.checkpoint]
+        fixed = [self.base, self.evolve, self.perception, self.contact_sheet, self.report, self.checkpoint, self.rooms]
         return [*fixed, *self.variants()]
 
     @classmethod
     def is_run(cls, path: str | os.PathLike[str]) -> bool:
-        """Whether ``path`` is a run's output folder (``report.json`` or ``base/scene.json`` in it)."""
+        """Whether ``path`` is a run's output folder (``report.json``, ``base/scene.json`` or
+        ``base/house_scene.json`` in it)."""
         p = Path(path)
-        return p.is_dir() and ((p / cls.REPORT).is_file() or (p / cls.BASE / cls.SCENE_FILE).is_file())
+        return p.is_dir() and ((p / cls.REPORT).is_file() or cls.holds_scene(p / cls.BASE))

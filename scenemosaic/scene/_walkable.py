@@ -22,8 +22,9 @@ from shapely import contains_xy
 from shapely.geometry import Polygon
 
 from scenemosaic.scene._geometry import FloatArray
+from scenemosaic.scene._model import SceneObject
 
-__all__ = ["ROBOT_RADIUS", "WALK_GRID", "WALK_MAX_HEIGHT", "WALK_MIN_SHARE", "FloorRaster", "Walkable"]
+__all__ = ["ROBOT_RADIUS", "THIN_RATIO", "WALK_GRID", "WALK_MAX_HEIGHT", "WALK_MIN_SHARE", "FloorRaster", "Walkable", "is_thin"]
 
 WALK_GRID = 256
 """Raster cells along the longer side of the floor's bounding box (SceneEval's NAV grid)."""
@@ -31,9 +32,18 @@ ROBOT_RADIUS = 0.2
 """Radius of the robot (or person) that must get through, metres (SceneEval's NAV)."""
 WALK_MAX_HEIGHT = 2.0
 """Objects whose bottom is at least this high, metres, are walked under (SceneEval's NAV)."""
+THIN_RATIO = 0.02
+"""An object is *thin* (rug, sheet of paper) when its vertical extent is below this fraction of
+its larger planar extent: it is walked over, and left out of collision counting, as the method does."""
 WALK_MIN_SHARE = 0.99
 """The share of free floor the largest connected piece should hold for the floor to count as
 one piece (the variants' NAV bar; a room whose own layout cannot reach it keeps its own)."""
+
+
+def is_thin(obj: SceneObject) -> bool:
+    """Vertical extent below ``THIN_RATIO`` of the larger planar extent (rugs, paper)."""
+    sx, sy, sz = (float(v) for v in obj.size)
+    return sz < THIN_RATIO * max(sx, sy)
 
 
 @dataclass(frozen=True)

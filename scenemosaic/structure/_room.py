@@ -256,6 +256,15 @@ def solve_room(evidence: RoomEvidence) -> RoomOutput:
     )
 
 
+def _wall_from(out: WallSpec, before: Wall | None) -> Wall:
+    """The room agent's wall; one that stands where the input's wall of that id stood keeps the
+    input's thickness and its doors and windows."""
+    wall = Wall(id=out.id, start=out.start, end=out.end, height=out.height)
+    if before is not None and math.dist(before.start, out.start) < 1e-3 and math.dist(before.end, out.end) < 1e-3:
+        wall.thickness, wall.openings = before.thickness, list(before.openings)
+    return wall
+
+
 MIN_WALL_LENGTH = 0.3
 """Shortest wall (metres) a room may have; anything shorter is a degenerate reply."""
 RING_GAP = 0.05
@@ -416,10 +425,13 @@ class RoomAgent(FloorPlanImages, TaskAgent[SceneState, RoomEvidence, RoomOutput]
         return problems
 
     def apply(self, output: RoomOutput, state: SceneState) -> None:
-        room = Room(floor=list(output.floor), ceiling_height=output.ceiling_height)
-        room.walls = [Wall(id=w.id, start=w.start, end=w.end, height=w.height) for w in output.walls]
+        before = state.scene.room
+        room_id = before.id if before is not None else "room"
+        kept = {w.id: w for w in before.walls} if before is not None else {}
+        room = Room(id=room_id, floor=list(output.floor), ceiling_height=output.ceiling_height)
+        room.walls = [_wall_from(w, kept.get(w.id)) for w in output.walls]
         if not room.walls:
-            room = Room.from_polygon(room.floor, ceiling_height=output.ceiling_height)
+            room = Room.from_polygon(room.floor, ceiling_height=output.ceiling_height, room_id=room_id)
         scene = replace_scene(state.scene, room=room)
         if output.shifts:
             translate_objects(scene, {sh.object_id: (sh.dx, sh.dy, sh.dz) for sh in output.shifts})

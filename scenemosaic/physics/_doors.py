@@ -1,0 +1,190 @@
+"""Door clearance repair: furniture standing in front of a door is moved out of the way.
+
+A room cut from a house has doors in its walls (``Opening`` of kind ``door``); the zone in front
+of each (:func:`scenemosaic.scene.door_zones`: the door's width by ``DOOR_CLEARANCE_DEPTH_M``)
+must hold nothing a robot walks into. :func:`clear_doors` takes every floor-standing piece whose
+footprint enters a zone (an item on a table in the zone moves with its table) and packs it back
+onto the floor less the zones, the other furniture standing where it stands
+(:func:`scenemosaic.scene.pack_surface`: the nearest free place), then checks the moved room for
+interpenetration on the objects' hulls. A piece with no free place, or whose new place collides,
+stays and is reported.
+
+A clear zone is not yet a usable door: a bed and a ball lying beside it can close the way from
+the door into the room. So the repair then checks that every door's zone opens onto the room's
+largest walkable piece (:func:`scenemosaic.scene.cut_off_doors`) and, where one does not, moves
+the smallest nearby piece whose removal opens the way (``RECONNECT_REACH_M``, ``RECONNECT_ROUNDS``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+from shapely.geometry import Polygon
+from shapely.ops import unary_union
+
+from scenemosaic.physics._checks import collision_report_for
+from scenemosaic.physics._hulls import ObjectShape
+from scenemosaic.scene import (
+    DOOR_CLEARANCE_DEPTH_M,
+    FLOOR,
+    DoorZone,
+    PackItem,
+    Pose,
+    Scene,
+    SceneObject,
+    convex_hull_2d,
+    cut_off_doors,
+    descendants,
+    door_blockers,
+    door_zones,
+    is_thin,
+    pack_surface,
+    rigid_moves,
+)
+
+__all__ = ["DOOR_PACK_CELL_M", "RECONNECT_REACH_M", "RECONNECT_ROUNDS", "DoorRepair", "clear_doors"]
+
+DOOR_PACK_CELL_M = 0.02
+"""Raster cell (metres) of the search for a free place on the floor."""
+RECONNECT_REACH_M = 1.0
+"""How far from a cut-off door zone (metres) a piece may stand to be moved to reopen it; a piece
+moved for it goes at least this far from every door."""
+RECONNECT_ROUNDS = 4
+"""Most pieces moved to reopen the room's doors."""
+
+
+@dataclass
+class DoorRepair:
+    """What :func:`clear_doors` did: the pieces moved (id -> metres moved) and those it could not."""
+
+    moved: dict[str, float] = field(default_factory=dict)
+    stuck: list[str] = field(default_factory=list)
+    cut_off: list[str] = field(default_factory=list)
+    """Doors whose clear zone still opens onto no part of the room's main walkable floor."""
+
+    def notes(self) -> list[str]:
+        """One provenance note per piece moved or left in a door's way."""
+        out = [
+            f"doors: moved {oid} {d:.2f} m out of a door's way"
+            for oid, d in sorted(self.moved.items())
+        ]
+        out += [
+            f"doors: {oid} stands in a door's clearance zone and found no free place" for oid in self.stuck
+        ]
+        out += [f"doors: door {door} opens onto a pocket of the room cut off from the rest" for door in self.cut_off]
+        return out
+
+
+def _floor_root(scene: Scene, object_id: str) -> str | None:
+    """The floor-standing piece ``object_id`` rests on (itself when on the floor), else ``None``."""
+    seen: set[str] = set()
+    oid = object_id
+    while oid not in seen:
+        seen.add(oid)
+        rel = scene.support_of(oid)
+        if rel is None or rel.parent == FLOOR:
+            return oid
+        if scene.anchor_kind(rel.parent) != "object":
+            return None  # on a wall or the ceiling: not in the way of walking
+        oid = rel.parent
+    return None
+
+
+def clear_doors(
+    scene: Scene, shapes: Mapping[str, ObjectShape], *, depth: float = DOOR_CLEARANCE_DEPTH_M
+) -> tuple[Scene, DoorRepair]:
+    """Move the furniture standing in front of the room's doors out of their clearance zones, then
+    whatever cuts a clear zone off from the rest of the room (see the module docstring); returns
+    the repaired scene (a copy; the input is kept) and what moved. A room without doors, or whose
+    doors are clear and open onto the room, comes back unchanged."""
+    repair = DoorRepair()
+    if scene.room is None or not door_zones(scene, depth):
+        return scene, repair
+    blockers = sorted({r for b in door_blockers(scene, depth=depth) if (r := _floor_root(scene, b.object_id)) is not None})
+    repaired = _move_out(scene, shapes, blockers, door_zones(scene, depth), 0.01, repair) if blockers else scene
+    repaired = _reconnect(repaired, shapes, depth, repair)
+    repair.stuck = sorted({b.object_id for b in door_blockers(repaired, depth=depth)})
+    repair.cut_off = cut_off_doors(repaired, depth=depth)
+    if repair.moved or repair.stuck or repair.cut_off:
+        repaired = repaired if repaired is not scene else scene.model_copy(deep=True)
+        repaired.provenance.notes.extend(repair.notes())
+    return repaired, repair
+
+
+def _reconnect(scene: Scene, shapes: Mapping[str, ObjectShape], depth: float, repair: DoorRepair) -> Scene:
+    """Move what closes off a clear door zone from the rest of the room: of the floor-standing
+    pieces within ``RECONNECT_REACH_M`` of it, the smallest whose removal opens the way goes to the
+    nearest free place at least that far from every door (a few rounds, until no door is cut off)."""
+    for _ in range(RECONNECT_ROUNDS):
+        cut = set(cut_off_doors(scene, depth=depth))
+        if not cut:
+            return scene
+        zones = [z for z in door_zones(scene, depth) if z.door_id in cut]
+        near = unary_union([z.polygon for z in zones]).buffer(RECONNECT_REACH_M)
+        roots = [o for o in scene.objects if _floor_root(scene, o.id) == o.id and not o.sim.static and not is_thin(o)]
+        candidates = sorted(
+            (o for o in roots if _foot(o).intersects(near)),
+            key=lambda o: _foot(o).area,
+        )
+        moved = None
+        for obj in candidates:
+            gone = {obj.id, *descendants(scene, obj.id)}
+            without = scene.model_copy(update={"objects": [o for o in scene.objects if o.id not in gone]})
+            if set(cut_off_doors(without, depth=depth)) >= cut:
+                continue  # not what closes the way
+            after = _move_out(scene, shapes, [obj.id], door_zones(scene, depth), RECONNECT_REACH_M, repair)
+            if after is not scene and len(set(cut_off_doors(after, depth=depth))) < len(cut):
+                moved = after
+                break
+        if moved is None:
+            return scene
+        scene = moved
+    return scene
+
+
+def _foot(obj: SceneObject) -> Polygon:
+    return Polygon(convex_hull_2d(obj.corners()[:, :2]))
+
+
+def _move_out(
+    scene: Scene, shapes: Mapping[str, ObjectShape], movers: list[str], zones: list[DoorZone], keep: float,
+    repair: DoorRepair,
+) -> Scene:  # fmt: skip
+    """Pack ``movers`` onto the floor less every door zone grown by ``keep`` metres (everything
+    else on the floor stays where it stands); the scene with them moved, or the scene itself when
+    no free place is found or the move would make a collision."""
+    assert scene.room is not None
+    keep_out = unary_union([z.polygon for z in zones]).buffer(keep, join_style="mitre")
+    surface = Polygon(scene.room.floor).difference(keep_out)
+    if surface.geom_type != "Polygon":  # zones cut the floor apart: keep the largest piece
+        surface = max(getattr(surface, "geoms", []), key=lambda g: g.area, default=Polygon())
+    items = []
+    for obj in scene.objects:
+        if _floor_root(scene, obj.id) != obj.id or (obj.id not in movers and is_thin(obj)):
+            continue  # things on furniture move with it; a rug is stood on
+        items.append(PackItem(obj.id, convex_hull_2d(obj.corners()[:, :2]), movable=obj.id in movers))
+    result = pack_surface(surface, items, cell=DOOR_PACK_CELL_M)
+    poses: dict[str, Pose] = {}
+    for oid, shift in result.shifts.items():
+        if oid not in movers or oid in result.turned or float(np.linalg.norm(shift)) < 1e-9:
+            continue
+        p = scene.get(oid).pose
+        x, y, z = p.position
+        poses[oid] = p.model_copy(update={"position": (x + float(shift[0]), y + float(shift[1]), z)})
+    if not poses:
+        return scene
+    moved_poses = rigid_moves(scene, poses)
+    candidate = scene.model_copy(deep=True)
+    for obj in candidate.objects:
+        if obj.id in moved_poses:
+            obj.pose = moved_poses[obj.id]
+    moved_ids = set(moved_poses)
+    pairs = collision_report_for(candidate, shapes).pairs
+    if any((p.a in moved_ids) != (p.b in moved_ids) for p in pairs):  # a new collision: keep the room as it was
+        return scene
+    for oid, pose in poses.items():
+        shift = float(np.linalg.norm(np.subtract(pose.position, scene.get(oid).pose.position)))
+        repair.moved[oid] = repair.moved.get(oid, 0.0) + shift
+    return candidate

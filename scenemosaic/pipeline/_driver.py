@@ -1,0 +1,75 @@
+"""The stage loop every run goes through: one :class:`Stage` after another over a :class:`PipelineRun`,
+each recorded, timed, checkpointed, and the first failure returned (not raised) to the driver."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Sequence
+
+import structlog
+
+from scenemosaic.pipeline._checkpoint import save_checkpoint
+from scenemosaic.pipeline._stages import STAGES
+from scenemosaic.pipeline._state import PipelineRun, Stage, StageCallback, StageRecord
+
+__all__ = ["run_stages"]
+
+log = structlog.get_logger(__name__)
+
+
+async def run_stages(
+    run: PipelineRun,
+    finished: set[str],
+    digest: str | None,
+    on_stage: StageCallback | None,
+    stages: Sequence[Stage] = STAGES,
+) -> BaseException | None:
+    """Run every stage not finished before; returns the failure that stopped the run, if any."""
+    for stage in stages:
+        name = stage.name
+        if name in finished and name != "export":
+            for rec in run.records:
+                if rec.name == name and rec.status == "done":
+                    rec.status = "reused"
+            if on_stage:
+                on_stage(name, "reused")
+            continue
+        rec = StageRecord(name=name)
+        run.records.append(rec)
+        if on_stage:
+            on_stage(name, "started")
+        t0 = time.perf_counter()
+        run.stage_mark = run.model.mark() if run.model is not None else 0
+        bound = log.bind(stage=name)
+        bound.info("stage_started")
+        try:
+            await stage.run(run, rec)
+        except (Exception, asyncio.CancelledError) as exc:
+            rec.seconds = time.perf_counter() - t0
+            interrupted = isinstance(exc, asyncio.CancelledError)
+            rec.status = "interrupted" if interrupted else "failed"
+            rec.detail["error"] = "interrupted" if interrupted else f"{type(exc).__name__}: {exc}"
+            _record_usage(run, rec)
+            bound.error("stage_failed", error=str(exc) or type(exc).__name__, error_type=type(exc).__name__)
+            if on_stage:
+                on_stage(name, "failed")
+            return exc
+        rec.seconds = time.perf_counter() - t0
+        if rec.status == "pending":
+            rec.status = "done"
+        _record_usage(run, rec)
+        rec.objects = len(run.scene.objects) if run.scene is not None else None
+        bound.info("stage_finished", seconds=round(rec.seconds, 3), objects=rec.objects)
+        await asyncio.to_thread(save_checkpoint, run, digest)
+        if on_stage:
+            on_stage(name, "done")
+    return None
+
+
+def _record_usage(run: PipelineRun, rec: StageRecord) -> None:
+    """A stage that asked the model (:meth:`PipelineRun.asking`) gets its usage: the calls since its start."""
+    if "usage" in rec.detail and run.model is not None:
+        rec.detail["usage"] = run.model.usage_since(run.stage_mark)
+
+

@@ -1,0 +1,389 @@
+"""A house: rooms that share walls and doors, and the checks that span them.
+
+A :class:`House` holds one :class:`Scene` per room, every one in the house's world frame (the
+floors tile the plan; see ``docs/houses.md``). The house is the root of the scene tree and each
+room a top-level unit holding its own anchors (floor, walls, ceiling, furniture), so a room's
+scene is exactly what a one-room run works on. What a room alone cannot see is between rooms:
+
+* **doorways** (:meth:`House.doorways`) — a door cut into two rooms' walls at the same place is
+  one doorway joining them; a door on one room's wall only leads outside;
+* **door clearance** (:func:`door_zones`, :func:`door_blockers`) — the zone in front of every
+  door on each side, ``DOOR_CLEARANCE_DEPTH_M`` deep and as wide as the door, holds nothing a
+  person or robot would walk into;
+* **reachability** (:func:`house_walkable`) — one walkable raster over every floor and through
+  every doorway: a robot of ``ROBOT_RADIUS`` gets from any room to any other;
+* **walls** (:func:`wall_crossings`) — no object of a room reaches past its room's floor into a
+  wall or the next room (``WALL_CROSSING_TOLERANCE_M``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from pydantic import Field, field_validator
+from shapely.geometry import Point, Polygon
+from shapely.ops import unary_union
+
+from scenemosaic.scene._geometry import FloatArray
+from scenemosaic.scene._model import Opening, Provenance, Scene, SceneObject, Wall, _Model
+from scenemosaic.scene._planar import convex_hull_2d
+from scenemosaic.scene._walkable import ROBOT_RADIUS, WALK_MAX_HEIGHT, FloorRaster, Walkable, is_thin
+
+__all__ = [
+    "DOOR_CLEARANCE_DEPTH_M",
+    "DOOR_MATCH_TOLERANCE_M",
+    "HOUSE_CELL_M",
+    "MIN_PASSAGE_M",
+    "WALL_CROSSING_TOLERANCE_M",
+    "DoorBlock",
+    "DoorZone",
+    "Doorway",
+    "House",
+    "HouseWalkable",
+    "cut_off_doors",
+    "door_blockers",
+    "door_zones",
+    "house_walkable",
+    "wall_crossings",
+]
+
+DOOR_CLEARANCE_DEPTH_M = 0.6
+"""Depth (metres) of the zone kept clear in front of a door, on each side, as wide as the door.
+0.6 m lets a robot of ``ROBOT_RADIUS`` (0.4 m across) come through square and turn, and a door
+leaf up to about that wide swing; AI2-THOR's doors name no hinge side, so the zone is not a
+quarter circle but the rectangle that holds either swing's first 0.6 m."""
+DOOR_MATCH_TOLERANCE_M = 0.03
+"""Two rooms' doors are one doorway when their centres, seen through the wall between them, lie
+this close (metres) and their widths agree as closely."""
+MIN_PASSAGE_M = 0.5
+"""Two rooms' cuts that overlap less than this along the wall (metres) are not one doorway."""
+HOUSE_CELL_M = 0.05
+"""Cell side (metres) of the house-wide walkable raster (a 15 m house: 300 cells)."""
+WALL_CROSSING_TOLERANCE_M = 0.01
+"""How far (metres) an object's footprint may reach past its room's floor before it counts as
+crossing a wall: a picture hung on a wall touches the wall's face, and float noise is allowed."""
+
+
+class House(_Model):
+    """A house: one scene per room, all in one world frame, in the source's room order."""
+
+    id: str = "house"
+    rooms: list[Scene] = Field(min_length=1)
+    metadata: dict[str, Any] = Field(default_factory=dict)
+    provenance: Provenance = Field(default_factory=Provenance)
+
+    @field_validator("rooms")
+    @classmethod
+    def _distinct(cls, v: list[Scene]) -> list[Scene]:
+        seen: set[str] = set()
+        ids: set[str] = set()
+        for s in v:
+            if s.room is None:
+                raise ValueError(f"room scene {s.id!r} has no room")
+            if s.id in seen:
+                raise ValueError(f"two rooms share the id {s.id!r}")
+            seen.add(s.id)
+            clash = ids & {o.id for o in s.objects}
+            if clash:
+                raise ValueError(f"object id(s) {sorted(clash)[:3]} appear in two rooms")
+            ids |= {o.id for o in s.objects}
+        return v
+
+    @property
+    def objects(self) -> list[SceneObject]:
+        """Every object of every room, room by room."""
+        return [o for s in self.rooms for o in s.objects]
+
+    @property
+    def room_ids(self) -> list[str]:
+        return [s.id for s in self.rooms]
+
+    def room(self, room_id: str) -> Scene:
+        """The scene of one room, by its id (or, for an imported house, its source id such as
+        ProcTHOR's ``room|4``); raises ``KeyError`` naming the rooms."""
+        for s in self.rooms:
+            source = (s.metadata.get("procthor") or {}).get("room_id")
+            if room_id in (s.id, source, s.room.id if s.room else None):
+                return s
+        raise KeyError(f"no room {room_id!r}; the house has {', '.join(self.room_ids)}")
+
+    def room_of(self, object_id: str) -> Scene:
+        """The room scene holding ``object_id``."""
+        for s in self.rooms:
+            if any(o.id == object_id for o in s.objects):
+                return s
+        raise KeyError(object_id)
+
+    def with_rooms(self, rooms: Sequence[Scene]) -> House:
+        """This house with its room scenes replaced (same ids, same order)."""
+        return self.model_copy(update={"rooms": list(rooms)})
+
+    def doorways(self) -> list[Doorway]:
+        """Every door and open stretch of wall between rooms, once.
+
+        A door (or ``opening``) cut into two rooms' walls at the same place — the walls' faces
+        run opposite ways, lie at most a wall's thickness (plus :data:`DOOR_MATCH_TOLERANCE_M`)
+        apart, and the two cuts overlap along the wall — is one doorway joining the rooms, as
+        wide as the overlap; a cut into a single room's wall leads outside (``rooms`` has one id).
+        """
+        cuts = [(s.id, w, op) for s in self.rooms for w in _walls(s) for op in w.openings if op.kind != "window"]
+        used: set[int] = set()
+        out: list[Doorway] = []
+        for i, (rid, wall, op) in enumerate(cuts):
+            if i in used:
+                continue
+            used.add(i)
+            lo, hi = op.center - op.width / 2, op.center + op.width / 2
+            sides = [(rid, wall)]
+            for j in range(i + 1, len(cuts)):
+                rj, wj, oj = cuts[j]
+                if j in used or rj == rid or (oj.kind == "door") != (op.kind == "door"):
+                    continue
+                if float(np.dot(wall.direction, wj.direction)) > -0.99:
+                    continue  # the two faces of one wall run opposite ways
+                cj = _opening_centre(wj, oj)
+                through = float(np.dot(cj - np.asarray(wall.start), wall.outward_normal))
+                if not -DOOR_MATCH_TOLERANCE_M <= through <= wall.thickness + DOOR_MATCH_TOLERANCE_M:
+                    continue
+                along = float(np.dot(cj - np.asarray(wall.start), wall.direction))
+                olo, ohi = max(lo, along - oj.width / 2), min(hi, along + oj.width / 2)
+                if ohi - olo < min(op.width, oj.width) - 2 * DOOR_MATCH_TOLERANCE_M and ohi - olo < MIN_PASSAGE_M:
+                    continue
+                lo, hi = olo, ohi
+                sides.append((rj, wj))
+                used.add(j)
+                break
+            a = np.asarray(wall.start, dtype=np.float64) + wall.direction * ((lo + hi) / 2)
+            faces = [DoorSide(rid, wall.id, a)]
+            if len(sides) > 1:
+                rj, wj = sides[1]
+                b = a + wall.outward_normal * abs(float(np.dot(a - np.asarray(wj.start), wj.inward_normal)))
+                faces.append(DoorSide(rj, wj.id, b))
+            out.append(
+                Doorway(
+                    id=f"{op.kind}_{len(out)}", kind=op.kind, width=hi - lo, height=op.bottom + op.height,
+                    sides=tuple(faces), direction=wall.direction.copy(), normal=wall.outward_normal.copy(),
+                )
+            )  # fmt: skip
+        return out
+
+
+def _walls(scene: Scene) -> list[Wall]:
+    return scene.room.walls if scene.room is not None else []
+
+
+def _opening_centre(wall: Wall, op: Opening) -> FloatArray:
+    out: FloatArray = np.asarray(wall.start, dtype=np.float64) + wall.direction * op.center
+    return out
+
+
+@dataclass(frozen=True)
+class DoorSide:
+    """One room's face of a doorway: the room, its wall, the door's centre on that wall's line."""
+
+    room_id: str
+    wall_id: str
+    centre: FloatArray
+
+
+@dataclass(frozen=True)
+class Doorway:
+    """A door (or open doorway) between two rooms, or from one room to the outside."""
+
+    id: str
+    kind: str
+    width: float
+    height: float
+    sides: tuple[DoorSide, ...]
+    direction: FloatArray
+    """Unit vector along the wall (of the first side's wall)."""
+    normal: FloatArray
+    """Unit vector through the wall, out of the first side's room."""
+
+    @property
+    def rooms(self) -> tuple[str, ...]:
+        return tuple(s.room_id for s in self.sides)
+
+    @property
+    def leads_outside(self) -> bool:
+        return len(self.sides) == 1
+
+    def passage(self) -> Polygon:
+        """The hole through the wall: as wide as the door, from one room's floor edge to the
+        other's (just the first side's wall line for a door to the outside)."""
+        a = self.sides[0].centre
+        b = self.sides[-1].centre if len(self.sides) > 1 else a
+        half = self.direction * (self.width / 2)
+        pts = [a - half, a + half, b + half, b - half]
+        poly = Polygon([tuple(p) for p in pts])
+        return poly if poly.area > 0 else Polygon([tuple(p) for p in pts]).buffer(1e-3)
+
+
+@dataclass(frozen=True)
+class DoorZone:
+    """The clearance zone in front of one side of a doorway, inside that side's room."""
+
+    door_id: str
+    room_id: str
+    polygon: Polygon
+    height: float
+
+
+def door_zones(house: House | Scene, depth: float = DOOR_CLEARANCE_DEPTH_M) -> list[DoorZone]:
+    """The clearance zone of every door on every side it opens onto: a rectangle as wide as the
+    door, ``depth`` deep from the wall's face into the room, clipped to the room's floor. An open
+    stretch of wall (kind ``opening``: open-plan rooms) is no door and has no zone; reachability
+    (:func:`house_walkable`) covers it.
+
+    A single room (a :class:`Scene`) gives the zones of the doors cut into its own walls.
+    """
+    scenes = house.rooms if isinstance(house, House) else [house]
+    out: list[DoorZone] = []
+    for scene in scenes:
+        if scene.room is None:
+            continue
+        floor = Polygon(scene.room.floor)
+        k = 0
+        for wall in scene.room.walls:
+            for op in wall.openings:
+                if op.kind != "door":
+                    continue
+                c = _opening_centre(wall, op)
+                half, inward = wall.direction * (op.width / 2), wall.inward_normal * depth
+                rect = Polygon([tuple(c - half), tuple(c + half), tuple(c + half + inward), tuple(c - half + inward)])
+                zone = rect.intersection(floor)
+                if not zone.is_empty:
+                    out.append(DoorZone(f"{scene.id}:{wall.id}:{k}", scene.id, zone, op.bottom + op.height))
+                k += 1
+    return out
+
+
+@dataclass(frozen=True)
+class DoorBlock:
+    """An object standing in a door's clearance zone."""
+
+    door: str
+    room_id: str
+    object_id: str
+    area_m2: float
+
+
+def _blocks_walking(obj: SceneObject, below: float) -> bool:
+    """Whether a robot walking there runs into ``obj``: its bottom is below ``below`` and it is not
+    thin (a rug is walked over)."""
+    return float(obj.aabb()[0][2]) < below and not is_thin(obj)
+
+
+def door_blockers(
+    house: House | Scene, *, depth: float = DOOR_CLEARANCE_DEPTH_M, min_area_m2: float = 1e-4
+) -> list[DoorBlock]:
+    """Every object whose footprint overlaps a door's clearance zone (:func:`door_zones`) by more
+    than ``min_area_m2`` and whose bottom is below the door's top and below ``WALK_MAX_HEIGHT``
+    (a lamp hung above the zone is walked under)."""
+    scenes = house.rooms if isinstance(house, House) else [house]
+    by_room = {s.id: s for s in scenes}
+    out: list[DoorBlock] = []
+    for zone in door_zones(house, depth):
+        for obj in by_room[zone.room_id].objects:
+            if not _blocks_walking(obj, min(zone.height, WALK_MAX_HEIGHT)):
+                continue
+            area = Polygon(convex_hull_2d(obj.corners()[:, :2])).intersection(zone.polygon).area
+            if area > min_area_m2:
+                out.append(DoorBlock(zone.door_id, zone.room_id, obj.id, float(area)))
+    return out
+
+
+def cut_off_doors(scene: Scene, *, depth: float = DOOR_CLEARANCE_DEPTH_M, radius: float = ROBOT_RADIUS,
+                  cell: float = HOUSE_CELL_M) -> list[str]:  # fmt: skip
+    """The doors of a room a robot standing in their clearance zone cannot leave by: the zone
+    holds no free cell of the room's largest walkable piece (the room's own raster: its floor,
+    what stands on it, eroded by ``radius``). A door behind a bed, or in a pocket a chair closes,
+    is cut off even when nothing stands in its zone."""
+    zones = door_zones(scene, depth)
+    if not zones or scene.room is None:
+        return []
+    raster = FloorRaster(np.asarray(scene.room.floor, dtype=np.float64), cell=cell)
+    feet = [convex_hull_2d(o.corners()[:, :2]) for o in scene.objects if _blocks_walking(o, WALK_MAX_HEIGHT)]
+    walk = raster.walkable(raster.blocked(feet), radius)
+    main = walk.labels == walk.main
+    # the zone grown by the robot's radius: a robot centred at its edge still stands in front of the door
+    return [z.door_id for z in zones if not bool((main & raster.mask(z.polygon.buffer(radius))).any())]
+
+
+def wall_crossings(house: House | Scene, tolerance: float = WALL_CROSSING_TOLERANCE_M) -> list[tuple[str, str, float]]:
+    """``(room id, object id, metres past the floor)`` for every object whose box footprint reaches
+    more than ``tolerance`` beyond its room's floor polygon: into a wall, or through it."""
+    scenes = house.rooms if isinstance(house, House) else [house]
+    out: list[tuple[str, str, float]] = []
+    for scene in scenes:
+        if scene.room is None:
+            continue
+        floor = Polygon(scene.room.floor)
+        grown = floor.buffer(tolerance, join_style="mitre")
+        for obj in scene.objects:
+            foot = Polygon(convex_hull_2d(obj.corners()[:, :2]))
+            if not grown.covers(foot):
+                out.append((scene.id, obj.id, round(_reach_past(floor, foot), 4)))
+    return out
+
+
+def _reach_past(floor: Polygon, foot: Polygon) -> float:
+    """The farthest a footprint corner lies outside the floor, metres."""
+    return max((floor.distance(Point(p)) for p in foot.exterior.coords), default=0.0)
+
+
+@dataclass(frozen=True)
+class HouseWalkable:
+    """The house-wide walkable raster, split into pieces, and what it says per room."""
+
+    walkable: Walkable
+    raster: FloorRaster
+    room_cells: dict[str, np.ndarray]
+    """Per room: its floor's cells."""
+
+    @property
+    def nav(self) -> float:
+        """House NAV: the largest connected piece of walkable floor over all of it."""
+        return self.walkable.share
+
+    def reached(self) -> dict[str, float]:
+        """Per room: the share of its walkable cells that lie in the house's largest piece (1.0:
+        all of the room's free floor is reachable from the rest of the house)."""
+        main = self.walkable.labels == self.walkable.main
+        out = {}
+        for rid, cells in self.room_cells.items():
+            free = int((self.walkable.free & cells).sum())
+            out[rid] = float((main & cells).sum()) / free if free else 0.0
+        return out
+
+    def unreachable_rooms(self) -> list[str]:
+        """Rooms no cell of the house's largest walkable piece enters."""
+        main = self.walkable.labels == self.walkable.main
+        return [rid for rid, cells in self.room_cells.items() if not bool((main & cells).any())]
+
+
+def house_walkable(house: House, *, radius: float = ROBOT_RADIUS, cell: float = HOUSE_CELL_M) -> HouseWalkable:
+    """One walkable raster over the whole house: every room's floor and every doorway's passage
+    through its wall are floor; each object whose bottom is below ``WALK_MAX_HEIGHT`` blocks its
+    box footprint; the free cells are eroded by a disk of ``radius`` and split into 4-connected
+    pieces (the same definition as a room's NAV, :class:`FloorRaster`)."""
+    floors = [Polygon(s.room.floor) for s in house.rooms if s.room is not None]
+    passages = [d.passage() for d in house.doorways() if not d.leads_outside]
+    region = unary_union([*floors, *(p.buffer(1e-3, join_style="mitre") for p in passages)])
+    minx, miny, maxx, maxy = region.bounds
+    raster = FloorRaster(np.array([[minx, miny], [maxx, miny], [maxx, maxy], [minx, maxy]]), cell=cell)
+    inside = np.zeros(raster.shape, dtype=bool)
+    room_cells: dict[str, np.ndarray] = {}
+    for s, poly in zip((s for s in house.rooms if s.room is not None), floors, strict=True):
+        cells = raster.mask(poly)
+        room_cells[s.id] = cells
+        inside |= cells
+    for p in passages:
+        inside |= raster.mask(p)
+    raster.inside = inside
+    footprints = [convex_hull_2d(o.corners()[:, :2]) for o in house.objects if _blocks_walking(o, WALK_MAX_HEIGHT)]
+    walk = raster.walkable(raster.blocked(footprints), radius)
+    return HouseWalkable(walk, raster, room_cells)
