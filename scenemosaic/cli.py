@@ -17,7 +17,7 @@ import threading
 import time
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated, NoReturn
+from typing import Annotated, Any, NoReturn
 
 import typer
 from rich.console import Console
@@ -30,7 +30,7 @@ from scenemosaic._logging import configure_logging
 from scenemosaic.batch import SUMMARY_FILE, BatchSummary, JobRecord, load_manifest, run_batch
 from scenemosaic.exceptions import SceneMosaicError
 from scenemosaic.pipeline import SETTINGS, GenerateConfig, GenerateResult, SettingsError
-from scenemosaic.scene import RunFolder, Scene
+from scenemosaic.scene import House, RunFolder, Scene
 
 __all__ = ["app", "main"]
 
@@ -428,12 +428,18 @@ def inspect(
     ],
     as_json: Annotated[bool, typer.Option("--json", help="Print the units and constraints as JSON.")] = False,
     variant: VariantOpt = None,
+    room: RoomOpt = None,
     log_level: LogLevelOpt = "warning",
 ) -> None:
-    """Show a scene's tree: anchors, their children, units and cross-unit constraints."""
+    """Show a scene's tree: anchors, their children, units and cross-unit constraints (a house:
+    its rooms and the doors between them; --room for one room's tree)."""
     from scenemosaic.scene import format_tree
 
-    scene, _ = _load_or_exit(scene_path, variant)
+    loaded, _ = _load_any(scene_path, variant, room)
+    if isinstance(loaded, House):
+        _print_house(loaded, as_json)
+        return
+    scene = loaded
     if as_json:
         payload = {
             "units": [u.model_dump(mode="json") for u in (scene.structure.units if scene.structure else [])],
@@ -442,6 +448,22 @@ def inspect(
         _out.print_json(json.dumps(payload))
     else:
         _out.print(format_tree(scene), markup=False, highlight=False, soft_wrap=True)
+
+
+def _print_house(house: House, as_json: bool) -> None:
+    rooms: list[dict[str, Any]] = [
+        {"id": r.id, "type": (r.metadata.get("procthor") or {}).get("room_type"), "objects": len(r.objects)} for r in house.rooms
+    ]
+    doors: list[dict[str, Any]] = [{"id": d.id, "kind": d.kind, "rooms": list(d.rooms), "width_m": round(d.width, 3)} for d in house.doorways()]
+    if as_json:
+        _out.print_json(json.dumps({"house": house.id, "rooms": rooms, "doorways": doors}))
+        return
+    _out.print(f"house {house.id}: {len(rooms)} rooms, {len(house.objects)} objects", markup=False, highlight=False)
+    for r in rooms:
+        _out.print(f"  {r['id']:<12} {r['type'] or '':<12} {r['objects']:>4} objects", markup=False, highlight=False)
+    for d in doors:
+        joins = " <-> ".join(d["rooms"]) if len(d["rooms"]) > 1 else f"{d['rooms'][0]} <-> outside"
+        _out.print(f"  {d['kind']:<8} {joins} ({d['width_m']:.2f} m)", markup=False, highlight=False)
 
 
 @app.command()
@@ -601,9 +623,9 @@ def _scene_folders(path: Path) -> list[tuple[str, Path]]:
     return [(path.stem if path.is_file() else path.name, path)]
 
 
-def _load_or_exit(path: Path, variant: str | None = None) -> tuple[Scene, Path]:
-    """The scene ``path`` names (a generate output folder gives its base, or ``variant``) and the
-    folder its mesh paths start from."""
+def _load_any(path: Path, variant: str | None = None, room: str | None = None) -> tuple[Scene | House, Path]:
+    """The scene or house ``path`` names (a generate output folder gives its base, or ``variant``;
+    a house gives ``room`` when one is named) and the folder its mesh paths start from."""
     from scenemosaic.exchange import load_scene
 
     try:
@@ -611,15 +633,28 @@ def _load_or_exit(path: Path, variant: str | None = None) -> tuple[Scene, Path]:
             path = RunFolder(path).scene_folder(variant)
         elif variant is not None:
             raise SceneMosaicError(f"--variant needs a generate output folder; {path} is not one")
-        return load_scene(path), path if path.is_dir() else path.parent
+        return load_scene(path, room=room), path if path.is_dir() else path.parent
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
 
 
+def _load_or_exit(path: Path, variant: str | None = None, room: str | None = None) -> tuple[Scene, Path]:
+    """Like :func:`_load_any`, for a command that works on one room: a house needs ``--room``."""
+    scene, folder = _load_any(path, variant, room)
+    if isinstance(scene, House):
+        _err.print(f"[red]error:[/red] {escape(str(path))} is a house; pick a room with --room ({', '.join(scene.room_ids)})")
+        raise typer.Exit(code=EXIT_BAD_INPUT)
+    return scene, folder
+
+
 VariantOpt = Annotated[
     str | None,
     typer.Option("--variant", help="With a generate output folder: the variant to use (2 or variant_2) instead of base/."),
+]
+RoomOpt = Annotated[
+    str | None,
+    typer.Option("--room", help="With a house (a house file or a house run): the room to use (room_4, or its source id room|4)."),
 ]
 
 
@@ -662,12 +697,23 @@ def render(
     size: Annotated[int, typer.Option("--size", min=64, max=4096, help="Image side in pixels.")] = 1024,
     gl: Annotated[bool, typer.Option("--gl/--no-gl", help="Render the meshes with MuJoCo (MUJOCO_GL=egl) when a GL context can be made.")] = False,
     variant: VariantOpt = None,
+    room: RoomOpt = None,
     log_level: LogLevelOpt = "warning",
 ) -> None:
-    """Draw a scene's floor plan, or one local unit's orthographic view as the critic sees it, as PNG."""
-    from scenemosaic.render import render_topdown, render_view, topdown_view
+    """Draw a scene's floor plan (a house's whole plan), or one local unit's orthographic view as
+    the critic sees it, as PNG."""
+    from scenemosaic.render import render_house_plan, render_topdown, render_view, topdown_view
 
-    scene, base_dir = _load_or_exit(path, variant)
+    loaded, base_dir = _load_any(path, variant, room)
+    if isinstance(loaded, House):
+        if unit is not None:
+            _err.print(f"[red]error:[/red] --unit needs one room: add --room ({', '.join(loaded.room_ids)})")
+            raise typer.Exit(code=EXIT_BAD_INPUT)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_bytes(render_house_plan(loaded, base_dir=base_dir, size_px=size))
+        _out.print(str(out), markup=False, highlight=False)
+        return
+    scene = loaded
     try:
         if unit is None:
             png = (
@@ -701,13 +747,14 @@ def edit(
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder for the edited scene (every delivered format, like base/).")],
     unit: Annotated[str | None, typer.Option("--unit", help="The unit (anchor id) the expressions act in; default: the one unit all targets belong to.")] = None,
     variant: VariantOpt = None,
+    room: RoomOpt = None,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Move objects of one local unit with the pose expression language (docs/evolution.md) and
     write the edited scene; no physics runs (generate it again to stabilize)."""
     from scenemosaic.exchange import deliver_scene
 
-    scene, base_dir = _load_or_exit(path, variant)
+    scene, base_dir = _load_or_exit(path, variant, room)
     try:
         edited = scene.edit(expressions, unit=unit)
         files = deliver_scene(edited, out, base_dir)

@@ -1777,10 +1777,17 @@ def compartment_fits(size: tuple[float, float, float], compartment: Box6) -> boo
 
 
 def procedural_mesh(category: str, extents: tuple[float, float, float]) -> trimesh.Trimesh:
-    """The procedural model as one mesh: the concatenation of :func:`procedural_parts`."""
-    parts = procedural_parts(category, extents)
+    """The procedural model as one mesh: the concatenation of :func:`procedural_parts` (a fresh
+    copy: safe to modify)."""
+    w, d, h = _check_extents(category, extents)
+    return _joined(procedural_key(category), w, d, h).copy()
+
+
+@functools.lru_cache(maxsize=512)
+def _joined(key: str, w: float, d: float, h: float) -> trimesh.Trimesh:
+    parts = _build(key, w, d, h)
     if len(parts) == 1:
         return parts[0]
-    mesh = trimesh.util.concatenate(parts)
+    mesh = trimesh.util.concatenate(list(parts))
     assert isinstance(mesh, trimesh.Trimesh)
     return mesh

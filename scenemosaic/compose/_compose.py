@@ -184,7 +184,7 @@ class _Composer:
         known = self.verdicts.get(choice)
         if known is None:
             known = self.verdicts[choice] = self._valid(choice)
-        if known is True or not offset:
+        if isinstance(known, bool) or not offset:
             return known
         return tuple((g + offset, k) for g, k in known)
 

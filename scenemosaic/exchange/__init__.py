@@ -29,6 +29,7 @@ from scenemosaic.exchange._deliver import (
     OPTIONAL_FORMATS,
     deliver_house,
     deliver_scene,
+    export_house_folder,
     formats_left_out,
     save_scene_only,
 )
@@ -101,6 +102,7 @@ __all__ = [
     "deliver_scene",
     "detect_format",
     "export_glb",
+    "export_house_folder",
     "export_house_glb",
     "export_house_mjcf",
     "export_house_sceneeval",

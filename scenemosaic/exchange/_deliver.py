@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import importlib.util
 from collections.abc import Callable
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 
 import structlog
 
@@ -26,7 +26,7 @@ from scenemosaic.exchange._sceneeval import export_house_sceneeval
 from scenemosaic.exchange._urdf import export_house_urdf
 from scenemosaic.exchange._usd import export_house_usd
 from scenemosaic.physics import write_house_mjcf
-from scenemosaic.scene import House, RunFolder, Scene, safe_name
+from scenemosaic.scene import House, RunFolder, Scene
 
 __all__ = [
     "DELIVERED_FORMATS",
@@ -35,6 +35,7 @@ __all__ = [
     "OPTIONAL_FORMATS",
     "deliver_house",
     "deliver_scene",
+    "export_house_folder",
     "formats_left_out",
     "save_scene_only",
 ]
@@ -91,24 +92,6 @@ def deliver_scene(scene: Scene, folder: Path, base_dir: Path | None) -> list[str
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir() and p.name != "assets")]
 
 
-def _rooted(house: House) -> House:
-    """``house`` with each room's relative mesh uris made relative to the house folder (they were
-    relative to the room's own folder, ``rooms/<room id>/``), so one ``base_dir`` serves them all."""
-    rooms: list[Scene] = []
-    for scene in house.rooms:
-        prefix = PurePosixPath(HOUSE_ROOMS_DIR, safe_name(scene.id))
-        objects = []
-        for obj in scene.objects:
-            uri = obj.asset.uri
-            if obj.asset.kind == "mesh" and uri is not None and not Path(uri).is_absolute():
-                obj = obj.model_copy(
-                    update={"asset": obj.asset.model_copy(update={"uri": str(prefix / uri)})}
-                )
-            objects.append(obj)
-        rooms.append(scene.model_copy(update={"objects": objects}))
-    return house.with_rooms(rooms)
-
-
 def deliver_house(house: House, folder: Path, base_dir: Path | None) -> list[str]:
     """Write a whole house in the delivered layout; returns the files written (relative to ``folder``).
 
@@ -121,11 +104,17 @@ def deliver_house(house: House, folder: Path, base_dir: Path | None) -> list[str
     ``base_dir`` resolves the input's relative mesh uris. :func:`~scenemosaic.exchange.read_house`
     reads the folder back.
     """
-    from scenemosaic.render import render_house_plan
-
     folder.mkdir(parents=True, exist_ok=True)
     save_house(house, folder, base_dir=base_dir)
-    saved = _rooted(read_house(folder))
+    return export_house_folder(folder)
+
+
+def export_house_folder(folder: Path) -> list[str]:
+    """Write every house-wide format beside the native house saved in ``folder`` (the second half
+    of :func:`deliver_house`; a house run does it in its worker processes); returns the files."""
+    from scenemosaic.render import render_house_plan
+
+    saved = read_house(folder)
     writers: dict[str, Callable[[], Path]] = {
         "glb": lambda: export_house_glb(saved, folder / "scene.glb", folder),
         "sceneeval": lambda: export_house_sceneeval(saved, folder / "sceneeval", folder),

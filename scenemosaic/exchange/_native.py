@@ -28,7 +28,7 @@ import os
 import re
 import shutil
 from collections.abc import Sequence
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any
 
 import structlog
@@ -276,7 +276,8 @@ def save_house(house: House, folder: str | os.PathLike[str], *, base_dir: str | 
 
 def read_house(path: str | os.PathLike[str]) -> House:
     """Read a native house folder (or its ``house_scene.json``): every room's scene, in the index's
-    order. The rooms' files are checked as :func:`read_scene` checks a scene's."""
+    order. The rooms' files are checked as :func:`read_scene` checks a scene's; their relative mesh
+    uris are made relative to the house folder (one folder resolves every room's meshes)."""
     p = Path(path)
     file = p / RunFolder.HOUSE_FILE if p.is_dir() else p
     r = FieldReader(file)
@@ -290,7 +291,7 @@ def read_house(path: str | os.PathLike[str]) -> House:
     if top.get("format") != HOUSE_FORMAT:
         r.fail("format", f"expected {HOUSE_FORMAT!r}, got {top.get('format')!r}")
     ids = r.array(r.get(top, "rooms", ""), "rooms")
-    rooms = [read_scene(file.parent / RunFolder.ROOMS / safe_name(r.text(rid, f"rooms[{i}]"))) for i, rid in enumerate(ids)]
+    rooms = [_rooted(read_scene(file.parent / RunFolder.ROOMS / safe_name(r.text(rid, f"rooms[{i}]")))) for i, rid in enumerate(ids)]
     try:
         return House(
             id=str(top.get("id") or "house"),
@@ -300,3 +301,16 @@ def read_house(path: str | os.PathLike[str]) -> House:
         )
     except ValidationError as exc:
         raise ImportFormatError(f"not a valid house: {exc.errors()[0]['msg']}", path=str(file)) from exc
+
+
+def _rooted(scene: Scene) -> Scene:
+    """A room read from ``rooms/<room id>/`` with its relative mesh uris made relative to the house
+    folder two levels up."""
+    prefix = PurePosixPath(RunFolder.ROOMS, safe_name(scene.id))
+    objects = []
+    for obj in scene.objects:
+        uri = obj.asset.uri
+        if obj.asset.kind == "mesh" and uri is not None and not Path(uri).is_absolute():
+            obj = obj.model_copy(update={"asset": obj.asset.model_copy(update={"uri": str(prefix / uri)})})
+        objects.append(obj)
+    return scene.model_copy(update={"objects": objects})

@@ -347,12 +347,12 @@ def _cut_back_shared_walls(builds: list[_RoomBuild], thickness: float = SHARED_W
             lines.append((a + off, d))
             if moved[e]:
                 b.cut.append((a, c, n))
-        floor = []
+        floor: list[tuple[float, float]] = []
         for e in range(k):
             (p0, d0), (p1, d1) = lines[e - 1], lines[e]
             cross = d0[0] * d1[1] - d0[1] * d1[0]
             if abs(cross) < 1e-9:  # collinear edges: the corner stays on the line
-                floor.append(tuple(float(v) for v in p1))
+                floor.append((float(p1[0]), float(p1[1])))
                 continue
             t = ((p1[0] - p0[0]) * d1[1] - (p1[1] - p0[1]) * d1[0]) / cross
             q = p0 + d0 * t

@@ -185,6 +185,6 @@ def _move_out(
     if any((p.a in moved_ids) != (p.b in moved_ids) for p in pairs):  # a new collision: keep the room as it was
         return scene
     for oid, pose in poses.items():
-        shift = float(np.linalg.norm(np.subtract(pose.position, scene.get(oid).pose.position)))
-        repair.moved[oid] = repair.moved.get(oid, 0.0) + shift
+        dist = float(np.linalg.norm(np.subtract(pose.position, scene.get(oid).pose.position)))
+        repair.moved[oid] = repair.moved.get(oid, 0.0) + dist
     return candidate

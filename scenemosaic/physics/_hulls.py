@@ -85,9 +85,23 @@ class ObjectShape:
 def hull_mesh(vertices: Any) -> trimesh.Trimesh:
     """The convex hull of a point set as a triangle mesh: the solid a simulator makes of a
     vertex-only collision mesh (MuJoCo for mesh geoms, a "convexHull" approximation in USD)."""
-    points = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
-    hull: trimesh.Trimesh = trimesh.Trimesh(vertices=points).convex_hull
-    return hull
+    points = np.ascontiguousarray(vertices, dtype=np.float64).reshape(-1, 3)
+    key = hashlib.sha1(points.tobytes()).hexdigest()
+    with _HULL_MESH_LOCK:
+        known = _HULL_MESHES.get(key)
+    if known is None:
+        known = trimesh.Trimesh(vertices=points).convex_hull
+        with _HULL_MESH_LOCK:
+            if len(_HULL_MESHES) >= _HULL_MESH_MAX:
+                _HULL_MESHES.pop(next(iter(_HULL_MESHES)))
+            _HULL_MESHES[key] = known
+    return known.copy()
+
+
+_HULL_MESHES: dict[str, trimesh.Trimesh] = {}
+"""Hull meshes by their points' hash: the exporters ask again for every variant of a scene."""
+_HULL_MESH_LOCK = threading.Lock()
+_HULL_MESH_MAX = 4096
 
 
 _CACHE: dict[str, HullPiece] = {}

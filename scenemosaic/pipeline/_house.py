@@ -36,7 +36,7 @@ import structlog
 from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
 from scenemosaic.exceptions import SceneMosaicError
-from scenemosaic.exchange import deliver_house, formats_left_out, load_house
+from scenemosaic.exchange import export_house_folder, formats_left_out, load_house, save_house
 from scenemosaic.metrics import evaluate, house_diversity, relkeep
 from scenemosaic.physics import check_collisions, check_out_of_bounds, validate_scene
 from scenemosaic.pipeline._checkpoint import (
@@ -63,6 +63,8 @@ __all__ = ["HOUSE_STAGE_NAMES", "RoomOutcome", "agenerate_house", "is_house_inpu
 log = structlog.get_logger(__name__)
 
 HOUSE_STAGE_NAMES = ("rooms", "compose", "validate", "evaluate", "export")
+WORKER_MODULE = "scenemosaic.pipeline._house_worker"
+"""The module a house run's worker processes run (``python -m``)."""
 """The stages of a house run, in order (``rooms`` runs :data:`HOUSE_ROOM_STAGES` in every room)."""
 
 
@@ -118,16 +120,86 @@ async def _room_part(
 
 
 async def room_worker(input_path: Path, root: Path, base_dir: Path) -> None:
-    """A worker process's loop (``python -m scenemosaic.pipeline._house_worker``): one room id a
-    line on stdin, one JSON line on stdout when its run ends (its state is in its checkpoint)."""
+    """A worker process's loop (``python -m scenemosaic.pipeline._house_worker``): one job a line
+    on stdin — ``room <id>`` (that room's run; its state goes to its checkpoint) or ``export
+    <folder>`` (every house-wide format of the house saved there) — and one JSON line on stdout
+    when it ends."""
     record = json.loads(RunFolder(root).run_record.read_text(encoding="utf-8"))
     config = config_from_record(record["config"], resume=bool(record.get("resume")))
     reader = asyncio.StreamReader()
     loop = asyncio.get_running_loop()
     await loop.connect_read_pipe(lambda: asyncio.StreamReaderProtocol(reader), sys.stdin)
     while line := (await reader.readline()).decode().strip():
-        outcome = await _room_part(input_path, root, line, config, base_dir, None)
-        print(json.dumps({"room": line, "error": outcome.error, "error_type": outcome.error_type, "seconds": outcome.seconds}), flush=True)
+        kind, _, arg = line.partition(" ")
+        t0 = time.perf_counter()
+        reply: dict[str, Any] = {"job": line, "error": None, "error_type": None}
+        if kind == "room":
+            outcome = await _room_part(input_path, root, arg, config, base_dir, None)
+            reply.update(error=outcome.error, error_type=outcome.error_type)
+        else:
+            try:
+                await asyncio.to_thread(export_house_folder, Path(arg))
+            except Exception as exc:  # reported to the parent, which fails the stage
+                reply.update(error=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
+        reply["seconds"] = time.perf_counter() - t0
+        print(json.dumps(reply), flush=True)
+
+
+class _Workers:
+    """The child processes of a house run (``python -m scenemosaic.pipeline._house_worker``),
+    started on first use and kept for the run: each takes the next job as it finishes one."""
+
+    def __init__(self, run: HouseRun, count: int) -> None:
+        self.run, self.count = run, count
+        self.procs: list[asyncio.subprocess.Process] = []
+
+    async def _start(self) -> None:
+        run = self.run
+        args = [str(run.input_path), str(run.folder.root), str(run.base_dir)]
+        pipe = asyncio.subprocess.PIPE
+        while len(self.procs) < self.count:
+            proc = await asyncio.create_subprocess_exec(sys.executable, "-m", WORKER_MODULE, *args, stdin=pipe, stdout=pipe)
+            self.procs.append(proc)
+
+    async def map(self, jobs: Sequence[str]) -> dict[str, dict[str, Any]]:
+        """Run every job (``room <id>``, ``export <folder>``); their replies by job."""
+        await self._start()
+        queue: asyncio.Queue[str] = asyncio.Queue()
+        for job in jobs:
+            queue.put_nowait(job)
+        replies: dict[str, dict[str, Any]] = {}
+
+        async def serve(proc: asyncio.subprocess.Process) -> None:
+            assert proc.stdin is not None and proc.stdout is not None
+            while not queue.empty():
+                job = queue.get_nowait()
+                proc.stdin.write(f"{job}\n".encode())
+                await proc.stdin.drain()
+                line = await proc.stdout.readline()
+                if not line:
+                    raise SceneMosaicError(f"the worker process running {job!r} stopped (exit code {await proc.wait()})")
+                replies[job] = json.loads(line)
+
+        try:
+            await asyncio.gather(*(serve(p) for p in self.procs))
+        except BaseException:
+            self.kill()  # a stop or a failure: no job keeps working behind our back
+            raise
+        return replies
+
+    def kill(self) -> None:
+        for proc in self.procs:
+            if proc.returncode is None:
+                proc.kill()
+        self.procs = []
+
+    async def close(self) -> None:
+        for proc in self.procs:
+            if proc.stdin is not None:
+                proc.stdin.close()
+        for proc in self.procs:
+            await proc.wait()
+        self.procs = []
 
 
 def _in_processes(config: GenerateConfig, rooms: int) -> int:
@@ -158,6 +230,8 @@ class HouseRun:
     room_validation: dict[str, dict[str, Any]] = field(default_factory=dict)
     context: PipelineRun | None = None
     """The hull cache, shapes and model stack shared by the house-level stages."""
+    workers: _Workers | None = None
+    """The worker processes, when the rooms run in them (the export uses them too)."""
 
     def ctx(self) -> PipelineRun:
         if self.context is None:
@@ -205,6 +279,11 @@ async def agenerate_house(
         ctx = run.context
         if ctx is not None and ctx.model is not None:
             await ctx.model.aclose()
+        if run.workers is not None:
+            if failure is None:
+                await run.workers.close()
+            else:
+                run.workers.kill()
     report = _report(run, time.perf_counter() - started, failure)
     await asyncio.shield(asyncio.to_thread(write_json, folder.report, report))
     if failure is not None:
@@ -224,7 +303,13 @@ async def _stage_rooms(run: HouseRun, rec: StageRecord) -> None:
     rec.detail["workers"] = workers or 1
     rec.detail["processes"] = bool(workers)
     if workers:
-        outcomes = await _rooms_in_processes(run, ids, workers)
+        run.workers = _Workers(run, workers)
+        replies = await run.workers.map([f"room {rid}" for rid in ids])
+        outcomes = []
+        for rid in ids:
+            reply = replies[f"room {rid}"]
+            state = await asyncio.to_thread(_room_state, run, rid)
+            outcomes.append(RoomOutcome(rid, state, reply["error"], reply["error_type"], float(reply["seconds"])))
     else:
         ctx = run.ctx()
         model = await open_model(run.config, ctx.started)
@@ -248,45 +333,6 @@ async def _stage_rooms(run: HouseRun, rec: StageRecord) -> None:
     if failed:
         raise SceneMosaicError("room(s) failed: " + "; ".join(failed))
     run.house = run.house.with_rooms(rooms)
-
-
-async def _rooms_in_processes(run: HouseRun, ids: Sequence[str], workers: int) -> list[RoomOutcome]:
-    """Run the rooms in ``workers`` child processes (``python -m scenemosaic.pipeline._house_worker``),
-    each taking the next room as it finishes one; a stop or a failure kills them all."""
-    queue: asyncio.Queue[str] = asyncio.Queue()
-    for rid in ids:
-        queue.put_nowait(rid)
-    done: dict[str, RoomOutcome] = {}
-    procs: list[asyncio.subprocess.Process] = []
-
-    async def worker() -> None:
-        proc = await asyncio.create_subprocess_exec(
-            sys.executable, "-m", "scenemosaic.pipeline._house_worker", str(run.input_path), str(run.folder.root), str(run.base_dir),
-            stdin=asyncio.subprocess.PIPE, stdout=asyncio.subprocess.PIPE,
-        )  # fmt: skip
-        procs.append(proc)
-        assert proc.stdin is not None and proc.stdout is not None
-        while not queue.empty():
-            rid = queue.get_nowait()
-            proc.stdin.write(f"{rid}\n".encode())
-            await proc.stdin.drain()
-            line = await proc.stdout.readline()
-            if not line:
-                raise SceneMosaicError(f"the worker process running room {rid} stopped (exit code {await proc.wait()})")
-            reply = json.loads(line)
-            state = await asyncio.to_thread(_room_state, run, rid)
-            done[rid] = RoomOutcome(rid, state, reply["error"], reply["error_type"], float(reply["seconds"]))
-        proc.stdin.close()
-        await proc.wait()
-
-    try:
-        await asyncio.gather(*(worker() for _ in range(workers)))
-    except BaseException:
-        for proc in procs:  # a stop or a failure: no room keeps working behind our back
-            if proc.returncode is None:
-                proc.kill()
-        raise
-    return [done[rid] for rid in ids]
 
 
 def _room_state(run: HouseRun, room_id: str) -> RunCheckpoint | None:
@@ -326,11 +372,15 @@ def _checks_fail(checks: dict[str, Any]) -> list[str]:
     return out
 
 
+def _variants_of(outcome: RoomOutcome) -> list[Scene]:
+    return list(outcome.state.variants) if outcome.state is not None else []
+
+
 async def _stage_compose(run: HouseRun, rec: StageRecord) -> None:
     """Whole-house variants: one pool over every room's own valid variants (``compose_house``);
     a house is valid when every room stays reachable from every other."""
     m = run.config.variants
-    room_variants = [list(run.rooms[s.id].state.variants) if run.rooms[s.id].state else [] for s in run.house.rooms]
+    room_variants = [_variants_of(run.rooms[s.id]) for s in run.house.rooms]
     if m <= 0 or not any(room_variants):
         rec.status = "skipped"
         rec.detail["reason"] = "no variants asked for" if m <= 0 else "no room has a variant"
@@ -434,23 +484,28 @@ async def _stage_evaluate(run: HouseRun, rec: StageRecord) -> None:
 
 
 async def _stage_export(run: HouseRun, rec: StageRecord) -> None:
-    """``base/`` and every ``variant_<i>/`` as whole houses, and the contact sheet of their plans."""
-
-    def deliver() -> list[str]:
-        files = deliver_house(run.house, run.folder.base, run.base_dir)
-        for i, variant in enumerate(run.variants, start=1):
-            deliver_house(variant, run.folder.variant(i), run.base_dir)
-        if run.variants:
-            folders = [run.folder.base, *(run.folder.variant(i) for i in range(1, len(run.variants) + 1))]
-            contact_sheet([(f.name, f / RunFolder.TOPDOWN) for f in folders], run.folder.contact_sheet)
-        return files
-
-    rec.detail["files"] = await asyncio.to_thread(deliver)
+    """``base/`` and every ``variant_<i>/`` as whole houses (the native files here, the house-wide
+    formats in the worker processes when there are some), and the contact sheet of their plans."""
+    houses = [(run.folder.base, run.house), *((run.folder.variant(i), v) for i, v in enumerate(run.variants, start=1))]
+    for folder, house in houses:
+        await asyncio.to_thread(save_house, house, folder, base_dir=run.base_dir)
+    if run.workers is not None:
+        replies = await run.workers.map([f"export {folder}" for folder, _ in houses])
+        failed = [f"{job}: {r['error']}" for job, r in replies.items() if r["error"]]
+        if failed:
+            raise SceneMosaicError("house export failed: " + "; ".join(failed))
+    else:
+        for folder, _ in houses:
+            await asyncio.to_thread(export_house_folder, folder)
+    base = run.folder.base
+    rec.detail["files"] = sorted(str(p.relative_to(base)) for p in base.iterdir() if p.is_file())
+    if run.variants:
+        folders = [folder for folder, _ in houses]
+        await asyncio.to_thread(contact_sheet, [(f.name, f / RunFolder.TOPDOWN) for f in folders], run.folder.contact_sheet)
+        rec.detail["contact_sheet"] = RunFolder.CONTACT_SHEET
     missing = formats_left_out()
     if missing:
         rec.detail["formats_left_out"] = missing
-    if run.variants:
-        rec.detail["contact_sheet"] = RunFolder.CONTACT_SHEET
 
 
 _HOUSE_STAGES = (

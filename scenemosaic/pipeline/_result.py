@@ -6,21 +6,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from scenemosaic.scene import RunFolder, Scene
+from scenemosaic.scene import House, RunFolder, Scene
 
 __all__ = ["GenerateResult"]
 
 
 @dataclass
 class GenerateResult:
-    """What ``generate`` produced: the final base scene, the output folder and the report; its
-    variants and metrics on demand. In Jupyter it displays as a summary table and the contact
-    sheet of the base and its variants."""
+    """What ``generate`` produced: the final base scene (a :class:`~scenemosaic.scene.House` for a
+    whole-house run: ``scene.rooms``), the output folder and the report; its variants and metrics
+    on demand. In Jupyter it displays as a summary table and the contact sheet of the base and its
+    variants."""
 
-    scene: Scene
+    scene: Scene | House
     out_dir: Path
     report: dict[str, Any]
-    _variants: list[Scene] | None = field(default=None, init=False, repr=False, compare=False)
+    _variants: list[Scene | House] | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def folder(self) -> RunFolder:
@@ -44,12 +45,16 @@ class GenerateResult:
         return [self.folder.variant(i) for i in range(1, n + 1)]
 
     @property
-    def variants(self) -> list[Scene]:
-        """The delivered whole-scene variants (as delivered: read from their folders on first use)."""
+    def variants(self) -> list[Scene | House]:
+        """The delivered whole-scene (or whole-house) variants, as delivered: read from their
+        folders on first use."""
         if self._variants is None:
-            from scenemosaic.exchange import read_scene  # the readers load the exporters' backends
+            from scenemosaic.exchange import (  # the readers load the exporters' backends
+                read_house,
+                read_scene,
+            )
 
-            self._variants = [read_scene(d) for d in self.variant_dirs]
+            self._variants = [read_house(d) if RunFolder.holds_house(d) else read_scene(d) for d in self.variant_dirs]
         return list(self._variants)
 
     @property

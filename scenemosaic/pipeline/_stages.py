@@ -21,6 +21,7 @@ from scenemosaic.agents import AgentOutcome
 from scenemosaic.assets import object_hulls
 from scenemosaic.compose import compose_variants, kept_layouts
 from scenemosaic.evolve import EvolutionReport, evolve_scene
+from scenemosaic.exceptions import UsageError
 from scenemosaic.exchange import deliver_scene, formats_left_out, load_scene
 from scenemosaic.metrics import evaluate, judge_scene, nav
 from scenemosaic.models import UsageRecord, usage_summary
@@ -34,7 +35,16 @@ from scenemosaic.physics import (
 )
 from scenemosaic.pipeline._state import PipelineRun, Stage, StageRecord
 from scenemosaic.render import contact_sheet
-from scenemosaic.scene import WALK_MIN_SHARE, RunFolder, Scene, cut_off_doors, door_blockers, write_atomic
+from scenemosaic.scene import (
+    WALK_MIN_SHARE,
+    House,
+    RunFolder,
+    Scene,
+    cut_off_doors,
+    door_blockers,
+    wall_crossings,
+    write_atomic,
+)
 from scenemosaic.structure import structure_scene
 
 log = structlog.get_logger(__name__)
@@ -59,7 +69,7 @@ def is_image_input(run_input: Path, format: str) -> bool:
 async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
     cfg = run.config
     if not is_image_input(run.input_path, cfg.format):
-        read = functools.partial(load_scene, run.input_path, cfg.format, room=cfg.room, asset_dir=cfg.asset_dir)
+        read = functools.partial(_read_one, run.input_path, cfg.format, room=cfg.room, asset_dir=cfg.asset_dir)
         run.scene = await asyncio.to_thread(read)
         rec.detail["source_format"] = run.scene.provenance.source_format
         return
@@ -76,6 +86,14 @@ async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
     run.note_fallbacks(result.fallbacks)
     if result.report.get("segmenter") == "box" and cfg.segmenter == "auto":
         run.warnings.append(f"no segmenter installed: the objects' boxes stood in for their masks ({PERCEPTION_INSTALL})")
+
+
+def _read_one(path: Path, format: str, *, room: str | None, asset_dir: Path | None) -> Scene:
+    """The one scene a run's input holds (a house reaches here only with ``room``: ``pipeline/_house.py``)."""
+    loaded = load_scene(path, format, room=room, asset_dir=asset_dir)
+    if isinstance(loaded, House):  # pragma: no cover - the driver sends whole houses to the house run
+        raise UsageError(f"{path} is a house; generate it whole, or pick a room with --room ({', '.join(loaded.room_ids)})")
+    return loaded
 
 
 async def _draw_prompt(run: PipelineRun, rec: StageRecord) -> None:
@@ -272,9 +290,13 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     share = floor_share(await asyncio.to_thread(nav, scene))
     blocked = {b.object_id for b in await asyncio.to_thread(door_blockers, scene)}
     cut = set(await asyncio.to_thread(cut_off_doors, scene))
+    crossing = {oid for _, oid, _ in await asyncio.to_thread(wall_crossings, scene)}
 
-    def walkable(candidate: Scene) -> bool:  # as connected a walkable floor as the base, no door blocked anew
+    def walkable(candidate: Scene) -> bool:
+        """As connected a walkable floor as the base; no door blocked, no object across a wall anew."""
         if nav(candidate) < share or not {b.object_id for b in door_blockers(candidate)} <= blocked:
+            return False
+        if not {oid for _, oid, _ in wall_crossings(candidate)} <= crossing:
             return False
         return set(cut_off_doors(candidate)) <= cut
 

@@ -331,8 +331,13 @@ def wall_crossings(house: House | Scene, tolerance: float = WALL_CROSSING_TOLERA
 
 
 def _reach_past(floor: Polygon, foot: Polygon) -> float:
-    """The farthest a footprint corner lies outside the floor, metres."""
-    return max((floor.distance(Point(p)) for p in foot.exterior.coords), default=0.0)
+    """The farthest the footprint reaches outside the floor, metres (a footprint that clips a
+    room's inner corner reaches out between its corners)."""
+    outside = foot.difference(floor)
+    if outside.is_empty:
+        return 0.0
+    pieces = getattr(outside, "geoms", [outside])
+    return max((floor.distance(Point(p)) for g in pieces for p in getattr(g, "exterior", g).coords), default=0.0)
 
 
 @dataclass(frozen=True)
