@@ -142,6 +142,8 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
         bar = progress.add_task("starting", total=len(pipeline.STAGE_NAMES))
 
         def on_stage(name: str, status: str) -> None:
+            if name == pipeline.HOUSE_STAGE_NAMES[0] and status == "started":  # a whole house: its own stages
+                progress.update(bar, total=len(pipeline.HOUSE_STAGE_NAMES))
             if status == "started":
                 progress.update(bar, description=name)
             else:

@@ -46,6 +46,7 @@ from scenemosaic.exchange._mjcf import export_house_mjcf, export_mjcf
 from scenemosaic.exchange._native import read_house, read_scene, save_house, save_scene
 from scenemosaic.exchange._procthor import (
     HOUSE_FILE,
+    SHARED_WALL_THICKNESS_M,
     AssetDatabase,
     export_procthor,
     export_procthor_house,
@@ -89,6 +90,7 @@ __all__ = [
     "LOCAL_TO_GLTF",
     "MODEL_ID_PREFIX",
     "OPTIONAL_FORMATS",
+    "SHARED_WALL_THICKNESS_M",
     "Y_UP_TO_Z_UP",
     "Z_UP_TO_Y_UP",
     "AssetDatabase",

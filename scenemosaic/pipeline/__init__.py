@@ -29,10 +29,12 @@ from scenemosaic.pipeline._state import PipelineRun, Stage, StageCallback, Stage
 if TYPE_CHECKING:
     from scenemosaic.pipeline._checkpoint import checkpoint_config
     from scenemosaic.pipeline._demo import demo_scene
+    from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES
     from scenemosaic.pipeline._run import REPORT_FILE, agenerate, generate, run_sync
     from scenemosaic.pipeline._stages import STAGE_NAMES, STAGES
 
 _LAZY = {
+    "HOUSE_STAGE_NAMES": "_house",
     "REPORT_FILE": "_run",
     "STAGES": "_stages",
     "STAGE_NAMES": "_stages",
@@ -56,6 +58,7 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = [
+    "HOUSE_STAGE_NAMES",
     "REPORT_FILE",
     "SETTINGS",
     "STAGES",

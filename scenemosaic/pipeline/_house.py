@@ -63,9 +63,9 @@ __all__ = ["HOUSE_STAGE_NAMES", "RoomOutcome", "agenerate_house", "is_house_inpu
 log = structlog.get_logger(__name__)
 
 HOUSE_STAGE_NAMES = ("rooms", "compose", "validate", "evaluate", "export")
+"""The stages of a house run, in order (``rooms`` runs :data:`HOUSE_ROOM_STAGES` in every room)."""
 WORKER_MODULE = "scenemosaic.pipeline._house_worker"
 """The module a house run's worker processes run (``python -m``)."""
-"""The stages of a house run, in order (``rooms`` runs :data:`HOUSE_ROOM_STAGES` in every room)."""
 
 
 def is_house_input(input_path: Path, config: GenerateConfig) -> bool:

@@ -8,6 +8,7 @@ stdin (``pipeline/_house.py``: :func:`room_worker`), so a house's rooms use seve
 from __future__ import annotations
 
 import asyncio
+import signal
 import sys
 from pathlib import Path
 
@@ -16,6 +17,9 @@ from scenemosaic.pipeline._house import room_worker
 
 
 def main(argv: list[str]) -> int:
+    # Ctrl-C reaches the whole process group: the parent run stops the workers itself (it kills
+    # them), so a worker does not die on its own with a traceback of its own
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     configure_logging("warning")
     input_path, root, base_dir = (Path(a) for a in argv[1:4])
     asyncio.run(room_worker(input_path, root, base_dir))

@@ -39,7 +39,7 @@ from scenemosaic.pipeline._checkpoint import (
 )
 from scenemosaic.pipeline._config import GenerateConfig, check_config, config_record
 from scenemosaic.pipeline._driver import run_stages
-from scenemosaic.pipeline._house import agenerate_house, is_house_input
+from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, agenerate_house, is_house_input
 from scenemosaic.pipeline._result import GenerateResult
 from scenemosaic.pipeline._stages import STAGES, deliver_run, is_image_input
 from scenemosaic.pipeline._state import PipelineRun, StageCallback
@@ -264,6 +264,8 @@ def stage_progress(then: StageCallback | None = None) -> Iterator[StageCallback]
         task = bar.add_task("generate", total=len(STAGES))
 
         def callback(name: str, status: str) -> None:
+            if name == HOUSE_STAGE_NAMES[0] and status == "started":  # a whole house: its own stages
+                bar.update(task, total=len(HOUSE_STAGE_NAMES))
             if status == "started":
                 bar.update(task, description=f"generate: {name}")
             elif status in ("done", "reused", "failed"):

@@ -18,6 +18,7 @@ scene is exactly what a one-room run works on. What a room alone cannot see is b
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -330,14 +331,20 @@ def wall_crossings(house: House | Scene, tolerance: float = WALL_CROSSING_TOLERA
     return out
 
 
-def _reach_past(floor: Polygon, foot: Polygon) -> float:
-    """The farthest the footprint reaches outside the floor, metres (a footprint that clips a
-    room's inner corner reaches out between its corners)."""
+def _reach_past(floor: Polygon, foot: Polygon, samples: int = 8) -> float:
+    """The farthest the footprint reaches outside the floor, metres: the part of it outside,
+    sampled along its outline (a footprint that clips a room's inner corner has its corners on
+    the floor's edge and reaches out between them)."""
     outside = foot.difference(floor)
     if outside.is_empty:
         return 0.0
-    pieces = getattr(outside, "geoms", [outside])
-    return max((floor.distance(Point(p)) for g in pieces for p in getattr(g, "exterior", g).coords), default=0.0)
+    far = 0.0
+    for piece in getattr(outside, "geoms", [outside]):
+        ring = np.asarray(getattr(piece, "exterior", piece).coords, dtype=np.float64)
+        for a, b in itertools.pairwise(ring):
+            for t in np.linspace(0.0, 1.0, samples + 1):
+                far = max(far, floor.distance(Point(*(a + (b - a) * t))))
+    return far
 
 
 @dataclass(frozen=True)

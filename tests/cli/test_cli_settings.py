@@ -81,6 +81,7 @@ def test_every_flag_reaches_its_setting(tmp_path: Path, monkeypatch: pytest.Monk
         "strict": ([], True),
         "overwrite": ([], True),
         "cache_dir": ([str(tmp_path / "hulls")], tmp_path / "hulls"),
+        "room_workers": (["3"], 3),
     }
     switches = {"vision": "--no-vision", "solver_fallback": "--no-solver-fallback", "stabilize": "--no-stabilize"}
     assert set(values) == {f for f, s in SETTINGS.items() if s.flag is not None and f != "resume"}

@@ -9,10 +9,11 @@ from typing import Any
 
 import numpy as np
 import pytest
+from shapely.geometry import Polygon
 
 from scenemosaic.exceptions import UsageError
-from scenemosaic.exchange import detect_format, load_scene, load_scenes
-from scenemosaic.scene import Scene, front_vector
+from scenemosaic.exchange import SHARED_WALL_THICKNESS_M, detect_format, load_scene, load_scenes
+from scenemosaic.scene import House, Scene, front_vector
 
 
 def _flatten(
@@ -112,10 +113,14 @@ def test_door_and_window_become_openings(house: list[Scene]) -> None:
     liv_openings = [(w, o) for w in living.room.walls for o in w.openings]
     assert [o.kind for _, o in bed_doors] == ["door"]
     assert sorted(o.kind for _, o in liv_openings) == ["door", "window"]
-    for wall, door in [*bed_doors, *[(w, o) for w, o in liv_openings if o.kind == "door"]]:
+    # the shared wall at x = 4 (2 m along z): each room's floor ends half a wall short of it
+    half = SHARED_WALL_THICKNESS_M / 2
+    for (wall, door), x in ((bed_doors[0], 4.0 - half), (next((w, o) for w, o in liv_openings if o.kind == "door"), 4.0 + half)):
         centre = np.asarray(wall.start) + wall.direction * door.center
-        assert centre == pytest.approx((4.0, 2.0), abs=1e-9)  # the shared wall, 2 m along z
+        assert centre == pytest.approx((x, 2.0), abs=1e-9)
         assert (door.width, door.height, door.bottom) == pytest.approx((1.0, 2.1, 0.0))
+    (doorway,) = House(rooms=house).doorways()  # the two cuts are one door between the rooms
+    assert set(doorway.rooms) == {bedroom.id, living.id} and doorway.width == pytest.approx(1.0)
     wall, window = next((w, o) for w, o in liv_openings if o.kind == "window")
     centre = np.asarray(wall.start) + wall.direction * window.center
     assert centre == pytest.approx((8.0, 4.0 - 1.65), abs=1e-9)
@@ -131,9 +136,24 @@ def test_asset_database_ships_with_the_package(
     assert [s.to_json() for s in load_scenes(procthor_house)] == [s.to_json() for s in house]
 
 
-def test_load_scene_refuses_a_multi_room_house(procthor_house: Path, procthor_db: Path) -> None:
-    with pytest.raises(UsageError, match=r"2 scenes.*load_scenes"):
-        load_scene(procthor_house, asset_database=procthor_db)
+def test_load_scene_of_a_multi_room_house_is_the_house(procthor_house: Path, procthor_db: Path, house: list[Scene]) -> None:
+    whole = load_scene(procthor_house, asset_database=procthor_db)
+    assert isinstance(whole, House)
+    assert whole.rooms == house and whole.room("room|3") == house[1]
+
+
+def test_rooms_sharing_a_wall_give_up_half_of_it(house: list[Scene]) -> None:
+    """The bedroom (x <= 4) and the living room (x >= 4) meet on x = 4: each floor stops half a
+    wall short of it, so their walls there are one slab; exterior walls stay where they were."""
+    bedroom, living = house
+    assert bedroom.room is not None and living.room is not None
+    half = SHARED_WALL_THICKNESS_M / 2
+    assert max(x for x, _ in bedroom.room.floor) == pytest.approx(4.0 - half)
+    assert min(x for x, _ in living.room.floor) == pytest.approx(4.0 + half)
+    assert min(x for x, _ in bedroom.room.floor) == pytest.approx(0.0)  # an exterior wall
+    for scene in house:  # furniture that stood on the half given up moved off it
+        floor = Polygon(scene.room.floor).buffer(1e-6)
+        assert all(floor.covers(Polygon(o.footprint())) for o in scene.objects if scene.support_of(o.id) is None)
 
 
 def test_a_room_id_picks_one_room(procthor_house: Path, procthor_db: Path, house: list[Scene]) -> None:
@@ -158,5 +178,6 @@ def test_each_window_and_door_is_cut_once_per_room_it_opens_onto() -> None:
             assert scene.room is not None
             for wall in scene.room.walls:
                 for opening in wall.openings:
-                    got[opening.kind] += 1
+                    if opening.kind != "opening":  # an `empty` wall: no door, no window
+                        got[opening.kind] += 1
         assert got == expected, path.name

@@ -344,7 +344,7 @@ def _disconnected_rooms(rooms: list[RoomPlan]) -> str | None:
             i, j = int((x - xs[0]) / CELL_M + 0.5), int((y - ys[0]) / CELL_M + 0.5)
             if 0 <= i < len(xs) and 0 <= j < len(ys):
                 blocked[i, j] = True
-    k = int(round(ROBOT_RADIUS_M / CELL_M))
+    k = round(ROBOT_RADIUS_M / CELL_M)
     di, dj = np.mgrid[-k : k + 1, -k : k + 1]
     disk = di * di + dj * dj <= k * k
     walk = ndimage.binary_erosion(inside & ~blocked, structure=disk, border_value=0)

@@ -26,6 +26,7 @@ def test_the_shipped_houses_are_dense_enough_to_mean_something() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.house
 @pytest.mark.parametrize(("house", "room"), ROOMS)
 def test_every_room_ends_physically_valid(house: Path, room: str, tmp_path: Path) -> None:
     generate(house, tmp_path / "out", GenerateConfig(room=room, model="rules"))

@@ -1,0 +1,111 @@
+"""House benchmark: wall time of a whole-house run, and what running rooms in parallel buys.
+
+The largest shipped ProcTHOR house (``data/houses/procthor/procthor10k_train1_10room.json``, or
+``--house``) is generated with the ``rules`` model and seed 0, each run into a fresh output
+folder:
+
+1. a warm-up run (``--variants 5``, not timed): it fills the default hull cache
+   (``.scenemosaic-cache``, CoACD decompositions), so that no timed run pays for decompositions
+   another timed run then reuses;
+2. the base only (``variants=0``) and then five variants, both with the default number of room
+   processes (one per core, at most one per room);
+3. five variants with ``room_workers=1`` and with ``room_workers=2``: the ratio of the two runs'
+   ``rooms`` stage wall times is the speed-up of running rooms concurrently.
+
+Figures (last line, one JSON object): ``rooms``, ``objects``, ``house_base_s``,
+``house_variants5_s`` (whole ``generate`` calls, seconds), ``room_seconds`` (per room, from the
+five-variant run's report), ``critical_path_s`` (the slowest room) and ``sum_of_rooms_s`` (the
+``rooms`` stage's detail), ``rooms_stage_s_1w``, ``rooms_stage_s_2w``,
+``rooms_concurrency_speedup`` (1-process / 2-process ``rooms`` stage time), the goals
+``goal_variants5_s`` (60 s) and ``goal_speedup`` (1.6) with ``goal_variants5_met`` and
+``goal_speedup_met``, ``status`` (each run's report status) and ``cpus`` (``os.cpu_count()``: two
+processes cannot beat two cores, and other work on the machine lowers the speed-up).
+
+Run: ``.venv/bin/python benchmarks/house.py [--house FILE] [--keep DIR]`` (about 6 minutes on two cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from scenemosaic.pipeline import GenerateConfig, generate
+
+HOUSES = Path(__file__).resolve().parents[1] / "data" / "houses" / "procthor"
+LARGEST = HOUSES / "procthor10k_train1_10room.json"
+GOAL_VARIANTS5_S = 60.0
+GOAL_SPEEDUP = 1.6
+
+
+def _run(house: Path, out: Path, label: str, **settings: Any) -> tuple[dict[str, Any], float]:
+    """One ``generate`` call into the fresh folder ``out``; its report and wall time."""
+    t0 = time.perf_counter()
+    result = generate(house, out, GenerateConfig(model="rules", seed=0, **settings))
+    wall = time.perf_counter() - t0
+    report = result.report
+    rooms = _stage(report, "rooms")
+    print(
+        f"{label:<16} {report['status']:<8} {wall:7.1f} s  rooms stage {rooms['seconds']:6.1f} s"
+        f"  ({rooms['detail'].get('workers')} worker(s), {report.get('variants_written', 0)} variants)"
+    )
+    return report, wall
+
+
+def _stage(report: dict[str, Any], name: str) -> dict[str, Any]:
+    stage: dict[str, Any] = next(s for s in report["stages"] if s["name"] == name)
+    return stage
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
+    parser.add_argument("--house", type=Path, default=LARGEST)
+    parser.add_argument("--keep", type=Path, default=None, help="write the runs here instead of a temporary folder")
+    args = parser.parse_args()
+
+    with tempfile.TemporaryDirectory(prefix="scenemosaic-house-bench-") as tmp:
+        root = args.keep or Path(tmp)
+        root.mkdir(parents=True, exist_ok=True)
+
+        def fresh(name: str) -> Path:
+            return root / f"{name}_{time.time_ns()}"
+
+        _run(args.house, fresh("warmup"), "warm-up", variants=5)
+        base, base_s = _run(args.house, fresh("base"), "base", variants=0)
+        five, five_s = _run(args.house, fresh("variants5"), "variants=5", variants=5)
+        one, _ = _run(args.house, fresh("variants5_1w"), "variants=5 1w", variants=5, room_workers=1)
+        two, _ = _run(args.house, fresh("variants5_2w"), "variants=5 2w", variants=5, room_workers=2)
+
+    rooms = _stage(five, "rooms")
+    stage_1w, stage_2w = _stage(one, "rooms")["seconds"], _stage(two, "rooms")["seconds"]
+    for rid, room in five["rooms"].items():
+        print(f"room {rid:<10} {room['objects']:4d} objects  {room['seconds']:6.1f} s")
+    speedup = stage_1w / stage_2w if stage_2w else float("nan")
+    figures = {
+        "house": args.house.stem,
+        "rooms": len(five["house"]["rooms"]),
+        "objects": five["objects"],
+        "cpus": os.cpu_count(),
+        "house_base_s": round(base_s, 2),
+        "house_variants5_s": round(five_s, 2),
+        "room_seconds": {rid: room["seconds"] for rid, room in five["rooms"].items()},
+        "critical_path_s": rooms["detail"].get("critical_path_s"),
+        "sum_of_rooms_s": rooms["detail"].get("sum_of_rooms_s"),
+        "rooms_stage_s_1w": round(stage_1w, 2),
+        "rooms_stage_s_2w": round(stage_2w, 2),
+        "rooms_concurrency_speedup": round(speedup, 3),
+        "goal_variants5_s": GOAL_VARIANTS5_S,
+        "goal_variants5_met": five_s <= GOAL_VARIANTS5_S,
+        "goal_speedup": GOAL_SPEEDUP,
+        "goal_speedup_met": speedup >= GOAL_SPEEDUP,
+        "status": {"base": base["status"], "variants5": five["status"], "1w": one["status"], "2w": two["status"]},
+    }
+    print(json.dumps(figures))
+
+
+if __name__ == "__main__":
+    main()

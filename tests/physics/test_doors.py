@@ -1,0 +1,55 @@
+"""The door clearance repair: what stands in front of a door, or closes the way to it, moves."""
+
+from __future__ import annotations
+
+import pytest
+
+from scenemosaic.physics import check_collisions, clear_doors, object_shape
+from scenemosaic.scene import AssetRef, Opening, Pose, Room, Scene, SceneObject, cut_off_doors, door_blockers
+
+
+def box(oid: str, x: float, y: float, size: tuple[float, float, float], category: str = "cabinet") -> SceneObject:
+    return SceneObject(id=oid, category=category, asset=AssetRef(kind="box", extents=size), pose=Pose.from_yaw((x, y, 0.0), 0.0))
+
+
+def room_with_door(*objects: SceneObject) -> Scene:
+    """A 4 x 3 m room with a 0.9 m door in its east wall at y = 1.5."""
+    room = Room.rectangle(0.0, 0.0, 4.0, 3.0, ceiling_height=2.5)
+    room.wall("wall_1").openings = [Opening(kind="door", center=1.5, width=0.9, height=2.0)]
+    return Scene(id="r", room=room, objects=list(objects))
+
+
+def shapes(scene: Scene) -> dict:
+    return {o.id: object_shape(o, None) for o in scene.objects}
+
+
+def test_a_room_without_doors_comes_back_as_it_was() -> None:
+    scene = Scene(id="r", room=Room.rectangle(0, 0, 4, 3), objects=[box("c", 3.7, 1.5, (0.5, 0.5, 0.8))])
+    repaired, repair = clear_doors(scene, shapes(scene))
+    assert repaired is scene and not repair.moved and not repair.stuck
+
+
+def test_furniture_in_front_of_a_door_moves_out_of_its_zone_without_a_collision() -> None:
+    scene = room_with_door(box("cabinet", 3.6, 1.5, (0.6, 0.5, 0.9)), box("table", 2.4, 1.5, (0.9, 0.9, 0.75)))
+    assert [b.object_id for b in door_blockers(scene)] == ["cabinet"]
+    repaired, repair = clear_doors(scene, shapes(scene))
+    assert set(repair.moved) == {"cabinet"} and not repair.stuck and not repair.cut_off
+    assert not door_blockers(repaired)
+    assert not check_collisions(repaired).pairs
+    assert repaired.get("table").pose == scene.get("table").pose  # what was not in the way stays
+    assert any(n.startswith("doors: moved cabinet") for n in repaired.provenance.notes)
+    assert scene.get("cabinet").pose.position == pytest.approx((3.6, 1.5, 0.0))  # the input is kept
+
+
+def test_a_piece_that_closes_the_way_to_a_clear_door_moves_away_from_it() -> None:
+    # a bench 0.8 m in front of the door wall and two stools at its ends close a pocket around
+    # the door; nothing stands in the 0.6 m zone itself
+    scene = room_with_door(
+        box("bench", 3.0, 1.5, (0.4, 1.6, 0.45)),
+        box("stool_a", 3.55, 0.45, (0.35, 0.35, 0.45), category="stool"),
+        box("stool_b", 3.55, 2.55, (0.35, 0.35, 0.45), category="stool"),
+    )
+    assert not door_blockers(scene) and cut_off_doors(scene)
+    repaired, repair = clear_doors(scene, shapes(scene))
+    assert not cut_off_doors(repaired) and not repair.cut_off
+    assert repair.moved and not check_collisions(repaired).pairs

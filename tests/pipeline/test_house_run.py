@@ -1,0 +1,101 @@
+"""A whole-house run on the shipped two-room house (39 objects): what it returns, how its output
+reads back, the command line, resuming, and that the number of room processes changes nothing."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from scenemosaic.cli import app
+from scenemosaic.exchange import load_scene
+from scenemosaic.pipeline import GenerateConfig, GenerateResult, generate
+from scenemosaic.scene import House, Scene
+
+TWO_ROOMS = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor" / "procthor10k_house3703_2room.json"
+VARIANTS = 2
+
+runner = CliRunner()
+
+
+def _room_files(out: Path) -> dict[str, bytes]:
+    """Every room's delivered base ``scene.json``, by room id."""
+    files = sorted((out / "base" / "rooms").glob("*/scene.json"))
+    assert files, f"no room scenes under {out / 'base' / 'rooms'}"
+    return {p.parent.name: p.read_bytes() for p in files}
+
+
+@pytest.fixture(scope="module")
+def two_room_run(tmp_path_factory: pytest.TempPathFactory) -> GenerateResult:
+    """The two-room house with two variants, its rooms in two worker processes."""
+    out = tmp_path_factory.mktemp("house") / "out"
+    return generate(TWO_ROOMS, out, GenerateConfig(variants=VARIANTS, room_workers=2, overwrite=True))
+
+
+def test_generate_returns_the_whole_house(two_room_run: GenerateResult) -> None:
+    house = two_room_run.scene
+    assert isinstance(house, House)
+    assert house.room_ids == ["room_2", "room_3"]
+    assert len(house.objects) == 39
+    assert two_room_run.report["status"] != "failed"
+    assert two_room_run.report["house"]["rooms"] == ["room_2", "room_3"]
+    for folder in ("base", *(f"variant_{i}" for i in range(1, VARIANTS + 1))):
+        index = json.loads((two_room_run.out_dir / folder / "house_scene.json").read_text(encoding="utf-8"))
+        assert index["format"] == "scenemosaic-house" and index["rooms"] == ["room_2", "room_3"]
+
+
+def test_load_scene_reads_the_house_or_one_room(two_room_run: GenerateResult) -> None:
+    house = load_scene(two_room_run.out_dir)
+    assert isinstance(house, House)
+    assert house.room_ids == ["room_2", "room_3"]
+    room = load_scene(two_room_run.out_dir, room="room_2")
+    assert isinstance(room, Scene) and not isinstance(room, House)
+    assert room.id == "room_2"
+    assert {o.id for o in room.objects} == {o.id for o in house.room("room_2").objects}
+
+
+def test_resume_over_a_finished_house_reuses_every_room(two_room_run: GenerateResult, tmp_path: Path) -> None:
+    out = tmp_path / "resumed"
+    shutil.copytree(two_room_run.out_dir, out)
+    before = _room_files(out)
+    generate(TWO_ROOMS, out, GenerateConfig(variants=VARIANTS, room_workers=2, resume=True))
+    report = json.loads((out / "report.json").read_text(encoding="utf-8"))
+    assert report["status"] != "failed", report["error"]
+    for rid, room in report["rooms"].items():
+        statuses = {s["name"]: s["status"] for s in room["stages"]}
+        assert statuses and set(statuses.values()) == {"reused"}, f"{rid}: {statuses}"
+    assert _room_files(out) == before
+
+
+def test_one_room_process_gives_the_same_rooms_as_two(two_room_run: GenerateResult, tmp_path: Path) -> None:
+    result = generate(TWO_ROOMS, tmp_path / "one", GenerateConfig(variants=VARIANTS, room_workers=1, overwrite=True))
+    rooms = next(s for s in result.report["stages"] if s["name"] == "rooms")
+    assert rooms["detail"]["workers"] == 1 and not rooms["detail"]["processes"]
+    two = next(s for s in two_room_run.report["stages"] if s["name"] == "rooms")
+    assert two["detail"]["processes"], "the shared run was meant to use worker processes"
+    assert _room_files(tmp_path / "one") == _room_files(two_room_run.out_dir)
+
+
+def test_cli_generates_the_house_and_prints_its_summary(tmp_path: Path) -> None:
+    out = tmp_path / "cli_house"
+    result = runner.invoke(app, ["generate", str(TWO_ROOMS), "--out", str(out), "--model", "rules"])
+    assert result.exit_code == 0, result.output
+    assert any(line.strip().startswith("house:") for line in result.output.splitlines()), result.output
+    assert (out / "base" / "house_scene.json").is_file()
+    assert sorted(p.name for p in (out / "base" / "rooms").iterdir()) == ["room_2", "room_3"]
+
+
+def test_cli_room_option_still_runs_one_room(tmp_path: Path) -> None:
+    out = tmp_path / "cli_room"
+    result = runner.invoke(app, ["generate", str(TWO_ROOMS), "--room", "room|2", "--out", str(out), "--model", "rules"])
+    assert result.exit_code == 0, result.output
+    assert not any(line.strip().startswith("house:") for line in result.output.splitlines()), result.output
+    assert not (out / "base" / "house_scene.json").exists()
+    scene = load_scene(out)
+    assert isinstance(scene, Scene) and not isinstance(scene, House)
+    assert (scene.metadata.get("procthor") or {}).get("room_id") == "room|2"
+    report = json.loads((out / "report.json").read_text(encoding="utf-8"))
+    assert "house" not in report
