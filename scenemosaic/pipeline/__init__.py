@@ -1,7 +1,7 @@
 """The ``generate`` pipeline: an explicit list of stages over one run.
 
 :data:`STAGES` lists the stages in order — ``import``, ``assets``, ``structure``, ``stabilize``,
-``evolve``, ``compose``, ``validate``, ``evaluate``, ``export`` — each a :class:`Stage` (a name
+``evolve``, ``doors``, ``compose``, ``validate``, ``evaluate``, ``export`` — each a :class:`Stage` (a name
 and an async function over a :class:`PipelineRun`, which carries each stage's result to the
 next in memory). The run's settings are one :class:`GenerateConfig`; its output folder is an
 ``exchange.RunFolder``; its model stack is opened once (``models.open_run_model``). A failing or

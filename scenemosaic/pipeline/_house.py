@@ -108,6 +108,8 @@ async def _room_part(
         await asyncio.to_thread(save_checkpoint, run, digest)
     try:
         failure = await run_stages(run, finished, digest, None, HOUSE_ROOM_STAGES)
+        if failure is None:  # the stages' last word, reused ones included: what the house reads back
+            await asyncio.to_thread(save_checkpoint, run, digest)
     finally:
         if model is None and run.model is not None:
             await run.model.aclose()

@@ -191,7 +191,7 @@ async def agenerate(
         await asyncio.to_thread(save_checkpoint, run, digest)
     started = time.perf_counter()
     try:  # the run's one model stack, opened by the first stage that asks, closed here
-        failure = await run_stages(run, finished, digest, on_stage)
+        failure = await run_stages(run, finished, digest, on_stage, STAGES)
     finally:
         if run.model is not None:
             await run.model.aclose()

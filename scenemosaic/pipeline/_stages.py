@@ -1,4 +1,4 @@
-"""The stages of ``generate``, in order: import → assets → structure → stabilize → evolve → compose → validate → evaluate → export.
+"""The stages of ``generate``, in order: import → assets → structure → stabilize → evolve → doors → compose → validate → evaluate → export.
 
 Each stage is one async function over the :class:`~scenemosaic.pipeline.PipelineRun`: it reads
 what the stages before it left there, leaves its own result, and records its figures. The model
@@ -42,6 +42,7 @@ from scenemosaic.scene import (
     Scene,
     cut_off_doors,
     door_blockers,
+    door_zones,
     wall_crossings,
     write_atomic,
 )
@@ -255,9 +256,13 @@ def _write_layouts(report: EvolutionReport, folder: RunFolder) -> list[str]:
 
 
 async def _stage_doors(run: PipelineRun, rec: StageRecord) -> None:
-    """A house's room: move furniture out of its doors' clearance zones and out of the way from
-    them into the room (``physics.clear_doors``)."""
+    """A room with doors (a room of a house): move furniture out of their clearance zones and out
+    of the way from them into the room (``physics.clear_doors``, ``docs/houses.md``)."""
     assert run.scene is not None
+    if not door_zones(run.scene):
+        rec.status = "skipped"
+        rec.detail["reason"] = "no doors"
+        return
     shapes = await asyncio.to_thread(run.shapes, run.scene)
     run.scene, repair = await asyncio.to_thread(clear_doors, run.scene, shapes)
     rec.detail["moved"] = {k: round(v, 3) for k, v in repair.moved.items()}
@@ -393,6 +398,7 @@ STAGES: tuple[Stage, ...] = (
     Stage("structure", _stage_structure),
     Stage("stabilize", _stage_stabilize),
     Stage("evolve", _stage_evolve),
+    Stage("doors", _stage_doors),
     Stage("compose", _stage_compose),
     Stage("validate", _stage_validate),
     Stage("evaluate", _stage_evaluate),
@@ -402,8 +408,8 @@ STAGES: tuple[Stage, ...] = (
 
 STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in STAGES)
 
-HOUSE_ROOM_STAGES: tuple[Stage, ...] = (*STAGES[:5], Stage("doors", _stage_doors), STAGES[5])
-"""What each room of a house runs on its own (``pipeline/_house.py``): :data:`STAGES` up to
-evolve, the door clearance repair, then the room's own variants (compose); the house composes
-whole-house variants from those, and checks and delivers the house."""
+HOUSE_ROOM_STAGES: tuple[Stage, ...] = STAGES[: STAGE_NAMES.index("compose") + 1]
+"""What each room of a house runs on its own (``pipeline/_house.py``): :data:`STAGES` up to its
+own variants (compose); the house composes whole-house variants from those, and checks and
+delivers the house."""
 """The names of :data:`STAGES`, in order."""

@@ -46,10 +46,11 @@ def test_output_layout_is_complete(living_run: tuple[Path, Path]) -> None:
     report = json.loads((out / "report.json").read_text())
     assert report["status"] == "ok"
     assert [s["name"] for s in report["stages"]] == [
-        "import", "assets", "structure", "stabilize", "evolve", "compose", "validate", "evaluate", "export",
+        "import", "assets", "structure", "stabilize", "evolve", "doors", "compose", "validate", "evaluate", "export",
     ]  # fmt: skip
     assert (out / "evolve" / "floor" / "original.json").is_file()
-    assert all(s["seconds"] >= 0 and s["status"] == ("skipped" if s["name"] == "compose" else "done") for s in report["stages"])  # no --variants
+    skipped = {"compose", "doors"}  # no --variants; a room without doors
+    assert all(s["seconds"] >= 0 and s["status"] == ("skipped" if s["name"] in skipped else "done") for s in report["stages"])
     assert report["objects"] == 16
 
 

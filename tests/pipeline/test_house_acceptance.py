@@ -201,6 +201,7 @@ def test_six_houses_are_shipped() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.house
 def test_run_delivers_a_base_and_five_distinct_variants(house_run: HouseRun) -> None:
     assert house_run.report["status"] != "failed", house_run.report.get("error")
     found = sorted(p.name for p in house_run.out.glob("variant_*") if p.is_dir())
@@ -257,6 +258,7 @@ def _penetrations(xml: Path) -> tuple[dict[tuple[str, str], float], set[str]]:
 
 
 @pytest.mark.slow
+@pytest.mark.house
 def test_no_object_overlaps_another_or_a_wall_in_the_house_mjcf(house_run: HouseRun) -> None:
     problems = []
     for name, rooms in house_run.plans():
@@ -268,7 +270,33 @@ def test_no_object_overlaps_another_or_a_wall_in_the_house_mjcf(house_run: House
     assert not problems, f"{house_run.name}: " + "; ".join(problems)
 
 
+REST_SECONDS = 2.0
+"""Simulated time (seconds) the delivered house must stay at rest."""
+REST_MOVE_M = 0.01
+"""The most (metres) any free body of the house may move in that time."""
+
+
 @pytest.mark.slow
+@pytest.mark.house
+def test_the_house_mjcf_stays_at_rest_in_plain_mujoco(house_run: HouseRun) -> None:
+    """The base house as a user loads it: plain MuJoCo, gravity on, two seconds; nothing moves 1 cm."""
+    m = mujoco.MjModel.from_xml_path(str(house_run.out / "base" / "scene.xml"))
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    free = [b for b in range(1, m.nbody) if m.body_jntnum[b] and m.jnt_type[m.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE]
+    assert free, f"{house_run.name}: no free body in the house MJCF"
+    start = {b: d.xpos[b].copy() for b in free}
+    moved = dict.fromkeys(free, 0.0)
+    for _ in range(round(REST_SECONDS / m.opt.timestep)):
+        mujoco.mj_step(m, d)
+        for b in free:
+            moved[b] = max(moved[b], float(np.linalg.norm(d.xpos[b] - start[b])))
+    worst = sorted(((v, mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, b)) for b, v in moved.items()), reverse=True)[:5]
+    assert worst[0][0] < REST_MOVE_M, f"{house_run.name}: moved most: {[(n, round(v, 4)) for v, n in worst]}"
+
+
+@pytest.mark.slow
+@pytest.mark.house
 def test_every_object_stays_on_its_room_floor(house_run: HouseRun) -> None:
     problems = []
     for name, rooms in house_run.plans():
@@ -289,6 +317,7 @@ def _door_zone(cut: Cut) -> Polygon:
 
 
 @pytest.mark.slow
+@pytest.mark.house
 def test_every_door_clearance_zone_is_free(house_run: HouseRun) -> None:
     problems = []
     doors = 0
@@ -362,6 +391,7 @@ def _disconnected_rooms(rooms: list[RoomPlan]) -> str | None:
 
 
 @pytest.mark.slow
+@pytest.mark.house
 def test_every_room_is_reachable_from_every_other(house_run: HouseRun) -> None:
     problems = []
     for name, rooms in house_run.plans():
@@ -372,6 +402,7 @@ def test_every_room_is_reachable_from_every_other(house_run: HouseRun) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.house
 def test_report_measures_diversity_and_keeps_relations(house_run: HouseRun) -> None:
     report = house_run.report
     metrics = report["metrics"]

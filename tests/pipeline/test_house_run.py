@@ -57,11 +57,16 @@ def test_load_scene_reads_the_house_or_one_room(two_room_run: GenerateResult) ->
     assert {o.id for o in room.objects} == {o.id for o in house.room("room_2").objects}
 
 
-def test_resume_over_a_finished_house_reuses_every_room(two_room_run: GenerateResult, tmp_path: Path) -> None:
+@pytest.mark.parametrize("room_workers", [1, 2])
+def test_resume_over_a_finished_house_reuses_every_room(
+    two_room_run: GenerateResult, tmp_path: Path, room_workers: int
+) -> None:
+    """Every room of a finished house is reused, whether the resumed run works on its rooms in
+    this process (1) or in worker processes (2), and the rooms come out byte for byte the same."""
     out = tmp_path / "resumed"
     shutil.copytree(two_room_run.out_dir, out)
     before = _room_files(out)
-    generate(TWO_ROOMS, out, GenerateConfig(variants=VARIANTS, room_workers=2, resume=True))
+    generate(TWO_ROOMS, out, GenerateConfig(variants=VARIANTS, room_workers=room_workers, resume=True))
     report = json.loads((out / "report.json").read_text(encoding="utf-8"))
     assert report["status"] != "failed", report["error"]
     for rid, room in report["rooms"].items():
