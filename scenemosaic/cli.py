@@ -159,7 +159,7 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
         except asyncio.CancelledError:
             if stop.signal is None:
                 raise
-    _err.print(f"[yellow]interrupted[/yellow]: report and last good scene in {out}; continue with --resume {out}")
+    _err.print(f"[yellow]interrupted[/yellow]: report and last good scene in {escape(str(out))}; continue with --resume {escape(str(out))}")
     _hard_exit(_exit_code(stop.signal))
     raise AssertionError("unreachable")  # pragma: no cover
 
@@ -177,16 +177,16 @@ def _run_cli(input_path: Path | None, out: Path, config: GenerateConfig) -> None
     try:
         result = _run_with_progress(input_path, out, config)
     except SceneMosaicError as exc:
-        _err.print(f"[red]error:[/red] {exc}", highlight=False)
+        _err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
         if RunFolder(out).report.is_file():
-            _err.print(f"partial results and the report are in {out}", highlight=False)
+            _err.print(f"partial results and the report are in {out}", markup=False, highlight=False)
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
     except Exception as exc:  # a bug: one line here, the traceback in the report
         stage = _failed_stage(out)
         where = f" in stage {stage!r}" if stage else ""
         _err.print(
-            f"[red]error:[/red] unexpected {type(exc).__name__}{where} on {input_path}: {exc} "
-            f"(traceback in {RunFolder(out).report})",
+            "[red]error:[/red] "
+            + escape(f"unexpected {type(exc).__name__}{where} on {input_path}: {exc} (traceback in {RunFolder(out).report})"),
             highlight=False,
         )
         raise typer.Exit(code=EXIT_UNEXPECTED) from exc
@@ -201,9 +201,9 @@ def _run_cli(input_path: Path | None, out: Path, config: GenerateConfig) -> None
 
 def _summarize(result: GenerateResult) -> None:
     report = result.report
-    _out.print(f"[green]wrote[/green] {result.out_dir} ({report['objects']} objects, {report['total_seconds']:.1f} s)")
+    _out.print(f"[green]wrote[/green] {escape(str(result.out_dir))} ({report['objects']} objects, {report['total_seconds']:.1f} s)")
     for stage in report["stages"]:
-        _out.print(f"  {stage['name']:<10} {stage['status']:<8} {stage['seconds']:7.2f} s")
+        _out.print(f"  {stage['name']:<10} {stage['status']:<8} {stage['seconds']:7.2f} s", markup=False)
     validation = report.get("validation") or {}
     house = report.get("house")
     if isinstance(house, dict) and validation:
@@ -351,7 +351,7 @@ def generate(
         try:
             input_path, config = pipeline.checkpoint_config(resume)
         except SceneMosaicError as exc:
-            _err.print(f"[red]error:[/red] {exc}", highlight=False)
+            _err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
             raise typer.Exit(code=EXIT_BAD_INPUT) from exc
         _run_cli(input_path, resume, config)
         return
@@ -514,7 +514,7 @@ def _raise_terminated(signum: int, frame: object) -> None:
 
 
 def _print_batch_summary(summary: BatchSummary) -> None:
-    table = Table(title=f"batch {summary.out}", title_justify="left")
+    table = Table(title=f"batch {escape(str(summary.out))}", title_justify="left")
     table.add_column("job")
     table.add_column("status")
     table.add_column("seconds", justify="right")
@@ -534,6 +534,7 @@ def _print_batch_summary(summary: BatchSummary) -> None:
     _out.print(
         f"{counts}; {summary.scenes_written} scenes in {summary.wall_s:.1f} s; "
         f"summary in {Path(summary.out) / SUMMARY_FILE}",
+        markup=False,
         highlight=False,
     )
 
@@ -604,10 +605,10 @@ def batch(
         _err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
     except KeyboardInterrupt as exc:
-        _err.print(f"[yellow]interrupted[/yellow]: finished jobs are recorded in {out / SUMMARY_FILE}; run again to do the rest")
+        _err.print(f"[yellow]interrupted[/yellow]: finished jobs are recorded in {escape(str(out / SUMMARY_FILE))}; run again to do the rest")
         raise typer.Exit(code=EXIT_SIGINT) from exc
     except _Terminated as exc:
-        _err.print(f"[yellow]stopped[/yellow] (SIGTERM): finished jobs are recorded in {out / SUMMARY_FILE}")
+        _err.print(f"[yellow]stopped[/yellow] (SIGTERM): finished jobs are recorded in {escape(str(out / SUMMARY_FILE))}")
         raise typer.Exit(code=EXIT_SIGTERM) from exc
     finally:
         if in_main_thread:
@@ -672,7 +673,7 @@ def export(
 
     writers = sorted(name for name, f in FORMATS.items() if f.write is not None)
     if fmt not in writers:
-        _err.print(f"[red]error:[/red] unknown output format {fmt!r}; use one of {', '.join(writers)}")
+        _err.print(f"[red]error:[/red] unknown output format {escape(repr(fmt))}; use one of {', '.join(writers)}")
         raise typer.Exit(code=EXIT_BAD_INPUT)
     folders = _scene_folders(path)
     single = not RunFolder.is_run(path)
@@ -709,7 +710,7 @@ def render(
     loaded, base_dir = _load_any(path, variant, room)
     if isinstance(loaded, House):
         if unit is not None:
-            _err.print(f"[red]error:[/red] --unit needs one room: add --room ({', '.join(loaded.room_ids)})")
+            _err.print(f"[red]error:[/red] --unit needs one room: add --room ({escape(', '.join(loaded.room_ids))})")
             raise typer.Exit(code=EXIT_BAD_INPUT)
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_bytes(render_house_plan(loaded, base_dir=base_dir, size_px=size))
@@ -729,7 +730,7 @@ def render(
 
             if scene.structure is None or unit not in {u.anchor_id for u in scene.structure.units}:
                 anchors = ", ".join(u.anchor_id for u in scene.structure.units) if scene.structure else "none (run generate first)"
-                _err.print(f"[red]error:[/red] no unit anchored at {unit!r}; units: {anchors}")
+                _err.print(f"[red]error:[/red] no unit anchored at {escape(repr(unit))}; units: {escape(anchors)}")
                 raise typer.Exit(code=EXIT_BAD_INPUT)
             png = unit_view_png(
                 scene, UnitLayout.from_scene(scene, unit), base_dir=base_dir, size_px=size, backend="auto" if gl else "pillow"

@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
+import os
 import shutil
 import time
 import traceback
@@ -85,7 +86,13 @@ def _prepare_folders(input_path: Path, folder: RunFolder, config: GenerateConfig
                     shutil.rmtree(target)
                 elif target.exists():
                     target.unlink()
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / f".write-test-{os.getpid()}"
+        probe.touch()
+        probe.unlink()
+    except OSError as exc:  # under a file, read-only, no permission: the user's to fix, not a crash
+        raise UsageError(f"cannot write the output folder {out}: {exc.strerror or exc}") from exc
     return input_path if input_path.is_dir() else input_path.parent
 
 

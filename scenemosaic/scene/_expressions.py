@@ -30,6 +30,8 @@ import re
 from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass
 
+from pydantic import ValidationError
+
 from scenemosaic.exceptions import ExpressionError
 from scenemosaic.scene._ids import FLOOR
 from scenemosaic.scene._model import LocalUnit, Scene
@@ -363,12 +365,18 @@ def edit_scene(scene: Scene, expressions: str | Iterable[str], *, unit: LocalUni
         raise ExpressionError(f"unit {anchor!r} has no children to edit")
     layout = UnitLayout.from_scene(scene, anchor)
     apply_expressions(layout, lines, frozen_rotation=layout.surface.projection == "anchor_front")
-    moved = rigid_moves(scene, layout.poses())
-    data = scene.model_dump()
-    data["objects"] = [
-        {**o.model_dump(), "pose": moved[o.id].model_dump()} if o.id in moved else o.model_dump() for o in scene.objects
-    ]
-    out = Scene.model_validate(data)
+    try:
+        moved = rigid_moves(scene, layout.poses())
+        data = scene.model_dump()
+        data["objects"] = [
+            {**o.model_dump(), "pose": moved[o.id].model_dump()} if o.id in moved else o.model_dump() for o in scene.objects
+        ]
+        out = Scene.model_validate(data)
+    except ValidationError as exc:  # a value the scene's limits refuse (a position 5 km away)
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"])
+        detail = str(first["msg"]).removeprefix("Value error, ")
+        raise ExpressionError(f"the edit puts the scene beyond its limits ({where}: {detail})") from None
     out.provenance.steps.append("edit")
     out.provenance.notes.append(f"edit of unit {anchor}: " + "; ".join(lines)[:300])
     return out

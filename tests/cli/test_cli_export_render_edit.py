@@ -77,3 +77,36 @@ def test_edit_refuses_a_hostile_expression_and_writes_nothing(run_dir: Path, tmp
     done = runner.invoke(app, ["edit", str(run_dir / "base"), "armchair_0.center.u = __import__('os').getpid()", "--out", str(out)])
     assert done.exit_code == 2 and "error" in done.output
     assert not out.exists()
+
+
+def test_edit_beyond_the_scene_limits_is_a_refused_expression(run_dir: Path, tmp_path: Path) -> None:
+    """A value inside the expression range that puts an object beyond the scene's coordinate
+    limits is an ExpressionError (exit 2, one clear line), not a leaked validation error."""
+    from scenemosaic.exceptions import ExpressionError
+
+    out = tmp_path / "far"
+    done = runner.invoke(app, ["edit", str(run_dir / "base"), "armchair_0.center.u = 5000", "--out", str(out)])
+    assert done.exit_code == 2, done.output
+    assert "beyond its limits" in done.output and "Traceback" not in done.output
+    assert not out.exists()
+    with pytest.raises(ExpressionError, match="beyond its limits"):
+        read_scene(run_dir / "base").edit("armchair_0.center.u = 5000")
+
+
+def test_brackets_in_paths_are_printed_not_read_as_markup(run_dir: Path, tmp_path: Path) -> None:
+    """Rich markup in a path (``[/x]``) must not crash the CLI: the path is printed as it is."""
+    odd = tmp_path / "o[/x]"
+    done = runner.invoke(app, ["demo", "--out", str(odd)])
+    assert done.exit_code == 0, done.output
+    assert "[/x]" in done.output and (odd / "base" / "scene.json").is_file()
+    missing = runner.invoke(app, ["inspect", str(tmp_path / "no[/such]")])
+    assert missing.exit_code == 2 and "[/such]" in missing.output
+
+
+def test_an_output_folder_that_cannot_be_written_is_a_usage_error(tmp_path: Path) -> None:
+    a_file = tmp_path / "a_file"
+    a_file.write_text("not a folder", encoding="utf-8")
+    done = runner.invoke(app, ["generate", str(ROOM), "--out", str(a_file / "out")])
+    assert done.exit_code == 2, done.output
+    assert "cannot write the output folder" in done.output and "Traceback" not in done.output
+    assert a_file.read_text(encoding="utf-8") == "not a folder"
