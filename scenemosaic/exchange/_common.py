@@ -30,12 +30,22 @@ def read_json(path: Path) -> Any:
         raise ImportFormatError(f"not UTF-8 text ({exc.reason})", path=str(path)) from exc
     except OSError as exc:
         raise ImportFormatError(f"cannot read: {exc.strerror}", path=str(path)) from exc
+    return parse_json(text, path)
+
+
+def parse_json(text: str, path: Path) -> Any:
+    """Parse JSON text read from ``path``: malformed text, nesting deeper than Python can follow
+    and numbers too long to convert raise ``ImportFormatError`` naming the file."""
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:
         raise ImportFormatError(
             f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", path=str(path)
         ) from exc
+    except RecursionError as exc:
+        raise ImportFormatError("the JSON is nested too deeply to read", path=str(path)) from exc
+    except ValueError as exc:  # an integer literal beyond the interpreter's digit limit
+        raise ImportFormatError(f"the JSON holds a number too long to read ({exc})", path=str(path)) from exc
 
 
 class FieldReader:

@@ -36,7 +36,7 @@ from pydantic import ValidationError
 
 from scenemosaic.assets import referenced_files
 from scenemosaic.exceptions import AssetError, ImportFormatError, SceneValidationError, UnsafePathError
-from scenemosaic.exchange._common import FieldReader
+from scenemosaic.exchange._common import FieldReader, read_json
 from scenemosaic.scene import (
     House,
     Provenance,
@@ -120,14 +120,7 @@ def read_scene(
     if not file.is_file():
         where = f"no {SCENE_FILE} in folder" if p.is_dir() else "file not found"
         raise ImportFormatError(where, path=str(p))
-    try:
-        data = json.loads(file.read_text(encoding="utf-8"))
-    except UnicodeDecodeError as exc:
-        raise ImportFormatError(f"not UTF-8 text ({exc.reason})", path=str(file)) from exc
-    except json.JSONDecodeError as exc:
-        raise ImportFormatError(
-            f"invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", path=str(file)
-        ) from exc
+    data = read_json(file)
     return scene_from_data(data, source=str(file), roots=roots)
 
 
@@ -281,12 +274,7 @@ def read_house(path: str | os.PathLike[str]) -> House:
     p = Path(path)
     file = p / RunFolder.HOUSE_FILE if p.is_dir() else p
     r = FieldReader(file)
-    try:
-        data = json.loads(file.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ImportFormatError(f"cannot read the house index: {exc.strerror or exc}", path=str(file)) from exc
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ImportFormatError(f"the house index is not JSON: {exc}", path=str(file)) from exc
+    data = read_json(file)
     top = r.mapping(data, "")
     if top.get("format") != HOUSE_FORMAT:
         r.fail("format", f"expected {HOUSE_FORMAT!r}, got {top.get('format')!r}")

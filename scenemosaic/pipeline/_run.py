@@ -69,6 +69,13 @@ def _prepare_folders(input_path: Path, folder: RunFolder, config: GenerateConfig
     out = folder.root
     if not input_path.exists() and config.prompt is None:
         raise UsageError(f"input not found: {input_path}")
+    if config.prompt is None:  # a prompt's image lives in OUT by design
+        src, dst = input_path.resolve(), out.resolve()
+        written = [p.resolve() for p in folder.outputs()]
+        if src == dst or any(src == w or w in src.parents for w in written):
+            raise UsageError(f"the input {input_path} lies in what the run writes in --out {out} (it would remove it); choose another folder")
+        if input_path.is_dir() and src in dst.parents:
+            raise UsageError(f"--out {out} lies inside the input folder {input_path}; choose a folder outside it")
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out} exists and is not a folder")
     if out.is_dir() and any(out.iterdir()):

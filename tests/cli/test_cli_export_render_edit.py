@@ -87,7 +87,7 @@ def test_edit_beyond_the_scene_limits_is_a_refused_expression(run_dir: Path, tmp
     out = tmp_path / "far"
     done = runner.invoke(app, ["edit", str(run_dir / "base"), "armchair_0.center.u = 5000", "--out", str(out)])
     assert done.exit_code == 2, done.output
-    assert "beyond its limits" in done.output and "Traceback" not in done.output
+    assert "beyond its limits" in " ".join(done.output.split()) and "Traceback" not in done.output
     assert not out.exists()
     with pytest.raises(ExpressionError, match="beyond its limits"):
         read_scene(run_dir / "base").edit("armchair_0.center.u = 5000")
@@ -108,5 +108,16 @@ def test_an_output_folder_that_cannot_be_written_is_a_usage_error(tmp_path: Path
     a_file.write_text("not a folder", encoding="utf-8")
     done = runner.invoke(app, ["generate", str(ROOM), "--out", str(a_file / "out")])
     assert done.exit_code == 2, done.output
-    assert "cannot write the output folder" in done.output and "Traceback" not in done.output
+    assert "cannot write the output folder" in " ".join(done.output.split()) and "Traceback" not in done.output
     assert a_file.read_text(encoding="utf-8") == "not a folder"
+
+
+def test_an_output_folder_holding_the_input_is_refused_and_the_input_kept(run_dir: Path, tmp_path: Path) -> None:
+    """``generate OUT/base --out OUT --overwrite`` would delete its own input before reading it."""
+    before = (run_dir / "base" / "scene.json").read_bytes()
+    done = runner.invoke(app, ["generate", str(run_dir / "base"), "--out", str(run_dir), "--overwrite"])
+    assert done.exit_code == 2 and "lies in what the run writes" in " ".join(done.output.split()), done.output
+    assert (run_dir / "base" / "scene.json").read_bytes() == before
+    inner = runner.invoke(app, ["generate", str(run_dir / "base"), "--out", str(run_dir / "base" / "again")])
+    assert inner.exit_code == 2 and "inside the input folder" in " ".join(inner.output.split()), inner.output
+    assert not (run_dir / "base" / "again").exists()

@@ -164,3 +164,22 @@ def test_native_non_unit_quaternion_is_normalized_with_a_warning(tmp_path: Path)
     assert scene.get("chair_1").pose.quaternion == pytest.approx((0.0, 0.0, 0.0, 1.0))
     warned = [e for e in logs if e["event"] == "quaternion_normalized"]
     assert len(warned) == 1 and warned[0]["log_level"] == "warning" and warned[0]["norm"] == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[" * 5000 + "]" * 5000, "nested too deeply"),
+        ('{"objects": [{"id": "a", "size": ' + "9" * 5000 + "}]}", "number too long"),
+    ],
+    ids=["deep", "huge-integer"],
+)
+def test_json_beyond_what_python_parses_is_a_format_error(tmp_path: Path, text: str, message: str) -> None:
+    """Nesting past the recursion limit and integers past the digit limit name the file: a bad
+    input (exit 2 from the CLI), not a crash."""
+    for path in (tmp_path / "room.json", tmp_path / "native" / "scene.json"):
+        path.parent.mkdir(exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+        with pytest.raises(ImportFormatError, match=message) as info:
+            load_scene(path.parent if path.name == "scene.json" else path)
+        assert str(path.name) in str(info.value)
