@@ -24,10 +24,10 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict
 
 from scenemosaic.dag import StoredOutput, output_hash
-from scenemosaic.exceptions import UsageError
+from scenemosaic.exceptions import UnsafePathError, UsageError
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record, deciding_settings
 from scenemosaic.pipeline._state import PipelineRun, StageRecord
-from scenemosaic.scene import Pose, RunFolder, Scene, write_atomic
+from scenemosaic.scene import Pose, RunFolder, Scene, confined_path, write_atomic
 
 __all__ = [
     "RunCheckpoint",
@@ -141,6 +141,7 @@ def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:
     if stored is None:
         return set()
     state: RunCheckpoint = stored.output
+    _check_confined(state, run)
     run.scene = state.scene
     run.records = [StageRecord(**r) for r in state.records]
     run.layouts = (
@@ -153,6 +154,22 @@ def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:
     run.warnings = list(state.warnings)
     run.fallbacks = [FallbackRecord(**f) for f in state.fallbacks]
     return {r.name for r in run.records}
+
+
+def _check_confined(state: RunCheckpoint, run: PipelineRun) -> None:
+    """Every mesh a checkpoint names lies where an import would have allowed it (the input's
+    folder): a checkpoint is a file on disk like any input, and resuming must not copy a file
+    from elsewhere into the delivered folders."""
+    for scene in (state.scene, *state.variants):
+        for obj in scene.objects if scene is not None else []:
+            if obj.asset.kind == "mesh" and obj.asset.uri is not None:
+                try:
+                    confined_path(run.base_dir, obj.asset.uri)
+                except UnsafePathError as exc:
+                    raise UsageError(
+                        f"cannot resume {run.out_dir}: its checkpoint names a mesh outside the input's folder "
+                        f"({obj.id}: {exc}); run it again without --resume"
+                    ) from exc
 
 
 def checkpoint_config(out_dir: str | Path) -> tuple[Path, GenerateConfig]:

@@ -50,3 +50,32 @@ def test_resume_refuses_an_input_that_changed(tmp_path: Path) -> None:
     room.write_text(room.read_text().replace("}", " }", 1))  # the same path, other bytes
     with pytest.raises(UsageError, match="changed since the stopped run"):
         generate(room, tmp_path / "out", GenerateConfig(resume=True))
+
+
+def test_resume_refuses_a_checkpoint_naming_a_mesh_outside_the_input(tmp_path: Path) -> None:
+    """A checkpoint is a file on disk like any input: one whose scene names a mesh outside the
+    input's folder (tampered with) is refused, and nothing is copied from there."""
+    from scenemosaic.dag import FileRunStore
+    from scenemosaic.pipeline import PipelineRun
+    from scenemosaic.pipeline._checkpoint import input_digest, load_checkpoint, save_checkpoint
+    from scenemosaic.scene import AssetRef
+
+    room = tmp_path / "in" / "room.json"
+    room.parent.mkdir()
+    shutil.copy(ROOM, room)
+    outside = tmp_path / "secret.obj"
+    outside.write_text("v 0 0 0\n", encoding="utf-8")
+    out = RunFolder(tmp_path / "out")
+    with pytest.raises(_Stop):
+        generate(room, out.root, GenerateConfig(), on_stage=_stop_before("structure"))
+    config = GenerateConfig(resume=True)
+    run = PipelineRun(input_path=room, folder=out, config=config, base_dir=room.parent)
+    run.store = FileRunStore(out.checkpoint)
+    digest = input_digest(room, config)
+    assert load_checkpoint(run, digest) and run.scene is not None  # the honest checkpoint resumes
+    first = run.scene.objects[0]
+    first.asset = AssetRef(kind="mesh", uri=str(outside), extents=first.asset.extents)
+    save_checkpoint(run, digest)  # tampered: the scene now names a file outside the input's folder
+    with pytest.raises(UsageError, match="names a mesh outside the input's folder"):
+        generate(room, out.root, config)
+    assert not any(p.name == "secret.obj" for p in out.root.rglob("*"))
