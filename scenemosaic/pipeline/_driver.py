@@ -13,9 +13,21 @@ from scenemosaic.pipeline._checkpoint import save_checkpoint
 from scenemosaic.pipeline._stages import STAGES
 from scenemosaic.pipeline._state import PipelineRun, Stage, StageCallback, StageRecord
 
-__all__ = ["run_stages"]
+__all__ = ["as_interruption", "run_stages"]
 
 log = structlog.get_logger(__name__)
+
+
+def as_interruption(exc: BaseException) -> BaseException:
+    """``exc``, or a ``CancelledError`` when the run itself is being cancelled (a signal, a batch
+    time-out): a stage's task graph turns the cancel it received into a ``RunCancelledError``
+    carrying its partial results, but for the run it is an interruption, not a failure."""
+    task = asyncio.current_task()
+    if not isinstance(exc, asyncio.CancelledError) and task is not None and task.cancelling():
+        interrupted = asyncio.CancelledError()
+        interrupted.__cause__ = exc
+        return interrupted
+    return exc
 
 
 async def run_stages(
@@ -45,13 +57,17 @@ async def run_stages(
         bound.info("stage_started")
         try:
             await stage.run(run, rec)
-        except (Exception, asyncio.CancelledError) as exc:
+        except (Exception, asyncio.CancelledError) as raised:
+            exc = as_interruption(raised)
             rec.seconds = time.perf_counter() - t0
             interrupted = isinstance(exc, asyncio.CancelledError)
             rec.status = "interrupted" if interrupted else "failed"
             rec.detail["error"] = "interrupted" if interrupted else f"{type(exc).__name__}: {exc}"
             _record_usage(run, rec)
-            bound.error("stage_failed", error=str(exc) or type(exc).__name__, error_type=type(exc).__name__)
+            if interrupted:  # a stop the user asked for, not a crash
+                bound.warning("stage_interrupted")
+            else:
+                bound.error("stage_failed", error=str(exc) or type(exc).__name__, error_type=type(exc).__name__)
             if on_stage:
                 on_stage(name, "failed")
             return exc

@@ -48,7 +48,7 @@ from scenemosaic.pipeline._checkpoint import (
     write_json,
 )
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record
-from scenemosaic.pipeline._driver import run_stages
+from scenemosaic.pipeline._driver import as_interruption, run_stages
 from scenemosaic.pipeline._result import GenerateResult
 from scenemosaic.pipeline._stages import HOUSE_ROOM_STAGES
 from scenemosaic.pipeline._state import PipelineRun, StageCallback, StageRecord, open_model
@@ -263,7 +263,8 @@ async def agenerate_house(
             t0 = time.perf_counter()
             try:
                 await body(run, rec)
-            except (Exception, asyncio.CancelledError) as exc:
+            except (Exception, asyncio.CancelledError) as raised:
+                exc = as_interruption(raised)
                 rec.seconds = time.perf_counter() - t0
                 rec.status = "interrupted" if isinstance(exc, asyncio.CancelledError) else "failed"
                 rec.detail["error"] = "interrupted" if rec.status == "interrupted" else f"{type(exc).__name__}: {exc}"
