@@ -18,13 +18,14 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
+import fcntl
 import os
 import shutil
 import time
 import traceback
 from collections.abc import Coroutine, Iterator
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import IO, Any, TypeVar
 
 import structlog
 
@@ -67,18 +68,9 @@ def _prepare_folders(input_path: Path, folder: RunFolder, config: GenerateConfig
     leaves an old ``base/`` beside its new report.
     """
     out = folder.root
-    if not input_path.exists() and config.prompt is None:
-        raise UsageError(f"input not found: {input_path}")
-    if config.prompt is None:  # a prompt's image lives in OUT by design
-        src, dst = input_path.resolve(), out.resolve()
-        written = [p.resolve() for p in folder.outputs()]
-        if src == dst or any(src == w or w in src.parents for w in written):
-            raise UsageError(f"the input {input_path} lies in what the run writes in --out {out} (it would remove it); choose another folder")
-        if input_path.is_dir() and src in dst.parents:
-            raise UsageError(f"--out {out} lies inside the input folder {input_path}; choose a folder outside it")
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out} exists and is not a folder")
-    if out.is_dir() and any(out.iterdir()):
+    if out.is_dir() and any(p.name != RunFolder.LOCK for p in out.iterdir()):
         previous = previous_input(folder)
         same = previous is not None and Path(previous).resolve() == input_path.resolve()
         if not same and not config.overwrite:
@@ -192,6 +184,52 @@ async def agenerate(
     check_config(config)
     folder = RunFolder(out_dir)
     input_path = _input_of(input_path, folder, config)
+    await asyncio.to_thread(_check_paths, input_path, folder, config)
+    lock = await asyncio.to_thread(_hold_lock, folder)
+    try:
+        return await _agenerate_locked(input_path, folder, config, on_stage)
+    finally:
+        lock.close()  # releases the lock
+
+
+def _check_paths(input_path: Path, folder: RunFolder, config: GenerateConfig) -> None:
+    """The input exists, and neither it nor the output folder lies where the other would be harmed:
+    an input inside what the run writes would be removed first; an output folder inside an input
+    folder would be read back as input."""
+    out = folder.root
+    if not input_path.exists() and config.prompt is None:
+        raise UsageError(f"input not found: {input_path}")
+    if config.prompt is None:  # a prompt's image lives in OUT by design
+        src, dst = input_path.resolve(), out.resolve()
+        written = [p.resolve() for p in folder.outputs()]
+        if src == dst or any(src == w or w in src.parents for w in written):
+            raise UsageError(f"the input {input_path} lies in what the run writes in --out {out} (it would remove it); choose another folder")
+        if input_path.is_dir() and src in dst.parents:
+            raise UsageError(f"--out {out} lies inside the input folder {input_path}; choose a folder outside it")
+
+
+def _hold_lock(folder: RunFolder) -> IO[str]:
+    """Take the output folder's lock (``OUT/.lock``, ``flock``) for the run; refuses a folder
+    another run is writing into, or one that cannot be made."""
+    out = folder.root
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out {out} exists and is not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        handle = folder.lock.open("a", encoding="utf-8")
+    except OSError as exc:  # under a file, read-only, no permission: the user's to fix, not a crash
+        raise UsageError(f"cannot write the output folder {out}: {exc.strerror or exc}") from exc
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        handle.close()
+        raise UsageError(f"another run is writing into {out}; wait for it to end, or choose another folder") from None
+    return handle
+
+
+async def _agenerate_locked(
+    input_path: Path, folder: RunFolder, config: GenerateConfig, on_stage: StageCallback | None
+) -> GenerateResult:
     base_dir = await asyncio.to_thread(_prepare_folders, input_path, folder, config)
     if await asyncio.to_thread(is_house_input, input_path, config):  # every room at once (docs/houses.md)
         return await agenerate_house(input_path, folder, config, base_dir, on_stage)

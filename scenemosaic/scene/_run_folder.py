@@ -10,6 +10,7 @@ Layout (``docs/architecture.md`` draws it)::
     OUT/perception/            what perception saw in a photograph input
     OUT/prompt.png (+ .json)   the image a text prompt was drawn into
     OUT/.checkpoint/           the run's resumable state (one run store: stages and agents)
+    OUT/.lock                  held by the run writing here: a second run on the folder is refused
     OUT/rooms/<room>/          a house run: each room's own work (checkpoint, evolve/), a run folder
 
 A house run's ``base/`` and ``variant_<i>/`` each hold a whole house: ``house_scene.json`` (the
@@ -61,6 +62,8 @@ class RunFolder:
     """The base scene and its variants side by side."""
     PROMPT_IMAGE = "prompt.png"
     """The image a text prompt is drawn into (``prompt.json`` beside it says from what)."""
+    LOCK = ".lock"
+    """Held (``flock``) by the run writing into the folder: a second run there is refused."""
     CHECKPOINT = ".checkpoint"
     """The run's resumable state."""
     RUN_RECORD = "run.json"
@@ -143,6 +146,11 @@ class RunFolder:
     def holds_house(cls, folder: Path) -> bool:
         """Whether a delivered folder holds a whole house (``house_scene.json``)."""
         return (folder / cls.HOUSE_FILE).is_file()
+
+    @property
+    def lock(self) -> Path:
+        """``.lock``: the lock the writing run holds."""
+        return self.root / self.LOCK
 
     @property
     def checkpoint(self) -> Path:

@@ -121,3 +121,24 @@ def test_an_output_folder_holding_the_input_is_refused_and_the_input_kept(run_di
     inner = runner.invoke(app, ["generate", str(run_dir / "base"), "--out", str(run_dir / "base" / "again")])
     assert inner.exit_code == 2 and "inside the input folder" in " ".join(inner.output.split()), inner.output
     assert not (run_dir / "base" / "again").exists()
+
+
+def test_a_second_run_on_a_folder_being_written_is_refused(tmp_path: Path) -> None:
+    """A run holds ``OUT/.lock``; another run on the same folder is refused at once and removes
+    nothing of the first's."""
+    import fcntl
+
+    from scenemosaic.scene import RunFolder
+
+    out = RunFolder(tmp_path / "out")
+    out.root.mkdir()
+    (out.root / "base").mkdir()
+    (out.root / "base" / "keep.txt").write_text("the first run's", encoding="utf-8")
+    with out.lock.open("a", encoding="utf-8") as held:
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)  # as the first run holds it
+        done = runner.invoke(app, ["generate", str(ROOM), "--out", str(out.root), "--overwrite"])
+        assert done.exit_code == 2 and "another run is writing into" in " ".join(done.output.split()), done.output
+        assert (out.root / "base" / "keep.txt").is_file()
+    released = runner.invoke(app, ["generate", str(ROOM), "--out", str(out.root), "--overwrite", "--no-evolve"])
+    assert released.exit_code == 0, released.output
+    assert (out.root / "base" / "scene.json").is_file()
