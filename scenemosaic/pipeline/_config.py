@@ -104,6 +104,17 @@ def _problems(error: ValidationError) -> list[tuple[str | None, str]]:
     return out
 
 
+def _priors(value: Path | None) -> Path | None:
+    """A priors folder must be usable now: a configuration error fails before the run starts."""
+    if value is not None:
+        from scenemosaic.scene import priors_problem
+
+        problem = priors_problem(value)
+        if problem is not None:
+            raise ValueError(f"not a usable priors folder ({problem[:200]})")
+    return value
+
+
 def _segmenter(value: Any) -> Any:
     if isinstance(value, str):
         return value
@@ -197,7 +208,10 @@ class GenerateConfig(BaseModel):
     ] = None
     """Folder of asset meshes a SceneEval input names by ``assetId`` (default: ``assets/`` beside it)."""
     priors_dir: Annotated[
-        Path | None, Field(strict=False), Setting("input", recorded=True, path=True, flag="--priors")
+        Path | None,
+        Field(strict=False),
+        AfterValidator(_priors),
+        Setting("input", recorded=True, path=True, flag="--priors"),
     ] = None
     """ProcTHOR priors folder (receptacles, placement annotations, asset groups) replacing the
     priors shipped with the package."""

@@ -20,6 +20,7 @@ from scenemosaic.scene._categories import (
     is_known,
     load_priors,
     normalize_category,
+    priors_problem,
     thor_type,
     traits,
 )
@@ -259,6 +260,7 @@ __all__ = [
     "normalize_degrees",
     "object_count_problem",
     "pack_surface",
+    "priors_problem",
     "quat_from_matrix",
     "quat_from_yaw",
     "quat_multiply",

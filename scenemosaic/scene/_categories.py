@@ -30,6 +30,7 @@ __all__ = [
     "SupportPriors",
     "load_priors",
     "normalize_category",
+    "priors_problem",
     "thor_type",
     "traits",
 ]
@@ -424,6 +425,17 @@ def _load_dir(folder: str) -> SupportPriors:
         pickupable=flagged("isPickupable"),
         source=str(base),
     )
+
+
+def priors_problem(folder: str | Path) -> str | None:
+    """Why ``folder`` cannot serve as a priors folder (no such folder, the two files missing,
+    unreadable or broken JSON), or ``None`` when it can: what a ``--priors`` setting is checked
+    with before a run starts."""
+    try:
+        _load_dir(str(Path(folder).resolve()))
+    except (OSError, ValueError, AttributeError, KeyError, TypeError) as exc:
+        return f"{type(exc).__name__}: {exc}"
+    return None
 
 
 def load_priors(folder: str | Path | None = None) -> SupportPriors:

@@ -129,3 +129,19 @@ def test_docs_list_every_setting_with_its_group_and_flag() -> None:
         assert cells[2] == ("yes" if setting.decides else "recorded" if setting.recorded else ""), name
         assert cells[3] == (f"`{setting.flag}`" if setting.flag else "—"), name
         assert cells[4] == ("—" if setting.no_manifest else "yes"), name
+
+
+def test_an_unusable_priors_folder_fails_before_the_run(tmp_path: Path) -> None:
+    """A ``--priors`` folder without the priors (or with broken ones) is a configuration error at
+    once, not a silent fall back to the shipped priors with status ``ok``."""
+    from scenemosaic.scene import PROCTHOR_PRIORS_DIR
+
+    with pytest.raises(SettingsError, match="not a usable priors folder"):
+        GenerateConfig(priors_dir=tmp_path / "missing")
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    for name in ("receptacles.json", "placement-annotations.json"):
+        (broken / name).write_text("{not json", encoding="utf-8")
+    with pytest.raises(SettingsError, match="priors_dir"):
+        GenerateConfig(priors_dir=broken)
+    assert GenerateConfig(priors_dir=PROCTHOR_PRIORS_DIR).priors_dir == PROCTHOR_PRIORS_DIR
