@@ -22,6 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from scenemosaic.exceptions import ImportFormatError
 from scenemosaic.pipeline import SETTINGS, GenerateConfig, SettingsError
+from scenemosaic.scene import sanitize_id as scene_sanitize_id
 
 __all__ = [
     "JOB_SETTINGS",
@@ -210,10 +211,14 @@ _UNSAFE_ID = re.compile(r"[^A-Za-z0-9._-]+")
 def sanitize_id(text: str) -> str:
     """A job id that is safe as one folder name on every platform.
 
-    Runs of characters other than ASCII letters, digits, ``.``, ``_`` and ``-`` become one
-    ``_``; leading and trailing ``.``, ``_`` and ``-`` are dropped (no hidden folders, no
-    ``..``); the result is cut to 100 characters and is ``job`` when nothing is left.
-    """
+    Text beyond ASCII first goes through the scene's id sanitization
+    (:func:`scenemosaic.scene.sanitize_id`: accents dropped, other scripts replaced and a short
+    hash of the text appended, so ``椅子`` and ``桌子`` stay two jobs). Then runs of characters
+    other than ASCII letters, digits, ``.``, ``_`` and ``-`` become one ``_``; leading and
+    trailing ``.``, ``_`` and ``-`` are dropped (no hidden folders, no ``..``); the result is
+    cut to 100 characters and is ``job`` when nothing is left."""
+    if not text.isascii():  # other scripts: transliterated, or a hash keeps them apart
+        text = scene_sanitize_id(text, fallback="job")
     cleaned = _UNSAFE_ID.sub("_", text).strip("._-")[:_MAX_ID_LENGTH].rstrip("._-")
     return cleaned or "job"
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import sys
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,7 @@ from scenemosaic.batch import (
 from scenemosaic.cli import app
 from scenemosaic.exceptions import ImportFormatError, MissingExtraError, UsageError
 from scenemosaic.pipeline import SETTINGS, GenerateConfig
+from scenemosaic.scene import PROCTHOR_PRIORS_DIR
 
 
 def _manifest(tmp_path: Path, *lines: str) -> Path:
@@ -139,6 +141,7 @@ def test_a_line_carries_every_generate_setting(tmp_path: Path) -> None:
     """A manifest line may set every setting in JOB_SETTINGS (the prompt too, instead of an
     input); each reaches the job's GenerateConfig, paths taken relative to the manifest."""
     folder = tmp_path / "lists"
+    shutil.copytree(PROCTHOR_PRIORS_DIR, tmp_path / "priors")  # a usable priors folder
     line: dict[str, Any] = {
         "format": "image", "room": "room|3", "asset_dir": "assets", "priors_dir": "../priors",
         "detections": "boxes.json", "segmenter": "grabcut", "reconstructor": "box-lifter", "hfov_deg": 55.0,
@@ -236,3 +239,12 @@ def test_a_photograph_job_with_its_detections(tmp_path: Path) -> None:
     assert config.detections == (photos / "boxes.json").resolve()
     assert (config.segmenter, config.reconstructor, config.hfov_deg) == ("grabcut", "box-lifter", 60)
     _raises_on_line(_manifest(tmp_path, json.dumps({**line, "hfov_deg": 300})), 1)
+
+
+def test_ids_in_other_scripts_stay_distinct() -> None:
+    """Two jobs named in a script without Latin letters do not both become ``job`` (and collide)."""
+    from scenemosaic.batch._manifest import sanitize_id
+
+    ids = [sanitize_id(t) for t in ("卧室", "厨房", "Кухня", "café")]
+    assert len(set(ids)) == 4 and ids[3] == "cafe"
+    assert all(i and not i.startswith(".") and "/" not in i for i in ids)
