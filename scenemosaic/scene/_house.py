@@ -100,6 +100,7 @@ class House(_Model):
 
     @property
     def room_ids(self) -> list[str]:
+        """The rooms' ids, in the house's order."""
         return [s.id for s in self.rooms]
 
     def room(self, room_id: str) -> Scene:
@@ -206,10 +207,12 @@ class Doorway:
 
     @property
     def rooms(self) -> tuple[str, ...]:
+        """The ids of the rooms it joins (one: a door to the outside)."""
         return tuple(s.room_id for s in self.sides)
 
     @property
     def leads_outside(self) -> bool:
+        """Whether it opens from one room to the outside."""
         return len(self.sides) == 1
 
     def passage(self) -> Polygon:
