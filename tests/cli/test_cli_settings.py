@@ -3,6 +3,7 @@ says why not, every flag reaches its field, and a bad value is named by its flag
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +14,7 @@ from typer.testing import CliRunner
 from scenemosaic import cli
 from scenemosaic.cli import app
 from scenemosaic.pipeline import SETTINGS, GenerateConfig
+from scenemosaic.scene import PROCTHOR_PRIORS_DIR
 
 runner = CliRunner()
 
@@ -51,6 +53,7 @@ def _capture(monkeypatch: pytest.MonkeyPatch) -> list[tuple[Path | None, Path, G
 
 def test_every_flag_reaches_its_setting(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """One run with every flag set away from its default (but --resume, which takes a stopped run's folder)."""
+    shutil.copytree(PROCTHOR_PRIORS_DIR, tmp_path / "priors")  # --priors must name usable priors
     values: dict[str, tuple[list[str], Any]] = {
         "format": (["image"], "image"),
         "room": (["room|3"], "room|3"),
