@@ -61,12 +61,17 @@ def scene_world(
     """
     builder = WorldBuilder(sim or SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
     builder.add_room(scene.room)
+    _add_objects(builder, scene, shapes)
+    return builder
+
+
+def _add_objects(builder: WorldBuilder, scene: Scene, shapes: Mapping[str, ObjectShape]) -> None:
+    """Every object of ``scene``: welded when :func:`is_fixed`, else on a free joint."""
     for o in scene.objects:
         if is_fixed(scene, o):
             builder.add_static(o, shapes[o.id])
         else:
             builder.add_dynamic(o, shapes[o.id], mode="free")
-    return builder
 
 
 def house_world(
@@ -80,11 +85,7 @@ def house_world(
     builder = WorldBuilder(sim or SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
     builder.add_slabs(house_slabs(house))
     for scene in house.rooms:
-        for o in scene.objects:
-            if is_fixed(scene, o):
-                builder.add_static(o, shapes[o.id])
-            else:
-                builder.add_dynamic(o, shapes[o.id], mode="free")
+        _add_objects(builder, scene, shapes)
     return builder
 
 

@@ -230,6 +230,8 @@ class HouseRun:
     validation: dict[str, Any] | None = None
     metrics: dict[str, Any] | None = None
     room_validation: dict[str, dict[str, Any]] = field(default_factory=dict)
+    variant_checks: list[dict[str, Any]] = field(default_factory=list)
+    """The house checks of each variant, as compose measured them (evaluate reports them)."""
     context: PipelineRun | None = None
     """The hull cache, shapes and model stack shared by the house-level stages."""
     workers: _Workers | None = None
@@ -410,6 +412,7 @@ async def _stage_compose(run: HouseRun, rec: StageRecord) -> None:
             cols += len((await asyncio.to_thread(check_collisions, s, run.base_dir, hull_cache=ctx.cache())).pairs)
             oob += len((await asyncio.to_thread(functools.partial(check_out_of_bounds, s, shapes=shapes))).objects)
         checks = await asyncio.to_thread(_house_checks, house)
+        run.variant_checks.append(checks)
         checked.append({"folder": name, "collision_pairs": cols, "out_of_bounds": oob, **checks})
         problems = _checks_fail(checks) + ([f"{cols} colliding pair(s), {oob} object(s) out of bounds"] if cols or oob else [])
         if problems:
@@ -462,11 +465,10 @@ async def _stage_evaluate(run: HouseRun, rec: StageRecord) -> None:
         rooms[scene.id] = await asyncio.to_thread(measure)
 
     def house_figures() -> dict[str, Any]:
-        base = _house_checks(run.house)
+        base = run.validation or _house_checks(run.house)  # validate measured the base
         out: dict[str, Any] = {"base": {k: base[k] for k in ("house_nav", "unreachable_rooms", "door_blockers", "wall_crossings")}}
         out["variants"] = []
-        for v in run.variants:
-            checks = _house_checks(v)
+        for v, checks in zip(run.variants, run.variant_checks, strict=True):
             keep = [relkeep(b, s) for b, s in zip(run.house.rooms, v.rooms, strict=True)]
             out["variants"].append(
                 {

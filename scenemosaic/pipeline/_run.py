@@ -19,7 +19,6 @@ import asyncio
 import concurrent.futures
 import contextlib
 import fcntl
-import os
 import shutil
 import time
 import traceback
@@ -67,10 +66,8 @@ def _prepare_folders(input_path: Path, folder: RunFolder, config: GenerateConfig
     the same input (not resumed) first removes the previous results, so a failing re-run never
     leaves an old ``base/`` beside its new report.
     """
-    out = folder.root
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {out} exists and is not a folder")
-    if out.is_dir() and any(p.name != RunFolder.LOCK for p in out.iterdir()):
+    out = folder.root  # made, and shown writable, by taking its lock (_hold_lock)
+    if any(p.name != RunFolder.LOCK for p in out.iterdir()):
         previous = previous_input(folder)
         same = previous is not None and Path(previous).resolve() == input_path.resolve()
         if not same and not config.overwrite:
@@ -85,13 +82,6 @@ def _prepare_folders(input_path: Path, folder: RunFolder, config: GenerateConfig
                     shutil.rmtree(target)
                 elif target.exists():
                     target.unlink()
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / f".write-test-{os.getpid()}"
-        probe.touch()
-        probe.unlink()
-    except OSError as exc:  # under a file, read-only, no permission: the user's to fix, not a crash
-        raise UsageError(f"cannot write the output folder {out}: {exc.strerror or exc}") from exc
     return input_path if input_path.is_dir() else input_path.parent
 
 
