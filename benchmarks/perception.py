@@ -1,7 +1,9 @@
 """The image front end on the shipped renders (``data/images/``): time and accuracy.
 
-Per fixture: the time to segment every boxed object with GrabCut, the box lifter's fit, and the
-lift error against the truth (bottom centres, XY, the true camera pose); then one whole
+Per fixture: the time to segment every boxed object with GrabCut, the box lifter's fit, and how
+close it lands with the true boxes (``score_against_truth``: position and heading per object,
+camera height and tilt), per render and pooled (all, the varied renders, the renders used in
+tuning and those held out of it), with a markdown table; then one whole
 ``generate photo.png --detections ... --variants 2`` of the demo render. Last line: one JSON
 object of named figures.
 
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import math
 import tempfile
 import time
 from pathlib import Path
@@ -19,15 +22,54 @@ from pathlib import Path
 import numpy as np
 
 from scenemosaic.models import RulesModel
-from scenemosaic.perception import BoxLifter, GrabCutSegmenter, load_image, perceive, read_detections
+from scenemosaic.perception import (
+    BoxLifter,
+    GrabCutSegmenter,
+    PerceptionResult,
+    TruthScore,
+    load_image,
+    perceive,
+    read_detections,
+    score_against_truth,
+)
 from scenemosaic.pipeline import GenerateConfig, generate
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "images"
 
 
+HELD_OUT = ("v_33922_", "v_1344_")
+"""Renders kept out of the lifter's tuning (issue 27): their figures are reported apart."""
+
+
+def _pooled(scores: list[TruthScore]) -> dict[str, float | int]:
+    pooled = TruthScore([o for s in scores for o in s.objects], 0.0, 0.0, 0.0).figures()
+    lamps = [o.position_error_m for s in scores for o in s.objects if o.placement == "ceiling"]
+    return {
+        **{k: v for k, v in pooled.items() if not k.startswith(("camera", "tilt"))},
+        "views": len(scores),
+        "camera_height_abs_error_max_m": round(max(abs(s.camera_height_error_m) for s in scores), 3),
+        "camera_height_within_0_1m": round(float(np.mean([abs(s.camera_height_error_m) <= 0.1 for s in scores])), 3),
+        "tilt_max_deg": round(max(s.tilt_deg for s in scores), 2),
+        "tilt_within_2deg": round(float(np.mean([s.tilt_deg <= 2.0 for s in scores])), 3),
+        "ceiling_objects": len(lamps),
+        "ceiling_within_0_5m": round(float(np.mean(np.array(lamps) <= 0.5)), 3) if lamps else math.nan,
+    }
+
+
+def score_fixture(folder: Path, reconstructor: object = "box-lifter") -> tuple[TruthScore, PerceptionResult]:
+    """One render through the offline path with its true boxes (the box as the mask), scored."""
+    truth = json.loads((folder / "truth.json").read_text())
+    result = asyncio.run(
+        perceive(folder / "photo.png", RulesModel(), detections=folder / "boxes.json", segmenter="box", reconstructor=reconstructor)  # type: ignore[arg-type]
+    )
+    boxes = {o.id: o.box for o in result.inventory}
+    return score_against_truth(result.reconstruction, truth, float(result.report["camera_height_m"]), boxes), result
+
+
 def main() -> None:
     figures: dict[str, float | int | str] = {}
     errors_all: list[float] = []
+    scores: dict[str, TruthScore] = {}
     for folder in sorted(p for p in DATA.iterdir() if (p / "truth.json").is_file()):
         name = folder.name
         truth = json.loads((folder / "truth.json").read_text())
@@ -38,22 +80,40 @@ def main() -> None:
         for d in boxes:
             seg.segment(image, d.label, d.box)
         figures[f"{name}_grabcut_s_per_object"] = round((time.perf_counter() - t0) / len(boxes), 4)
-        result = asyncio.run(
-            perceive(folder / "photo.png", RulesModel(), detections=folder / "boxes.json", segmenter="box", reconstructor=BoxLifter())
-        )
-        t0 = time.perf_counter()  # again, now that the size priors are loaded
-        asyncio.run(perceive(folder / "photo.png", RulesModel(), detections=folder / "boxes.json", segmenter="box", reconstructor="box-lifter"))
+        score_fixture(folder, BoxLifter())  # loads the size priors
+        t0 = time.perf_counter()
+        score, result = score_fixture(folder)
         figures[f"{name}_perceive_box_lifter_s"] = round(time.perf_counter() - t0, 3)
-        pose = np.array(truth["camera"]["world_from_camera"]).reshape(4, 4)
-        true_pos = {o["id"]: np.array(o["position"][:2]) for o in truth["objects"]}
-        errs = [float(np.linalg.norm((pose[:3, :3] @ o.position + pose[:3, 3])[:2] - true_pos[o.id])) for o in result.reconstruction.objects]
-        errors_all += errs
-        figures[f"{name}_objects"] = len(errs)
-        figures[f"{name}_lift_error_median_m"] = round(float(np.median(errs)), 3)
-        figures[f"{name}_lift_error_max_m"] = round(float(np.max(errs)), 3)
-        figures[f"{name}_camera_height_error_m"] = round(abs(float(result.report["camera_height_m"]) - truth["camera"]["position"][2]), 3)
+        scores[name] = score
+        errors_all += [o.position_error_m for o in score.objects]
+        for key, value in score.figures().items():
+            figures[f"{name}_{key}"] = value
+        cam = truth["camera"]
+        print(
+            f"{name}: {image.width}x{image.height}, hfov {cam['hfov_deg']:.1f}, camera {cam['position'][2]:.2f} m "
+            f"pitch {cam['pitch_deg']:.0f} -> {score.camera_height_m:.3f} m (fit sd {result.report.get('camera_height_sd_m')}), "
+            f"tilt {score.tilt_deg:.2f} deg"
+        )
+        for o in score.objects:
+            head = "-" if o.heading_error_deg is None else f"{o.heading_error_deg:5.1f}"
+            reason = result.report.get("headings", {}).get(o.id, "")
+            print(f"   {o.id:24s} {o.category:18s} {o.placement:8s} {'cut' if o.cut else '   '} pos {o.position_error_m:5.2f} m  head {head}  {reason}")
     figures["lift_error_median_m"] = round(float(np.median(errors_all)), 3)
     figures["lift_error_p90_m"] = round(float(np.quantile(errors_all, 0.9)), 3)
+    held = [s for n, s in scores.items() if n.startswith(HELD_OUT)]
+    tuned = [s for n, s in scores.items() if not n.startswith(HELD_OUT)]
+    varied = [s for n, s in scores.items() if n.startswith("v_")]
+    for group, members in (("all", list(scores.values())), ("varied", varied), ("tuned", tuned), ("held_out", held)):
+        for key, value in _pooled(members).items():
+            figures[f"pooled_{group}_{key}"] = value
+    print("\n| render | objects | position median / p90 (m) | within 0.5 m | headed | heading median (deg) | within 20 deg | camera height error (m) | tilt (deg) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, score in scores.items():
+        f = score.figures()
+        print(
+            f"| {name} | {f['objects']} | {f['position_median_m']:.2f} / {f['position_p90_m']:.2f} | {f['position_within_0_5m']:.0%} | "
+            f"{f['headed_objects']} | {f['heading_median_deg']:.1f} | {f['heading_within_20deg']:.0%} | {f['camera_height_error_m']:+.3f} | {f['tilt_deg']:.2f} |"
+        )
     demo = DATA / "demo_bedroom"
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()

@@ -19,6 +19,7 @@ Names are loaded on first use, so ``import scenemosaic`` stays light (no MuJoCo,
 from __future__ import annotations
 
 import importlib
+import sys
 from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
@@ -35,6 +36,7 @@ _EXPORTS: dict[str, str] = {
     "load_scene": "scenemosaic.exchange",
     "load_scenes": "scenemosaic.exchange",
     "save_scene": "scenemosaic.exchange",
+    "write_scene": "scenemosaic.exchange",
     # the scene
     "Scene": "scenemosaic.scene",
     "SceneObject": "scenemosaic.scene",
@@ -119,6 +121,7 @@ __all__ = [
     "stabilize_scene",
     "structure_scene",
     "validate_scene",
+    "write_scene",
 ]
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; at run time names load lazily
@@ -136,7 +139,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; at run time names load laz
         SceneValidationError,
         UsageError,
     )
-    from scenemosaic.exchange import load_scene, load_scenes, save_scene
+    from scenemosaic.exchange import load_scene, load_scenes, save_scene, write_scene
     from scenemosaic.models import (
         FunctionModel,
         Model,
@@ -167,7 +170,23 @@ def __getattr__(name: str) -> Any:
         raise AttributeError(f"module 'scenemosaic' has no attribute {name!r}")
     value = getattr(importlib.import_module(module), name)
     globals()[name] = value  # later lookups skip this function
+    _show_scenes_as_plans()
     return value
+
+
+def _lazy_plan_png(scene: Any) -> bytes:
+    from scenemosaic.render import plan_png  # registers plan_png itself for the next scene
+
+    return plan_png(scene)
+
+
+def _show_scenes_as_plans() -> None:
+    """Once the scene package is loaded, a notebook shows a ``Scene`` as its plan even when
+    nothing has imported the render package yet (``sm.demo_scene()``): a stand-in renderer that
+    imports it on first display."""
+    scene = sys.modules.get("scenemosaic.scene")
+    if scene is not None and "scenemosaic.render" not in sys.modules:
+        scene.register_plan_renderer(_lazy_plan_png)
 
 
 def __dir__() -> list[str]:

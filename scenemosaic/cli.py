@@ -11,22 +11,26 @@ from __future__ import annotations
 import asyncio
 import json
 import os
+import re
 import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Any, NoReturn
 
 import typer
 from rich.console import Console
-from rich.markup import escape
+from rich.markup import escape as _escape_markup
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
+from typer.core import TyperArgument, TyperCommand, TyperOption
+from typer.models import CommandFunctionType
 
 from scenemosaic import pipeline  # its stages load on first use: --help stays light
-from scenemosaic._logging import configure_logging
+from scenemosaic._logging import configure_logging, flush_logs
 from scenemosaic.batch import SUMMARY_FILE, BatchSummary, JobRecord, load_manifest, run_batch
 from scenemosaic.exceptions import SceneMosaicError
 from scenemosaic.pipeline import SETTINGS, GenerateConfig, GenerateResult, SettingsError
@@ -34,27 +38,89 @@ from scenemosaic.scene import House, RunFolder, Scene
 
 __all__ = ["app", "main"]
 
-app = typer.Typer(
+
+class _Command(TyperCommand):
+    """A command whose help reads as click's does: no type label beside a flag (typer prints
+    ``<bool>``) and no braces around a required argument in the usage line (``{SCENE}``)."""
+
+    def get_params(self, ctx: Any) -> Any:
+        params = super().get_params(ctx)
+        for param in params:
+            if isinstance(param, TyperOption) and param.is_flag and param.metavar is None:
+                param.metavar = ""  # shown as the type column: empty for a flag
+        return params
+
+    def collect_usage_pieces(self, ctx: Any) -> list[str]:
+        pieces = [self.options_metavar] if self.options_metavar else []
+        for param in self.get_params(ctx):
+            if not isinstance(param, TyperArgument):
+                continue
+            name = param.metavar or (param.name or "").upper()
+            if param.nargs != 1 and not name.endswith("..."):
+                name += "..."
+            pieces.append(name if param.required or name.startswith("[") else f"[{name}]")
+        return pieces
+
+
+class _App(typer.Typer):
+    """The CLI's Typer: every command is a :class:`_Command`."""
+
+    def command(self, *args: Any, **kwargs: Any) -> Callable[[CommandFunctionType], CommandFunctionType]:
+        kwargs.setdefault("cls", _Command)
+        return super().command(*args, **kwargs)
+
+
+app = _App(
     name="scenemosaic",
     help="Simulation-ready indoor scenes and diverse layout variants from one reference scene.",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
 )
-_err = Console(stderr=True)
-_out = Console()
+_CONTROL_CHARS = re.compile(r"[\x00-\x08\x0b-\x1f\x7f]")
 
-def _log_level(value: str) -> str:
+
+def escape(text: str) -> str:
+    """Text for the console: Rich markup escaped, and control characters (a NUL byte read from an
+    input file) shown as ``\\x00`` instead of being sent to the terminal raw."""
+    return _escape_markup(_CONTROL_CHARS.sub(lambda m: f"\\x{ord(m.group()):02x}", text))
+
+
+_err = Console(stderr=True, emoji=False)  # "openai:m:" is a model name, not an emoji code
+_out = Console(emoji=False)
+
+REPORTED_EVENTS = ("run_degraded", "stage_failed", "stage_interrupted")
+"""Log events the CLI reports itself (the degraded summary, the error line, the interrupted line):
+left out of its log so that nothing is printed twice."""
+_log_settings = {"level": "warning", "log_format": "text"}
+
+
+def _configure_logging(key: str, value: str) -> str:
     try:
-        configure_logging(value)
+        settings = {**_log_settings, key: value}
+        configure_logging(settings["level"], log_format=settings["log_format"], suppress=REPORTED_EVENTS)
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from exc
+    _log_settings[key] = value
     return value
 
 
 LogLevelOpt = Annotated[
     str,
-    typer.Option("--log-level", callback=_log_level, help="Log level: debug, info, warning, error. Logs go to stderr."),
+    typer.Option(
+        "--log-level",
+        callback=lambda value: _configure_logging("level", value),
+        help="Log level: debug, info, warning, error. Logs go to stderr.",
+    ),
+]
+LogFormatOpt = Annotated[
+    str,
+    typer.Option(
+        "--log-format",
+        envvar="SCENEMOSAIC_LOG_FORMAT",
+        callback=lambda value: _configure_logging("log_format", value),
+        help="Log lines: text (readable, repeated warnings folded into one line) or json (one object a line).",
+    ),
 ]
 
 
@@ -84,6 +150,9 @@ class _Stop:
         self.report = report
         self.started = time.time()
         self.loop: asyncio.AbstractEventLoop | None = None
+        self.on_stop: Callable[[str], None] | None = None
+        """Shows that the run is stopping (the progress bar's label); no line is printed, so an
+        interrupted run ends with one line."""
 
     def install(self, loop: asyncio.AbstractEventLoop) -> None:
         self.loop = loop
@@ -107,7 +176,8 @@ class _Stop:
             self._exit_when_reported(time.monotonic() + REPORT_WAIT_S)
             return
         self.signal = sig
-        _err.print(f"[yellow]stopping[/yellow] ({signal.Signals(sig).name}): writing the report and the last good scene")
+        if self.on_stop is not None:
+            self.on_stop(signal.Signals(sig).name)
         if self.task is not None:
             self.task.cancel()
 
@@ -140,6 +210,7 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
         transient=False,
     ) as progress:
         bar = progress.add_task("starting", total=len(pipeline.STAGE_NAMES))
+        stop.on_stop = lambda name: progress.update(bar, description=f"stopping ({name}): writing the report")
 
         def on_stage(name: str, status: str) -> None:
             if name == pipeline.HOUSE_STAGE_NAMES[0] and status == "started":  # a whole house: its own stages
@@ -147,6 +218,7 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
             if status == "started":
                 progress.update(bar, description=name)
             else:
+                flush_logs()  # the stage's folded warnings, before the next stage's
                 progress.advance(bar)
 
         async def main() -> GenerateResult:
@@ -159,6 +231,8 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
         except asyncio.CancelledError:
             if stop.signal is None:
                 raise
+        finally:
+            flush_logs()
     _err.print(f"[yellow]interrupted[/yellow]: report and last good scene in {escape(str(out))}; continue with --resume {escape(str(out))}")
     _hard_exit(_exit_code(stop.signal))
     raise AssertionError("unreachable")  # pragma: no cover
@@ -172,13 +246,25 @@ def _failed_stage(out: Path) -> str | None:
     return value if isinstance(value, str) else None
 
 
+def _file_state(path: Path) -> tuple[int, int] | None:
+    """``(mtime_ns, size)`` of a file, ``None`` when there is none: tells a report this run wrote
+    from an earlier run's."""
+    try:
+        stat = path.stat()
+    except OSError:
+        return None
+    return stat.st_mtime_ns, stat.st_size
+
+
 def _run_cli(input_path: Path | None, out: Path, config: GenerateConfig) -> None:
     """Run, then map the outcome to an exit code: errors are one line, never a traceback."""
+    earlier_report = _file_state(RunFolder(out).report)
     try:
         result = _run_with_progress(input_path, out, config)
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
-        if RunFolder(out).report.is_file():
+        report = _file_state(RunFolder(out).report)
+        if report is not None and report != earlier_report:  # not an earlier run's (a refused overwrite)
             _err.print(f"partial results and the report are in {out}", markup=False, highlight=False)
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
     except Exception as exc:  # a bug: one line here, the traceback in the report
@@ -296,6 +382,14 @@ def generate(
             help="Use an agent's rule solver when the model's answers stay unusable (default) or fail the run.",
         ),
     ] = True,
+    fallback_mode: Annotated[
+        str,
+        typer.Option(
+            "--fallback",
+            help="transient (default): time-outs, 429 and 5xx fall back to the rule solvers, a model server that "
+            "cannot serve the run stops it (exit 2); rules: that falls back too (the run is degraded).",
+        ),
+    ] = "transient",
     request_timeout: Annotated[
         float | None, typer.Option("--request-timeout", help="Seconds one model request may take (default: the model's own).")
     ] = None,
@@ -336,11 +430,23 @@ def generate(
         Path | None,
         typer.Option("--resume", help="Continue the stopped run in this output folder (INPUT and settings come from it)."),
     ] = None,
+    max_input_mb: Annotated[
+        float | None,
+        typer.Option("--max-input-mb", help="Largest input file read, in MB (default: 256 for a scene file, 64 for a photograph)."),
+    ] = None,
+    restart_stale: Annotated[
+        bool,
+        typer.Option(
+            "--restart-stale",
+            help="With --resume: when the input or a setting changed since the stopped run, start over instead of refusing.",
+        ),
+    ] = False,
     priors: Annotated[
         Path | None,
         typer.Option("--priors", help="ProcTHOR priors folder replacing the priors shipped with the package."),
     ] = None,
     log_level: LogLevelOpt = "warning",
+    log_format: LogFormatOpt = "text",
 ) -> None:
     """Turn INPUT into a stabilized, simulation-ready scene in the output layout under --out.
 
@@ -353,7 +459,7 @@ def generate(
         except SceneMosaicError as exc:
             _err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
             raise typer.Exit(code=EXIT_BAD_INPUT) from exc
-        _run_cli(input_path, resume, config)
+        _run_cli(input_path, resume, config.model_copy(update={"restart_stale": restart_stale}))
         return
     if (input_path is None) == (prompt is None) or out is None:
         _err.print(
@@ -380,6 +486,7 @@ def generate(
             vision=vision,
             priors_dir=priors,
             solver_fallback=fallback,
+            fallback=fallback_mode,  # type: ignore[arg-type]  # GenerateConfig checks the value (one error line per bad flag)
             asset_dir=asset_dir,
             request_timeout_s=request_timeout,
             deadline_s=deadline,
@@ -392,6 +499,8 @@ def generate(
             room_workers=room_workers,
             strict=strict,
             overwrite=overwrite,
+            restart_stale=restart_stale,
+            max_input_mb=max_input_mb,
         )
     except SettingsError as exc:  # named by their flags: one line each
         for line in exc.describe(_flag_of):
@@ -411,6 +520,7 @@ def demo(
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("out/demo"),
     seed: Annotated[int, typer.Option("--seed", help="Run seed.")] = 0,
     log_level: LogLevelOpt = "warning",
+    log_format: LogFormatOpt = "text",
 ) -> None:
     """Run generate on the bundled procedural demo scene, offline (rules model, no key, no network)."""
     from scenemosaic.exchange import save_scene
@@ -751,20 +861,85 @@ def edit(
     unit: Annotated[str | None, typer.Option("--unit", help="The unit (anchor id) the expressions act in; default: the one unit all targets belong to.")] = None,
     variant: VariantOpt = None,
     room: RoomOpt = None,
+    settle: Annotated[
+        bool, typer.Option("--settle", help="Settle the edited scene in MuJoCo (generate's stabilize) before checking it.")
+    ] = False,
+    allow_invalid: Annotated[
+        bool, typer.Option("--allow-invalid", help="Write the edited scene even when the edit leaves new collisions or objects out of bounds.")
+    ] = False,
     log_level: LogLevelOpt = "warning",
 ) -> None:
-    """Move objects of one local unit with the pose expression language (docs/evolution.md) and
-    write the edited scene; no physics runs (generate it again to stabilize)."""
+    """Move objects of one local unit with the pose expression language (docs/evolution.md), check
+    the result (collisions, out of bounds) and write it.
+
+    An edit that adds a collision or an object out of bounds is refused (exit 2) unless
+    --allow-invalid; --settle lets physics settle the edited scene first.
+    """
     from scenemosaic.exchange import deliver_scene
 
     scene, base_dir = _load_or_exit(path, variant, room)
     try:
         edited = scene.edit(expressions, unit=unit)
+        if settle:
+            from scenemosaic.assets import HullCache
+            from scenemosaic.physics import stabilize_scene_sync
+
+            edited, _ = stabilize_scene_sync(edited, base_dir=base_dir, hull_cache=HullCache())
+        check = _edit_check(scene, edited, base_dir)
+        _out.print(check.summary, markup=False, highlight=False)
+        if check.new and not allow_invalid:
+            _err.print(
+                f"[red]error:[/red] the edit leaves {escape(', '.join(check.new))}; nothing written"
+                " (try --settle, or write it anyway with --allow-invalid)",
+                highlight=False,
+            )
+            raise typer.Exit(code=EXIT_BAD_INPUT)
         files = deliver_scene(edited, out, base_dir)
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
     _out.print(f"{out}: {', '.join(files)}", markup=False, highlight=False)
+
+
+class _EditCheck:
+    """The edited scene's collisions and objects out of bounds, and those the edit added."""
+
+    def __init__(self, summary: str, new: list[str]) -> None:
+        self.summary = summary
+        self.new = new
+
+
+def _edit_check(before: Scene, after: Scene, base_dir: Path | None) -> _EditCheck:
+    """Check ``after`` as validation does (hull penetration deeper than the tolerance; footprint
+    over its support surface), and name what ``before`` did not already have."""
+    from scenemosaic.assets import HullCache
+    from scenemosaic.physics import check_out_of_bounds, collision_report_for, object_shape
+
+    cache = HullCache()
+    shapes = {o.id: object_shape(o, base_dir, cache=cache) for o in after.objects}
+
+    def problems(scene: Scene) -> tuple[dict[frozenset[str], str], dict[str, str]]:
+        pairs = {
+            frozenset((p.a, p.b)): f"{p.a} × {p.b} ({p.depth_m * 100:.1f} cm)"
+            for p in collision_report_for(scene, shapes).pairs
+        }
+        oob = {
+            o.object_id: f"{o.object_id} {o.inside_fraction:.0%} over {o.anchor_id}"
+            for o in check_out_of_bounds(scene, shapes=shapes).objects
+        }
+        return pairs, oob
+
+    old_pairs, old_oob = problems(before)
+    pairs, oob = problems(after)
+    summary = (
+        f"check: collision pairs {len(pairs)}"
+        + (f" ({'; '.join(pairs.values())})" if pairs else "")
+        + f", out of bounds {len(oob)}"
+        + (f" ({'; '.join(oob.values())})" if oob else "")
+    )
+    new = [f"a collision {text}" for key, text in pairs.items() if key not in old_pairs]
+    new += [f"out of bounds {text}" for key, text in oob.items() if key not in old_oob]
+    return _EditCheck(summary, new)
 
 
 @app.command()

@@ -13,7 +13,10 @@ Usage errors (the caller gave us something wrong) are kept apart from run errors
     │   ├── GraphDefinitionError        a task graph has a cycle, a missing dependency, a duplicate name
     │   │   └── GraphChangedError       a run store belongs to another graph definition
     │   ├── ModelConfigError            a model string or model setting is wrong (e.g. vision on a text-only server)
+    │   │   └── ModelEndpointError      the model server cannot serve this run: nothing listening, unknown
+    │   │                               host, key refused (401/403), no such model or path (404)
     │   ├── ExpressionError             a pose expression is refused by the sandboxed evaluator
+    │   ├── OutputSpaceError            the output's disk is full: a file could not be written (also an OSError)
     │   └── MissingExtraError           an optional dependency is not installed (names the pip command)
     └── RunError                        something failed while running on valid input
         ├── NodeFailedError             a task-graph node failed after its retries
@@ -48,11 +51,13 @@ __all__ = [
     "ModelConfigError",
     "ModelContextLengthError",
     "ModelDeadlineExceeded",
+    "ModelEndpointError",
     "ModelError",
     "ModelHTTPError",
     "ModelUnavailableError",
     "NodeFailedError",
     "NodeTimeoutError",
+    "OutputSpaceError",
     "OutputValidationError",
     "PhysicsError",
     "ReplayMissError",
@@ -130,6 +135,35 @@ class GraphChangedError(GraphDefinitionError):
 
 class ModelConfigError(UsageError):
     """A model string or model setting is wrong (unknown scheme, vision on a text-only server...)."""
+
+
+class ModelEndpointError(ModelConfigError):
+    """The model server named by the run cannot serve it, and waiting will not change that:
+    nothing listens at the address, the host is unknown, the key is refused (401/403), or the
+    model or path is not there (404). Never retried; the run stops with the fix in one line,
+    unless the run asked to fall back to the rule solvers (``--fallback rules``).
+    ``url`` is the server's address; ``status_code`` the HTTP status (``None``: no connection)."""
+
+    def __init__(self, message: str, *, url: str, status_code: int | None = None) -> None:
+        super().__init__(message)
+        self.url = url
+        self.status_code = status_code
+
+
+class OutputSpaceError(UsageError, OSError):
+    """No space left on the device (or over quota) while writing ``path``: nothing half-written is
+    left behind, and the message says to free space or choose another ``--out``. It is also an
+    ``OSError`` (``errno`` ``ENOSPC`` or ``EDQUOT``), so code that tolerates a failed write (a
+    cache) still does. ``report``: the run's report, kept in memory when it could not be written."""
+
+    def __init__(self, path: str, error_number: int) -> None:
+        message = f"no space left on device writing {path}: free space, or choose another --out"
+        OSError.__init__(self, error_number, message)
+        self.path = path
+        self.report: dict[str, Any] | None = None
+
+    def __str__(self) -> str:
+        return str(self.strerror)
 
 
 class MissingExtraError(UsageError, ImportError):

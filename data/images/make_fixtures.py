@@ -1,6 +1,8 @@
 """Render the photograph fixtures of the image front end: known scenes seen by a perspective camera.
 
-Run from the repository root (takes about 30 s): ``MUJOCO_GL=egl .venv/bin/python data/images/make_fixtures.py``
+Run from the repository root (about 45 s): ``MUJOCO_GL=egl .venv/bin/python data/images/make_fixtures.py [all|original|varied]``
+(``original``: the three 1024 x 768 views below; ``varied``: the ``v_*`` views of :data:`VARIED`,
+other heights, lenses, picture sizes and headings, each described by its :class:`Shot`).
 
 For each scene the pipeline first stabilizes it (``generate``, no evolution), so what is rendered
 is a physically valid room; its MJCF is loaded in MuJoCo with the objects in their category
@@ -15,7 +17,11 @@ shows the most whole objects. Each folder gets:
   image and at least 3 % of that box showing it (MuJoCo's segmentation render);
   ``attributes.object_id`` is the scene's id;
 * ``truth.json`` - the camera (intrinsics, ``world_from_camera`` in OpenCV's frame: x right,
-  y down, z forward) and every object's true bottom centre, yaw and size in the scene's world frame.
+  y down, z forward) and every object's true bottom centre, yaw and size in the scene's world
+  frame (the varied views also hold the room's floor and ceiling height, and each object's usual
+  placement).
+
+A varied view writes its lens to the PNG's EXIF (``FocalLengthIn35mmFilm``), as a camera would.
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ import json
 import math
 import tempfile
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -33,13 +40,47 @@ from PIL import Image
 from scenemosaic.exchange import read_scene, save_scene
 from scenemosaic.pipeline import GenerateConfig, demo_scene, generate
 from scenemosaic.render import category_color
-from scenemosaic.scene import Scene
+from scenemosaic.scene import Scene, traits
 
 W, H, HFOV_DEG, CAMERA_HEIGHT = 1024, 768, 60.0, 1.6
 FX = 0.5 * W / math.tan(math.radians(HFOV_DEG / 2))
 FOVY_DEG = math.degrees(2 * math.atan(math.tan(math.radians(HFOV_DEG / 2)) * H / W))
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
+FILM_WIDTH_MM = 36.0
+"""The 35 mm equivalent focal length refers to a 36 mm wide frame along the image's longer side."""
+
+
+@dataclass(frozen=True)
+class Shot:
+    """How a view is taken: picture size (pixels), lens, and the camera's height above the floor
+    (metres). ``focal_35mm``: the 35 mm equivalent focal length written to the file's EXIF (the
+    lens perception reads); ``None`` is the original fixtures' 60 degrees without EXIF."""
+
+    width: int = W
+    height: int = H
+    focal_35mm: int | None = None
+    camera_height: float = CAMERA_HEIGHT
+
+    @property
+    def fx(self) -> float:
+        """Focal length in pixels (square pixels)."""
+        if self.focal_35mm is None:
+            return 0.5 * self.width / math.tan(math.radians(HFOV_DEG / 2))
+        return max(self.width, self.height) * self.focal_35mm / FILM_WIDTH_MM
+
+    @property
+    def hfov_deg(self) -> float:
+        """Horizontal field of view, degrees."""
+        return math.degrees(2 * math.atan(0.5 * self.width / self.fx))
+
+    @property
+    def fovy_deg(self) -> float:
+        """Vertical field of view, degrees (what MuJoCo's camera takes)."""
+        return math.degrees(2 * math.atan(0.5 * self.height / self.fx))
+
+
+ORIGINAL = Shot()
 
 
 def camera_axes(yaw: float, pitch: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -49,8 +90,11 @@ def camera_axes(yaw: float, pitch: float) -> tuple[np.ndarray, np.ndarray, np.nd
     return right, np.cross(fwd, right), fwd
 
 
-def project_boxes(scene: Scene, pos: np.ndarray, yaw: float, pitch: float) -> tuple[dict[str, tuple[float, ...]], np.ndarray]:
+def project_boxes(
+    scene: Scene, pos: np.ndarray, yaw: float, pitch: float, shot: Shot = ORIGINAL
+) -> tuple[dict[str, tuple[float, ...]], np.ndarray]:
     """Clipped amodal boxes of the objects at least half in view, and the world-from-camera rotation."""
+    W, H, FX = shot.width, shot.height, shot.fx  # the module's names for the picture, this view's values
     right, down, fwd = camera_axes(yaw, pitch)
     rot = np.stack([right, down, fwd], axis=1)
     out: dict[str, tuple[float, ...]] = {}
@@ -82,29 +126,42 @@ def free_spot(scene: Scene, p: np.ndarray, clear: float = 0.3) -> bool:
     return True
 
 
-def choose_camera(scene: Scene, away_from: float | None = None) -> tuple[np.ndarray, float, float]:
+def choose_camera(
+    scene: Scene,
+    away_from: float | None = None,
+    shot: Shot = ORIGINAL,
+    *,
+    yaws: tuple[int, ...] = tuple(range(0, 360, 15)),
+    pitches: tuple[int, ...] = (20, 28, 36, 44),
+    want: tuple[str, ...] = (),
+    grid: int = 16,
+) -> tuple[np.ndarray, float, float]:
     """The camera showing the most objects whole; with ``away_from`` (degrees), one looking at
-    least 90 degrees away from that heading."""
+    least 90 degrees away from that heading. ``want``: categories that must be boxed."""
     poly = np.array(scene.room.floor)
     best: tuple[float, np.ndarray, float, float] | None = None
-    for x in np.linspace(poly[:, 0].min() + 0.3, poly[:, 0].max() - 0.3, 16):
-        for y in np.linspace(poly[:, 1].min() + 0.3, poly[:, 1].max() - 0.3, 16):
-            p = np.array([x, y, CAMERA_HEIGHT])
+    for x in np.linspace(poly[:, 0].min() + 0.3, poly[:, 0].max() - 0.3, grid):
+        for y in np.linspace(poly[:, 1].min() + 0.3, poly[:, 1].max() - 0.3, grid):
+            p = np.array([x, y, shot.camera_height])
             if not free_spot(scene, p):
                 continue
-            for yaw_deg in range(0, 360, 15):
+            for yaw_deg in yaws:
                 if away_from is not None and abs((yaw_deg - away_from + 180) % 360 - 180) < 90:
                     continue
-                for pitch_deg in (20, 28, 36, 44):
-                    boxes, _ = project_boxes(scene, p, math.radians(yaw_deg), math.radians(pitch_deg))
+                for pitch_deg in pitches:
+                    boxes, _ = project_boxes(scene, p, math.radians(yaw_deg), math.radians(pitch_deg), shot)
+                    shown = {o.category for o in scene.objects if o.id in boxes}
+                    if any(w not in shown for w in want):
+                        continue
                     score = len(boxes) + 0.01 * sum(1 for o in scene.objects if o.id in boxes and o.size[0] * o.size[1] > 0.3)
                     if best is None or score > best[0]:
                         best = (score, p, yaw_deg, pitch_deg)
-    assert best is not None
+    if best is None:
+        raise RuntimeError(f"no camera spot shows {want} with {shot}")
     return best[1], float(best[2]), float(best[3])
 
 
-def render(base: Path, scene: Scene, pos: np.ndarray, yaw: float, pitch: float) -> tuple[np.ndarray, np.ndarray]:
+def render(base: Path, scene: Scene, pos: np.ndarray, yaw: float, pitch: float, shot: Shot = ORIGINAL) -> tuple[np.ndarray, np.ndarray]:
     """RGB render and the per-pixel object id (as a numpy object array) from the camera."""
     right, down, _ = camera_axes(yaw, pitch)
     up = -down
@@ -125,15 +182,15 @@ def render(base: Path, scene: Scene, pos: np.ndarray, yaw: float, pitch: float) 
     world = root.find("worldbody")
     assert world is not None
     ET.SubElement(world, "camera", name="photo", pos=" ".join(f"{v:.6f}" for v in pos),
-                  xyaxes=" ".join(f"{v:.9f}" for v in (*right, *up)), fovy=f"{FOVY_DEG:.6f}")
+                  xyaxes=" ".join(f"{v:.9f}" for v in (*right, *up)), fovy=f"{shot.fovy_deg:.6f}")
     ET.SubElement(world, "light", pos=f"{pos[0]:.3f} {pos[1]:.3f} 2.4", dir="0 0 -1", diffuse="0.6 0.6 0.6")
     visual = ET.SubElement(root, "visual")
-    ET.SubElement(visual, "global", offwidth=str(W), offheight=str(H))
+    ET.SubElement(visual, "global", offwidth=str(shot.width), offheight=str(shot.height))
     ET.SubElement(visual, "headlight", ambient="0.35 0.35 0.35", diffuse="0.5 0.5 0.5")
     model = mujoco.MjModel.from_xml_string(ET.tostring(root, encoding="unicode"))
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    renderer = mujoco.Renderer(model, height=H, width=W)
+    renderer = mujoco.Renderer(model, height=shot.height, width=shot.width)
     renderer.update_scene(data, camera="photo")
     rgb = renderer.render().copy()
     renderer.enable_segmentation_rendering()
@@ -148,17 +205,25 @@ def render(base: Path, scene: Scene, pos: np.ndarray, yaw: float, pitch: float) 
     return rgb, owner
 
 
-def write_fixture(folder: Path, scene: Scene, source: str, base: Path, pos: np.ndarray, yaw_deg: float, pitch_deg: float) -> int:
+def write_fixture(
+    folder: Path, scene: Scene, source: str, base: Path, pos: np.ndarray, yaw_deg: float, pitch_deg: float, shot: Shot = ORIGINAL
+) -> int:
     yaw, pitch = math.radians(yaw_deg), math.radians(pitch_deg)
-    rgb, owner = render(base, scene, pos, yaw, pitch)
-    boxes, rot = project_boxes(scene, pos, yaw, pitch)
+    W, H, FX = shot.width, shot.height, shot.fx  # the module's names for the picture, this view's values
+    rgb, owner = render(base, scene, pos, yaw, pitch, shot)
+    boxes, rot = project_boxes(scene, pos, yaw, pitch, shot)
     kept = {}
     for oid, (x0, y0, x1, y1) in boxes.items():
         window = owner[int(y0) : math.ceil(y1), int(x0) : math.ceil(x1)]
         if window.size and float((window == oid).mean()) >= 0.03:
             kept[oid] = (x0, y0, x1, y1)
     folder.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(rgb).save(folder / "photo.png", optimize=True)
+    if shot.focal_35mm is None:
+        Image.fromarray(rgb).save(folder / "photo.png", optimize=True)
+    else:  # the lens in EXIF (FocalLengthIn35mmFilm), where a camera writes it
+        exif = Image.Exif()
+        exif.get_ifd(0x8769)[0xA405] = shot.focal_35mm
+        Image.fromarray(rgb).save(folder / "photo.png", optimize=True, exif=exif.tobytes())
     shown = [o for o in scene.objects if o.id in kept]
     cat_id = {c: i for i, c in enumerate(sorted({o.category for o in shown}), 1)}
     annotations = []
@@ -182,14 +247,16 @@ def write_fixture(folder: Path, scene: Scene, source: str, base: Path, pos: np.n
         "scene": source,
         "image": {"width": W, "height": H},
         "camera": {
-            "hfov_deg": HFOV_DEG, "fx": FX, "fy": FX, "cx": W / 2, "cy": H / 2,
+            "hfov_deg": round(shot.hfov_deg, 6), "fx": FX, "fy": FX, "cx": W / 2, "cy": H / 2,
+            "focal_35mm": shot.focal_35mm,
             "position": [round(float(v), 6) for v in pos], "yaw_deg": yaw_deg, "pitch_deg": pitch_deg,
             "world_from_camera": [round(float(v), 9) for v in pose.ravel()],
             "frame": "OpenCV: x right, y down, z forward; world_from_camera row-major",
         },
+        "room": {"floor": [[round(float(v), 4) for v in q] for q in scene.room.floor], "ceiling_height": round(scene.room.ceiling_height, 4)},
         "objects": [
             {
-                "id": o.id, "category": o.category,
+                "id": o.id, "category": o.category, "placement": traits(o.category).placement,
                 "position": [round(float(v), 6) for v in o.pose.position],
                 "yaw_deg": round(math.degrees(o.pose.yaw), 3),
                 "extents": [round(float(v), 6) for v in o.size],
@@ -202,7 +269,31 @@ def write_fixture(folder: Path, scene: Scene, source: str, base: Path, pos: np.n
     return len(kept)
 
 
-def main() -> None:
+PHYSCENE = "data/layouts/physcene/"
+DIAGONAL = (45, 135, 225, 315)
+VARIED: list[tuple[str, str, Shot, dict[str, object]]] = [
+    # (folder, room, how the view is taken, what the camera search must find)
+    ("v_demo_low_wide", "demo", Shot(640, 480, 24, 1.35), {"pitches": (12, 18, 24)}),
+    ("v_demo_tall_tele", "demo", Shot(640, 480, 38, 1.78), {"pitches": (24, 32, 40)}),
+    ("v_demo_diag_lamp", "demo", Shot(640, 480, 22, 1.55), {"yaws": DIAGONAL, "pitches": (0, 4, 8), "want": ("pendant_lamp",)}),
+    ("v_11659_wide", "Bedroom-11659_bedroom.json", Shot(640, 360, 24, 1.6), {"pitches": (14, 20, 26)}),
+    ("v_11659_lamp", "Bedroom-11659_bedroom.json", Shot(512, 512, 22, 1.42), {"pitches": (0, 5, 10), "want": ("ceiling_lamp",)}),
+    ("v_11659_portrait", "Bedroom-11659_bedroom.json", Shot(480, 640, 28, 1.72), {"yaws": DIAGONAL, "pitches": (16, 24, 32)}),
+    ("v_33922_diag", "Bedroom-33922_bedroom.json", Shot(640, 480, 28, 1.5), {"yaws": DIAGONAL, "pitches": (14, 22, 30)}),
+    ("v_33922_lamp", "Bedroom-33922_bedroom.json", Shot(640, 480, 22, 1.65), {"pitches": (0, 5, 10), "want": ("pendant_lamp",)}),
+    ("v_19325_table", "DiningRoom-19325_diningroom.json", Shot(640, 480, 31, 1.3), {"pitches": (16, 24, 32)}),
+    ("v_19325_lamp", "DiningRoom-19325_diningroom.json", Shot(640, 480, 22, 1.7), {"yaws": DIAGONAL, "pitches": (6, 10, 14), "want": ("pendant_lamp",)}),
+    ("v_1344_wide", "LivingDiningRoom-1344_livingroom.json", Shot(640, 360, 22, 1.6), {"pitches": (10, 16, 22)}),
+    ("v_1344_diag", "LivingDiningRoom-1344_livingroom.json", Shot(640, 480, 35, 1.45), {"yaws": DIAGONAL, "pitches": (18, 26, 34)}),
+    ("v_1344_lamp", "LivingDiningRoom-1344_livingroom.json", Shot(512, 512, 24, 1.8), {"pitches": (4, 8, 12), "want": ("pendant_lamp",)}),
+    ("v_8714_tall", "LivingDiningRoom-8714_livingroom.json", Shot(640, 480, 28, 1.8), {"yaws": DIAGONAL, "pitches": (22, 30, 38)}),
+]
+"""The varied views (issue 27): camera heights 1.3-1.8 m, lenses of 50-80 degrees, four aspect
+ratios, diagonal headings, ceiling lamps in frame. 640 pixels on the longer side keeps the
+repository light."""
+
+
+def main(which: str = "all") -> None:
     work = Path(tempfile.mkdtemp())
     demo_src = work / "demo"
     save_scene(demo_scene(), demo_src)
@@ -211,21 +302,40 @@ def main() -> None:
         ("demo_bedroom", demo_src, "scenemosaic.pipeline.demo_scene()"),
         ("livingdining_8714", physcene / "LivingDiningRoom-8714_livingroom.json", "data/layouts/physcene/LivingDiningRoom-8714_livingroom.json"),
     ]
-    summary = {}
-    for name, src, label in rooms:
-        out = work / f"{name}_run"
-        generate(src, out, GenerateConfig(evolve=False))
-        base = out / "base"
-        scene = read_scene(base)
-        pos, yaw_deg, pitch_deg = choose_camera(scene)
-        views = [(name, pos, yaw_deg, pitch_deg)]
-        if name == "demo_bedroom":  # a second view of the same room, looking the other way
-            views.append((name + "_b", *choose_camera(scene, away_from=yaw_deg)))
-        for view, p, y, t in views:
-            summary[view] = {"boxed": write_fixture(HERE / view, scene, label, base, p, y, t), "objects": len(scene.objects),
-                             "camera": [round(float(v), 3) for v in p], "yaw_deg": y, "pitch_deg": t}
+    summary: dict[str, object] = {}
+    stabilized: dict[str, Scene] = {}
+    bases: dict[str, Path] = {}
+
+    def stable(key: str, src: Path) -> tuple[Scene, Path]:
+        if key not in stabilized:
+            out = work / f"{len(stabilized)}_run"
+            generate(src, out, GenerateConfig(evolve=False))
+            bases[key] = out / "base"
+            stabilized[key] = read_scene(bases[key])
+        return stabilized[key], bases[key]
+
+    if which in ("all", "original"):
+        for name, src, label in rooms:
+            scene, base = stable(str(src), src)
+            pos, yaw_deg, pitch_deg = choose_camera(scene)
+            views = [(name, pos, yaw_deg, pitch_deg)]
+            if name == "demo_bedroom":  # a second view of the same room, looking the other way
+                views.append((name + "_b", *choose_camera(scene, away_from=yaw_deg)))
+            for view, p, y, t in views:
+                summary[view] = {"boxed": write_fixture(HERE / view, scene, label, base, p, y, t), "objects": len(scene.objects),
+                                 "camera": [round(float(v), 3) for v in p], "yaw_deg": y, "pitch_deg": t}
+    if which in ("all", "varied"):
+        for view, room, shot, search in VARIED:
+            src = demo_src if room == "demo" else ROOT / PHYSCENE / room
+            label = "scenemosaic.pipeline.demo_scene()" if room == "demo" else PHYSCENE + room
+            scene, base = stable(str(src), src)
+            p, y, t = choose_camera(scene, None, shot, grid=10, **search)  # type: ignore[arg-type]
+            summary[view] = {"boxed": write_fixture(HERE / view, scene, label, base, p, y, t, shot), "objects": len(scene.objects),
+                             "camera": [round(float(v), 3) for v in p], "yaw_deg": y, "pitch_deg": t, "hfov_deg": round(shot.hfov_deg, 2)}
     print(json.dumps(summary))
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    main(sys.argv[1] if len(sys.argv) > 1 else "all")

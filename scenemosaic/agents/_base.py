@@ -35,6 +35,7 @@ from scenemosaic.exceptions import (
     AgentOutputError,
     ModelConfigError,
     ModelContextLengthError,
+    ModelEndpointError,
     ModelError,
     ModelHTTPError,
     OutputValidationError,
@@ -169,6 +170,11 @@ class AgentPolicy:
     Configuration errors (HTTP 401, a cassette miss, vision on a text-only server) still raise.
     Off by default for direct use (an unusable answer raises); ``generate`` turns it on
     (``GenerateConfig.solver_fallback``) so batch runs still deliver scenes."""
+    endpoint_fallback: bool = False
+    """With ``solver_fallback``, also answer with the rule solver when the model server cannot
+    serve the run at all (:class:`~scenemosaic.exceptions.ModelEndpointError`: nothing listening,
+    unknown host, key refused, no such model). Off by default: such a run stops at once with the
+    fix, rather than quietly delivering rule answers (``--fallback rules`` turns it on)."""
 
     def __post_init__(self) -> None:
         if self.max_attempts < 1:
@@ -260,8 +266,10 @@ def _repair(prompt: list[Message], reply: str, intro: str, problems: list[str]) 
     ]
 
 
-def _recoverable(exc: ModelError) -> bool:
+def _recoverable(exc: ModelError | ModelConfigError, policy: AgentPolicy) -> bool:
     """Whether a model failure is the model's (fall back) rather than the user's set-up (raise)."""
+    if isinstance(exc, ModelEndpointError):
+        return policy.endpoint_fallback  # no server to ask: stop, unless the run asked for rules
     if isinstance(exc, ReplayMissError | ModelConfigError):
         return False  # a cassette mismatch or a wrong setting is a set-up error, not a flaky model
     if isinstance(exc, ModelContextLengthError):
@@ -602,7 +610,7 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
                 tally.usage = tally.usage + (exc.usage if isinstance(exc.usage, Usage) else Usage())
                 problems, text = exc.errors or [str(exc)], exc.raw_reply
                 intro = f"That reply is not a valid {self.output_type.__name__} JSON object:"
-            except ModelError as exc:
+            except (ModelError, ModelEndpointError) as exc:
                 if isinstance(exc, ModelContextLengthError) and compact is not None:
                     # once: a shorter prompt, then (if it still does not fit) the solver
                     _log.warning("agent_prompt_compacted", agent=self.name, reason=str(exc)[:200])
@@ -611,7 +619,7 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
                     compact = None
                     reply.problems = [f"the prompt did not fit the model's context: {exc}"]
                     continue
-                if not (policy.solver_fallback and _recoverable(exc)):
+                if not (policy.solver_fallback and _recoverable(exc, policy)):
                     raise
                 reply.error = f"{type(exc).__name__}: {exc}"
                 return reply

@@ -18,7 +18,7 @@ from scenemosaic.assets._canonical import load_mesh, load_source_mesh, mesh_hash
 from scenemosaic.assets._hulls import CoacdParams, HullCache
 from scenemosaic.assets._procedural import procedural_mesh, procedural_parts
 from scenemosaic.exceptions import AssetError, UnsafePathError
-from scenemosaic.scene import SceneObject, confined_path, real_path
+from scenemosaic.scene import SceneObject, confined_path, missing_file, real_path
 
 __all__ = ["default_hull_cache", "object_hulls", "object_mesh"]
 
@@ -58,8 +58,8 @@ def _resolve(uri: str, base_dir: str | Path | None, obj: SceneObject) -> Path:
         raise UnsafePathError(f"object {obj.id!r}: mesh uri {exc}", reference=uri, resolved=exc.resolved) from exc
     if path.is_dir():
         raise AssetError(f"object {obj.id!r}: mesh uri {uri!r} names a directory, not a file: {path}")
-    if not path.is_file():
-        raise AssetError(f"object {obj.id!r}: mesh file not found: {base / uri}")
+    if not path.is_file():  # false for a FIFO or a device too: never opened (a FIFO would wait for a writer)
+        raise AssetError(f"object {obj.id!r}: mesh file {missing_file(path)}")
     return path
 
 

@@ -99,14 +99,15 @@ def finished_report(job: BatchJob, out_dir: Path) -> dict[str, Any] | None:
     return report
 
 
+def report_status(out_dir: Path) -> str | None:
+    """The ``status`` in a job's ``report.json`` (``interrupted`` for a job stopped at its
+    time-out), or ``None`` when it has no readable report."""
+    status = (_read_report(out_dir) or {}).get("status")
+    return status if isinstance(status, str) else None
+
+
 def _outcome_from_report(out_dir: Path, error: str | None = None) -> JobOutcome:
-    report = _read_report(out_dir) or {}
-    status = report.get("status")
-    return JobOutcome(
-        status="failed",
-        error=error,
-        report_status=status if isinstance(status, str) else None,
-    )
+    return JobOutcome(status="failed", error=error, report_status=report_status(out_dir))
 
 
 async def aexecute_job(spec: JobSpec) -> JobOutcome:

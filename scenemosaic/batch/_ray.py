@@ -62,7 +62,10 @@ def run_ray(
     on_start: Started,
     on_finish: Finished,
 ) -> None:
-    """Run ``specs`` as Ray tasks, at most ``workers`` in flight, in order."""
+    """Run ``specs`` as Ray tasks, at most ``workers`` in flight, in order. With nothing to run
+    (every job of a re-run already finished) Ray is not started."""
+    if not specs:
+        return
     ray = require_ray()
     started_here = False
     if not ray.is_initialized():

@@ -11,7 +11,7 @@ from typing import IO, Literal
 
 import structlog
 
-from scenemosaic.batch._job import JobOutcome, JobSpec, finished_report
+from scenemosaic.batch._job import JobOutcome, JobSpec, finished_report, report_status
 from scenemosaic.batch._local import run_local
 from scenemosaic.batch._manifest import BatchJob, load_manifest
 from scenemosaic.batch._ray import require_ray, run_ray
@@ -204,6 +204,9 @@ def _run(
         record.scenes_written = 1 + outcome.variants_written if outcome.status in ("ok", "degraded") else 0
         record.error = outcome.error
         record.report_status = outcome.report_status
+        if record.report_status is None and outcome.status in ("failed", "timeout"):
+            # a job stopped at its time-out wrote its report as it stopped: it says `interrupted`
+            record.report_status = report_status(spec.out_dir)
         log.info("batch_job_ended", job=spec.job.id, status=outcome.status, seconds=record.wall_s)
         changed(record)
 

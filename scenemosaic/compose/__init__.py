@@ -11,6 +11,7 @@
 
 from scenemosaic.compose._compose import (
     HOUSE_MAX_CANDIDATES,
+    OCCUPANCY_GRID,
     CompositionReport,
     UnitLayouts,
     compose_house,
@@ -18,13 +19,23 @@ from scenemosaic.compose._compose import (
     kept_layouts,
 )
 from scenemosaic.compose._distance import WEIGHTS, Arrangement, distance_terms, novelty_distance
-from scenemosaic.compose._pool import ALPHA, CHUNK, CandidatePool, GroupVariants, Selection, select_diverse
+from scenemosaic.compose._pool import (
+    ALPHA,
+    CHUNK,
+    OCCUPANCY_WEIGHT,
+    CandidatePool,
+    GroupVariants,
+    Selection,
+    select_diverse,
+)
 from scenemosaic.compose._transform import compose_transform, decompose_transform
 
 __all__ = [
     "ALPHA",
     "CHUNK",
     "HOUSE_MAX_CANDIDATES",
+    "OCCUPANCY_GRID",
+    "OCCUPANCY_WEIGHT",
     "WEIGHTS",
     "Arrangement",
     "CandidatePool",

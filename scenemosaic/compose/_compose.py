@@ -7,6 +7,11 @@
   group's variants are the product of its units' kept layouts, composed top-down in their
   anchors' frames (``with_unit_layout``: a table-top layout follows its table wherever the floor
   variant puts it).
+* **Followers** — a lamp hanging over a group, a rug under one, a picture or wall TV above one
+  (``scene.functional_relations``: ``over``/``under``) composes with that group: in each of the
+  group's variants it moves as the group's leader moved (``scene.follow_leaders``), whatever its
+  own unit's variants did; a variant it cannot follow into (its group turned away from its wall,
+  or the moved piece would leave the room) is not valid.
 * **Scene-level check** — a candidate is valid when every group variant it uses is free of
   interpenetration inside the group, and every pair of group variants it uses is free of it
   across the pair; each result is computed when the selection first reaches a candidate that
@@ -28,12 +33,27 @@ from scenemosaic.compose._distance import Arrangement
 from scenemosaic.compose._pool import ALPHA, CandidatePool, GroupVariants, Selection, Veto, select_diverse
 from scenemosaic.evolve import EvolutionReport
 from scenemosaic.physics import ObjectShape, collision_report_for
-from scenemosaic.scene import LocalUnit, Pose, Scene, build_structure, descendants, with_unit_layout
+from scenemosaic.scene import (
+    FloorRaster,
+    Functional,
+    LocalUnit,
+    Pose,
+    Scene,
+    build_structure,
+    convex_hull_2d,
+    descendants,
+    follow_leaders,
+    functional_relations,
+    is_thin,
+    with_unit_layout,
+)
 
-__all__ = ["HOUSE_MAX_CANDIDATES", "CompositionReport", "UnitLayouts", "compose_house", "compose_variants", "kept_layouts"]
+__all__ = ["HOUSE_MAX_CANDIDATES", "OCCUPANCY_GRID", "CompositionReport", "UnitLayouts", "compose_house", "compose_variants", "kept_layouts"]
 
 log = structlog.get_logger(__name__)
 
+OCCUPANCY_GRID = 64
+"""Cells along the floor's longer side of the occupancy raster of a room's selection."""
 HOUSE_MAX_CANDIDATES = 200_000
 """Candidates a house's selection scores (a seeded uniform sample of its pool): six arrangements
 in each of ten rooms make 6^10 (6 x 10^7) houses."""
@@ -120,6 +140,15 @@ def _groups(scene: Scene, units: Sequence[LocalUnit]) -> list[tuple[str, list[Lo
     return out
 
 
+def _followers(scene: Scene, groups: Sequence[tuple[str, list[LocalUnit], list[str]]]) -> tuple[list[Functional], dict[str, int]]:
+    """The pieces that hang over or lie under a group (``scene.functional_relations``: ``over``
+    and ``under``), and the group index of every object. Each such piece composes with its
+    leader's group: its pose follows the leader in every variant of that group."""
+    owner = {oid: g for g, (_name, _members, objects) in enumerate(groups) for oid in objects}
+    rels = [r for r in functional_relations(scene) if r.follows and r.subject in owner and r.leader in owner]
+    return rels, owner
+
+
 class _Composer:
     """One scene's groups, their variants and the cached scene-level checks of its candidates."""
 
@@ -139,7 +168,12 @@ class _Composer:
         self.pair_cache: dict[tuple[int, int, int, int], bool] = {}
         self.verdicts: dict[tuple[int, ...], bool | Veto] = {}
         units = list((scene.structure or build_structure(scene)).units)
-        for name, members, objects in _groups(scene, units):
+        groups = _groups(scene, units)
+        self.followers, owner = _followers(scene, groups)
+        self.failed: set[tuple[int, int]] = set()
+        for g, (name, members, objects) in enumerate(groups):
+            led = [r for r in self.followers if owner[r.leader] == g]
+            objects = [o for o in objects if o not in {r.subject for r in self.followers}] + [r.subject for r in led]
             options = [layouts.get(u.anchor_id) for u in members]
             ranges = [range(len(o.layout_ids)) if o is not None else range(1) for o in options]
             scenes: list[Scene] = []
@@ -153,7 +187,11 @@ class _Composer:
                     label[u.anchor_id] = o.layout_ids[k]
                     if k:  # the refined original is in place already
                         s = with_unit_layout(s, u.anchor_id, o.poses[k])
-                scenes.append(s)
+                followed = follow_leaders(scene, s, led) if led else s
+                if followed is None:  # a lamp, rug or picture that cannot follow its group here
+                    self.failed.add((g, len(scenes)))
+                    followed = s
+                scenes.append(followed)
                 labels.append(label)
             arrs = [Arrangement.of(s, objects) for s in scenes]
             self.groups.append(
@@ -164,6 +202,25 @@ class _Composer:
             )  # fmt: skip
             self.group_scenes.append(scenes)
             self.group_labels.append(labels)
+        self.raster = FloorRaster(np.asarray(scene.room.floor), cell=max(np.ptp(np.asarray(scene.room.floor), axis=0)) / OCCUPANCY_GRID) if scene.room else None
+
+    def occupancy(self) -> list[np.ndarray] | None:
+        """Per group, each variant's packed top-down occupancy (its non-thin objects' boxes on
+        an ``OCCUPANCY_GRID`` raster of the floor): the footprint term of the selection."""
+        if self.raster is None:
+            return None
+        out = []
+        for g, scenes in enumerate(self.group_scenes):
+            rows = []
+            for s in scenes:
+                mask = np.zeros(self.raster.shape, dtype=bool)
+                for oid in self.groups[g].ids:
+                    o = s.get(oid)
+                    if not is_thin(o):
+                        mask |= self.raster.mask(convex_hull_2d(o.corners()[:, :2]))
+                rows.append(np.packbits(mask.ravel()))
+            out.append(np.stack(rows))
+        return out
 
     def _clean(self, objs: list[Any], split: set[str] | None) -> bool:
         self.report.checks += 1
@@ -190,6 +247,8 @@ class _Composer:
 
     def _valid(self, choice: tuple[int, ...]) -> bool | Veto:
         for g, k in enumerate(choice):
+            if (g, k) in self.failed:
+                return ((g, k),)
             if (g, k) not in self.own_cache:
                 self.own_cache[(g, k)] = self._clean(self._group_objects(g, k), None) if k else True  # the base is validated
             if not self.own_cache[(g, k)]:
@@ -220,6 +279,8 @@ class _Composer:
                 idx = o.layout_ids.index(lid)
                 if idx:
                     s = with_unit_layout(s, uid, o.poses[idx])
+        if self.followers and s is not self.scene:
+            s = follow_leaders(self.scene, s, self.followers) or s  # a failed follow was vetoed before
         return (s.model_copy(deep=True) if s is self.scene else s), picked  # never the base itself
 
 
@@ -247,7 +308,7 @@ def compose_variants(
     composer = _Composer(scene, layouts, shapes, report, accept)
     for g in composer.groups:
         report.groups[g.name] = g.count
-    pool = CandidatePool(composer.groups)
+    pool = CandidatePool(composer.groups, composer.occupancy())
     report.pool_size = pool.size
     sel: Selection = select_diverse(pool, m, alpha=alpha, valid=composer.valid, max_candidates=max_candidates, seed=seed)
     _selection_figures(report, sel)

@@ -25,7 +25,6 @@ import json
 import os
 import pickle
 import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -254,12 +253,9 @@ class FileRunStore(RunStore):
 
 
 def _write_atomic(path: Path, text: str) -> None:
+    """The one atomic write (``scene.write_atomic``: a temporary name, then a rename; the
+    ordinary file mode, not ``mkstemp``'s owner-only one), its folder made first."""
+    from scenemosaic.scene import write_atomic  # the run store itself knows nothing of scenes
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_atomic(path, text)

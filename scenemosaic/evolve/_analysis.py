@@ -44,6 +44,7 @@ from scenemosaic.scene import (
     edge_axes,
     minimal_containing_shift,
     normalize_degrees,
+    points_at,
     sat_overlap,
     traits,
 )
@@ -53,17 +54,20 @@ __all__ = [
     "FACING_TABLE_DEG",
     "HEAD_ZONE",
     "SEAT_GAP_MAX",
+    "SEAT_SQUARE_DEG",
     "WALL_FACING_DEG",
     "WALL_GAP_MAX",
     "Finding",
     "LayoutRule",
     "PhysicalCheck",
+    "SeatSlot",
     "Target",
     "find_problems",
     "merged_fixes",
     "physical_check",
     "rule_violations",
-    "table_slots",
+    "seat_slots",
+    "seating_breaches",
 ]
 
 WALL_GAP_MAX = 0.05
@@ -85,7 +89,16 @@ SEAT_GAP_MAX = 0.35
 SEAT_GAP = 0.03
 """The gap a pulled-up or seated chair keeps to its table, metres."""
 FACING_TABLE_DEG = 15.0
-"""A seat faces its table when its front is within this many degrees of the way to the table."""
+"""A seat without a table slot plan faces its table when its front is within this many degrees
+of the way to the table."""
+SEAT_SQUARE_DEG = 5.0
+"""A seat at a table or desk faces the side it sits at squarely: its front within this many
+degrees of that side's inward normal (and its centre within the side's extent)."""
+SHORT_TABLE_RATIO = 1.3
+"""A table whose long side is shorter than this times its short side seats on all four sides
+alike; a longer one fills its long sides (evenly) before its ends."""
+SLOT_SPACING = 0.05
+"""Elbow room between two seats on one side, metres (a side takes as many seats as fit)."""
 HEAD_ZONE = 0.75
 """A nightstand's centre must be within this distance of the bed's head end..."""
 BESIDE_GAP_MAX = 0.35
@@ -107,7 +120,7 @@ PINNED_TURN_MAX = 15.0
 Severity = Literal["physical", "semantic", "soft"]
 _ORDER = {
     "out_of_bounds": 0, "clause": 1, "against_wall": 2, "beside_bed": 3, "faces_table": 4, "faces_wall": 5,
-    "seat_distance": 4, "collision": 6, "clearance": 7, "sofa_tv": 8, "passage": 9,
+    "seat_distance": 4, "seating": 4, "collision": 6, "clearance": 7, "sofa_tv": 8, "faces_group": 8, "passage": 9,
 }  # fmt: skip
 
 
@@ -197,6 +210,21 @@ def _nearby_obstacles(layout: UnitLayout, ctx: UnitContext) -> list[SceneObject]
     for o, poly in obstacle_polygons(ctx):
         if any(poly.distance(p) < 0.5 for p in polys):
             out.append(o)
+    return out
+
+
+def follower_polygons(layout: UnitLayout, ctx: UnitContext) -> list[tuple[SceneObject, Polygon]]:
+    """The followers of this unit's pieces (``ctx.followers``) where they will be once they have
+    followed their leader's move in ``layout``: each outline turned and carried like its leader."""
+    out = []
+    for obj, leader, (u0, v0, r0) in ctx.followers:
+        if leader not in layout.ids:
+            continue
+        poly = convex_hull_2d(ctx.surface.project(obj.corners()))
+        a = math.radians(-(layout.rotation(leader) - r0))  # rotations turn clockwise in the view
+        rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+        moved = (poly - np.array([u0, v0])) @ rot.T + np.asarray(layout.center(leader))
+        out.append((obj, Polygon(moved)))
     return out
 
 
@@ -328,36 +356,215 @@ def beside_target(layout: UnitLayout, stand: str, bed: str, flip: bool = False, 
     return Target(float(p[0]), float(p[1]), rot)
 
 
-def table_slots(layout: UnitLayout, table: str, seats: list[str]) -> list[tuple[float, float, float]]:
-    """Places (u, v, rotation) for ``seats`` around ``table``: spread evenly along the table's
-    sides, long sides first, each facing the table, ``SEAT_GAP`` from its edge. Empty when the
-    sides cannot take them all."""
-    if not seats:
-        return []
-    c, f, lat, depth, width = _bed_frame(layout, table)
-    seat_w = max(float(layout.object(k).size[0]) for k in seats)
-    seat_d = max(float(layout.object(k).size[1]) for k in seats)
-    sides = sorted(
-        [(f, width, depth / 2), (-f, width, depth / 2), (lat, depth, width / 2), (-lat, depth, width / 2)],
-        key=lambda s: -s[1],
-    )
-    caps = [int((length + 0.05) // (seat_w + 0.05)) for _, length, _ in sides]
-    if sum(caps) < len(seats):
-        return []
-    counts = [0, 0, 0, 0]
+@dataclass(frozen=True)
+class SeatSlot:
+    """A place for a seat at its table: where, facing which way, on which side."""
+
+    u: float
+    v: float
+    rotation: float
+    side: str
+
+
+def _table_sides(layout: UnitLayout, table: str) -> dict[str, tuple[FloatArray, float, float]]:
+    """Side name -> (outward normal, half the side's length, distance of its edge from the
+    table's centre); ``front`` is the way the table faces (a desk's user side)."""
+    _c, f, lat, depth, width = _bed_frame(layout, table)
+    return {
+        "front": (f, width / 2, depth / 2),
+        "back": (-f, width / 2, depth / 2),
+        "right": (lat, depth / 2, width / 2),
+        "left": (-lat, depth / 2, width / 2),
+    }
+
+
+def _seat_side(layout: UnitLayout, table: str, seat: str) -> str:
+    """The side of ``table`` the seat's centre lies beyond the furthest."""
+    rel = np.asarray(layout.center(seat)) - np.asarray(layout.center(table))
+    sides = _table_sides(layout, table)
+    return max(sides, key=lambda k: (float(rel @ sides[k][0]) - sides[k][2], k))
+
+
+def _seat_size(layout: UnitLayout, seats: Sequence[str]) -> tuple[float, float]:
+    return max(float(layout.object(k).size[0]) for k in seats), max(float(layout.object(k).size[1]) for k in seats)
+
+
+def _open_sides(layout: UnitLayout, ctx: UnitContext, table: str, seat_d: float) -> list[str]:
+    """The sides a seat can be drawn up to: a desk or dressing table only its front; other tables
+    every side whose seating strip (a seat's depth out from the edge) stays on the floor: a side
+    against a wall stays empty."""
+    sides = _table_sides(layout, table)
+    if table in ctx.against_wall:
+        return ["front"]
+    region = Polygon(ctx.surface.region)
+    c = np.asarray(layout.center(table))
+    out = []
+    for name, (n, half, edge) in sides.items():
+        along = np.array([n[1], -n[0]])
+        mid = c + n * edge
+        reach = edge + SEAT_GAP + seat_d
+        strip = Polygon([mid - along * half * 0.8, mid + along * half * 0.8, c + n * reach + along * half * 0.8, c + n * reach - along * half * 0.8])
+        if region.buffer(1e-6).covers(strip):
+            out.append(name)
+    return out
+
+
+def _side_counts(n_seats: int, caps: Mapping[str, int], long_pair: tuple[str, str], short_pair: tuple[str, str], short_table: bool) -> dict[str, int]:
+    """How many seats each side takes: the long sides evenly first (one each in turn), then the
+    ends; on a short table all four sides in turn."""
+    counts = dict.fromkeys(caps, 0)
+    order = [*long_pair, *short_pair] if short_table else list(long_pair)
     placed = 0
-    while placed < len(seats):
-        for i in range(4):
-            if placed < len(seats) and counts[i] < caps[i]:
-                counts[i] += 1
-                placed += 1
-    out: list[tuple[float, float, float]] = []
-    for (normal, length, half), m in zip(sides, counts, strict=True):
-        along = np.array([normal[1], -normal[0]])
-        for j in range(m):
-            offset = (j - (m - 1) / 2) * (length / m)
-            p = c + normal * (half + SEAT_GAP + seat_d / 2) + along * offset
-            out.append((float(p[0]), float(p[1]), facing_degrees(-normal)))
+    for turn in (order, list(short_pair)):
+        while placed < n_seats and any(counts[k] < caps[k] for k in turn):
+            for k in turn:
+                if placed < n_seats and counts[k] < caps[k]:
+                    counts[k] += 1
+                    placed += 1
+    return counts
+
+
+def _slots_free(layout: UnitLayout, ctx: UnitContext, table: str, seats: Sequence[str], slot: SeatSlot, seat: str) -> bool:
+    """A seat at ``slot`` stays on the surface, out of the space in front of a door
+    (``ctx.keep_clear``) and clear of everything but its table and the table's other seats (which
+    move to their own slots)."""
+    trial = layout.copy()
+    trial.set_rotation(seat, slot.rotation)
+    trial.set_center(seat, slot.u, slot.v)
+    shape = Polygon(trial.polygon(seat))
+    if not Polygon(ctx.surface.region).buffer(1e-6).covers(shape):
+        return False
+    if any(shape.intersection(zone).area > 1e-4 for zone in ctx.keep_clear):
+        return False  # in front of a door
+    lo, hi = layout.span(seat)
+    skip = {table, *seats, *ctx.thin}
+    for k in layout.ids:
+        if k in skip:
+            continue
+        klo, khi = layout.span(k)
+        if klo >= hi - 1e-3 or khi <= lo + 1e-3:
+            continue
+        if shape.intersection(Polygon(layout.polygon(k))).area > 1e-4:
+            return False
+    return not any(o.id != table and shape.intersection(p).area > 1e-4 for o, p in obstacle_polygons(ctx))
+
+
+def seat_slots(layout: UnitLayout, ctx: UnitContext, table: str, seats: Sequence[str]) -> dict[str, SeatSlot]:
+    """The etiquette's places for ``seats`` at ``table``, one per seat (empty when they do not
+    all fit): seats face their side squarely, ``SEAT_GAP`` from its edge (less as far as the
+    seats are tucked in under the table now, :func:`_tuck`), spread evenly and
+    symmetrically along it; the long sides fill evenly before the ends (all four sides alike on
+    a short table, see ``SHORT_TABLE_RATIO``); a side against a wall stays empty; a desk's seats
+    sit at its front, one seat centred. Each seat takes the free slot that keeps the seats'
+    total travel least."""
+    seats = sorted(seats)
+    if not seats:
+        return {}
+    seat_w, seat_d = _seat_size(layout, seats)
+    sides = _table_sides(layout, table)
+    open_sides = _open_sides(layout, ctx, table, seat_d)
+    caps = {k: (int((2 * sides[k][1] + SLOT_SPACING) // (seat_w + SLOT_SPACING)) if k in open_sides else 0) for k in sides}
+    if sides["right"][1] > sides["front"][1]:
+        long_pair, short_pair = ("right", "left"), ("front", "back")
+    else:
+        long_pair, short_pair = ("front", "back"), ("right", "left")
+    ratio = sides[long_pair[0]][1] / max(sides[short_pair[0]][1], 1e-6)
+    c = np.asarray(layout.center(table))
+    tuck = _tuck(layout, table, seats, seat_d)
+    for _ in range(8):
+        if sum(caps.values()) < len(seats):
+            return {}
+        counts = _side_counts(len(seats), caps, long_pair, short_pair, ratio < SHORT_TABLE_RATIO)
+        slots: list[SeatSlot] = []
+        for name, m in counts.items():
+            n, half, edge = sides[name]
+            along = np.array([n[1], -n[0]])
+            for j in range(m):
+                p = c + n * (edge + SEAT_GAP + seat_d / 2 - tuck) + along * (j - (m - 1) / 2) * (2 * half / m)
+                slots.append(SeatSlot(float(p[0]), float(p[1]), facing_degrees(-n), name))
+        blocked = [sl for sl in slots if not _slots_free(layout, ctx, table, seats, sl, seats[0])]
+        if not blocked:
+            return _assign(layout, seats, slots)
+        for sl in blocked:  # a side that cannot take its seats takes one fewer; try again
+            caps[sl.side] = max(0, min(caps[sl.side], counts[sl.side]) - 1)
+    return {}
+
+
+def _tuck(layout: UnitLayout, table: str, seats: Sequence[str], seat_d: float) -> float:
+    """How far the seats are tucked in under the table now (the median over the seats drawn up to
+    it, between 0 and half a seat's depth): slots keep the room's own style, pulled out or
+    tucked in."""
+    sides = _table_sides(layout, table)
+    c = np.asarray(layout.center(table))
+    tucks = []
+    for k in seats:
+        side = _seat_side(layout, table, k)
+        n, _half, edge = sides[side]
+        d = float((np.asarray(layout.center(k)) - c) @ n)
+        if d <= edge + SEAT_GAP + seat_d / 2 + SEAT_GAP_MAX:
+            tucks.append(float(np.clip(edge + SEAT_GAP + seat_d / 2 - d, 0.0, seat_d / 2)))
+    return float(np.median(tucks)) if tucks else 0.0
+
+
+def _assign(layout: UnitLayout, seats: Sequence[str], slots: Sequence[SeatSlot]) -> dict[str, SeatSlot]:
+    """Seats to slots with the least total travel (exhaustive for up to 7 seats, else greedy)."""
+    here = {k: np.asarray(layout.center(k)) for k in seats}
+
+    def cost(k: str, sl: SeatSlot) -> float:
+        return math.dist(here[k], (sl.u, sl.v)) + 0.002 * _off(layout.rotation(k), sl.rotation)
+
+    if len(seats) <= 7:
+        import itertools
+
+        best = min(itertools.permutations(range(len(slots)), len(seats)), key=lambda perm: (sum(cost(k, slots[i]) for k, i in zip(seats, perm, strict=True)), perm))
+        return {k: slots[i] for k, i in zip(seats, best, strict=True)}
+    free = list(slots)
+    out: dict[str, SeatSlot] = {}
+    for k in seats:
+        sl = min(free, key=lambda s: (cost(k, s), s.u, s.v))
+        free.remove(sl)
+        out[k] = sl
+    return out
+
+
+def _square_on_side(layout: UnitLayout, table: str, seat: str) -> tuple[bool, bool, str]:
+    """(faces its side squarely, centre within the side's extent, the side)."""
+    side = _seat_side(layout, table, seat)
+    n, half, _edge = _table_sides(layout, table)[side]
+    rel = np.asarray(layout.center(seat)) - np.asarray(layout.center(table))
+    along = np.array([n[1], -n[0]])
+    square = _off(layout.rotation(seat), facing_degrees(-n)) <= SEAT_SQUARE_DEG
+    return square, abs(float(rel @ along)) <= half + 1e-6, side
+
+
+def seating_breaches(layout: UnitLayout, ctx: UnitContext, table: str, seats: Sequence[str]) -> list[str]:
+    """What breaks the seating etiquette at ``table``, in words (empty when the seats are right):
+    a seat too far, turned off its side, beyond its side's extent, at a side against a wall or at
+    a desk's back, or long sides holding uneven counts."""
+    out: list[str] = []
+    if not seats:
+        return out
+    _w, seat_d = _seat_size(layout, seats)
+    open_sides = _open_sides(layout, ctx, table, seat_d)
+    counts: dict[str, int] = {}
+    for k in sorted(seats):
+        square, on_side, side = _square_on_side(layout, table, k)
+        counts[side] = counts.get(side, 0) + 1
+        gap = float(Polygon(layout.polygon(k)).distance(Polygon(layout.polygon(table))))
+        if gap > SEAT_GAP_MAX:
+            out.append(f"{k} stands {gap:.2f} m from {table}")
+        elif side not in open_sides:
+            out.append(f"{k} sits at the {side} of {table}, where no seat belongs")
+        elif not square:
+            out.append(f"{k} is not square to the {side} side of {table}")
+        elif not on_side:
+            out.append(f"{k} sits past the end of the {side} side of {table}")
+    sides = _table_sides(layout, table)
+    long_pair = ("right", "left") if sides["right"][1] > sides["front"][1] else ("front", "back")
+    if all(s in open_sides for s in long_pair) and table not in ctx.against_wall:
+        a, b = counts.get(long_pair[0], 0), counts.get(long_pair[1], 0)
+        if abs(a - b) > 1:
+            out.append(f"the long sides of {table} hold {a} and {b} seats")
     return out
 
 
@@ -373,17 +580,8 @@ def _seat_target(layout: UnitLayout, ctx: UnitContext, seat: str, table: str) ->
                 c = np.asarray(layout.center(seat)) + d * (gap - keep)
                 return Target(float(c[0]), float(c[1]), facing_degrees(d))
     seats = sorted(k for k, t in ctx.seat_table.items() if t == table)
-    others = [np.asarray(layout.center(k)) for k in seats if k != seat]
-    here = np.asarray(layout.center(seat))
-    for u, v, rot in sorted(table_slots(layout, table, seats), key=lambda s: math.dist(s[:2], here)):
-        if any(math.dist((u, v), o) < 0.3 for o in others):
-            continue
-        trial = layout.copy()
-        trial.set_rotation(seat, rot)
-        trial.set_center(seat, u, v)
-        if not _blocked(layout, ctx, seat, trial.polygon(seat), table):
-            return Target(u, v, rot)
-    return None
+    slot = seat_slots(layout, ctx, table, seats).get(seat)
+    return None if slot is None else Target(slot.u, slot.v, slot.rotation)
 
 
 def table_direction(layout: UnitLayout, seat: str, table: str) -> FloatArray | None:
@@ -399,6 +597,11 @@ def table_direction(layout: UnitLayout, seat: str, table: str) -> FloatArray | N
         d = np.array([q.x, q.y]) - c
     n = float(np.linalg.norm(d))
     return d / n if n > 1e-6 else None
+
+
+def layout_faces(layout: UnitLayout, piece: str, target: str) -> bool:
+    """Whether ``piece`` faces ``target`` in the layout (``scene.points_at``, the one definition)."""
+    return points_at(np.asarray(layout.center(piece)), _facing(layout.rotation(piece)), Polygon(layout.polygon(target)), np.asarray(layout.center(target)))
 
 
 def _faces_wall(layout: UnitLayout, ctx: UnitContext, oid: str) -> WallLine | None:
@@ -559,7 +762,8 @@ def _passage(layout: UnitLayout, ctx: UnitContext, fixable: bool = True) -> list
     the layout is otherwise right (``fixable``; until then the cut is only remarked)."""
     raster = FloorRaster(np.asarray(ctx.surface.region, dtype=np.float64))
     masks = {k: raster.mask(layout.polygon(k)) for k in layout.ids if k not in ctx.thin}
-    fixed = raster.blocked([poly for o, poly in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < WALK_MAX_HEIGHT])
+    low = [*obstacle_polygons(ctx), *follower_polygons(layout, ctx)]
+    fixed = raster.blocked([poly for o, poly in low if float(o.aabb()[0][2]) < WALK_MAX_HEIGHT])
     blocked = fixed.copy()
     for m in masks.values():
         blocked |= m
@@ -577,14 +781,15 @@ def _passage(layout: UnitLayout, ctx: UnitContext, fixable: bool = True) -> list
 
 
 def _still_seated(layout: UnitLayout, seat: str, table: str, shift: FloatArray) -> bool:
-    """Whether ``seat`` moved by ``shift`` still stands at its table and faces it."""
+    """Whether ``seat`` moved by ``shift`` still stands at its table, square to the same side
+    and within its extent."""
     trial = layout.copy()
     c = np.asarray(layout.center(seat)) + shift
     trial.set_center(seat, float(c[0]), float(c[1]))
     if Polygon(trial.polygon(seat)).distance(Polygon(trial.polygon(table))) > SEAT_GAP_MAX:
         return False
-    d = table_direction(trial, seat, table)
-    return d is None or _off(trial.rotation(seat), facing_degrees(d)) <= FACING_TABLE_DEG
+    square, on_side, side = _square_on_side(trial, table, seat)
+    return square and on_side and side == _seat_side(layout, table, seat)
 
 
 def _reopen(
@@ -716,27 +921,12 @@ def find_problems(
                     {stand: beside_target(layout, stand, bed, flip=stand in avoid and stands_of[bed] == 1, side=sides.get(stand))},
                 )
             )
+        by_table: dict[str, list[str]] = {}
         for seat, table in sorted(ctx.seat_table.items()):
-            gap = float(Polygon(layout.polygon(seat)).distance(Polygon(layout.polygon(table))))
-            if gap > SEAT_GAP_MAX and seat not in ctx.pinned:
-                target = _seat_target(layout, ctx, seat, table)
-                out.append(
-                    Finding(
-                        "seat_distance", (seat, table), "semantic" if target else "soft",
-                        f"Pull ({seat}) up to its table ({table}) and face it; it stands {gap:.1f} m away.",
-                        {seat: target} if target else {},
-                    )
-                )
-                if target is not None:
-                    continue  # the pull-up turns it to the table too
-            d = table_direction(layout, seat, table)
-            if d is None or ctx.frozen_rotation:
-                continue
-            want = facing_degrees(d)
-            if _off(layout.rotation(seat), want) > FACING_TABLE_DEG:
-                out.append(
-                    Finding("faces_table", (seat, table), "semantic", f"Turn ({seat}) to face the table ({table}) squarely.", {seat: Target(rotation=want)})
-                )
+            if table in ids and seat not in ctx.pinned:
+                by_table.setdefault(table, []).append(seat)
+        for table, seats in sorted(by_table.items()):
+            out.extend(_seating(layout, ctx, table, seats))
         for oid in sorted(ctx.with_front - ctx.against_wall - set(ctx.seat_table)):
             wall = _faces_wall(layout, ctx, oid)
             if wall is not None:
@@ -747,6 +937,19 @@ def find_problems(
                     )
                 )
         out.extend(_clearance(layout, ctx))
+        for piece, faced in sorted(ctx.keep_facing):
+            if piece not in ids or faced not in ids or layout_faces(layout, piece, faced):
+                continue
+            if piece in ctx.against_wall or piece in ctx.pinned or ctx.frozen_rotation:
+                out.append(Finding("faces_group", (piece, faced), "soft", f"({piece}) no longer faces ({faced}); turn or move them to face each other again."))
+                continue
+            way = np.asarray(layout.center(faced)) - np.asarray(layout.center(piece))
+            out.append(
+                Finding(
+                    "faces_group", (piece, faced), "semantic", f"Turn ({piece}) to face ({faced}) again, as it did.",
+                    {piece: Target(rotation=facing_degrees(way))},
+                )
+            )
         for sofa, tv in sorted(ctx.sofa_tv.items()):
             d = np.asarray(layout.center(tv)) - np.asarray(layout.center(sofa))
             if float(np.linalg.norm(d)) > 1e-6 and _off(layout.rotation(sofa), facing_degrees(d)) > 90.0:
@@ -777,6 +980,97 @@ def find_problems(
         out.extend(found)
     out.sort(key=lambda f: _ORDER.get(f.kind, 99))
     return out
+
+
+def _legacy_seat(layout: UnitLayout, ctx: UnitContext, seat: str, table: str) -> list[Finding]:
+    """A seat at a table with no slot plan (its seats do not all fit around it): pulled up along
+    the way to the table and turned to face it within ``FACING_TABLE_DEG``."""
+    out: list[Finding] = []
+    gap = float(Polygon(layout.polygon(seat)).distance(Polygon(layout.polygon(table))))
+    if gap > SEAT_GAP_MAX and seat not in ctx.pinned:
+        target = _seat_target(layout, ctx, seat, table)
+        out.append(
+            Finding(
+                "seat_distance", (seat, table), "semantic" if target else "soft",
+                f"Pull ({seat}) up to its table ({table}) and face it; it stands {gap:.1f} m away.",
+                {seat: target} if target else {},
+            )
+        )
+        if target is not None:
+            return out  # the pull-up turns it to the table too
+    d = table_direction(layout, seat, table)
+    if d is None or ctx.frozen_rotation:
+        return out
+    want = facing_degrees(d)
+    if _off(layout.rotation(seat), want) > FACING_TABLE_DEG:
+        out.append(
+            Finding("faces_table", (seat, table), "semantic", f"Turn ({seat}) to face the table ({table}) squarely.", {seat: Target(rotation=want)})
+        )
+    return out
+
+
+def _on_own_sides(layout: UnitLayout, ctx: UnitContext, table: str, seats: list[str], breaches: list[str]) -> dict[str, Target]:
+    """The least change that seats every seat right when the sides already hold the right
+    counts: each breaching seat squared up at the side it sits at, drawn up to ``SEAT_GAP`` (or
+    kept as close as it is), its centre moved within the side's extent. Empty when the counts are
+    wrong, a seat sits at a side that takes none, or a squared-up seat would not be clear."""
+    if any("long sides" in b or "no seat belongs" in b for b in breaches):
+        return {}
+    sides = _table_sides(layout, table)
+    c = np.asarray(layout.center(table))
+    _w, seat_d = _seat_size(layout, seats)
+    out: dict[str, Target] = {}
+    trial = layout.copy()
+    for k in sorted(seats):
+        square, on_side, side = _square_on_side(layout, table, k)
+        gap = float(Polygon(layout.polygon(k)).distance(Polygon(layout.polygon(table))))
+        if square and on_side and gap <= SEAT_GAP_MAX:
+            continue
+        n, half, edge = sides[side]
+        along = np.array([n[1], -n[0]])
+        rel = np.asarray(layout.center(k)) - c
+        half_w = float(layout.object(k).size[0]) / 2
+        t = float(np.clip(rel @ along, -max(half - half_w, 0.0), max(half - half_w, 0.0)))
+        out_d = min(max(float(rel @ n), edge), edge + SEAT_GAP + seat_d / 2)  # a tucked-in seat stays tucked
+        p = c + n * out_d + along * t
+        slot = SeatSlot(float(p[0]), float(p[1]), facing_degrees(-n), side)
+        if not _slots_free(trial, ctx, table, [], slot, k):
+            return {}
+        trial.set_rotation(k, slot.rotation)
+        trial.set_center(k, slot.u, slot.v)
+        out[k] = Target(slot.u, slot.v, slot.rotation)
+    return out
+
+
+def _seating(layout: UnitLayout, ctx: UnitContext, table: str, seats: list[str]) -> list[Finding]:
+    """The seating etiquette at one table: when a seat breaks it and the sides already hold the
+    right counts, the breaching seats square up where they sit (:func:`_on_own_sides`); else
+    every seat that is not in its slot moves there (:func:`seat_slots`); without a slot plan,
+    each seat on its own."""
+    breaches = seating_breaches(layout, ctx, table, seats)
+    if not breaches:
+        return []
+    own = _on_own_sides(layout, ctx, table, seats, breaches)
+    if own:
+        where = ", ".join(f"({k})" for k in sorted(own))
+        note = f"Seat the chairs at ({table}) as people sit: {'; '.join(breaches)}. Turn {where} square to the side of the table it sits at and draw it up, centred within that side."
+        return [Finding("seating", (table, *sorted(own)), "semantic", note, own)]
+    plan = seat_slots(layout, ctx, table, seats)
+    if not plan:
+        return [f for k in seats for f in _legacy_seat(layout, ctx, k, table)]
+    fixes = {
+        k: Target(sl.u, sl.v, sl.rotation)
+        for k, sl in sorted(plan.items())
+        if math.dist(layout.center(k), (sl.u, sl.v)) > 0.01 or _off(layout.rotation(k), sl.rotation) > 0.5
+    }
+    if not fixes:
+        return []
+    where = ", ".join(f"({k}) at its {plan[k].side} side" for k in sorted(fixes))
+    note = (
+        f"Seat the chairs at ({table}) as people sit: {'; '.join(breaches)}. Put {where}, each centred in its place "
+        "on that side and facing the table squarely; fill the long sides evenly before the ends."
+    )
+    return [Finding("seating", (table, *sorted(fixes)), "semantic", note, fixes)]
 
 
 def _surface_name(ctx: UnitContext) -> str:
@@ -811,7 +1105,9 @@ def merged_fixes(findings: list[Finding], allowed: Collection[str] | None = None
 def rule_violations(layout: UnitLayout, ctx: UnitContext, check: PhysicalCheck) -> list[str]:
     """The hard rules a finished layout must keep, as sentences (empty when all hold):
     no collisions, nothing out of bounds, wall pieces backed within 5 cm and facing in within
-    10°, seats facing their tables within 15°, nightstands beside their bed's head."""
+    10°, seats seated by the etiquette (:func:`seating_breaches`; facing their table within 15°
+    where the table has no slot plan), nightstands beside their bed's head, lounge pieces still
+    facing what they faced (``ctx.keep_facing``)."""
     out = [f"collision {p.a} ~ {p.b} ({p.depth_m * 100:.1f} cm)" for p in check.collisions]
     out += [f"{k} out of bounds" for k in check.out_of_bounds]
     if ctx.floor and ctx.walls:
@@ -824,8 +1120,19 @@ def rule_violations(layout: UnitLayout, ctx: UnitContext, check: PhysicalCheck) 
         for stand, bed in sorted(ctx.nightstand_bed.items()):
             if not beside_ok(layout, stand, bed):
                 out.append(f"{stand} not beside the head of {bed}")
+        by_table: dict[str, list[str]] = {}
         for seat, table in sorted(ctx.seat_table.items()):
-            d = table_direction(layout, seat, table)
-            if d is not None and _off(layout.rotation(seat), facing_degrees(d)) > FACING_TABLE_DEG:
-                out.append(f"{seat} does not face {table}")
+            by_table.setdefault(table, []).append(seat)
+        for table, seats in sorted(by_table.items()):
+            if seat_slots(layout, ctx, table, seats):
+                out += seating_breaches(layout, ctx, table, seats)
+                continue
+            for seat in seats:
+                d = table_direction(layout, seat, table)
+                if d is not None and _off(layout.rotation(seat), facing_degrees(d)) > FACING_TABLE_DEG:
+                    out.append(f"{seat} does not face {table}")
+        ids = set(layout.ids)
+        for piece, target in sorted(ctx.keep_facing):
+            if piece in ids and target in ids and not layout_faces(layout, piece, target):
+                out.append(f"{piece} no longer faces {target}")
     return out

@@ -30,6 +30,7 @@ import math
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from shapely.geometry import Polygon
@@ -39,8 +40,10 @@ from scenemosaic.evolve._analysis import (
     WALL_FLUSH_GAP,
     beside_target,
     front_strip,
+    layout_faces,
     obstacle_polygons,
-    table_slots,
+    seat_slots,
+    seating_breaches,
     wall_status,
 )
 from scenemosaic.evolve._context import UnitContext, WallLine
@@ -196,15 +199,8 @@ def _seated(table: str) -> Callable[[UnitLayout, UnitContext], Placement]:
     def place(layout: UnitLayout, ctx: UnitContext) -> Placement:
         out = _current(layout)
         seats = sorted(s for s, t in ctx.seat_table.items() if t == table)
-        slots = table_slots(layout, table, seats)
-        free = list(slots)
-        for s in seats:  # nearest free place first, seat by seat (deterministic order)
-            if not free:
-                break
-            here = layout.center(s)
-            best = min(free, key=lambda p: (math.dist(p[:2], here), p))
-            free.remove(best)
-            out[s] = best
+        for s, slot in seat_slots(layout, ctx, table, seats).items():
+            out[s] = (slot.u, slot.v, slot.rotation)
         return out
 
     return place
@@ -337,6 +333,129 @@ def _relocations(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     return [r for _, _, r in found]
 
 
+def _wall_place(
+    layout: UnitLayout, ctx: UnitContext, piece: str, wall: WallLine, blocked: Any, near: np.ndarray
+) -> tuple[Placement, list[Polygon]] | None:
+    """``piece`` and its group backed against ``wall`` at the free place nearest ``near``: every
+    member on the surface and clear of ``blocked`` (grown by ``MOVE_MARGIN``), a
+    ``FRONT_CLEARANCE`` strip in front of the piece free too. Returns the members' places and
+    the outlines they take (the strip included)."""
+    members = _group(ctx, piece)
+    region = Polygon(ctx.surface.region).buffer(-0.005, join_style="mitre")
+    here = np.asarray(layout.center(piece))
+    turn = normalize_degrees(wall.facing - layout.rotation(piece))
+    trial = layout.copy()
+    trial.set_rotation(piece, wall.facing)
+    poly = trial.polygon(piece)
+    back = (WALL_FLUSH_GAP - wall.gap(poly)) * np.asarray(wall.inward)
+    lo, hi = wall.along(poly + back)
+    best: tuple[float, Placement, list[Polygon]] | None = None
+    for t in np.arange(-lo, wall.length - hi + 1e-9, MOVE_STEP):
+        to = np.asarray(trial.center(piece)) + back + t * wall.tangent
+        key = float(np.linalg.norm(to - near))
+        if best is not None and key >= best[0]:
+            continue
+        place: Placement = {}
+        _move_group(place, layout, members, here, to, turn)
+        moved = layout.copy()
+        for k, (u, v, r) in place.items():
+            moved.set_rotation(k, r)
+            moved.set_center(k, u, v)
+        for k in members[1:]:  # nightstands tucked beside the bed's head
+            if ctx.nightstand_bed.get(k) == piece:
+                tk = beside_target(moved, k, piece)
+                assert tk.u is not None and tk.v is not None and tk.rotation is not None
+                place[k] = (tk.u, tk.v, tk.rotation)
+                moved.set_rotation(k, tk.rotation)
+                moved.set_center(k, tk.u, tk.v)
+        shapes = [Polygon(moved.polygon(k)) for k in members]
+        strip = front_strip(moved.polygon(piece), to, wall.facing)
+        if all(region.covers(sh) and not blocked.intersects(sh) for sh in shapes) and region.covers(strip) and not blocked.intersects(strip):
+            best = (key, place, [*shapes, strip])
+    return None if best is None else (best[1], best[2])
+
+
+def _rearranged(
+    layout: UnitLayout, ctx: UnitContext, piece: str, wall: WallLine, own: WallLine, near: np.ndarray, wall_pieces: list[str], fixed: list[Polygon]
+) -> Placement | None:
+    """``piece``'s group on ``wall`` nearest ``near``, the wall pieces it lands on re-placed
+    (largest first: where ``piece`` stood, else on the first other wall with room); ``None``
+    when one of them finds no place."""
+    from shapely.ops import unary_union
+
+    def grown(polys: list[Polygon]) -> Any:
+        return unary_union([p.buffer(MOVE_MARGIN, join_style="mitre") for p in polys]) if polys else Polygon()
+
+    first = _wall_place(layout, ctx, piece, wall, grown(fixed), near)
+    if first is None:
+        return None
+    out = dict(first[0])
+    taken = list(first[1])
+    claimed = grown(taken)
+    hit = [k for k in wall_pieces if k != piece and any(claimed.intersects(Polygon(layout.polygon(m))) for m in _group(ctx, k))]
+    staying = [Polygon(layout.polygon(m)) for k in wall_pieces if k != piece and k not in hit for m in _group(ctx, k)]
+    walls = [own, *(w for w in ctx.walls if w.id not in (own.id, wall.id))]
+    for k in sorted(hit, key=lambda k: (-float(Polygon(layout.polygon(k)).area), k)):
+        blocked = grown([*fixed, *staying, *taken])
+        spot = None
+        for w in walls:
+            spot = _wall_place(layout, ctx, k, w, blocked, np.asarray(layout.center(piece) if w.id == own.id else layout.center(k)))
+            if spot is not None:
+                break
+        if spot is None:
+            return None
+        out.update(spot[0])
+        taken += spot[1]
+    return out
+
+
+def _displaced(piece: str, wall_id: str) -> Callable[[UnitLayout, UnitContext], Placement]:
+    """``piece`` and its group carried to ``wall_id`` (a bed to another wall with its
+    nightstands): to its middle, else to either end, and every wall piece standing there
+    re-placed (:func:`_rearranged`). Free-standing pieces and other units' objects stay
+    and are never covered; when a displaced piece finds no place the arrangement is the current
+    one (and is not offered)."""
+
+    def place(layout: UnitLayout, ctx: UnitContext) -> Placement:
+        current = _current(layout)
+        wall = next((w for w in ctx.walls if w.id == wall_id), None)
+        _ok, own = wall_status(layout, ctx, piece)
+        if wall is None or own is None:
+            return current
+        wall_pieces = sorted(ctx.against_wall - set(ctx.nightstand_bed) - set(ctx.pinned))
+        grouped = {m for k in wall_pieces for m in _group(ctx, k)}
+        fixed = [Polygon(layout.polygon(k)) for k in layout.ids if k not in grouped and k not in ctx.thin]
+        top = max(layout.span(m)[1] for m in grouped)
+        fixed += [poly for o, poly in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < top]
+
+        for near in (np.asarray(wall.a) + np.asarray(wall.b)) / 2, np.asarray(wall.a), np.asarray(wall.b):
+            found = _rearranged(layout, ctx, piece, wall, own, near, wall_pieces, fixed)
+            if found is not None:
+                return {**current, **found}
+        return current
+
+    return place
+
+
+def _displacements(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
+    """Every wall piece's group carried to the middle of each other wall, the pieces there
+    re-placed (:func:`_displaced`), the largest pieces first."""
+    out: list[tuple[float, str, RuleArchetype]] = []
+    for piece in sorted(ctx.against_wall - set(ctx.nightstand_bed) - set(ctx.pinned)):
+        if any(k in ctx.pinned for k in _group(ctx, piece)):
+            continue
+        _, own = wall_status(layout, ctx, piece)
+        cat = layout.object(piece).category
+        for wall in ctx.walls:
+            if own is None or wall.id == own.id:
+                continue
+            lid = f"displaced_{piece}_{wall.id}"[:40]
+            reason = f"the {cat} ({piece}) and its group moved to the middle of the wall ({wall.id}); what stood there takes another place along the walls"
+            out.append((-float(Polygon(layout.polygon(piece)).area), lid, RuleArchetype(lid, f"{cat} on the {wall.id} wall, the rest rearranged", reason, _displaced(piece, wall.id))))
+    out.sort(key=lambda x: (x[0], x[1]))
+    return [r for _, _, r in out]
+
+
 def _slides(layout: UnitLayout, ctx: UnitContext, table: str, scattered: bool) -> list[RuleArchetype]:
     """``slid_<side>_<table>`` for each side the group fits toward; seats standing away from
     their table are gathered around it first (a group spread over the room cannot slide)."""
@@ -344,7 +463,7 @@ def _slides(layout: UnitLayout, ctx: UnitContext, table: str, scattered: bool) -
         return []
     cat = layout.object(table).category
     seats = sorted(s for s, t in ctx.seat_table.items() if t == table)
-    gather = scattered and bool(table_slots(layout, table, seats))
+    gather = scattered and bool(seat_slots(layout, ctx, table, seats))
     start = layout
     if gather:
         start = layout.copy()
@@ -368,7 +487,7 @@ def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     if kind == "floor":
         for table in sorted(set(ctx.seat_table.values())):
             seats = sorted(s for s, t in ctx.seat_table.items() if t == table)
-            if table_slots(layout, table, seats):
+            if seat_slots(layout, ctx, table, seats):
                 seated.append(RuleArchetype(f"seated_{table}"[:40], f"seats spread around the {layout.object(table).category}", f"the seats of ({table}) spread evenly along its sides, long sides first, each facing it", _seated(table)))
     scattered = any(
         Polygon(layout.polygon(s)).distance(Polygon(layout.polygon(t))) > SEAT_GAP_MAX for s, t in ctx.seat_table.items()
@@ -393,6 +512,7 @@ def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
         if not scattered:
             out += seated
         out += _relocations(layout, ctx)
+        out += _displacements(layout, ctx)
         for table in sorted(set(ctx.seat_table.values())):
             if table not in ctx.against_wall:
                 cat = layout.object(table).category
@@ -486,12 +606,57 @@ def _stacked(layout: UnitLayout, a: str, b: str) -> bool:
     return alo >= bhi - 1e-3 or blo >= ahi - 1e-3
 
 
+def _seated_all(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> Placement:
+    """``placed`` with every table's seats in their etiquette slots (where the loop will put
+    them), so two placements that differ only in how the seats stand compare as one."""
+    trial = layout.copy()
+    for k, (u, v, r) in placed.items():
+        trial.set_rotation(k, r)
+        trial.set_center(k, u, v)
+    out = dict(placed)
+    tables: dict[str, list[str]] = {}
+    for seat, table in ctx.seat_table.items():
+        tables.setdefault(table, []).append(seat)
+    for table, seats in sorted(tables.items()):
+        for k, sl in seat_slots(trial, ctx, table, seats).items():
+            out[k] = (sl.u, sl.v, sl.rotation)
+    return out
+
+
+def _plausible(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:
+    """Whether the loop can make a placement right, judged before it runs: wall pieces that
+    faced each other (a sofa and its TV) still do (the loop does not carry wall pieces across
+    the room), and every table's seats have an even slot plan where the table now stands."""
+    trial = layout.copy()
+    for k, (u, v, r) in placed.items():
+        trial.set_rotation(k, r)
+        trial.set_center(k, u, v)
+    for piece, target in sorted(ctx.keep_facing):
+        if piece in ctx.against_wall and piece in trial.ids and target in trial.ids and not layout_faces(trial, piece, target):
+            return False
+    tables: dict[str, list[str]] = {}
+    for seat, table in ctx.seat_table.items():
+        tables.setdefault(table, []).append(seat)
+    for table, seats in sorted(tables.items()):
+        plan = seat_slots(trial, ctx, table, seats)
+        if not plan:
+            continue
+        seated = trial.copy()
+        for k, sl in plan.items():
+            seated.set_rotation(k, sl.rotation)
+            seated.set_center(k, sl.u, sl.v)
+        if seating_breaches(seated, ctx, table, seats):
+            return False
+    return True
+
+
 def rule_archetypes(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     """The offline archetypes that differ from the original and from each other, preferred first.
 
     A swap whose groups do not fit where they go (a bed and its nightstands on a wall too short
-    for them) is not offered: the loop could not make it valid."""
+    for them) is not offered, nor a placement the loop could not make right (:func:`_plausible`)."""
     base = _current(layout)
+    seen = [_seated_all(layout, ctx, base)]
     kept: list[tuple[RuleArchetype, Placement]] = []
     for cand in _candidates(layout, ctx):
         placed = _pinned(cand.place(layout, ctx), ctx)
@@ -499,7 +664,11 @@ def rule_archetypes(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]
             moved = {k for k in placed if math.dist(placed[k][:2], base[k][:2]) > 1e-6}
             if not _fits(layout, ctx, placed, moved):
                 continue
-        if _same(base, placed, layout) or any(_same(p, placed, layout) for _, p in kept):
+        looks = _seated_all(layout, ctx, placed)  # compared as the loop will seat them
+        if any(_same(p, looks, layout) for p in seen):
+            continue
+        seen.append(looks)
+        if not _plausible(layout, ctx, placed):
             continue
         kept.append((cand, placed))
     return [c for c, _ in kept]

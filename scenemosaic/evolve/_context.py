@@ -15,6 +15,8 @@ from scenemosaic.scene import (
     SceneObject,
     UnitLayout,
     UnitSurface,
+    door_zones,
+    functional_relations,
     surface_for,
     traits,
 )
@@ -97,8 +99,19 @@ class UnitContext:
     """Nightstand -> the bed whose head it stands beside."""
     sofa_tv: dict[str, str] = field(default_factory=dict)
     """Sofa -> the TV stand it faces."""
+    keep_facing: set[tuple[str, str]] = field(default_factory=set)
+    """(piece, target) pairs of lounge pieces that face each other in the stabilized scene and
+    must go on doing so: a sofa or armchair and its coffee table, a sofa and its TV, the TV and
+    the sofa (``scene.functional_relations``, ``faces``, seats at tables left to the etiquette)."""
     with_front: set[str] = field(default_factory=set)
     """Children whose front matters (seats, storage, tables against walls...): they must not face a wall."""
+    followers: list[tuple[SceneObject, str, tuple[float, float, float]]] = field(default_factory=list)
+    """Other units' pieces that follow one of this unit's (a low lamp over a table: composition
+    moves it with the table): (the piece, its leader, the leader's (u, v, rotation) when the
+    context was made). They are not obstacles; the passage rule sees them where they will hang."""
+    keep_clear: list[Any] = field(default_factory=list)
+    """Floor that no seat slot may take (floor units): the clearance zone in front of each door
+    (``scene.door_zones``), as (u, v) shapely polygons."""
     clauses: list[ConstraintClause] = field(default_factory=list)
     pinned: dict[str, tuple[str, tuple[float, float], float]] = field(default_factory=dict)
     """Children a cross-unit clause ties down: id -> (constraint kind, centre, rotation) to keep."""
@@ -171,6 +184,18 @@ def unit_context(scene: Scene, unit: LocalUnit, obstacles: list[SceneObject], th
                     ctx.nightstand_bed[o.id] = beds[0]
     constraints = {c.id: c for c in scene.constraints}
     layout = UnitLayout.from_scene(scene, unit)
+    if unit.anchor_kind == "floor":
+        from shapely.geometry import Polygon
+
+        for zone in door_zones(scene):
+            pts = np.asarray(zone.polygon.exterior.coords)[:, :2]
+            ctx.keep_clear.append(Polygon([surface.to_uv(np.array([x, y, 0.0])) for x, y in pts]))
+        for rel in functional_relations(scene):
+            if rel.kind == "faces" and rel.subject in by_id and rel.leader in by_id and rel.subject not in ctx.seat_table:
+                ctx.keep_facing.add((rel.subject, rel.leader))
+            if rel.follows and rel.leader in by_id and rel.subject not in by_id:
+                lead = layout.center(rel.leader)
+                ctx.followers.append((scene.get(rel.subject), rel.leader, (lead[0], lead[1], layout.rotation(rel.leader))))
     # clauses the semantic rules already enforce (seats at tables, nightstands at beds, sofas
     # facing) are kept by those rules wherever the group goes; the others pin their objects
     covered = set(ctx.seat_table) | set(ctx.seat_table.values()) | set(ctx.nightstand_bed)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import asyncio
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,7 +37,16 @@ from scenemosaic.exceptions import (
 )
 from scenemosaic.models import Model, ModelSettings, Usage
 from scenemosaic.physics import ObjectShape, is_thin, require_finite_poses
-from scenemosaic.scene import LocalUnit, Scene, UnitLayout, build_structure, unit_layout, with_unit_layout
+from scenemosaic.scene import (
+    LocalUnit,
+    Scene,
+    UnitLayout,
+    build_structure,
+    descendants,
+    functional_relations,
+    unit_layout,
+    with_unit_layout,
+)
 
 __all__ = ["MAX_ALTERNATIVES", "EvolutionReport", "UnitEvolution", "alternative_counts", "evolve_scene", "unit_obstacles"]
 
@@ -96,16 +105,19 @@ scenes: room for the filters to drop some, and for the selection to choose among
 differ in more than one small unit."""
 
 
-def alternative_counts(units: list[LocalUnit], m: int) -> dict[str, int]:
+def alternative_counts(units: list[LocalUnit], m: int, followers: Collection[str] = ()) -> dict[str, int]:
     """Archetypes to ask per unit: the method's count for its size (0-1 for 1-5 children, 0-2 for
     6-10, 0-3 above), raised one at a time for the units with most children while the product of
     (1 + count) over units is below ``POOL_FACTOR`` (m + 1), up to :data:`MAX_ALTERNATIVES` each: room for the
     local filtering and the scene-level checks to drop some and still leave m distinct variants. A deliberate deviation for small rooms
-    (a five-object room gets one alternative by the method's count, so at most one variant)."""
+    (a five-object room gets one alternative by the method's count, so at most one variant).
+    A unit whose every child follows another unit's piece (``followers``: a ceiling of lamps
+    over tables) gets none: composition puts its children where their groups go."""
     if m <= 0:
         return {u.anchor_id: 0 for u in units}
-    counts = {u.anchor_id: max_alternatives(len(u.children)) for u in units}
-    order = sorted(units, key=lambda u: (-len(u.children), u.anchor_id))
+    free = [u for u in units if not set(u.children) <= set(followers)]
+    counts = {u.anchor_id: max_alternatives(len(u.children)) if u in free else 0 for u in units}
+    order = sorted(free, key=lambda u: (-len(u.children), u.anchor_id))
     while math.prod(1 + c for c in counts.values()) < POOL_FACTOR * (m + 1):
         grown = False
         for u in order:
@@ -120,11 +132,15 @@ def alternative_counts(units: list[LocalUnit], m: int) -> dict[str, int]:
 
 def unit_obstacles(scene: Scene, unit: LocalUnit, units: list[LocalUnit]) -> list[Any]:
     """Fixed objects a unit's children may run into: for a floor, wall or ceiling unit, the
-    children of the other room-level units (a painting above a wardrobe, a low pendant lamp)."""
+    children of the other room-level units (a painting above a wardrobe, a low pendant lamp),
+    except those that follow one of this unit's pieces (a lamp over its table moves with the
+    table in composition: ``scene.functional_relations``)."""
     if unit.anchor_kind == "object":
         return []
+    own = set(unit.children) | {d for c in unit.children for d in descendants(scene, c)}
+    followers = {r.subject for r in functional_relations(scene) if r.follows and r.leader in own}
     roots = [u for u in units if u.anchor_kind != "object" and u.anchor_id != unit.anchor_id]
-    return [scene.get(c) for u in roots for c in u.children]
+    return [scene.get(c) for u in roots for c in u.children if c not in followers]
 
 
 async def evolve_scene(
@@ -164,7 +180,8 @@ async def evolve_scene(
         lambda: {u.anchor_id: unit_context(scene, u, unit_obstacles(scene, u, units), thin) for u in units}
     )
     policy = policy or AgentPolicy()
-    counts = alternative_counts(units, variants)
+    followers = {r.subject for r in functional_relations(scene) if r.follows}
+    counts = alternative_counts(units, variants, followers)
     nodes: list[Node] = []
 
     def views(anchor: str, layout_id: str) -> Path | None:

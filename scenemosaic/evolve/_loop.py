@@ -44,6 +44,7 @@ from scenemosaic.evolve._analysis import (
     LayoutRule,
     PhysicalCheck,
     find_problems,
+    merged_fixes,
     physical_check,
     rule_violations,
 )
@@ -52,7 +53,7 @@ from scenemosaic.evolve._memory import LayoutMemory, RoundRecord
 from scenemosaic.evolve._views import scene_with, unit_view_png
 from scenemosaic.models import Model, ModelSettings, Usage
 from scenemosaic.physics import ObjectShape, SettleSettings, SimSettings, UnitPlan, settle_unit
-from scenemosaic.scene import LayoutState2D, Pose, Scene, UnitLayout, unit_layout
+from scenemosaic.scene import LayoutState2D, Pose, Scene, UnitLayout, normalize_degrees, unit_layout
 
 __all__ = ["EARLY_STOP_MOVE_M", "EARLY_STOP_TURN_DEG", "MAX_ROUNDS", "LayoutResult", "evolve_layout"]
 
@@ -144,11 +145,37 @@ async def _ask(
     return answer
 
 
+def _binding(findings: Sequence[Finding]) -> list[Finding]:
+    """The rule findings no answer may overrule: physical or semantic problems the rules can fix
+    (a collision, an object out of bounds, a seat not square to its table, a cut passage, a wall
+    piece off its wall...). Soft remarks are the critic's to weigh."""
+    return [f for f in findings if f.severity != "soft" and f.fixes]
+
+
 def _mandatory(notes: list[str], findings: Sequence[Finding], layout: UnitLayout) -> list[str]:
-    """The critic's notes plus one for each out-of-bounds object it did not name."""
+    """The critic's notes plus the note of each binding rule finding (:func:`_binding`) about
+    objects it did not name: a critic's "no change" does not end the loop while they stand."""
     named = named_objects(notes, layout)
-    extra = [f for f in findings if f.kind == "out_of_bounds" and f.objects[0] not in named]
+    extra = [f for f in _binding(findings) if not set(f.fixes) <= named]
     return [*notes, *(f.note for f in extra)]
+
+
+def _enforce(before: UnitLayout, after: UnitLayout, findings: Sequence[Finding]) -> list[str]:
+    """Apply the rule fix of every binding finding to each object it fixes that the actor left
+    where it was (within 1 cm and 0.5 degrees); returns those objects."""
+    fixes = merged_fixes(_binding(findings), allowed=set(after.ids))
+    done: list[str] = []
+    for oid, t in sorted(fixes.items()):
+        moved = math.dist(before.center(oid), after.center(oid)) >= EARLY_STOP_MOVE_M
+        turned = abs(normalize_degrees(after.rotation(oid) - before.rotation(oid))) >= EARLY_STOP_TURN_DEG
+        if moved or turned:
+            continue
+        if t.rotation is not None:
+            after.set_rotation(oid, t.rotation)
+        if t.u is not None and t.v is not None:
+            after.set_center(oid, t.u, t.v)
+        done.append(oid)
+    return done
 
 
 async def evolve_layout(
@@ -229,6 +256,7 @@ async def evolve_layout(
         acting = RoundState(**state.shared(), input=dataclasses.replace(judged, notes=tuple(notes)))
         reply = await _ask(actor, acting, model, settings, result)
         state.layout = after = acting.layout
+        record.enforced = _enforce(before, after, findings)
         record.expressions = list(reply.output.pose_expressions)
         record.resolved = _poses(after)
         record.refused = ["; ".join(problems)[:400] for problems in reply.problems]

@@ -33,6 +33,9 @@ class RoundRecord(BaseModel):
     expressions: list[str] = Field(default_factory=list)
     resolved: dict[str, tuple[float, float, float]] = Field(default_factory=dict, description="Poses after the actor's expressions.")
     refused: list[str] = Field(default_factory=list, description="Actor replies the sandbox refused, with why.")
+    enforced: list[str] = Field(
+        default_factory=list, description="Objects the actor left as they were although a rule required a fix: the rule's fix was applied."
+    )
 
 
 @dataclass
@@ -105,6 +108,8 @@ class LayoutMemory:
                     lines.append(f"  moved {oid} to u={u:.2f} v={v:.2f} rotation={rot:.0f}")
             for x in r.refused:
                 lines.append(f"  refused: {x}")
+            if r.enforced:
+                lines.append("  rule fixes applied for: " + ", ".join(r.enforced))
         osc = self.oscillating()
         if osc:
             lines.append("oscillating (pivot: another object, axis or side, or leave it): " + ", ".join(f"{k} along {a}" for k, a in sorted(osc.items())))

@@ -10,7 +10,8 @@ scenes into files a simulator or an evaluator loads. A format is one module plus
 * ``sam3d`` — image-to-3D object sets: ``poses.json`` + mesh files;
 * exports: GLB (:func:`export_glb`), SceneEval sceneState (:func:`export_sceneeval`),
   MJCF (:func:`export_mjcf`), USD with UsdPhysics (:func:`export_usd`, needs the ``usd`` extra)
-  and URDF (:func:`export_urdf`); a room taken from an AI2-THOR house back into that house
+  and URDF (:func:`export_urdf`, with ``scene.sdf`` beside it for PyBullet: :func:`load_pybullet`);
+  a room taken from an AI2-THOR house back into that house
   (:func:`export_procthor`);
 * houses: each export has a whole-house counterpart (:func:`export_house_glb`, ...,
   :func:`export_procthor_house`), and :func:`deliver_house` writes a house's delivered folder.
@@ -52,6 +53,7 @@ from scenemosaic.exchange._procthor import (
     export_procthor_house,
     load_asset_database,
 )
+from scenemosaic.exchange._pybullet import PYBULLET_INSTALL_HINT, load_pybullet
 from scenemosaic.exchange._registry import (
     FORMATS,
     ImportFormat,
@@ -77,7 +79,7 @@ from scenemosaic.exchange._sceneeval import (
     sceneeval_state,
     support_type,
 )
-from scenemosaic.exchange._urdf import export_house_urdf, export_urdf
+from scenemosaic.exchange._urdf import SDF_SCENE_FILE, export_house_urdf, export_urdf
 from scenemosaic.exchange._usd import export_house_usd, export_usd
 
 __all__ = [
@@ -90,6 +92,8 @@ __all__ = [
     "LOCAL_TO_GLTF",
     "MODEL_ID_PREFIX",
     "OPTIONAL_FORMATS",
+    "PYBULLET_INSTALL_HINT",
+    "SDF_SCENE_FILE",
     "SHARED_WALL_THICKNESS_M",
     "Y_UP_TO_Z_UP",
     "Z_UP_TO_Y_UP",
@@ -122,6 +126,7 @@ __all__ = [
     "house_sceneeval_state",
     "load_asset_database",
     "load_house",
+    "load_pybullet",
     "load_scene",
     "load_scenes",
     "read_house",

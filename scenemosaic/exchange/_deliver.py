@@ -26,7 +26,7 @@ from scenemosaic.exchange._sceneeval import export_house_sceneeval
 from scenemosaic.exchange._urdf import export_house_urdf
 from scenemosaic.exchange._usd import export_house_usd
 from scenemosaic.physics import write_house_mjcf
-from scenemosaic.scene import House, RunFolder, Scene
+from scenemosaic.scene import House, RunFolder, Scene, write_atomic
 
 __all__ = [
     "DELIVERED_FORMATS",
@@ -87,7 +87,7 @@ def deliver_scene(scene: Scene, folder: Path, base_dir: Path | None) -> list[str
             write_scene(saved, fmt, folder / destination if destination else folder, folder)
     if saved.provenance.source_format == "procthor":  # back into the house it came from
         write_scene(saved, "procthor", folder, folder)
-    (folder / RunFolder.TOPDOWN).write_bytes(render_topdown(saved, base_dir=folder))
+    write_atomic(folder / RunFolder.TOPDOWN, render_topdown(saved, base_dir=folder))
     top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir() and p.name != "assets")]
 
@@ -127,7 +127,7 @@ def export_house_folder(folder: Path) -> list[str]:
             writers[fmt]()
     if all(s.provenance.source_format == "procthor" for s in saved.rooms):  # back into its house file
         export_procthor_house(saved, folder)
-    (folder / RunFolder.TOPDOWN).write_bytes(render_house_plan(saved, base_dir=folder))
+    write_atomic(folder / RunFolder.TOPDOWN, render_house_plan(saved, base_dir=folder))
     log.info("house_delivered", folder=str(folder), rooms=len(saved.rooms), objects=len(saved.objects))
     top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir())]

@@ -4,7 +4,8 @@ The model is the one validation simulates (:func:`scenemosaic.physics.scene_worl
 static (floor, wall and ceiling slabs); objects on the floor or on other objects with a free
 joint, explicit mass and box inertia; objects hung from the ceiling or a wall, and ``static``
 ones, welded to the world. Collision geometry is the objects' convex pieces (group 3); the
-visual mesh, when the assets layer can provide one, is a non-colliding geom in group 2. Paths
+visual mesh, when the assets layer can provide one, is a non-colliding geom in group 2, in the
+object's category colour (``render.category_color``, as in the GLB, USD, URDF and plans). Paths
 are relative, so the folder can be moved. Frames: Z up, metres, object front along local -Y
 (see docs/conventions.md). :func:`export_house_mjcf` writes a whole house as one such world.
 """

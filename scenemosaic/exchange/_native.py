@@ -44,6 +44,7 @@ from scenemosaic.scene import (
     Scene,
     SceneObject,
     confined_path,
+    missing_file,
     real_path,
     safe_name,
     write_atomic,
@@ -156,7 +157,7 @@ def _check_mesh_files(scene: Scene, source: Path, roots: list[Path]) -> None:
         if path.is_dir():
             r.fail(field, f"{what}: {obj.asset.uri!r} is a directory, not a mesh file")
         if not path.is_file():
-            r.fail(field, f"{what}: mesh file not found: {path}")
+            r.fail(field, f"{what}: mesh file {missing_file(path)}")
         if path.stat().st_size == 0:
             r.fail(field, f"{what}: mesh file {path} is empty (0 bytes)")
 
@@ -221,7 +222,7 @@ def copy_mesh(src: Path, folder: Path, object_id: str, subfolder: str = ASSETS_D
     if src.is_dir():
         raise AssetError(f"object {object_id!r}: mesh uri names a directory, not a file: {src}")
     if not src.is_file():
-        raise AssetError(f"object {object_id!r}: mesh file not found: {src}")
+        raise AssetError(f"object {object_id!r}: mesh file {missing_file(src)}")
     if src.stat().st_size == 0:
         raise AssetError(f"object {object_id!r}: mesh file is empty (0 bytes): {src}")
     try:

@@ -51,6 +51,7 @@ from scenemosaic.scene import (
     sanitize_id,
     size_problem,
     unique_id,
+    write_atomic,
 )
 
 __all__ = [
@@ -639,7 +640,7 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
     visit(house["objects"])
     out = Path(folder) / HOUSE_FILE
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(house, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+    write_atomic(out, json.dumps(house, indent=1, ensure_ascii=False) + "\n")
     log.info("procthor_exported", path=str(out), rooms=rooms, objects=moved, source=str(path))
     return out
 

@@ -69,6 +69,7 @@ from scenemosaic.scene import (
     SimAttributes,
     confined_path,
     coordinate_problem,
+    missing_file,
     real_path,
     recover_room,
     sanitize_id,
@@ -155,7 +156,7 @@ def import_sam3d(data: Any, path: Path, *, room: Room | None = None) -> Scene:
         if mesh_path.is_dir():
             r.fail(f"{f}.mesh", f"{who}: {mesh_rel!r} is a directory, not a mesh file")
         if not mesh_path.is_file():
-            r.fail(f"{f}.mesh", f"mesh file not found: {mesh_path}")
+            r.fail(f"{f}.mesh", f"mesh file {missing_file(mesh_path)}")
         position = np.array(r.vector(r.get(item, "position", f), 3, f"{f}.position"))
         r.check(coordinate_problem(position * unit), f"{f}.position", what=who)
         quat = r.vector(item.get("quaternion", [1.0, 0.0, 0.0, 0.0]), 4, f"{f}.quaternion")

@@ -32,7 +32,7 @@ import trimesh
 
 from scenemosaic.exchange._glb import with_visual
 from scenemosaic.render import object_local_mesh
-from scenemosaic.scene import CEILING, FLOOR, FloatArray, House, Room, Scene, SceneObject
+from scenemosaic.scene import CEILING, FLOOR, FloatArray, House, Room, Scene, SceneObject, write_atomic
 
 __all__ = [
     "LOCAL_TO_GLTF",
@@ -256,13 +256,12 @@ def _write(
     metadata: dict[str, dict[str, Any]] = {}
     for asset_id, mesh in sorted(assets.items()):
         data = cast(bytes, mesh.export(file_type="glb"))
-        (asset_dir / f"{asset_id}.glb").write_bytes(data)
+        write_atomic(asset_dir / f"{asset_id}.glb", data)
         ext = [float(e) for e in mesh.extents]
         # glTF extents are (x, y up, z front); report them as our (x width, y depth, z height)
         metadata[asset_id] = {"category": categories[asset_id], "extents_m": [ext[0], ext[2], ext[1]]}
-    (asset_dir / "metadata.json").write_text(json.dumps(metadata, indent=2, sort_keys=True) + "\n")
-    path = out_dir / "scene_base.json"
-    path.write_text(json.dumps(state, indent=2) + "\n")
+    write_atomic(asset_dir / "metadata.json", json.dumps(metadata, indent=2, sort_keys=True) + "\n")
+    path = write_atomic(out_dir / "scene_base.json", json.dumps(state, indent=2) + "\n")
     log.info("sceneeval_exported", path=str(path), objects=count, assets=len(assets))
     return path
 

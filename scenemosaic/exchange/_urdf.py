@@ -24,6 +24,12 @@ hangs from ``world`` by a joint whose origin is its pose (rotation as fixed-axis
 (``static``, hung from a wall or the ceiling). The XML is written with the standard library; no
 extra is needed.
 
+Beside it, ``scene.sdf`` is the same world as an SDFormat ``<world>``: one ``<model>`` per object,
+placed by its ``<pose>``, ``<static>`` when held in place, and one static model for the room, all
+naming the same mesh files under ``urdf/meshes/``. It is the file for simulators that do not
+honour URDF's ``floating`` joint (PyBullet turns it into a fixed joint, Drake leaves the body at
+the origin): ``pybullet.loadSDF("scene.sdf")`` gives one free body per movable object in one call.
+
 :func:`export_house_urdf` writes a whole house the same way: ``scene.urdf`` holds a ``floor`` link
 (the house's one floor slab), one link per room named by its id (its walls cut around their
 openings, each shared wall once, and its ceiling: :func:`scenemosaic.physics.house_slabs`), all
@@ -58,6 +64,7 @@ from scenemosaic.render import CEILING_COLOR, FLOOR_COLOR, WALL_COLOR, category_
 from scenemosaic.scene import FloatArray, House, Scene, SceneObject, quat_to_matrix
 
 __all__ = [
+    "SDF_SCENE_FILE",
     "URDF_MESH_DIR",
     "URDF_OBJECT_DIR",
     "URDF_SCENE_FILE",
@@ -70,6 +77,9 @@ log = structlog.get_logger(__name__)
 
 URDF_SCENE_FILE = "scene.urdf"
 """The whole-scene URDF :func:`export_urdf` writes in its folder."""
+SDF_SCENE_FILE = "scene.sdf"
+"""The whole scene as an SDFormat world, beside ``scene.urdf`` (``pybullet.loadSDF`` reads it)."""
+SDF_VERSION = "1.7"
 URDF_OBJECT_DIR = "urdf"
 """Folder, beside ``scene.urdf``, holding one URDF per object."""
 URDF_MESH_DIR = "meshes"
@@ -141,6 +151,64 @@ def _gazebo(robot: ET.Element, link_name: str, friction: float) -> None:
     ET.SubElement(gazebo, "mu2").text = _num(friction)
 
 
+def _sdf_pose(parent: ET.Element, xyz: Iterable[float], rpy: Iterable[float] = (0.0, 0.0, 0.0)) -> None:
+    """SDFormat's ``<pose>x y z roll pitch yaw</pose>`` (the same fixed-axis angles as URDF's ``rpy``)."""
+    ET.SubElement(parent, "pose").text = _vec([*xyz, *rpy])
+
+
+def _sdf_material(parent: ET.Element, rgb: tuple[int, int, int]) -> None:
+    material = ET.SubElement(parent, "material")
+    colour = _vec([rgb[0] / 255.0, rgb[1] / 255.0, rgb[2] / 255.0, 1.0])
+    for tag in ("ambient", "diffuse"):
+        ET.SubElement(material, tag).text = colour
+
+
+def _sdf_shape(
+    link: ET.Element,
+    tag: str,
+    name: str,
+    *,
+    mesh: str | None = None,
+    box: tuple[Iterable[float], Iterable[float], float] | None = None,
+    friction: float | None = None,
+) -> ET.Element:
+    """A ``<visual>`` or ``<collision>``: a mesh file, or a box ``(centre, size, yaw)``; a collision
+    carries the friction coefficient in SDFormat's ``<surface><friction><ode>``."""
+    element = ET.SubElement(link, tag, name=name)
+    geometry = ET.Element("geometry")
+    if box is not None:
+        centre, size, yaw = box
+        _sdf_pose(element, centre, (0.0, 0.0, yaw))
+        ET.SubElement(ET.SubElement(geometry, "box"), "size").text = _vec(size)
+    else:
+        assert mesh is not None
+        ET.SubElement(ET.SubElement(geometry, "mesh"), "uri").text = mesh
+    element.append(geometry)
+    if friction is not None:
+        ode = ET.SubElement(ET.SubElement(ET.SubElement(element, "surface"), "friction"), "ode")
+        ET.SubElement(ode, "mu").text = _num(friction)
+        ET.SubElement(ode, "mu2").text = _num(friction)
+    return element
+
+
+def _sdf_inertial(link: ET.Element, centre: Iterable[float], mass: float, diagonal: Iterable[float]) -> None:
+    inertial = ET.SubElement(link, "inertial")
+    _sdf_pose(inertial, centre)
+    ET.SubElement(inertial, "mass").text = _num(mass)
+    inertia = ET.SubElement(inertial, "inertia")
+    for axis, value in zip(("ixx", "iyy", "izz"), diagonal, strict=True):
+        ET.SubElement(inertia, axis).text = _num(value)
+    for axis in ("ixy", "ixz", "iyz"):
+        ET.SubElement(inertia, axis).text = "0"
+
+
+def _sdf_model(world: ET.Element, name: str, *, static: bool) -> tuple[ET.Element, ET.Element]:
+    """A ``<model>`` of one link, both called ``name``, appended to ``world``; returns (model, link)."""
+    model = ET.SubElement(world, "model", name=name)
+    ET.SubElement(model, "static").text = "1" if static else "0"
+    return model, ET.Element("link", name=name)
+
+
 class _ObjectFiles:
     """The meshes of one object, written once and named from the per-object and the scene files."""
 
@@ -197,6 +265,26 @@ class _ObjectFiles:
         _friction(link, obj.sim.friction)
         return link
 
+    def sdf_model(self, world: ET.Element, mesh_prefix: str, *, movable: bool) -> None:
+        """The object as an SDFormat ``<model>`` placed at its pose (``<static>`` when held in place)."""
+        obj = self.obj
+        model, link = _sdf_model(world, obj.id, static=not movable)
+        _sdf_pose(model, obj.pose.position, rpy_from_matrix(quat_to_matrix(obj.pose.quaternion)))
+        inertial = object_inertial(obj, self.shape)
+        _sdf_inertial(link, inertial.centre, inertial.mass, inertial.diagonal)
+        if self.visual is not None:
+            visual = _sdf_shape(link, "visual", f"{obj.id}_visual", mesh=mesh_prefix + self.visual)
+            _sdf_material(visual, category_color(obj.category))
+        for k, (piece, file_name) in enumerate(zip(self.shape.pieces, self.hulls, strict=True)):
+            name = f"{obj.id}_hull_{k}"
+            if piece.box is not None:
+                centre, half = piece.box
+                _sdf_shape(link, "collision", name, box=(centre, 2.0 * half, 0.0), friction=obj.sim.friction)
+            else:
+                assert file_name is not None
+                _sdf_shape(link, "collision", name, mesh=mesh_prefix + file_name, friction=obj.sim.friction)
+        model.append(link)
+
 
 def _write_obj(mesh: trimesh.Trimesh, path: Path) -> None:
     """Geometry only (no material file), so every file stands alone and equal meshes give equal bytes."""
@@ -235,15 +323,30 @@ def _slab_link(name: str, slabs: list[tuple[str, str, FloatArray, FloatArray, fl
     return link
 
 
+def _sdf_slab_model(
+    world: ET.Element, name: str, slabs: list[tuple[str, str, FloatArray, FloatArray, float]]
+) -> None:
+    """The static boxes of :func:`_slab_link` as one static SDFormat model."""
+    model, link = _sdf_model(world, name, static=True)
+    _sdf_inertial(link, (0.0, 0.0, 0.0), 1.0, (1.0, 1.0, 1.0))  # unused (static); PyBullet warns without one
+    colors = {"floor": FLOOR_COLOR, "wall": WALL_COLOR, "ceiling": CEILING_COLOR}
+    for slab_name, kind, centre, half, yaw in slabs:
+        box = (centre, 2.0 * half, yaw)
+        if kind != "ceiling":
+            _sdf_material(_sdf_shape(link, "visual", slab_name, box=box), colors[kind])
+        _sdf_shape(link, "collision", slab_name, box=box, friction=ROOM_FRICTION)
+    model.append(link)
+
+
 def _boxes(slabs: list[RoomSlab]) -> list[tuple[str, str, FloatArray, FloatArray, float]]:
     return [(s.name, s.kind, s.centre, s.half_extents, s.yaw) for s in slabs]
 
 
-def _room_link(scene: Scene, name: str) -> ET.Element:
+def _room_boxes(scene: Scene) -> list[tuple[str, str, FloatArray, FloatArray, float]]:
     if scene.room is None:
         half = np.array(_NO_ROOM_FLOOR_HALF)
-        return _slab_link(name, [("floor", "floor", np.array([0.0, 0.0, -half[2]]), half, 0.0)])
-    return _slab_link(name, _boxes(room_slabs(scene.room)))
+        return [("floor", "floor", np.array([0.0, 0.0, -half[2]]), half, 0.0)]
+    return _boxes(room_slabs(scene.room))
 
 
 def _joint(robot: ET.Element, name: str, kind: str, parent: str, child: str, obj: SceneObject | None) -> None:
@@ -269,13 +372,20 @@ class _UrdfWriter:
         self.robot = ET.Element("robot", name=name)
         _add_comment(self.robot, f"{comment}: Z up, metres, kilograms; root link {self.world}")
         ET.SubElement(self.robot, "link", name=self.world)
+        self.sdf = ET.Element("sdf", version=SDF_VERSION)
+        _add_comment(
+            self.sdf,
+            f"{comment}: Z up, metres, kilograms; one model per object, static models are held in place",
+        )
+        self.sdf_world = ET.SubElement(self.sdf, "world", name=name)
 
-    def fixed(self, link: ET.Element) -> None:
-        """A static link on a fixed joint to the world."""
-        name = link.attrib["name"]
-        self.robot.append(link)
+    def fixed(self, name: str, slabs: list[tuple[str, str, FloatArray, FloatArray, float]]) -> None:
+        """A static link of ``slabs`` on a fixed joint to the world, and the same boxes as a static
+        model of ``scene.sdf``."""
+        self.robot.append(_slab_link(name, slabs))
         _joint(self.robot, f"{name}_joint", "fixed", self.world, name, None)
         _gazebo(self.robot, name, ROOM_FRICTION)
+        _sdf_slab_model(self.sdf_world, name, slabs)
 
     def objects(self, scene: Scene, shapes: dict[str, ObjectShape], base: Path | None) -> None:
         """Every object of ``scene``: its own ``urdf/<id>.urdf`` and its link and joint here."""
@@ -292,10 +402,12 @@ class _UrdfWriter:
             self.robot.append(files.link(f"{URDF_OBJECT_DIR}/{URDF_MESH_DIR}/"))
             _joint(self.robot, f"{obj.id}_joint", "floating" if movable else "fixed", self.world, obj.id, obj)
             _gazebo(self.robot, obj.id, obj.sim.friction)
+            files.sdf_model(self.sdf_world, f"{URDF_OBJECT_DIR}/{URDF_MESH_DIR}/", movable=movable)
 
     def save(self, count: int) -> Path:
         path = self.out / URDF_SCENE_FILE
         _write_xml(self.robot, path)
+        _write_xml(self.sdf, self.out / SDF_SCENE_FILE)
         log.info("urdf_exported", path=str(path), objects=count)
         return path
 
@@ -322,7 +434,7 @@ def export_urdf(
     base = Path(base_dir) if base_dir is not None else None
     shapes = {o.id: object_shape(o, base, cache=hull_cache, hulls=hulls) for o in scene.objects}
     writer = _UrdfWriter(folder, scene.id, {o.id for o in scene.objects}, f"scenemosaic scene {scene.id}")
-    writer.fixed(_room_link(scene, _free_name("room", writer.taken)))
+    writer.fixed(_free_name("room", writer.taken), _room_boxes(scene))
     writer.objects(scene, shapes, base)
     return writer.save(len(scene.objects))
 
@@ -353,12 +465,10 @@ def export_house_urdf(
     shapes = {o.id: object_shape(o, base, cache=hull_cache, hulls=hulls) for o in objects}
     writer = _UrdfWriter(folder, house.id, {o.id for o in objects}, f"scenemosaic house {house.id}")
     slabs = house_slabs(house)
-    writer.fixed(
-        _slab_link(_free_name("floor", writer.taken), _boxes([s for s in slabs if s.room_id is None]))
-    )
+    writer.fixed(_free_name("floor", writer.taken), _boxes([s for s in slabs if s.room_id is None]))
     for scene in house.rooms:
         mine = [s for s in slabs if s.room_id == scene.id]
-        writer.fixed(_slab_link(_free_name(scene.id, writer.taken), _boxes(mine)))
+        writer.fixed(_free_name(scene.id, writer.taken), _boxes(mine))
     for scene in house.rooms:
         writer.objects(scene, shapes, base)
     return writer.save(len(objects))

@@ -27,7 +27,17 @@ from scenemosaic.metrics._metrics import (
     oob,
     relation_holds,
     relkeep,
+    relkeep_by_kind,
+    relkeep_summary,
     scene_metrics,
+)
+from scenemosaic.metrics._seating import (
+    SEAT_SQUARE_DEG,
+    SeatCheck,
+    seat_checks,
+    seat_pairs,
+    seating_figures,
+    table_balance,
 )
 
 __all__ = [
@@ -41,9 +51,11 @@ __all__ = [
     "OOB_INSIDE",
     "OOB_SAMPLES",
     "RELATION_TOLERANCE_M",
+    "SEAT_SQUARE_DEG",
     "JudgeAgent",
     "JudgeOutput",
     "ObjectVerdict",
+    "SeatCheck",
     "col",
     "div_iou",
     "div_n",
@@ -56,5 +68,11 @@ __all__ = [
     "oob",
     "relation_holds",
     "relkeep",
+    "relkeep_by_kind",
+    "relkeep_summary",
     "scene_metrics",
+    "seat_checks",
+    "seat_pairs",
+    "seating_figures",
+    "table_balance",
 ]

@@ -21,6 +21,9 @@ Diversity over selected variants (the method's evaluation):
 * :func:`div_n` — the mean pairwise novelty distance N, the earlier-selected scene the reference.
 * :func:`relkeep` — the fraction of the base scene's attach/contain relations still satisfied in
   a variant (:func:`relation_holds`).
+* :func:`relkeep_by_kind` — RelKeep per kind: ``support`` (the above) and each functional
+  relation of the base (``scene.functional_relations``: faces, over, under, beside, flanks);
+  ``None`` for a kind the base does not have.
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ from scenemosaic.render import object_world_mesh
 from scenemosaic.scene import (
     CEILING,
     FLOOR,
+    FUNCTIONAL_KINDS,
     HOUSE_CELL_M,
     ROBOT_RADIUS,
     WALK_GRID,
@@ -50,6 +54,8 @@ from scenemosaic.scene import (
     Relation,
     Scene,
     convex_hull_2d,
+    functional_holds,
+    functional_relations,
 )
 
 __all__ = [
@@ -73,6 +79,8 @@ __all__ = [
     "oob",
     "relation_holds",
     "relkeep",
+    "relkeep_by_kind",
+    "relkeep_summary",
     "scene_metrics",
 ]
 
@@ -252,6 +260,29 @@ def relkeep(base: Scene, variant: Scene) -> float:
 
 
 
+def relkeep_by_kind(base: Scene, variant: Scene) -> dict[str, float | None]:
+    """RelKeep per relation kind: ``support`` (:func:`relkeep`) and every functional kind, each
+    the fraction of the base's relations of that kind still holding in ``variant`` (``None``
+    when the base has none of that kind)."""
+    supports = [r for r in base.relations if r.is_support and any(o.id == r.child for o in variant.objects)]
+    out: dict[str, float | None] = {"support": round(relkeep(base, variant), 4) if supports else None}
+    rels = functional_relations(base)
+    for kind in FUNCTIONAL_KINDS:
+        mine = [r for r in rels if r.kind == kind]
+        out[kind] = round(sum(functional_holds(variant, r) for r in mine) / len(mine), 4) if mine else None
+    return out
+
+
+def relkeep_summary(rows: Sequence[dict[str, float | None]]) -> dict[str, float | None]:
+    """The lowest RelKeep of each kind over the variants' ``relkeep_by_kind`` rows."""
+    kinds = ("support", *FUNCTIONAL_KINDS)
+    out: dict[str, float | None] = {}
+    for k in kinds:
+        vals = [v for r in rows if (v := r.get(k)) is not None]
+        out[k] = min(vals) if vals else None
+    return out
+
+
 def scene_metrics(scene: Scene, base_dir: str | Path | None = None, *, hull_cache: HullCache | None = None) -> dict[str, float]:
     """COL, OOB and NAV of one scene (fractions; NAV 1.0 is one connected walkable floor)."""
     return {
@@ -269,11 +300,13 @@ def evaluate(base: Scene, variants: Sequence[Scene] = (), *, base_dir: str | Pat
     """
     dirs = list(variant_dirs) or [None] * len(variants)
     out: dict[str, object] = {"base": scene_metrics(base, base_dir, hull_cache=hull_cache)}
+    kinds = [relkeep_by_kind(base, v) for v in variants]
     out["variants"] = [
-        {**scene_metrics(v, d, hull_cache=hull_cache), "RelKeep": round(relkeep(base, v), 4)}
-        for v, d in zip(variants, dirs, strict=True)
+        {**scene_metrics(v, d, hull_cache=hull_cache), "RelKeep": round(relkeep(base, v), 4), "RelKeep_by_kind": k}
+        for v, d, k in zip(variants, dirs, kinds, strict=True)
     ]
     if variants:
+        out["RelKeep_by_kind"] = relkeep_summary(kinds)
         iou, n = div_iou(list(variants)), div_n(list(variants))
         out["diversity"] = {
             "Div-IoU": None if iou is None else round(iou, 4),

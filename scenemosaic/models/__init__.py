@@ -25,9 +25,19 @@ from scenemosaic.models._circuit import CircuitBreakerModel, CircuitState
 from scenemosaic.models._completion import Completion, CompletionModel
 from scenemosaic.models._deadline import DeadlineModel
 from scenemosaic.models._function import AgentFunction, FunctionModel
+from scenemosaic.models._http import (
+    CallClock,
+    GiveUp,
+    HTTPRetryPolicy,
+    is_unreachable,
+    read_capped,
+    send_with_retries,
+    transient_status_error,
+    unreachable_words,
+)
 from scenemosaic.models._instrument import InstrumentedModel, ModelCall
 from scenemosaic.models._limit import FileTokenBucket, LimitedModel, RateLimiter, TokenBucket
-from scenemosaic.models._openai import DEFAULT_TIMEOUT_S, HTTPRetryPolicy, OpenAIChatModel, StructuredMode
+from scenemosaic.models._openai import DEFAULT_TIMEOUT_S, OpenAIChatModel, StructuredMode
 from scenemosaic.models._parse import MODEL_SPEC_HELP, parse_model
 from scenemosaic.models._replay import Cassette, ReplayMode, ReplayModel, canonical_request, request_key
 from scenemosaic.models._rules import RulesModel
@@ -43,6 +53,7 @@ __all__ = [
     "STRICT_SCHEMA_KEYWORDS",
     "AgentFunction",
     "CachedModel",
+    "CallClock",
     "Cassette",
     "CircuitBreakerModel",
     "CircuitState",
@@ -51,6 +62,7 @@ __all__ = [
     "DeadlineModel",
     "FileTokenBucket",
     "FunctionModel",
+    "GiveUp",
     "HTTPRetryPolicy",
     "ImagePart",
     "InstrumentedModel",
@@ -81,10 +93,15 @@ __all__ = [
     "canonical_request",
     "estimate_tokens",
     "extract_json",
+    "is_unreachable",
     "open_run_model",
     "parse_model",
+    "read_capped",
     "request_key",
+    "send_with_retries",
     "server_slots",
     "strict_json_schema",
+    "transient_status_error",
+    "unreachable_words",
     "usage_summary",
 ]

@@ -19,7 +19,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -73,15 +72,10 @@ class CachedModel(WrapperModel):
     def _store(self, key: str, entry: dict[str, Any]) -> None:
         path = self._path(key)
         try:
+            from scenemosaic.scene import write_atomic  # the one atomic write
+
             path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=f".{key[:8]}-", suffix=".tmp", dir=path.parent)
-            try:
-                with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                    json.dump(entry, fh, sort_keys=True, ensure_ascii=False)
-                os.replace(tmp, path)
-            except BaseException:
-                Path(tmp).unlink(missing_ok=True)
-                raise
+            write_atomic(path, json.dumps(entry, sort_keys=True, ensure_ascii=False))
         except OSError as exc:  # a full or read-only disk costs the cache, not the run
             log.warning("reply_cache_write_failed", path=str(path), error=str(exc)[:300])
 

@@ -21,6 +21,7 @@ from scenemosaic.exceptions import (
     ModelConfigError,
     ModelContextLengthError,
     ModelDeadlineExceeded,
+    ModelEndpointError,
     ModelError,
     ModelHTTPError,
     ModelUnavailableError,
@@ -51,6 +52,8 @@ def _outcome(exc: BaseException) -> _Outcome:
     """
     if isinstance(exc, ModelUnavailableError | ModelDeadlineExceeded | ReplayMissError):
         return "unknown"
+    if isinstance(exc, ModelEndpointError):  # 401/403/404 came from a server; a refused connection did not
+        return "failed" if exc.status_code is None else "answered"
     if isinstance(exc, OutputValidationError | ModelContextLengthError):
         return "answered"
     if isinstance(exc, ModelHTTPError):

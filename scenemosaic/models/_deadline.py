@@ -35,12 +35,20 @@ class DeadlineModel(WrapperModel):
     """
 
     def __init__(
-        self, wrapped: Model, deadline_s: float, *, clock: Callable[[], float] = time.monotonic
+        self,
+        wrapped: Model,
+        deadline_s: float,
+        *,
+        clock: Callable[[], float] = time.monotonic,
+        shown_s: float | None = None,
     ) -> None:
         if deadline_s < 0:
             raise ModelConfigError(f"deadline_s must not be negative, got {deadline_s}")
         super().__init__(wrapped)
         self.deadline_s = deadline_s
+        self.shown_s = deadline_s if shown_s is None else shown_s
+        """The deadline as the user set it, for messages (a run's stack opens after its start,
+        so ``deadline_s`` is what was left of it then)."""
         self._clock = clock
         self.expires_at = clock() + deadline_s
         """The ``clock`` reading at which the deadline passes."""
@@ -56,7 +64,7 @@ class DeadlineModel(WrapperModel):
     def _expired(self, context: RequestContext | None) -> ModelDeadlineExceeded:
         agent = context.agent if context else None
         return ModelDeadlineExceeded(
-            f"{self.name}: the run's {self.deadline_s:g} s deadline for model requests has passed "
+            f"{self.name}: the run's {self.shown_s:g} s deadline for model requests has passed "
             f"(request by agent {agent!r} not answered)"
         )
 
@@ -82,4 +90,17 @@ class DeadlineModel(WrapperModel):
         except TimeoutError as exc:
             if scope.expired():
                 raise self._expired(context) from exc
+            raise
+
+    async def generate_image(self, prompt: str, *, size: str = "1024x1024", model: str | None = None) -> tuple[bytes, Usage]:
+        """Forward under the same deadline: refused once it has passed, cancelled when it passes."""
+        left = self.remaining_s
+        if left <= 0:
+            raise self._expired(RequestContext(agent="images"))
+        try:
+            async with asyncio.timeout(left) as scope:
+                return await self.wrapped.generate_image(prompt, size=size, model=model)
+        except TimeoutError as exc:
+            if scope.expired():
+                raise self._expired(RequestContext(agent="images")) from exc
             raise

@@ -3,10 +3,13 @@
 The wire format is the plain ``POST {base_url}/chat/completions`` JSON; images travel as
 ``image_url`` parts holding ``data:image/png;base64,...`` URLs.
 
-Transient failures (429, 408/409/425, 5xx, time-outs, refused, reset or dropped
-connections, read and write errors) are retried under an :class:`HTTPRetryPolicy`:
-bounded attempts, each under its own time-out, waits honouring a capped ``Retry-After``,
-and a total budget after which no attempt starts. A prompt over the context window raises
+Transient failures (429, 408/409/425, 5xx, time-outs, reset or dropped connections, read and
+write errors) are retried by the one HTTP policy of every outbound call
+(:func:`~scenemosaic.models._http.send_with_retries`: bounded attempts, each under a total
+time-out, waits honouring a capped ``Retry-After``, a total budget after which no attempt
+starts). A server that cannot serve the run — nothing listening, an unknown host, a refused key
+(401/403), no such model or path (404) — raises :class:`ModelEndpointError` at once, with the
+fix in one line. A prompt over the context window raises
 :class:`ModelContextLengthError`; any other non-200 reply a :class:`ModelHTTPError` with the
 status and the body. A 200 reply that is not a usable completion (an HTML page, no
 choices, no content, a body over ``max_reply_bytes``) is an ordinary invalid reply: an
@@ -26,17 +29,30 @@ import re
 import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
-from email.utils import parsedate_to_datetime
 from typing import Any, Literal
 
 import httpx
 import structlog
 from pydantic import BaseModel
 
-from scenemosaic.exceptions import ModelConfigError, ModelContextLengthError, ModelError, ModelHTTPError
+from scenemosaic.exceptions import (
+    ModelConfigError,
+    ModelContextLengthError,
+    ModelEndpointError,
+    ModelError,
+    ModelHTTPError,
+)
 from scenemosaic.models._base import ImagePart, Message, ModelSettings, RequestContext, TextPart, Usage
 from scenemosaic.models._completion import Completion, CompletionModel
+from scenemosaic.models._http import (
+    GiveUp,
+    HTTPRetryPolicy,
+    is_unreachable,
+    read_capped,
+    send_with_retries,
+    transient_status_error,
+    unreachable_words,
+)
 from scenemosaic.models._schema import SchemaBounds, strict_json_schema
 from scenemosaic.models._tokens import estimate_tokens
 
@@ -45,10 +61,8 @@ __all__ = [
     "DEFAULT_MAX_REPLY_BYTES",
     "DEFAULT_OPENAI_BASE_URL",
     "DEFAULT_TIMEOUT_S",
-    "HTTPRetryPolicy",
     "OpenAIChatModel",
     "StructuredMode",
-    "parse_retry_after",
 ]
 
 log = structlog.get_logger(__name__)
@@ -71,10 +85,6 @@ by this factor: the estimate can be off by about that much either way."""
 StructuredMode = Literal["json_schema", "json_object", "none"]
 """How a reply is constrained: a strict JSON schema, any JSON object, or free text."""
 
-TIMEOUT_RETRIES = 1
-"""A timed-out request is sent once more, with twice the time-out; a second time-out ends it."""
-
-_TRANSIENT_STATUS = frozenset({408, 409, 425, 429})
 _IMAGE_REJECTED = re.compile(
     r"image input is not supported|mmproj|image_url is only supported|does not support (image|vision)"
     r"|(image|vision)[^.]{0,40}(not supported|unsupported)",
@@ -97,50 +107,6 @@ _PROMPT_SIZE = re.compile(
 _EXCERPT_BYTES = 2000
 
 
-@dataclass(frozen=True)
-class HTTPRetryPolicy:
-    """When and how long to wait before re-sending a request that failed transiently.
-
-    One request (one ``model.request`` call) takes at most ``max_attempts`` attempts, each
-    under the request's time-out, so its wall time is at most ``max_attempts`` x time-out
-    plus the waits between them, and never more than ``max_total_s``.
-    """
-
-    max_attempts: int = 4
-    """Attempts in all, the first included."""
-    initial_backoff_s: float = 1.0
-    """Wait before the second attempt when the server gives no ``Retry-After`` (seconds); doubles per attempt."""
-    max_backoff_s: float = 30.0
-    """Cap on the exponential wait (seconds), before jitter."""
-    jitter_s: float = 1.0
-    """Uniform random extra wait in ``[0, jitter_s]`` seconds, so parallel clients spread out."""
-    max_retry_after_s: float = 30.0
-    """Cap on a server's ``Retry-After`` (seconds): a longer request is waited out only this long."""
-    max_total_s: float = 300.0
-    """Budget for one request, attempts and waits together (seconds): no attempt starts (and
-    none runs) past it, and a wait that would end past it is not begun."""
-
-    def __post_init__(self) -> None:
-        if self.max_attempts < 1:
-            raise ModelConfigError(f"max_attempts must be at least 1, got {self.max_attempts}")
-        if self.max_total_s <= 0:
-            raise ModelConfigError(f"max_total_s must be positive, got {self.max_total_s}")
-        if min(self.initial_backoff_s, self.max_backoff_s, self.jitter_s, self.max_retry_after_s) < 0:
-            raise ModelConfigError("retry waits must not be negative")
-
-
-class _TransientHTTPError(ModelHTTPError):
-    """A 429/5xx reply worth retrying; ``retry_after_s`` is the server's hint, if any."""
-
-    def __init__(self, message: str, *, status_code: int, body: str, retry_after_s: float | None) -> None:
-        super().__init__(message, status_code=status_code, body=body)
-        self.retry_after_s = retry_after_s
-
-
-class _AttemptTimedOut(Exception):
-    """One attempt ran past its time-out as a whole (httpx's own time-outs are per read)."""
-
-
 class _UnusableReply(Exception):
     """A 200 reply that is no completion: becomes an invalid reply, not a transport error."""
 
@@ -148,38 +114,6 @@ class _UnusableReply(Exception):
         super().__init__(problem)
         self.text = text
         self.problem = problem
-
-
-# Failures another attempt may cure. Not retried: httpx.UnsupportedProtocol and
-# LocalProtocolError (our request is wrong) and every non-transient status.
-_RETRYABLE: tuple[type[BaseException], ...] = (
-    _TransientHTTPError,
-    _AttemptTimedOut,
-    httpx.TimeoutException,
-    httpx.NetworkError,  # ConnectError, ReadError, WriteError, CloseError
-    httpx.RemoteProtocolError,  # the server dropped the connection mid-exchange
-    httpx.ProxyError,
-)
-
-
-def parse_retry_after(value: str | None, *, now: datetime | None = None) -> float | None:
-    """Seconds to wait from a ``Retry-After`` header (delta seconds or an HTTP date); ``None`` if absent."""
-    if not value:
-        return None
-    value = value.strip()
-    try:
-        seconds = float(value)
-    except ValueError:
-        pass
-    else:
-        return max(0.0, seconds) if math.isfinite(seconds) else None
-    try:
-        when = parsedate_to_datetime(value)
-    except (TypeError, ValueError):
-        return None
-    if when.tzinfo is None:
-        when = when.replace(tzinfo=UTC)
-    return max(0.0, (when - (now or datetime.now(UTC))).total_seconds())
 
 
 def _json_or_none(raw: bytes) -> Any:
@@ -328,6 +262,7 @@ class OpenAIChatModel(CompletionModel):
         if max_reply_bytes < 1:
             raise ModelConfigError(f"max_reply_bytes must be positive, got {max_reply_bytes}")
         self.timeout_s: float = timeout_s if timeout_s is not None else DEFAULT_TIMEOUT_S
+        self._timeout_set = timeout_s is not None
         self.context_tokens = context_tokens
         self.max_reply_bytes = max_reply_bytes
         self.retry = retry or HTTPRetryPolicy()
@@ -339,6 +274,7 @@ class OpenAIChatModel(CompletionModel):
                 f"no API key for {self.base_url}: set the environment variable {api_key_env}"
             )
         self._api_key = key or None
+        self._api_key_env = api_key_env
         self._client = client
         self._owns_client = client is None
         self._client_loop: asyncio.AbstractEventLoop | None = None
@@ -539,7 +475,8 @@ class OpenAIChatModel(CompletionModel):
         try:
             data = await self._post(
                 body,
-                timeout_s=max(self.timeout_s, 180.0),
+                # drawing takes longer than answering: 180 s unless a time-out was set (--request-timeout)
+                timeout_s=self.timeout_s if self._timeout_set else max(self.timeout_s, 180.0),
                 give_up_at=give_up_at,
                 spent=spent,
                 path="/images/generations",
@@ -596,53 +533,42 @@ class OpenAIChatModel(CompletionModel):
         path: str = "/chat/completions",
         max_bytes: int | None = None,
     ) -> dict[str, Any]:
-        """Send ``body`` until an attempt succeeds, a failure is not transient, or the policy says stop."""
-        policy = self.retry
-        attempt = 0
-        after_drop = False
-        budget = timeout_s
-        timeouts = 0
-        while True:
-            attempt += 1
-            # No attempt runs past the request's total budget.
-            attempt_timeout = max(0.001, min(budget, give_up_at - self._clock()))
-            try:
-                return await self._post_once(body, timeout_s=attempt_timeout, spent=spent, path=path, max_bytes=max_bytes)
-            except _RETRYABLE as exc:
-                failure: BaseException = exc
-            except httpx.UnsupportedProtocol as exc:
-                raise ModelConfigError(f"{self.name}: cannot send to {self.base_url}: {exc}") from exc
-            except httpx.HTTPError as exc:  # our own request is malformed: another attempt cannot help
-                raise self._transport_error(exc, attempt, timeout_s) from exc
-            wait = self._backoff(failure, attempt, after_drop=after_drop)
-            after_drop = isinstance(failure, httpx.RemoteProtocolError)
-            timed_out = isinstance(failure, _AttemptTimedOut | httpx.TimeoutException)
-            if timed_out:
-                # the same request under the same budget would most likely time out again: one
-                # more try, with twice the time, then give up (the agent then falls back)
-                timeouts += 1
-                budget = timeout_s * 2
-            if (
-                attempt >= policy.max_attempts
-                or (timed_out and timeouts > TIMEOUT_RETRIES)
-                or self._clock() + wait >= give_up_at
-            ):
-                if isinstance(failure, ModelHTTPError):
-                    raise failure
-                raise self._transport_error(failure, attempt, timeout_s) from failure
-            log.warning(
-                "transient model failure; retrying",
-                model=self.model,
-                attempt=attempt,
-                wait_s=round(wait, 3),
-                error=f"{type(failure).__name__}: {failure}",
-            )
-            if wait > 0:
-                await self._sleep(wait)
+        """Send ``body`` under the one HTTP policy (:func:`send_with_retries`): until an attempt
+        succeeds, a failure is not transient, or the policy says stop."""
 
-    def _transport_error(self, failure: BaseException, attempts: int, timeout_s: float) -> ModelError:
+        async def attempt(limit: float) -> dict[str, Any]:
+            return await self._post_once(body, timeout_s=limit, spent=spent, path=path, max_bytes=max_bytes)
+
+        try:
+            return await send_with_retries(
+                attempt,
+                timeout_s=timeout_s,
+                policy=self.retry,
+                give_up_at=give_up_at,
+                now=self._clock,
+                sleep=self._sleep,
+                rng=self._rng,
+                what=f"request to {self.name}",
+            )
+        except GiveUp as stopped:
+            if isinstance(stopped.failure, ModelHTTPError):
+                raise stopped.failure from None
+            raise self._transport_error(stopped, timeout_s) from stopped.failure
+        except httpx.UnsupportedProtocol as exc:
+            raise ModelConfigError(f"{self.name}: cannot send to {self.base_url}: {exc}") from exc
+        except httpx.HTTPError as exc:
+            if is_unreachable(exc):
+                raise ModelEndpointError(
+                    f"{unreachable_words(exc, self.base_url, 'model server')}: start it or fix --model, or use --model rules",
+                    url=self.base_url,
+                ) from exc
+            # our own request is malformed: another attempt cannot help
+            raise self._transport_error(GiveUp(exc, 1), timeout_s) from exc
+
+    def _transport_error(self, stopped: GiveUp, timeout_s: float) -> ModelError:
+        failure, attempts = stopped.failure, stopped.attempts
         tries = f"{attempts} attempt{'s' if attempts != 1 else ''}"
-        if isinstance(failure, _AttemptTimedOut | httpx.TimeoutException):
+        if stopped.timed_out:
             budget = f"{timeout_s:g} s" + (f", then {2 * timeout_s:g} s" if attempts > 1 else "")
             return ModelError(
                 f"{self.name}: request to {self.base_url} timed out ({budget}) after {tries}: "
@@ -651,17 +577,6 @@ class OpenAIChatModel(CompletionModel):
         return ModelError(
             f"{self.name}: request to {self.base_url} failed after {tries}: {type(failure).__name__}: {failure}"
         )
-
-    def _backoff(self, failure: BaseException, attempt: int, *, after_drop: bool) -> float:
-        """Seconds to wait after failed attempt number ``attempt``."""
-        if isinstance(failure, httpx.RemoteProtocolError) and not after_drop:
-            # A pooled keep-alive connection the server had closed (llama-server does after a
-            # streamed reply): the pool has dropped it, so re-sending at once suffices.
-            return 0.0
-        if isinstance(failure, _TransientHTTPError) and failure.retry_after_s is not None:
-            return min(failure.retry_after_s, self.retry.max_retry_after_s)
-        backoff: float = self.retry.initial_backoff_s * 2.0 ** max(0, attempt - 1)
-        return min(backoff, self.retry.max_backoff_s) + self._rng.uniform(0.0, self.retry.jitter_s)
 
     async def _post_once(
         self,
@@ -672,24 +587,15 @@ class OpenAIChatModel(CompletionModel):
         path: str = "/chat/completions",
         max_bytes: int | None = None,
     ) -> dict[str, Any]:
-        """One attempt: the reply's JSON object, or an exception saying what went wrong."""
+        """One attempt (the policy bounds it as a whole): the reply's JSON object, or an
+        exception saying what went wrong."""
         headers = {"Accept": "application/json"}
         if self._api_key:
             headers["Authorization"] = f"Bearer {self._api_key}"
         url = f"{self.base_url}{path}"
         client = self._http()
-        try:
-            # httpx's time-out bounds each connect, write and read; a server that trickles
-            # bytes could still hold an attempt for ever, so the attempt as a whole is bounded too.
-            async with asyncio.timeout(timeout_s) as scope:
-                async with client.stream(
-                    "POST", url, json=body, headers=headers, timeout=timeout_s
-                ) as response:
-                    raw, whole = await self._read_body(response, max_bytes or self.max_reply_bytes)
-        except TimeoutError as exc:
-            if scope.expired():
-                raise _AttemptTimedOut(f"no complete reply within {timeout_s:g} s") from exc
-            raise
+        async with client.stream("POST", url, json=body, headers=headers, timeout=timeout_s) as response:
+            raw, whole = await read_capped(response, max_bytes or self.max_reply_bytes, excerpt=_EXCERPT_BYTES)
         status = response.status_code
         data = _json_or_none(raw) if whole else None
         spent.count(data)
@@ -700,7 +606,7 @@ class OpenAIChatModel(CompletionModel):
                 f"the reply is larger than the {self.max_reply_bytes}-byte limit; answer with the JSON object only",
             )
         if status != 200:
-            self._raise_for_status(status, data, text, body, response.headers.get("retry-after"))
+            self._raise_for_status(status, data, text, body, response.headers.get("retry-after"), url)
         if not isinstance(data, dict):
             what = "is not JSON" if data is None else f"is JSON but not an object ({type(data).__name__})"
             raise _UnusableReply(
@@ -718,12 +624,27 @@ class OpenAIChatModel(CompletionModel):
         return data
 
     def _raise_for_status(
-        self, status: int, data: Any, text: str, body: dict[str, Any], retry_after: str | None
+        self, status: int, data: Any, text: str, body: dict[str, Any], retry_after: str | None, url: str
     ) -> None:
         message = _error_message(data, text)
         too_long = _context_length_error(status, data, message, text)
         if too_long is not None:
             raise too_long
+        if status in (401, 403):
+            raise ModelEndpointError(
+                f"the model server at {self.base_url} refused the key (HTTP {status}: {message[:200]}): "
+                f"set a valid key in {self._api_key_env}, or use --model rules",
+                url=self.base_url,
+                status_code=status,
+            )
+        if status == 404:
+            missing = f"model {self.model!r}" if "model" in message.lower() else f"nothing at {url}"
+            raise ModelEndpointError(
+                f"{missing} not found on the model server at {self.base_url} (HTTP 404: {message[:200]}): "
+                "check the name and URL in --model, or use --model rules",
+                url=self.base_url,
+                status_code=status,
+            )
         has_images = any(
             isinstance(m.get("content"), list) and any(p.get("type") == "image_url" for p in m["content"])
             for m in body.get("messages", [])
@@ -738,29 +659,10 @@ class OpenAIChatModel(CompletionModel):
                 f"{self.name} at {self.base_url} rejected response_format {body['response_format']['type']!r} "
                 f"({message!r}); set the `structured` setting to 'json_object' or 'none'"
             )
-        if status in _TRANSIENT_STATUS or status >= 500:
-            raise _TransientHTTPError(
-                message, status_code=status, body=text, retry_after_s=parse_retry_after(retry_after)
-            )
+        transient = transient_status_error(status, text, retry_after, message=message)
+        if transient is not None:
+            raise transient
         raise ModelHTTPError(message, status_code=status, body=text)
-
-    async def _read_body(self, response: httpx.Response, cap: int) -> tuple[bytes, bool]:
-        """The body, and whether it is whole: reading stops past ``cap`` bytes."""
-        declared = response.headers.get("content-length", "")
-        if declared.isdigit() and int(declared) > cap:
-            # Announced too large: read only the first chunk, for the excerpt.
-            async for chunk in response.aiter_bytes():
-                return chunk[:_EXCERPT_BYTES], False
-            return b"", False
-        chunks: list[bytes] = []
-        size = 0
-        async for chunk in response.aiter_bytes():
-            size += len(chunk)
-            if size > cap:
-                chunks.append(chunk)
-                return b"".join(chunks)[:cap], False
-            chunks.append(chunk)
-        return b"".join(chunks), True
 
     def _read_choice(self, data: dict[str, Any]) -> tuple[str, str | None]:
         """The reply text and finish reason of ``choices[0]``; :class:`_UnusableReply` when there is none."""

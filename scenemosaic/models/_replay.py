@@ -30,8 +30,6 @@ import base64
 import dataclasses
 import hashlib
 import json
-import os
-import tempfile
 from pathlib import Path
 from typing import Any, Literal
 
@@ -204,16 +202,10 @@ class Cassette:
             "models": self._models,
             "entries": self._load(),
         }
+        from scenemosaic.scene import write_atomic  # the one atomic write
+
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                json.dump(data, fh, indent=1, sort_keys=True, ensure_ascii=False)
-                fh.write("\n")
-            os.replace(tmp, self.path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        write_atomic(self.path, json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False) + "\n")
 
     def miss_error(self, agent: str | None, wanted: dict[str, Any]) -> ReplayMissError:
         """The error for a request with no entry: what differs from the nearest recording."""

@@ -28,6 +28,7 @@ from scenemosaic.models._base import Model, ModelSettings, Usage
 from scenemosaic.models._cache import CachedModel
 from scenemosaic.models._circuit import CircuitBreakerModel
 from scenemosaic.models._deadline import DeadlineModel
+from scenemosaic.models._http import CallClock
 from scenemosaic.models._instrument import InstrumentedModel
 from scenemosaic.models._limit import LimitedModel, RateLimiter
 from scenemosaic.models._openai import OpenAIChatModel
@@ -72,6 +73,9 @@ class RunModel:
     """Per-request settings every agent passes (the request time-out), or ``None``."""
     detail: dict[str, Any] = field(default_factory=dict)
     """How the stack was built, for the report: model name, concurrency, rate limits, reply cache."""
+    clock: CallClock = field(default_factory=CallClock)
+    """The run's one clock for every outbound call (the request time-out and the deadline): the
+    model stack and the perception backends' HTTP clients read it."""
     _opened: Model | None = None
 
     @property
@@ -157,7 +161,10 @@ async def open_run_model(
     opened: Model | None = None
     if isinstance(spec, str):
         limit = cfg.max_concurrency or await server_slots(spec, cfg.vision)
-        base = parse_model(spec, vision=cfg.vision, **({"max_concurrency": limit} if limit else {}))
+        extra: dict[str, Any] = {"max_concurrency": limit} if limit else {}
+        if cfg.request_timeout_s and spec.startswith("openai:"):
+            extra["timeout_s"] = cfg.request_timeout_s  # the images endpoint's attempts too
+        base = parse_model(spec, vision=cfg.vision, **extra)
         opened = base
         if limit:
             detail["max_concurrency"] = limit
@@ -184,10 +191,11 @@ async def open_run_model(
             detail["reply_cache"] = str(cfg.reply_cache)
             model = CachedModel(model, cfg.reply_cache)
     model = InstrumentedModel(model, on_call=tracker.on_call)
+    clock = CallClock.starting(cfg.request_timeout_s, cfg.deadline_s, started)
     if not base.uses_rule_solvers:
         model = CircuitBreakerModel(model)
         if cfg.deadline_s is not None:  # the run's budget: what was spent before opening is gone
             elapsed = time.monotonic() - started if started is not None else 0.0
-            model = DeadlineModel(model, max(cfg.deadline_s - elapsed, 0.001))
+            model = DeadlineModel(model, max(cfg.deadline_s - elapsed, 0.001), shown_s=cfg.deadline_s)
     request = ModelSettings(timeout_s=cfg.request_timeout_s) if cfg.request_timeout_s else None
-    return RunModel(model=model, tracker=tracker, settings=request, detail=detail, _opened=opened)
+    return RunModel(model=model, tracker=tracker, settings=request, detail=detail, clock=clock, _opened=opened)

@@ -63,6 +63,7 @@ from scenemosaic.perception._segment import (
     Segmenter,
     segmenter_for,
 )
+from scenemosaic.perception._truth import ObjectScore, TruthScore, heading_symmetry, score_against_truth
 
 __all__ = [
     "DEFAULT_HFOV_DEG",
@@ -90,6 +91,7 @@ __all__ = [
     "InventoryAgent",
     "LiftedObject",
     "ObjectMask",
+    "ObjectScore",
     "PerceptionResult",
     "PerceptionState",
     "Reconstruction",
@@ -99,10 +101,12 @@ __all__ = [
     "SceneImage",
     "SeenObject",
     "Segmenter",
+    "TruthScore",
     "VerifyAgent",
     "VerifyEvidence",
     "VerifyOutput",
     "VerifyRequest",
+    "heading_symmetry",
     "inventory_problems",
     "is_image_path",
     "load_image",
@@ -112,6 +116,7 @@ __all__ = [
     "read_detections",
     "reconstructor_for",
     "recover_frame",
+    "score_against_truth",
     "segmenter_for",
     "size_prior",
     "solve_verify",

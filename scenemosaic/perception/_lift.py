@@ -3,11 +3,13 @@
 What it assumes (``docs/perception.md``): a pinhole camera without roll whose focal length is
 known (EXIF or the default field of view); a flat floor; every floor object an upright box
 standing on it, with the size of its category (the median of the ProcTHOR asset database's
-boxes) up to a scale of its footprint and one of its height, each with a log-normal prior; its
-front turned to the camera along one of the room's two horizontal directions, read from the
-straight edges of the photograph. One least-squares fit finds the camera's height and pitch
-and every floor object's place and size from the box edges; objects on the wall, the ceiling
-or other furniture follow with the camera fixed. The result is a coarse prior: sizes within
+boxes) up to a scale of its footprint and one of its height, each with a log-normal prior;
+the room's horizontal directions and the camera's pitch read from the photograph's straight
+edges (:func:`_vertical_votes`, :func:`_horizontal_votes`). One least-squares fit finds the
+camera's height and pitch and every floor object's place and size from the box edges; each
+floor object's heading is then chosen from the evidence (``_headings.py``: the box, the walls,
+what it belongs to); objects on the wall, the ceiling or other furniture follow with the
+camera fixed, hung on the walls seen behind wall furniture and over the beds and tables in view. The result is a coarse prior: sizes within
 tens of percent, places within a few decimetres (see the tests), which the later stages
 (room, support, physics, the critic) correct.
 """
@@ -16,12 +18,13 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import structlog
 
+from scenemosaic.perception._headings import HeadingItem, choose_headings, furniture_role
 from scenemosaic.perception._image import Camera, SceneImage
 from scenemosaic.perception._inventory import Placement
 from scenemosaic.perception._reconstruct import LiftedObject, Reconstruction, SeenObject
@@ -41,8 +44,16 @@ log = structlog.get_logger(__name__)
 DEFAULT_CAMERA_HEIGHT = 1.6
 """Camera height (metres) assumed when no floor object constrains it, and the prior's centre: a
 photograph taken standing, at eye level."""
-CAMERA_HEIGHT_SIGMA = 0.15
-"""Standard deviation (metres) of the camera height's prior."""
+CAMERA_HEIGHT_SIGMA = 0.4
+"""Standard deviation (metres) of the camera height's prior: a weak term (a photograph may be
+taken seated or from a step), so the objects' sizes, not the prior, set the scale."""
+PITCH_SD_FLOOR_DEG = 0.3
+"""The least standard deviation (degrees) given to the pitch measured from vertical lines."""
+DEFAULT_CEILING_HEIGHT = 2.7
+"""Height (metres) of the ceiling a ceiling object hangs from when the picture does not show it:
+a common residential storey (2.4-3.0 m)."""
+CEILING_HEIGHT_SIGMA = 0.3
+"""Standard deviation (metres) of that default."""
 DEFAULT_PITCH_DEG = 15.0
 """Downward pitch (degrees) assumed when no floor object constrains it, and the prior's centre."""
 
@@ -73,6 +84,8 @@ _GENERIC: dict[str, tuple[float, float, float]] = {
 _SIGMA_KNOWN = 0.3
 """Log-scale standard deviation of a known category's size."""
 _SIGMA_UNKNOWN = 0.8
+_SIGMA_HANGING = 0.6
+"""Log-scale standard deviation of a hanging object's size."""
 
 
 @functools.lru_cache(maxsize=512)
@@ -180,11 +193,21 @@ class BoxLifter:
         sig = np.array([_SIGMA_KNOWN if priors[o.detection.id][1] else _SIGMA_UNKNOWN for o in floor])
         weights = _edge_weights(obs, camera)
 
+        segments = _line_segments(image) if self.room_lines else None
+        vertical = _vertical_votes(segments, camera) if segments is not None else ([], [])
+        measured_pitch = _pitch_from_votes(*vertical)
+        pitch_prior = (math.radians(DEFAULT_PITCH_DEG), math.radians(45.0))
+        if measured_pitch is not None:
+            pitch_prior = (measured_pitch[0], max(measured_pitch[1], math.radians(PITCH_SD_FLOOR_DEG)))
+            report["vertical_lines_pitch_deg"] = round(math.degrees(measured_pitch[0]), 2)
+            report["vertical_lines_pitch_sd_deg"] = round(math.degrees(measured_pitch[1]), 3)
+            report["vertical_lines"] = measured_pitch[2]
+
         def solve(x0: FloatArray, room_yaw: float, quarters: list[int]) -> tuple[float, FloatArray]:
             result = least_squares(
                 _floor_residuals,
                 x0,
-                args=(camera, obs, base, sig, weights, room_yaw, quarters),
+                args=(camera, obs, base, sig, weights, room_yaw, quarters, pitch_prior),
                 bounds=_floor_bounds(len(floor)),
                 x_scale="jac",
                 max_nfev=400,
@@ -193,11 +216,12 @@ class BoxLifter:
 
         def fit_floor(room_yaw: float) -> tuple[CameraPose, FloatArray, float, list[int]]:
             if not floor:
-                return CameraPose(DEFAULT_CAMERA_HEIGHT, math.radians(DEFAULT_PITCH_DEG)), np.zeros((0, 4)), 0.0, []
+                return CameraPose(DEFAULT_CAMERA_HEIGHT, pitch_prior[0]), np.zeros((0, 4)), 0.0, []
             quarters = [0] * len(floor)
             best: tuple[float, FloatArray] | None = None
+            starts = (5.0, 20.0, 35.0) if measured_pitch is None else (math.degrees(measured_pitch[0]),)
             for h0 in (1.2, 1.6, 2.0):
-                for p0 in (5.0, 20.0, 35.0):
+                for p0 in starts:
                     pose0 = CameraPose(h0, math.radians(p0))
                     x0 = [h0, math.radians(p0)]
                     for o, size in zip(floor, base, strict=True):
@@ -224,32 +248,90 @@ class BoxLifter:
                 room_yaw, share = measured
                 report["room_direction_deg"] = round(math.degrees(room_yaw), 2)
                 report["room_direction_support"] = round(share, 3)
-                if abs(room_yaw) > math.radians(1.0):
+                again = abs(room_yaw) > math.radians(1.0)
+                if segments is not None:  # the room's horizontal edges vote on the pitch too
+                    horizontal = _horizontal_votes(segments, camera, room_yaw, pose.pitch)
+                    both = _pitch_from_votes(vertical[0] + horizontal[0], vertical[1] + horizontal[1])
+                    if both is not None:
+                        report["lines_pitch_deg"] = round(math.degrees(both[0]), 2)
+                        report["lines_pitch_sd_deg"] = round(math.degrees(both[1]), 3)
+                        measured_pitch = both
+                        pitch_prior = (both[0], max(both[1], math.radians(PITCH_SD_FLOOR_DEG)))
+                        again = True
+                if again:
                     pose, params, cost, quarters = fit_floor(room_yaw)
         report["camera_height_m"] = round(pose.height, 3)
         report["camera_pitch_deg"] = round(math.degrees(pose.pitch), 2)
         report["floor_fit_cost"] = round(cost, 3)
+        if floor:
+            x_fit = np.concatenate([[pose.height, pose.pitch], params.ravel()])
+            sd = _fit_sd(x_fit, lambda x: _floor_residuals(x, camera, obs, base, sig, weights, room_yaw, quarters, pitch_prior))
+            report["camera_height_sd_m"] = round(float(sd[0]), 3)
+            report["camera_pitch_sd_deg"] = round(math.degrees(float(sd[1])), 3)
 
         lifted: list[LiftedObject] = []
         placed: dict[str, tuple[FloatArray, FloatArray]] = {}  # id -> (bottom centre, size), floor frame
-        report["side_on"] = [o.detection.id for o, q in zip(floor, quarters, strict=True) if q]
         yaws: dict[str, float] = {}
-        for o, p, q in zip(floor, params, quarters, strict=True):
+        refits: dict[tuple[int, int], tuple[float, FloatArray]] = {}
+
+        def refit(i: int, k: int) -> tuple[float, FloatArray, FloatArray]:
+            # a box turned by a half turn projects the same: two fits per object
+            if (i, k % 2) not in refits:
+                yaw = room_yaw + (k % 2) * math.pi / 2
+                refits[i, k % 2] = _refit_floor_object(camera, pose, obs[i], base[i], float(sig[i]), weights[i], yaw, params[i])
+            cost, p = refits[i, k % 2]
+            return cost, np.array([p[0], p[1], 0.0]), base[i] * np.exp([p[2], p[2], p[3]])
+
+        items = [
+            HeadingItem(o.detection.id, o.detection.category, np.array([p[0], p[1], 0.0]), base[i] * np.exp([p[2], p[2], p[3]]))
+            for i, (o, p) in enumerate(zip(floor, params, strict=True))
+        ]
+        headings = choose_headings(items, room_yaw, refit)
+        report["headings"] = {oid: h.reason for oid, h in headings.items()}
+        for i, o in enumerate(floor):
+            h = headings[o.detection.id]
+            p = refits[i, h.quarter % 2][1] if (i, h.quarter % 2) in refits else params[i]
             size = np.asarray(priors[o.detection.id][0]) * np.exp([p[2], p[2], p[3]])
             centre = np.array([p[0], p[1], 0.0])
             placed[o.detection.id] = (centre, size)
-            yaws[o.detection.id] = _facing_yaw(p[0], p[1], room_yaw, q)
+            yaws[o.detection.id] = h.yaw
             lifted.append(self._lifted(o, pose, centre, size, yaws[o.detection.id]))
+        ceiling = (DEFAULT_CEILING_HEIGHT, CEILING_HEIGHT_SIGMA)
+        report["ceiling_height_m"] = {"value": ceiling[0], "sd": ceiling[1], "source": "default"}
         rests: dict[str, str] = {}
+        on_walls: dict[str, str] = {}
+        hangs_over: dict[str, str] = {}
+        walls = _walls_behind(floor, placed, yaws)
+        anchors = [  # what a lamp hangs over: a bed, a table standing free (not a desk against a wall)
+            (o.detection.id, placed[o.detection.id][0][:2])
+            for o in floor
+            if furniture_role(o.detection.category) == "bed"
+            or (furniture_role(o.detection.category) in HANG_OVER_ROLES and not traits(o.detection.category).against_wall)
+        ]
         for o in sorted(others, key=lambda s: _support_depth(s, others)):  # supports before what they hold
-            centre, size, rest = self._fit_single(camera, pose, o, priors[o.detection.id], placed, room_yaw)
+            centre, size, rest, wall_yaw, wall_id = self._fit_single(
+                camera, pose, o, priors[o.detection.id], placed, room_yaw, ceiling, walls, anchors
+            )
+            if wall_id is not None and rest == "wall":
+                on_walls[o.detection.id] = wall_id
+            elif wall_id is not None:
+                hangs_over[o.detection.id] = wall_id
             if rest == "on" and o.parent is not None:  # what rests on a top stands over it
                 centre = _onto(centre, size, *placed[o.parent], yaws[o.parent])
             placed[o.detection.id] = (centre, size)
-            yaws[o.detection.id] = _facing_yaw(centre[0], centre[1], room_yaw)
+            if rest == "on" and o.parent is not None:  # it faces where its support faces (a laptop on a desk)
+                yaws[o.detection.id] = yaws[o.parent]
+                report["headings"][o.detection.id] = f"as {o.parent}"  # type: ignore[index]
+            elif wall_yaw is not None:  # it faces away from its wall
+                yaws[o.detection.id] = wall_yaw
+                report["headings"][o.detection.id] = f"on the wall behind {wall_id}"  # type: ignore[index]
+            else:
+                yaws[o.detection.id] = _facing_yaw(centre[0], centre[1], room_yaw)
             rests[o.detection.id] = rest
             lifted.append(self._lifted(o, pose, centre, size, yaws[o.detection.id], rest))
         report["resting"] = rests
+        report["on_walls"] = on_walls
+        report["hangs_over"] = hangs_over
         up = pose.camera_from_floor @ np.array([0.0, 0.0, 1.0])
         return Reconstruction(lifted, floor_up=up, camera_height=pose.height, yaw_hint=room_yaw, report=report)
 
@@ -272,13 +354,27 @@ class BoxLifter:
         prior: tuple[tuple[float, float, float], bool],
         placed: dict[str, tuple[FloatArray, FloatArray]],
         room_yaw: float,
-    ) -> tuple[FloatArray, FloatArray, str]:
+        ceiling: tuple[float, float] = (DEFAULT_CEILING_HEIGHT, CEILING_HEIGHT_SIGMA),
+        walls: Sequence[tuple[str, FloatArray, float]] = (),
+        anchors: Sequence[tuple[str, FloatArray]] = (),
+    ) -> tuple[FloatArray, FloatArray, str, float | None, str | None]:
         """An object off the floor fit, the camera fixed: its place and size from its box, under
-        each hypothesis of where it rests (:func:`_hypotheses`); the one costing least wins."""
+        each hypothesis of where it rests (:func:`_hypotheses`); the one costing least wins.
+        ``ceiling``: the ceiling's height (mean, sd, metres) a hanging object's top is held to.
+        ``walls``: walls seen as the backs of wall furniture (id, outward unit normal, offset
+        along it): an object that may hang on a wall is fitted against each too, and hung on
+        the one fitting best when that costs at most :data:`WALL_SNAP_COST` more than the
+        cheapest hypothesis. ``anchors``: the tables and beds in view (id, floor-frame middle): a
+        hanging object is fitted over each too, and hangs over the one fitting best when that
+        costs at most :data:`HANG_OVER_COST` more than hanging free (a pendant over its table).
+        Returns its bottom centre, size, where it rests, its yaw when a wall sets it, and the id
+        of the wall furniture or the piece it hangs over."""
         from scipy.optimize import least_squares
 
         base = np.asarray(prior[0])
         sig = _SIGMA_KNOWN if prior[1] else _SIGMA_UNKNOWN
+        if o.placement == "ceiling":  # a lamp's cord and shade vary far more than furniture
+            sig = max(sig, _SIGMA_HANGING)
         box = np.asarray(o.detection.box, dtype=np.float64)
         weights = _edge_weights(box[None, :], camera)[0]
         # first guess: at the depth where the prior's width fills the box
@@ -287,25 +383,99 @@ class BoxLifter:
         ray = pose.camera_from_floor.T @ camera.ray((box[0] + box[2]) / 2, (box[1] + box[3]) / 2)
         guess = (ray / ray[1] * depth if ray[1] > 1e-3 else ray * depth) + np.array([0.0, 0.0, pose.height])
         best: tuple[float, FloatArray, FloatArray, str] | None = None
-        for name, z_mean, z_sigma in _hypotheses(o, placed):
+        snapped: tuple[float, FloatArray, FloatArray, float, str] | None = None
+        over: tuple[float, FloatArray, FloatArray, str] | None = None
+        for name, z_mean, z_sigma in _hypotheses(o, placed, ceiling):
+            hanging = name == "ceiling"  # x[4] is then the ceiling's height, the top's place
 
-            def residuals(x: FloatArray, z_mean: float = z_mean, z_sigma: float | None = z_sigma) -> FloatArray:
-                z = z_mean if z_sigma == 0.0 else x[4]
+            def residuals(x: FloatArray, z_mean: float = z_mean, z_sigma: float | None = z_sigma, hanging: bool = hanging) -> FloatArray:
                 size = base * np.exp([x[2], x[2], x[3]])
+                z = z_mean if z_sigma == 0.0 else (x[4] - size[2] if hanging else x[4])
                 yaw = _facing_yaw(x[0], x[1], room_yaw)
                 pred = _boxes(camera, pose, np.array([[x[0], x[1], z]]), size[None, :], np.array([yaw]))[0]
-                extra = [] if not z_sigma else [(z - z_mean) / z_sigma]
+                extra = [] if not z_sigma else [((x[4] if hanging else z) - z_mean) / z_sigma]
                 return np.concatenate([(pred - box) * weights, [x[2] / sig, x[3] / sig], extra])
 
             z0 = z_mean if z_sigma is not None else max(0.0, float(guess[2] - base[2] / 2))
             x0 = np.array([guess[0], guess[1], 0.0, 0.0] + ([] if z_sigma == 0.0 else [z0]))
+            if hanging:  # start where the box's lower edge meets the ceiling's prior height less the lamp's
+                x0[:2] = self._hanging_start(camera, pose, box, z_mean - base[2], guess)
             result = least_squares(residuals, x0, x_scale="jac", max_nfev=300)
             x = result.x
             z = z_mean if z_sigma == 0.0 else max(0.0, float(x[4]))
+            if hanging:
+                z = max(0.0, float(x[4] - base[2] * math.exp(x[3])))
             if best is None or result.cost < best[0]:
                 best = (float(result.cost), np.array([x[0], x[1], z]), base * np.exp([x[2], x[2], x[3]]), name)
+            if name == "wall" and walls:
+                snapped = self._on_walls(camera, pose, box, weights, base, sig, (z_mean, z_sigma), x, walls)
+            for anchor_id, anchor_xy in anchors if hanging else ():
+                # hanging over a table or a bed: its place pulled toward the piece's middle
+                def pulled(x: FloatArray, a: FloatArray = anchor_xy) -> FloatArray:
+                    return np.concatenate([residuals(x), (x[:2] - a) / HANG_OVER_SD])
+
+                start = np.array([anchor_xy[0], anchor_xy[1], x[2], x[3], x[4]])
+                fit = least_squares(pulled, start, x_scale="jac", max_nfev=300)
+                if over is None or fit.cost < over[0]:
+                    xo = fit.x
+                    bottom = max(0.0, float(xo[4] - base[2] * math.exp(xo[3])))
+                    over = (float(fit.cost), np.array([xo[0], xo[1], bottom]), base * np.exp([xo[2], xo[2], xo[3]]), anchor_id)
         assert best is not None
-        return best[1], best[2], best[3]
+        if snapped is not None and snapped[0] <= best[0] + WALL_SNAP_COST:
+            _cost, centre, size, yaw, wall_id = snapped
+            return centre, size, "wall", yaw, wall_id
+        if over is not None and over[0] <= best[0] + HANG_OVER_COST:
+            return over[1], over[2], "ceiling", None, over[3]
+        return best[1], best[2], best[3], None, None
+
+    @staticmethod
+    def _on_walls(
+        camera: Camera,
+        pose: CameraPose,
+        box: FloatArray,
+        weights: FloatArray,
+        base: FloatArray,
+        sig: float,
+        height_prior: tuple[float, float | None],
+        x0: FloatArray,
+        walls: Sequence[tuple[str, FloatArray, float]],
+    ) -> tuple[float, FloatArray, FloatArray, float, str] | None:
+        """The best fit of a wall object with its back on one of ``walls``, facing away from it:
+        (cost, bottom centre, size, yaw, the wall's id); ``None`` when no wall lies ahead of it."""
+        from scipy.optimize import least_squares
+
+        z_mean, z_sigma = height_prior
+        best: tuple[float, FloatArray, FloatArray, float, str] | None = None
+        for wall_id, normal, offset in walls:
+            yaw = math.atan2(normal[0], -normal[1]) + math.pi  # front (local -Y) along -normal
+            yaw = math.remainder(yaw, 2 * math.pi)
+
+            def residuals(x: FloatArray, normal: FloatArray = normal, offset: float = offset, yaw: float = yaw) -> FloatArray:
+                size = base * np.exp([x[2], x[2], x[3]])
+                pred = _boxes(camera, pose, np.array([[x[0], x[1], x[4]]]), size[None, :], np.array([yaw]))[0]
+                back = float(np.array([x[0], x[1]]) @ normal) + size[1] / 2
+                z_term = [] if not z_sigma else [(x[4] - z_mean) / z_sigma]
+                return np.concatenate([(pred - box) * weights, [x[2] / sig, x[3] / sig, (back - offset) / WALL_SNAP_SD], z_term])
+
+            start = np.array([x0[0], x0[1], x0[2], x0[3], x0[4] if len(x0) > 4 else z_mean])
+            result = least_squares(residuals, start, x_scale="jac", max_nfev=300)
+            x = result.x
+            if float(np.array([x[0], x[1]]) @ normal) <= 0.0 or x[1] <= 0.0:
+                continue  # a wall behind the camera
+            if best is None or result.cost < best[0]:
+                best = (float(result.cost), np.array([x[0], x[1], max(0.0, float(x[4]))]), base * np.exp([x[2], x[2], x[3]]), yaw, wall_id)
+        return best
+
+    @staticmethod
+    def _hanging_start(camera: Camera, pose: CameraPose, box: FloatArray, bottom: float, guess: FloatArray) -> FloatArray:
+        """Where the ray through the box's lower edge reaches the height ``bottom`` (floor frame XY)."""
+        d = pose.camera_from_floor.T @ camera.ray((box[0] + box[2]) / 2, box[3])
+        rise = bottom - pose.height
+        if d[2] * rise <= 1e-6:
+            out: FloatArray = np.asarray(guess[:2], dtype=np.float64)
+            return out
+        t = rise / d[2]
+        return np.array([d[0] * t, d[1] * t])
 
     @staticmethod
     def _lifted(
@@ -323,6 +493,40 @@ class BoxLifter:
             parent=o.parent,
             description=o.detection.description,
         )
+
+
+MAY_HANG = frozenset({"television", "mirror", "wall_clock", "clock"})
+"""Categories that stand on furniture or hang on a wall alike (ProcTHOR's televisions all stand,
+so its priors alone would never hang one)."""
+WALL_SNAP_COST = 4.0
+"""How much more (chi-square / 2) an object on a wall may cost fitted against a wall seen behind
+wall furniture than fitted free, and still be hung on that wall."""
+HANG_OVER_ROLES = frozenset({"table", "coffee_table", "bed"})
+"""What a ceiling lamp in view may hang over (:func:`~scenemosaic.perception._headings.furniture_role`)."""
+HANG_OVER_COST = 4.0
+"""How much more (chi-square / 2) a hanging object may cost fitted over a table or bed than
+fitted free, and still be hung over it."""
+HANG_OVER_SD = 0.35
+"""Standard deviation (metres) of a lamp's place about the middle of what it hangs over."""
+WALL_SNAP_SD = 0.05
+"""Standard deviation (metres) of a wall object's back against its wall."""
+
+
+def _walls_behind(
+    floor: Sequence[SeenObject], placed: dict[str, tuple[FloatArray, FloatArray]], yaws: dict[str, float]
+) -> list[tuple[str, FloatArray, float]]:
+    """The walls the picture shows through its wall furniture: behind each floor object that
+    stands against a wall (``against_wall``), the line its back lies on, as (its id, the outward
+    unit normal, the line's offset along it) in the floor frame."""
+    out: list[tuple[str, FloatArray, float]] = []
+    for o in floor:
+        if not traits(o.detection.category).against_wall:
+            continue
+        centre, size = placed[o.detection.id]
+        yaw = yaws[o.detection.id]
+        normal = -np.array([math.sin(yaw), -math.cos(yaw)])  # its back
+        out.append((o.detection.id, normal, float(centre[:2] @ normal) + float(size[1]) / 2))
+    return out
 
 
 def _support_depth(o: SeenObject, objects: Sequence[SeenObject]) -> int:
@@ -354,7 +558,9 @@ WALL_HEIGHT = (1.2, 0.6)
 """Prior (mean, standard deviation, metres) of the bottom of a wall-mounted object."""
 
 
-def _hypotheses(o: SeenObject, placed: dict[str, tuple[FloatArray, FloatArray]]) -> list[tuple[str, float, float | None]]:
+def _hypotheses(
+    o: SeenObject, placed: dict[str, tuple[FloatArray, FloatArray]], ceiling: tuple[float, float] = (0.0, 0.0)
+) -> list[tuple[str, float, float | None]]:
     """Where an object off the floor fit may rest, as (name, bottom height, its standard
     deviation): 0 fixes the height, ``None`` leaves it free. On its support's top when it has
     one in view; on a wall or the ceiling when the inventory says so; else, for a small object
@@ -365,11 +571,12 @@ def _hypotheses(o: SeenObject, placed: dict[str, tuple[FloatArray, FloatArray]])
         return [("on", float(pc[2] + ps[2]), 0.0)]
     if o.placement == "wall":
         return [("wall", *WALL_HEIGHT)]
-    if o.placement == "ceiling":
-        return [("ceiling", 0.0, None)]
+    if o.placement == "ceiling":  # its top at the ceiling: (name, ceiling height, its sd)
+        return [("ceiling", *(ceiling if ceiling[1] > 0 else (DEFAULT_CEILING_HEIGHT, CEILING_HEIGHT_SIGMA)))]
     out: list[tuple[str, float, float | None]] = [("floor", 0.0, 0.0), ("raised", *RAISED_HEIGHT)]
     kind = thor_type(o.detection.category)
-    if traits(o.detection.category).placement == "wall" or (kind is not None and kind in load_priors().wall):
+    may_hang = normalize_category(o.detection.category) in MAY_HANG
+    if traits(o.detection.category).placement == "wall" or may_hang or (kind is not None and kind in load_priors().wall):
         out.append(("wall", *WALL_HEIGHT))
     return out
 
@@ -401,6 +608,7 @@ def _floor_residuals(
     weights: FloatArray,
     room_yaw: float,
     quarters: Sequence[int],
+    pitch_prior: tuple[float, float] = (math.radians(DEFAULT_PITCH_DEG), math.radians(45.0)),
 ) -> FloatArray:
     pose = CameraPose(float(x[0]), float(x[1]))
     p = x[2:].reshape(-1, 4)
@@ -409,8 +617,146 @@ def _floor_residuals(
     yaws = np.array([_facing_yaw(a, b, room_yaw, q) for (a, b), q in zip(p[:, :2], quarters, strict=True)])
     pred = _boxes(camera, pose, centres, sizes, yaws)
     priors = np.concatenate([p[:, 2] / sig, p[:, 3] / sig])
-    camera_prior = [(x[0] - DEFAULT_CAMERA_HEIGHT) / CAMERA_HEIGHT_SIGMA, (x[1] - math.radians(DEFAULT_PITCH_DEG)) / math.radians(45.0)]
+    camera_prior = [(x[0] - DEFAULT_CAMERA_HEIGHT) / CAMERA_HEIGHT_SIGMA, (x[1] - pitch_prior[0]) / pitch_prior[1]]
     return np.concatenate([((pred - obs) * weights).ravel(), priors, camera_prior])
+
+
+def _refit_floor_object(
+    camera: Camera,
+    pose: CameraPose,
+    box: FloatArray,
+    base: FloatArray,
+    sig: float,
+    weights: FloatArray,
+    yaw: float,
+    x0: FloatArray,
+) -> tuple[float, FloatArray]:
+    """One floor object refitted under a fixed yaw, the camera fixed: the cost (chi-square / 2)
+    and its (x, y, log footprint scale, log height scale)."""
+    from scipy.optimize import least_squares
+
+    def residuals(x: FloatArray) -> FloatArray:
+        size = base * np.exp([x[2], x[2], x[3]])
+        pred = _boxes(camera, pose, np.array([[x[0], x[1], 0.0]]), size[None, :], np.array([yaw]))[0]
+        return np.concatenate([(pred - box) * weights, [x[2] / sig, x[3] / sig]])
+
+    lo, hi = np.array([-30.0, 0.2, -1.5, -1.5]), np.array([30.0, 30.0, 1.5, 1.5])
+    result = least_squares(residuals, np.clip(np.asarray(x0, dtype=np.float64), lo + 1e-6, hi - 1e-6), bounds=(lo, hi), x_scale="jac", max_nfev=200)
+    return float(result.cost), np.asarray(result.x)
+
+
+def _fit_sd(x: FloatArray, residuals: Callable[[FloatArray], FloatArray]) -> FloatArray:
+    """Standard deviations of the floor fit's parameters at its solution: the residuals are
+    whitened (divided by their sigmas), so the covariance is (J^T J)^-1, J by central differences."""
+    step = 1e-5 * np.maximum(1.0, np.abs(x))
+    cols = []
+    for i in range(len(x)):
+        dx = np.zeros_like(x)
+        dx[i] = step[i]
+        cols.append((residuals(x + dx) - residuals(x - dx)) / (2 * step[i]))
+    jac = np.stack(cols, axis=1)
+    cov = np.linalg.pinv(jac.T @ jac)
+    out: FloatArray = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    return out
+
+
+def _line_segments(image: SceneImage) -> FloatArray | None:
+    """Straight segments (n, 4: x1, y1, x2, y2, the photograph's pixels) found by OpenCV's line
+    segment detector (sub-pixel), at least 4 % of the longer side long; ``None`` without OpenCV."""
+    try:
+        import cv2
+    except ImportError:
+        return None
+    gray = cv2.cvtColor(image.pixels, cv2.COLOR_RGB2GRAY)
+    scale = min(1.0, 1024.0 / max(gray.shape))
+    if scale < 1.0:
+        gray = cv2.resize(gray, (round(gray.shape[1] * scale), round(gray.shape[0] * scale)), interpolation=cv2.INTER_AREA)
+    found = cv2.createLineSegmentDetector().detect(gray)[0]
+    if found is None:
+        return np.zeros((0, 4))
+    seg = np.asarray(found, dtype=np.float64).reshape(-1, 4) / scale
+    keep = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1]) >= 0.04 * max(image.width, image.height)
+    out: FloatArray = seg[keep]
+    return out
+
+
+def _vertical_votes(segments: FloatArray, camera: Camera) -> tuple[list[float], list[float]]:
+    """Pitch votes (radians) and weights of the segments within 20 degrees of the image's vertical.
+
+    With no roll, every vertical edge of the room points at the vanishing point of the vertical,
+    which lies on the image's centre column at a place set by the pitch alone:
+    ``tan(pitch) = -l_y / l_z`` for the segment's line ``l`` in normalized coordinates. A vote
+    weighs the segment's length times its distance from the centre column (a segment on that
+    column says nothing of the pitch)."""
+    pitches: list[float] = []
+    weights: list[float] = []
+    for x1, y1, x2, y2 in segments:
+        if abs(x2 - x1) > 0.35 * abs(y2 - y1):
+            continue
+        off = abs((x1 + x2) / 2 - camera.cx) / camera.fx
+        if off < 0.05:
+            continue
+        line = np.cross(camera.ray(float(x1), float(y1)), camera.ray(float(x2), float(y2)))
+        pitches.append(math.remainder(math.atan2(-line[1], line[2]), math.pi))
+        weights.append(math.hypot(x2 - x1, y2 - y1) * off)
+    return pitches, weights
+
+
+def _horizontal_votes(segments: FloatArray, camera: Camera, room_yaw: float, pitch0: float) -> tuple[list[float], list[float]]:
+    """Pitch votes from the segments that run along the room's two horizontal directions.
+
+    A horizontal direction at angle ``t`` in the floor frame is ``(cos t, -sin p sin t, cos p
+    sin t)`` in the camera's, so the line ``l`` of its segment satisfies ``l_x cos t + sin t
+    (-l_y sin p + l_z cos p) = 0``: one pitch per segment and direction. The root within 10
+    degrees of ``pitch0`` is the vote; a segment whose floor direction is not one of the room's
+    gives no root there, or a scattered one that the vote's peak leaves out."""
+    pitches: list[float] = []
+    weights: list[float] = []
+    for x1, y1, x2, y2 in segments:
+        if abs(x2 - x1) <= 0.35 * abs(y2 - y1):
+            continue  # a vertical edge
+        line = np.cross(camera.ray(float(x1), float(y1)), camera.ray(float(x2), float(y2)))
+        line = line / np.linalg.norm(line)
+        for t in (room_yaw, room_yaw + math.pi / 2):
+            a, b, c = line[0] * math.cos(t), -line[1] * math.sin(t), line[2] * math.sin(t)
+            r = math.hypot(b, c)
+            if r < 0.05 or abs(a) > r:
+                continue
+            phi = math.atan2(c, b)
+            for root in (math.asin(-a / r) - phi, math.pi - math.asin(-a / r) - phi):
+                p = math.remainder(root, 2 * math.pi)
+                if abs(p - pitch0) < math.radians(10.0):
+                    pitches.append(p)
+                    weights.append(math.hypot(x2 - x1, y2 - y1) * r)
+    return pitches, weights
+
+
+def _pitch_from_votes(pitches: Sequence[float], weights: Sequence[float]) -> tuple[float, float, int] | None:
+    """The peak of the pitch votes: the weighted mean of the votes within 1.5 degrees of it, its
+    standard deviation and how many votes agree; ``None`` with fewer than two agreeing votes or
+    when they hold under 30 % of the weight."""
+    if len(pitches) < 2:
+        return None
+    deg = np.degrees(np.asarray(pitches))
+    w = np.asarray(weights, dtype=np.float64)
+    edges = np.arange(-45.0, 90.01, 0.25)
+    hist, _ = np.histogram(deg, bins=edges, weights=w)
+    peak = float(edges[int(np.argmax(np.convolve(hist, np.ones(5), "same")))] + 0.125)
+    near = np.abs(deg - peak) <= 1.5
+    if near.sum() < 2 or w[near].sum() < 0.3 * w.sum():
+        return None
+    mean = float(np.sum(w[near] * deg[near]) / w[near].sum())
+    spread = float(np.sqrt(np.sum(w[near] * (deg[near] - mean) ** 2) / w[near].sum()))
+    n_eff = float(w[near].sum() ** 2 / np.sum(w[near] ** 2))
+    return math.radians(mean), math.radians(max(spread, 0.1) / math.sqrt(n_eff)), int(near.sum())
+
+
+def _vertical_pitch(image: SceneImage, camera: Camera) -> tuple[float, float, int] | None:
+    """The camera's downward pitch (radians) from the picture's vertical edges alone, its standard
+    deviation and how many edges agree (:func:`_vertical_votes`); ``None`` without OpenCV or
+    without two agreeing edges."""
+    segments = _line_segments(image)
+    return None if segments is None else _pitch_from_votes(*_vertical_votes(segments, camera))
 
 
 def _room_direction(image: SceneImage, camera: Camera, pose: CameraPose) -> tuple[float, float] | None:

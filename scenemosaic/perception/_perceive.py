@@ -11,8 +11,10 @@ readability), so bad input fails early and costs nothing. What it saw is written
 from __future__ import annotations
 
 import asyncio
+import inspect
 import json
 import shutil
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,7 +24,7 @@ import structlog
 
 from scenemosaic.agents import AgentPolicy, FallbackRecord, run_blocking
 from scenemosaic.exceptions import ModelConfigError, UsageError
-from scenemosaic.models import Model, ModelSettings, Usage
+from scenemosaic.models import CallClock, Model, ModelSettings, Usage
 from scenemosaic.perception._agents import (
     MAX_VERIFY_ROUNDS,
     InventoryAgent,
@@ -67,9 +69,10 @@ class PerceptionResult:
     usage: Usage = field(default_factory=Usage)
 
 
-def reconstructor_for(spec: str | Reconstructor) -> Reconstructor:
+def reconstructor_for(spec: str | Reconstructor, *, clock: CallClock | None = None) -> Reconstructor:
     """A reconstructor from its name (``auto``, ``box-lifter``, ``sam3d[:CONFIG]`` or an
-    ``http(s)://`` URL) or the object itself. ``auto``: SAM 3D when installed, else the box lifter."""
+    ``http(s)://`` URL) or the object itself. ``auto``: SAM 3D when installed, else the box lifter.
+    ``clock``: the run's clock, which bounds an HTTP reconstructor's calls."""
     from scenemosaic.exceptions import MissingExtraError
     from scenemosaic.perception._lift import BoxLifter
     from scenemosaic.perception._reconstruct import RECONSTRUCTOR_NAMES, HTTPReconstructor, Sam3dReconstructor
@@ -78,7 +81,7 @@ def reconstructor_for(spec: str | Reconstructor) -> Reconstructor:
         return spec
     name = spec.strip()
     if name.startswith(("http://", "https://")):
-        return HTTPReconstructor(name)
+        return HTTPReconstructor(name, clock=clock)
     if name in ("box-lifter", "box_lifter", "boxlifter"):
         return BoxLifter()
     if name == "sam3d" or name.startswith("sam3d:"):
@@ -134,6 +137,7 @@ async def perceive(
     settings: ModelSettings | None = None,
     seed: int = 0,
     max_rounds: int = MAX_VERIFY_ROUNDS,
+    clock: CallClock | None = None,
 ) -> PerceptionResult:
     """Turn a photograph into a scene (see the module's docstring).
 
@@ -141,7 +145,8 @@ async def perceive(
     model, or from ``model`` when it is a vision model (``detections`` are then its hints). A
     text-only model (``vision`` off) or the rules model without detections fails at once,
     before anything is segmented. ``out_dir``: where ``perception/`` is written (nothing when
-    ``None``).
+    ``None``). ``clock``: the run's clock (``RunModel.clock``: request time-out and deadline),
+    which bounds every call to an HTTP segmenter or reconstructor.
     """
     image = await asyncio.to_thread(load_image, image_path)
     hints = await asyncio.to_thread(read_detections, detections, image.width, image.height, image_name=image.path.name) if detections else []
@@ -156,24 +161,38 @@ async def perceive(
             "no object inventory for the photograph: with the offline rules model pass detections "
             "(--detections boxes.json, COCO or an inventory JSON), or use a vision model (--model openai:<model>)"
         )
-    seg = await asyncio.to_thread(segmenter_for, segmenter)
+    seg = await asyncio.to_thread(lambda: segmenter_for(segmenter, clock=clock))
     try:
-        rec_backend = await asyncio.to_thread(reconstructor_for, reconstructor)
+        rec_backend = await asyncio.to_thread(lambda: reconstructor_for(reconstructor, clock=clock))
     except BaseException:
-        _close(seg)
+        await _close(seg)
         raise
     folder = Path(out_dir) / PERCEPTION_FOLDER if out_dir is not None else None
     try:
         return await _perceive(image, model, hints, seg, rec_backend, hfov_deg, folder, policy, settings, seed, max_rounds)
     finally:
-        _close(seg)
-        _close(rec_backend)
+        await _close(seg)
+        await _close(rec_backend)
 
 
-def _close(backend: object) -> None:
+async def _close(backend: object) -> None:
+    """Close a backend that holds anything (``aclose`` or ``close``)."""
+    aclose = getattr(backend, "aclose", None)
+    if callable(aclose):
+        await aclose()
+        return
     close = getattr(backend, "close", None)
     if callable(close):
         close()
+
+
+async def _backend_call(fn: Callable[..., Any], *args: Any) -> Any:
+    """Call a backend method: a coroutine function is awaited on the loop (a signal cancels it at
+    once), a plain function runs in a worker thread."""
+    if inspect.iscoroutinefunction(fn):
+        return await fn(*args)
+    result = await run_blocking(fn, *args)
+    return await result if inspect.isawaitable(result) else result
 
 
 async def _perceive(
@@ -199,7 +218,7 @@ async def _perceive(
 
     async def cut(objs: list[DetectedObject], how: Segmenter) -> None:
         for o in objs:
-            state.masks[o.id] = await run_blocking(how.segment, image, o.label, o.box)
+            state.masks[o.id] = await _backend_call(how.segment, image, o.label, o.box)
 
     await cut(state.inventory, seg)
     rounds: list[dict[str, Any]] = []
@@ -221,7 +240,7 @@ async def _perceive(
     if folder is not None:  # kept before the 3D step, which may fail on a backend
         await asyncio.to_thread(_write_seen, folder, image, inventory, state.masks)
     seen = _seen(inventory, state.masks)
-    reconstruction = await run_blocking(rec_backend.reconstruct, image, camera, seen)
+    reconstruction: Reconstruction = await _backend_call(rec_backend.reconstruct, image, camera, seen)
     meshes = {o.id: o.mesh for o in reconstruction.objects if o.mesh is not None}
     uris = {oid: f"meshes/{oid}.glb" for oid in meshes}
     scene = recover_frame(

@@ -17,7 +17,7 @@ from __future__ import annotations
 import base64
 import io
 import os
-from collections.abc import Sequence
+from collections.abc import Awaitable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
@@ -25,6 +25,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from scenemosaic.exceptions import BackendError, MissingExtraError, UsageError
+from scenemosaic.models import CallClock
 from scenemosaic.perception._image import Camera, SceneImage
 from scenemosaic.perception._inventory import DetectedObject, Placement
 from scenemosaic.perception._segment import ObjectMask
@@ -106,8 +107,11 @@ class Reconstructor(Protocol):
 
     name: str
 
-    def reconstruct(self, image: SceneImage, camera: Camera, objects: Sequence[SeenObject]) -> Reconstruction:
-        """Every object's box or mesh and pose in the camera frame."""
+    def reconstruct(
+        self, image: SceneImage, camera: Camera, objects: Sequence[SeenObject]
+    ) -> Reconstruction | Awaitable[Reconstruction]:
+        """Every object's box or mesh and pose in the camera frame (a plain function runs in a
+        worker thread; a coroutine function is awaited on the event loop, as the HTTP client is)."""
         ...
 
 
@@ -221,22 +225,24 @@ class HTTPReconstructor:
     """A reconstruction server: ``POST url`` with ``{"image": <base64 PNG>, "mask": <base64 PNG>,
     "label", "box"}`` per object, answered by ``{"glb": <base64 GLB, Y up>, "translation": [3],
     "rotation": [w, x, y, z], "scale": [3] or number}`` in PyTorch3D's camera frame (SAM 3D's
-    convention). Retries 429/5xx and time-outs."""
+    convention). Retries 429/5xx and time-outs under the run's clock (``clock``: its request
+    time-out and deadline)."""
 
     name = "http"
 
-    def __init__(self, url: str, *, timeout_s: float = 300.0, transport: Any = None) -> None:
+    def __init__(self, url: str, *, timeout_s: float = 300.0, clock: CallClock | None = None, transport: Any = None) -> None:
         from scenemosaic.perception._http import JSONService
 
         self.url = url
-        self._service = JSONService(url, what="reconstructor", timeout_s=timeout_s, transport=transport)
+        self._service = JSONService(url, what="reconstructor", timeout_s=timeout_s, clock=clock, transport=transport)
 
-    def reconstruct(self, image: SceneImage, camera: Camera, objects: Sequence[SeenObject]) -> Reconstruction:
+    async def reconstruct(self, image: SceneImage, camera: Camera, objects: Sequence[SeenObject]) -> Reconstruction:
+        """Every object as the server lifts it, one request per object."""
         picture = base64.b64encode(image.png_bytes()).decode("ascii")
         out = []
         for seen in objects:
             mask = base64.b64encode(seen.mask.png(image.width, image.height)).decode("ascii")
-            reply = self._service.post(
+            reply = await self._service.post(
                 {"image": picture, "mask": mask, "label": seen.detection.label, "box": list(seen.detection.box)}
             )
             try:
@@ -252,6 +258,6 @@ class HTTPReconstructor:
             out.append(_lifted_from_pose(seen, glb, t, r, s, f"reconstructor {self.url}"))
         return Reconstruction(out, report={"reconstructor": self.name, "url": self.url})
 
-    def close(self) -> None:
+    async def aclose(self) -> None:
         """Close the HTTP client."""
-        self._service.close()
+        await self._service.aclose()

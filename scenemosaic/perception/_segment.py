@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import base64
 import io
+from collections.abc import Awaitable
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
@@ -24,6 +25,7 @@ import numpy as np
 import structlog
 
 from scenemosaic.exceptions import BackendError, MissingExtraError, UsageError
+from scenemosaic.models import CallClock
 from scenemosaic.perception._image import SceneImage
 from scenemosaic.perception._inventory import box_iou
 
@@ -116,11 +118,14 @@ class ObjectMask:
 
 @runtime_checkable
 class Segmenter(Protocol):
-    """Anything that cuts one object out of an image, given its label and a box around it."""
+    """Anything that cuts one object out of an image, given its label and a box around it.
+
+    ``segment`` is a plain function (perception runs it in a worker thread) or a coroutine
+    function (awaited on the event loop, as the HTTP client is: a signal interrupts it at once)."""
 
     name: str
 
-    def segment(self, image: SceneImage, prompt: str, box: Box) -> ObjectMask:
+    def segment(self, image: SceneImage, prompt: str, box: Box) -> ObjectMask | Awaitable[ObjectMask]:
         """The object's mask; an empty mask when nothing was found."""
         ...
 
@@ -248,21 +253,23 @@ class Sam3Segmenter:
 class HTTPSegmenter:
     """A segmentation server: ``POST url`` with ``{"image": <base64 PNG>, "prompt", "box": [x0, y0,
     x1, y1]}``, answered by ``{"mask": <base64 PNG, nonzero = object>}`` or ``{"masks": [...],
-    "scores": [...]}`` (the best score is kept). Retries 429/5xx and time-outs (``docs/perception.md``)."""
+    "scores": [...]}`` (the best score is kept). Retries 429/5xx and time-outs under the run's clock
+    (``clock``: its request time-out and deadline; ``docs/perception.md``)."""
 
     name = "http"
 
-    def __init__(self, url: str, *, timeout_s: float = 60.0, transport: Any = None) -> None:
+    def __init__(self, url: str, *, timeout_s: float = 60.0, clock: CallClock | None = None, transport: Any = None) -> None:
         from scenemosaic.perception._http import JSONService
 
         self.url = url
-        self._service = JSONService(url, what="segmenter", timeout_s=timeout_s, transport=transport)
+        self._service = JSONService(url, what="segmenter", timeout_s=timeout_s, clock=clock, transport=transport)
         self._image_b64: tuple[SceneImage, str] | None = None
 
-    def segment(self, image: SceneImage, prompt: str, box: Box) -> ObjectMask:
+    async def segment(self, image: SceneImage, prompt: str, box: Box) -> ObjectMask:
+        """The mask the server answers for ``prompt`` inside ``box``."""
         if self._image_b64 is None or self._image_b64[0] is not image:
             self._image_b64 = (image, base64.b64encode(image.png_bytes()).decode("ascii"))
-        reply = self._service.post({"image": self._image_b64[1], "prompt": prompt, "box": [round(v, 2) for v in box]})
+        reply = await self._service.post({"image": self._image_b64[1], "prompt": prompt, "box": [round(v, 2) for v in box]})
         encoded = reply.get("mask")
         candidates = reply.get("masks")
         if encoded is None and isinstance(candidates, list) and candidates:
@@ -280,9 +287,9 @@ class HTTPSegmenter:
             )
         return ObjectMask.from_full(full)
 
-    def close(self) -> None:
+    async def aclose(self) -> None:
         """Close the HTTP client."""
-        self._service.close()
+        await self._service.aclose()
 
 
 def _decode_mask(encoded: str, source: str) -> np.ndarray:
@@ -295,14 +302,15 @@ def _decode_mask(encoded: str, source: str) -> np.ndarray:
         raise BackendError(f"{source} answered a mask that is not a base64 PNG ({exc})") from exc
 
 
-def segmenter_for(spec: str | Segmenter) -> Segmenter:
+def segmenter_for(spec: str | Segmenter, *, clock: CallClock | None = None) -> Segmenter:
     """A segmenter from its name (``auto``, ``grabcut``, ``box``, ``sam3`` or an ``http(s)://`` URL)
-    or the object itself. ``auto``: SAM 3 when installed, else GrabCut when OpenCV is, else the box."""
+    or the object itself. ``auto``: SAM 3 when installed, else GrabCut when OpenCV is, else the box.
+    ``clock``: the run's clock, which bounds an HTTP segmenter's calls."""
     if not isinstance(spec, str):
         return spec
     name = spec.strip()
     if name.startswith(("http://", "https://")):
-        return HTTPSegmenter(name)
+        return HTTPSegmenter(name, clock=clock)
     if name == "grabcut":
         return GrabCutSegmenter()
     if name == "box":

@@ -32,7 +32,14 @@ import trimesh
 
 from scenemosaic.physics._hulls import ObjectShape, hull_mesh
 from scenemosaic.physics._settings import DEFAULT_DENSITY_KG_M3, ROOM_FRICTION, SimSettings
-from scenemosaic.render import WallPiece, house_wall_pieces, polygon_rectangles, wall_ends, wall_pieces
+from scenemosaic.render import (
+    WallPiece,
+    category_color,
+    house_wall_pieces,
+    polygon_rectangles,
+    wall_ends,
+    wall_pieces,
+)
 from scenemosaic.scene import FloatArray, House, Room, SceneObject, Wall
 
 __all__ = [
@@ -382,7 +389,8 @@ class WorldBuilder:
         self._add_shape(body, obj.id, shape, m[:3, :3], m[:3, 3], obj.sim.friction, (0.5, 0.5, 0.6, 1))
 
     def add_visual(self, obj: SceneObject, vertices: FloatArray, faces: npt.NDArray[np.int64]) -> None:
-        """The object's visual mesh (local frame, already scaled) as a non-colliding, massless geom."""
+        """The object's visual mesh (local frame, already scaled) as a non-colliding, massless geom
+        in the object's category colour."""
         name = f"{obj.id}_visual"
         if obj.id not in self._geom_names:
             raise ValueError(f"add {obj.id!r} (static or dynamic) before its visual mesh")
@@ -401,6 +409,8 @@ class WorldBuilder:
         g.conaffinity = 0
         g.group = 2
         g.mass = 0.0
+        red, green, blue = category_color(obj.category)  # the GLB, USD, URDF and plan colour
+        g.rgba = [red / 255.0, green / 255.0, blue / 255.0, 1.0]
         if obj.id not in self._dynamic_ids:  # static: a body at the origin, geoms in world coordinates
             local_r, local_t = m[:3, :3], m[:3, 3]
         elif self._aligned[obj.id]:  # tilt/slide: a world-aligned body at the object's origin

@@ -21,6 +21,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+import structlog
 from pydantic import BaseModel, ConfigDict
 
 from scenemosaic.dag import StoredOutput, output_hash
@@ -39,6 +40,8 @@ __all__ = [
     "save_checkpoint",
     "write_json",
 ]
+
+log = structlog.get_logger(__name__)
 
 PIPELINE_NODE = "pipeline"
 """The run store node that holds the pipeline's state."""
@@ -66,6 +69,7 @@ def input_digest(path: Path, config: GenerateConfig) -> str | None:
     if config.prompt is not None or not path.exists():
         return None
     h = hashlib.sha256()
+    # regular files only (is_file follows symlinks and is false for FIFOs and devices: never opened)
     files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
     for f in files:
         h.update(str(f.relative_to(path) if path.is_dir() else f.name).encode() + b"\0")
@@ -116,7 +120,9 @@ def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:
     """Restore a stopped run's state; returns the names of the stages it finished.
 
     Refuses (:class:`~scenemosaic.exceptions.UsageError`) a folder that holds a run of another
-    input, of the same input with other settings, or of an input whose content changed since.
+    input; a stale checkpoint — the same input with other settings that decide the results, or an
+    input whose content changed since — is refused too, unless ``restart_stale`` is set: then the
+    checkpoint is dropped and the run starts over (no stage is reused).
     """
     from scenemosaic.agents import FallbackRecord
 
@@ -130,13 +136,19 @@ def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:
     record = config_record(run.config)
     keys = set(deciding_settings())
     changed = [k for k, v in record.items() if k in keys and data.get("config", {}).get(k) != v]
+    stale = None
     if changed:
-        raise UsageError(f"cannot resume {run.out_dir}: settings differ from the stopped run ({', '.join(changed)})")
-    if data.get("input_sha256") != digest:
-        raise UsageError(
-            f"cannot resume {run.out_dir}: {run.input_path} changed since the stopped run; "
-            "run it again without --resume"
-        )
+        stale = f"settings differ from the stopped run ({', '.join(changed)})"
+    elif data.get("input_sha256") != digest:
+        stale = f"{run.input_path} changed since the stopped run"
+    if stale is not None:
+        if not run.config.restart_stale:
+            raise UsageError(f"cannot resume {run.out_dir}: {stale}; run it again without --resume, or add --restart-stale")
+        log.warning("stale_checkpoint_restarted", out=str(run.out_dir), reason=stale)
+        run.store.clear()
+        for scope in ("agents", "plan"):
+            run.store.scoped(scope).clear()
+        return set()
     stored = run.store.get(PIPELINE_NODE, _key(record, digest))
     if stored is None:
         return set()

@@ -183,6 +183,12 @@ else:  # checked at run time without importing perception, agents or evolve up f
 _OBJECTS = "Python objects: no JSON form"
 _BATCH_OWNS = "the batch sets it for every job"
 
+INPUT_SIZE_LIMITS_MB: dict[str, float] = {"scene": 256.0, "image": 64.0}
+"""Largest input file of each kind a run reads unless ``--max-input-mb`` says otherwise (MB of
+10^6 bytes): a scene document (JSON, any format: the largest shipped house is under 10 MB, and
+parsing takes a few times the file's size in memory) and a photograph (its pixels are checked
+separately)."""
+
 
 class GenerateConfig(BaseModel):
     """Settings of one ``generate`` run: a frozen, validated model.
@@ -207,6 +213,10 @@ class GenerateConfig(BaseModel):
         Path | None, Field(strict=False), Setting("input", recorded=True, path=True, flag="--asset-dir")
     ] = None
     """Folder of asset meshes a SceneEval input names by ``assetId`` (default: ``assets/`` beside it)."""
+    max_input_mb: Annotated[Number | None, Field(gt=0), Setting("input", flag="--max-input-mb")] = None
+    """Largest input file the run reads, in MB (``--max-input-mb``); ``None``: the limit of the
+    input's kind, :data:`INPUT_SIZE_LIMITS_MB` (a scene document, a photograph). A larger file is
+    refused before it is read (exit 2)."""
     priors_dir: Annotated[
         Path | None,
         Field(strict=False),
@@ -250,6 +260,12 @@ class GenerateConfig(BaseModel):
     """When a real model's answers stay unusable (after retries and repairs), use the agent's rule
     solver and note it in the report (the run is then ``degraded``), instead of failing the run.
     Configuration errors still fail."""
+    fallback: Annotated[Literal["transient", "rules"], Setting("model", decides=True, flag="--fallback")] = "transient"
+    """Which model failures the rule solvers answer for, with ``solver_fallback`` on (``--fallback``):
+    ``transient`` (default) — time-outs, 429, 5xx and unusable replies, while a model server that
+    cannot serve the run (nothing listening, unknown host, key refused, no such model) stops it at
+    once with exit 2 and the fix; ``rules`` — those too, so the run completes ``degraded`` on the
+    rule solvers (``docs/reliability.md``)."""
     reply_cache: Annotated[
         Path | None,
         Field(strict=False),
@@ -333,6 +349,12 @@ class GenerateConfig(BaseModel):
     """Continue a stopped run in the same output folder: finished stages (and finished agents of
     the structuring stage) are reused from the run's checkpoints (``--resume OUT``, which takes
     the input and the settings from the checkpoint)."""
+    restart_stale: Annotated[
+        bool, Setting("run", flag="--restart-stale", no_manifest=f"{_BATCH_OWNS}: off (a batch never resumes)")
+    ] = False
+    """With ``resume``: when the checkpoint is stale (the input's content or a setting that decides
+    the results changed since the stopped run), start the run over instead of refusing
+    (``--restart-stale``). Without it such a resume is refused with exit 2."""
     room_workers: Annotated[int | None, Field(ge=1), Setting("run", flag="--room-workers")] = None
     """Processes that work on a house's rooms at once, 1 or more (``--room-workers``; a house input
     only, ``docs/houses.md``). ``None``: one per CPU core, at most one per room. With 1, or with a

@@ -4,11 +4,14 @@ each recorded, timed, checkpointed, and the first failure returned (not raised) 
 from __future__ import annotations
 
 import asyncio
+import errno
 import time
 from collections.abc import Sequence
 
 import structlog
 
+from scenemosaic._logging import flush_logs
+from scenemosaic.exceptions import ModelEndpointError, NodeFailedError, OutputSpaceError
 from scenemosaic.pipeline._checkpoint import save_checkpoint
 from scenemosaic.pipeline._stages import STAGES
 from scenemosaic.pipeline._state import PipelineRun, Stage, StageCallback, StageRecord
@@ -30,6 +33,19 @@ def as_interruption(exc: BaseException) -> BaseException:
     return exc
 
 
+def setup_error(exc: BaseException) -> BaseException:
+    """The user's problem behind a stage's failure, stated as such: the model server's set-up
+    error itself when a task-graph node failed on one (the message is the fix in one line), and
+    a full disk met by any writer as :class:`OutputSpaceError`; else ``exc``."""
+    if isinstance(exc, NodeFailedError) and isinstance(exc.cause, ModelEndpointError):
+        return exc.cause
+    if isinstance(exc, OSError) and not isinstance(exc, OutputSpaceError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        full = OutputSpaceError(str(exc.filename or "the output folder"), exc.errno)
+        full.__cause__ = exc
+        return full
+    return exc
+
+
 async def run_stages(
     run: PipelineRun,
     finished: set[str],
@@ -48,6 +64,8 @@ async def run_stages(
                 on_stage(name, "reused")
             continue
         rec = StageRecord(name=name)
+        # a resumed run's record of this stage (an export done before, a stage stopped) is replaced
+        run.records[:] = [r for r in run.records if r.name != name]
         run.records.append(rec)
         if on_stage:
             on_stage(name, "started")
@@ -58,7 +76,7 @@ async def run_stages(
         try:
             await stage.run(run, rec)
         except (Exception, asyncio.CancelledError) as raised:
-            exc = as_interruption(raised)
+            exc = setup_error(as_interruption(raised))
             rec.seconds = time.perf_counter() - t0
             interrupted = isinstance(exc, asyncio.CancelledError)
             rec.status = "interrupted" if interrupted else "failed"
@@ -77,6 +95,7 @@ async def run_stages(
         _record_usage(run, rec)
         rec.objects = len(run.scene.objects) if run.scene is not None else None
         bound.info("stage_finished", seconds=round(rec.seconds, 3), objects=rec.objects)
+        flush_logs()  # the stage's folded warnings now, not after the next stage's first event
         await asyncio.to_thread(save_checkpoint, run, digest)
         if on_stage:
             on_stage(name, "done")

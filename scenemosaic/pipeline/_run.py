@@ -20,6 +20,7 @@ import concurrent.futures
 import contextlib
 import fcntl
 import shutil
+import sys
 import time
 import traceback
 from collections.abc import Coroutine, Iterator
@@ -29,7 +30,7 @@ from typing import IO, Any, TypeVar
 import structlog
 
 from scenemosaic.dag import FileRunStore
-from scenemosaic.exceptions import SceneMosaicError, UsageError
+from scenemosaic.exceptions import OutputSpaceError, SceneMosaicError, UsageError
 from scenemosaic.exchange import save_scene_only
 from scenemosaic.pipeline._checkpoint import (
     input_digest,
@@ -38,13 +39,13 @@ from scenemosaic.pipeline._checkpoint import (
     save_checkpoint,
     write_json,
 )
-from scenemosaic.pipeline._config import GenerateConfig, check_config, config_record
+from scenemosaic.pipeline._config import INPUT_SIZE_LIMITS_MB, GenerateConfig, check_config, config_record
 from scenemosaic.pipeline._driver import run_stages
 from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, agenerate_house, is_house_input
 from scenemosaic.pipeline._result import GenerateResult
 from scenemosaic.pipeline._stages import STAGES, deliver_run, is_image_input
 from scenemosaic.pipeline._state import PipelineRun, StageCallback
-from scenemosaic.scene import RunFolder
+from scenemosaic.scene import RunFolder, not_a_regular_file
 
 __all__ = ["REPORT_FILE", "agenerate", "generate", "run_sync", "stage_progress"]
 
@@ -189,6 +190,8 @@ def _check_paths(input_path: Path, folder: RunFolder, config: GenerateConfig) ->
     out = folder.root
     if not input_path.exists() and config.prompt is None:
         raise UsageError(f"input not found: {input_path}")
+    if config.prompt is None:
+        _check_input_file(input_path, config)
     if config.prompt is None:  # a prompt's image lives in OUT by design
         src, dst = input_path.resolve(), out.resolve()
         written = [p.resolve() for p in folder.outputs()]
@@ -196,6 +199,25 @@ def _check_paths(input_path: Path, folder: RunFolder, config: GenerateConfig) ->
             raise UsageError(f"the input {input_path} lies in what the run writes in --out {out} (it would remove it); choose another folder")
         if input_path.is_dir() and src in dst.parents:
             raise UsageError(f"--out {out} lies inside the input folder {input_path}; choose a folder outside it")
+
+
+def _check_input_file(input_path: Path, config: GenerateConfig) -> None:
+    """The input is a folder or a regular file within its kind's size limit, found out without
+    opening it: a device or a FIFO as input would never end or wait for ever."""
+    special = not_a_regular_file(input_path)
+    if special is not None and special != "a directory":
+        raise UsageError(f"the input {input_path} is {special}, not a regular file: give a scene file, a folder or a photograph")
+    if special is not None:
+        return
+    kind = "image" if is_image_input(input_path, config.format) else "scene"
+    limit_mb = config.max_input_mb or INPUT_SIZE_LIMITS_MB[kind]
+    size_mb = input_path.stat().st_size / 1e6
+    if size_mb > limit_mb:
+        what = "photograph" if kind == "image" else "scene file"
+        raise UsageError(
+            f"the input {input_path} is {size_mb:,.1f} MB, over the {limit_mb:g} MB limit for a {what}; "
+            "raise it with --max-input-mb if the file is meant to be this large"
+        )
 
 
 def _hold_lock(folder: RunFolder) -> IO[str]:
@@ -241,7 +263,7 @@ async def _agenerate_locked(
         await _keep_partial_results(run, failure, time.perf_counter() - started)
         raise failure
     report = _report(run, time.perf_counter() - started, None)
-    await asyncio.to_thread(write_json, folder.report, report)
+    await asyncio.to_thread(_write_report, folder.report, report)
     if report["status"] == "degraded":
         log.warning("run_degraded", warnings=run.warnings)
     assert run.scene is not None
@@ -253,7 +275,9 @@ async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapse
 
     async def keep() -> None:
         report = _report(run, elapsed, failure)
-        await asyncio.to_thread(write_json, run.folder.report, report)
+        await asyncio.to_thread(_write_report, run.folder.report, report)
+        if isinstance(failure, OutputSpaceError):  # the disk is full: the report was the one file worth trying
+            return
         if run.scene is None or (run.folder.base / RunFolder.SCENE_FILE).exists():
             return
         quick = isinstance(failure, asyncio.CancelledError)  # stopping: no hull or render work now
@@ -268,7 +292,7 @@ async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapse
         else:
             report["partial_files"] = files
             report["variants_written"] = len(run.variants) if not quick else 0
-        await asyncio.to_thread(write_json, run.folder.report, report)
+        await asyncio.to_thread(_write_report, run.folder.report, report)
 
     task = asyncio.ensure_future(keep())
     try:
@@ -276,6 +300,15 @@ async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapse
     except asyncio.CancelledError:
         if not task.done():  # a second cancel: the report is written first thing; let the export finish
             await asyncio.wait([task])
+
+
+def _write_report(path: Path, report: dict[str, Any]) -> None:
+    """Write ``report.json``; on a full disk the report stays in memory, on the error (``report``)."""
+    try:
+        write_json(path, report)
+    except OutputSpaceError as full:
+        full.report = report
+        raise
 
 
 def generate(
@@ -298,11 +331,27 @@ def generate(
 
 @contextlib.contextmanager
 def stage_progress(then: StageCallback | None = None) -> Iterator[StageCallback]:
-    """A rich progress bar over the pipeline's stages; yields the ``on_stage`` callback that
-    advances it (and calls ``then`` too)."""
+    """A progress display over the pipeline's stages; yields the ``on_stage`` callback that
+    advances it (and calls ``then`` too).
+
+    On a terminal, a live rich bar. Anywhere else (a Jupyter cell, a pipe) one plain line per
+    finished stage on stderr, ``generate: structure done (3/10, 1.2 s)``: no widget library, no
+    warning, nothing redrawn.
+    """
+    from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn()) as bar:
+    console = Console(stderr=True, force_jupyter=False)  # rich's Jupyter display needs ipywidgets
+    if Console().is_jupyter or not console.is_terminal:  # a kernel's stderr may claim to be a terminal
+        yield _stage_lines(then)
+        return
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+        TimeElapsedColumn(),
+        console=console,
+    ) as bar:
         task = bar.add_task("generate", total=len(STAGES))
 
         def callback(name: str, status: str) -> None:
@@ -316,6 +365,25 @@ def stage_progress(then: StageCallback | None = None) -> Iterator[StageCallback]
                 then(name, status)
 
         yield callback
+
+
+def _stage_lines(then: StageCallback | None) -> StageCallback:
+    """The widget-free progress: a line per finished stage (see :func:`stage_progress`)."""
+    started = time.perf_counter()
+    state = {"done": 0, "total": len(STAGES)}
+
+    def callback(name: str, status: str) -> None:
+        if name == HOUSE_STAGE_NAMES[0] and status == "started":
+            state["total"] = len(HOUSE_STAGE_NAMES)
+        if status in ("done", "reused", "failed", "skipped"):
+            state["done"] += 1
+            elapsed = time.perf_counter() - started
+            sys.stderr.write(f"generate: {name} {status} ({state['done']}/{state['total']}, {elapsed:.1f} s)\n")
+            sys.stderr.flush()
+        if then is not None:
+            then(name, status)
+
+    return callback
 
 
 def run_sync(coro: Coroutine[Any, Any, T]) -> T:

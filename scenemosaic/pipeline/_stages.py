@@ -80,6 +80,7 @@ async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
     result = await perceive(
         run.input_path, model.model, detections=cfg.detections, segmenter=cfg.segmenter, reconstructor=cfg.reconstructor,
         hfov_deg=cfg.hfov_deg, out_dir=run.out_dir, policy=run.policy, settings=model.settings, seed=cfg.seed,
+        clock=model.clock,
     )  # fmt: skip
     run.scene = result.scene
     rec.detail["source_format"] = "image"
@@ -250,7 +251,7 @@ def _write_layouts(report: EvolutionReport, folder: RunFolder) -> list[str]:
                 "views": [str(Path(v).relative_to(folder.root)) for v in lay.views],
             }
             payload.pop("wall_s", None)  # timings vary between runs; the files must not
-            target.write_text(json.dumps(payload, indent=2, sort_keys=True), encoding="utf-8")
+            write_atomic(target, json.dumps(payload, indent=2, sort_keys=True))
             written.append(str(target.relative_to(folder.root)))
     return written
 

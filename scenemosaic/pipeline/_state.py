@@ -88,7 +88,7 @@ class PipelineRun:
         """How agents treat the model's answers in this run."""
         from scenemosaic.agents import AgentPolicy
 
-        return AgentPolicy(solver_fallback=self.config.solver_fallback)
+        return AgentPolicy(solver_fallback=self.config.solver_fallback, endpoint_fallback=self.config.fallback == "rules")
 
     async def asking(self, rec: StageRecord) -> RunModel:
         """The run's one model stack, for a stage that asks the model: opened by the first stage

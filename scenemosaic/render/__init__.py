@@ -32,12 +32,16 @@ from scenemosaic.render._palette import CEILING_COLOR, FLOOR_COLOR, RGB, WALL_CO
 from scenemosaic.render._sheet import contact_sheet
 from scenemosaic.render._topdown import (
     house_view,
+    plan_png,
     render_house_plan,
     render_topdown,
     room_label,
     topdown_view,
 )
 from scenemosaic.render._view import OrthoView, PixelMap, render_view
+from scenemosaic.scene import register_plan_renderer
+
+register_plan_renderer(plan_png)  # Scene._repr_png_: a notebook shows a scene as its plan
 
 __all__ = [
     "CEILING_COLOR",
@@ -59,6 +63,7 @@ __all__ = [
     "house_wall_pieces",
     "object_local_mesh",
     "object_world_mesh",
+    "plan_png",
     "polygon_rectangles",
     "render_house_plan",
     "render_topdown",

@@ -18,8 +18,10 @@ from scenemosaic.render._view import OrthoView, PixelMap, _draw_annotations, _fo
 from scenemosaic.scene import House, Scene
 
 __all__ = [
+    "NOTEBOOK_PLAN_PX",
     "PLAN_PADDING_M",
     "house_view",
+    "plan_png",
     "render_house_plan",
     "render_topdown",
     "room_label",
@@ -65,6 +67,22 @@ def _plan_view(scenes: Sequence[Scene]) -> OrthoView:
     return OrthoView.top_down(
         float(lo2[0]), float(lo2[1]), float(hi2[0]), float(hi2[1]), z_range=(0.0, max(top, 1e-3))
     )
+
+
+NOTEBOOK_PLAN_PX = 512
+"""Size of the plan a notebook shows for a scene (``Scene._repr_png_``)."""
+
+
+def plan_png(scene: Scene) -> bytes:
+    """The scene's plan for a notebook: :func:`render_topdown` at :data:`NOTEBOOK_PLAN_PX`, mesh
+    files resolved next to the file or folder the scene was read from (its
+    ``provenance.source_path``), else from the working directory."""
+    base_dir: Path | None = None
+    source = scene.provenance.source_path
+    if source:
+        path = Path(source)
+        base_dir = path if path.is_dir() else path.parent
+    return render_topdown(scene, base_dir=base_dir, size_px=NOTEBOOK_PLAN_PX)
 
 
 def render_topdown(

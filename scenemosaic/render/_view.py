@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import io
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,7 +41,7 @@ from scenemosaic.render._palette import (
 )
 from scenemosaic.scene import FloatArray, Scene, SceneObject, Wall
 
-__all__ = ["GRID_STEPS_M", "OrthoView", "PixelMap", "render_view"]
+__all__ = ["GRID_STEPS_M", "LABEL_GAP_PX", "OrthoView", "PixelMap", "object_label", "render_view"]
 
 log = structlog.get_logger(__name__)
 
@@ -51,6 +52,12 @@ GRID_STEPS_M = (0.1, 0.2, 0.25, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0)
 MAX_GRID_LINES = 12
 ARROW_HEAD_M = 0.1
 """Largest length of a facing arrow's head, metres."""
+LABEL_GAP_PX = 2
+"""Clear space kept around each object label, pixels (labels never overlap)."""
+LABEL_MIN_PX = 12
+"""Smallest label font, pixels; a view's labels are ``size_px / 64`` (16 px in a 1024 px plan)."""
+LEADER_COLOR = (90, 90, 100)
+"""Colour of the line from an object to its label when the label had to move off the object."""
 MIN_AREA_M2 = 1e-10
 """Triangles whose projection is smaller than this (edge-on to the view) are not drawn, m²."""
 
@@ -309,12 +316,76 @@ def _draw_annotations(
             p = pm.to_px(np.array([c2, tip, back + side * head * 0.5, back - side * head * 0.5]))
             draw.line([tuple(p[0]), tuple(p[1])], fill=INK_COLOR, width=2)
             draw.polygon(_poly(p[[1, 2, 3]]), fill=INK_COLOR)
-        if show_labels:
-            c = pm.world_to_px(centre[None])[0]
-            draw.text(
-                (float(c[0]), float(c[1])), obj.id, fill=INK_COLOR, font=font, anchor="mm",
-                stroke_width=2, stroke_fill=BACKGROUND,
-            )  # fmt: skip
+    if show_labels:
+        _draw_labels(draw, objects, pm, font)
+
+
+def object_label(obj: SceneObject) -> str:
+    """How a picture names an object: its id when the id says what it is (shares a word with its
+    category: ``dining_chair_0``, ``bed``), else the category and the id (``toilet 5_0`` for a
+    ProcTHOR object whose id is only numbers)."""
+    id_words = set(re.split(r"[^a-z]+", obj.id.lower())) - {""}
+    category_words = set(re.split(r"[^a-z]+", obj.category.lower())) - {""}
+    if id_words & category_words:
+        return obj.id
+    return f"{obj.category.replace('_', ' ')} {obj.id}"
+
+
+def _label_offsets(step: float, reach: float) -> list[tuple[float, float]]:
+    """Where a label may go around its object's centre, nearest first: rings of 16 directions."""
+    offsets = [(0.0, 0.0)]
+    radius = step
+    while radius <= reach:
+        offsets += [
+            (radius * math.cos(k * math.pi / 8), radius * math.sin(k * math.pi / 8)) for k in range(16)
+        ]
+        radius += step
+    return offsets
+
+
+def _draw_labels(
+    draw: ImageDraw.ImageDraw,
+    objects: Sequence[SceneObject],
+    pm: PixelMap,
+    font: ImageFont.FreeTypeFont | ImageFont.ImageFont,
+) -> dict[str, tuple[float, float, float, float]]:
+    """Each object's label (:func:`object_label`), no two overlapping: at the object's centre when
+    that spot is free, else at the nearest free spot around it with a thin leader line back to
+    the centre. Larger objects are placed first; the order is deterministic. Returns each
+    object's label box (pixels, with :data:`LABEL_GAP_PX` around the text)."""
+    width = height = pm.size_px
+    placed: list[tuple[float, float, float, float]] = []
+    boxes: dict[str, tuple[float, float, float, float]] = {}
+    order = sorted(objects, key=lambda o: (-float(o.size[0] * o.size[1]), o.id))
+    for obj in order:
+        text = object_label(obj)
+        centre = pm.world_to_px(obj.corners().mean(axis=0)[None])[0]
+        cx, cy = float(centre[0]), float(centre[1])
+        x0, y0, x1, y1 = draw.textbbox((cx, cy), text, font=font, anchor="mm", stroke_width=2)
+        half_w, half_h = (x1 - x0) / 2 + LABEL_GAP_PX, (y1 - y0) / 2 + LABEL_GAP_PX
+        spots = _label_offsets(2 * half_h, max(width, height) / 3)
+        spots += [(x - cx, y - cy) for y in np.arange(half_h, height, 2 * half_h) for x in np.arange(half_w, width, half_w)]
+        for dx, dy in spots:
+            box = (cx + dx - half_w, cy + dy - half_h, cx + dx + half_w, cy + dy + half_h)
+            inside = box[0] >= 0 and box[1] >= 0 and box[2] <= width and box[3] <= height
+            if inside and not any(_overlap(box, other) for other in placed):
+                break
+        else:  # pragma: no cover - a picture with no free spot left for a label
+            dx = dy = 0.0
+            box = (cx - half_w, cy - half_h, cx + half_w, cy + half_h)
+        placed.append(box)
+        boxes[obj.id] = box
+        lx, ly = cx + dx, cy + dy
+        if (dx, dy) != (0.0, 0.0):
+            end = (min(max(cx, box[0]), box[2]), min(max(cy, box[1]), box[3]))  # the box's nearest point
+            draw.line([(cx, cy), end], fill=LEADER_COLOR, width=1)
+            draw.ellipse((cx - 2, cy - 2, cx + 2, cy + 2), fill=LEADER_COLOR)
+        draw.text((lx, ly), text, fill=INK_COLOR, font=font, anchor="mm", stroke_width=2, stroke_fill=BACKGROUND)
+    return boxes
+
+
+def _overlap(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
 def _gl_image(
@@ -421,7 +492,7 @@ def _paint(
     floors and ``walls`` (openings drawn over them); the grid; the objects' meshes. Returns the
     image, a drawing context on it, its pixel map and the font for labels."""
     pm = PixelMap.for_size(view, size_px)
-    font = _font(max(10, size_px // 80))
+    font = _font(max(LABEL_MIN_PX, size_px // 64))
     gl = _gl_image(rooms, walls, view, objects, pm, base_dir, plan) if backend != "pillow" else None
     if backend == "mujoco" and gl is None:
         raise SceneValidationError(

@@ -18,7 +18,7 @@ Frames and units (the full statement is ``docs/conventions.md``):
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -54,9 +54,24 @@ __all__ = [
     "SceneStructure",
     "SimAttributes",
     "Wall",
+    "register_plan_renderer",
 ]
 
 log = structlog.get_logger(__name__)
+
+_plan_renderers: list[Callable[[Scene], bytes]] = []
+"""The one plan renderer :meth:`Scene._repr_png_` calls (the render package's; empty before it
+registers): a scene cannot import the render layer above it, so the renderer comes to it."""
+
+
+def register_plan_renderer(renderer: Callable[[Scene], bytes]) -> None:
+    """Set the function that draws a scene's plan as PNG bytes for Jupyter (``Scene._repr_png_``).
+
+    ``scenemosaic.render`` registers its top-down view when it is imported (every reader, writer
+    and run imports it; ``import scenemosaic`` registers a stand-in that imports it on first use).
+    A later call replaces the earlier renderer.
+    """
+    _plan_renderers[:] = [renderer]
 
 QUAT_NORM_TOLERANCE = 1e-6
 """Largest accepted deviation of a quaternion's norm from 1 before it is normalized (with a warning)."""
@@ -599,6 +614,17 @@ class Scene(_Model):
         from scenemosaic.scene._expressions import edit_scene
 
         return edit_scene(self, expressions, unit=unit)
+
+    def _repr_png_(self) -> bytes | None:
+        """Jupyter shows the scene's plan (see :func:`register_plan_renderer`); ``None`` (the text
+        repr) when no renderer is registered or the plan cannot be drawn."""
+        if not _plan_renderers:
+            return None
+        try:
+            return _plan_renderers[0](self)
+        except Exception as exc:  # a display hook must not raise: the text repr stays
+            log.warning("scene_plan_not_drawn", scene=self.id, error=f"{type(exc).__name__}: {exc}")
+            return None
 
     def to_json(self, *, indent: int | None = 2) -> str:
         """Canonical JSON text (stable key order, so equal scenes give identical bytes)."""

@@ -45,6 +45,7 @@ __all__ = [
     "unit_frame",
     "unit_layout",
     "with_unit_layout",
+    "with_world_poses",
 ]
 
 
@@ -208,7 +209,13 @@ def with_unit_layout(scene: Scene, unit: LocalUnit | str, poses: Mapping[str, Po
             quaternion=quat_from_matrix(world[:3, :3]),
             scale=local.scale,
         )
-    new_world = rigid_moves(scene, targets)
+    return with_world_poses(scene, targets)
+
+
+def with_world_poses(scene: Scene, poses: Mapping[str, Pose]) -> Scene:
+    """A NEW scene in which the objects of ``poses`` take those world poses, each carrying what
+    rests on it (:func:`rigid_moves`). The input scene is not modified."""
+    new_world = rigid_moves(scene, poses)
     objects: list[SceneObject] = [
         o.model_copy(update={"pose": new_world[o.id]}) if o.id in new_world else o.model_copy() for o in scene.objects
     ]

@@ -132,9 +132,11 @@ def test_manifest_settings_are_generate_config_fields() -> None:
     assert not set(JOB_SETTINGS) & set(NOT_IN_MANIFEST) and all(NOT_IN_MANIFEST.values())
     assert not set(LINE_KEYS) & set(GenerateConfig.model_fields)
     assert {"variants", "seed", "model", "evolve", "prompt", "image_model", "image_size", "hfov_deg"} <= set(JOB_SETTINGS)
-    assert set(NOT_IN_MANIFEST) == {"overwrite", "resume", "cache_dir", "reply_cache", "rate_limit_dir", "agents", "layout_rules"}
+    assert set(NOT_IN_MANIFEST) == {
+        "overwrite", "resume", "restart_stale", "cache_dir", "reply_cache", "rate_limit_dir", "agents", "layout_rules",
+    }  # fmt: skip
     # every setting a generate flag sets, a manifest line can set too, but the batch's own
-    assert {f for f, s in SETTINGS.items() if s.flag} - set(JOB_SETTINGS) == {"overwrite", "resume", "cache_dir", "reply_cache"}
+    assert {f for f, s in SETTINGS.items() if s.flag} - set(JOB_SETTINGS) == {"overwrite", "resume", "restart_stale", "cache_dir", "reply_cache"}
 
 
 def test_a_line_carries_every_generate_setting(tmp_path: Path) -> None:
@@ -149,7 +151,7 @@ def test_a_line_carries_every_generate_setting(tmp_path: Path) -> None:
         "model": "replay:tapes/bedroom.json", "vision": False, "solver_fallback": False, "variants": 2,
         "evolve": True, "evolve_rounds": 3, "save_views": True, "request_timeout_s": 12.5, "deadline_s": 600.0,
         "max_concurrency": 2, "requests_per_minute": 30.0, "tokens_per_minute": 9000.0, "seed": 7,
-        "stabilize": True, "strict": True, "room_workers": 2,
+        "stabilize": True, "strict": True, "room_workers": 2, "fallback": "rules", "max_input_mb": 50.0,
     }  # fmt: skip
     assert set(line) == set(JOB_SETTINGS)
     (job,) = load_manifest(write_manifest(folder / "jobs.jsonl", [line]))

@@ -18,7 +18,7 @@ from scenemosaic.scene import PROCTHOR_PRIORS_DIR
 
 runner = CliRunner()
 
-NOT_SETTINGS = {"input_path", "out", "log_level"}
+NOT_SETTINGS = {"input_path", "out", "log_level", "log_format"}
 """generate's parameters that are not GenerateConfig settings."""
 
 
@@ -85,6 +85,9 @@ def test_every_flag_reaches_its_setting(tmp_path: Path, monkeypatch: pytest.Monk
         "overwrite": ([], True),
         "cache_dir": ([str(tmp_path / "hulls")], tmp_path / "hulls"),
         "room_workers": (["3"], 3),
+        "fallback": (["rules"], "rules"),
+        "max_input_mb": (["50"], 50.0),
+        "restart_stale": ([], True),
     }
     switches = {"vision": "--no-vision", "solver_fallback": "--no-solver-fallback", "stabilize": "--no-stabilize"}
     assert set(values) == {f for f, s in SETTINGS.items() if s.flag is not None and f != "resume"}

@@ -5,12 +5,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from scenemosaic import GenerateConfig, generate
-from scenemosaic.compose import Arrangement, novelty_distance
+from scenemosaic.compose import OCCUPANCY_GRID, OCCUPANCY_WEIGHT, Arrangement, novelty_distance
 from scenemosaic.exchange import read_scene
 from scenemosaic.physics import check_collisions, check_out_of_bounds
+from scenemosaic.scene import FloorRaster, Scene, convex_hull_2d, is_thin
 
 LIVING = Path(__file__).resolve().parents[2] / "data" / "layouts" / "physcene" / "LivingDiningRoom-124277_livingroom.json"
 
@@ -20,6 +22,18 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("composed")
     generate(LIVING, out, GenerateConfig(variants=3, seed=2))
     return out
+
+
+def _occupancy(scene: Scene) -> np.ndarray:
+    """The selection's footprint raster: non-thin boxes, OCCUPANCY_GRID cells along the floor."""
+    assert scene.room is not None
+    floor = np.asarray(scene.room.floor)
+    raster = FloorRaster(floor, cell=float(np.ptp(floor, axis=0).max()) / OCCUPANCY_GRID)
+    mask = np.zeros(raster.shape, dtype=bool)
+    for o in scene.objects:
+        if not is_thin(o):
+            mask |= raster.mask(convex_hull_2d(o.corners()[:, :2]))
+    return mask
 
 
 def test_variants_are_written_like_the_base_and_are_valid(run: Path) -> None:
@@ -40,9 +54,15 @@ def test_the_variants_differ_from_the_base_and_each_other_as_selected(run: Path)
     scenes = [read_scene(run / "base"), *(read_scene(run / f"variant_{i}") for i in (1, 2, 3))]
     ids = [o.id for o in scenes[0].objects]
     arr = [Arrangement.of(s, ids) for s in scenes]
-    # each pick's minimum distance to what came before, recomputed from the written files
+    occ = [_occupancy(s) for s in scenes]
+
+    def footprint(a: np.ndarray, b: np.ndarray) -> float:
+        return OCCUPANCY_WEIGHT * (1.0 - float((a & b).sum()) / float((a | b).sum()))
+
+    # each pick's minimum distance to what came before (N and the footprint term), recomputed
+    # from the written files
     for k in (1, 2, 3):
-        d = min(novelty_distance(arr[j], arr[k]) for j in range(k))
+        d = min(novelty_distance(arr[j], arr[k]) + footprint(occ[j], occ[k]) for j in range(k))
         assert d == pytest.approx(compose["min_distances"][k - 1], abs=1e-3)
         assert d > 0.05
     assert compose["min_distances"] == sorted(compose["min_distances"], reverse=True)

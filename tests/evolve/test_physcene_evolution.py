@@ -4,7 +4,9 @@ Judged here in world coordinates, independently of the evolution's own (u, v) ch
 collisions above tolerance and nothing out of bounds (the physics checkers on the whole scene
 with the layout in place), wall furniture backed against a wall within 5 cm and facing into the
 room within 10 degrees, seats facing their table within 15 degrees, nightstands beside the head
-of their bed.
+of their bed; and the delivered base and variants as a person would judge them
+(``tests/plausibility_checks.py``): seats square to their table side, lamps over their group, a
+sofa and its TV facing each other, RelKeep of every kind at least 0.99.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from scenemosaic import GenerateConfig, generate
 from scenemosaic.exchange import read_scene
 from scenemosaic.physics import check_collisions, check_out_of_bounds
 from scenemosaic.scene import Pose, Scene, front_vector, traits, with_unit_layout
+from tests.plausibility_checks import delivered, lamp_problems, seat_problems, sofa_tv_problems
 
 PHYSCENE = sorted((Path(__file__).resolve().parents[2] / "data" / "layouts" / "physcene").glob("*.json"))
 
@@ -91,6 +94,14 @@ def _check_variants(report: dict[str, Any], out: Path) -> None:
         assert v["NAV"] >= 0.99, (i, v, metrics["base"])
     div = metrics["diversity"]
     assert div["Div-N"] > 0.2 and div["Div-IoU"] < 0.8, div
+    kinds = metrics["RelKeep_by_kind"]
+    assert all(v is None or v >= 0.99 for v in kinds.values()), kinds
+    for v in metrics["variants"]:
+        assert all(x is None or x >= 0.99 for x in v["RelKeep_by_kind"].values()), v
+    base, variants = delivered(out)
+    assert seat_problems(base, [base, *variants]) == []
+    assert lamp_problems(base, variants) == []
+    assert sofa_tv_problems(base, variants) == []
     print(f"{out.name}: {written} variants, Div-IoU {div['Div-IoU']}, Div-N {div['Div-N']}")
 
 

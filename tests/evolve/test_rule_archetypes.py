@@ -67,11 +67,15 @@ def _beside_head(layout: UnitLayout, stand: str, bed: str) -> bool:
     return -0.02 <= gap <= BESIDE_GAP_MAX and float(rel @ front) < 0 and turn < 1.0
 
 
-def _new_overlaps(before: UnitLayout, after: UnitLayout, thin: set[str]) -> list[tuple[str, str, float]]:
+def _new_overlaps(before: UnitLayout, after: UnitLayout, thin: set[str], tucked: dict[str, str] | None = None) -> list[tuple[str, str, float]]:
+    """New footprint overlaps of solid pieces; a seat tucked in under its own table (``tucked``:
+    seat -> table) is where a seat belongs, not an overlap."""
     solid = [k for k in after.ids if k not in thin]
     out = []
     for i, a in enumerate(solid):
         for b in solid[i + 1 :]:
+            if tucked and (tucked.get(a) == b or tucked.get(b) == a):
+                continue
             now = Polygon(after.polygon(a)).intersection(Polygon(after.polygon(b))).area
             was = Polygon(before.polygon(a)).intersection(Polygon(before.polygon(b))).area
             if now > 0.01 and was <= 0.01:
@@ -112,12 +116,13 @@ async def test_a_free_standing_table_slides_with_its_chairs_clear_of_the_rest(tm
             assert region.covers(Polygon(after.polygon(k))), (a.layout_id, k)
         for k in seats:
             assert Polygon(after.polygon(k)).distance(table) <= SEAT_GAP_MAX, (a.layout_id, k)
-        assert _new_overlaps(layout, after, ctx.thin) == [], a.layout_id
+        assert _new_overlaps(layout, after, ctx.thin, ctx.seat_table) == [], a.layout_id
 
 
 async def test_the_critic_reopens_a_floor_cut_in_two(tmp_path: Path) -> None:
-    """The prior layout has other problems too: the cut is only remarked until they are fixed,
-    then one clean move reopens it, and the evolved layout's floor is one piece."""
+    """The prior layout has other problems too: the cut is only remarked until they are fixed
+    (the seats drawn up into their slots may reopen it; else one clean move does), and the evolved
+    layout's floor is one piece."""
     scene, layout, ctx = await _floor("LivingDiningRoom-13536_livingroom.json", tmp_path)
     raster = FloorRaster(np.asarray(ctx.surface.region))
 
@@ -133,8 +138,6 @@ async def test_the_critic_reopens_a_floor_cut_in_two(tmp_path: Path) -> None:
     assert len(passage) == 1 and passage[0].severity == "soft" and not passage[0].fixes
     result = await evolve_layout(scene, ctx, layout, shapes, parse_model("rules"), layout_id="original")
     assert result.valid and result.violations == []
-    notes = [n for r in result.rounds for n in r.notes if "passage" in n]
-    assert any(n.startswith("The walkable floor is cut") and "move (" in n for n in notes), notes
     assert nav(scene) < 0.9  # the whole scene's NAV, before and after
     assert nav(with_unit_layout(scene, "floor", result.local_poses)) >= WALK_MIN_SHARE
 

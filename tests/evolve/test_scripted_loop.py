@@ -27,7 +27,19 @@ DINING = Path(__file__).resolve().parents[2] / "data" / "layouts" / "physcene" /
 
 @pytest.fixture(scope="module")
 def dining(tmp_path_factory: pytest.TempPathFactory) -> Scene:
-    return generate(DINING, tmp_path_factory.mktemp("dining"), GenerateConfig(evolve=False)).scene
+    """The dining room as the rules refined it: no rule finding the loop must act on, so what a
+    scripted critic says is all that drives it (binding rule findings: test_rules_outrank_a_model)."""
+    scene = generate(DINING, tmp_path_factory.mktemp("dining"), GenerateConfig()).scene
+    assert isinstance(scene, Scene)
+    return scene
+
+
+@pytest.fixture(scope="module")
+def stabilized(tmp_path_factory: pytest.TempPathFactory) -> Scene:
+    """The dining room as the stabilize stage leaves it (chairs scattered by the prior)."""
+    scene = generate(DINING, tmp_path_factory.mktemp("stabilized"), GenerateConfig(evolve=False)).scene
+    assert isinstance(scene, Scene)
+    return scene
 
 
 def _floor(scene: Scene) -> Any:
@@ -112,11 +124,12 @@ async def test_an_oscillating_critic_is_detected_and_said_in_the_next_prompt(din
     assert result.stop_reason == "round cap (4)"
 
 
-def test_the_rule_critic_pivots_away_from_an_oscillating_object(dining: Scene) -> None:
+def test_the_rule_critic_pivots_away_from_an_oscillating_object(stabilized: Scene) -> None:
     """Given the memory's avoid set, a collision fix moves the other object of the pair."""
     from scenemosaic.evolve import find_problems, physical_check
     from scenemosaic.physics import object_shape
 
+    dining = stabilized
     ctx = _floor(dining)
     layout = UnitLayout.from_scene(dining, ctx.unit)
     u, v = layout.center("dining_chair_3")
@@ -190,3 +203,27 @@ async def test_the_critic_and_the_actor_get_an_explicit_round_input(dining: Scen
     assert result.outcome.answered_by == "solver_fallback" and len(result.problems) == 2
     assert all("not one assignment" in "; ".join(p) for p in result.problems)  # the sandbox's reasons
     assert state.layout is layout and not hasattr(acting, "refused")  # the actor wrote only its own state's layout
+
+
+async def test_rules_outrank_a_model_that_answers_no_change(stabilized: Scene) -> None:
+    """A critic that always answers "no change" and an actor that changes nothing: the binding
+    rule findings (chairs the prior scattered) are still noted, and their rule fixes are applied
+    and recorded, so the layout ends as valid as the rules make it."""
+    from scenemosaic.models import parse_model
+
+    def critic(messages: list[Message], context: RequestContext) -> dict[str, Any]:
+        return {"should_modify": False, "reasoning": "looks fine", "modification_notes": [], "quality_basis": "", "quality_score": 95}
+
+    def actor(messages: list[Message], context: RequestContext) -> dict[str, Any]:
+        return {"reasoning": "nothing to do", "pose_expressions": []}
+
+    ctx = _floor(stabilized)
+    layout = UnitLayout.from_scene(stabilized, ctx.unit)
+    shapes = {o.id: object_shape(o, None) for o in stabilized.objects}
+    lazy = await evolve_layout(stabilized, ctx, layout, shapes, FunctionModel({"critic": critic, "actor": actor}, vision=False))
+    rules = await evolve_layout(stabilized, ctx, layout, shapes, parse_model("rules"))
+    first = lazy.rounds[0]
+    assert first.notes and any("Seat the chairs" in n for n in first.notes), first.notes
+    assert first.enforced, "the rule fixes the actor left undone were applied"
+    assert "rule fixes applied for" in LayoutMemory(lazy.rounds).text()
+    assert lazy.valid and len(lazy.violations) <= len(rules.violations), lazy.violations

@@ -11,6 +11,7 @@ from structlog.testing import capture_logs
 
 from scenemosaic.exceptions import (
     ModelConfigError,
+    ModelEndpointError,
     ModelError,
     ModelHTTPError,
     ModelUnavailableError,
@@ -116,7 +117,8 @@ async def test_invalid_replies_and_client_errors_do_not_count_as_failures() -> N
     )
     inner, _ = server.model(retry=HTTPRetryPolicy(max_attempts=1))
     model = CircuitBreakerModel(inner, failure_threshold=2)
-    for expected in (ModelHTTPError, OutputValidationError, ModelHTTPError, ModelHTTPError, ModelHTTPError):
+    # a 404 is a set-up error (ModelEndpointError): the run stops, the breaker does not count it
+    for expected in (ModelHTTPError, OutputValidationError, ModelHTTPError, ModelEndpointError, ModelHTTPError):
         with pytest.raises(expected):
             await model.request(user_messages(), Verdict, context=CTX)
     assert model.state == "closed" and model.consecutive_failures == 1

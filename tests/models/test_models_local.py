@@ -100,7 +100,7 @@ async def test_instrumented_callback_failure_does_not_break_the_call() -> None:
 
 async def test_instrumented_reports_http_errors() -> None:
     calls: list[ModelCall] = []
-    server = FakeServer(httpx.Response(401, json={"error": {"message": "bad key"}}))
+    server = FakeServer(httpx.Response(400, json={"error": {"message": "bad request"}}))
     inner, _ = server.model()
     with pytest.raises(ModelHTTPError):
         await InstrumentedModel(inner, calls.append).request(user_messages(), Verdict)

@@ -161,7 +161,7 @@ async def test_a_large_reply_is_validated_and_its_raw_reply_shortened() -> None:
 async def test_retried_and_truncated_attempts_all_count() -> None:
     server = FakeServer(
         httpx.Response(429, headers={"Retry-After": "1"}, json={"error": {"message": "slow down"}}),
-        httpx.ConnectError("refused"),  # no response: not counted
+        httpx.ReadError("reset"),  # no response: not counted
         chat_reply('{"should_modify": true', finish="length", prompt_tokens=100, completion_tokens=50),
         chat_reply(VALID, prompt_tokens=100, completion_tokens=80),
     )

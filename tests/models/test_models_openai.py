@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import base64
 import json
+import re
 from datetime import UTC, datetime, timedelta
 from email.utils import format_datetime
 
@@ -14,6 +15,7 @@ from llm_fakes import PNG_1PX, VALID, FakeServer, Verdict, chat_reply, user_mess
 from scenemosaic.exceptions import (
     ModelConfigError,
     ModelContextLengthError,
+    ModelEndpointError,
     ModelError,
     ModelHTTPError,
     OutputValidationError,
@@ -179,12 +181,31 @@ async def test_timeouts_every_time_raise_model_error() -> None:
     assert isinstance(info.value.__cause__, httpx.ReadTimeout)
 
 
-async def test_connect_error_is_retried() -> None:
-    server = FakeServer(httpx.ConnectError("refused"), chat_reply(VALID))
+async def test_a_refused_connection_is_a_setup_error_at_once() -> None:
+    server = FakeServer(httpx.ConnectError("[Errno 111] Connection refused"), chat_reply(VALID))
     model, sleeps = server.model()
-    await model.request(user_messages(), Verdict, context=CTX)
-    assert len(server.requests) == 2
-    assert len(sleeps) == 1
+    with pytest.raises(ModelEndpointError, match=r"^no model server at http://llm.test/v1: start it or fix --model, or use --model rules$") as info:
+        await model.request(user_messages(), Verdict, context=CTX)
+    assert info.value.status_code is None and info.value.url == "http://llm.test/v1"
+    assert (len(server.requests), sleeps) == (1, [])  # not retried: nothing listens there
+
+
+@pytest.mark.parametrize(
+    ("status", "message", "fix"),
+    [
+        (401, "invalid api key", "refused the key (HTTP 401"),
+        (403, "forbidden", "refused the key (HTTP 403"),
+        (404, "model 'test-model' not found", "model 'test-model' not found on the model server"),
+        (404, "no route", "nothing at http://llm.test/v1/chat/completions not found"),
+    ],
+)
+async def test_a_refused_key_or_missing_model_is_a_setup_error(status: int, message: str, fix: str) -> None:
+    server = FakeServer(httpx.Response(status, json={"error": {"message": message}}), chat_reply(VALID))
+    model, sleeps = server.model()
+    with pytest.raises(ModelEndpointError, match=re.escape(fix)) as info:
+        await model.request(user_messages(), Verdict, context=CTX)
+    assert info.value.status_code == status and "--model rules" in str(info.value) and "\n" not in str(info.value)
+    assert (len(server.requests), sleeps) == (1, [])
 
 
 async def test_dropped_keep_alive_is_resent_once_without_waiting() -> None:
@@ -336,7 +357,7 @@ async def test_429_every_time_ends_with_the_status_and_body() -> None:
     assert (len(server.requests), sleeps) == (3, [1.0, 1.0])
 
 
-@pytest.mark.parametrize("status", [201, 202, 301, 401, 403, 404, 413, 422])
+@pytest.mark.parametrize("status", [201, 202, 301, 413, 422])
 async def test_any_non_200_with_error_message_is_an_error(status: int) -> None:
     """Whatever the status code (even a 2xx other than 200), an error body is raised, not parsed."""
     body = {"error": {"message": f"nope {status}"}}

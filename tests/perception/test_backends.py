@@ -73,7 +73,7 @@ def test_grabcut_finds_the_block_inside_a_loose_box(image: SceneImage) -> None:
     assert (box & truth).sum() / (box | truth).sum() < 0.6
 
 
-def test_http_segmenter_retries_a_busy_server_then_reads_the_mask(image: SceneImage) -> None:
+async def test_http_segmenter_retries_a_busy_server_then_reads_the_mask(image: SceneImage) -> None:
     seen: list[dict[str, Any]] = []
     want = np.zeros((120, 160), dtype=bool)
     want[40:100, 50:110] = True
@@ -88,7 +88,7 @@ def test_http_segmenter_retries_a_busy_server_then_reads_the_mask(image: SceneIm
         return httpx.Response(200, json={"masks": [_png(~want), _png(want)], "scores": [0.2, 0.9]})
 
     seg = HTTPSegmenter("http://sam3.test/segment", transport=httpx.MockTransport(handler))
-    mask = seg.segment(image, "cabinet", (40, 30, 120, 110))
+    mask = await seg.segment(image, "cabinet", (40, 30, 120, 110))
     assert len(seen) == 2
     assert np.array_equal(mask.full(160, 120), want)
 
@@ -103,13 +103,13 @@ def test_http_segmenter_retries_a_busy_server_then_reads_the_mask(image: SceneIm
         (httpx.Response(404, text="no such route"), "HTTP 404"),
     ],
 )
-def test_http_segmenter_bad_replies_are_backend_errors(image: SceneImage, reply: httpx.Response, message: str) -> None:
+async def test_http_segmenter_bad_replies_are_backend_errors(image: SceneImage, reply: httpx.Response, message: str) -> None:
     seg = HTTPSegmenter("http://sam3.test/segment", transport=httpx.MockTransport(lambda request: reply))
     with pytest.raises(BackendError, match=message):
-        seg.segment(image, "cabinet", (40, 30, 120, 110))
+        await seg.segment(image, "cabinet", (40, 30, 120, 110))
 
 
-def test_http_segmenter_gives_up_on_a_server_that_stays_down(image: SceneImage) -> None:
+async def test_http_segmenter_gives_up_on_a_server_that_stays_down(image: SceneImage) -> None:
     calls = []
 
     def handler(request: httpx.Request) -> httpx.Response:
@@ -118,7 +118,7 @@ def test_http_segmenter_gives_up_on_a_server_that_stays_down(image: SceneImage) 
 
     seg = HTTPSegmenter("http://sam3.test/segment", transport=httpx.MockTransport(handler))
     with pytest.raises(BackendError, match=r"failed after 4 attempts: HTTP 500"):
-        seg.segment(image, "cabinet", (40, 30, 120, 110))
+        await seg.segment(image, "cabinet", (40, 30, 120, 110))
     assert len(calls) == 4
 
 
@@ -174,7 +174,7 @@ def _check_lifted_box(lifted: Any) -> None:
     assert np.allclose(mesh.bounds, [[-0.5, -0.25, 0.0], [0.5, 0.25, 2.0]], atol=1e-6)
 
 
-def test_http_reconstructor_answer_becomes_a_camera_frame_object(image: SceneImage) -> None:
+async def test_http_reconstructor_answer_becomes_a_camera_frame_object(image: SceneImage) -> None:
     def handler(request: httpx.Request) -> httpx.Response:
         body = json.loads(request.content)
         assert body["label"] == "cabinet" and set(body) == {"image", "mask", "label", "box"}
@@ -182,7 +182,7 @@ def test_http_reconstructor_answer_becomes_a_camera_frame_object(image: SceneIma
         return httpx.Response(200, json={"glb": glb, "translation": [0.5, 0.2, 3.0], "rotation": [1, 0, 0, 0], "scale": 1.0})
 
     rec = HTTPReconstructor("http://sam3d.test/reconstruct", transport=httpx.MockTransport(handler))
-    result = rec.reconstruct(image, image.camera(), [_seen()])
+    result = await rec.reconstruct(image, image.camera(), [_seen()])
     _check_lifted_box(result.objects[0])
 
 
@@ -196,10 +196,10 @@ def test_http_reconstructor_answer_becomes_a_camera_frame_object(image: SceneIma
         {"glb": base64.b64encode(_box_glb_yup(1, 1, 1)).decode(), "translation": [0, 0, 1], "rotation": [0, 0, 0, 0]},
     ],
 )
-def test_http_reconstructor_bad_answers_are_backend_errors(image: SceneImage, reply: dict[str, Any]) -> None:
+async def test_http_reconstructor_bad_answers_are_backend_errors(image: SceneImage, reply: dict[str, Any]) -> None:
     rec = HTTPReconstructor("http://sam3d.test/reconstruct", transport=httpx.MockTransport(lambda r: httpx.Response(200, text=json.dumps(reply))))
     with pytest.raises(BackendError):
-        rec.reconstruct(image, image.camera(), [_seen()])
+        await rec.reconstruct(image, image.camera(), [_seen()])
 
 
 def test_sam3d_adapter_with_a_fake_inference(image: SceneImage) -> None:

@@ -25,7 +25,7 @@ DOCS = Path(__file__).resolve().parents[2] / "docs" / "settings.md"
 # The record report.json and the checkpoint held before the settings were declared on the fields:
 # its keys must not change (a --resume of an older run, a batch's skip test compare them).
 RECORD_KEYS = {
-    "format", "model", "seed", "room", "stabilize", "solver_fallback", "vision", "request_timeout_s", "deadline_s",
+    "format", "model", "seed", "room", "stabilize", "solver_fallback", "fallback", "vision", "request_timeout_s", "deadline_s",
     "variants", "evolve", "evolve_rounds", "save_views", "segmenter", "reconstructor", "hfov_deg",
     "prompt", "image_model", "image_size",
     "asset_dir", "cache_dir", "priors_dir", "detections",

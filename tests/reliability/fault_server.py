@@ -1,9 +1,11 @@
-"""A fault-injecting OpenAI-compatible Chat Completions server on 127.0.0.1, for reliability tests.
+"""A fault-injecting HTTP server on 127.0.0.1, for reliability tests.
 
-``FaultServer(mode)`` serves ``POST /v1/chat/completions`` in a background thread and answers every
-request according to ``mode``; ``requests`` counts what reached it. Modes:
+``FaultServer(mode)`` answers every ``POST`` (any path: chat completions, images, a segmenter or a
+reconstructor) in a background thread according to ``mode``; ``requests`` counts what reached it.
+Modes:
 
 * ``hang`` — never answers (until the server stops);
+* ``trickle`` — a 200 whose body arrives one byte every 0.2 s, never ending (each read is quick);
 * ``braces`` — a 2 MB body of ``{`` with status 200;
 * ``html`` — an HTML page with status 200;
 * ``message_string`` — ``choices[0].message`` is a string;
@@ -23,7 +25,7 @@ import threading
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
-MODES = ("hang", "braces", "html", "message_string", "bad_usage", "error503", "retry_after", "context", "reset")
+MODES = ("hang", "trickle", "braces", "html", "message_string", "bad_usage", "error503", "retry_after", "context", "reset")
 
 
 class FaultServer:
@@ -50,6 +52,12 @@ class FaultServer:
         self._httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
         self._httpd.daemon_threads = True
         self._thread = threading.Thread(target=self._httpd.serve_forever, daemon=True)
+
+    @property
+    def root(self) -> str:
+        """``http://127.0.0.1:PORT`` (any path answers the same)."""
+        host, port = self._httpd.server_address[:2]
+        return f"http://{host!s}:{port}"
 
     @property
     def base_url(self) -> str:
@@ -79,6 +87,16 @@ class FaultServer:
         mode = self.mode
         if mode == "hang":
             self._stop.wait(600)
+            return
+        if mode == "trickle":
+            h.send_response(200)
+            h.send_header("Content-Type", "application/json")
+            h.send_header("Content-Length", "1000000")
+            h.end_headers()
+            with contextlib.suppress(BrokenPipeError, ConnectionResetError, OSError):
+                while not self._stop.wait(0.2):
+                    h.wfile.write(b" ")
+                    h.wfile.flush()
             return
         if mode == "reset":
             h.connection.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, b"\x01\x00\x00\x00\x00\x00\x00\x00")

@@ -105,3 +105,44 @@ def test_ids_that_differ_only_in_punctuation_or_script_stay_distinct(pair: tuple
     assert done.code == 0, done.stderr[-2000:]
     ids = [o["id"] for o in json.loads((out / "base" / "scene.json").read_text(encoding="utf-8"))["objects"]]
     assert len(ids) == 2 and len(set(ids)) == 2, ids
+
+
+@pytest.mark.parametrize("kind", ["device", "fifo"])
+def test_a_device_or_a_fifo_as_input_is_refused_at_once(kind: str, tmp_path: Path) -> None:
+    if kind == "fifo":
+        source = tmp_path / "scene.json"
+        os.mkfifo(source)  # opening it would wait for a writer for ever
+    else:
+        source = Path("/dev/zero")  # reading it would never end
+    done = run_cli(["generate", str(source), "--out", str(tmp_path / "out")], tmp_path, timeout=60)
+    assert done.code == 2, done.stderr[-2000:]
+    what = "a FIFO (named pipe)" if kind == "fifo" else "a character device"
+    assert f"is {what}, not a regular file" in " ".join(done.stderr.split())
+    assert done.seconds < 15 and "Traceback" not in done.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_fifo_named_as_a_mesh_is_not_a_regular_file_rather_than_not_found(tmp_path: Path) -> None:
+    folder = tmp_path / "in"
+    folder.mkdir()
+    os.mkfifo(folder / "chair.glb")
+    source = _scene_file(folder, [_obj("chair", kind="mesh", uri="chair.glb")])
+    _refused(tmp_path, source, "objects[0].asset.uri", "chair.glb is a FIFO (named pipe), not a regular file")
+
+
+def test_an_input_over_its_size_limit_is_refused_unless_the_limit_is_raised(tmp_path: Path) -> None:
+    source = _scene_file(tmp_path / "in", [_obj("a")])
+    source.write_text(source.read_text() + " " * 2_000_000, encoding="utf-8")  # 2 MB of trailing blanks
+    done = run_cli(["generate", str(source), "--out", str(tmp_path / "out"), "--max-input-mb", "1"], tmp_path)
+    assert done.code == 2, done.stderr[-2000:]
+    assert "over the 1 MB limit for a scene file; raise it with --max-input-mb" in " ".join(done.stderr.split())
+    done = run_cli(["generate", str(source), "--out", str(tmp_path / "out"), "--max-input-mb", "3", "--no-evolve"], tmp_path)
+    assert done.code == 0, done.stderr[-2000:]
+
+
+def test_control_characters_from_an_input_are_shown_escaped_never_raw() -> None:
+    from scenemosaic.cli import escape
+
+    shown = escape("object 'a\x00b' in [/x] \x1b[31mred")
+    assert "\x00" not in shown and "\x1b" not in shown
+    assert shown == "object 'a\\x00b' in \\[/x] \\x1b[31mred"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import stat
@@ -10,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from scenemosaic.exceptions import AssetError, UnsafePathError
+from scenemosaic.exceptions import AssetError, OutputSpaceError, UnsafePathError
 from scenemosaic.scene import (
     ID_HASH_CHARS,
     MAX_ID_LENGTH,
@@ -175,3 +176,36 @@ def test_write_atomic_respects_a_stricter_umask(tmp_path: Path) -> None:
     finally:
         os.umask(old)
     assert stat.S_IMODE(target.stat().st_mode) == 0o600
+
+
+def test_write_atomic_replaces_a_planted_symlink_instead_of_writing_through_it(tmp_path: Path) -> None:
+    elsewhere = tmp_path / "elsewhere.xml"
+    elsewhere.write_text("keep me")
+    target = tmp_path / "out" / "scene.xml"
+    target.parent.mkdir()
+    target.symlink_to(elsewhere)
+    write_atomic(target, "<mujoco/>")
+    assert not target.is_symlink() and target.read_text() == "<mujoco/>"
+    assert elsewhere.read_text() == "keep me"
+
+
+def test_a_full_disk_leaves_the_old_file_and_no_temporary(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    target = write_atomic(tmp_path / "report.json", '{"status": "ok"}')
+
+    def full(fh: object, payload: bytes, tmp: Path) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr("scenemosaic.scene._files._write_all", full)
+    with pytest.raises(OutputSpaceError, match=r"^no space left on device writing .*report.json: free space, or choose another --out$") as info:
+        write_atomic(target, '{"status": "failed"}')
+    assert isinstance(info.value, OSError) and info.value.errno == errno.ENOSPC
+    assert target.read_text() == '{"status": "ok"}'
+    assert [p.name for p in tmp_path.iterdir()] == ["report.json"]
+
+
+def test_checkpoint_records_get_the_ordinary_file_mode(tmp_path: Path, umask_022: None) -> None:
+    from scenemosaic.dag import FileRunStore, StoredOutput
+
+    FileRunStore(tmp_path / ".checkpoint").put("manager", "abc123", StoredOutput(output={"plan": []}, output_hash="h"))
+    modes = {p.name: stat.S_IMODE(p.stat().st_mode) for p in (tmp_path / ".checkpoint").rglob("*") if p.is_file()}
+    assert modes and set(modes.values()) == {0o644}, modes

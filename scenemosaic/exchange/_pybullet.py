@@ -1,0 +1,81 @@
+"""PyBullet: load a delivered scene in one call, every movable object a free body.
+
+PyBullet turns URDF's ``floating`` joints into fixed ones, so ``scene.urdf`` loads frozen there.
+``scene.sdf`` (written beside it by :func:`~scenemosaic.exchange.export_urdf`) is the world PyBullet
+reads instead: ``pybullet.loadSDF("scene.sdf")`` gives one body per model, each placed at its pose,
+the room and the held objects static. PyBullet ignores SDFormat's friction element, so
+:func:`load_pybullet` also sets each body's lateral friction to the coefficient the file names.
+``pybullet`` is imported only here (``pip install 'scenemosaic[pybullet]'``).
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any
+
+from scenemosaic.exceptions import MissingExtraError, UsageError
+from scenemosaic.exchange._urdf import SDF_SCENE_FILE
+
+__all__ = ["PYBULLET_INSTALL_HINT", "load_pybullet"]
+
+PYBULLET_INSTALL_HINT = "pip install 'scenemosaic[pybullet]'"
+"""The command that installs the PyBullet extra."""
+
+
+def _import_pybullet() -> Any:
+    try:
+        import pybullet
+    except ImportError as exc:
+        raise MissingExtraError(
+            f"loading a scene in PyBullet needs pybullet, which is not installed: {PYBULLET_INSTALL_HINT}"
+        ) from exc
+    return pybullet
+
+
+def _frictions(path: Path) -> dict[str, float]:
+    """Model name -> the friction coefficient of its first collision (``<surface><friction><ode><mu>``)."""
+    frictions: dict[str, float] = {}
+    for model in ET.parse(path).getroot().iterfind("world/model"):
+        mu = model.find("link/collision/surface/friction/ode/mu")
+        if mu is not None and mu.text:
+            frictions[model.attrib["name"]] = float(mu.text)
+    return frictions
+
+
+def load_pybullet(folder: str | Path, *, client: int = 0) -> dict[str, int]:
+    """Load a delivered scene (``folder/scene.sdf``, or that file's path) into a PyBullet client.
+
+    Returns ``{name: body id}``: one body per object, named by its id (a free body, or static
+    when the scene holds it in place: ``sim.static``, hung from a wall or the ceiling) and the
+    room (``room``; ``room_2`` should an object be called ``room``). Each body's lateral
+    friction is the object's ``sim.friction``. Gravity and the time step stay the client's::
+
+        import pybullet as p
+        from scenemosaic.exchange import load_pybullet
+
+        p.connect(p.DIRECT)
+        p.setGravity(0, 0, -9.81)
+        bodies = load_pybullet("out/demo/base")
+        p.stepSimulation()
+
+    Raises:
+        MissingExtraError: pybullet is not installed (``pip install 'scenemosaic[pybullet]'``).
+        UsageError: there is no ``scene.sdf`` (write one with ``scenemosaic export RUN --format urdf``).
+    """
+    path = Path(folder)
+    if path.is_dir():
+        path = path / SDF_SCENE_FILE
+    if not path.is_file():
+        raise UsageError(
+            f"no {SDF_SCENE_FILE} at {path}: write it with `scenemosaic export RUN --format urdf --out DIR`"
+        )
+    pybullet = _import_pybullet()
+    frictions = _frictions(path)
+    bodies: dict[str, int] = {}
+    for body in pybullet.loadSDF(str(path), physicsClientId=client):
+        name = pybullet.getBodyInfo(body, physicsClientId=client)[1].decode("utf-8")
+        bodies[name] = body
+        if name in frictions:
+            pybullet.changeDynamics(body, -1, lateralFriction=frictions[name], physicsClientId=client)
+    return bodies

@@ -1,0 +1,354 @@
+"""Functional relations: what a room's pieces do for each other, read from the geometry.
+
+A scene's support relations say what rests on what. The relations here say what a person
+would notice if a variant broke them: a seat **faces** its table, a sofa its TV and the TV the
+sofa; a ceiling lamp, a wall TV or a picture hangs **over** a group (a dining table, a bed, a
+seating group); a rug lies **under** one; a nightstand stands **beside** its bed's head, and two
+nightstands **flank** the bed. They are found in a base scene by :func:`functional_relations`
+and checked in a variant by :func:`functional_holds`; RelKeep per kind counts them.
+
+The ``over`` and ``under`` relations tie pieces of different units together (a lamp of the
+ceiling unit, a rug of the floor unit, a picture of a wall unit, each over or under floor
+furniture). :func:`follow_leaders` moves such a piece with its group's leader, so composition
+can keep it where it belongs whatever the floor's variant does.
+
+Thresholds are named here and documented in ``docs/evolution.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from shapely.geometry import LineString, Point, Polygon
+from shapely.ops import unary_union
+
+from scenemosaic.scene._categories import normalize_category, traits
+from scenemosaic.scene._geometry import FloatArray, front_vector, quat_from_yaw, quat_multiply
+from scenemosaic.scene._ids import CEILING, FLOOR
+from scenemosaic.scene._model import Pose, Scene, SceneObject
+from scenemosaic.scene._tree import with_world_poses
+from scenemosaic.scene._walkable import is_thin
+
+__all__ = [
+    "FACES_DEG",
+    "FACES_REACH_M",
+    "FUNCTIONAL_KINDS",
+    "OVER_MARGIN_M",
+    "SCREEN_REACH_M",
+    "Functional",
+    "FunctionalKind",
+    "faces",
+    "follow_leaders",
+    "functional_holds",
+    "functional_relations",
+    "points_at",
+]
+
+FunctionalKind = Literal["faces", "over", "under", "beside", "flanks"]
+FUNCTIONAL_KINDS: tuple[FunctionalKind, ...] = ("faces", "over", "under", "beside", "flanks")
+
+OVER_MARGIN_M = 0.3
+"""A piece hangs over (or lies under) a group when its centre is inside the group's footprints
+grown by this much, metres."""
+FACES_DEG = 20.0
+"""A piece faces another when its front points at it: the line from its centre along its front
+crosses the other's footprint, or the other's centre is within this many degrees of that line."""
+FACES_REACH_M = 1.0
+"""A seat faces a table, desk or coffee table only within this footprint distance, metres."""
+SCREEN_REACH_M = 6.0
+"""A seat and a TV (or TV stand) face each other only within this distance, metres."""
+BESIDE_GAP_M = 0.35
+"""A nightstand is beside its bed when its box is at most this far from the bed's side..."""
+BESIDE_HEAD_M = 0.75
+"""... and its centre within this distance of the bed's head end, metres."""
+FOLLOW_TURN_DEG = 1.0
+"""A wall piece follows its group along the wall only while the group keeps its heading."""
+FOLLOW_WALL_M = 0.05
+"""... and stays as far from that wall as in the base, within this many metres."""
+
+_BEDS = ("bed",)
+_NIGHTSTANDS = frozenset({"nightstand"})
+_SCREENS = frozenset({"tv_stand", "television"})
+_HANGING = frozenset({"pendant_lamp", "ceiling_lamp", "chandelier"})
+_WALL_OVER = frozenset({"painting", "picture", "mirror", "television", "wall_clock"})
+
+
+@dataclass(frozen=True)
+class Functional:
+    """One functional relation: ``subject`` does ``kind`` to ``group`` (led by ``leader``)."""
+
+    kind: FunctionalKind
+    subject: str
+    group: tuple[str, ...]
+    leader: str
+    """The group's main piece: the one whose motion an ``over``/``under`` subject follows, the
+    one a ``faces``/``beside`` subject turns to, the bed two nightstands flank."""
+
+    @property
+    def follows(self) -> bool:
+        """Whether the subject moves with its leader (``over`` and ``under``)."""
+        return self.kind in ("over", "under")
+
+    def describe(self) -> str:
+        """The relation in words, for reports and notes."""
+        return f"{self.subject} {self.kind} {'+'.join(self.group)}"
+
+
+def _cat(o: SceneObject) -> str:
+    return normalize_category(o.category)
+
+
+def _is_bed(o: SceneObject) -> bool:
+    return any(b in _cat(o) for b in _BEDS)
+
+
+def _foot(o: SceneObject) -> Polygon:
+    return Polygon(o.footprint())
+
+
+def _xy(o: SceneObject) -> FloatArray:
+    return np.asarray(o.pose.position[:2], dtype=np.float64)
+
+
+def _front(o: SceneObject) -> FloatArray:
+    f = front_vector(o.pose.quaternion)[:2]
+    n = float(np.linalg.norm(f))
+    return f / n if n > 1e-9 else np.array([0.0, -1.0])
+
+
+def _on_floor(scene: Scene, o: SceneObject) -> bool:
+    r = scene.support_of(o.id)
+    return r is None or r.parent == FLOOR
+
+
+def _lounge(o: SceneObject) -> bool:
+    """Sofas and armchairs: the seats that face a TV (a dining or desk chair does not)."""
+    t = traits(o.category)
+    return t.seat and (t.against_wall or t.supports)
+
+
+def _leaders(scene: Scene) -> list[SceneObject]:
+    """Floor furniture a piece can hang over or lie under: beds, tables, desks, seats, TV stands."""
+    out = []
+    for o in scene.objects:
+        if not _on_floor(scene, o) or is_thin(o):
+            continue
+        t = traits(o.category)
+        if _is_bed(o) or t.table or t.seat or _cat(o) in ("coffee_table", "tv_stand"):
+            out.append(o)
+    return out
+
+
+def points_at(centre: FloatArray, front: FloatArray, outline: Polygon, target_centre: FloatArray) -> bool:
+    """Whether a piece at ``centre`` whose front is the unit vector ``front`` points at a target
+    with footprint ``outline`` and centre ``target_centre`` (any plane frame; see :data:`FACES_DEG`).
+    The one definition of facing, for scenes and for the evolution's unit layouts."""
+    c = np.asarray(centre, dtype=np.float64)
+    f = np.asarray(front, dtype=np.float64)
+    if outline.contains(Point(c)):
+        return True
+    if LineString([c, c + f * (SCREEN_REACH_M + 2.0)]).intersects(outline):
+        return True
+    d = np.asarray(target_centre, dtype=np.float64) - c
+    n = float(np.linalg.norm(d))
+    return n < 1e-9 or math.degrees(math.acos(max(-1.0, min(1.0, float(d @ f) / n)))) <= FACES_DEG
+
+
+def faces(subject: SceneObject, target: SceneObject) -> bool:
+    """Whether ``subject``'s front points at ``target`` (:func:`points_at`)."""
+    return points_at(_xy(subject), _front(subject), _foot(target), _xy(target))
+
+
+def _bed_frame(bed: SceneObject) -> tuple[FloatArray, FloatArray, FloatArray, float, float]:
+    f = _front(bed)
+    lat = np.array([f[1], -f[0]])
+    poly = bed.footprint() - _xy(bed)
+    return _xy(bed), f, lat, float(np.ptp(poly @ f)), float(np.ptp(poly @ lat))
+
+
+def _beside(stand: SceneObject, bed: SceneObject) -> float | None:
+    """The side (+1/-1 along the bed's lateral axis) a nightstand stands on beside the bed's
+    head, or ``None`` when it is not there."""
+    c, f, lat, depth, width = _bed_frame(bed)
+    rel = _xy(stand) - c
+    half = float(np.ptp((stand.footprint() - _xy(stand)) @ lat)) / 2
+    gap = abs(float(rel @ lat)) - width / 2 - half
+    if -0.02 <= gap <= BESIDE_GAP_M and float(rel @ -f) >= depth / 2 - BESIDE_HEAD_M:
+        return 1.0 if float(rel @ lat) >= 0 else -1.0
+    return None
+
+
+def _under_group(piece: SceneObject, leaders: Sequence[SceneObject]) -> list[SceneObject]:
+    grown = Point(_xy(piece))
+    return [o for o in leaders if o.id != piece.id and _foot(o).buffer(OVER_MARGIN_M).contains(grown)]
+
+
+def _group_of(rug: SceneObject, leaders: Sequence[SceneObject]) -> list[SceneObject]:
+    area = _foot(rug)
+    return [o for o in leaders if area.contains(Point(_xy(o)))]
+
+
+def _sorted_group(group: Iterable[SceneObject]) -> tuple[tuple[str, ...], str]:
+    members = sorted(group, key=lambda o: (-float(_foot(o).area), o.id))
+    return tuple(sorted(o.id for o in members)), members[0].id
+
+
+def functional_relations(scene: Scene) -> list[Functional]:
+    """Every functional relation that holds in ``scene`` (found from its geometry, sorted)."""
+    leaders = _leaders(scene)
+    out: list[Functional] = []
+    for o in scene.objects:
+        r = scene.support_of(o.id)
+        parent = r.parent if r is not None else FLOOR
+        cat = _cat(o)
+        hanging = parent == CEILING or cat in _HANGING
+        on_wall = parent not in (FLOOR, CEILING) and scene.anchor_kind(parent) == "wall" and cat in _WALL_OVER
+        if hanging or on_wall:
+            below = [g for g in _under_group(o, leaders) if float(g.aabb()[1][2]) <= float(o.aabb()[0][2]) + 0.05]
+            if below:
+                group, leader = _sorted_group(below)
+                out.append(Functional("over", o.id, group, leader))
+        elif parent == FLOOR and is_thin(o):
+            on = _group_of(o, leaders)
+            if on:
+                group, leader = _sorted_group(on)
+                out.append(Functional("under", o.id, group, leader))
+    for o in leaders:
+        t = traits(o.category)
+        if not (t.seat or _cat(o) in _SCREENS):
+            continue
+        near: list[tuple[float, str]] = []
+        screens: list[tuple[float, str]] = []
+        for k in scene.objects:
+            if k.id == o.id or (not _on_floor(scene, k) and _cat(k) not in _SCREENS):
+                continue
+            kt = traits(k.category)
+            d = float(_foot(o).distance(_foot(k)))
+            if t.seat and (kt.table or _cat(k) == "coffee_table") and d <= FACES_REACH_M and faces(o, k):
+                near.append((d, k.id))
+            elif ((_lounge(o) and _cat(k) in _SCREENS) or (_cat(o) in _SCREENS and _lounge(k))) and d <= SCREEN_REACH_M and faces(o, k):
+                screens.append((d, k.id))
+        for found in (near, screens):
+            if found:
+                target = min(found)[1]
+                out.append(Functional("faces", o.id, (target,), target))
+    for bed in (o for o in scene.objects if _is_bed(o)):
+        sides: dict[float, str] = {}
+        for stand in (o for o in scene.objects if _cat(o) in _NIGHTSTANDS):
+            side = _beside(stand, bed)
+            if side is not None:
+                out.append(Functional("beside", stand.id, (bed.id,), bed.id))
+                sides.setdefault(side, stand.id)
+        if len(sides) == 2:
+            out.append(Functional("flanks", bed.id, tuple(sorted(sides.values())), bed.id))
+    return sorted(out, key=lambda f: (FUNCTIONAL_KINDS.index(f.kind), f.subject, f.group))
+
+
+def functional_holds(scene: Scene, rel: Functional) -> bool:
+    """Whether ``rel`` (found in a base scene) still holds in ``scene``."""
+    try:
+        subject = scene.get(rel.subject)
+        group = [scene.get(g) for g in rel.group]
+    except KeyError:
+        return False
+    if rel.kind in ("over", "under"):
+        area = unary_union([_foot(g).buffer(OVER_MARGIN_M) for g in group])
+        return bool(area.contains(Point(_xy(subject))))
+    if rel.kind == "faces":
+        return faces(subject, group[0])
+    if rel.kind == "beside":
+        return _beside(subject, group[0]) is not None
+    sides = {_beside(s, subject) for s in group}
+    return None not in sides and len(sides) == 2
+
+
+def _yaw(o: SceneObject) -> float:
+    f = _front(o)
+    return math.atan2(float(f[0]), float(-f[1]))
+
+
+def follow_leaders(base: Scene, scene: Scene, relations: Sequence[Functional]) -> Scene | None:
+    """``scene`` with every ``over``/``under`` subject moved as its leader moved from ``base``:
+    a hanging lamp or a rug turns and shifts with its group; a wall piece slides along its wall
+    as far as the group slid along it. The follower keeps its offset in the leader's frame, or that
+    offset mirrored across the leader's axes (a table reads the same mirrored either way, a bed
+    only left to right: a mirrored variant mirrors the lamp too), or, last, its heading and world
+    offset: the first that keeps it over its group and inside the room is taken. ``None``
+    when a subject cannot follow (its group turned away from its wall or left it, or no way keeps
+    it in the room). A subject whose leader did not move is back at its base pose, whatever its
+    own unit's variant did."""
+    targets: dict[str, Pose] = {}
+    inside = Polygon(base.room.floor).buffer(1e-3) if base.room is not None else None
+    for rel in relations:
+        if not rel.follows:
+            continue
+        try:
+            lead0, lead1 = base.get(rel.leader), scene.get(rel.leader)
+            sub0 = base.get(rel.subject)
+            group = [scene.get(g) for g in rel.group]
+        except KeyError:
+            continue
+        target = _follow(base, rel, lead0, lead1, sub0, group, inside)
+        if target is None:
+            return None
+        now = scene.get(rel.subject).pose
+        if not (np.allclose(now.position, target.position, atol=1e-9) and np.allclose(now.quaternion, target.quaternion, atol=1e-9)):
+            targets[rel.subject] = target
+    return with_world_poses(scene, targets) if targets else scene
+
+
+def _follow(
+    base: Scene, rel: Functional, lead0: SceneObject, lead1: SceneObject, sub0: SceneObject, group: list[SceneObject], inside: Polygon | None
+) -> Pose | None:
+    turn = _yaw(lead1) - _yaw(lead0)
+    shift = _xy(lead1) - _xy(lead0)
+    r = base.support_of(rel.subject)
+    parent = r.parent if r is not None else FLOOR
+    pos = np.asarray(sub0.pose.position, dtype=np.float64).copy()
+    if parent not in (FLOOR, CEILING) and base.anchor_kind(parent) == "wall":
+        assert base.room is not None
+        wall = base.room.wall(parent)
+        if abs(math.degrees(math.atan2(math.sin(turn), math.cos(turn)))) > FOLLOW_TURN_DEG:
+            return None
+        if abs(wall.gap(lead1.corners()) - wall.gap(lead0.corners())) > FOLLOW_WALL_M:
+            return None
+        t = np.asarray(wall.end, dtype=np.float64)[:2] - np.asarray(wall.start, dtype=np.float64)[:2]
+        t = t / float(np.linalg.norm(t))
+        pos[:2] += t * float(shift @ t)
+        return Pose(position=(float(pos[0]), float(pos[1]), float(pos[2])), quaternion=sub0.pose.quaternion, scale=sub0.pose.scale)
+    area = unary_union([_foot(g).buffer(OVER_MARGIN_M) for g in group])
+    y0, y1 = _yaw(lead0), _yaw(lead1)
+    offset = _rot(-y0) @ (_xy(sub0) - _xy(lead0))  # in the leader's own frame
+    mirrors = [(1.0, 1.0), (-1.0, 1.0)] if _is_bed(lead0) else [(1.0, 1.0), (-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0)]
+    ways: list[tuple[FloatArray, tuple[float, float, float, float]]] = [
+        (_rot(y1) @ (offset * np.array(m)) + _xy(lead1), _turned(sub0.pose.quaternion, turn)) for m in mirrors
+    ]
+    ways.append((_xy(sub0) + shift, sub0.pose.quaternion))  # keep the heading: the group only shifted
+    for xy, quat in ways:
+        pose = Pose(position=(float(xy[0]), float(xy[1]), float(pos[2])), quaternion=quat, scale=sub0.pose.scale)
+        if not area.contains(Point(xy)):
+            continue
+        if inside is None or inside.covers(Polygon(sub0.model_copy(update={"pose": pose}).footprint())):
+            return pose
+    return None
+
+
+def _rot(a: float) -> FloatArray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s], [s, c]])
+
+
+def _turned(q: tuple[float, float, float, float], turn: float) -> tuple[float, float, float, float]:
+    return quat_multiply(quat_from_yaw(turn), q)
+
+
+def relations_by_kind(relations: Iterable[Functional]) -> Mapping[str, list[Functional]]:
+    """The relations grouped by kind, every kind present (empty lists for absent kinds)."""
+    out: dict[str, list[Functional]] = {k: [] for k in FUNCTIONAL_KINDS}
+    for r in relations:
+        out[r.kind].append(r)
+    return out

@@ -1,0 +1,239 @@
+"""A photograph read the way a person reads it (issue 27): headings from the evidence, the camera's
+pitch from vertical lines, hanging objects held to the ceiling, and the varied renders
+(``data/images/v_*``) that measure it where it is hard.
+
+The per-render checks hold each render to what the box lifter reaches on it today (see the table
+in ``docs/perception.md``), so a regression shows; the pooled acceptance figures of the issue are
+reported by ``benchmarks/perception.py``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from scenemosaic.models import RulesModel
+from scenemosaic.perception import (
+    BoxLifter,
+    LiftedObject,
+    Reconstruction,
+    heading_symmetry,
+    load_image,
+    perceive,
+    score_against_truth,
+)
+from scenemosaic.perception._headings import HeadingItem, choose_headings
+from scenemosaic.perception._lift import _vertical_pitch
+
+DATA = Path(__file__).resolve().parents[2] / "data" / "images"
+VARIED = sorted(p.name for p in DATA.iterdir() if p.name.startswith("v_") and (p / "truth.json").is_file()) if DATA.is_dir() else []
+TILT_LIMIT_DEG = 2.0
+"""The issue's bar for the recovered floor's tilt, in every view."""
+PITCH_FROM_LINES_DEG = 1.0
+"""How close the pitch read from vertical lines alone lands to the true pitch."""
+
+
+def _truth(name: str) -> dict[str, Any]:
+    return json.loads((DATA / name / "truth.json").read_text())
+
+
+def _read(name: str, out_dir: Path | None = None) -> Any:
+    folder = DATA / name
+    return asyncio.run(
+        perceive(folder / "photo.png", RulesModel(), detections=folder / "boxes.json", segmenter="box", reconstructor=BoxLifter(), out_dir=out_dir)
+    )
+
+
+def test_varied_renders_cover_heights_lenses_aspects_headings_and_lamps() -> None:
+    truths = {name: _truth(name) for name in VARIED}
+    assert len(truths) >= 12
+    assert len({t["scene"] for t in truths.values()}) >= 4
+    heights = [t["camera"]["position"][2] for t in truths.values()]
+    lenses = [t["camera"]["hfov_deg"] for t in truths.values()]
+    assert min(heights) <= 1.35 and max(heights) >= 1.75
+    assert min(lenses) <= 52 and max(lenses) >= 78
+    assert len({round(t["image"]["width"] / t["image"]["height"], 2) for t in truths.values()}) >= 4
+    assert sum(1 for t in truths.values() if t["camera"]["yaw_deg"] % 90 == 45) >= 4
+    lamps_in = [n for n, t in truths.items() if any(o["placement"] == "ceiling" and o["in_boxes"] for o in t["objects"])]
+    lamps_out = [n for n, t in truths.items() if any(o["placement"] == "ceiling" and not o["in_boxes"] for o in t["objects"])]
+    assert len(lamps_in) >= 3 and len(lamps_out) >= 3
+    for name in VARIED:  # the lens travels in the file's EXIF, where a camera writes it
+        camera = load_image(DATA / name / "photo.png").camera()
+        assert camera.source == "exif" and abs(camera.hfov_deg - truths[name]["camera"]["hfov_deg"]) < 0.01
+
+
+def test_pitch_from_vertical_lines() -> None:
+    """The vertical edges alone give the pitch within a degree wherever they give one (a view
+    with under two usable edges gives none: the room's horizontal edges then carry it)."""
+    measured = 0
+    for name in VARIED:
+        image = load_image(DATA / name / "photo.png")
+        found = _vertical_pitch(image, image.camera())
+        if found is not None:
+            measured += 1
+            assert abs(math.degrees(found[0]) - _truth(name)["camera"]["pitch_deg"]) < PITCH_FROM_LINES_DEG, name
+    assert measured >= len(VARIED) - 1
+
+
+@pytest.mark.parametrize("name", VARIED)
+def test_varied_render_camera_and_floor(name: str) -> None:
+    """Tilt within the issue's 2 degrees, the fit's uncertainty recorded and honest (the true
+    height within three of its standard deviations), every floor object placed."""
+    truth = _truth(name)
+    result = _read(name)
+    boxes = {o.id: o.box for o in result.inventory}
+    score = score_against_truth(result.reconstruction, truth, float(result.report["camera_height_m"]), boxes)
+    assert score.tilt_deg < TILT_LIMIT_DEG, score.tilt_deg
+    assert abs(result.report["camera_pitch_deg"] - truth["camera"]["pitch_deg"]) < TILT_LIMIT_DEG
+    sd = result.report["camera_height_sd_m"]
+    assert 0.0 < sd < 0.5
+    assert abs(score.camera_height_error_m) < 3 * sd + 0.05, (score.camera_height_error_m, sd)
+    assert {o.id for o in result.reconstruction.objects} == {o["id"] for o in truth["objects"] if o["in_boxes"]}
+    floor = [o for o in score.objects if o.placement == "floor"]
+    assert floor and float(np.median([o.position_error_m for o in floor])) < 1.0
+
+
+def test_demo_bedroom_headings_and_their_reasons(tmp_path: Path) -> None:
+    """The issue's own example: bed, desk, nightstand and chair face where the truth says, and
+    perception.json says why."""
+    truth = _truth("demo_bedroom")
+    result = _read("demo_bedroom", tmp_path / "perception")
+    score = score_against_truth(result.reconstruction, truth, float(result.report["camera_height_m"]))
+    heading = {o.id: o.heading_error_deg for o in score.objects}
+    for oid in ("bed", "desk", "nightstand_left", "chair"):
+        assert heading[oid] is not None and heading[oid] < 20.0, (oid, heading[oid])
+    written = json.loads((tmp_path / "perception" / "perception" / "perception.json").read_text())
+    reasons = written["headings"]
+    assert {"bed", "desk", "nightstand_left", "chair", "bookshelf"} <= set(reasons)
+    assert "faces desk" in reasons["chair"]
+    assert "flanks bed" in reasons["nightstand_left"] and reasons["bed"]
+    assert written["camera_height_sd_m"] > 0 and "vertical_lines_pitch_deg" in written
+
+
+def test_ceiling_lamp_hangs_from_the_ceiling() -> None:
+    """A pendant lamp whose box is cut by the top of the picture is held to the ceiling (the
+    documented default height) at the place its box's other edges say."""
+    truth = _truth("v_demo_diag_lamp")
+    result = _read("v_demo_diag_lamp")
+    score = score_against_truth(result.reconstruction, truth, float(result.report["camera_height_m"]))
+    lamp = next(o for o in score.objects if o.id == "pendant_lamp")
+    assert lamp.placement == "ceiling" and lamp.position_error_m < 0.5
+    assert result.report["ceiling_height_m"]["source"] == "default"
+
+
+# -- headings from the evidence, on hand-made rooms ------------------------------------------------
+
+
+def _flat_box(n: int) -> Any:
+    """A box fit with no preference between the four directions (a box cut by the border)."""
+    return lambda items: (lambda i, k: (0.0, items[i].centre, items[i].size))
+
+
+def _items(*rows: tuple[str, str, tuple[float, float], tuple[float, float, float]]) -> list[HeadingItem]:
+    return [HeadingItem(i, c, np.array([x, y, 0.0]), np.array(s)) for i, c, (x, y), s in rows]
+
+
+def _front(yaw: float) -> tuple[int, int]:
+    return round(math.sin(yaw)), round(-math.cos(yaw))
+
+
+def test_chairs_face_their_table_and_nightstands_flank_the_bed() -> None:
+    # floor frame: the camera at the origin looking along +Y
+    items = _items(
+        ("table", "dining_table", (0.0, 4.0), (1.6, 0.9, 0.75)),
+        ("chair_near", "dining_chair", (0.0, 3.2), (0.46, 0.53, 0.95)),
+        ("chair_far", "dining_chair", (0.0, 4.8), (0.46, 0.53, 0.95)),
+        ("chair_end", "dining_chair", (1.2, 4.0), (0.46, 0.53, 0.95)),
+    )
+    got = choose_headings(items, 0.0, _flat_box(len(items))(items))
+    assert _front(got["chair_near"].yaw) == (0, 1)  # toward +Y, its back to the camera
+    assert _front(got["chair_far"].yaw) == (0, -1)
+    assert _front(got["chair_end"].yaw) == (-1, 0)
+    assert got["chair_near"].reason == "faces table"
+    assert got["chair_end"].reason == "faces table"
+    beds = _items(
+        ("bed", "double_bed", (0.0, 4.0), (1.6, 2.1, 0.9)),
+        ("stand_l", "nightstand", (-1.05, 4.85), (0.45, 0.4, 0.55)),
+        ("stand_r", "nightstand", (1.05, 4.85), (0.45, 0.4, 0.55)),
+    )
+    got = choose_headings(beds, 0.0, _flat_box(len(beds))(beds))
+    assert _front(got["bed"].yaw) == (0, -1)  # head at the far end, by the nightstands
+    assert _front(got["stand_l"].yaw) == (0, -1) and _front(got["stand_r"].yaw) == (0, -1)
+
+
+def test_wall_furniture_backs_onto_the_wall() -> None:
+    # a wardrobe at the room's right edge, seen side-on: its back to that wall, not to the room
+    # beyond it (the sofa stands further away) nor to the camera's side
+    items = _items(
+        ("wardrobe", "wardrobe", (2.0, 3.0), (1.2, 0.6, 2.0)),
+        ("table", "coffee_table", (0.0, 3.0), (1.0, 0.6, 0.45)),
+        ("sofa", "multi_seat_sofa", (0.0, 5.0), (2.0, 0.9, 0.8)),
+    )
+    got = choose_headings(items, 0.0, lambda i, k: (0.0, items[i].centre, items[i].size))
+    assert _front(got["wardrobe"].yaw) == (-1, 0)
+    assert got["wardrobe"].reason == "backs onto the wall"
+
+
+def test_a_strong_box_fit_decides_the_axis() -> None:
+    items = _items(("desk", "desk", (0.0, 3.0), (1.2, 0.6, 0.75)))
+    got = choose_headings(items, 0.0, lambda i, k: (0.0 if k % 2 == 1 else 400.0, items[i].centre, items[i].size))
+    assert got["desk"].quarter % 2 == 1
+
+
+# -- scoring against the truth ----------------------------------------------------------------------
+
+
+def test_score_against_truth_compares_in_the_camera_frame_modulo_symmetry() -> None:
+    truth = _truth("demo_bedroom")
+    pose = np.array(truth["camera"]["world_from_camera"]).reshape(4, 4)
+    rot, origin = pose[:3, :3], pose[:3, 3]
+    objects = []
+    for o in truth["objects"]:
+        if o["id"] not in ("bed", "rug", "plant"):
+            continue
+        yaw = math.radians(o["yaw_deg"] + (90.0 if o["id"] == "bed" else 180.0))
+        c, s = math.cos(yaw), math.sin(yaw)
+        world_rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        shift = np.array([0.3, 0.0, 0.0]) if o["id"] == "bed" else np.zeros(3)
+        objects.append(
+            LiftedObject(
+                o["id"], o["category"], "floor", rot.T @ (np.array(o["position"]) + shift - origin), rot.T @ world_rot, tuple(o["extents"])
+            )
+        )
+    up = rot.T @ np.array([0.0, 0.0, 1.0])
+    score = score_against_truth(Reconstruction(objects, floor_up=up, camera_height=1.6), truth, 1.62)
+    by_id = {o.id: o for o in score.objects}
+    assert abs(by_id["bed"].position_error_m - 0.3) < 1e-6 and abs(by_id["bed"].heading_error_deg - 90.0) < 1e-6  # type: ignore[operator]
+    assert by_id["rug"].heading_error_deg is not None and by_id["rug"].heading_error_deg < 1e-6  # a half turn of a rug is no error
+    assert by_id["plant"].heading_error_deg is None
+    assert score.tilt_deg < 1e-6 and abs(score.camera_height_error_m - 0.02) < 1e-9
+    assert heading_symmetry("dining_table", (1.6, 0.9, 0.75)) == 2 and heading_symmetry("coffee_table", (0.8, 0.8, 0.4)) == 4
+    assert heading_symmetry("double_bed") == 1 and heading_symmetry("pendant_lamp") == 0
+
+
+def test_wall_object_hangs_on_the_wall_behind_wall_furniture() -> None:
+    """The television of the demo's second view hangs on the wall the desk backs onto."""
+    truth = _truth("demo_bedroom_b")
+    result = _read("demo_bedroom_b")
+    assert result.report["on_walls"] == {"tv": "desk"}
+    score = score_against_truth(result.reconstruction, truth, float(result.report["camera_height_m"]))
+    tv = next(o for o in score.objects if o.id == "tv")
+    assert tv.position_error_m < 0.3 and tv.heading_error_deg is not None and tv.heading_error_deg < 20.0
+
+
+def test_cut_ceiling_lamp_hangs_over_the_bed() -> None:
+    """A ceiling lamp cut by the top and the right of the picture: its box leaves its depth
+    free, and it hangs over the bed in view."""
+    truth = _truth("v_11659_lamp")
+    result = _read("v_11659_lamp")
+    assert result.report["hangs_over"] == {"ceiling_lamp_0": "double_bed_0"}
+    boxes = {o.id: o.box for o in result.inventory}
+    score = score_against_truth(result.reconstruction, truth, float(result.report["camera_height_m"]), boxes)
+    lamp = next(o for o in score.objects if o.id == "ceiling_lamp_0")
+    assert lamp.cut and lamp.position_error_m < 0.5
