@@ -22,6 +22,7 @@ def _generate(server: FaultServer, dining: Path, out: Path, tmp_path: Path, *ext
     return run_cli(args, tmp_path, timeout=timeout)
 
 
+@pytest.mark.long  # about 18 s each: CI runs them with `make test-houses`
 @pytest.mark.parametrize("mode", FAST_MODES)
 def test_a_faulty_server_gives_a_degraded_scene_not_a_failed_run(mode: str, tmp_path: Path, dining: Path) -> None:
     out = tmp_path / "out"
@@ -39,6 +40,7 @@ def test_a_faulty_server_gives_a_degraded_scene_not_a_failed_run(mode: str, tmp_
     assert done.seconds < 45, f"{mode}: {done.seconds:.0f} s"
 
 
+@pytest.mark.long  # about 50 s: CI runs it with `make test-houses`
 def test_a_hung_server_is_bounded_by_the_request_timeout_and_the_deadline(tmp_path: Path, dining: Path) -> None:
     out = tmp_path / "out"
     with FaultServer("hang") as server:
