@@ -34,7 +34,7 @@ from scenemosaic._logging import configure_logging, flush_logs
 from scenemosaic.batch import SUMMARY_FILE, BatchSummary, JobRecord, load_manifest, run_batch
 from scenemosaic.exceptions import SceneMosaicError
 from scenemosaic.pipeline import SETTINGS, GenerateConfig, GenerateResult, SettingsError
-from scenemosaic.scene import House, RunFolder, Scene
+from scenemosaic.scene import House, RunFolder, Scene, write_atomic
 
 __all__ = ["app", "main"]
 
@@ -823,7 +823,7 @@ def render(
             _err.print(f"[red]error:[/red] --unit needs one room: add --room ({escape(', '.join(loaded.room_ids))})")
             raise typer.Exit(code=EXIT_BAD_INPUT)
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_bytes(render_house_plan(loaded, base_dir=base_dir, size_px=size))
+        write_atomic(out, render_house_plan(loaded, base_dir=base_dir, size_px=size))
         _out.print(str(out), markup=False, highlight=False)
         return
     scene = loaded
@@ -849,7 +849,7 @@ def render(
         _err.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_bytes(png)
+    write_atomic(out, png)
     _out.print(str(out), markup=False, highlight=False)
 
 
@@ -953,7 +953,7 @@ def schema(
     if out is None:
         typer.echo(text, nl=False)
     else:
-        out.write_text(text, encoding="utf-8")
+        write_atomic(out, text)
 
 
 def main() -> None:

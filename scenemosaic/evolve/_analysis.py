@@ -604,6 +604,41 @@ def layout_faces(layout: UnitLayout, piece: str, target: str) -> bool:
     return points_at(np.asarray(layout.center(piece)), _facing(layout.rotation(piece)), Polygon(layout.polygon(target)), np.asarray(layout.center(target)))
 
 
+def _slide_to_face(layout: UnitLayout, ctx: UnitContext, piece: str, faced: str) -> tuple[str, Target] | None:
+    """Two wall pieces that no longer face each other (a sofa and its TV stand): the TV stand (or,
+    failing that, the other piece) slid along its wall to where the line along the other's front
+    meets that wall, when the move is clean. ``None`` when neither can go there."""
+    order = sorted((piece, faced), key=lambda k: (layout.object(k).category not in ("tv_stand", "television"), k))
+    for mover in order:
+        other = faced if mover == piece else piece
+        if mover in ctx.pinned:
+            continue
+        ok, wall = wall_status(layout, ctx, mover)
+        if not ok or wall is None:
+            continue
+        c, f = np.asarray(layout.center(other)), _facing(layout.rotation(other))
+        denom = float(f @ np.asarray(wall.inward))
+        if abs(denom) < 1e-6:
+            continue
+        t = float((np.asarray(wall.a) - c) @ np.asarray(wall.inward)) / denom
+        if t <= 0:
+            continue
+        hit = c + f * t
+        here = np.asarray(layout.center(mover))
+        shift = float((hit - here) @ wall.tangent) * wall.tangent
+        lo, hi = wall.along(layout.polygon(mover) + shift)
+        if lo < 0 or hi > wall.length:
+            shift = shift - (min(lo, 0.0) + max(hi - wall.length, 0.0)) * wall.tangent
+        moved = layout.polygon(mover) + shift
+        if _blocked(layout, ctx, mover, moved, other):
+            continue
+        trial = layout.copy()
+        trial.set_center(mover, float(here[0] + shift[0]), float(here[1] + shift[1]))
+        if layout_faces(trial, piece, faced):
+            return mover, Target(float(here[0] + shift[0]), float(here[1] + shift[1]))
+    return None
+
+
 def _faces_wall(layout: UnitLayout, ctx: UnitContext, oid: str) -> WallLine | None:
     poly = layout.polygon(oid)
     f = _facing(layout.rotation(oid))
@@ -941,7 +976,17 @@ def find_problems(
             if piece not in ids or faced not in ids or layout_faces(layout, piece, faced):
                 continue
             if piece in ctx.against_wall or piece in ctx.pinned or ctx.frozen_rotation:
-                out.append(Finding("faces_group", (piece, faced), "soft", f"({piece}) no longer faces ({faced}); turn or move them to face each other again."))
+                slide = _slide_to_face(layout, ctx, piece, faced)
+                if slide is None:
+                    out.append(Finding("faces_group", (piece, faced), "soft", f"({piece}) no longer faces ({faced}); turn or move them to face each other again."))
+                else:
+                    mover, target = slide
+                    out.append(
+                        Finding(
+                            "faces_group", (piece, faced), "semantic",
+                            f"Slide ({mover}) along its wall until ({piece}) and ({faced}) face each other again.", {mover: target},
+                        )
+                    )  # fmt: skip
                 continue
             way = np.asarray(layout.center(faced)) - np.asarray(layout.center(piece))
             out.append(

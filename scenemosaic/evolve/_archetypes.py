@@ -409,10 +409,10 @@ def _rearranged(
     return out
 
 
-def _displaced(piece: str, wall_id: str) -> Callable[[UnitLayout, UnitContext], Placement]:
+def _displaced(piece: str, wall_id: str, where: str = "middle") -> Callable[[UnitLayout, UnitContext], Placement]:
     """``piece`` and its group carried to ``wall_id`` (a bed to another wall with its
-    nightstands): to its middle, else to either end, and every wall piece standing there
-    re-placed (:func:`_rearranged`). Free-standing pieces and other units' objects stay
+    nightstands): to its middle, else to either end (``where="middle"``), or as near its end
+    ``a`` or ``b`` as it fits, and every wall piece standing there re-placed (:func:`_rearranged`). Free-standing pieces and other units' objects stay
     and are never covered; when a displaced piece finds no place the arrangement is the current
     one (and is not offered)."""
 
@@ -428,7 +428,9 @@ def _displaced(piece: str, wall_id: str) -> Callable[[UnitLayout, UnitContext], 
         top = max(layout.span(m)[1] for m in grouped)
         fixed += [poly for o, poly in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < top]
 
-        for near in (np.asarray(wall.a) + np.asarray(wall.b)) / 2, np.asarray(wall.a), np.asarray(wall.b):
+        middle, a, b = (np.asarray(wall.a) + np.asarray(wall.b)) / 2, np.asarray(wall.a), np.asarray(wall.b)
+        tries = {"middle": (middle, a, b), "a": (a,), "b": (b,)}[where]
+        for near in tries:
             found = _rearranged(layout, ctx, piece, wall, own, near, wall_pieces, fixed)
             if found is not None:
                 return {**current, **found}
@@ -439,21 +441,28 @@ def _displaced(piece: str, wall_id: str) -> Callable[[UnitLayout, UnitContext], 
 
 def _displacements(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     """Every wall piece's group carried to the middle of each other wall, the pieces there
-    re-placed (:func:`_displaced`), the largest pieces first."""
-    out: list[tuple[float, str, RuleArchetype]] = []
+    re-placed (:func:`_displaced`), the largest pieces first; then the same toward either end of
+    every wall, its own included (a bed slid to a corner frees the middle of the room)."""
+    out: list[tuple[float, int, str, RuleArchetype]] = []
     for piece in sorted(ctx.against_wall - set(ctx.nightstand_bed) - set(ctx.pinned)):
         if any(k in ctx.pinned for k in _group(ctx, piece)):
             continue
         _, own = wall_status(layout, ctx, piece)
         cat = layout.object(piece).category
+        area = -float(Polygon(layout.polygon(piece)).area)
         for wall in ctx.walls:
-            if own is None or wall.id == own.id:
+            if own is None:
                 continue
-            lid = f"displaced_{piece}_{wall.id}"[:40]
-            reason = f"the {cat} ({piece}) and its group moved to the middle of the wall ({wall.id}); what stood there takes another place along the walls"
-            out.append((-float(Polygon(layout.polygon(piece)).area), lid, RuleArchetype(lid, f"{cat} on the {wall.id} wall, the rest rearranged", reason, _displaced(piece, wall.id))))
-    out.sort(key=lambda x: (x[0], x[1]))
-    return [r for _, _, r in out]
+            if wall.id != own.id:
+                lid = f"displaced_{piece}_{wall.id}"[:40]
+                reason = f"the {cat} ({piece}) and its group moved to the middle of the wall ({wall.id}); what stood there takes another place along the walls"
+                out.append((area, 0, lid, RuleArchetype(lid, f"{cat} on the {wall.id} wall, the rest rearranged", reason, _displaced(piece, wall.id))))
+            for end in ("a", "b"):
+                lid = f"displaced_{piece}_{wall.id}{end}"[:40]
+                reason = f"the {cat} ({piece}) and its group moved toward one end of the wall ({wall.id}), freeing the rest of the floor; what stood there takes another place along the walls"
+                out.append((area, 1, lid, RuleArchetype(lid, f"{cat} toward a corner of the {wall.id} wall", reason, _displaced(piece, wall.id, end))))
+    out.sort(key=lambda x: (x[1], x[0], x[2]))
+    return [r for *_, r in out]
 
 
 def _slides(layout: UnitLayout, ctx: UnitContext, table: str, scattered: bool) -> list[RuleArchetype]:

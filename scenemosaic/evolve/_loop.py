@@ -53,7 +53,15 @@ from scenemosaic.evolve._memory import LayoutMemory, RoundRecord
 from scenemosaic.evolve._views import scene_with, unit_view_png
 from scenemosaic.models import Model, ModelSettings, Usage
 from scenemosaic.physics import ObjectShape, SettleSettings, SimSettings, UnitPlan, settle_unit
-from scenemosaic.scene import LayoutState2D, Pose, Scene, UnitLayout, normalize_degrees, unit_layout
+from scenemosaic.scene import (
+    LayoutState2D,
+    Pose,
+    Scene,
+    UnitLayout,
+    normalize_degrees,
+    unit_layout,
+    write_atomic,
+)
 
 __all__ = ["EARLY_STOP_MOVE_M", "EARLY_STOP_TURN_DEG", "MAX_ROUNDS", "LayoutResult", "evolve_layout"]
 
@@ -219,7 +227,7 @@ async def evolve_layout(
             return
         views_dir.mkdir(parents=True, exist_ok=True)
         path = views_dir / f"{name}.png"
-        path.write_bytes(view(state.layout))
+        write_atomic(path, view(state.layout))
         result.views.append(str(path))
 
     if archetype is not None:

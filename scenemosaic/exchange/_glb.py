@@ -37,7 +37,7 @@ from scenemosaic.render import (
     wall_mesh,
     wall_pieces,
 )
-from scenemosaic.scene import House, Room, Scene
+from scenemosaic.scene import House, Room, Scene, write_atomic
 
 __all__ = [
     "GLB_ROOT_NODE",
@@ -178,7 +178,7 @@ def export_glb(scene: Scene, path: str | Path, base_dir: Path | None = None) -> 
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     data: bytes = build_glb_scene(scene, base_dir).export(file_type="glb")  # type: ignore[no-untyped-call]
-    path.write_bytes(data)
+    write_atomic(path, data)
     log.info("glb_exported", path=str(path), objects=len(scene.objects), bytes=len(data))
     return path
 
@@ -196,7 +196,7 @@ def export_house_glb(house: House, path: str | Path, base_dir: Path | None = Non
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     data: bytes = build_house_glb_scene(house, base_dir).export(file_type="glb")  # type: ignore[no-untyped-call]
-    path.write_bytes(data)
+    write_atomic(path, data)
     log.info(
         "glb_exported", path=str(path), rooms=len(house.rooms), objects=len(house.objects), bytes=len(data)
     )

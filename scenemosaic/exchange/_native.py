@@ -26,7 +26,6 @@ import hashlib
 import json
 import os
 import re
-import shutil
 from collections.abc import Sequence
 from pathlib import Path, PurePosixPath
 from typing import Any
@@ -242,7 +241,7 @@ def copy_mesh(src: Path, folder: Path, object_id: str, subfolder: str = ASSETS_D
         if to_path == from_path:
             continue  # saving a scene into the folder it was read from
         to_path.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(from_path, to_path)
+        write_atomic(to_path, from_path.read_bytes())  # never through a symlink planted at ``to_path``
     return (rel_dir / src.name).as_posix()
 
 

@@ -61,7 +61,7 @@ from scenemosaic.physics import (
     room_slabs,
 )
 from scenemosaic.render import CEILING_COLOR, FLOOR_COLOR, WALL_COLOR, category_color
-from scenemosaic.scene import FloatArray, House, Scene, SceneObject, quat_to_matrix
+from scenemosaic.scene import FloatArray, House, Scene, SceneObject, quat_to_matrix, write_atomic
 
 __all__ = [
     "SDF_SCENE_FILE",
@@ -291,14 +291,12 @@ def _write_obj(mesh: trimesh.Trimesh, path: Path) -> None:
     plain = trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.faces, process=False)
     text = plain.export(file_type="obj", include_normals=False, include_texture=False)
     assert isinstance(text, str)  # trimesh returns OBJ as text
-    path.write_text(text, encoding="utf-8")
+    write_atomic(path, text)
 
 
 def _write_xml(robot: ET.Element, path: Path) -> None:
     ET.indent(robot)
-    path.write_text(
-        '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n", encoding="utf-8"
-    )
+    write_atomic(path, '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n")
 
 
 def _free_name(candidate: str, taken: set[str]) -> str:

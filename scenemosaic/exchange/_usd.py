@@ -31,6 +31,7 @@ walls once, and its ceiling, :func:`scenemosaic.physics.house_slabs`) and ``Obje
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 from typing import Any
@@ -128,8 +129,13 @@ class _Writer:
     def save(self, layer: Any, path: Path) -> None:
         """Write ``layer`` to ``path``; a copy of that file already open in this process is reloaded."""
         path.parent.mkdir(parents=True, exist_ok=True)
-        if not layer.Export(str(path)):
-            raise OSError(f"USD could not write {path}")
+        tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")  # USD picks the format by suffix
+        try:
+            if not layer.Export(str(tmp)):
+                raise OSError(f"USD could not write {path}")
+            os.replace(tmp, path)  # atomic, and never through a symlink at ``path``
+        finally:
+            tmp.unlink(missing_ok=True)
         opened = self.Sdf.Layer.Find(str(path))
         if opened is not None:
             opened.Reload()

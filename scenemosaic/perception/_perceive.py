@@ -13,7 +13,6 @@ from __future__ import annotations
 import asyncio
 import inspect
 import json
-import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -302,7 +301,7 @@ def _write_seen(folder: Path, image: SceneImage, inventory: list[DetectedObject]
     folder.mkdir(parents=True, exist_ok=True)
     target = folder / f"photo{image.path.suffix.lower()}"
     if image.path.resolve() != target.resolve():
-        shutil.copyfile(image.path, target)
+        write_atomic(target, Path(image.path).read_bytes())
     write_atomic(folder / "inventory.json", Inventory(objects=inventory).model_dump_json(indent=2).encode("utf-8"))
     (folder / "masks").mkdir(exist_ok=True)
     for o in inventory:

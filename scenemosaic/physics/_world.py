@@ -40,7 +40,7 @@ from scenemosaic.render import (
     wall_ends,
     wall_pieces,
 )
-from scenemosaic.scene import FloatArray, House, Room, SceneObject, Wall
+from scenemosaic.scene import FloatArray, House, Room, SceneObject, Wall, write_atomic
 
 __all__ = [
     "MJCF_MESH_DIR",
@@ -501,11 +501,13 @@ class WorldBuilder:
             else:
                 faces = np.array(faces_text.split(), dtype=np.int64).reshape(-1, 3)
                 tm = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
-            tm.export(mesh_dir / f"{name}.obj")
+            obj_text = tm.export(file_type="obj")
+            assert isinstance(obj_text, str)  # trimesh writes OBJ as text
+            write_atomic(mesh_dir / f"{name}.obj", obj_text)
             mesh.set("file", f"{name}.obj")
         ET.indent(root)
         path = out_dir / "scene.xml"
-        path.write_text(ET.tostring(root, encoding="unicode") + "\n", encoding="utf-8")
+        write_atomic(path, ET.tostring(root, encoding="unicode") + "\n")
         return path
 
     def compile(self) -> BuiltWorld:

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import io
 from collections.abc import Sequence
 from pathlib import Path
+
+from scenemosaic.scene import write_atomic
 
 __all__ = ["contact_sheet"]
 
@@ -44,5 +47,7 @@ def contact_sheet(
                 tile = tile.resize((tile_px, tile_px))
             sheet.paste(tile, (x, y + LABEL_PX))
         draw.text((x + 10, y + 6), label, fill=(25, 25, 30), font=font)
-    sheet.save(target)
+    buf = io.BytesIO()
+    sheet.save(buf, format="PNG")
+    write_atomic(target, buf.getvalue())
     return target
