@@ -1151,8 +1151,9 @@ def rule_violations(layout: UnitLayout, ctx: UnitContext, check: PhysicalCheck) 
     """The hard rules a finished layout must keep, as sentences (empty when all hold):
     no collisions, nothing out of bounds, wall pieces backed within 5 cm and facing in within
     10°, seats seated by the etiquette (:func:`seating_breaches`; facing their table within 15°
-    where the table has no slot plan), nightstands beside their bed's head, lounge pieces still
-    facing what they faced (``ctx.keep_facing``)."""
+    where the table has no slot plan), nightstands beside their bed's head, free-standing lounge
+    pieces still facing what they faced (``ctx.keep_facing``; two wall pieces that no longer face
+    each other are the composition's to refuse)."""
     out = [f"collision {p.a} ~ {p.b} ({p.depth_m * 100:.1f} cm)" for p in check.collisions]
     out += [f"{k} out of bounds" for k in check.out_of_bounds]
     if ctx.floor and ctx.walls:
@@ -1178,6 +1179,7 @@ def rule_violations(layout: UnitLayout, ctx: UnitContext, check: PhysicalCheck) 
                     out.append(f"{seat} does not face {table}")
         ids = set(layout.ids)
         for piece, target in sorted(ctx.keep_facing):
-            if piece in ids and target in ids and not layout_faces(layout, piece, target):
+            free = piece not in ctx.against_wall and piece not in ctx.pinned
+            if free and piece in ids and target in ids and not layout_faces(layout, piece, target):
                 out.append(f"{piece} no longer faces {target}")
     return out

@@ -43,6 +43,8 @@ from scenemosaic.scene import (
     cut_off_doors,
     door_blockers,
     door_zones,
+    functional_holds,
+    functional_relations,
     wall_crossings,
     write_atomic,
 )
@@ -297,9 +299,13 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     blocked = {b.object_id for b in await asyncio.to_thread(door_blockers, scene)}
     cut = set(await asyncio.to_thread(cut_off_doors, scene))
     crossing = {oid for _, oid, _ in await asyncio.to_thread(wall_crossings, scene)}
+    relations = await asyncio.to_thread(functional_relations, scene)
 
     def walkable(candidate: Scene) -> bool:
-        """As connected a walkable floor as the base; no door blocked, no object across a wall anew."""
+        """As connected a walkable floor as the base; no door blocked, no object across a wall anew;
+        every functional relation of the base kept (a sofa still facing its TV, a lamp over its table)."""
+        if not all(functional_holds(candidate, r) for r in relations):
+            return False
         if nav(candidate) < share or not {b.object_id for b in door_blockers(candidate)} <= blocked:
             return False
         if not {oid for _, oid, _ in wall_crossings(candidate)} <= crossing:
