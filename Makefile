@@ -13,9 +13,11 @@ EDITABLE := --config-settings editable_mode=compat
 
 .PHONY: demo test test-houses lint typecheck bench clean
 
+# --no-compile: no bytecode for the whole of every dependency up front (Python compiles what it
+# imports on first use): the demo's environment is 346 MB instead of 438 MB, and installs faster.
 $(BASE_STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e . $(EDITABLE)
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check --no-compile -e . $(EDITABLE)
 	touch $(BASE_STAMP)
 
 $(STAMP): pyproject.toml
