@@ -183,8 +183,9 @@ def _beside(stand: SceneObject, bed: SceneObject) -> float | None:
 
 
 def _under_group(piece: SceneObject, leaders: Sequence[SceneObject]) -> list[SceneObject]:
-    grown = Point(_xy(piece))
-    return [o for o in leaders if o.id != piece.id and _foot(o).buffer(OVER_MARGIN_M).contains(grown)]
+    """The leaders whose footprint, grown by ``OVER_MARGIN_M``, holds the piece's centre."""
+    centre = Point(_xy(piece))
+    return [o for o in leaders if o.id != piece.id and _foot(o).buffer(OVER_MARGIN_M).contains(centre)]
 
 
 def _group_of(rug: SceneObject, leaders: Sequence[SceneObject]) -> list[SceneObject]:
@@ -205,7 +206,8 @@ def functional_relations(scene: Scene) -> list[Functional]:
         r = scene.support_of(o.id)
         parent = r.parent if r is not None else FLOOR
         cat = _cat(o)
-        hanging = parent == CEILING or cat in _HANGING
+        # what hangs from the ceiling (in a scene not yet structured: a lamp of a hanging kind), not a lamp on a table
+        hanging = parent == CEILING or (r is None and cat in _HANGING)
         on_wall = parent not in (FLOOR, CEILING) and scene.anchor_kind(parent) == "wall" and cat in _WALL_OVER
         if hanging or on_wall:
             below = [g for g in _under_group(o, leaders) if float(g.aabb()[1][2]) <= float(o.aabb()[0][2]) + 0.05]
