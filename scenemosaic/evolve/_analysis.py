@@ -569,8 +569,8 @@ def seating_breaches(layout: UnitLayout, ctx: UnitContext, table: str, seats: Se
 
 
 def _seat_target(layout: UnitLayout, ctx: UnitContext, seat: str, table: str) -> Target | None:
-    """Pull a far seat up to its table along the way to it; when that is blocked, the nearest
-    free place around the table. ``None`` when neither is clean."""
+    """Pull a far seat up to its table along the way to it (used only where the table has no
+    slot plan: :func:`_legacy_seat`). ``None`` when no pull-up is clean."""
     d = table_direction(layout, seat, table)
     gap = float(Polygon(layout.polygon(seat)).distance(Polygon(layout.polygon(table))))
     if d is not None:
@@ -579,9 +579,7 @@ def _seat_target(layout: UnitLayout, ctx: UnitContext, seat: str, table: str) ->
             if not _blocked(layout, ctx, seat, moved, table):
                 c = np.asarray(layout.center(seat)) + d * (gap - keep)
                 return Target(float(c[0]), float(c[1]), facing_degrees(d))
-    seats = sorted(k for k, t in ctx.seat_table.items() if t == table)
-    slot = seat_slots(layout, ctx, table, seats).get(seat)
-    return None if slot is None else Target(slot.u, slot.v, slot.rotation)
+    return None
 
 
 def table_direction(layout: UnitLayout, seat: str, table: str) -> FloatArray | None:

@@ -251,21 +251,28 @@ class _Room:
         return self.region.covers(zone) and not self.blocked.intersects(zone)
 
 
-def _spot(layout: UnitLayout, ctx: UnitContext, piece: str, wall: WallLine) -> Placement | None:
-    """The piece backed against ``wall`` with its group carried along, at the free place farthest
-    from where it stands (every member on the surface, the group and a ``FRONT_CLEARANCE`` strip
-    in front of the piece clear of everything else by ``MOVE_MARGIN``); ``None`` when no place fits."""
-    room = _Room(layout, ctx, _group(ctx, piece))
-    here = np.asarray(layout.center(piece))
+def _wall_positions(layout: UnitLayout, piece: str, wall: WallLine) -> tuple[float, list[np.ndarray]]:
+    """The turn that backs ``piece`` against ``wall`` and the centres it may take along it, every
+    ``MOVE_STEP``, its back flush and its span within the wall."""
     turn = normalize_degrees(wall.facing - layout.rotation(piece))
     trial = layout.copy()
     trial.set_rotation(piece, wall.facing)
     poly = trial.polygon(piece)
     back = (WALL_FLUSH_GAP - wall.gap(poly)) * np.asarray(wall.inward)
     lo, hi = wall.along(poly + back)
+    start = np.asarray(trial.center(piece)) + back
+    return turn, [start + t * wall.tangent for t in np.arange(-lo, wall.length - hi + 1e-9, MOVE_STEP)]
+
+
+def _spot(layout: UnitLayout, ctx: UnitContext, piece: str, wall: WallLine) -> Placement | None:
+    """The piece backed against ``wall`` with its group carried along, at the free place farthest
+    from where it stands (every member on the surface, the group and a ``FRONT_CLEARANCE`` strip
+    in front of the piece clear of everything else by ``MOVE_MARGIN``); ``None`` when no place fits."""
+    room = _Room(layout, ctx, _group(ctx, piece))
+    here = np.asarray(layout.center(piece))
+    turn, positions = _wall_positions(layout, piece, wall)
     best: tuple[float, Placement] | None = None
-    for t in np.arange(-lo, wall.length - hi + 1e-9, MOVE_STEP):
-        to = np.asarray(trial.center(piece)) + back + t * wall.tangent
+    for to in positions:
         dist = float(np.linalg.norm(to - here))
         if dist < MOVE_MIN_M or (best is not None and dist <= best[0]):
             continue
@@ -343,15 +350,9 @@ def _wall_place(
     members = _group(ctx, piece)
     region = Polygon(ctx.surface.region).buffer(-0.005, join_style="mitre")
     here = np.asarray(layout.center(piece))
-    turn = normalize_degrees(wall.facing - layout.rotation(piece))
-    trial = layout.copy()
-    trial.set_rotation(piece, wall.facing)
-    poly = trial.polygon(piece)
-    back = (WALL_FLUSH_GAP - wall.gap(poly)) * np.asarray(wall.inward)
-    lo, hi = wall.along(poly + back)
+    turn, positions = _wall_positions(layout, piece, wall)
     best: tuple[float, Placement, list[Polygon]] | None = None
-    for t in np.arange(-lo, wall.length - hi + 1e-9, MOVE_STEP):
-        to = np.asarray(trial.center(piece)) + back + t * wall.tangent
+    for to in positions:
         key = float(np.linalg.norm(to - near))
         if best is not None and key >= best[0]:
             continue

@@ -18,7 +18,7 @@ Thresholds are named here and documented in ``docs/evolution.md``.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -93,9 +93,6 @@ class Functional:
         """Whether the subject moves with its leader (``over`` and ``under``)."""
         return self.kind in ("over", "under")
 
-    def describe(self) -> str:
-        """The relation in words, for reports and notes."""
-        return f"{self.subject} {self.kind} {'+'.join(self.group)}"
 
 
 def _cat(o: SceneObject) -> str:
@@ -346,11 +343,3 @@ def _rot(a: float) -> FloatArray:
 
 def _turned(q: tuple[float, float, float, float], turn: float) -> tuple[float, float, float, float]:
     return quat_multiply(quat_from_yaw(turn), q)
-
-
-def relations_by_kind(relations: Iterable[Functional]) -> Mapping[str, list[Functional]]:
-    """The relations grouped by kind, every kind present (empty lists for absent kinds)."""
-    out: dict[str, list[Functional]] = {k: [] for k in FUNCTIONAL_KINDS}
-    for r in relations:
-        out[r.kind].append(r)
-    return out
