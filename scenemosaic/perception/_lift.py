@@ -20,6 +20,7 @@ import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import structlog
@@ -660,9 +661,9 @@ def _fit_sd(x: FloatArray, residuals: Callable[[FloatArray], FloatArray]) -> Flo
     return out
 
 
-def _line_segments(image: SceneImage) -> FloatArray | None:
-    """Straight segments (n, 4: x1, y1, x2, y2, the photograph's pixels) found by OpenCV's line
-    segment detector (sub-pixel), at least 4 % of the longer side long; ``None`` without OpenCV."""
+def _gray(image: SceneImage) -> tuple[Any, np.ndarray, float] | None:
+    """OpenCV, the photograph in grey at most 1024 px on its longer side, and that scale; ``None``
+    without OpenCV. The one preparation of the edge readers."""
     try:
         import cv2
     except ImportError:
@@ -671,6 +672,16 @@ def _line_segments(image: SceneImage) -> FloatArray | None:
     scale = min(1.0, 1024.0 / max(gray.shape))
     if scale < 1.0:
         gray = cv2.resize(gray, (round(gray.shape[1] * scale), round(gray.shape[0] * scale)), interpolation=cv2.INTER_AREA)
+    return cv2, gray, scale
+
+
+def _line_segments(image: SceneImage) -> FloatArray | None:
+    """Straight segments (n, 4: x1, y1, x2, y2, the photograph's pixels) found by OpenCV's line
+    segment detector (sub-pixel), at least 4 % of the longer side long; ``None`` without OpenCV."""
+    prepared = _gray(image)
+    if prepared is None:
+        return None
+    cv2, gray, scale = prepared
     found = cv2.createLineSegmentDetector().detect(gray)[0]
     if found is None:
         return np.zeros((0, 4))
@@ -765,14 +776,10 @@ def _room_direction(image: SceneImage, camera: Camera, pose: CameraPose) -> tupl
     edge keeps its direction there at any height; vertical edges, which fall onto lines through
     the camera's foot, are left out); and the share of edge length that agrees within 5 degrees.
     ``None`` without OpenCV or without enough edges."""
-    try:
-        import cv2
-    except ImportError:
+    prepared = _gray(image)
+    if prepared is None:
         return None
-    gray = cv2.cvtColor(image.pixels, cv2.COLOR_RGB2GRAY)
-    scale = min(1.0, 1024.0 / max(gray.shape))
-    if scale < 1.0:
-        gray = cv2.resize(gray, (round(gray.shape[1] * scale), round(gray.shape[0] * scale)), interpolation=cv2.INTER_AREA)
+    cv2, gray, scale = prepared
     edges = cv2.Canny(gray, 50, 150)
     lines = cv2.HoughLinesP(edges, 1, np.pi / 360, threshold=50, minLineLength=max(20, int(0.05 * gray.shape[1])), maxLineGap=4)
     if lines is None:
