@@ -379,7 +379,8 @@ def compose_house(
         report.not_accepted += 1
         return False
 
-    sel: Selection = select_diverse(pool, m, alpha=alpha, valid=valid, max_candidates=max_candidates, seed=seed)
+    # the method's plain max-min on N: the tie band breaks near ties by footprint, which a house's pool has not
+    sel: Selection = select_diverse(pool, m, alpha=alpha, tie_band=0.0, valid=valid, max_candidates=max_candidates, seed=seed)
     _selection_figures(report, sel)
     variants: list[list[Scene]] = []
     for choice in sel.picked[1:]:

@@ -29,6 +29,7 @@ __all__ = [
     "CHUNK",
     "MAX_ENUMERATED",
     "OCCUPANCY_WEIGHT",
+    "TIE_BAND",
     "VETO_MAX_ROWS",
     "CandidatePool",
     "GroupVariants",
@@ -77,12 +78,18 @@ class _Tables:
     norm: float
 
 
-OCCUPANCY_WEIGHT = 1.0
+OCCUPANCY_WEIGHT = 2.0
 """Weight of the footprint term added to the novelty distance in a room's selection:
 ``N + OCCUPANCY_WEIGHT * (1 - IoU)`` of the two candidates' top-down occupancy. A deliberate
 addition to the method (``docs/composition.md``): N alone ranks a mirror image of a symmetric
 room as very novel though a person sees the same room; the footprint term prefers variants that
 put furniture on other floor."""
+TIE_BAND = 0.2
+"""Candidates whose minimum distance to the selected set is within this fraction of the largest
+count as near ties in :func:`select_diverse`, and the one whose footprint overlaps least, in
+sum, with the variants already selected is taken. A deliberate refinement of the method's max-min (``docs/composition.md``):
+every variant of a small room is far from the original, and plain max-min then takes several
+that are far from the original but close to each other (three beds on one wall)."""
 _OCC_BLOCK = 2048
 _POPCOUNT = np.array([bin(i).count("1") for i in range(256)], dtype=np.int64)
 
@@ -192,6 +199,17 @@ class CandidatePool:
                 out[start : start + len(c)] += OCCUPANCY_WEIGHT * (1.0 - self._iou(ref, c))
         return out
 
+    def footprint_distances(self, ref: Sequence[int], choices: np.ndarray) -> FloatArray | None:
+        """1 - IoU of ``ref``'s top-down occupancy with each candidate's (``choices`` as in
+        :meth:`distances`); ``None`` without occupancy."""
+        if self.occupancy is None:
+            return None
+        out = np.empty(len(choices), dtype=np.float64)
+        for start in range(0, len(choices), CHUNK):
+            c = choices[start : start + CHUNK]
+            out[start : start + len(c)] = 1.0 - self._iou(ref, self.choices(c) if c.ndim == 1 else c)
+        return out
+
     def _iou(self, ref: Sequence[int], c: np.ndarray) -> FloatArray:
         """Top-down occupancy IoU of ``ref`` with each candidate of ``c`` ((K, G) choices)."""
         assert self.occupancy is not None
@@ -269,12 +287,16 @@ def select_diverse(
     m: int = 5,
     *,
     alpha: float = ALPHA,
+    tie_band: float = TIE_BAND,
     valid: Callable[[tuple[int, ...]], bool | Veto] | None = None,
     max_candidates: int | None = None,
     seed: int = 0,
 ) -> Selection:
     """Dynamic max-min greedy: start from the original (every group's variant 0); repeatedly add the
-    candidate whose minimum distance to the selected set is largest (ties: the lowest index); when
+    candidate whose minimum distance to the selected set is largest (near ties, within
+    ``tie_band`` of the largest: the one whose footprint overlaps least, in sum, with the variants
+    already selected, the original not counted (N when the pool has no occupancy); exact ties: the
+    lowest index); when
     ``valid`` turns it down (scene-level interpenetration), drop it and take the next; after each
     addition drop every candidate whose minimum distance is below ``alpha`` times the added one's
     (the d_max of that step); stop at ``m`` + 1 scenes or an empty pool.
@@ -295,13 +317,19 @@ def select_diverse(
     rows, sel.sampled = pool.candidates(max_candidates, seed)
     sel.considered = len(rows)
     min_d = pool.distances(origin, rows)
+    sum_d = np.zeros(len(rows), dtype=np.float64)  # summed footprint distance to the variants picked
     alive = np.ones(len(rows), dtype=bool)
     grid = rows if rows.ndim == 2 else (pool.choices(rows) if len(rows) <= VETO_MAX_ROWS else None)
     while len(sel.picked) < m + 1 and alive.any():
-        # the alive rows, farthest first (a stable sort: ties in flat-index order); a rejection
-        # changes no distance, so the next best is the next alive one in this order
+        # the alive rows, farthest first (a stable sort: ties in flat-index order); those within
+        # TIE_BAND of the farthest come first, the farthest from the variants already picked
+        # first among them; a rejection changes no distance, so the next best is the next alive
+        # one in this order
         idx = np.flatnonzero(alive)
         order = idx[np.argsort(-min_d[idx], kind="stable")]
+        near = min_d[order] >= (1.0 - tie_band) * float(min_d[order[0]])
+        head = order[near]
+        order = np.concatenate([head[np.argsort(-sum_d[head], kind="stable")], order[~near]])
         picked = None
         for best in order:
             best = int(best)
@@ -330,7 +358,10 @@ def select_diverse(
         sel.min_distances.append(d_max)
         if alive.any():
             idx = np.flatnonzero(alive)
-            min_d[idx] = np.minimum(min_d[idx], pool.distances(choice, rows[idx]))
+            step = pool.distances(choice, rows[idx])
+            min_d[idx] = np.minimum(min_d[idx], step)
+            apart = pool.footprint_distances(choice, rows[idx])
+            sum_d[idx] += step if apart is None else apart
             low = alive & (min_d < alpha * d_max)
             sel.pruned += int(low.sum())
             alive &= ~low

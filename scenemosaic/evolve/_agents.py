@@ -450,7 +450,7 @@ class ArchetypeAgent(TaskAgent[EvolveState, ArchetypeEvidence, ArchetypeOutput])
             objects=_rows(layout),
             clauses=_clauses(ctx),
             max_alternatives=limit,
-            candidates=[Archetype(layout_id=a.layout_id, layout_style_name=a.style_name, layout_reasoning=a.reasoning) for a in rule_archetypes(layout, ctx)[:limit]],
+            candidates=[Archetype(layout_id=a.layout_id, layout_style_name=a.style_name, layout_reasoning=a.reasoning) for a in rule_archetypes(layout, ctx, limit)],
         )
 
     def solve(self, evidence: ArchetypeEvidence) -> ArchetypeOutput:

@@ -686,6 +686,9 @@ def _separation(
 ) -> tuple[str, Target] | None:
     own = set(layout.ids)
     movers = [k for k in (pair.a, pair.b) if k in own]
+    # a table never makes way for its own seat: carried clear of one chair it would leave the
+    # rest of its seats behind (the seat moves, or takes the least move below)
+    movers = [k for k in movers if not any(ctx.seat_table.get(j) == k for j in (pair.a, pair.b) if j != k and j in own)]
     if not movers:
         return None
     movers.sort(key=lambda k: (k in avoid, _rank(ctx, k, layout), k))

@@ -18,8 +18,12 @@ the same category in the original is the same arrangement, and is skipped):
   as far as they fit clear of the rest (at least 1 m);
 * ``moved_<piece>_<wall>`` — a wall piece and its group (a bed and its nightstands, a desk and
   its chair) carried to another wall, to the free stretch farthest from where it stood: only
-  where the whole group, and the space in front of the piece, fits clear of everything else.
+  where the whole group, and the space in front of the piece, fits clear of everything else;
+* ``displaced_<piece>_<wall>[a|b]`` — a wall piece's group carried to the middle (or an end) of
+  a wall, the wall pieces standing there re-placed;
+* ``displaced2_<wall>_<wall>`` — the two largest wall pieces each displaced to another wall.
 
+With a limit below the number found, the ones most different in footprint are offered.
 The Critic-Actor loop then makes each instantiation valid (walls, facing, collisions, bounds).
 How many are offered follows the method: at most 1 for 1-5 objects, 2 for 6-10, 3 above.
 """
@@ -47,7 +51,7 @@ from scenemosaic.evolve._analysis import (
     wall_status,
 )
 from scenemosaic.evolve._context import UnitContext, WallLine
-from scenemosaic.scene import UnitLayout, normalize_degrees
+from scenemosaic.scene import FloorRaster, UnitLayout, normalize_degrees
 
 __all__ = ["RuleArchetype", "instantiate", "max_alternatives", "rule_archetypes"]
 
@@ -214,8 +218,16 @@ MOVE_MIN_M = 1.0
 """A place counts as another place when the piece's centre moves at least this far, metres."""
 
 
+def _inner_region(ctx: UnitContext) -> Polygon:
+    """The surface a moved piece must stay inside: inset by the flush gap a piece keeps from its
+    wall, less a millimetre, so a piece set flush against a wall (``WALL_FLUSH_GAP``) is inside
+    whatever rounding the wall's coordinates carry (a bed flush on the west wall used to fall
+    0.1 micrometre outside and lose every place along that wall)."""
+    return Polygon(ctx.surface.region).buffer(-(WALL_FLUSH_GAP - 0.001), join_style="mitre")
+
+
 class _Room:
-    """What a moved group must stay clear of: the surface (inset 5 mm) and every solid object it
+    """What a moved group must stay clear of: the surface (inset as :func:`_inner_region`) and every solid object it
     does not bring along, grown by ``MOVE_MARGIN``."""
 
     def __init__(self, layout: UnitLayout, ctx: UnitContext, members: list[str]) -> None:
@@ -226,7 +238,7 @@ class _Room:
         others = [Polygon(layout.polygon(k)) for k in layout.ids if k not in members and k not in ctx.thin]
         others += [poly for o, poly in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < top]
         self.blocked = unary_union([p.buffer(MOVE_MARGIN, join_style="mitre") for p in others]) if others else Polygon()
-        self.region = Polygon(ctx.surface.region).buffer(-0.005, join_style="mitre")
+        self.region = _inner_region(ctx)
         prepare(self.blocked)
         prepare(self.region)
         self.layout = layout
@@ -348,7 +360,7 @@ def _wall_place(
     ``FRONT_CLEARANCE`` strip in front of the piece free too. Returns the members' places and
     the outlines they take (the strip included)."""
     members = _group(ctx, piece)
-    region = Polygon(ctx.surface.region).buffer(-0.005, join_style="mitre")
+    region = _inner_region(ctx)
     here = np.asarray(layout.center(piece))
     turn, positions = _wall_positions(layout, piece, wall)
     best: tuple[float, Placement, list[Polygon]] | None = None
@@ -466,6 +478,34 @@ def _displacements(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     return [r for *_, r in out]
 
 
+def _double_displacements(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
+    """The two largest wall pieces each carried to the middle of another wall (the larger first,
+    then the other from where the first left it): a bed on a new wall and the wardrobe on a third,
+    an arrangement no single move reaches."""
+    pieces = sorted(
+        (k for k in ctx.against_wall - set(ctx.nightstand_bed) - set(ctx.pinned) if not any(m in ctx.pinned for m in _group(ctx, k))),
+        key=lambda k: (-float(Polygon(layout.polygon(k)).area), k),
+    )[:2]
+    if len(pieces) < 2:
+        return []
+    first, second = pieces
+    owns = {k: wall_status(layout, ctx, k)[1] for k in pieces}
+    if any(w is None for w in owns.values()):
+        return []
+    out = []
+    for wa in ctx.walls:
+        if wa.id == owns[first].id:  # type: ignore[union-attr]
+            continue
+        for wb in ctx.walls:
+            if wb.id in (wa.id, owns[second].id):  # type: ignore[union-attr]
+                continue
+            ca, cb = layout.object(first).category, layout.object(second).category
+            lid = f"displaced2_{wa.id}_{wb.id}"[:40]
+            reason = f"the {ca} ({first}) and its group moved to the middle of the wall ({wa.id}), then the {cb} ({second}) to the middle of the wall ({wb.id}); what stood there takes another place along the walls"
+            out.append(RuleArchetype(lid, f"{ca} on the {wa.id} wall, {cb} on the {wb.id} wall", reason, _then(_displaced(first, wa.id), _displaced(second, wb.id))))
+    return out
+
+
 def _slides(layout: UnitLayout, ctx: UnitContext, table: str, scattered: bool) -> list[RuleArchetype]:
     """``slid_<side>_<table>`` for each side the group fits toward; seats standing away from
     their table are gathered around it first (a group spread over the room cannot slide)."""
@@ -523,6 +563,7 @@ def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
             out += seated
         out += _relocations(layout, ctx)
         out += _displacements(layout, ctx)
+        out += _double_displacements(layout, ctx)
         for table in sorted(set(ctx.seat_table.values())):
             if table not in ctx.against_wall:
                 cat = layout.object(table).category
@@ -660,8 +701,49 @@ def _plausible(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:
     return True
 
 
-def rule_archetypes(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
-    """The offline archetypes that differ from the original and from each other, preferred first.
+FOOTPRINT_GRID = 32
+"""Cells along the surface's longer side of the footprint raster that :func:`rule_archetypes`
+compares arrangements on when it must choose among more than it may offer."""
+
+
+def _footprint(layout: UnitLayout, ctx: UnitContext, placed: Placement, raster: FloorRaster) -> np.ndarray:
+    """The cells the solid objects of ``placed`` cover, seen from above."""
+    trial = layout.copy()
+    for k, (u, v, r) in placed.items():
+        trial.set_rotation(k, r)
+        trial.set_center(k, u, v)
+    mask: np.ndarray = raster.blocked([trial.polygon(k) for k in trial.ids if k not in ctx.thin])
+    return mask
+
+
+def _spread(layout: UnitLayout, ctx: UnitContext, kept: list[tuple[RuleArchetype, Placement]], limit: int) -> list[RuleArchetype]:
+    """``limit`` of the ``kept`` arrangements, each the one whose footprint overlaps least (the
+    largest smallest ``1 - IoU``) with the original's and those already chosen; ties go to the
+    earlier (preferred) one. Asked for fewer alternatives than there are, the agent offers
+    arrangements that differ in where things stand, not five beds on one wall."""
+    region = np.asarray(ctx.surface.region, dtype=np.float64)
+    raster = FloorRaster(region, float(max(np.ptp(region, axis=0))) / FOOTPRINT_GRID)
+    maps = [_footprint(layout, ctx, p, raster) for _, p in kept]
+    chosen_maps = [_footprint(layout, ctx, _current(layout), raster)]
+    left = list(range(len(kept)))
+    out: list[RuleArchetype] = []
+
+    def apart(a: np.ndarray, b: np.ndarray) -> float:
+        union = int((a | b).sum())
+        return 1.0 - (float((a & b).sum()) / union if union else 1.0)
+
+    while left and len(out) < limit:
+        best = max(left, key=lambda i: (min(apart(maps[i], m) for m in chosen_maps), -i))
+        left.remove(best)
+        out.append(kept[best][0])
+        chosen_maps.append(maps[best])
+    return out
+
+
+def rule_archetypes(layout: UnitLayout, ctx: UnitContext, limit: int | None = None) -> list[RuleArchetype]:
+    """The offline archetypes that differ from the original and from each other, preferred first;
+    with ``limit`` and more of them than that, the ``limit`` that differ most in footprint
+    (:func:`_spread`), in the order chosen.
 
     A swap whose groups do not fit where they go (a bed and its nightstands on a wall too short
     for them) is not offered, nor a placement the loop could not make right (:func:`_plausible`)."""
@@ -681,6 +763,8 @@ def rule_archetypes(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]
         if not _plausible(layout, ctx, placed):
             continue
         kept.append((cand, placed))
+    if limit is not None and len(kept) > limit:
+        return _spread(layout, ctx, kept, limit)
     return [c for c, _ in kept]
 
 

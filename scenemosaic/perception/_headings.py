@@ -192,7 +192,7 @@ def choose_headings(
         mine = float(it.centre[:2] @ back) + _half_extent(it.size, yaw, back)
         beyond = float(cam @ back) + 0.3
         for j, other in enumerate(items):
-            if j != i:
+            if j != i and not (roles[i] == "bed" and roles[j] == "nightstand"):  # they stand by its head, flush with the wall
                 other_yaw = chosen[other.id].yaw if other.id in chosen else yaws_k[0]
                 beyond = max(beyond, float(other.centre[:2] @ back) + _half_extent(other.size, other_yaw, back))
         return WALL_WEIGHT * min(2.0, max(0.0, beyond - mine - WALL_GAP))

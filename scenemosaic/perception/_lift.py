@@ -6,7 +6,8 @@ standing on it, with the size of its category (the median of the ProcTHOR asset 
 boxes) up to a scale of its footprint and one of its height, each with a log-normal prior;
 the room's horizontal directions and the camera's pitch read from the photograph's straight
 edges (:func:`_vertical_votes`, :func:`_horizontal_votes`). One least-squares fit finds the
-camera's height and pitch and every floor object's place and size from the box edges; each
+camera's height and pitch, the picture's shared furniture scale (:data:`FURNITURE_SCALE_SIGMA`)
+and every floor object's place and size from the box edges; each
 floor object's heading is then chosen from the evidence (``_headings.py``: the box, the walls,
 what it belongs to); objects on the wall, the ceiling or other furniture follow with the
 camera fixed, hung on the walls seen behind wall furniture and over the beds and tables in view. The result is a coarse prior: sizes within
@@ -87,6 +88,13 @@ _SIGMA_KNOWN = 0.3
 _SIGMA_UNKNOWN = 0.8
 _SIGMA_HANGING = 0.6
 """Log-scale standard deviation of a hanging object's size."""
+FURNITURE_SCALE_SIGMA = 0.2
+"""Log-scale standard deviation of the picture's shared furniture scale: how far one room's
+furniture as a whole may run larger or smaller than the catalogue (a maker's, an era's, a
+market's sizes). Every floor object's own scale is a deviation from it (:data:`_SIGMA_KNOWN`)."""
+PINNED_SCALE_SIGMA = 1e-4
+"""The shared scale's standard deviation in the first floor fit, which the room's lines are read
+against: pinned to the catalogue, so the lines see the same first pose whatever the furniture."""
 
 
 @functools.lru_cache(maxsize=512)
@@ -204,30 +212,32 @@ class BoxLifter:
             report["vertical_lines_pitch_sd_deg"] = round(math.degrees(measured_pitch[1]), 3)
             report["vertical_lines"] = measured_pitch[2]
 
-        def solve(x0: FloatArray, room_yaw: float, quarters: list[int]) -> tuple[float, FloatArray]:
+        height_prior = (DEFAULT_CAMERA_HEIGHT, CAMERA_HEIGHT_SIGMA)
+
+        def solve(x0: FloatArray, room_yaw: float, quarters: list[int], scale_sd: float) -> tuple[float, FloatArray]:
             result = least_squares(
                 _floor_residuals,
                 x0,
-                args=(camera, obs, base, sig, weights, room_yaw, quarters, pitch_prior),
+                args=(camera, obs, base, sig, weights, room_yaw, quarters, pitch_prior, height_prior, scale_sd),
                 bounds=_floor_bounds(len(floor)),
                 x_scale="jac",
                 max_nfev=400,
             )
             return float(result.cost), result.x
 
-        def fit_floor(room_yaw: float) -> tuple[CameraPose, FloatArray, float, list[int]]:
+        def fit_floor(room_yaw: float, scale_sd: float) -> tuple[CameraPose, FloatArray, float, list[int], FloatArray]:
             if not floor:
-                return CameraPose(DEFAULT_CAMERA_HEIGHT, pitch_prior[0]), np.zeros((0, 4)), 0.0, []
+                return CameraPose(DEFAULT_CAMERA_HEIGHT, pitch_prior[0]), np.zeros((0, 4)), 0.0, [], np.zeros(3)
             quarters = [0] * len(floor)
             best: tuple[float, FloatArray] | None = None
             starts = (5.0, 20.0, 35.0) if measured_pitch is None else (math.degrees(measured_pitch[0]),)
             for h0 in (1.2, 1.6, 2.0):
                 for p0 in starts:
                     pose0 = CameraPose(h0, math.radians(p0))
-                    x0 = [h0, math.radians(p0)]
+                    x0 = [h0, math.radians(p0), 0.0]
                     for o, size in zip(floor, base, strict=True):
                         x0 += [*self._init_xy(camera, pose0, o.detection.box, size), 0.0, 0.0]
-                    found = solve(np.array(x0), room_yaw, quarters)
+                    found = solve(np.array(x0), room_yaw, quarters, scale_sd)
                     if best is None or found[0] < best[0]:
                         best = found
             assert best is not None
@@ -235,21 +245,23 @@ class BoxLifter:
             for i in range(len(floor)):
                 trial = list(quarters)
                 trial[i] = 1 - trial[i]
-                found = solve(best[1], room_yaw, trial)
+                found = solve(best[1], room_yaw, trial, scale_sd)
                 if found[0] < best[0] - 1e-6:
                     best, quarters = found, trial
             x = best[1]
-            return CameraPose(float(x[0]), float(x[1])), x[2:].reshape(-1, 4), best[0], quarters
+            params = x[3:].reshape(-1, 4).copy()
+            params[:, 2:] += x[2]  # each object's scales, the picture's shared one included
+            return CameraPose(float(x[0]), float(x[1])), params, best[0], quarters, x
 
         room_yaw = 0.0
-        pose, params, cost, quarters = fit_floor(room_yaw)
+        # the first fit, which the room's lines are read against, keeps the catalogue's scale
+        pose, params, cost, quarters, x_fit = fit_floor(room_yaw, PINNED_SCALE_SIGMA)
         if self.room_lines:
             measured = _room_direction(image, camera, pose)
             if measured is not None:
                 room_yaw, share = measured
                 report["room_direction_deg"] = round(math.degrees(room_yaw), 2)
                 report["room_direction_support"] = round(share, 3)
-                again = abs(room_yaw) > math.radians(1.0)
                 if segments is not None:  # the room's horizontal edges vote on the pitch too
                     horizontal = _horizontal_votes(segments, camera, room_yaw, pose.pitch)
                     both = _pitch_from_votes(vertical[0] + horizontal[0], vertical[1] + horizontal[1])
@@ -258,15 +270,17 @@ class BoxLifter:
                         report["lines_pitch_sd_deg"] = round(math.degrees(both[1]), 3)
                         measured_pitch = both
                         pitch_prior = (both[0], max(both[1], math.radians(PITCH_SD_FLOOR_DEG)))
-                        again = True
-                if again:
-                    pose, params, cost, quarters = fit_floor(room_yaw)
+        # then again in the room's frame, with the pitch the lines read and the shared scale free
+        pose, params, cost, quarters, x_fit = fit_floor(room_yaw, FURNITURE_SCALE_SIGMA)
         report["camera_height_m"] = round(pose.height, 3)
         report["camera_pitch_deg"] = round(math.degrees(pose.pitch), 2)
         report["floor_fit_cost"] = round(cost, 3)
+        shared = float(x_fit[2])
+        report["furniture_scale"] = round(math.exp(shared), 3)
         if floor:
-            x_fit = np.concatenate([[pose.height, pose.pitch], params.ravel()])
-            sd = _fit_sd(x_fit, lambda x: _floor_residuals(x, camera, obs, base, sig, weights, room_yaw, quarters, pitch_prior))
+            sd = _fit_sd(
+                x_fit, lambda x: _floor_residuals(x, camera, obs, base, sig, weights, room_yaw, quarters, pitch_prior, height_prior, FURNITURE_SCALE_SIGMA)
+            )
             report["camera_height_sd_m"] = round(float(sd[0]), 3)
             report["camera_pitch_sd_deg"] = round(math.degrees(float(sd[1])), 3)
 
@@ -279,7 +293,12 @@ class BoxLifter:
             # a box turned by a half turn projects the same: two fits per object
             if (i, k % 2) not in refits:
                 yaw = room_yaw + (k % 2) * math.pi / 2
-                refits[i, k % 2] = _refit_floor_object(camera, pose, obs[i], base[i], float(sig[i]), weights[i], yaw, params[i])
+                cost, p = _refit_floor_object(camera, pose, obs[i], base[i], float(sig[i]), weights[i], yaw, params[i], shared)
+                if segments is not None and _flat_topped(floor[i].detection.category):
+                    size = base[i] * np.exp([p[2], p[2], p[3]])
+                    support = _top_edge_support(segments, camera, pose, np.array([p[0], p[1], 0.0]), size, yaw)
+                    cost += TOP_EDGE_WEIGHT * (1.0 - support)
+                refits[i, k % 2] = (cost, p)
             cost, p = refits[i, k % 2]
             return cost, np.array([p[0], p[1], 0.0]), base[i] * np.exp([p[2], p[2], p[3]])
 
@@ -513,6 +532,62 @@ WALL_SNAP_SD = 0.05
 """Standard deviation (metres) of a wall object's back against its wall."""
 
 
+TOP_EDGE_WEIGHT = 20.0
+"""Cost (chi-square / 2) of a flat top none of whose projected edges the picture's straight
+segments trace, against one whose edges they all trace (:func:`_top_edge_support`)."""
+TOP_EDGE_PIXELS = 3.0
+"""How far (pixels of the 1024-pixel picture the segments come from) a segment may lie from a
+projected edge and still trace it."""
+
+
+def _flat_topped(category: str) -> bool:
+    """Whether the top of a category's box is the piece's own flat top (a table's, a desk's, a
+    nightstand's), so its four edges are lines the picture shows."""
+    return furniture_role(category) in ("table", "coffee_table", "nightstand") or traits(category).table
+
+
+def _top_edge_support(segments: FloatArray, camera: Camera, pose: CameraPose, centre: FloatArray, size: FloatArray, yaw: float) -> float:
+    """The share (0-1, by length) of the four top edges of an upright box, projected into the
+    picture, that the picture's straight segments trace: points along each edge within
+    :data:`TOP_EDGE_PIXELS` of a segment running its way (within 6 degrees).
+
+    A box alone does not tell a table's long axis (a smaller table across the view and a larger
+    one along it fill the same box); the outline of its top does, and a table top's edges are
+    among the longest straight lines of a room."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    half = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]) * size[:2]
+    corners = np.column_stack([half @ np.array([[c, s], [-s, c]]) + centre[:2], np.full(4, size[2])])
+    cam = pose.to_camera(corners)
+    if np.any(cam[:, 2] < 0.1) or len(segments) == 0:
+        return 0.0
+    uv = np.column_stack([camera.fx * cam[:, 0] / cam[:, 2] + camera.cx, camera.fy * cam[:, 1] / cam[:, 2] + camera.cy])
+    tol = TOP_EDGE_PIXELS * max(camera.width, camera.height) / 1024.0
+    a, b = segments[:, :2], segments[:, 2:]
+    seg_dir = b - a
+    seg_len = np.maximum(np.hypot(seg_dir[:, 0], seg_dir[:, 1]), 1e-9)
+    seg_unit = seg_dir / seg_len[:, None]
+    traced = total = 0.0
+    for k in range(4):
+        p, q = uv[k], uv[(k + 1) % 4]
+        length = float(np.hypot(*(q - p)))
+        if length < 2.0:
+            continue
+        along = (q - p) / length
+        aligned = np.abs(seg_unit @ along) > math.cos(math.radians(6.0))
+        inside = 0
+        points = p + np.outer(np.linspace(0.0, 1.0, 24), q - p)
+        visible = (points[:, 0] >= 0) & (points[:, 0] < camera.width) & (points[:, 1] >= 0) & (points[:, 1] < camera.height)
+        for pt in points[visible]:
+            t = np.clip(np.einsum("ij,ij->i", pt - a, seg_unit), 0.0, seg_len)
+            dist = np.hypot(*(a + seg_unit * t[:, None] - pt).T)
+            inside += bool(np.any(aligned & (dist <= tol)))
+        n_visible = int(visible.sum())
+        if n_visible:
+            traced += length * inside / n_visible
+            total += length
+    return traced / total if total > 0 else 0.0
+
+
 def _walls_behind(
     floor: Sequence[SeenObject], placed: dict[str, tuple[FloatArray, FloatArray]], yaws: dict[str, float]
 ) -> list[tuple[str, FloatArray, float]]:
@@ -595,8 +670,8 @@ def _edge_weights(obs: FloatArray, camera: Camera) -> FloatArray:
 
 
 def _floor_bounds(n: int) -> tuple[FloatArray, FloatArray]:
-    lo = [0.3, math.radians(-30.0)] + [-30.0, 0.2, -1.5, -1.5] * n
-    hi = [4.0, math.radians(80.0)] + [30.0, 30.0, 1.5, 1.5] * n
+    lo = [0.3, math.radians(-30.0), -1.0] + [-30.0, 0.2, -1.5, -1.5] * n
+    hi = [4.0, math.radians(80.0), 1.0] + [30.0, 30.0, 1.5, 1.5] * n
     return np.array(lo), np.array(hi)
 
 
@@ -610,15 +685,21 @@ def _floor_residuals(
     room_yaw: float,
     quarters: Sequence[int],
     pitch_prior: tuple[float, float] = (math.radians(DEFAULT_PITCH_DEG), math.radians(45.0)),
+    height_prior: tuple[float, float] = (DEFAULT_CAMERA_HEIGHT, CAMERA_HEIGHT_SIGMA),
+    scale_sd: float = 0.15,
 ) -> FloatArray:
+    """Whitened residuals of the floor fit. ``x``: the camera's height and pitch, the picture's
+    shared log furniture scale, then per floor object its place (x, y) and its own log footprint
+    and height scales on top of the shared one."""
     pose = CameraPose(float(x[0]), float(x[1]))
-    p = x[2:].reshape(-1, 4)
-    sizes = base * np.exp(np.stack([p[:, 2], p[:, 2], p[:, 3]], axis=1))
+    shared = float(x[2])
+    p = x[3:].reshape(-1, 4)
+    sizes = base * np.exp(shared + np.stack([p[:, 2], p[:, 2], p[:, 3]], axis=1))
     centres = np.stack([p[:, 0], p[:, 1], np.zeros(len(p))], axis=1)
     yaws = np.array([_facing_yaw(a, b, room_yaw, q) for (a, b), q in zip(p[:, :2], quarters, strict=True)])
     pred = _boxes(camera, pose, centres, sizes, yaws)
     priors = np.concatenate([p[:, 2] / sig, p[:, 3] / sig])
-    camera_prior = [(x[0] - DEFAULT_CAMERA_HEIGHT) / CAMERA_HEIGHT_SIGMA, (x[1] - pitch_prior[0]) / pitch_prior[1]]
+    camera_prior = [(x[0] - height_prior[0]) / height_prior[1], (x[1] - pitch_prior[0]) / pitch_prior[1], shared / scale_sd]
     return np.concatenate([((pred - obs) * weights).ravel(), priors, camera_prior])
 
 
@@ -631,6 +712,7 @@ def _refit_floor_object(
     weights: FloatArray,
     yaw: float,
     x0: FloatArray,
+    shared: float = 0.0,
 ) -> tuple[float, FloatArray]:
     """One floor object refitted under a fixed yaw, the camera fixed: the cost (chi-square / 2)
     and its (x, y, log footprint scale, log height scale)."""
@@ -639,7 +721,7 @@ def _refit_floor_object(
     def residuals(x: FloatArray) -> FloatArray:
         size = base * np.exp([x[2], x[2], x[3]])
         pred = _boxes(camera, pose, np.array([[x[0], x[1], 0.0]]), size[None, :], np.array([yaw]))[0]
-        return np.concatenate([(pred - box) * weights, [x[2] / sig, x[3] / sig]])
+        return np.concatenate([(pred - box) * weights, [(x[2] - shared) / sig, (x[3] - shared) / sig]])
 
     lo, hi = np.array([-30.0, 0.2, -1.5, -1.5]), np.array([30.0, 30.0, 1.5, 1.5])
     result = least_squares(residuals, np.clip(np.asarray(x0, dtype=np.float64), lo + 1e-6, hi - 1e-6), bounds=(lo, hi), x_scale="jac", max_nfev=200)

@@ -84,13 +84,19 @@ def test_pool_tables_equal_the_direct_formula() -> None:
         assert got == pytest.approx(want, abs=1e-9)
 
 
-def _brute_force(pool: CandidatePool, m: int, alpha: float) -> list[int]:
+def _brute_force(pool: CandidatePool, m: int, alpha: float, tie_band: float = 0.0) -> list[int]:
+    """The max-min greedy written out plainly; near ties (within ``tie_band`` of the largest
+    minimum) go to the candidate farthest in sum from the variants picked (the original not
+    counted), N standing in for the footprint distance of a pool without occupancy."""
     arr = {k: pool.arrangement(tuple(pool.choices(np.array([k]))[0])) for k in range(pool.size)}
     picked = [0]
     alive = set(range(1, pool.size))
     while len(picked) < m + 1 and alive:
         mins = {k: min(novelty_distance(arr[p], arr[k]) for p in picked) for k in alive}
-        best = max(sorted(alive), key=lambda k: (mins[k], -k))
+        top = max(mins.values())
+        near = {k for k in alive if mins[k] >= (1.0 - tie_band) * top}
+        sums = {k: sum(novelty_distance(arr[p], arr[k]) for p in picked[1:]) for k in near}
+        best = max(sorted(near), key=lambda k: (sums[k], mins[k], -k)) if len(picked) > 1 else max(sorted(alive), key=lambda k: (mins[k], -k))
         picked.append(best)
         alive.discard(best)
         d_max = mins[best]
@@ -100,11 +106,12 @@ def _brute_force(pool: CandidatePool, m: int, alpha: float) -> list[int]:
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_greedy_matches_brute_force_max_min(seed: int) -> None:
+@pytest.mark.parametrize("tie_band", [0.0, 0.2])
+def test_greedy_matches_brute_force_max_min(seed: int, tie_band: float) -> None:
     rng = np.random.default_rng(seed)
     pool = CandidatePool([_random_group(rng, "a", 3, 4), _random_group(rng, "b", 2, 3), _random_group(rng, "c", 2, 2)])
-    sel = select_diverse(pool, m=5, alpha=0.1)
-    assert [pool.flat_index(c) for c in sel.picked] == _brute_force(pool, 5, 0.1)
+    sel = select_diverse(pool, m=5, alpha=0.1, tie_band=tie_band)
+    assert [pool.flat_index(c) for c in sel.picked] == _brute_force(pool, 5, 0.1, tie_band)
 
 
 def test_a_rejected_candidate_is_skipped_and_sampling_is_reported() -> None:

@@ -8,8 +8,10 @@ cuts the walkable floor in two.
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -21,6 +23,7 @@ from scenemosaic.evolve import (
     SEAT_GAP_MAX,
     Archetype,
     PosePlacement,
+    RuleArchetype,
     UnitContext,
     evolve_layout,
     find_problems,
@@ -36,6 +39,12 @@ from scenemosaic.physics import is_thin, object_shape
 from scenemosaic.scene import WALK_MIN_SHARE, FloorRaster, Scene, UnitLayout, with_unit_layout
 
 PHYSCENE = Path(__file__).resolve().parents[2] / "data" / "layouts" / "physcene"
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "evolve"
+
+
+def _fixture(name: str) -> dict[str, Any]:
+    data: dict[str, Any] = json.loads((FIXTURES / name).read_text())
+    return data
 
 
 async def _floor(name: str, out: Path) -> tuple[Scene, UnitLayout, UnitContext]:
@@ -99,6 +108,40 @@ async def test_a_bed_swaps_walls_with_its_nightstands_tucked_beside_its_head(tmp
         assert _new_overlaps(layout, after, ctx.thin) == [], lid
 
 
+async def test_the_bed_goes_to_every_wall_it_fits_and_a_limit_takes_the_most_different(tmp_path: Path) -> None:
+    """The bed of Bedroom-33922 (1.85 m wide with its nightstands 2.9 m, on walls of 3.0 and 4.1 m)
+    is offered on each of the three other walls, flush against it with its nightstands at its head
+    (the west wall was lost to a rounding of the flush gap). Asked for five, the agent offers five
+    whose footprints differ from the original's and each other's at least as much as the first
+    five in preference order do."""
+    _, layout, ctx = await _floor("Bedroom-33922_bedroom.json", tmp_path)
+    offered = rule_archetypes(layout, ctx)
+    own = next(w for w in ctx.walls if w.gap(layout.polygon("double_bed_0")) < 0.02)
+    landed = set()
+    for a in offered:
+        if not a.layout_id.startswith("displaced_double_bed_0_wall_"):
+            continue
+        after = _placed(layout, a.place(layout, ctx))
+        walls = [w.id for w in ctx.walls if w.gap(after.polygon("double_bed_0")) < 0.02]
+        landed.update(walls)
+        assert all(_beside_head(after, k, "double_bed_0") for k in ("nightstand_0", "nightstand_1")), a.layout_id
+    assert landed >= {w.id for w in ctx.walls} - {own.id}, sorted(landed)
+
+    raster = FloorRaster(np.asarray(ctx.surface.region), 0.1)
+
+    def cells(placement: dict[str, tuple[float, float, float]]) -> np.ndarray:
+        lay = _placed(layout, placement)
+        return raster.blocked([lay.polygon(k) for k in lay.ids if k not in ctx.thin])
+
+    def closest(chosen: list[RuleArchetype]) -> float:
+        maps = [cells({})] + [cells(a.place(layout, ctx)) for a in chosen]
+        return min(1.0 - float((a & b).sum()) / float((a | b).sum()) for i, a in enumerate(maps) for b in maps[i + 1 :])
+
+    spread = rule_archetypes(layout, ctx, 5)
+    assert len(spread) == 5 and {a.layout_id for a in spread} <= {a.layout_id for a in offered}
+    assert closest(spread) >= closest(offered[:5]), (closest(spread), closest(offered[:5]))
+
+
 async def test_a_free_standing_table_slides_with_its_chairs_clear_of_the_rest(tmp_path: Path) -> None:
     """The prior scatters the dining room's chairs over the room: a slide gathers them around the
     table first, then carries the group at least 1 m toward one side."""
@@ -153,3 +196,27 @@ async def test_every_offered_archetype_fits_the_agents_schema(name: str, tmp_pat
         Archetype(layout_id=a.layout_id, layout_style_name=a.style_name, layout_reasoning=a.reasoning)
         _, how = instantiate(layout, ctx, a)
         PosePlacement.model_validate({"object_id": layout.ids[0], "reasoning": how, "center_coordinates": {"u": 0.0, "v": 0.0}})
+
+
+async def test_a_table_never_makes_way_for_its_own_chair(tmp_path: Path) -> None:
+    """Recorded from a perturbed LivingDiningRoom-13536 (benchmarks/evolution.py): two chairs touch
+    their table 3 cm deep; the layout memory saw both chairs oscillate, so fixes prefer to move
+    something else. The fix used to carry the table 1.5 m clear of them, leaving its other seats
+    behind; now each chair still takes the move, a short one."""
+    fixture = _fixture("chairs_hemmed_in_13536.json")
+    scene, layout, ctx = await _floor(fixture["room"], tmp_path)
+    for k, (u, v, r) in fixture["poses"].items():
+        layout.set_rotation(k, r)
+        layout.set_center(k, u, v)
+    shapes = {o.id: object_shape(o, tmp_path / "base") for o in scene.objects}
+    check = physical_check(layout, ctx, shapes)
+    with_table = [p for p in check.collisions if "dining_table_0" in (p.a, p.b) and {p.a, p.b} - {"dining_table_0"} <= set(ctx.seat_table)]
+    assert with_table, check.collisions
+    avoid = {"dining_chair_1", "dining_chair_3"}
+    found = [f for f in find_problems(layout, ctx, check, avoid) if f.kind == "collision" and "dining_table_0" in f.objects]
+    assert found
+    for f in found:
+        assert "dining_table_0" not in f.fixes, f.note
+        for k, t in f.fixes.items():
+            assert t.u is not None and t.v is not None
+            assert math.dist((t.u, t.v), layout.center(k)) < 0.5, (k, f.note)
