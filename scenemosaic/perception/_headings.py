@@ -13,7 +13,11 @@ and the rules weigh against each other):
   (no other object, nor the camera's foot, beyond it);
 * **what it belongs to** (:data:`BELONGS_WEIGHT`): a chair faces the nearest table or desk
   within reach, a sofa or armchair the television (its stand) or else the coffee table, a
-  television stand the sofa, a nightstand faces where its bed faces;
+  television stand the sofa, a nightstand faces where its bed faces, and a bed weighs its
+  nightstands' own box fits, since they share its axis;
+* **the dining group** (:data:`ROW_WEIGHT`): chairs side by side (closer than
+  :data:`ROW_SPACING`) stand in a row and face across it; a dining table lies along the rows of
+  its chairs; with the table out of view, a row faces the group's middle;
 * **the camera** (:data:`CAMERA_WEIGHT`), a weak default: with no other evidence an object
   shows its front.
 
@@ -32,7 +36,7 @@ import numpy as np
 
 from scenemosaic.scene import FloatArray, normalize_category, traits
 
-__all__ = ["BELONGS_WEIGHT", "CAMERA_WEIGHT", "WALL_WEIGHT", "HeadingChoice", "HeadingItem", "choose_headings", "furniture_role"]
+__all__ = ["BELONGS_WEIGHT", "CAMERA_WEIGHT", "ROW_WEIGHT", "WALL_WEIGHT", "HeadingChoice", "HeadingItem", "choose_headings", "furniture_role"]
 
 WALL_WEIGHT = 12.0
 """Cost (chi-square units) per metre by which the side a wall piece's back faces is not the
@@ -125,6 +129,39 @@ def _group_target(points: Sequence[FloatArray], me: FloatArray) -> FloatArray:
     return out
 
 
+ROW_SPACING = 1.0
+"""Metres between two chairs' middles under which they stand side by side in one row (a dining
+chair is 0.45-0.65 m wide); chairs facing each other across a table stand further apart (the
+table's width and a seat's depth, 1.2 m or more)."""
+ROW_WEIGHT = 8.0
+"""Cost (chi-square units) of a chair turned square to its row, or of a table whose long axis
+lies across the rows of its chairs."""
+
+
+def _row_direction(points: Sequence[FloatArray], room_yaw: float) -> float | None:
+    """The direction (radians, floor frame, one of the room's axes) of the rows a dining group's
+    chairs stand in: every two chairs closer than :data:`ROW_SPACING` stand side by side, and the
+    line through them runs along their row. Their directions are averaged on the doubled angle,
+    snapped to the room's nearer axis; ``None`` without such a pair or when they disagree."""
+    votes = np.zeros(2)
+    total = 0.0
+    for a in range(len(points)):
+        for b in range(a + 1, len(points)):
+            d = np.asarray(points[b][:2] - points[a][:2], dtype=np.float64)
+            r = float(np.linalg.norm(d))
+            if 1e-6 < r < ROW_SPACING:
+                phi = math.atan2(d[1], d[0]) - room_yaw
+                votes += [math.cos(2 * phi), math.sin(2 * phi)]
+                total += 1.0
+    if total == 0.0:
+        return None
+    # along the room's first axis (+1) or its second (-1): the doubled angle's cosine
+    along_first = float(votes[0]) / total
+    if abs(along_first) < 0.3:
+        return None
+    return room_yaw if along_first > 0 else room_yaw + math.pi / 2
+
+
 REASON_MARGIN = 0.5
 """A term names itself in the reason when it favours the choice over the runner-up by this much."""
 
@@ -178,6 +215,7 @@ def choose_headings(
     roles = [furniture_role(it.category) for it in items]
     yaws_k = [math.remainder(room_yaw + k * math.pi / 2, 2 * math.pi) for k in range(4)]
     chosen: dict[str, HeadingChoice] = {}
+    chairs = [j for j, r in enumerate(roles) if r == "chair"]
     rank = {"bed": 0, "table": 0, "tv": 1, "sofa": 2, "armchair": 3, "coffee_table": 4}
     order = sorted(range(len(items)), key=lambda i: rank.get(roles[i], 5))
 
@@ -229,6 +267,11 @@ def choose_headings(
             cost += BELONGS_WEIGHT * min(1.0, miss / 1.0)
         return cost / len(stands)
 
+    def stands_box(stands: Sequence[int], yaw: float) -> float:
+        """The tempered box fit of a bed's nightstands turned the way the bed is turned."""
+        k = yaws_k.index(yaw)
+        return sum(BOX_TEMPER * refit(j, k)[0] for j in stands)
+
     for i in order:
         it, role = items[i], roles[i]
         terms: list[tuple[str, Callable[[float], float]]] = []
@@ -248,16 +291,36 @@ def choose_headings(
             terms.append((f"faces {items[partner].id}", partial(toward_table, i, items[partner])))
         elif partner is not None:
             terms.append((f"faces {items[partner].id}", partial(toward, i, items[partner].centre[:2])))
-        elif role == "chair":  # chairs round a table out of view face the middle of their group
-            group = [j for j, r in enumerate(roles) if r == "chair" and j != i and _footprint_gap(it, items[j]) < 2.0]
-            if group:
-                middle = _group_target([items[j].centre[:2] for j in [i, *group]], it.centre[:2])
+        group = [j for j in chairs if j != i and _footprint_gap(it, items[j]) < 2.0]
+        if role == "chair" and group:
+            points = [items[j].centre[:2] for j in [i, *group]]
+            rows = _row_direction(points, room_yaw)
+            in_row = any(float(np.linalg.norm(p - it.centre[:2])) < ROW_SPACING for p in points[1:])
+            if rows is not None and in_row:  # a chair stands in a row of its group, square to it
+                terms.append(("in its row", partial(_parallel, ROW_WEIGHT, rows)))
+            if partner is None and rows is not None:
+                # its table out of view: it faces across its row, toward the group's middle, and
+                # the chairs of one row (side by side) face the same way: the row's middle decides
+                across = np.array([-math.sin(rows), math.cos(rows)])
+                row = [p for p in points if float(np.linalg.norm(p - it.centre[:2])) < ROW_SPACING]
+                offset = float((np.mean(points, axis=0) - np.mean(row, axis=0)) @ across)
+                if abs(offset) > 0.3:
+                    terms.append(("faces its dining group", partial(toward, i, it.centre[:2] + offset * across)))
+            elif partner is None:  # chairs round a table out of view face the middle of their group
+                middle = _group_target(points, it.centre[:2])
                 if float(np.linalg.norm(middle - it.centre[:2])) > 0.3:
                     terms.append(("faces its dining group", partial(toward, i, middle)))
+        if role == "table" and "desk" not in normalize_category(it.category):  # its long axis along its chairs' rows
+            near = [j for j in chairs if _footprint_gap(it, items[j]) < REACH]
+            rows = _row_direction([items[j].centre[:2] for j in near], room_yaw) if len(near) >= 2 else None
+            if rows is not None:
+                terms.append(("along its chairs", partial(_parallel, ROW_WEIGHT, rows)))
         if role == "bed":  # nightstands stand at the head, one on each side
             stands = [j for j, r in enumerate(roles) if r == "nightstand" and _footprint_gap(it, items[j]) < REACH]
             if stands:
                 terms.append((f"{items[stands[0]].id} at its head", partial(flank_cost, i, stands)))
+                # a nightstand faces where its bed faces: its own box's evidence counts for the bed
+                terms.append((f"{items[stands[0]].id}'s box", partial(stands_box, stands)))
         if role == "coffee_table":  # it lies along the sofa it serves
             sofa = nearest(i, ("sofa",), reach=REACH)
             if sofa is not None and items[sofa].id in chosen:

@@ -10,7 +10,8 @@ camera's height and pitch, the picture's shared furniture scale (:data:`FURNITUR
 and every floor object's place and size from the box edges; each
 floor object's heading is then chosen from the evidence (``_headings.py``: the box, the walls,
 what it belongs to); objects on the wall, the ceiling or other furniture follow with the
-camera fixed, hung on the walls seen behind wall furniture and over the beds and tables in view. The result is a coarse prior: sizes within
+camera fixed, hung on the walls seen behind wall furniture and over the beds and tables in view
+(or the table a dining group's chairs point at, when the picture leaves it out). The result is a coarse prior: sizes within
 tens of percent, places within a few decimetres (see the tests), which the later stages
 (room, support, physics, the critic) correct.
 """
@@ -328,6 +329,8 @@ class BoxLifter:
             if furniture_role(o.detection.category) == "bed"
             or (furniture_role(o.detection.category) in HANG_OVER_ROLES and not traits(o.detection.category).against_wall)
         ]
+        if not any(furniture_role(o.detection.category) == "table" for o in floor):
+            anchors += _tables_out_of_view(floor, placed, yaws)
         for o in sorted(others, key=lambda s: _support_depth(s, others)):  # supports before what they hold
             centre, size, rest, wall_yaw, wall_id = self._fit_single(
                 camera, pose, o, priors[o.detection.id], placed, room_yaw, ceiling, walls, anchors
@@ -384,7 +387,8 @@ class BoxLifter:
         ``walls``: walls seen as the backs of wall furniture (id, outward unit normal, offset
         along it): an object that may hang on a wall is fitted against each too, and hung on
         the one fitting best when that costs at most :data:`WALL_SNAP_COST` more than the
-        cheapest hypothesis. ``anchors``: the tables and beds in view (id, floor-frame middle): a
+        cheapest hypothesis. ``anchors``: the tables and beds in view, or a table out of view that
+        chairs point at (:func:`_tables_out_of_view`) (id, floor-frame middle): a
         hanging object is fitted over each too, and hangs over the one fitting best when that
         costs at most :data:`HANG_OVER_COST` more than hanging free (a pendant over its table).
         Returns its bottom centre, size, where it rests, its yaw when a wall sets it, and the id
@@ -528,6 +532,33 @@ HANG_OVER_COST = 4.0
 fitted free, and still be hung over it."""
 HANG_OVER_SD = 0.35
 """Standard deviation (metres) of a lamp's place about the middle of what it hangs over."""
+CHAIR_TO_TABLE = 0.75
+"""Metres from a dining chair's middle to the middle of the table it faces, measured along its
+front: half a seat's depth and half a dining table's width (0.3 + 0.45)."""
+
+
+def _tables_out_of_view(
+    floor: Sequence[SeenObject], placed: dict[str, tuple[FloatArray, FloatArray]], yaws: dict[str, float]
+) -> list[tuple[str, FloatArray]]:
+    """Where the table of a dining group stands when the picture does not show it: every chair
+    of the group (two or more chairs, each within 2 m of another) points at it, so it is the mean
+    of the points :data:`CHAIR_TO_TABLE` ahead of each chair. One anchor (its id, floor-frame
+    middle) per group, named after its first chair; what a lamp hangs over."""
+    chairs = [o.detection.id for o in floor if furniture_role(o.detection.category) == "chair"]
+    groups: list[list[str]] = []
+    for cid in chairs:
+        near = [g for g in groups if any(float(np.linalg.norm(placed[cid][0][:2] - placed[m][0][:2])) < 2.0 for m in g)]
+        merged = [cid] + [m for g in near for m in g]
+        groups = [g for g in groups if g not in near] + [merged]
+    out: list[tuple[str, FloatArray]] = []
+    for g in groups:
+        if len(g) < 2:
+            continue
+        ahead = [placed[m][0][:2] + CHAIR_TO_TABLE * np.array([math.sin(yaws[m]), -math.cos(yaws[m])]) for m in g]
+        out.append((f"the table of {sorted(g)[0]} (out of view)", np.mean(ahead, axis=0)))
+    return out
+
+
 WALL_SNAP_SD = 0.05
 """Standard deviation (metres) of a wall object's back against its wall."""
 
