@@ -489,15 +489,15 @@ def _double_displacements(layout: UnitLayout, ctx: UnitContext) -> list[RuleArch
     if len(pieces) < 2:
         return []
     first, second = pieces
-    owns = {k: wall_status(layout, ctx, k)[1] for k in pieces}
-    if any(w is None for w in owns.values()):
+    own_first, own_second = wall_status(layout, ctx, first)[1], wall_status(layout, ctx, second)[1]
+    if own_first is None or own_second is None:
         return []
     out = []
     for wa in ctx.walls:
-        if wa.id == owns[first].id:  # type: ignore[union-attr]
+        if wa.id == own_first.id:
             continue
         for wb in ctx.walls:
-            if wb.id in (wa.id, owns[second].id):  # type: ignore[union-attr]
+            if wb.id in (wa.id, own_second.id):
                 continue
             ca, cb = layout.object(first).category, layout.object(second).category
             lid = f"displaced2_{wa.id}_{wb.id}"[:40]
