@@ -51,7 +51,7 @@ from scenemosaic.evolve._analysis import (
     wall_status,
 )
 from scenemosaic.evolve._context import UnitContext, WallLine
-from scenemosaic.scene import FloorRaster, UnitLayout, normalize_degrees
+from scenemosaic.scene import FloorRaster, UnitLayout, mask_iou, normalize_degrees
 
 __all__ = ["RuleArchetype", "instantiate", "max_alternatives", "rule_archetypes"]
 
@@ -728,12 +728,8 @@ def _spread(layout: UnitLayout, ctx: UnitContext, kept: list[tuple[RuleArchetype
     left = list(range(len(kept)))
     out: list[RuleArchetype] = []
 
-    def apart(a: np.ndarray, b: np.ndarray) -> float:
-        union = int((a | b).sum())
-        return 1.0 - (float((a & b).sum()) / union if union else 1.0)
-
     while left and len(out) < limit:
-        best = max(left, key=lambda i: (min(apart(maps[i], m) for m in chosen_maps), -i))
+        best = max(left, key=lambda i: (min(1.0 - mask_iou(maps[i], m) for m in chosen_maps), -i))
         left.remove(best)
         out.append(kept[best][0])
         chosen_maps.append(maps[best])

@@ -56,6 +56,7 @@ from scenemosaic.scene import (
     convex_hull_2d,
     functional_holds,
     functional_relations,
+    mask_iou,
 )
 
 __all__ = [
@@ -180,8 +181,7 @@ def div_iou(scenes: Sequence[Scene], grid: int = DIV_GRID) -> float | None:
     maps = [occupancy(s, grid) for s in scenes]
     ious = []
     for a, b in itertools.combinations(maps, 2):
-        union = int((a | b).sum())
-        ious.append(float((a & b).sum()) / union if union else 1.0)
+        ious.append(mask_iou(a, b))
     return float(np.mean(ious))
 
 
@@ -220,8 +220,7 @@ def house_diversity(houses: Sequence[House]) -> dict[str, float | int | None]:
     maps = [house_occupancy(h, bounds=bounds) for h in houses]
     ious = []
     for a, b in itertools.combinations(maps, 2):
-        union = int((a | b).sum())
-        ious.append(float((a & b).sum()) / union if union else 1.0)
+        ious.append(mask_iou(a, b))
     ids = [o.id for o in houses[0].objects]
     arrs = [Arrangement.of(Scene.model_construct(objects=h.objects), ids) for h in houses]
     n = float(np.mean([novelty_distance(a, b) for a, b in itertools.combinations(arrs, 2)]))

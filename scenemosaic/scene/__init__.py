@@ -169,6 +169,7 @@ from scenemosaic.scene._walkable import (
     FloorRaster,
     Walkable,
     is_thin,
+    mask_iou,
 )
 
 __all__ = [
@@ -276,6 +277,7 @@ __all__ = [
     "is_known",
     "is_thin",
     "load_priors",
+    "mask_iou",
     "may_share_floor",
     "minimal_containing_shift",
     "missing_file",

@@ -24,7 +24,7 @@ from shapely.geometry import Polygon
 from scenemosaic.scene._geometry import FloatArray
 from scenemosaic.scene._model import SceneObject
 
-__all__ = ["ROBOT_RADIUS", "THIN_RATIO", "WALK_GRID", "WALK_MAX_HEIGHT", "WALK_MIN_SHARE", "FloorRaster", "Walkable", "is_thin"]
+__all__ = ["ROBOT_RADIUS", "THIN_RATIO", "WALK_GRID", "WALK_MAX_HEIGHT", "WALK_MIN_SHARE", "FloorRaster", "Walkable", "is_thin", "mask_iou"]
 
 WALK_GRID = 256
 """Raster cells along the longer side of the floor's bounding box (SceneEval's NAV grid)."""
@@ -38,6 +38,13 @@ its larger planar extent: it is walked over, and left out of collision counting,
 WALK_MIN_SHARE = 0.99
 """The share of free floor the largest connected piece should hold for the floor to count as
 one piece (the variants' NAV bar; a room whose own layout cannot reach it keeps its own)."""
+
+
+def mask_iou(a: np.ndarray, b: np.ndarray) -> float:
+    """Intersection over union of two boolean rasters of one grid (1.0 when both are empty): how
+    much two top-down occupancy maps cover the same floor."""
+    union = int((a | b).sum())
+    return float((a & b).sum()) / union if union else 1.0
 
 
 def is_thin(obj: SceneObject) -> bool:
