@@ -5,12 +5,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 import ray
 from batch_helpers import ROOMS, scene_files, write_manifest
 
 from scenemosaic.batch import run_batch
 
 
+@pytest.mark.long  # about a minute on 2 cores: every room twice; `make test-houses` runs it
 def test_local_and_ray_write_identical_scenes_for_every_room(tmp_path: Path) -> None:
     rooms = sorted(ROOMS.glob("*.json"))
     assert len(rooms) == 7
