@@ -36,7 +36,7 @@ import numpy as np
 
 from scenemosaic.scene import FloatArray, normalize_category, traits
 
-__all__ = ["BELONGS_WEIGHT", "CAMERA_WEIGHT", "ROW_WEIGHT", "WALL_WEIGHT", "HeadingChoice", "HeadingItem", "choose_headings", "furniture_role"]
+__all__ = ["BELONGS_WEIGHT", "CAMERA_WEIGHT", "ROW_WEIGHT", "WALL_WEIGHT", "HeadingChoice", "HeadingItem", "choose_headings", "front_of", "furniture_role"]
 
 WALL_WEIGHT = 12.0
 """Cost (chi-square units) per metre by which the side a wall piece's back faces is not the
@@ -73,14 +73,14 @@ class HeadingChoice:
     reason: str
 
 
-def _front(yaw: float) -> FloatArray:
+def front_of(yaw: float) -> FloatArray:
     """The front (local -Y) of an object turned by ``yaw``, in the floor frame."""
     return np.array([math.sin(yaw), -math.cos(yaw)])
 
 
 def _aligned(weight: float, direction: FloatArray, yaw: float) -> float:
     """``weight`` for a front turned away from ``direction`` (a unit floor vector), 0 along it."""
-    return weight * 0.5 * (1.0 - float(_front(yaw) @ direction))
+    return weight * 0.5 * (1.0 - float(front_of(yaw) @ direction))
 
 
 def _parallel(weight: float, along: float, yaw: float) -> float:
@@ -226,7 +226,7 @@ def choose_headings(
 
     def wall_cost(i: int, yaw: float) -> float:
         it = turned(i, yaw)
-        back = -_front(yaw)
+        back = -front_of(yaw)
         mine = float(it.centre[:2] @ back) + _half_extent(it.size, yaw, back)
         beyond = float(cam @ back) + 0.3
         for j, other in enumerate(items):
@@ -240,7 +240,7 @@ def choose_headings(
         n = float(np.linalg.norm(d))
         if n < 1e-6:
             return 0.0
-        return BELONGS_WEIGHT * 0.5 * (1.0 - float(_front(yaw) @ (d / n)))
+        return BELONGS_WEIGHT * 0.5 * (1.0 - float(front_of(yaw) @ (d / n)))
 
     def nearest(i: int, wanted: Sequence[str], reach: float = REACH) -> int | None:
         best, best_gap = None, reach
@@ -257,7 +257,7 @@ def choose_headings(
     def flank_cost(i: int, stands: Sequence[int], yaw: float) -> float:
         """How far the nightstands are from the places beside the head of a bed turned by ``yaw``."""
         it = turned(i, yaw)
-        back, side = -_front(yaw), np.array([math.cos(yaw), math.sin(yaw)])
+        back, side = -front_of(yaw), np.array([math.cos(yaw), math.sin(yaw)])
         cost = 0.0
         for j in stands:
             depth = 0.5 * (float(it.size[1]) - float(items[j].size[1]))
@@ -328,7 +328,7 @@ def choose_headings(
         if role == "nightstand":
             bed = nearest(i, ("bed",))
             if bed is not None and items[bed].id in chosen:
-                terms.append((f"flanks {items[bed].id}", partial(_aligned, BELONGS_WEIGHT, _front(chosen[items[bed].id].yaw))))
+                terms.append((f"flanks {items[bed].id}", partial(_aligned, BELONGS_WEIGHT, front_of(chosen[items[bed].id].yaw))))
         to_cam = cam - it.centre[:2]
         to_cam = to_cam / max(float(np.linalg.norm(to_cam)), 1e-6)
         terms.append(("faces the camera", partial(_aligned, CAMERA_WEIGHT, to_cam)))

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import structlog
 
-from scenemosaic.perception._headings import HeadingItem, choose_headings, furniture_role
+from scenemosaic.perception._headings import HeadingItem, choose_headings, front_of, furniture_role
 from scenemosaic.perception._image import Camera, SceneImage
 from scenemosaic.perception._inventory import Placement
 from scenemosaic.perception._reconstruct import LiftedObject, Reconstruction, SeenObject
@@ -554,7 +554,7 @@ def _tables_out_of_view(
     for g in groups:
         if len(g) < 2:
             continue
-        ahead = [placed[m][0][:2] + CHAIR_TO_TABLE * np.array([math.sin(yaws[m]), -math.cos(yaws[m])]) for m in g]
+        ahead = [placed[m][0][:2] + CHAIR_TO_TABLE * front_of(yaws[m]) for m in g]
         out.append((f"the table of {sorted(g)[0]} (out of view)", np.mean(ahead, axis=0)))
     return out
 
@@ -631,7 +631,7 @@ def _walls_behind(
             continue
         centre, size = placed[o.detection.id]
         yaw = yaws[o.detection.id]
-        normal = -np.array([math.sin(yaw), -math.cos(yaw)])  # its back
+        normal = -front_of(yaw)  # its back
         out.append((o.detection.id, normal, float(centre[:2] @ normal) + float(size[1]) / 2))
     return out
 
@@ -717,7 +717,7 @@ def _floor_residuals(
     quarters: Sequence[int],
     pitch_prior: tuple[float, float] = (math.radians(DEFAULT_PITCH_DEG), math.radians(45.0)),
     height_prior: tuple[float, float] = (DEFAULT_CAMERA_HEIGHT, CAMERA_HEIGHT_SIGMA),
-    scale_sd: float = 0.15,
+    scale_sd: float = FURNITURE_SCALE_SIGMA,
 ) -> FloatArray:
     """Whitened residuals of the floor fit. ``x``: the camera's height and pitch, the picture's
     shared log furniture scale, then per floor object its place (x, y) and its own log footprint
