@@ -36,7 +36,20 @@ import numpy as np
 
 from scenemosaic.scene import FloatArray, normalize_category, traits
 
-__all__ = ["BELONGS_WEIGHT", "CAMERA_WEIGHT", "ROW_WEIGHT", "WALL_WEIGHT", "HeadingChoice", "HeadingItem", "choose_headings", "front_of", "furniture_role"]
+__all__ = [
+    "BELONGS_WEIGHT",
+    "CAMERA_WEIGHT",
+    "ROW_WEIGHT",
+    "WALL_WEIGHT",
+    "HeadingChoice",
+    "HeadingItem",
+    "bed_nightstands",
+    "choose_headings",
+    "front_of",
+    "furniture_role",
+    "half_extent",
+    "nearest_item",
+]
 
 WALL_WEIGHT = 12.0
 """Cost (chi-square units) per metre by which the side a wall piece's back faces is not the
@@ -88,7 +101,7 @@ def _parallel(weight: float, along: float, yaw: float) -> float:
     return weight * 0.5 * (1.0 - math.cos(2.0 * (yaw - along)))
 
 
-def _half_extent(size: FloatArray, yaw: float, direction: FloatArray) -> float:
+def half_extent(size: FloatArray, yaw: float, direction: FloatArray) -> float:
     """Half the footprint's extent along a unit floor direction."""
     c, s = math.cos(yaw), math.sin(yaw)
     return 0.5 * (abs(float(direction @ np.array([c, s]))) * float(size[0]) + abs(float(direction @ np.array([-s, c]))) * float(size[1]))
@@ -202,6 +215,29 @@ def furniture_role(category: str) -> str:
     return "other"
 
 
+def nearest_item(
+    items: Sequence[HeadingItem], i: int, roles: Sequence[str], reach: float = REACH
+) -> int | None:
+    """The index of the item of one of ``roles`` (:func:`furniture_role`) whose footprint comes
+    nearest ``items[i]``'s, within ``reach`` metres; ``None`` when none does."""
+    best, best_gap = None, reach
+    for j, it in enumerate(items):
+        if j != i and furniture_role(it.category) in roles:
+            gap = _footprint_gap(items[i], it)
+            if gap < best_gap:
+                best, best_gap = j, gap
+    return best
+
+
+def bed_nightstands(items: Sequence[HeadingItem], bed: int) -> list[int]:
+    """The nightstands of the bed ``items[bed]``: those whose footprints come within :data:`REACH`."""
+    return [
+        j
+        for j, it in enumerate(items)
+        if furniture_role(it.category) == "nightstand" and _footprint_gap(items[bed], it) < REACH
+    ]
+
+
 def choose_headings(
     items: Sequence[HeadingItem],
     room_yaw: float,
@@ -227,12 +263,12 @@ def choose_headings(
     def wall_cost(i: int, yaw: float) -> float:
         it = turned(i, yaw)
         back = -front_of(yaw)
-        mine = float(it.centre[:2] @ back) + _half_extent(it.size, yaw, back)
+        mine = float(it.centre[:2] @ back) + half_extent(it.size, yaw, back)
         beyond = float(cam @ back) + 0.3
         for j, other in enumerate(items):
             if j != i and not (roles[i] == "bed" and roles[j] == "nightstand"):  # they stand by its head, flush with the wall
                 other_yaw = chosen[other.id].yaw if other.id in chosen else yaws_k[0]
-                beyond = max(beyond, float(other.centre[:2] @ back) + _half_extent(other.size, other_yaw, back))
+                beyond = max(beyond, float(other.centre[:2] @ back) + half_extent(other.size, other_yaw, back))
         return WALL_WEIGHT * min(2.0, max(0.0, beyond - mine - WALL_GAP))
 
     def toward(i: int, target: FloatArray, yaw: float) -> float:
@@ -243,13 +279,7 @@ def choose_headings(
         return BELONGS_WEIGHT * 0.5 * (1.0 - float(front_of(yaw) @ (d / n)))
 
     def nearest(i: int, wanted: Sequence[str], reach: float = REACH) -> int | None:
-        best, best_gap = None, reach
-        for j, r in enumerate(roles):
-            if j != i and r in wanted:
-                gap = _footprint_gap(items[i], items[j])
-                if gap < best_gap:
-                    best, best_gap = j, gap
-        return best
+        return nearest_item(items, i, wanted, reach)
 
     def toward_table(i: int, table: HeadingItem, yaw: float) -> float:
         return toward(i, _nearest_point(table, chosen[table.id].yaw, items[i].centre[:2]), yaw)
@@ -316,7 +346,7 @@ def choose_headings(
             if rows is not None:
                 terms.append(("along its chairs", partial(_parallel, ROW_WEIGHT, rows)))
         if role == "bed":  # nightstands stand at the head, one on each side
-            stands = [j for j, r in enumerate(roles) if r == "nightstand" and _footprint_gap(it, items[j]) < REACH]
+            stands = bed_nightstands(items, i)
             if stands:
                 terms.append((f"{items[stands[0]].id} at its head", partial(flank_cost, i, stands)))
                 # a nightstand faces where its bed faces: its own box's evidence counts for the bed

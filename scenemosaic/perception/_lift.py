@@ -20,14 +20,23 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import structlog
 
-from scenemosaic.perception._headings import HeadingItem, choose_headings, front_of, furniture_role
+from scenemosaic.perception._headings import (
+    HeadingChoice,
+    HeadingItem,
+    bed_nightstands,
+    choose_headings,
+    front_of,
+    furniture_role,
+    half_extent,
+    nearest_item,
+)
 from scenemosaic.perception._image import Camera, SceneImage
 from scenemosaic.perception._inventory import Placement
 from scenemosaic.perception._reconstruct import LiftedObject, Reconstruction, SeenObject
@@ -309,9 +318,30 @@ class BoxLifter:
         ]
         headings = choose_headings(items, room_yaw, refit)
         report["headings"] = {oid: h.reason for oid, h in headings.items()}
+        quarter = [headings[o.detection.id].quarter % 2 for o in floor]
+        chosen = [refits[i, quarter[i]][1] if (i, quarter[i]) in refits else params[i] for i in range(len(floor))]
+        flush, seats = _held_together(floor, items, headings)
+        if flush or seats:  # one refit of the pieces that hold each other in place
+            group = sorted({k for pair in (*flush, *seats) for k in pair})
+            together = _refit_group(
+                camera,
+                pose,
+                (obs[group], base[group], sig[group], weights[group]),
+                [headings[floor[k].detection.id].yaw for k in group],
+                [chosen[k] for k in group],
+                shared,
+                [(group.index(a), group.index(b)) for a, b in flush],
+                [(group.index(a), group.index(b)) for a, b in seats],
+            )
+            for k, p in zip(group, together, strict=True):
+                chosen[k] = p
+            held: dict[str, list[str]] = {}  # a bed by its nightstands, a table by its chairs
+            for piece, holder in [*flush, *((t, c) for c, t in seats)]:
+                held.setdefault(floor[piece].detection.id, []).append(floor[holder].detection.id)
+            report["held_by"] = held
         for i, o in enumerate(floor):
             h = headings[o.detection.id]
-            p = refits[i, h.quarter % 2][1] if (i, h.quarter % 2) in refits else params[i]
+            p = chosen[i]
             size = np.asarray(priors[o.detection.id][0]) * np.exp([p[2], p[2], p[3]])
             centre = np.array([p[0], p[1], 0.0])
             placed[o.detection.id] = (centre, size)
@@ -331,18 +361,22 @@ class BoxLifter:
         ]
         if not any(furniture_role(o.detection.category) == "table" for o in floor):
             anchors += _tables_out_of_view(floor, placed, yaws)
+        category_of = {o.detection.id: o.detection.category for o in objects}
         for o in sorted(others, key=lambda s: _support_depth(s, others)):  # supports before what they hold
+            support = None if o.parent is None or o.parent not in placed else (*placed[o.parent], yaws[o.parent])
             centre, size, rest, wall_yaw, wall_id = self._fit_single(
-                camera, pose, o, priors[o.detection.id], placed, room_yaw, ceiling, walls, anchors
-            )
+                camera, pose, o, priors[o.detection.id], placed, room_yaw, ceiling, walls, anchors, support,
+                shelved=o.parent is not None and _has_shelves(category_of[o.parent]),
+                raised=_support_may_hide(o, objects, camera),
+            )  # fmt: skip
             if wall_id is not None and rest == "wall":
                 on_walls[o.detection.id] = wall_id
             elif wall_id is not None:
                 hangs_over[o.detection.id] = wall_id
-            if rest == "on" and o.parent is not None:  # what rests on a top stands over it
+            if rest in ("on", "in") and o.parent is not None:  # what rests on a top or a shelf stands over it
                 centre = _onto(centre, size, *placed[o.parent], yaws[o.parent])
             placed[o.detection.id] = (centre, size)
-            if rest == "on" and o.parent is not None:  # it faces where its support faces (a laptop on a desk)
+            if rest in ("on", "in") and o.parent is not None:  # it faces where its support faces (a laptop on a desk)
                 yaws[o.detection.id] = yaws[o.parent]
                 report["headings"][o.detection.id] = f"as {o.parent}"  # type: ignore[index]
             elif wall_yaw is not None:  # it faces away from its wall
@@ -380,6 +414,9 @@ class BoxLifter:
         ceiling: tuple[float, float] = (DEFAULT_CEILING_HEIGHT, CEILING_HEIGHT_SIGMA),
         walls: Sequence[tuple[str, FloatArray, float]] = (),
         anchors: Sequence[tuple[str, FloatArray]] = (),
+        support: tuple[FloatArray, FloatArray, float] | None = None,
+        shelved: bool = False,
+        raised: bool = True,
     ) -> tuple[FloatArray, FloatArray, str, float | None, str | None]:
         """An object off the floor fit, the camera fixed: its place and size from its box, under
         each hypothesis of where it rests (:func:`_hypotheses`); the one costing least wins.
@@ -391,6 +428,11 @@ class BoxLifter:
         chairs point at (:func:`_tables_out_of_view`) (id, floor-frame middle): a
         hanging object is fitted over each too, and hangs over the one fitting best when that
         costs at most :data:`HANG_OVER_COST` more than hanging free (a pendant over its table).
+        ``support``: the bottom centre, size and yaw of the piece it rests on in view: the fit
+        keeps its footprint over that piece's (:data:`FOOTPRINT_SD` beyond it), on its top or,
+        when ``shelved`` (the piece is open to the front, :func:`_has_shelves`), on a shelf
+        inside (``in``, its height free below the top). ``raised``: whether furniture out of
+        view may hold it (:func:`_support_may_hide`).
         Returns its bottom centre, size, where it rests, its yaw when a wall sets it, and the id
         of the wall furniture or the piece it hangs over."""
         from scipy.optimize import least_squares
@@ -409,19 +451,29 @@ class BoxLifter:
         best: tuple[float, FloatArray, FloatArray, str] | None = None
         snapped: tuple[float, FloatArray, FloatArray, float, str] | None = None
         over: tuple[float, FloatArray, FloatArray, str] | None = None
-        for name, z_mean, z_sigma in _hypotheses(o, placed, ceiling):
+        for name, z_mean, z_sigma in _hypotheses(o, placed, ceiling, shelved=support is not None and shelved, raised=raised):
             hanging = name == "ceiling"  # x[4] is then the ceiling's height, the top's place
+            resting = support if name in ("on", "in") else None
 
-            def residuals(x: FloatArray, z_mean: float = z_mean, z_sigma: float | None = z_sigma, hanging: bool = hanging) -> FloatArray:
+            def residuals(
+                x: FloatArray, z_mean: float = z_mean, z_sigma: float | None = z_sigma, hanging: bool = hanging, resting: Any = resting
+            ) -> FloatArray:
                 size = base * np.exp([x[2], x[2], x[3]])
                 z = z_mean if z_sigma == 0.0 else (x[4] - size[2] if hanging else x[4])
                 yaw = _facing_yaw(x[0], x[1], room_yaw)
                 pred = _boxes(camera, pose, np.array([[x[0], x[1], z]]), size[None, :], np.array([yaw]))[0]
                 extra = [] if not z_sigma else [((x[4] if hanging else z) - z_mean) / z_sigma]
+                if resting is not None:  # its footprint over its support's; on a shelf, below its top
+                    beyond = np.array([x[0], x[1], z]) - _onto(np.array([x[0], x[1], z]), size, *resting)
+                    extra = [*extra, *(beyond[:2] / FOOTPRINT_SD)]
+                    if z_sigma is None:
+                        top = float(resting[0][2] + resting[1][2])
+                        extra += [max(0.0, z + size[2] - top) / FOOTPRINT_SD, max(0.0, resting[0][2] - z) / FOOTPRINT_SD]
                 return np.concatenate([(pred - box) * weights, [x[2] / sig, x[3] / sig], extra])
 
             z0 = z_mean if z_sigma is not None else max(0.0, float(guess[2] - base[2] / 2))
-            x0 = np.array([guess[0], guess[1], 0.0, 0.0] + ([] if z_sigma == 0.0 else [z0]))
+            start_xy = guess[:2] if resting is None else resting[0][:2]
+            x0 = np.array([start_xy[0], start_xy[1], 0.0, 0.0] + ([] if z_sigma == 0.0 else [z0]))
             if hanging:  # start where the box's lower edge meets the ceiling's prior height less the lamp's
                 x0[:2] = self._hanging_start(camera, pose, box, z_mean - base[2], guess)
             result = least_squares(residuals, x0, x_scale="jac", max_nfev=300)
@@ -665,22 +717,62 @@ WALL_HEIGHT = (1.2, 0.6)
 """Prior (mean, standard deviation, metres) of the bottom of a wall-mounted object."""
 
 
+FOOTPRINT_SD = 0.05
+"""How far (metres, one standard deviation) an object seen resting on a piece may stand beyond
+that piece's top, or a shelf's inside, in the fit."""
+
+
+def _has_shelves(category: str) -> bool:
+    """Whether a piece is open to the front (a bookshelf, a shelving unit, a sideboard), so what
+    rests on it may stand on a shelf inside rather than on its top."""
+    t = traits(category)
+    return t.contains and t.opening == "front"
+
+
+def _support_may_hide(o: SeenObject, objects: Sequence[SeenObject], camera: Camera) -> bool:
+    """Whether a piece of furniture holding ``o`` up could be missing from the picture: ``o``'s
+    box is cut by the picture's lower border, or another object's box covers the rows just below
+    its lower edge over at least a third of its width (it may stand in front of the support).
+    Otherwise the top that held it would show right under it, and nothing there was seen."""
+    x0, _y0, x1, y1 = o.detection.box
+    if y1 >= camera.height - 1.5:
+        return True
+    reach = y1 + 0.02 * camera.height
+    for other in objects:
+        if other.detection.id == o.detection.id:
+            continue
+        b0, c0, b1, c1 = other.detection.box
+        overlap = min(x1, b1) - max(x0, b0)
+        if overlap >= (x1 - x0) / 3 and c0 <= reach and c1 > y1:
+            return True
+    return False
+
+
 def _hypotheses(
-    o: SeenObject, placed: dict[str, tuple[FloatArray, FloatArray]], ceiling: tuple[float, float] = (0.0, 0.0)
+    o: SeenObject,
+    placed: dict[str, tuple[FloatArray, FloatArray]],
+    ceiling: tuple[float, float] = (0.0, 0.0),
+    *,
+    shelved: bool = False,
+    raised: bool = True,
 ) -> list[tuple[str, float, float | None]]:
     """Where an object off the floor fit may rest, as (name, bottom height, its standard
     deviation): 0 fixes the height, ``None`` leaves it free. On its support's top when it has
-    one in view; on a wall or the ceiling when the inventory says so; else, for a small object
-    resting on nothing in view: on the floor, on furniture out of view (:data:`RAISED_HEIGHT`),
+    one in view, or (``shelved``: the support is open shelving) on a shelf inside it; on a wall or the ceiling when the inventory says so; else, for a small object
+    resting on nothing in view: on the floor, on furniture out of view (:data:`RAISED_HEIGHT`;
+    only when ``raised``: such furniture could be hidden, :func:`_support_may_hide`),
     or on a wall (:data:`WALL_HEIGHT`) when its type may hang there."""
     if o.parent is not None and o.parent in placed:
         pc, ps = placed[o.parent]
-        return [("on", float(pc[2] + ps[2]), 0.0)]
+        top = float(pc[2] + ps[2])
+        return [("on", top, 0.0)] + ([("in", top / 2, None)] if shelved else [])
     if o.placement == "wall":
         return [("wall", *WALL_HEIGHT)]
     if o.placement == "ceiling":  # its top at the ceiling: (name, ceiling height, its sd)
         return [("ceiling", *(ceiling if ceiling[1] > 0 else (DEFAULT_CEILING_HEIGHT, CEILING_HEIGHT_SIGMA)))]
-    out: list[tuple[str, float, float | None]] = [("floor", 0.0, 0.0), ("raised", *RAISED_HEIGHT)]
+    out: list[tuple[str, float, float | None]] = [("floor", 0.0, 0.0)]
+    if raised:
+        out.append(("raised", *RAISED_HEIGHT))
     kind = thor_type(o.detection.category)
     may_hang = normalize_category(o.detection.category) in MAY_HANG
     if traits(o.detection.category).placement == "wall" or may_hang or (kind is not None and kind in load_priors().wall):
@@ -734,6 +826,16 @@ def _floor_residuals(
     return np.concatenate([((pred - obs) * weights).ravel(), priors, camera_prior])
 
 
+def _object_residuals(
+    camera: Camera, pose: CameraPose, box: FloatArray, base: FloatArray, sig: float, weights: FloatArray, yaw: float, x: FloatArray, shared: float
+) -> FloatArray:
+    """Whitened residuals of one floor object turned by ``yaw``, the camera fixed: its projected
+    box against ``box``, and its log scales ``x[2:]`` against the picture's shared one."""
+    size = base * np.exp([x[2], x[2], x[3]])
+    pred = _boxes(camera, pose, np.array([[x[0], x[1], 0.0]]), size[None, :], np.array([yaw]))[0]
+    return np.concatenate([(pred - box) * weights, [(x[2] - shared) / sig, (x[3] - shared) / sig]])
+
+
 def _refit_floor_object(
     camera: Camera,
     pose: CameraPose,
@@ -750,13 +852,89 @@ def _refit_floor_object(
     from scipy.optimize import least_squares
 
     def residuals(x: FloatArray) -> FloatArray:
-        size = base * np.exp([x[2], x[2], x[3]])
-        pred = _boxes(camera, pose, np.array([[x[0], x[1], 0.0]]), size[None, :], np.array([yaw]))[0]
-        return np.concatenate([(pred - box) * weights, [(x[2] - shared) / sig, (x[3] - shared) / sig]])
+        return _object_residuals(camera, pose, box, base, sig, weights, yaw, x, shared)
 
     lo, hi = np.array([-30.0, 0.2, -1.5, -1.5]), np.array([30.0, 30.0, 1.5, 1.5])
     result = least_squares(residuals, np.clip(np.asarray(x0, dtype=np.float64), lo + 1e-6, hi - 1e-6), bounds=(lo, hi), x_scale="jac", max_nfev=200)
     return float(result.cost), np.asarray(result.x)
+
+
+FLUSH_SD = 0.05
+"""Metres (one standard deviation) by which the backs of pieces standing against one wall (a
+bed's head and its nightstands) may differ in the joint refit (:func:`_refit_group`)."""
+SEAT_GAP = (0.2, 0.2)
+"""Mean and standard deviation (metres) of the distance from a chair's middle to the edge of the
+table it faces: half a seat's depth, less what is pushed under the top (:func:`_refit_group`)."""
+
+
+def _held_together(
+    floor: Sequence[SeenObject], items: Sequence[HeadingItem], headings: Mapping[str, HeadingChoice]
+) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
+    """The floor objects that hold each other in place, by index: ``(bed, nightstand)`` pairs
+    whose backs stand on one wall (the nightstand turned as its bed), and ``(chair, table)``
+    pairs, a chair facing the nearest table or desk within reach."""
+    flush: list[tuple[int, int]] = []
+    seats: list[tuple[int, int]] = []
+    for i, o in enumerate(floor):
+        role = furniture_role(o.detection.category)
+        yaw = headings[o.detection.id].yaw
+        if role == "bed":  # its nightstands turned as it is
+            turned_as = [j for j in bed_nightstands(items, i) if abs(math.remainder(headings[floor[j].detection.id].yaw - yaw, 2 * math.pi)) < 1e-6]
+            flush += [(i, j) for j in turned_as]
+        elif role == "chair":
+            table = nearest_item(items, i, ("table",))
+            if table is not None:
+                ahead = items[table].centre[:2] - items[i].centre[:2]
+                if float(front_of(yaw) @ ahead) > 0.0:  # it faces the table
+                    seats.append((i, table))
+    return flush, seats
+
+
+def _refit_group(
+    camera: Camera,
+    pose: CameraPose,
+    observed: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+    yaws: Sequence[float],
+    x0: Sequence[FloatArray],
+    shared: float,
+    flush: Sequence[tuple[int, int]],
+    seats: Sequence[tuple[int, int]],
+) -> list[FloatArray]:
+    """Floor objects refitted together under fixed yaws, the camera fixed (``observed``: their
+    boxes, catalogue sizes, scale sds and edge weights). Each ``(a, b)`` of ``flush`` has its
+    backs on one line (``a``'s back direction, :data:`FLUSH_SD`): a bed cut by the picture's
+    borders is held at its head by the nightstands beside it, whose boxes are often whole. Each
+    ``(chair, table)`` of ``seats`` keeps the chair's middle :data:`SEAT_GAP` before the table's
+    edge it faces, and level with that edge: a table cut by the borders is held by its chairs.
+    Returns each object's (x, y, log footprint scale, log height scale)."""
+    from scipy.optimize import least_squares
+
+    boxes, bases, sigs, weights = observed
+    n = len(x0)
+
+    def half(p: FloatArray, k: int, direction: FloatArray) -> float:
+        return half_extent(bases[k] * np.exp([p[2], p[2], p[3]]), yaws[k], direction)
+
+    def residuals(x: FloatArray) -> FloatArray:
+        ps = x.reshape(n, 4)
+        out = [_object_residuals(camera, pose, boxes[k], bases[k], float(sigs[k]), weights[k], yaws[k], ps[k], shared) for k in range(n)]
+        for a, b in flush:
+            back = -front_of(yaws[a])
+            gap = float((ps[a, :2] - ps[b, :2]) @ back) + half(ps[a], a, back) - half(ps[b], b, back)
+            out.append(np.array([gap / FLUSH_SD]))
+        for c, t in seats:
+            ahead = front_of(yaws[c])
+            side = np.array([-ahead[1], ahead[0]])
+            rel = ps[t, :2] - ps[c, :2]
+            gap = float(rel @ ahead) - half(ps[t], t, ahead)
+            beyond = max(0.0, abs(float(rel @ side)) - half(ps[t], t, side))
+            out.append(np.array([(gap - SEAT_GAP[0]) / SEAT_GAP[1], beyond / SEAT_GAP[1]]))
+        return np.concatenate(out)
+
+    lo, hi = np.tile([-30.0, 0.2, -1.5, -1.5], n), np.tile([30.0, 30.0, 1.5, 1.5], n)
+    start = np.clip(np.concatenate([np.asarray(p, dtype=np.float64) for p in x0]), lo + 1e-6, hi - 1e-6)
+    result = least_squares(residuals, start, bounds=(lo, hi), x_scale="jac", max_nfev=400)
+    return [np.asarray(p) for p in result.x.reshape(n, 4)]
 
 
 def _fit_sd(x: FloatArray, residuals: Callable[[FloatArray], FloatArray]) -> FloatArray:
