@@ -69,11 +69,13 @@ def _pooled(scores: list[TruthScore]) -> dict[str, float | int]:
     }
 
 
-def score_fixture(folder: Path, reconstructor: object = "box-lifter") -> tuple[TruthScore, PerceptionResult]:
-    """One render through the offline path with its true boxes (the box as the mask), scored."""
+def score_fixture(folder: Path, reconstructor: object = "box-lifter", *, given_height: bool = False) -> tuple[TruthScore, PerceptionResult]:
+    """One render through the offline path with its true boxes (the box as the mask), scored;
+    ``given_height``: with the true camera height given (``--camera-height``)."""
     truth = json.loads((folder / "truth.json").read_text())
+    height = float(truth["camera"]["position"][2]) if given_height else None
     result = asyncio.run(
-        perceive(folder / "photo.png", RulesModel(), detections=folder / "boxes.json", segmenter="box", reconstructor=reconstructor)  # type: ignore[arg-type]
+        perceive(folder / "photo.png", RulesModel(), detections=folder / "boxes.json", segmenter="box", reconstructor=reconstructor, camera_height_m=height)  # type: ignore[arg-type]
     )
     boxes = {o.id: o.box for o in result.inventory}
     return score_against_truth(result.reconstruction, truth, float(result.report["camera_height_m"]), boxes), result
@@ -130,6 +132,10 @@ def main() -> None:
             f"| {name} | {f['objects']} | {f['position_median_m']:.2f} / {f['position_p90_m']:.2f} | {f['position_within_0_5m']:.0%} | "
             f"{f['headed_objects']} | {f['heading_median_deg']:.1f} | {f['heading_within_20deg']:.0%} | {f['camera_height_error_m']:+.3f} | {f['tilt_deg']:.2f} |"
         )
+    given = [score_fixture(DATA / name, given_height=True)[0] for name in scores]
+    for key, value in _pooled(given).items():
+        figures[f"pooled_height_given_{key}"] = value
+    groups = (*groups, ("all, camera height given", given))
     print("\n| renders | objects | position median (m) | within 0.5 m | heading within 20 deg | camera height within 0.1 m (max error) | tilt within 2 deg (max) | ceiling lamps within 0.5 m |")
     print("|---|---|---|---|---|---|---|---|")
     for group, members in groups:

@@ -350,6 +350,12 @@ def generate(
         float | None,
         typer.Option("--hfov", help="A photograph's horizontal field of view in degrees, 5 to 170 (default: EXIF, else 60)."),
     ] = None,
+    camera_height: Annotated[
+        float | None,
+        typer.Option(
+            "--camera-height", help="A photograph's camera height above the floor in metres, when known (default: read from the objects' sizes)."
+        ),
+    ] = None,
     variants: Annotated[
         int,
         typer.Option(
@@ -473,6 +479,7 @@ def generate(
             segmenter=segmenter,
             reconstructor=reconstructor,
             hfov_deg=hfov,
+            camera_height_m=camera_height,
             prompt=prompt,
             image_model=image_model,
             image_size=image_size,

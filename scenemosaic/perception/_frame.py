@@ -9,13 +9,14 @@ label, mask, mesh and pose stay one identity.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from scenemosaic.exceptions import ImportFormatError
+from scenemosaic.exceptions import ImportFormatError, UsageError
 from scenemosaic.perception._image import Camera
 from scenemosaic.perception._reconstruct import Reconstruction
 from scenemosaic.scene import (
@@ -61,6 +62,24 @@ def _floor_from_reconstruction(rec: Reconstruction) -> tuple[FloatArray, float, 
     up /= np.linalg.norm(up)
     heights = [-float(up @ o.position) for o in floor]
     return up, float(np.median(heights)), "objects"
+
+
+def at_camera_height(rec: Reconstruction, height: float) -> tuple[Reconstruction, float]:
+    """``rec`` scaled about the camera so the camera stands ``height`` metres above the floor (a
+    height the user measured: a tripod, a phone's AR session). A single view fixes the room only
+    up to one scale, which the reconstructor reads from the objects' usual sizes; a known height
+    replaces that reading. Every place and size is multiplied by the same factor, returned too."""
+    _up, measured, _source = _floor_from_reconstruction(rec)
+    if not (math.isfinite(height) and height > 0.0):
+        raise UsageError(f"the camera's height must be a positive number of metres, got {height!r}")
+    if measured <= 1e-6:
+        raise ImportFormatError(f"the reconstruction puts the camera {measured:.3f} m above the floor: it cannot be scaled to {height} m")
+    k = height / measured
+    objects = [
+        dataclasses.replace(o, position=np.asarray(o.position, dtype=np.float64) * k, extents=(o.extents[0] * k, o.extents[1] * k, o.extents[2] * k))
+        for o in rec.objects
+    ]
+    return dataclasses.replace(rec, objects=objects, camera_height=height if rec.camera_height is not None else None), k
 
 
 def recover_frame(

@@ -31,7 +31,7 @@ from scenemosaic.perception._agents import (
     VerifyAgent,
     support_candidate,
 )
-from scenemosaic.perception._frame import recover_frame
+from scenemosaic.perception._frame import at_camera_height, recover_frame
 from scenemosaic.perception._image import Camera, SceneImage, load_image
 from scenemosaic.perception._inventory import DetectedObject, Inventory, Placement, clipped, read_detections
 from scenemosaic.perception._reconstruct import Reconstruction, Reconstructor, SeenObject
@@ -131,6 +131,7 @@ async def perceive(
     segmenter: str | Segmenter = "auto",
     reconstructor: str | Reconstructor = "auto",
     hfov_deg: float | None = None,
+    camera_height_m: float | None = None,
     out_dir: str | Path | None = None,
     policy: AgentPolicy | None = None,
     settings: ModelSettings | None = None,
@@ -144,7 +145,9 @@ async def perceive(
     model, or from ``model`` when it is a vision model (``detections`` are then its hints). A
     text-only model (``vision`` off) or the rules model without detections fails at once,
     before anything is segmented. ``out_dir``: where ``perception/`` is written (nothing when
-    ``None``). ``clock``: the run's clock (``RunModel.clock``: request time-out and deadline),
+    ``None``). ``camera_height_m``: the camera's height above the floor when the user knows it
+    (:func:`at_camera_height`: it replaces the scale read from the objects' usual sizes).
+    ``clock``: the run's clock (``RunModel.clock``: request time-out and deadline),
     which bounds every call to an HTTP segmenter or reconstructor.
     """
     image = await asyncio.to_thread(load_image, image_path)
@@ -168,7 +171,7 @@ async def perceive(
         raise
     folder = Path(out_dir) / PERCEPTION_FOLDER if out_dir is not None else None
     try:
-        return await _perceive(image, model, hints, seg, rec_backend, hfov_deg, folder, policy, settings, seed, max_rounds)
+        return await _perceive(image, model, hints, seg, rec_backend, hfov_deg, folder, policy, settings, seed, max_rounds, camera_height_m)
     finally:
         await _close(seg)
         await _close(rec_backend)
@@ -206,6 +209,7 @@ async def _perceive(
     settings: ModelSettings | None,
     seed: int,
     max_rounds: int,
+    camera_height_m: float | None = None,
 ) -> PerceptionResult:
     camera = image.camera(hfov_deg)
     placeholder = Scene(id="photo", room=Room.rectangle(0.0, 0.0, 1.0, 1.0), objects=[])
@@ -240,6 +244,10 @@ async def _perceive(
         await asyncio.to_thread(_write_seen, folder, image, inventory, state.masks)
     seen = _seen(inventory, state.masks)
     reconstruction: Reconstruction = await _backend_call(rec_backend.reconstruct, image, camera, seen)
+    given: dict[str, float] = {}
+    if camera_height_m is not None:  # the user measured it: it sets the room's scale
+        reconstruction, factor = at_camera_height(reconstruction, float(camera_height_m))
+        given = {"camera_height_given_m": float(camera_height_m), "scale_from_camera_height": round(factor, 4)}
     meshes = {o.id: o.mesh for o in reconstruction.objects if o.mesh is not None}
     uris = {oid: f"meshes/{oid}.glb" for oid in meshes}
     scene = recover_frame(
@@ -262,6 +270,10 @@ async def _perceive(
         "placements": {s.detection.id: (s.placement if s.parent is None else f"on {s.parent}") for s in seen},
         **{k: v for k, v in reconstruction.report.items() if k != "reconstructor"},
     }
+    if given:  # the scene stands at the given height; the fit's own reading is kept beside it
+        report["camera_height_fit_m"] = report.get("camera_height_m")
+        report["camera_height_m"] = given["camera_height_given_m"]
+        report.update(given)
     if folder is not None:
         await asyncio.to_thread(_write_result, folder, meshes, reconstruction, report)
     return PerceptionResult(scene, inventory, dict(state.masks), camera, reconstruction, report, fallbacks, usage)

@@ -241,6 +241,10 @@ class GenerateConfig(BaseModel):
     hfov_deg: Annotated[Number | None, Field(ge=5, le=170), Setting("perception", decides=True, flag="--hfov")] = None
     """Horizontal field of view of a photograph input, degrees, 5 to 170 (``--hfov``); ``None``: from
     its EXIF focal length, else :data:`~scenemosaic.perception.DEFAULT_HFOV_DEG`."""
+    camera_height_m: Annotated[Number | None, Field(gt=0.1, le=10), Setting("perception", decides=True, flag="--camera-height")] = None
+    """The camera's height above the floor for a photograph input, metres (``--camera-height``),
+    when it is known (a tripod, a phone's AR session); ``None``: read from the objects' usual
+    sizes. A single view fixes the room only up to one scale, and this sets it."""
     prompt: Annotated[str | None, Setting("perception", decides=True, flag="--prompt")] = None
     """Draw the room from this text first (``--prompt``): the model's images endpoint
     (``/images/generations``) makes ``OUT/prompt.png``, which then goes through the image front

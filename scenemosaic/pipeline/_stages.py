@@ -81,7 +81,7 @@ async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
         await _draw_prompt(run, rec)
     result = await perceive(
         run.input_path, model.model, detections=cfg.detections, segmenter=cfg.segmenter, reconstructor=cfg.reconstructor,
-        hfov_deg=cfg.hfov_deg, out_dir=run.out_dir, policy=run.policy, settings=model.settings, seed=cfg.seed,
+        hfov_deg=cfg.hfov_deg, camera_height_m=cfg.camera_height_m, out_dir=run.out_dir, policy=run.policy, settings=model.settings, seed=cfg.seed,
         clock=model.clock,
     )  # fmt: skip
     run.scene = result.scene

@@ -146,7 +146,7 @@ def test_a_line_carries_every_generate_setting(tmp_path: Path) -> None:
     shutil.copytree(PROCTHOR_PRIORS_DIR, tmp_path / "priors")  # a usable priors folder
     line: dict[str, Any] = {
         "format": "image", "room": "room|3", "asset_dir": "assets", "priors_dir": "../priors",
-        "detections": "boxes.json", "segmenter": "grabcut", "reconstructor": "box-lifter", "hfov_deg": 55.0,
+        "detections": "boxes.json", "segmenter": "grabcut", "reconstructor": "box-lifter", "hfov_deg": 55.0, "camera_height_m": 1.5,
         "prompt": "a small bedroom", "image_model": "gpt-image-1", "image_size": "512x512",
         "model": "replay:tapes/bedroom.json", "vision": False, "solver_fallback": False, "variants": 2,
         "evolve": True, "evolve_rounds": 3, "save_views": True, "request_timeout_s": 12.5, "deadline_s": 600.0,

@@ -63,6 +63,7 @@ def test_every_flag_reaches_its_setting(tmp_path: Path, monkeypatch: pytest.Monk
         "segmenter": (["grabcut"], "grabcut"),
         "reconstructor": (["box-lifter"], "box-lifter"),
         "hfov_deg": (["55"], 55.0),
+        "camera_height_m": (["1.45"], 1.45),
         "prompt": (["a small bedroom"], "a small bedroom"),
         "image_model": (["gpt-image-1"], "gpt-image-1"),
         "image_size": (["512x512"], "512x512"),
@@ -113,6 +114,7 @@ def test_every_flag_reaches_its_setting(tmp_path: Path, monkeypatch: pytest.Monk
     [
         (["--rounds", "0"], "--rounds"),
         (["--hfov", "200"], "--hfov"),
+        (["--camera-height", "0"], "--camera-height"),
         (["--variants", "2", "--no-evolve"], "variants come from the evolve stage"),
         (["--deadline", "0"], "--deadline"),
         (["--max-concurrency", "0"], "--max-concurrency"),

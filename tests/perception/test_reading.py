@@ -438,3 +438,54 @@ def test_a_cut_table_is_held_by_the_chairs_facing_it(name: str) -> None:
     result, scored = _errors(name)
     assert "dining_chair_0" in result.report["held_by"]["dining_table_0"]
     assert scored["dining_table_0"].position_error_m < 0.5, scored["dining_table_0"].position_error_m
+
+
+def test_a_known_camera_height_sets_the_rooms_scale(tmp_path: Path) -> None:
+    """A single view fixes the room only up to one scale. The 1.8 m view of room 8714, whose
+    furniture runs larger than the catalogue, comes out 0.2 m low and its dining group 0.6 m
+    off; given the camera's height (``--camera-height``), the scene stands at that height, every
+    place and size scaled by one factor, and the whole group lands within 0.3 m."""
+    name = "v_8714_tall"
+    truth = _truth(name)
+    height = float(truth["camera"]["position"][2])
+    folder = DATA / name
+    plain = _read(name)
+    given = asyncio.run(
+        perceive(folder / "photo.png", RulesModel(), detections=folder / "boxes.json", segmenter="box", reconstructor=BoxLifter(), camera_height_m=height)
+    )
+    assert given.report["camera_height_m"] == height and given.report["camera_height_fit_m"] == plain.report["camera_height_m"]
+    factor = given.report["scale_from_camera_height"]
+    assert factor == pytest.approx(height / plain.report["camera_height_m"], rel=1e-3) and factor > 1.05
+    before = {o.id: o for o in plain.reconstruction.objects}
+    for o in given.reconstruction.objects:  # one factor for every place and size
+        assert np.allclose(o.position, before[o.id].position * factor) and np.allclose(o.extents, np.array(before[o.id].extents) * factor)
+    scene_height = np.array(given.scene.metadata["camera"]["world_from_camera"]).reshape(4, 4)[2, 3]
+    assert scene_height == pytest.approx(height, abs=1e-6)
+    for result, limit in ((plain, None), (given, 0.3)):
+        score = score_against_truth(result.reconstruction, truth, float(result.report["camera_height_m"]))
+        group = [o.position_error_m for o in score.objects if o.category in ("dining_chair", "dining_table")]
+        if limit is None:
+            assert max(group) > 0.5  # what the catalogue's scale alone gives
+        else:
+            assert max(group) < limit, group
+    from scenemosaic.exceptions import UsageError
+    from scenemosaic.perception._frame import at_camera_height
+
+    with pytest.raises(UsageError, match="positive number of metres"):
+        at_camera_height(plain.reconstruction, -1.0)
+
+
+def test_generate_takes_the_camera_height(tmp_path: Path) -> None:
+    """``generate photo.png --camera-height 1.6``: the import stage's record and the scene's camera
+    say the given height, and the fit's own reading is kept beside it."""
+    from scenemosaic.exchange import read_scene
+    from scenemosaic.pipeline import GenerateConfig, generate
+
+    folder = DATA / "demo_bedroom"
+    config = GenerateConfig(detections=folder / "boxes.json", segmenter="box", reconstructor="box-lifter", evolve=False, camera_height_m=1.6)
+    result = generate(folder / "photo.png", tmp_path / "run", config)
+    perception = result.report["stages"][0]["detail"]["perception"]
+    assert perception["camera_height_m"] == 1.6 and perception["camera_height_given_m"] == 1.6
+    assert perception["camera_height_fit_m"] != 1.6 and perception["scale_from_camera_height"] > 0
+    scene = read_scene(tmp_path / "run" / "base")
+    assert np.array(scene.metadata["camera"]["world_from_camera"]).reshape(4, 4)[2, 3] == pytest.approx(1.6, abs=1e-6)

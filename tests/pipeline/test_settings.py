@@ -23,10 +23,11 @@ from scenemosaic.pipeline import (
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "settings.md"
 
 # The record report.json and the checkpoint held before the settings were declared on the fields:
-# its keys must not change (a --resume of an older run, a batch's skip test compare them).
+# its keys must not change (a --resume of an older run, a batch's skip test compare them). A new
+# setting whose default is None may join: an older record without it reads the same.
 RECORD_KEYS = {
     "format", "model", "seed", "room", "stabilize", "solver_fallback", "fallback", "vision", "request_timeout_s", "deadline_s",
-    "variants", "evolve", "evolve_rounds", "save_views", "segmenter", "reconstructor", "hfov_deg",
+    "variants", "evolve", "evolve_rounds", "save_views", "segmenter", "reconstructor", "hfov_deg", "camera_height_m",
     "prompt", "image_model", "image_size",
     "asset_dir", "cache_dir", "priors_dir", "detections",
 }  # fmt: skip
@@ -62,6 +63,8 @@ def test_every_field_declares_its_group_and_whether_it_decides() -> None:
         ({"deadline_s": -5.0}, r"'deadline_s': .*greater than 0"),
         ({"hfov_deg": 300}, r"'hfov_deg': .*less than or equal to 170"),
         ({"hfov_deg": 2}, r"'hfov_deg': .*greater than or equal to 5"),
+        ({"camera_height_m": 0}, r"'camera_height_m': .*greater than 0.1"),
+        ({"camera_height_m": 40}, r"'camera_height_m': .*less than or equal to 10"),
         ({"max_concurrency": 0}, r"'max_concurrency'"),
         ({"requests_per_minute": 0}, r"'requests_per_minute'"),
         ({"seed": "3"}, r"'seed': .*valid integer"),  # strict: a string is not a number
