@@ -348,7 +348,7 @@ def main(which: str = "all") -> None:
                                  "camera": [round(float(v), 3) for v in p], "yaw_deg": y, "pitch_deg": t}
     if which not in ("all", "original"):
         for view, room, shot, search in VARIED:
-            if which == "fresh" and view not in FRESH or which not in ("varied", "fresh") and not view.startswith(which):
+            if (which == "fresh" and view not in FRESH) or (which not in ("varied", "fresh") and not view.startswith(which)):
                 continue
             src = demo_src if room == "demo" else ROOT / PHYSCENE / room
             label = "scenemosaic.pipeline.demo_scene()" if room == "demo" else PHYSCENE + room
