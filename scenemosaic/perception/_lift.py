@@ -758,10 +758,11 @@ def _hypotheses(
 ) -> list[tuple[str, float, float | None]]:
     """Where an object off the floor fit may rest, as (name, bottom height, its standard
     deviation): 0 fixes the height, ``None`` leaves it free. On its support's top when it has
-    one in view, or (``shelved``: the support is open shelving) on a shelf inside it; on a wall or the ceiling when the inventory says so; else, for a small object
-    resting on nothing in view: on the floor, on furniture out of view (:data:`RAISED_HEIGHT`;
-    only when ``raised``: such furniture could be hidden, :func:`_support_may_hide`),
-    or on a wall (:data:`WALL_HEIGHT`) when its type may hang there."""
+    one in view, or (``shelved``: the support is open shelving) on a shelf inside it; on a wall or
+    the ceiling when the inventory says so; else, for a small object resting on nothing in view:
+    on the floor, on furniture out of view (:data:`RAISED_HEIGHT`; only when ``raised``: such
+    furniture could be hidden, :func:`_support_may_hide`), or on a wall (:data:`WALL_HEIGHT`) when
+    its type may hang there."""
     if o.parent is not None and o.parent in placed:
         pc, ps = placed[o.parent]
         top = float(pc[2] + ps[2])
