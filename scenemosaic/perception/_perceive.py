@@ -68,28 +68,32 @@ class PerceptionResult:
     usage: Usage = field(default_factory=Usage)
 
 
-def reconstructor_for(spec: str | Reconstructor, *, clock: CallClock | None = None) -> Reconstructor:
+def reconstructor_for(spec: str | Reconstructor, *, clock: CallClock | None = None, camera_height: float | None = None) -> Reconstructor:
     """A reconstructor from its name (``auto``, ``box-lifter``, ``sam3d[:CONFIG]`` or an
     ``http(s)://`` URL) or the object itself. ``auto``: SAM 3D when installed, else the box lifter.
-    ``clock``: the run's clock, which bounds an HTTP reconstructor's calls."""
+    ``clock``: the run's clock, which bounds an HTTP reconstructor's calls. ``camera_height``: a
+    known camera height, which the box lifter uses before placing what rests or hangs (other
+    reconstructors' results are scaled to it afterwards, :func:`at_camera_height`)."""
     from scenemosaic.exceptions import MissingExtraError
     from scenemosaic.perception._lift import BoxLifter
     from scenemosaic.perception._reconstruct import RECONSTRUCTOR_NAMES, HTTPReconstructor, Sam3dReconstructor
 
+    if isinstance(spec, BoxLifter) and spec.camera_height is None and camera_height is not None:
+        return BoxLifter(room_lines=spec.room_lines, camera_height=camera_height)
     if not isinstance(spec, str):
         return spec
     name = spec.strip()
     if name.startswith(("http://", "https://")):
         return HTTPReconstructor(name, clock=clock)
     if name in ("box-lifter", "box_lifter", "boxlifter"):
-        return BoxLifter()
+        return BoxLifter(camera_height=camera_height)
     if name == "sam3d" or name.startswith("sam3d:"):
         return Sam3dReconstructor(name.partition(":")[2] or None)
     if name == "auto":
         try:
             return Sam3dReconstructor()
         except (MissingExtraError, UsageError):
-            return BoxLifter()
+            return BoxLifter(camera_height=camera_height)
     raise UsageError(f"unknown reconstructor {spec!r}; choose one of: {', '.join(RECONSTRUCTOR_NAMES)}")
 
 
@@ -165,7 +169,7 @@ async def perceive(
         )
     seg = await asyncio.to_thread(lambda: segmenter_for(segmenter, clock=clock))
     try:
-        rec_backend = await asyncio.to_thread(lambda: reconstructor_for(reconstructor, clock=clock))
+        rec_backend = await asyncio.to_thread(lambda: reconstructor_for(reconstructor, clock=clock, camera_height=camera_height_m))
     except BaseException:
         await _close(seg)
         raise
@@ -247,6 +251,7 @@ async def _perceive(
     given: dict[str, float] = {}
     if camera_height_m is not None:  # the user measured it: it sets the room's scale
         reconstruction, factor = at_camera_height(reconstruction, float(camera_height_m))
+        factor *= float(reconstruction.report.get("scale_from_camera_height", 1.0))  # what the reconstructor scaled itself
         given = {"camera_height_given_m": float(camera_height_m), "scale_from_camera_height": round(factor, 4)}
     meshes = {o.id: o.mesh for o in reconstruction.objects if o.mesh is not None}
     uris = {oid: f"meshes/{oid}.glb" for oid in meshes}

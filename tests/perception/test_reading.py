@@ -444,7 +444,7 @@ def test_a_known_camera_height_sets_the_rooms_scale(tmp_path: Path) -> None:
     """A single view fixes the room only up to one scale. The 1.8 m view of room 8714, whose
     furniture runs larger than the catalogue, comes out 0.2 m low and its dining group 0.6 m
     off; given the camera's height (``--camera-height``), the scene stands at that height, every
-    place and size scaled by one factor, and the whole group lands within 0.3 m."""
+    floor piece's place and size scaled by one factor, and the whole group lands within 0.3 m."""
     name = "v_8714_tall"
     truth = _truth(name)
     height = float(truth["camera"]["position"][2])
@@ -457,8 +457,10 @@ def test_a_known_camera_height_sets_the_rooms_scale(tmp_path: Path) -> None:
     factor = given.report["scale_from_camera_height"]
     assert factor == pytest.approx(height / plain.report["camera_height_m"], rel=1e-3) and factor > 1.05
     before = {o.id: o for o in plain.reconstruction.objects}
-    for o in given.reconstruction.objects:  # one factor for every place and size
-        assert np.allclose(o.position, before[o.id].position * factor) and np.allclose(o.extents, np.array(before[o.id].extents) * factor)
+    for o in given.reconstruction.objects:  # one factor for every floor piece's place and size (the refits after it converge within 1 %)
+        assert o.placement == "floor"
+        assert np.allclose(o.position, before[o.id].position * factor, rtol=0.01, atol=0.01), o.id
+        assert np.allclose(o.extents, np.array(before[o.id].extents) * factor, rtol=0.01), o.id
     scene_height = np.array(given.scene.metadata["camera"]["world_from_camera"]).reshape(4, 4)[2, 3]
     assert scene_height == pytest.approx(height, abs=1e-6)
     for result, limit in ((plain, None), (given, 0.3)):
@@ -489,3 +491,21 @@ def test_generate_takes_the_camera_height(tmp_path: Path) -> None:
     assert perception["camera_height_fit_m"] != 1.6 and perception["scale_from_camera_height"] > 0
     scene = read_scene(tmp_path / "run" / "base")
     assert np.array(scene.metadata["camera"]["world_from_camera"]).reshape(4, 4)[2, 3] == pytest.approx(1.6, abs=1e-6)
+
+
+def test_at_camera_height_scales_any_reconstruction_about_the_camera() -> None:
+    """The path for reconstructors that do not take the height themselves (SAM 3D, a server):
+    the camera height of the result, from its floor plane or else from its floor objects'
+    bottoms, is brought to the given one by a single factor."""
+    from scenemosaic.perception._frame import at_camera_height
+
+    upright = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # the object's Z along the camera's up (-y)
+    chair = LiftedObject("chair", "dining_chair", "floor", np.array([0.5, 1.2, 3.0]), upright, (0.5, 0.5, 0.9))
+    vase = LiftedObject("vase", "vase", "surface", np.array([0.1, 0.4, 2.0]), upright, (0.1, 0.1, 0.3))
+    with_plane = Reconstruction([chair, vase], floor_up=np.array([0.0, -1.0, 0.0]), camera_height=1.2)
+    scaled, k = at_camera_height(with_plane, 1.5)
+    assert k == pytest.approx(1.25) and scaled.camera_height == pytest.approx(1.5)
+    assert np.allclose(scaled.objects[1].position, [0.125, 0.5, 2.5]) and np.allclose(scaled.objects[1].extents, [0.125, 0.125, 0.375])
+    from_objects, k2 = at_camera_height(Reconstruction([chair, vase]), 1.8)  # the chair's bottom, 1.2 m below the camera
+    assert k2 == pytest.approx(1.5) and from_objects.camera_height is None
+    assert np.allclose(from_objects.objects[0].position, [0.75, 1.8, 4.5])
