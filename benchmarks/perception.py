@@ -4,7 +4,8 @@ Per fixture: the time to segment every boxed object with GrabCut, the box lifter
 close it lands with the true boxes (``score_against_truth``: position and heading per object,
 camera height and tilt), per render and pooled (all, the varied renders, the renders used in
 tuning and those held out of it, and the fresh renders made after the tuning), with markdown
-tables; then one whole
+tables; all renders again with the true camera height given (``--camera-height``) and with the
+true sizes as the size priors' means (what the catalogue's sizes cost); then one whole
 ``generate photo.png --detections ... --variants 2`` of the demo render. Last line: one JSON
 object of named figures.
 
@@ -81,6 +82,32 @@ def score_fixture(folder: Path, reconstructor: object = "box-lifter", *, given_h
     return score_against_truth(result.reconstruction, truth, float(result.report["camera_height_m"]), boxes), result
 
 
+def _with_true_sizes(folder: Path) -> TruthScore:
+    """One render scored with each category's true size (the mean over its objects in the render)
+    as the size prior's mean, the spread unchanged: what the catalogue's sizes cost, an upper
+    bound no photograph gives (issue 27's scale discussion in ``docs/perception.md``)."""
+    from unittest import mock
+
+    from scenemosaic.perception import _lift
+    from scenemosaic.scene import normalize_category
+
+    truth = json.loads((folder / "truth.json").read_text())
+    sizes: dict[str, list[list[float]]] = {}
+    for o in truth["objects"]:
+        sizes.setdefault(normalize_category(o["category"]), []).append(o["extents"])
+    catalogue = _lift.size_prior
+
+    def true_prior(category: str) -> tuple[tuple[float, float, float], bool]:
+        found = sizes.get(normalize_category(category))
+        if found is None:
+            return catalogue(category)
+        w, d, h = np.mean(np.asarray(found), axis=0)
+        return (float(w), float(d), float(h)), True
+
+    with mock.patch.object(_lift, "size_prior", true_prior):
+        return score_fixture(folder)[0]
+
+
 def main() -> None:
     figures: dict[str, float | int | str] = {}
     errors_all: list[float] = []
@@ -120,7 +147,7 @@ def main() -> None:
     varied = [s for n, s in scores.items() if n.startswith("v_")]
     fresh_names = _fresh()
     fresh = [s for n, s in scores.items() if n in fresh_names]
-    groups = (("all", list(scores.values())), ("varied", varied), ("tuned", tuned), ("held_out", held), ("fresh", fresh))
+    groups: list[tuple[str, list[TruthScore]]] = [("all", list(scores.values())), ("varied", varied), ("tuned", tuned), ("held_out", held), ("fresh", fresh)]
     for group, members in groups:
         for key, value in _pooled(members).items():
             figures[f"pooled_{group}_{key}"] = value
@@ -135,7 +162,10 @@ def main() -> None:
     given = [score_fixture(DATA / name, given_height=True)[0] for name in scores]
     for key, value in _pooled(given).items():
         figures[f"pooled_height_given_{key}"] = value
-    groups = (*groups, ("all, camera height given", given))
+    true_sizes = [_with_true_sizes(DATA / name) for name in scores]
+    for key, value in _pooled(true_sizes).items():
+        figures[f"pooled_true_sizes_{key}"] = value
+    groups += [("all, camera height given", given), ("all, true sizes as the priors' means", true_sizes)]
     print("\n| renders | objects | position median (m) | within 0.5 m | heading within 20 deg | camera height within 0.1 m (max error) | tilt within 2 deg (max) | ceiling lamps within 0.5 m |")
     print("|---|---|---|---|---|---|---|---|")
     for group, members in groups:
