@@ -878,6 +878,9 @@ def _refit_floor_object(
 FLUSH_SD = 0.05
 """Metres (one standard deviation) by which the backs of pieces standing against one wall (a
 bed's head and its nightstands) may differ in the joint refit (:func:`_refit_group`)."""
+SEAT_REACH = 1.0
+"""Metres from a chair's middle to the table edge it faces, beyond which it is not taken as
+sitting at that table (a chair set back against a wall, say) and is not refitted with it."""
 SEAT_GAP = (0.2, 0.2)
 """Mean and standard deviation (metres) of the distance from a chair's middle to the edge of the
 table it faces: half a seat's depth, less what is pushed under the top (:func:`_refit_group`)."""
@@ -888,7 +891,8 @@ def _held_together(
 ) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
     """The floor objects that hold each other in place, by index: ``(bed, nightstand)`` pairs
     whose backs stand on one wall (the nightstand turned as its bed), and ``(chair, table)``
-    pairs, a chair facing the nearest table or desk within reach."""
+    pairs, a chair facing the nearest table or desk, its middle within :data:`SEAT_REACH` of the
+    edge it faces."""
     flush: list[tuple[int, int]] = []
     seats: list[tuple[int, int]] = []
     for i, o in enumerate(floor):
@@ -900,8 +904,10 @@ def _held_together(
         elif role == "chair":
             table = nearest_item(items, i, ("table",))
             if table is not None:
-                ahead = items[table].centre[:2] - items[i].centre[:2]
-                if float(front_of(yaw) @ ahead) > 0.0:  # it faces the table
+                ahead = front_of(yaw)
+                rel = items[table].centre[:2] - items[i].centre[:2]
+                gap = float(rel @ ahead) - half_extent(items[table].size, headings[floor[table].detection.id].yaw, ahead)
+                if float(rel @ ahead) > 0.0 and gap < SEAT_REACH:  # it faces the table, close enough to sit at it
                     seats.append((i, table))
     return flush, seats
 

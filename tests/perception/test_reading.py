@@ -509,3 +509,31 @@ def test_at_camera_height_scales_any_reconstruction_about_the_camera() -> None:
     from_objects, k2 = at_camera_height(Reconstruction([chair, vase]), 1.8)  # the chair's bottom, 1.2 m below the camera
     assert k2 == pytest.approx(1.5) and from_objects.camera_height is None
     assert np.allclose(from_objects.objects[0].position, [0.75, 1.8, 4.5])
+
+
+def test_only_a_chair_close_to_its_table_is_refitted_with_it() -> None:
+    """A chair facing its table from 0.3 m is held before it; one set back 1.3 m (against a wall,
+    say) is not, nor one that turns its back to the table; a bed holds the nightstands turned
+    as it is, not one turned away."""
+    from scenemosaic.perception import DetectedObject, ObjectMask, SeenObject
+    from scenemosaic.perception._headings import HeadingChoice
+    from scenemosaic.perception._lift import _held_together
+
+    rows = (
+        ("table", "dining_table", (0.0, 4.0), (1.6, 0.9, 0.75)),
+        ("near", "dining_chair", (0.0, 3.25), (0.46, 0.53, 0.95)),  # 0.3 m before the near edge
+        ("far", "dining_chair", (0.6, 5.75), (0.46, 0.53, 0.95)),  # 1.3 m beyond the far edge, facing it
+        ("away", "dining_chair", (-0.6, 3.25), (0.46, 0.53, 0.95)),  # before the edge, its back to it
+        ("bed", "double_bed", (4.0, 3.0), (1.6, 2.1, 0.9)),
+        ("stand", "nightstand", (5.1, 3.8), (0.45, 0.4, 0.55)),
+        ("odd", "nightstand", (2.9, 3.8), (0.45, 0.4, 0.55)),
+    )
+    items = _items(*rows)
+    # yaw 0 faces -Y (toward the camera); pi faces +Y
+    yaws = {"table": 0.0, "near": math.pi, "far": 0.0, "away": 0.0, "bed": 0.0, "stand": 0.0, "odd": math.pi / 2}
+    headings = {k: HeadingChoice(v, 0, "") for k, v in yaws.items()}
+    mask = ObjectMask((0, 0), np.zeros((0, 0), dtype=bool))
+    floor = [SeenObject(DetectedObject(id=i, label=c, box=(0, 0, 10, 10)), mask, "floor") for i, c, _xy, _s in rows]
+    flush, seats = _held_together(floor, items, headings)
+    assert seats == [(1, 0)]
+    assert flush == [(4, 5)]
