@@ -69,9 +69,9 @@ def at_camera_height(rec: Reconstruction, height: float) -> tuple[Reconstruction
     height the user measured: a tripod, a phone's AR session). A single view fixes the room only
     up to one scale, which the reconstructor reads from the objects' usual sizes; a known height
     replaces that reading. Every place and size is multiplied by the same factor, returned too."""
-    _up, measured, _source = _floor_from_reconstruction(rec)
     if not (math.isfinite(height) and height > 0.0):
         raise UsageError(f"the camera's height must be a positive number of metres, got {height!r}")
+    _up, measured, _source = _floor_from_reconstruction(rec)
     if measured <= 1e-6:
         raise ImportFormatError(f"the reconstruction puts the camera {measured:.3f} m above the floor: it cannot be scaled to {height} m")
     k = height / measured

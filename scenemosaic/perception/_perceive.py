@@ -13,6 +13,7 @@ from __future__ import annotations
 import asyncio
 import inspect
 import json
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -154,6 +155,8 @@ async def perceive(
     ``clock``: the run's clock (``RunModel.clock``: request time-out and deadline),
     which bounds every call to an HTTP segmenter or reconstructor.
     """
+    if camera_height_m is not None and not (math.isfinite(camera_height_m) and camera_height_m > 0.0):
+        raise UsageError(f"the camera's height must be a positive number of metres, got {camera_height_m!r}")
     image = await asyncio.to_thread(load_image, image_path)
     hints = await asyncio.to_thread(read_detections, detections, image.width, image.height, image_name=image.path.name) if detections else []
     if not model.uses_rule_solvers and not model.vision:

@@ -475,6 +475,8 @@ def test_a_known_camera_height_sets_the_rooms_scale(tmp_path: Path) -> None:
 
     with pytest.raises(UsageError, match="positive number of metres"):
         at_camera_height(plain.reconstruction, -1.0)
+    with pytest.raises(UsageError, match="positive number of metres"):  # refused before any work
+        asyncio.run(perceive(folder / "photo.png", RulesModel(), detections=folder / "boxes.json", segmenter="box", camera_height_m=float("nan")))
 
 
 def test_generate_takes_the_camera_height(tmp_path: Path) -> None:
