@@ -486,7 +486,7 @@ class BoxLifter:
                         extra += [max(0.0, z + size[2] - top) / FOOTPRINT_SD, max(0.0, resting[0][2] - z) / FOOTPRINT_SD]
                 return np.concatenate([(pred - box) * weights, [x[2] / sig, x[3] / sig], extra])
 
-            z0 = z_mean if z_sigma is not None else max(0.0, float(guess[2] - base[2] / 2))
+            z0 = z_mean if z_sigma is not None or resting is not None else max(0.0, float(guess[2] - base[2] / 2))
             start_xy = guess[:2] if resting is None else resting[0][:2]
             x0 = np.array([start_xy[0], start_xy[1], 0.0, 0.0] + ([] if z_sigma == 0.0 else [z0]))
             if hanging:  # start where the box's lower edge meets the ceiling's prior height less the lamp's
@@ -772,9 +772,10 @@ def _hypotheses(
     raised: bool = True,
 ) -> list[tuple[str, float, float | None]]:
     """Where an object off the floor fit may rest, as (name, bottom height, its standard
-    deviation): 0 fixes the height, ``None`` leaves it free. On its support's top when it has
-    one in view, or (``shelved``: the support is open shelving) on a shelf inside it; on a wall or
-    the ceiling when the inventory says so; else, for a small object resting on nothing in view:
+    deviation): 0 fixes the height, ``None`` leaves it free (the height is then where the fit
+    starts: mid-shelf for ``in``). On its support's top when it has one in view, or
+    (``shelved``: the support is open shelving) on a shelf inside it; on a wall or the ceiling
+    when the inventory says so; else, for a small object resting on nothing in view:
     on the floor, on furniture out of view (:data:`RAISED_HEIGHT`; only when ``raised``: such
     furniture could be hidden, :func:`_support_may_hide`), or on a wall (:data:`WALL_HEIGHT`) when
     its type may hang there."""
