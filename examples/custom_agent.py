@@ -1,5 +1,7 @@
 """A one-file agent plugin run by ``generate`` beside the built-in agents: ``python examples/custom_agent.py
-[ROOM.json] [OUT]`` writes ``OUT/base/scene.json`` with ``metadata.crowding``. A real VLM gets ``PROMPT``."""
+[ROOM.json] [OUT]`` writes ``OUT/base/scene.json`` with ``metadata.crowding``. On a whole house (a ProcTHOR
+``house.json``) the agent runs in every room: each ``OUT/base/rooms/<room>/scene.json`` holds its room's
+crowding. A real VLM gets ``PROMPT``."""
 
 # %%
 from __future__ import annotations
@@ -51,4 +53,6 @@ if __name__ == "__main__":
     room = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parents[1] / "data/layouts/physcene/DiningRoom-19325_diningroom.json"
     out = Path(sys.argv[2]) if len(sys.argv) > 2 else Path("out/custom_agent")
     result = sm.generate(room, out, sm.GenerateConfig(agents=[*sm.DEFAULT_AGENTS, CrowdingAgent()]))
-    print("crowding:", result.scene.metadata["crowding"])
+    rooms = [result.room(r) for r in result.rooms] or [result.scene]  # a house: the agent ran in each room
+    for scene in rooms:
+        print(f"crowding of {scene.id}:", scene.metadata["crowding"])

@@ -3,7 +3,8 @@
 Run: ``python examples/custom_critic.py [ROOM.json] [OUT]`` (default: the living room
 LivingDiningRoom-8714 shipped in ``data/``). The rule is a plain function the evolve stage's critic
 calls on every layout of every unit; what it finds joins the built-in findings, the rule actor
-applies its fix, and a real VLM critic reads its note.
+applies its fix, and a real VLM critic reads its note. On a whole house (a ProcTHOR ``house.json``)
+it runs in every room, and each room with a sofa and a coffee table is measured.
 """
 
 # %%
@@ -15,7 +16,7 @@ from pathlib import Path
 
 import scenemosaic as sm
 from scenemosaic.evolve import Finding, Target, UnitContext
-from scenemosaic.scene import UnitLayout
+from scenemosaic.scene import House, UnitLayout
 
 ROOM = Path(__file__).resolve().parents[1] / "data/layouts/physcene/LivingDiningRoom-8714_livingroom.json"
 GAP = 0.30  # metres of legroom between the sofa's front and the table
@@ -55,19 +56,40 @@ def coffee_table_in_front(layout: UnitLayout, ctx: UnitContext) -> list[Finding]
 
 
 # %%
+def rooms(result: sm.GenerateResult) -> dict[str, sm.Scene]:
+    """A whole house's rooms by id, or the one room of a room run."""
+    scene = result.scene
+    return {room.id: room for room in scene.rooms} if isinstance(scene, House) else {scene.id: scene}
+
+
+def evolved_layouts(result: sm.GenerateResult, room_id: str) -> list[tuple[str, str, bool]]:
+    """What the evolve stage made of each unit: its anchor, the layout chosen, whether valid."""
+    stages = result.report["rooms"][room_id]["stages"] if result.rooms else result.report["stages"]
+    layouts = next(s for s in stages if s["name"] == "evolve")["detail"]["layouts"]
+    return [(lay["anchor"], lay["layout_id"], lay["valid"]) for lay in layouts]
+
+
 def main() -> None:
     source = Path(sys.argv[1]) if len(sys.argv) > 1 else ROOM
     out = Path(sys.argv[2]) if len(sys.argv) > 2 else Path("out/custom_critic")
     plain = sm.generate(source, out / "plain", sm.GenerateConfig(overwrite=True))
     ruled = sm.generate(source, out / "ruled", sm.GenerateConfig(layout_rules=[coffee_table_in_front], overwrite=True))
     for name, result in (("built-in rules", plain), ("with the plugin", ruled)):
-        scene = result.scene
-        sofa = next(o for o in scene.objects if "sofa" in o.category)
-        table = next(o for o in scene.objects if o.category == "coffee_table")
-        gap = math.dist(sofa.pose.position[:2], table.pose.position[:2])
-        print(f"{name}: coffee table {gap:.2f} m from the sofa's centre, status {result.status}")
-    evolve = next(s for s in ruled.report["stages"] if s["name"] == "evolve")["detail"]["layouts"]
-    print(f"evolved layouts: {[(lay['anchor'], lay['layout_id'], lay['valid']) for lay in evolve]}")
+        measured = 0
+        for room_id, scene in rooms(result).items():
+            sofa = next((o for o in scene.objects if "sofa" in o.category), None)
+            table = next((o for o in scene.objects if o.category == "coffee_table"), None)
+            if sofa is None or table is None:
+                continue
+            gap = math.dist(sofa.pose.position[:2], table.pose.position[:2])
+            where = f" ({room_id})" if result.rooms else ""
+            print(f"{name}{where}: coffee table {gap:.2f} m from the sofa's centre, status {result.status}")
+            measured += 1
+        if not measured:
+            print(f"{name}: no room with both a sofa and a coffee table (the rule finds nothing), status {result.status}")
+    for room_id in rooms(ruled):
+        where = f" of {room_id}" if ruled.rooms else ""
+        print(f"evolved layouts{where}: {evolved_layouts(ruled, room_id)}")
 
 
 if __name__ == "__main__":

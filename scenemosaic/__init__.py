@@ -181,9 +181,9 @@ def _lazy_plan_png(scene: Any) -> bytes:
 
 
 def _show_scenes_as_plans() -> None:
-    """Once the scene package is loaded, a notebook shows a ``Scene`` as its plan even when
-    nothing has imported the render package yet (``sm.demo_scene()``): a stand-in renderer that
-    imports it on first display."""
+    """Once the scene package is loaded, a notebook shows a ``Scene`` (or a ``House``) as its plan
+    even when nothing has imported the render package yet (``sm.demo_scene()``): a stand-in
+    renderer that imports it on first display."""
     scene = sys.modules.get("scenemosaic.scene")
     if scene is not None and "scenemosaic.render" not in sys.modules:
         scene.register_plan_renderer(_lazy_plan_png)

@@ -18,8 +18,9 @@ import threading
 import time
 from collections.abc import Callable
 from enum import StrEnum
+from inspect import Parameter, Signature, signature
 from pathlib import Path
-from typing import Annotated, Any, NoReturn
+from typing import Annotated, Any, NoReturn, TypeVar
 
 import typer
 from rich.console import Console
@@ -213,7 +214,7 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
         stop.on_stop = lambda name: progress.update(bar, description=f"stopping ({name}): writing the report")
 
         def on_stage(name: str, status: str) -> None:
-            if name == pipeline.HOUSE_STAGE_NAMES[0] and status == "started":  # a whole house: its own stages
+            if status == "started" and name not in pipeline.STAGE_NAMES:  # a stage of a whole house: its own stages
                 progress.update(bar, total=len(pipeline.HOUSE_STAGE_NAMES))
             if status == "started":
                 progress.update(bar, description=name)
@@ -277,44 +278,62 @@ def _run_cli(input_path: Path | None, out: Path, config: GenerateConfig) -> None
         )
         raise typer.Exit(code=EXIT_UNEXPECTED) from exc
     _summarize(result)
+    for line in result.run_report.notes:
+        _err.print(f"[cyan]note:[/cyan] {escape(line)}", highlight=False)
     if result.status == "degraded":
         _err.print("[yellow]warning:[/yellow] the result is degraded (status 'degraded' in report.json):")
-        for line in result.report.get("warnings", [])[:10]:
+        for line in result.run_report.warnings[:10]:
             _err.print(f"  - {line}", markup=False, highlight=False)
         if config.strict:
             raise typer.Exit(code=EXIT_UNEXPECTED)
 
 
 def _summarize(result: GenerateResult) -> None:
-    report = result.report
-    _out.print(f"[green]wrote[/green] {escape(str(result.out_dir))} ({report['objects']} objects, {report['total_seconds']:.1f} s)")
-    for stage in report["stages"]:
-        _out.print(f"  {stage['name']:<10} {stage['status']:<8} {stage['seconds']:7.2f} s", markup=False)
-    validation = report.get("validation") or {}
-    house = report.get("house")
-    if isinstance(house, dict) and validation:
-        figures = {
-            "rooms": len(house.get("rooms") or []),
-            "collision pairs": validation.get("collision_pairs", 0),
-            "out of bounds": validation.get("out_of_bounds", 0),
-            "blocked doors": len(validation.get("door_blockers") or []),
-            "unreachable rooms": len(validation.get("unreachable_rooms") or []),
-            "across walls": len(validation.get("wall_crossings") or []),
-            "house NAV": validation.get("house_nav"),
-        }
-        _out.print("  house: " + ", ".join(f"{k} {v}" for k, v in figures.items()), highlight=False)
-    elif validation:
-        figures = {
-            "collision pairs": len(validation.get("collisions", {}).get("pairs", [])),
-            "out of bounds": len(validation.get("out_of_bounds", {}).get("objects", [])),
-            "tipped": len(validation.get("tipped", [])),
-            "fell": len(validation.get("fell", [])),
-        }
-        _out.print("  validation: " + ", ".join(f"{k} {v}" for k, v in figures.items()))
+    report = result.run_report
+    _out.print(f"[green]wrote[/green] {escape(str(result.out_dir))} ({report.objects} objects, {report.total_seconds:.1f} s)")
+    for stage in report.stages:
+        _out.print(f"  {stage.name:<10} {stage.status:<8} {stage.seconds:7.2f} s", markup=False)
+    figures = report.figures()
+    if figures:
+        label = "house" if report.is_house else "validation"
+        _out.print(f"  {label}: " + ", ".join(f"{k} {v}" for k, v in figures.items()), highlight=False)
 
+
+
+_PANELS: dict[str, str] = {
+    "input": "Input",
+    "perception": "Perception (a photograph or a text prompt)",
+    "model": "Model",
+    "evolution": "Evolution",
+    "limits": "Limits",
+    "run": "Run",
+}
+"""generate's help panel of each group of settings (``Setting.group``)."""
+
+
+def _with_setting_options(command: CommandFunctionType) -> CommandFunctionType:
+    """``command`` with an option for every setting that has a flag, built from GenerateConfig's
+    fields (``setting_options``: flag, default, choices, help and bounds), so that none is restated
+    here; each reaches ``**settings`` under its field's name. ``--resume`` takes the stopped run's
+    output folder (the setting itself is on or off)."""
+    params = [p for p in signature(command, eval_str=True).parameters.values() if p.kind is not Parameter.VAR_KEYWORD]
+    for option in pipeline.setting_options():
+        kind: Any = Path if option.field == "resume" else option.kind
+        default = None if option.field == "resume" else option.default
+        info = typer.Option(
+            option.decls,
+            help=escape(option.help),
+            rich_help_panel=_PANELS[option.group],
+            metavar="[" + "|".join(option.choices) + "]" if option.choices else None,  # checked with the rest
+        )
+        annotation = Annotated[kind if default is not None else kind | None, info]  # type: ignore[valid-type]
+        params.append(Parameter(option.field, Parameter.KEYWORD_ONLY, default=default, annotation=annotation))
+    command.__signature__ = Signature(params, return_annotation=None)  # type: ignore[attr-defined]
+    return command
 
 
 @app.command()
+@_with_setting_options
 def generate(
     input_path: Annotated[
         Path | None,
@@ -324,191 +343,31 @@ def generate(
         ),
     ] = None,
     out: Annotated[Path | None, typer.Option("--out", "-o", help="Output folder.")] = None,
-    format: Annotated[
-        str, typer.Option("--format", help="auto, native, front3d, procthor, holodeck, sam3d, sceneeval, image.")
-    ] = "auto",
-    detections: Annotated[
-        Path | None,
-        typer.Option("--detections", help="A photograph's object boxes: COCO JSON or an inventory JSON (needed with --model rules)."),
-    ] = None,
-    segmenter: Annotated[
-        str, typer.Option("--segmenter", help="A photograph's segmenter: auto, grabcut, box, sam3 or http://HOST:PORT/segment.")
-    ] = "auto",
-    reconstructor: Annotated[
-        str,
-        typer.Option("--reconstructor", help="A photograph's 3D lifter: auto, box-lifter, sam3d[:pipeline.yaml] or http://HOST:PORT/reconstruct."),
-    ] = "auto",
-    prompt: Annotated[
-        str | None,
-        typer.Option("--prompt", help="Draw the room from this text first (the model's /images/generations), instead of INPUT."),
-    ] = None,
-    image_model: Annotated[
-        str | None, typer.Option("--image-model", help="The images endpoint's model (default: the --model's name).")
-    ] = None,
-    image_size: Annotated[str, typer.Option("--image-size", help="Size asked of the images endpoint.")] = "1024x1024",
-    hfov: Annotated[
-        float | None,
-        typer.Option("--hfov", help="A photograph's horizontal field of view in degrees, 5 to 170 (default: EXIF, else 60)."),
-    ] = None,
-    camera_height: Annotated[
-        float | None,
-        typer.Option(
-            "--camera-height", help="A photograph's camera height above the floor in metres, when known (default: read from the objects' sizes)."
-        ),
-    ] = None,
-    variants: Annotated[
-        int,
-        typer.Option(
-            "--variants", help="Number of diverse variants (m); above 0 the evolve stage also grows unit variants."
-        ),
-    ] = 0,
-    evolve: Annotated[
-        bool, typer.Option("--evolve/--no-evolve", help="Refine every unit through the Critic-Actor loop (default on).")
-    ] = True,
-    rounds: Annotated[int, typer.Option("--rounds", help="Round cap of each layout's Critic-Actor loop (1 or more).")] = 8,
-    save_views: Annotated[
-        bool, typer.Option("--save-views", help="Write each unit's view per round as PNG under OUT/evolve/.")
-    ] = False,
-    model: Annotated[str, typer.Option("--model", help="rules | openai:<model>[@<base_url>] | replay:<cassette.json>")] = "rules",
-    seed: Annotated[int, typer.Option("--seed", help="Run seed.")] = 0,
-    room: Annotated[
-        str | None, typer.Option("--room", help="Take one room of a multi-room house (e.g. 'room|3'); without it the whole house is generated.")
-    ] = None,
-    asset_dir: Annotated[
-        Path | None,
-        typer.Option("--asset-dir", help="Folder of <assetId>.glb meshes for SceneEval inputs (default: assets/ beside it)."),
-    ] = None,
-    vision: Annotated[
-        bool | None, typer.Option("--vision/--no-vision", help="Send images to the model (off for text-only servers).")
-    ] = None,
-    fallback: Annotated[
-        bool,
-        typer.Option(
-            "--solver-fallback/--no-solver-fallback",
-            help="Use an agent's rule solver when the model's answers stay unusable (default) or fail the run.",
-        ),
-    ] = True,
-    fallback_mode: Annotated[
-        str,
-        typer.Option(
-            "--fallback",
-            help="transient (default): time-outs, 429 and 5xx fall back to the rule solvers, a model server that "
-            "cannot serve the run stops it (exit 2); rules: that falls back too (the run is degraded).",
-        ),
-    ] = "transient",
-    request_timeout: Annotated[
-        float | None, typer.Option("--request-timeout", help="Seconds one model request may take (default: the model's own).")
-    ] = None,
-    deadline: Annotated[
-        float | None,
-        typer.Option("--deadline", help="Seconds all model requests of the run may take; then agents use their rule solvers."),
-    ] = None,
-    max_concurrency: Annotated[
-        int | None,
-        typer.Option(
-            "--max-concurrency",
-            help="Most model requests in flight at once (default: the server's slots when it says).",
-        ),
-    ] = None,
-    rpm: Annotated[float | None, typer.Option("--rpm", help="Most model requests per minute (client side).")] = None,
-    tpm: Annotated[float | None, typer.Option("--tpm", help="Most model tokens per minute (client side).")] = None,
-    reply_cache: Annotated[
-        Path | None,
-        typer.Option("--reply-cache", help="Folder of an on-disk model reply cache: equal requests are answered from it at no cost."),
-    ] = None,
-    stabilize: Annotated[
-        bool,
-        typer.Option("--stabilize/--no-stabilize", help="Run the physics stabilization (default on); off skips evolve too."),
-    ] = True,
-    cache_dir: Annotated[
-        Path | None,
-        typer.Option("--cache-dir", help="Hull cache folder (default: $SCENEMOSAIC_CACHE or ~/.cache/scenemosaic)."),
-    ] = None,
-    room_workers: Annotated[
-        int | None,
-        typer.Option("--room-workers", help="Processes for a house's rooms (default: one per core, at most one per room)."),
-    ] = None,
-    strict: Annotated[bool, typer.Option("--strict", help="Exit 1 when the result is degraded.")] = False,
-    overwrite: Annotated[
-        bool, typer.Option("--overwrite", help="Replace an output folder that holds another input's results.")
-    ] = False,
-    resume: Annotated[
-        Path | None,
-        typer.Option("--resume", help="Continue the stopped run in this output folder (INPUT and settings come from it)."),
-    ] = None,
-    max_input_mb: Annotated[
-        float | None,
-        typer.Option("--max-input-mb", help="Largest input file read, in MB (default: 256 for a scene file, 64 for a photograph)."),
-    ] = None,
-    restart_stale: Annotated[
-        bool,
-        typer.Option(
-            "--restart-stale",
-            help="With --resume: when the input or a setting changed since the stopped run, start over instead of refusing.",
-        ),
-    ] = False,
-    priors: Annotated[
-        Path | None,
-        typer.Option("--priors", help="ProcTHOR priors folder replacing the priors shipped with the package."),
-    ] = None,
     log_level: LogLevelOpt = "warning",
     log_format: LogFormatOpt = "text",
+    **settings: Any,
 ) -> None:
     """Turn INPUT into a stabilized, simulation-ready scene in the output layout under --out.
 
     Exit codes: 0 done (also when degraded, unless --strict), 1 unexpected error or degraded
     under --strict, 2 bad input or settings, 130 stopped by Ctrl-C, 143 stopped by SIGTERM.
     """
+    resume: Path | None = settings.pop("resume")
     if resume is not None:
         try:
             input_path, config = pipeline.checkpoint_config(resume)
         except SceneMosaicError as exc:
             _err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
             raise typer.Exit(code=EXIT_BAD_INPUT) from exc
-        _run_cli(input_path, resume, config.model_copy(update={"restart_stale": restart_stale}))
+        _run_cli(input_path, resume, config.model_copy(update={"restart_stale": settings["restart_stale"]}))
         return
-    if (input_path is None) == (prompt is None) or out is None:
+    if (input_path is None) == (settings["prompt"] is None) or out is None:
         _err.print(
             "[red]error:[/red] give INPUT or --prompt TEXT (one of them), and --out (or --resume OUT to continue a stopped run)"
         )
         raise typer.Exit(code=EXIT_BAD_INPUT)
     try:
-        config = GenerateConfig(
-            format=format,
-            detections=detections,
-            segmenter=segmenter,
-            reconstructor=reconstructor,
-            hfov_deg=hfov,
-            camera_height_m=camera_height,
-            prompt=prompt,
-            image_model=image_model,
-            image_size=image_size,
-            variants=variants,
-            evolve=evolve,
-            evolve_rounds=rounds,
-            save_views=save_views,
-            model=model,
-            seed=seed,
-            room=room,
-            vision=vision,
-            priors_dir=priors,
-            solver_fallback=fallback,
-            fallback=fallback_mode,  # type: ignore[arg-type]  # GenerateConfig checks the value (one error line per bad flag)
-            asset_dir=asset_dir,
-            request_timeout_s=request_timeout,
-            deadline_s=deadline,
-            max_concurrency=max_concurrency,
-            requests_per_minute=rpm,
-            tokens_per_minute=tpm,
-            reply_cache=reply_cache,
-            stabilize=stabilize,
-            cache_dir=cache_dir,
-            room_workers=room_workers,
-            strict=strict,
-            overwrite=overwrite,
-            restart_stale=restart_stale,
-            max_input_mb=max_input_mb,
-        )
+        config = GenerateConfig(**settings)
     except SettingsError as exc:  # named by their flags: one line each
         for line in exc.describe(_flag_of):
             _err.print(f"[red]error:[/red] {escape(line)}", highlight=False)
@@ -548,13 +407,14 @@ def inspect(
     as_json: Annotated[bool, typer.Option("--json", help="Print the units and constraints as JSON.")] = False,
     variant: VariantOpt = None,
     room: RoomOpt = None,
+    allow_partial: AllowPartialOpt = False,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Show a scene's tree: anchors, their children, units and cross-unit constraints (a house:
     its rooms and the doors between them; --room for one room's tree)."""
     from scenemosaic.scene import format_tree
 
-    loaded, _ = _load_any(scene_path, variant, room)
+    loaded, _ = _load_any(scene_path, variant, room, allow_partial)
     if isinstance(loaded, House):
         _print_house(loaded, as_json)
         return
@@ -589,18 +449,29 @@ def _print_house(house: House, as_json: bool) -> None:
 def evaluate(
     path: Annotated[
         Path,
-        typer.Argument(metavar="DIR_OR_SCENE", help="A generate output folder (base/ and variant_*/), or one scene."),
+        typer.Argument(metavar="DIR_OR_SCENE", help="A generate output folder (base/ and variant_*/), or one scene or house."),
     ],
+    room: RoomOpt = None,
+    allow_partial: AllowPartialOpt = False,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Print the scene metrics as JSON: COL, OOB, NAV of the base and each variant, RelKeep,
-    Div-IoU and Div-N over the variants (see docs/composition.md)."""
-    from scenemosaic.metrics import evaluate as evaluate_scenes
+    Div-IoU and Div-N over the variants (see docs/composition.md).
 
-    (_, base_path), *variant_paths = _scene_folders(path)
-    base, folder = _load_or_exit(base_path)
-    variants = [_load_or_exit(p)[0] for _, p in variant_paths]
-    result = evaluate_scenes(base, variants, base_dir=folder, variant_dirs=[p for _, p in variant_paths])
+    A house run gives every room's metrics and the house's (house NAV, unreachable rooms, blocked
+    doors, objects across walls, RelKeep, house diversity; docs/houses.md); --room gives one
+    room's metrics over the base and the variants.
+    """
+    from scenemosaic.metrics import evaluate as evaluate_scenes
+    from scenemosaic.metrics import evaluate_house
+
+    (_, base, folder), *rest = _load_scenes(path, room, allow_partial)
+    dirs = [f for _, _, f in rest]
+    result: dict[str, Any]
+    if isinstance(base, House):
+        result = evaluate_house(base, _all_of(House, rest), base_dir=folder, variant_dirs=dirs)
+    else:
+        result = evaluate_scenes(base, _all_of(Scene, rest), base_dir=folder, variant_dirs=dirs)
     _out.print_json(json.dumps(result))
 
 
@@ -743,9 +614,12 @@ def _scene_folders(path: Path) -> list[tuple[str, Path]]:
     return [(path.stem if path.is_file() else path.name, path)]
 
 
-def _load_any(path: Path, variant: str | None = None, room: str | None = None) -> tuple[Scene | House, Path]:
+def _load_any(
+    path: Path, variant: str | None = None, room: str | None = None, allow_partial: bool = False
+) -> tuple[Scene | House, Path]:
     """The scene or house ``path`` names (a generate output folder gives its base, or ``variant``;
-    a house gives ``room`` when one is named) and the folder its mesh paths start from."""
+    a house gives ``room`` when one is named) and the folder its mesh paths start from. The
+    partial result of a failed or stopped run is refused unless ``allow_partial``."""
     from scenemosaic.exchange import load_scene
 
     try:
@@ -753,24 +627,64 @@ def _load_any(path: Path, variant: str | None = None, room: str | None = None) -
             path = RunFolder(path).scene_folder(variant)
         elif variant is not None:
             raise SceneMosaicError(f"--variant needs a generate output folder; {path} is not one")
-        return load_scene(path, room=room), path if path.is_dir() else path.parent
+        return load_scene(path, room=room, allow_partial=allow_partial), path if path.is_dir() else path.parent
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
 
 
-def _load_or_exit(path: Path, variant: str | None = None, room: str | None = None) -> tuple[Scene, Path]:
+def _load_or_exit(
+    path: Path, variant: str | None = None, room: str | None = None, allow_partial: bool = False
+) -> tuple[Scene, Path]:
     """Like :func:`_load_any`, for a command that works on one room: a house needs ``--room``."""
-    scene, folder = _load_any(path, variant, room)
+    scene, folder = _load_any(path, variant, room, allow_partial)
     if isinstance(scene, House):
         _err.print(f"[red]error:[/red] {escape(str(path))} is a house; pick a room with --room ({', '.join(scene.room_ids)})")
         raise typer.Exit(code=EXIT_BAD_INPUT)
     return scene, folder
 
 
+def _room_or_exit(house: House, room: str | None, path: Path) -> Scene:
+    """The room ``room`` of ``house``; none named, or one the house lacks, exits 2 naming its rooms."""
+    try:
+        if room is not None:
+            return house.room(room)
+    except KeyError:
+        pass
+    what = "has no room " + repr(room) if room is not None else "is a house; pick a room with --room"
+    _err.print(f"[red]error:[/red] {escape(str(path))} {escape(what)} ({', '.join(house.room_ids)})")
+    raise typer.Exit(code=EXIT_BAD_INPUT)
+
+
+_Loaded = TypeVar("_Loaded", Scene, House)
+
+
+def _load_scenes(path: Path, room: str | None = None, allow_partial: bool = False) -> list[tuple[str, Scene | House, Path]]:
+    """``[(name, scene or house, folder)]`` for every scene of ``path`` (:func:`_scene_folders`),
+    each as :func:`_load_any` reads it: a house whole, or its room ``room``."""
+    return [(name, *_load_any(folder, room=room, allow_partial=allow_partial)) for name, folder in _scene_folders(path)]
+
+
+def _all_of(kind: type[_Loaded], loaded: list[tuple[str, Scene | House, Path]]) -> list[_Loaded]:
+    """The scenes of ``loaded``, each a ``kind`` (a run whose base is a house has house variants)."""
+    out = [s for _, s, _ in loaded if isinstance(s, kind)]
+    if len(out) != len(loaded):
+        odd = ", ".join(name for name, s, _ in loaded if not isinstance(s, kind))
+        _err.print(f"[red]error:[/red] {escape(odd)}: not a {'house' if kind is House else 'room'} like the base")
+        raise typer.Exit(code=EXIT_BAD_INPUT)
+    return out
+
+
 VariantOpt = Annotated[
     str | None,
     typer.Option("--variant", help="With a generate output folder: the variant to use (2 or variant_2) instead of base/."),
+]
+AllowPartialOpt = Annotated[
+    bool,
+    typer.Option(
+        "--allow-partial",
+        help="Read what a failed or stopped run kept in base/ (marked partial.json) as if it were delivered.",
+    ),
 ]
 RoomOpt = Annotated[
     str | None,
@@ -781,25 +695,26 @@ RoomOpt = Annotated[
 @app.command()
 def export(
     path: Annotated[Path, typer.Argument(metavar="SCENE", help="A scene folder or file, or a generate output folder (base/ and every variant_*/).")],
-    fmt: Annotated[str, typer.Option("--format", "-f", help="mjcf, usd, urdf, glb, sceneeval, native (any registered writer).")],
+    fmt: Annotated[str, typer.Option("--format", "-f", help="mjcf, usd, urdf, glb, sceneeval, native, procthor (any registered writer).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder; a generate output folder gets one sub-folder per scene.")],
+    room: RoomOpt = None,
+    allow_partial: AllowPartialOpt = False,
     log_level: LogLevelOpt = "warning",
 ) -> None:
-    """Write a saved scene (or every scene of a generate run) in another format."""
-    from scenemosaic.exchange import DELIVERED_FORMATS, FORMATS, write_scene
+    """Write a saved scene (or every scene of a generate run) in another format: a house whole,
+    as one world (--room: that room only)."""
+    from scenemosaic.exchange import DELIVERED_FORMATS, writable_formats, write_scene
 
-    writers = sorted(name for name, f in FORMATS.items() if f.write is not None)
+    writers = sorted({*writable_formats(), *writable_formats(house=True)})
     if fmt not in writers:
         _err.print(f"[red]error:[/red] unknown output format {escape(repr(fmt))}; use one of {', '.join(writers)}")
         raise typer.Exit(code=EXIT_BAD_INPUT)
-    folders = _scene_folders(path)
     single = not RunFolder.is_run(path)
-    for name, folder in folders:
-        scene, base_dir = _load_or_exit(folder)
+    for name, folder in _scene_folders(path):
+        scene, base_dir = _load_any(folder, room=room, allow_partial=allow_partial)
         target = out if single else out / name
         destination = target / dict(DELIVERED_FORMATS).get(fmt, "")  # where generate puts it
         try:
-            target.mkdir(parents=True, exist_ok=True)
             written = write_scene(scene, fmt, destination, base_dir)
         except SceneMosaicError as exc:
             _err.print(f"[red]error:[/red] {escape(str(exc))}")
@@ -818,13 +733,14 @@ def render(
     gl: Annotated[bool, typer.Option("--gl/--no-gl", help="Render the meshes with MuJoCo (MUJOCO_GL=egl) when a GL context can be made.")] = False,
     variant: VariantOpt = None,
     room: RoomOpt = None,
+    allow_partial: AllowPartialOpt = False,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Draw a scene's floor plan (a house's whole plan), or one local unit's orthographic view as
     the critic sees it, as PNG."""
     from scenemosaic.render import render_house_plan, render_topdown, render_view, topdown_view
 
-    loaded, base_dir = _load_any(path, variant, room)
+    loaded, base_dir = _load_any(path, variant, room, allow_partial)
     if isinstance(loaded, House):
         if unit is not None:
             _err.print(f"[red]error:[/red] --unit needs one room: add --room ({escape(', '.join(loaded.room_ids))})")
@@ -874,17 +790,26 @@ def edit(
     allow_invalid: Annotated[
         bool, typer.Option("--allow-invalid", help="Write the edited scene even when the edit leaves new collisions or objects out of bounds.")
     ] = False,
+    allow_partial: AllowPartialOpt = False,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Move objects of one local unit with the pose expression language (docs/evolution.md), check
     the result (collisions, out of bounds) and write it.
 
     An edit that adds a collision or an object out of bounds is refused (exit 2) unless
-    --allow-invalid; --settle lets physics settle the edited scene first.
+    --allow-invalid; --settle lets physics settle the edited scene first. In a house, --room names
+    the room to edit; the whole house is written, that room changed.
     """
-    from scenemosaic.exchange import deliver_scene
+    from scenemosaic.exchange import deliver_house, deliver_scene
 
-    scene, base_dir = _load_or_exit(path, variant, room)
+    loaded, base_dir = _load_any(path, variant, allow_partial=allow_partial)
+    house: House | None = None
+    if isinstance(loaded, House):
+        house, scene = loaded, _room_or_exit(loaded, room, path)
+    elif room is not None:
+        scene, base_dir = _load_or_exit(path, variant, room, allow_partial)
+    else:
+        scene = loaded
     try:
         edited = scene.edit(expressions, unit=unit)
         if settle:
@@ -901,7 +826,11 @@ def edit(
                 highlight=False,
             )
             raise typer.Exit(code=EXIT_BAD_INPUT)
-        files = deliver_scene(edited, out, base_dir)
+        if house is not None:
+            rooms = [edited if r.id == scene.id else r for r in house.rooms]
+            files = deliver_house(house.with_rooms(rooms), out, base_dir)
+        else:
+            files = deliver_scene(edited, out, base_dir)
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc

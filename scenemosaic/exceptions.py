@@ -17,6 +17,7 @@ Usage errors (the caller gave us something wrong) are kept apart from run errors
     │   │                               host, key refused (401/403), no such model or path (404)
     │   ├── ExpressionError             a pose expression is refused by the sandboxed evaluator
     │   ├── OutputSpaceError            the output's disk is full: a file could not be written (also an OSError)
+    │   ├── PartialResultError          a folder holds what a failed or stopped run kept, not a delivered scene
     │   └── MissingExtraError           an optional dependency is not installed (names the pip command)
     └── RunError                        something failed while running on valid input
         ├── NodeFailedError             a task-graph node failed after its retries
@@ -59,6 +60,7 @@ __all__ = [
     "NodeTimeoutError",
     "OutputSpaceError",
     "OutputValidationError",
+    "PartialResultError",
     "PhysicsError",
     "ReplayMissError",
     "RunCancelledError",
@@ -164,6 +166,23 @@ class OutputSpaceError(UsageError, OSError):
 
     def __str__(self) -> str:
         return str(self.strerror)
+
+
+class PartialResultError(UsageError):
+    """A folder holds the partial result of a failed or stopped run (``partial.json`` beside its
+    scene), not a delivered scene: loaders refuse it unless asked for a partial result
+    (``allow_partial=True``, ``--allow-partial``). ``marker``: what ``partial.json`` says."""
+
+    def __init__(self, folder: str, marker: dict[str, Any]) -> None:
+        status = marker.get("status") or "failed"
+        stage = marker.get("failed_stage")
+        where = f" in stage {stage!r}" if stage else ""
+        super().__init__(
+            f"{folder} holds the partial result of a run that {'was interrupted' if status == 'interrupted' else 'failed'}{where}, "
+            "not a delivered scene; resume the run (--resume), or load it anyway with allow_partial=True (--allow-partial)"
+        )
+        self.folder = folder
+        self.marker = marker
 
 
 class MissingExtraError(UsageError, ImportError):

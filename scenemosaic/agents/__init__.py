@@ -3,10 +3,13 @@
 A task agent is a typed unit of work (``TaskAgent[StateT, EvidenceT, OutputT]``): it gathers
 evidence from its state (a :class:`SceneState` or a subclass), asks a model (or answers with its
 own rule solver offline), checks the answer against the scene (unknown and repeated object ids
-by the base class), repairs it within one retry budget, applies it, and returns an
-:class:`AgentResult`. :func:`run_agents` runs a set of agents as a task graph
-(:mod:`scenemosaic.dag`) and hands each result to its ``on_result`` callback. The structuring agents live in
-:mod:`scenemosaic.structure`; plugins are plain subclasses passed in by the caller.
+by the base class), repairs it within one retry budget, and returns an :class:`AgentResult`
+without changing the state. The runner applies it: :func:`run_agent` calls the agent's ``apply``
+(an agent that changes the state has one, :class:`AppliesOutput`; one that only judges has none)
+and hands the result to an :class:`AgentLog`, the one collector of outcomes, fallbacks and usage.
+:func:`run_agents` runs a set of agents as a task graph (:mod:`scenemosaic.dag`) through it. The
+structuring agents live in :mod:`scenemosaic.structure`; plugins are plain subclasses passed in by
+the caller.
 """
 
 from scenemosaic.agents._base import (
@@ -16,19 +19,23 @@ from scenemosaic.agents._base import (
     AgentOutput,
     AgentPolicy,
     AgentResult,
+    AppliesOutput,
     FallbackRecord,
     SceneState,
     TaskAgent,
+    calls_of,
     load_prompt,
     prompt_paths,
     run_blocking,
 )
 from scenemosaic.agents._evidence import TABLE_NOTE, evidence_legend, evidence_text
+from scenemosaic.agents._log import AgentLog
 from scenemosaic.agents._node import (
-    ResultListener,
     add_agent_nodes,
     agent_dependencies,
     agent_node,
+    apply_result,
+    run_agent,
     run_agents,
 )
 
@@ -36,21 +43,25 @@ __all__ = [
     "MAX_ITEMS",
     "PROMPTS_FOLDER",
     "TABLE_NOTE",
+    "AgentLog",
     "AgentOutcome",
     "AgentOutput",
     "AgentPolicy",
     "AgentResult",
+    "AppliesOutput",
     "FallbackRecord",
-    "ResultListener",
     "SceneState",
     "TaskAgent",
     "add_agent_nodes",
     "agent_dependencies",
     "agent_node",
+    "apply_result",
+    "calls_of",
     "evidence_legend",
     "evidence_text",
     "load_prompt",
     "prompt_paths",
+    "run_agent",
     "run_agents",
     "run_blocking",
 ]

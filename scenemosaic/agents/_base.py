@@ -1,14 +1,17 @@
-"""Task agents: typed units of work that read a scene state and write their answer back to it.
+"""Task agents: typed units of work that read a scene state and answer about it.
 
 A task agent is typed on the state it works on, its evidence and its output
 (``TaskAgent[StateT, EvidenceT, OutputT]``; the output type is the third parameter). It declares a
 name, the agents it depends on, how it gathers its evidence, its prompt template
 (``prompts/<prompt>.md``), its rule solver (the offline path), which output fields name objects
-(checked for unknown and repeated ids by the base class), how else it checks an output against
-the scene, and how it applies it. :meth:`TaskAgent.run` returns an :class:`AgentResult` (the
-output, its usage, how it was answered, the problems of refused answers) and writes nothing but
-the applied output into the state; the runner (``scenemosaic.agents.run_agents``, the evolve
-loop) collects the results. The scheduler (``scenemosaic.dag``) turns agents into graph nodes.
+(checked for unknown and repeated ids by the base class) and how else it checks an output against
+the scene. :meth:`TaskAgent.run` returns an :class:`AgentResult` (the checked output, how it was
+answered, its model requests and usage, the problems of refused answers) and changes nothing in
+the state. An agent whose output changes the state also has an ``apply`` (:class:`AppliesOutput`);
+an agent that only judges has none. Whoever runs the agent applies the result
+(``scenemosaic.agents.run_agent``: the task-graph nodes, the evolve loop, perception) and hands it
+to an :class:`~scenemosaic.agents.AgentLog`. The scheduler (``scenemosaic.dag``) turns agents into
+graph nodes.
 
 Plugins are subclasses (or any object with the same attributes) passed in by the caller;
 there is no global registry.
@@ -22,10 +25,22 @@ import contextvars
 import dataclasses
 import functools
 import inspect
+import time
 from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar, Generic, Literal, TypeVar, cast, get_args, get_origin
+from typing import (
+    Any,
+    ClassVar,
+    Generic,
+    Literal,
+    Protocol,
+    TypeVar,
+    cast,
+    get_args,
+    get_origin,
+    runtime_checkable,
+)
 
 import structlog
 from pydantic import BaseModel, ConfigDict
@@ -35,14 +50,26 @@ from scenemosaic.exceptions import (
     AgentOutputError,
     ModelConfigError,
     ModelContextLengthError,
+    ModelDeadlineExceeded,
     ModelEndpointError,
     ModelError,
     ModelHTTPError,
+    ModelUnavailableError,
     OutputValidationError,
     ReplayMissError,
     UsageError,
 )
-from scenemosaic.models import ImagePart, Message, Model, ModelSettings, RequestContext, TextPart, Usage
+from scenemosaic.models import (
+    ImagePart,
+    Message,
+    Model,
+    ModelSettings,
+    RequestContext,
+    TextPart,
+    Usage,
+    UsageRecord,
+    charged_usage,
+)
 from scenemosaic.scene import MAX_OBJECTS, Scene
 
 __all__ = [
@@ -52,9 +79,11 @@ __all__ = [
     "AgentOutput",
     "AgentPolicy",
     "AgentResult",
+    "AppliesOutput",
     "FallbackRecord",
     "SceneState",
     "TaskAgent",
+    "calls_of",
     "load_prompt",
     "prompt_paths",
     "run_blocking",
@@ -212,12 +241,16 @@ class AgentOutcome:
 
 @dataclass(frozen=True)
 class AgentResult(Generic[OutputT]):
-    """What one :meth:`TaskAgent.run` produced; the output is already applied to the state.
+    """What one :meth:`TaskAgent.run` produced: a checked output, not yet applied to the state.
 
     ``outcome`` says how the answer came about (model, rules, solver without a call, or solver
     fallback with the reason); ``fallback`` is the record of a solver fallback (``None`` when the
     answer is the model's or the rules'); ``problems`` holds the check's problems with each model
-    answer that was refused, in order (schema errors not included).
+    answer that was refused, in order (schema errors not included). ``calls`` has one record per
+    model request the run made (a request the run's own circuit breaker or deadline refused before
+    sending is none), counted as the run's usage tracker counts them (:func:`~scenemosaic.models.charged_usage`);
+    ``usage`` is their sum. ``notes`` are what the runner adds to the scene's provenance notes when
+    it applies the result (a solver fallback says so there).
     """
 
     output: OutputT
@@ -225,6 +258,8 @@ class AgentResult(Generic[OutputT]):
     usage: Usage = field(default_factory=Usage)
     problems: tuple[tuple[str, ...], ...] = ()
     fallback: FallbackRecord | None = None
+    calls: tuple[UsageRecord, ...] = ()
+    notes: tuple[str, ...] = ()
 
     @property
     def agent(self) -> str:
@@ -232,14 +267,26 @@ class AgentResult(Generic[OutputT]):
         return self.outcome.agent
 
 
+_CALLS = "agent_calls"
+"""Attribute of an exception raised by :meth:`TaskAgent.run` that holds the run's model requests."""
+
+
+def calls_of(exc: BaseException) -> tuple[UsageRecord, ...]:
+    """The model requests an agent run made before it raised ``exc`` (an ``AgentResult`` never
+    came back to carry them): a runner hands them to its log, so a failed stage still counts them."""
+    calls = getattr(exc, _CALLS, ())
+    return tuple(calls) if isinstance(calls, tuple) else ()
+
+
 @dataclass
 class SceneState:
-    """The shared state task agents read and write during a run.
+    """The shared state task agents read during a run, and their runner writes.
 
     ``scene`` is replaced (not mutated behind readers' backs) by ``apply``; ``lock``
-    serializes applies so concurrent agents never interleave half-written changes.
-    ``outputs`` keeps each agent's applied output by agent name. How each agent's answer came
-    about is not kept here: :meth:`TaskAgent.run` returns it (:class:`AgentResult`).
+    serializes the agents' reads and the runner's applies, so concurrent agents never see
+    half-written changes. ``outputs`` keeps each agent's applied output by agent name and
+    ``revision`` counts the results applied (both kept by the runner). How each agent's answer
+    came about is not kept here: :meth:`TaskAgent.run` returns it (:class:`AgentResult`).
     """
 
     scene: Scene
@@ -249,6 +296,24 @@ class SceneState:
     policy: AgentPolicy = field(default_factory=AgentPolicy)
     outputs: dict[str, BaseModel] = field(default_factory=dict)
     lock: asyncio.Lock = field(default_factory=asyncio.Lock)
+    revision: int = 0
+    """How many agent results were applied to this state: when it moved while an agent ran, the
+    runner checks that agent's answer again before applying it (``scenemosaic.agents.run_agent``)."""
+
+
+S_contra = TypeVar("S_contra", bound=SceneState, contravariant=True)
+O_contra = TypeVar("O_contra", bound=BaseModel, contravariant=True)
+
+
+@runtime_checkable
+class AppliesOutput(Protocol[S_contra, O_contra]):
+    """An agent whose output changes the state: it has ``apply(output, state)``, which writes a
+    checked output into the state (the runner calls it, holding ``state.lock``). An agent that
+    only judges (the manager's plan, the critic, the judge) has no ``apply``: its output is read
+    by whoever ran it."""
+
+    def apply(self, output: O_contra, state: S_contra) -> None:
+        """Write a checked output into the scene state."""
 
 
 REPAIR_ECHO_CHARS = 6000
@@ -294,19 +359,43 @@ def _field_values(value: Any, path: list[str]) -> Iterator[str]:
     yield from _field_values(getattr(value, path[0]), path[1:])
 
 
+def _sent(exc: BaseException) -> bool:
+    """Whether a request that raised ``exc`` reached the model: the run's circuit breaker and its
+    deadline refuse before sending (a deadline that passed during the request did send it)."""
+    if isinstance(exc, ModelUnavailableError):
+        return False
+    return not isinstance(exc, ModelDeadlineExceeded) or exc.__cause__ is not None
+
+
 @dataclass
 class _Tally:
-    """Requests, repairs, usage and refused answers of one agent run, over all its requests."""
+    """Requests, repairs, model calls and refused answers of one agent run, over all its requests."""
 
     requests: int = 0
     repairs: int = 0
-    usage: Usage = field(default_factory=Usage)
+    calls: list[UsageRecord] = field(default_factory=list)
     refused: list[tuple[str, ...]] = field(default_factory=list)
 
-    def result(self, agent: str, output: OutputT, answered_by: AnsweredBy, reason: str = "") -> AgentResult[OutputT]:
+    def called(
+        self, context: RequestContext, model: str, usage: Usage | None, latency_s: float, error: BaseException | None
+    ) -> None:
+        """Record one request as the run's usage tracker records it (nothing for one never sent)."""
+        if error is not None and not _sent(error):
+            return
+        if error is not None:
+            spent = getattr(error, "usage", None)
+            usage = spent if isinstance(spent, Usage) else Usage()
+        cancelled = isinstance(error, asyncio.CancelledError | ModelDeadlineExceeded)
+        charged = charged_usage(usage or Usage(), cancelled=cancelled)
+        self.calls.append(UsageRecord(context.agent, context.node, model, charged, latency_s, error is None, None))
+
+    def result(
+        self, agent: str, output: OutputT, answered_by: AnsweredBy, reason: str = "", notes: tuple[str, ...] = ()
+    ) -> AgentResult[OutputT]:
         fallback = FallbackRecord(agent=agent, reason=reason[:500]) if answered_by == "solver_fallback" else None
         outcome = AgentOutcome(agent, answered_by, self.requests, self.repairs, reason[:300])
-        return AgentResult(output, outcome, self.usage, tuple(self.refused), fallback)
+        usage = sum((c.usage for c in self.calls), Usage())
+        return AgentResult(output, outcome, usage, tuple(self.refused), fallback, tuple(self.calls), notes)
 
 
 @dataclass
@@ -358,10 +447,14 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
       the module defining the class, or beside the module itself), or the prompt text itself.
     * ``object_id_fields`` / ``object_ref_fields`` — output fields that name objects; the base
       check reports unknown ids (and, for ``object_id_fields``, ids listed twice).
-    * ``offload`` — run :meth:`gather`, :meth:`messages`, :meth:`check` and :meth:`apply`
-      in a worker thread (default), holding ``state.lock`` so they still see and leave a
+    * ``offload`` — run :meth:`gather`, :meth:`messages`, :meth:`check` (and the runner runs
+      ``apply``) in a worker thread (default), holding ``state.lock`` so they still see and leave a
       consistent scene. Set it to ``False`` for an agent whose hooks must run on the event
       loop (e.g. an ``apply`` that adds graph nodes through ``current_context()``).
+
+    An agent whose output changes the state defines ``apply(output, state)``
+    (:class:`AppliesOutput`); one that only judges defines none. :meth:`run` never applies: it
+    returns the checked output, and the runner applies it.
 
     The agent owns its answer: it validates, repairs within ``state.policy.max_attempts``
     requests, and falls back to :meth:`solve`. Models never call agent code; with the offline
@@ -433,10 +526,6 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
         override needs no id checks of its own (it may skip items whose id is unknown).
         """
         return []
-
-    @abc.abstractmethod
-    def apply(self, output: OutputT, state: StateT) -> None:
-        """Write a checked output into the scene state."""
 
     def known_ids(self, state: StateT) -> Collection[str]:
         """The ids an output may name (default: the scene's objects)."""
@@ -539,31 +628,42 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
         *,
         node: str | None = None,
     ) -> AgentResult[OutputT]:
-        """Gather evidence, answer (model or rule solver), check, repair, apply; return the result.
+        """Gather evidence, answer (model or rule solver), check, repair; return the result.
 
         Scene work runs in a worker thread under ``state.lock`` (see ``offload``); only the
         model request runs without the lock, so concurrent agents overlap on their requests.
-        One budget, ``state.policy.max_attempts``, covers every reason to ask again. The state
-        receives the applied output (and ``outputs[name]``); how the answer came about is in the
-        returned :class:`AgentResult`, for the caller to collect.
+        One budget, ``state.policy.max_attempts``, covers every reason to ask again. Nothing in
+        the state changes: the returned :class:`AgentResult` holds the checked output (for the
+        runner to apply, ``scenemosaic.agents.run_agent``) and how it came about. An exception
+        raised here carries the run's model requests (:func:`calls_of`).
         """
         tally = _Tally()
+        try:
+            return await self._answer(state, model, settings, tally, node=node)
+        except BaseException as exc:
+            if tally.calls:
+                setattr(exc, _CALLS, (*calls_of(exc), *tally.calls))
+            raise
+
+    async def _answer(
+        self, state: StateT, model: Model, settings: ModelSettings | None, tally: _Tally, *, node: str | None
+    ) -> AgentResult[OutputT]:
         if model.uses_rule_solvers:
             async with state.lock:
-                output = await run_blocking(self._solve_and_apply, state, offload=self.offload)
+                output = await run_blocking(self._solved, state, offload=self.offload)
             return tally.result(self.name, output, "rules")
         async with state.lock:
             evidence, messages, settled = await run_blocking(self._prepare, state, model.vision, offload=self.offload)
             if settled is not None:  # nothing to decide: the solver's answer, checked, no call
                 _log.info("agent_answered_without_model", agent=self.name)
-                await run_blocking(self._use, settled, state, offload=self.offload)
+                await run_blocking(self._require_usable, settled, state, [], offload=self.offload)
                 return tally.result(self.name, settled, "solver_without_call")
             chunks = self._chunks(evidence)
         if len(chunks) > 1:
             return await self._run_chunked(state, model, settings, evidence, chunks, tally, node=node)
         compact = functools.partial(self.compact_messages, evidence, state, vision=model.vision)
-        apply = functools.partial(self._check_and_apply, state=state)
-        reply = await self._ask(state, model, settings, evidence, messages, apply, tally, node=node, compact=compact)
+        accept = functools.partial(self.problems, state=state)
+        reply = await self._ask(state, model, settings, evidence, messages, accept, tally, node=node, compact=compact)
         if reply.output is not None:
             return tally.result(self.name, reply.output, "model")
         reason = reply.error or f"unusable after {state.policy.max_attempts} attempts: " + "; ".join(reply.problems)
@@ -588,8 +688,8 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
     ) -> _Reply[OutputT]:
         """The ask/check/repair loop of one request (the whole evidence, or one chunk of it).
 
-        ``accept`` (run under the lock) returns an answer's problems, applying it when there are
-        none. A reply that is not JSON, breaks the schema or has problems is sent back with them
+        ``accept`` (run under the lock) returns an answer's problems; an answer without any is
+        the reply's output. A reply that is not JSON, breaks the schema or has problems is sent back with them
         (the original prompt, the last reply, the problems: repairs do not make the prompt grow)
         while the budget lasts. ``compact``, when given, is asked once for a shorter prompt when
         the model's context overflows. A model failure raises unless the solver may answer for it
@@ -604,10 +704,9 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
             reply.schema_error = None
             try:
                 tally.requests += 1
-                answer, usage = await model.request(messages, self.output_type, settings, context=context)
+                answer = await self._request(model, messages, settings, context, tally)
             except OutputValidationError as exc:  # not JSON, or not the schema: repairable
                 reply.schema_error = exc
-                tally.usage = tally.usage + (exc.usage if isinstance(exc.usage, Usage) else Usage())
                 problems, text = exc.errors or [str(exc)], exc.raw_reply
                 intro = f"That reply is not a valid {self.output_type.__name__} JSON object:"
             except (ModelError, ModelEndpointError) as exc:
@@ -624,7 +723,6 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
                 reply.error = f"{type(exc).__name__}: {exc}"
                 return reply
             else:
-                tally.usage = tally.usage + usage
                 output = cast(OutputT, answer)
                 async with state.lock:
                     problems = await run_blocking(accept, output, offload=self.offload)
@@ -639,6 +737,24 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
                 tally.repairs += 1
                 messages = _repair(prompt, text, intro, problems)
         return reply
+
+    async def _request(
+        self,
+        model: Model,
+        messages: list[Message],
+        settings: ModelSettings | None,
+        context: RequestContext,
+        tally: _Tally,
+    ) -> BaseModel:
+        """One model request, recorded in ``tally`` however it ends: the answer (its usage is in ``tally``)."""
+        started = time.perf_counter()
+        try:
+            answer, usage = await model.request(messages, self.output_type, settings, context=context)
+        except BaseException as exc:
+            tally.called(context, model.name, None, time.perf_counter() - started, exc)
+            raise
+        tally.called(context, model.name, usage, time.perf_counter() - started, None)
+        return answer
 
     # -- large scenes: one request per chunk of objects ------------------------------------------
     def _chunks(self, evidence: EvidenceT) -> list[tuple[list[str], EvidenceT]]:
@@ -678,7 +794,8 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
     ) -> AgentResult[OutputT]:
         """Ask for each chunk of objects in turn (:meth:`_ask`); each chunk's answer is checked in
         the context of the whole scene (the rule solver's answer stands in for the other chunks),
-        and replaced by the solver's part when it stays unusable. The merged answer is applied."""
+        and replaced by the solver's part when it stays unusable. The merged answer is checked
+        once more and returned."""
         base = await run_blocking(self.solve, evidence, offload=self.offload)
         policy = state.policy
         kept: list[Any] = []
@@ -713,27 +830,20 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
             failed.append(f"{len(ids)} objects ({'; '.join(problems)[:200]})")
             kept += mine
         merged = self._with_items(base, kept)
-
-        def apply_merged() -> list[str]:
-            problems = self._check_and_apply(merged, state)
-            if failed and not problems:
-                note = f"{self.name}: model answer unusable for part of the scene, used the rule solver there"
-                state.scene.provenance.notes.append(note)
-            return problems
-
         async with state.lock:
-            problems = await run_blocking(apply_merged, offload=self.offload)
+            problems = await run_blocking(self.problems, merged, state, offload=self.offload)
         if problems:  # chunks that each fit, together do not (a cycle across chunks): the solver
             reason = "chunk answers inconsistent together: " + "; ".join(problems)
             return await self._fall_back(state, reason, problems, tally)
         if failed:
-            return tally.result(self.name, merged, "solver_fallback", "rule solver for " + ", ".join(failed))
+            note = f"{self.name}: model answer unusable for part of the scene, used the rule solver there"
+            return tally.result(self.name, merged, "solver_fallback", "rule solver for " + ", ".join(failed), (note,))
         return tally.result(self.name, merged, "model")
 
-    def _solve_and_apply(self, state: StateT) -> OutputT:
+    def _solved(self, state: StateT) -> OutputT:
         """The rules path: the agent's own solver answers; its output must pass the agent's check."""
         output = self.solve(self.gather(state))
-        self._use(output, state)
+        self._require_usable(output, state, [])
         return output
 
     def _prepare(self, state: StateT, vision: bool) -> tuple[EvidenceT, list[Message], OutputT | None]:
@@ -741,22 +851,6 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
         settled = self.answer_without_model(evidence)
         messages = self.messages(evidence, state, vision=vision) if settled is None else []
         return evidence, messages, settled
-
-    def _use(self, output: OutputT, state: StateT) -> None:
-        """Check and apply a solver answer (caller holds the lock)."""
-        self._require_usable(output, state, [])
-        self._apply_output(output, state)
-
-    def _apply_output(self, output: OutputT, state: StateT) -> None:
-        self.apply(output, state)
-        state.outputs[self.name] = output
-
-    def _check_and_apply(self, output: OutputT, state: StateT) -> list[str]:
-        """Problems with ``output``; when there are none, it is applied (caller holds the lock)."""
-        problems = self.problems(output, state)
-        if not problems:
-            self._apply_output(output, state)
-        return problems
 
     def _require_usable(self, output: OutputT, state: StateT, model_problems: list[str]) -> None:
         solver_problems = self.problems(output, state)
@@ -773,11 +867,10 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
             # the scene as it is now: agents running beside this one may have changed it meanwhile
             output = self.solve(self.gather(state))
             self._require_usable(output, state, problems)
-            self._apply_output(output, state)
-            state.scene.provenance.notes.append(f"{self.name}: model output unusable, used the rule solver")
             return output
 
         _log.warning("agent_fell_back_to_solver", agent=self.name, reason=reason[:200])
         async with state.lock:
             output = await run_blocking(fall_back, offload=self.offload)
-        return tally.result(self.name, output, "solver_fallback", reason)
+        note = f"{self.name}: model output unusable, used the rule solver"
+        return tally.result(self.name, output, "solver_fallback", reason, (note,))

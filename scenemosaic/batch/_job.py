@@ -11,6 +11,7 @@ import structlog
 from pydantic import BaseModel, ConfigDict
 
 from scenemosaic import pipeline  # the stages load when a job runs
+from scenemosaic._processes import STOP_GRACE_S
 from scenemosaic.batch._manifest import BatchJob
 from scenemosaic.exceptions import SceneMosaicError
 from scenemosaic.scene import RunFolder
@@ -18,9 +19,6 @@ from scenemosaic.scene import RunFolder
 __all__ = ["STOP_GRACE_S", "JobOutcome", "JobSpec", "aexecute_job", "execute_job", "finished_report"]
 
 log = structlog.get_logger(__name__)
-
-STOP_GRACE_S = 5.0
-"""Seconds a stopped local worker may take to write its report before it is killed."""
 
 _FINISHED = ("ok", "degraded")
 _NOT_COMPARED = ("cache_dir", "variants_requested")
@@ -73,7 +71,7 @@ def finished_report(job: BatchJob, out_dir: Path) -> dict[str, Any] | None:
     """The report of an earlier, finished run of this very job in ``out_dir``, else ``None``.
 
     Finished means ``report.json`` says ``ok`` or ``degraded`` (``degraded`` only counts when
-    the job is not ``strict``) and ``base/scene.json`` exists. The report must name the same
+    the job is not ``strict``) and ``base/`` holds the delivered scene or house. The report must name the same
     input and agree on every setting it records (all but the hull cache folder): a folder left
     by another version of the manifest line is not a result of this job.
     """
@@ -82,7 +80,7 @@ def finished_report(job: BatchJob, out_dir: Path) -> dict[str, Any] | None:
         return None
     if report["status"] == "degraded" and job.settings.get("strict"):
         return None
-    if not (RunFolder(out_dir).base / RunFolder.SCENE_FILE).is_file():
+    if not RunFolder.is_delivered(RunFolder(out_dir).base):
         return None
     if job.input is not None and report.get("input") != str(job.input):  # a prompt: its text is a setting
         return None

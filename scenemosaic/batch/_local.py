@@ -16,7 +16,6 @@ import os
 import signal
 import subprocess
 import sys
-import sysconfig
 import time
 from collections import deque
 from collections.abc import Callable
@@ -26,8 +25,8 @@ from pathlib import Path
 
 import structlog
 
-import scenemosaic
-from scenemosaic.batch._job import STOP_GRACE_S, JobOutcome, JobSpec
+from scenemosaic._processes import STOP_GRACE_S, kill_group, worker_environment
+from scenemosaic.batch._job import JobOutcome, JobSpec
 
 __all__ = ["STOP_GRACE_S", "run_local"]
 
@@ -68,20 +67,6 @@ class _Running:
         return self.started + self.limit if self.limit is not None else None
 
 
-def _environment() -> dict[str, str]:
-    """The worker's environment: this one, so that the worker imports this very scenemosaic.
-
-    When scenemosaic was imported from a folder outside the interpreter's site-packages (a
-    checkout put on ``sys.path`` by a script), that folder goes first on ``PYTHONPATH``.
-    """
-    env = dict(os.environ)
-    root = Path(scenemosaic.__file__).resolve().parents[1]
-    site_dirs = {Path(sysconfig.get_path(name)).resolve() for name in ("purelib", "platlib")}
-    if root not in site_dirs:
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (str(root), env.get("PYTHONPATH")) if p)
-    return env
-
-
 def _start(spec: JobSpec, log_dir: Path, log_level: str, limit: float | None) -> _Running:
     log_dir.mkdir(parents=True, exist_ok=True)
     read_end, write_end = os.pipe()
@@ -93,7 +78,7 @@ def _start(spec: JobSpec, log_dir: Path, log_level: str, limit: float | None) ->
                 stdout=log_file,
                 stderr=log_file,
                 pass_fds=(write_end,),
-                env=_environment(),
+                env=worker_environment(),
                 start_new_session=True,  # its own process group: one signal reaches its helpers too
             )
     except BaseException:
@@ -133,12 +118,9 @@ def _stop(run: _Running, now: float) -> None:
 
 
 def _kill(run: _Running) -> None:
-    """SIGKILL the worker and everything in its process group (the worker is not reaped yet, so the id is its own)."""
+    """SIGKILL the worker and everything in its process group."""
     run.killed = True
-    with contextlib.suppress(OSError):
-        os.killpg(run.process.pid, signal.SIGKILL)
-    with contextlib.suppress(OSError):
-        run.process.kill()
+    kill_group(run.process.pid)
 
 
 def _outcome(run: _Running) -> JobOutcome:

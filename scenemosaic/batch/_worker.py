@@ -12,36 +12,22 @@ Nothing imports this module; only ``-m`` runs it (the package imports the rest).
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import os
 import signal
 import sys
 import threading
-import time
 
 from scenemosaic._logging import configure_logging
-from scenemosaic.batch._job import STOP_GRACE_S, JobOutcome, JobSpec, aexecute_job
+from scenemosaic._processes import watch_parent
+from scenemosaic.batch._job import JobOutcome, JobSpec, aexecute_job
 
 __all__ = ["main"]
-
-_ORPHAN_POLL_S = 0.2
-
-
-def _watch_parent(parent_pid: int) -> None:
-    """Stop this worker when the batch process is gone: first gently, then for good."""
-    while os.getppid() == parent_pid:
-        time.sleep(_ORPHAN_POLL_S)
-    with contextlib.suppress(OSError):
-        os.kill(os.getpid(), signal.SIGTERM)
-    time.sleep(STOP_GRACE_S)
-    os._exit(1)
-
 
 def main(argv: list[str]) -> int:
     """Run the job given on stdin; the exit status is 0 when an outcome was sent."""
     fd, parent_pid, level = int(argv[0]), int(argv[1]), argv[2]
     os.set_inheritable(fd, False)  # processes this job starts must not hold the pipe open
-    threading.Thread(target=_watch_parent, args=(parent_pid,), name="batch-parent-watch", daemon=True).start()
+    watch_parent(parent_pid)
     configure_logging(level, json_lines=True)
     spec = JobSpec.model_validate_json(sys.stdin.buffer.read())
 

@@ -309,9 +309,6 @@ class CriticAgent(TaskAgent[RoundState, CriticEvidence, CriticOutput]):
             problems.append("should_modify is true but there are no modification_notes")
         return problems
 
-    def apply(self, output: CriticOutput, state: RoundState) -> None:
-        return None
-
 
 # -- actor ----------------------------------------------------------------------------------------------
 
@@ -469,9 +466,6 @@ class ArchetypeAgent(TaskAgent[EvolveState, ArchetypeEvidence, ArchetypeOutput])
         if len(set(ids)) != len(ids) or "original" in ids:
             problems.append("layout_id values must be distinct and not 'original'")
         return problems
-
-    def apply(self, output: ArchetypeOutput, state: EvolveState) -> None:
-        return None
 
 
 # -- pose instantiation -----------------------------------------------------------------------------------

@@ -20,7 +20,7 @@ from typing import Any
 
 import structlog
 
-from scenemosaic.agents import AgentPolicy
+from scenemosaic.agents import AgentLog, AgentPolicy, run_agent
 from scenemosaic.dag import Node, NodeContext, Runner
 from scenemosaic.evolve._agents import ArchetypeAgent, EvolveState
 from scenemosaic.evolve._analysis import LayoutRule
@@ -76,11 +76,8 @@ class EvolutionReport:
 
     @property
     def usage(self) -> Usage:
-        total = Usage()
-        for u in self.units:
-            for lay in u.layouts:
-                total = total + lay.usage
-        return total
+        """What every layout's agents' requests cost."""
+        return sum((lay.agents.usage for u in self.units for lay in u.layouts), Usage())
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready record for ``report.json``."""
@@ -157,6 +154,7 @@ async def evolve_scene(
     views_dir: Path | None = None,
     max_concurrency: int | None = None,
     rules: Sequence[LayoutRule] = (),
+    agent_log: AgentLog | None = None,
 ) -> tuple[Scene, EvolutionReport]:
     """Evolve every unit of ``scene`` (stabilized, with its structure) and return the refined base
     scene and the report with every layout.
@@ -169,6 +167,8 @@ async def evolve_scene(
     ``shapes`` are the objects' collision shapes (``scenemosaic.physics.object_shape``);
     ``rules`` are plugin rules of the critic (:data:`~scenemosaic.evolve.LayoutRule`), run on
     every layout of every unit. ``views_dir``, when given, receives ``<anchor>/<layout>/round_<k>.png`` and ``final.png``.
+    Each layout's agent results are in its ``agents`` log (the refined original's also holds the
+    unit's archetype agent's); ``agent_log``, when given, receives them all, also when the stage fails.
     The input scene is not modified.
     """
     t0 = time.perf_counter()
@@ -183,13 +183,19 @@ async def evolve_scene(
     followers = {r.subject for r in functional_relations(scene) if r.follows}
     counts = alternative_counts(units, variants, followers)
     nodes: list[Node] = []
+    logs: list[AgentLog] = []  # one per node: what its agents did, kept however the node ends
+
+    def new_log() -> AgentLog:
+        logs.append(AgentLog())
+        return logs[-1]
 
     def views(anchor: str, layout_id: str) -> Path | None:
         return views_dir / anchor / layout_id if views_dir is not None else None
 
-    async def guarded(anchor: str, layout_id: str, work: Any) -> LayoutResult:
+    async def guarded(anchor: str, layout_id: str, agents: AgentLog, work: Any) -> LayoutResult:
         """A layout whose loop fails (a model that keeps failing without fallback, physics that
-        cannot settle) is kept as an error record; configuration errors and bugs still raise."""
+        cannot settle) is kept as an error record (with what its agents did); configuration
+        errors and bugs still raise."""
         try:
             result: LayoutResult = await work
             return result
@@ -198,25 +204,27 @@ async def evolve_scene(
         except SceneMosaicError as exc:
             log.warning("layout_evolution_failed", unit=anchor, layout=layout_id, error=str(exc)[:300])
             kept = {k: p for k, p in unit_layout(scene, anchor).items()}
-            return LayoutResult(anchor, layout_id, local_poses=kept, error=f"{type(exc).__name__}: {exc}"[:500])
+            error = f"{type(exc).__name__}: {exc}"[:500]
+            return LayoutResult(anchor, layout_id, local_poses=kept, agents=agents, error=error)
 
     def original(anchor: str) -> Node:
         async def run(ctx: NodeContext) -> LayoutResult:
-            c = contexts[anchor]
-            return await guarded(anchor, "original", evolve_layout(
+            c, agents = contexts[anchor], new_log()
+            return await guarded(anchor, "original", agents, evolve_layout(
                 scene, c, UnitLayout.from_scene(scene, c.unit), shapes, model, settings=settings, policy=policy,
                 max_rounds=max_rounds, seed=ctx.node_seed, base_dir=base_dir, views_dir=views(anchor, "original"), rules=rules,
+                agent_log=agents,
             ))  # fmt: skip
 
         return Node(f"evolve/{anchor}/original", run)
 
     def variant_node(anchor: str, archetype: Any) -> Node:
         async def run(ctx: NodeContext) -> LayoutResult:
-            c = contexts[anchor]
-            return await guarded(anchor, archetype.layout_id, evolve_layout(
+            c, agents = contexts[anchor], new_log()
+            return await guarded(anchor, archetype.layout_id, agents, evolve_layout(
                 scene, c, UnitLayout.from_scene(scene, c.unit), shapes, model, layout_id=archetype.layout_id,
                 archetype=archetype, settings=settings, policy=policy, max_rounds=max_rounds, seed=ctx.node_seed,
-                base_dir=base_dir, views_dir=views(anchor, archetype.layout_id), rules=rules,
+                base_dir=base_dir, views_dir=views(anchor, archetype.layout_id), rules=rules, agent_log=agents,
             ))  # fmt: skip
 
         return Node(f"evolve/{anchor}/{archetype.layout_id}", run)
@@ -228,15 +236,11 @@ async def evolve_scene(
                 scene=scene, seed=ctx.node_seed, base_dir=base_dir, policy=policy,
                 layout=UnitLayout.from_scene(scene, c.unit), context=c, alternatives=counts[anchor],
             )  # fmt: skip
-            proposed = await ArchetypeAgent().run(state, model, settings)
+            agents = new_log()
+            proposed = await run_agent(ArchetypeAgent(), state, model, settings, log=agents)
             alternatives = proposed.output.alternative_layouts
             ctx.add_nodes(variant_node(anchor, a) for a in alternatives)
-            return {
-                "ids": [a.layout_id for a in alternatives],
-                "usage": proposed.usage,
-                "outcomes": [proposed.outcome],
-                "fallbacks": [proposed.fallback] if proposed.fallback is not None else [],
-            }
+            return {"ids": [a.layout_id for a in alternatives], "agents": agents}
 
         return Node(f"archetypes/{anchor}", run)
 
@@ -244,7 +248,12 @@ async def evolve_scene(
         nodes.append(original(u.anchor_id))
         if variants:
             nodes.append(archetypes(u.anchor_id))
-    outputs = await Runner(nodes, seed=seed, max_concurrency=max_concurrency).run() if nodes else {}
+    try:
+        outputs = await Runner(nodes, seed=seed, max_concurrency=max_concurrency).run() if nodes else {}
+    finally:
+        if agent_log is not None:
+            for agents in logs:
+                agent_log.merge(agents)
 
     report = EvolutionReport()
     for u in units:
@@ -252,9 +261,7 @@ async def evolve_scene(
         ev = UnitEvolution(u.anchor_id, orig, archetypes_asked=variants > 0)
         arch = outputs.get(f"archetypes/{u.anchor_id}")
         if arch is not None:
-            orig.usage = orig.usage + arch["usage"]
-            orig.outcomes.extend(arch["outcomes"])
-            orig.fallbacks.extend(arch["fallbacks"])
+            orig.agents.merge(arch["agents"])
             ev.variants = [outputs[f"evolve/{u.anchor_id}/{i}"] for i in arch["ids"]]
         report.units.append(ev)
 

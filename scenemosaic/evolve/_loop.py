@@ -4,7 +4,9 @@ Per round: physics checks the layout (collisions with contact counts, out-of-bou
 rule findings are computed, the critic judges (objects out of bounds become mandatory notes),
 the actor writes pose expressions, the sandbox applies them, and the round goes into the
 layout memory. The critic and the actor get the round's check, findings and notes as a frozen
-:class:`~scenemosaic.evolve.RoundInput`; the loop collects each agent's result. The loop ends when the critic asks for no change, when the round cap
+:class:`~scenemosaic.evolve.RoundInput`; the loop runs each agent (``scenemosaic.agents.run_agent``:
+the actor's and the pose agent's answers are applied to their state, the critic only judges) and
+records its result in the layout's :class:`~scenemosaic.agents.AgentLog`. The loop ends when the critic asks for no change, when the round cap
 (:data:`MAX_ROUNDS`) is reached, or early, when the last round moved nothing by more than
 :data:`EARLY_STOP_MOVE_M` nor turned anything by more than :data:`EARLY_STOP_TURN_DEG` and
 the layout is physically clean. The final round is kept if clean, else the round with the
@@ -27,7 +29,7 @@ from typing import Any, TypeVar
 import structlog
 from pydantic import BaseModel
 
-from scenemosaic.agents import AgentOutcome, AgentPolicy, AgentResult, FallbackRecord, SceneState, TaskAgent
+from scenemosaic.agents import AgentLog, AgentPolicy, AgentResult, SceneState, TaskAgent, run_agent
 from scenemosaic.evolve._agents import (
     ActorAgent,
     Archetype,
@@ -51,7 +53,7 @@ from scenemosaic.evolve._analysis import (
 from scenemosaic.evolve._context import UnitContext
 from scenemosaic.evolve._memory import LayoutMemory, RoundRecord
 from scenemosaic.evolve._views import scene_with, unit_view_png
-from scenemosaic.models import Model, ModelSettings, Usage
+from scenemosaic.models import Model, ModelSettings
 from scenemosaic.physics import ObjectShape, SettleSettings, SimSettings, UnitPlan, settle_unit
 from scenemosaic.scene import (
     LayoutState2D,
@@ -93,9 +95,9 @@ class LayoutResult:
     selected_round: int = 0
     stop_reason: str = ""
     settle_moves_m: float = 0.0
-    usage: Usage = field(default_factory=Usage)
-    outcomes: list[AgentOutcome] = field(default_factory=list)
-    fallbacks: list[FallbackRecord] = field(default_factory=list)
+    agents: AgentLog = field(default_factory=AgentLog)
+    """Every agent result of this layout (the pose agent's, each round's critic and actor; the
+    refined original also the unit's archetype agent's): outcomes, fallbacks, requests."""
     views: list[str] = field(default_factory=list)
     wall_s: float = 0.0
     error: str | None = None
@@ -120,8 +122,8 @@ class LayoutResult:
             "selected_round": self.selected_round,
             "stop_reason": self.stop_reason,
             "settle_moves_m": round(self.settle_moves_m, 4),
-            "requests": self.usage.requests,
-            "answered_by": sorted({o.answered_by for o in self.outcomes}),
+            "requests": self.agents.usage.requests,
+            "answered_by": sorted({r.outcome.answered_by for r in self.agents.results}),
             "error": self.error,
             "wall_s": round(self.wall_s, 3),
         }
@@ -144,13 +146,9 @@ OutT = TypeVar("OutT", bound=BaseModel)
 async def _ask(
     agent: TaskAgent[S, Any, OutT], state: S, model: Model, settings: ModelSettings | None, result: LayoutResult
 ) -> AgentResult[OutT]:
-    """Run ``agent`` and add its usage, outcome and fallback to ``result``."""
-    answer = await agent.run(state, model, settings)
-    result.usage = result.usage + answer.usage
-    result.outcomes.append(answer.outcome)
-    if answer.fallback is not None:
-        result.fallbacks.append(answer.fallback)
-    return answer
+    """Run ``agent`` (its answer applied to ``state`` when it changes the state) and record its
+    result in the layout's log."""
+    return await run_agent(agent, state, model, settings, log=result.agents)
 
 
 def _binding(findings: Sequence[Finding]) -> list[Finding]:
@@ -203,13 +201,16 @@ async def evolve_layout(
     views_dir: Path | None = None,
     vision: bool | None = None,
     rules: Sequence[LayoutRule] = (),
+    agent_log: AgentLog | None = None,
 ) -> LayoutResult:
     """Evolve one layout of ``ctx.unit`` (the original, or an archetype instantiated first by the
     pose agent) through the Critic-Actor loop, then settle it; never modifies ``scene``.
-    ``rules``: plugin rules whose findings join the critic's evidence (:data:`LayoutRule`)."""
+    ``rules``: plugin rules whose findings join the critic's evidence (:data:`LayoutRule`).
+    ``agent_log`` becomes the result's ``agents`` (a caller that keeps it sees the agents' results and
+    requests of a loop that fails); default: a new one."""
     t0 = time.perf_counter()
     anchor = ctx.unit.anchor_id
-    result = LayoutResult(anchor_id=anchor, layout_id=layout_id)
+    result = LayoutResult(anchor_id=anchor, layout_id=layout_id, agents=agent_log if agent_log is not None else AgentLog())
     if archetype is not None:
         result.style_name, result.reasoning = archetype.layout_style_name, archetype.layout_reasoning
     use_vision = model.vision if vision is None else vision

@@ -14,7 +14,8 @@ scenes into files a simulator or an evaluator loads. A format is one module plus
   a room taken from an AI2-THOR house back into that house
   (:func:`export_procthor`);
 * houses: each export has a whole-house counterpart (:func:`export_house_glb`, ...,
-  :func:`export_procthor_house`), and :func:`deliver_house` writes a house's delivered folder.
+  :func:`export_procthor_house`), registered beside it, so :func:`write_scene` takes a
+  :class:`~scenemosaic.scene.House` too; :func:`deliver_house` writes a house's delivered folder.
 
 Every malformed input raises :class:`~scenemosaic.exceptions.ImportFormatError` naming the
 file and the field, values beyond the scene limits included. A reader only opens files inside
@@ -32,7 +33,7 @@ from scenemosaic.exchange._deliver import (
     deliver_scene,
     export_house_folder,
     formats_left_out,
-    save_scene_only,
+    save_partial,
 )
 from scenemosaic.exchange._glb import (
     GLB_ROOT_NODE,
@@ -65,6 +66,7 @@ from scenemosaic.exchange._registry import (
     load_scene,
     load_scenes,
     register_format,
+    writable_formats,
     write_scene,
 )
 from scenemosaic.exchange._sam3d import read_sdf_sim, write_sam3d_example
@@ -134,10 +136,11 @@ __all__ = [
     "read_sdf_sim",
     "register_format",
     "save_house",
+    "save_partial",
     "save_scene",
-    "save_scene_only",
     "sceneeval_state",
     "support_type",
+    "writable_formats",
     "write_sam3d_example",
     "write_scene",
 ]

@@ -10,19 +10,25 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from scenemosaic.assets import HullCache
 from scenemosaic.exchange._front3d import import_front3d, looks_like_front3d
-from scenemosaic.exchange._glb import export_glb
+from scenemosaic.exchange._glb import export_glb, export_house_glb
 from scenemosaic.exchange._holodeck import import_holodeck, looks_like_holodeck
-from scenemosaic.exchange._mjcf import export_mjcf
-from scenemosaic.exchange._native import SCENE_FILE, save_scene, scene_from_data
-from scenemosaic.exchange._procthor import export_procthor, import_procthor, looks_like_procthor
+from scenemosaic.exchange._mjcf import export_house_mjcf, export_mjcf
+from scenemosaic.exchange._native import SCENE_FILE, save_house, save_scene, scene_from_data
+from scenemosaic.exchange._procthor import (
+    export_procthor,
+    export_procthor_house,
+    import_procthor,
+    looks_like_procthor,
+)
 from scenemosaic.exchange._registry import ReadOptions, SceneFormat, register_format
 from scenemosaic.exchange._sam3d import POSES_FILE, import_sam3d, looks_like_sam3d
-from scenemosaic.exchange._sceneeval import export_sceneeval
+from scenemosaic.exchange._sceneeval import export_house_sceneeval, export_sceneeval
 from scenemosaic.exchange._sceneeval_read import import_sceneeval, looks_like_sceneeval
-from scenemosaic.exchange._urdf import export_urdf
-from scenemosaic.exchange._usd import export_usd
-from scenemosaic.scene import Provenance, Scene
+from scenemosaic.exchange._urdf import export_house_urdf, export_urdf
+from scenemosaic.exchange._usd import export_house_usd, export_usd
+from scenemosaic.scene import House, Provenance, Scene
 
 __all__ = ["NATIVE_IMPORTER"]
 
@@ -49,6 +55,10 @@ def _write_native(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
     return save_scene(scene, folder, base_dir=base_dir)
 
 
+def _write_native_house(house: House, folder: Path, base_dir: Path | None) -> Path:
+    return save_house(house, folder, base_dir=base_dir)
+
+
 def _write_glb(scene: Scene, path: Path, base_dir: Path | None) -> Path:
     return export_glb(scene, path, base_dir=base_dir)
 
@@ -57,16 +67,16 @@ def _write_sceneeval(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
     return export_sceneeval(scene, folder, base_dir=base_dir)
 
 
-def _write_mjcf(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
-    return export_mjcf(scene, folder, base_dir=base_dir)
+def _write_mjcf(scene: Scene, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
+    return export_mjcf(scene, folder, base_dir=base_dir, hull_cache=hull_cache)
 
 
-def _write_usd(scene: Scene, destination: Path, base_dir: Path | None) -> Path:
-    return export_usd(scene, destination, base_dir=base_dir)
+def _write_usd(scene: Scene, destination: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
+    return export_usd(scene, destination, base_dir=base_dir, hull_cache=hull_cache)
 
 
-def _write_urdf(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
-    return export_urdf(scene, folder, base_dir=base_dir)
+def _write_urdf(scene: Scene, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
+    return export_urdf(scene, folder, base_dir=base_dir, hull_cache=hull_cache)
 
 
 register_format(
@@ -85,6 +95,7 @@ register_format(
         detect=looks_like_sceneeval,
         read=lambda data, path, o: [import_sceneeval(data, path, asset_dir=o.asset_dir)],
         write=_write_sceneeval,
+        write_house=export_house_sceneeval,
     )
 )
 register_format(  # before procthor: a Holodeck room also has rooms + objects
@@ -98,10 +109,11 @@ register_format(  # before procthor: a Holodeck room also has rooms + objects
 register_format(
     SceneFormat(
         "procthor",
-        "AI2-THOR / ProcTHOR / Holodeck house with rooms and objects (written back: house.json, for a room taken from one)",
+        "AI2-THOR / ProcTHOR / Holodeck house with rooms and objects (written back: house.json, for a room or a house taken from one)",
         detect=looks_like_procthor,
         read=lambda data, path, o: import_procthor(data, path, asset_database=o.asset_database),
         write=lambda scene, folder, base_dir: export_procthor(scene, folder, base_dir),
+        write_house=export_procthor_house,
     )
 )
 register_format(
@@ -121,18 +133,31 @@ register_format(
         detect=_looks_native,
         read=_read_native,
         write=_write_native,
+        write_house=_write_native_house,
         folder_file=SCENE_FILE,
     )
 )
-register_format(SceneFormat("glb", "one GLB with a node per object (Y-up, as glTF)", write=_write_glb))
-register_format(SceneFormat("mjcf", "MuJoCo scene.xml + mjcf/ meshes", write=_write_mjcf))
+register_format(
+    SceneFormat("glb", "one GLB with a node per object (Y-up, as glTF)", write=_write_glb, write_house=export_house_glb)
+)
+register_format(
+    SceneFormat("mjcf", "MuJoCo scene.xml + mjcf/ meshes", write=_write_mjcf, write_house=export_house_mjcf, uses_hulls=True)
+)
 register_format(
     SceneFormat(
         "usd",
         "ASCII USD scene.usda with UsdPhysics + usd/ per-object geometry (needs scenemosaic[usd])",
         write=_write_usd,
+        write_house=export_house_usd,
+        uses_hulls=True,
     )
 )
 register_format(
-    SceneFormat("urdf", "URDF scene.urdf + urdf/<id>.urdf per object + urdf/meshes/", write=_write_urdf)
+    SceneFormat(
+        "urdf",
+        "URDF scene.urdf + urdf/<id>.urdf per object + urdf/meshes/",
+        write=_write_urdf,
+        write_house=export_house_urdf,
+        uses_hulls=True,
+    )
 )

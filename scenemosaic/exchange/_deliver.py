@@ -13,19 +13,15 @@ the AI2-THOR house file with every room's objects moved.
 from __future__ import annotations
 
 import importlib.util
-from collections.abc import Callable
+import json
 from pathlib import Path
+from typing import Any
 
 import structlog
 
-from scenemosaic.exchange._glb import export_house_glb
+from scenemosaic.assets import HullCache
 from scenemosaic.exchange._native import read_house, read_scene, save_house
-from scenemosaic.exchange._procthor import export_procthor_house
 from scenemosaic.exchange._registry import write_scene
-from scenemosaic.exchange._sceneeval import export_house_sceneeval
-from scenemosaic.exchange._urdf import export_house_urdf
-from scenemosaic.exchange._usd import export_house_usd
-from scenemosaic.physics import write_house_mjcf
 from scenemosaic.scene import House, RunFolder, Scene, write_atomic
 
 __all__ = [
@@ -37,7 +33,7 @@ __all__ = [
     "deliver_scene",
     "export_house_folder",
     "formats_left_out",
-    "save_scene_only",
+    "save_partial",
 ]
 
 log = structlog.get_logger(__name__)
@@ -55,8 +51,9 @@ DELIVERED_FORMATS: tuple[tuple[str, str], ...] = (
     ("urdf", ""),
     ("usd", ""),
 )
-"""Formats written beside ``scene.json`` in every delivered folder, with their destination in it;
-plus ``procthor`` (``house.json``) for a room taken from an AI2-THOR / ProcTHOR house."""
+"""Formats written beside ``scene.json`` (a house: ``house_scene.json``) in every delivered folder,
+with their destination in it (``write_scene``'s destination; empty: the folder itself); plus
+``procthor`` (``house.json``) for a room or a house taken from an AI2-THOR / ProcTHOR house."""
 
 OPTIONAL_FORMATS: dict[str, str] = {"usd": "pip install 'scenemosaic[usd]'"}
 """Delivered formats that need an extra: without it they are left out (the run's report says so,
@@ -75,24 +72,22 @@ def formats_left_out() -> dict[str, str]:
     return {fmt: hint for fmt, hint in OPTIONAL_FORMATS.items() if not _available(fmt)}
 
 
-def deliver_scene(scene: Scene, folder: Path, base_dir: Path | None) -> list[str]:
-    """Write one scene in the delivered layout; returns the files written (relative to ``folder``)."""
+def deliver_scene(scene: Scene, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> list[str]:
+    """Write one scene in the delivered layout; returns the files written (relative to ``folder``).
+    ``hull_cache`` is the CoACD cache the formats with collision hulls read (the run's)."""
     from scenemosaic.render import render_topdown
 
     folder.mkdir(parents=True, exist_ok=True)
+    (folder / RunFolder.PARTIAL).unlink(missing_ok=True)  # delivered now: no longer what a stopped run kept
     write_scene(scene, "native", folder, base_dir)
     saved = read_scene(folder)
-    for fmt, destination in DELIVERED_FORMATS:
-        if _available(fmt):
-            write_scene(saved, fmt, folder / destination if destination else folder, folder)
-    if saved.provenance.source_format == "procthor":  # back into the house it came from
-        write_scene(saved, "procthor", folder, folder)
+    _write_delivered(saved, folder, saved.provenance.source_format == "procthor", hull_cache)
     write_atomic(folder / RunFolder.TOPDOWN, render_topdown(saved, base_dir=folder))
     top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir() and p.name != "assets")]
 
 
-def deliver_house(house: House, folder: Path, base_dir: Path | None) -> list[str]:
+def deliver_house(house: House, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> list[str]:
     """Write a whole house in the delivered layout; returns the files written (relative to ``folder``).
 
     ``house_scene.json`` and ``rooms/<room id>/scene.json`` (+ ``assets/``) through the native
@@ -101,40 +96,48 @@ def deliver_house(house: House, folder: Path, base_dir: Path | None) -> list[str
     ``scene.xml`` + ``mjcf/``, ``scene.urdf`` + ``urdf/``, ``scene.usda`` + ``usd/``; the house
     plan as ``topdown.png``; and, for a house imported from one AI2-THOR / ProcTHOR house file,
     that file as ``house.json`` with every room's objects at their new poses.
-    ``base_dir`` resolves the input's relative mesh uris. :func:`~scenemosaic.exchange.read_house`
-    reads the folder back.
+    ``base_dir`` resolves the input's relative mesh uris; ``hull_cache`` is the CoACD cache the
+    formats with collision hulls read. :func:`~scenemosaic.exchange.read_house` reads the folder back.
     """
     folder.mkdir(parents=True, exist_ok=True)
-    save_house(house, folder, base_dir=base_dir)
-    return export_house_folder(folder)
+    (folder / RunFolder.PARTIAL).unlink(missing_ok=True)  # delivered now: no longer what a stopped run kept
+    write_scene(house, "native", folder, base_dir)
+    return export_house_folder(folder, hull_cache=hull_cache)
 
 
-def export_house_folder(folder: Path) -> list[str]:
+def export_house_folder(folder: Path, *, hull_cache: HullCache | None = None) -> list[str]:
     """Write every house-wide format beside the native house saved in ``folder`` (the second half
     of :func:`deliver_house`; a house run does it in its worker processes); returns the files."""
     from scenemosaic.render import render_house_plan
 
     saved = read_house(folder)
-    writers: dict[str, Callable[[], Path]] = {
-        "glb": lambda: export_house_glb(saved, folder / "scene.glb", folder),
-        "sceneeval": lambda: export_house_sceneeval(saved, folder / "sceneeval", folder),
-        "mjcf": lambda: write_house_mjcf(saved, folder, folder),
-        "urdf": lambda: export_house_urdf(saved, folder, folder),
-        "usd": lambda: export_house_usd(saved, folder, folder),
-    }
-    for fmt, _ in DELIVERED_FORMATS:
-        if _available(fmt):
-            writers[fmt]()
-    if all(s.provenance.source_format == "procthor" for s in saved.rooms):  # back into its house file
-        export_procthor_house(saved, folder)
+    _write_delivered(saved, folder, all(s.provenance.source_format == "procthor" for s in saved.rooms), hull_cache)
     write_atomic(folder / RunFolder.TOPDOWN, render_house_plan(saved, base_dir=folder))
     log.info("house_delivered", folder=str(folder), rooms=len(saved.rooms), objects=len(saved.objects))
     top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir())]
 
 
-def save_scene_only(scene: Scene, folder: Path, base_dir: Path | None) -> list[str]:
-    """Write only ``scene.json`` (+ its mesh assets): the fast partial result of a stopped run."""
+def _write_delivered(saved: Scene | House, folder: Path, procthor: bool, hull_cache: HullCache | None) -> None:
+    """Every format of :data:`DELIVERED_FORMATS` whose extra is installed, through
+    :func:`write_scene` (a house through each format's house writer), from the native copy saved
+    in ``folder``; and ``house.json`` when ``procthor`` (the AI2-THOR house it came from)."""
+    for fmt, destination in DELIVERED_FORMATS:
+        if _available(fmt):
+            write_scene(saved, fmt, folder / destination if destination else folder, folder, hull_cache=hull_cache)
+    if procthor:  # back into the house it came from
+        write_scene(saved, "procthor", folder, folder)
+
+
+def save_partial(scene: Scene | House, folder: Path, base_dir: Path | None, marker: dict[str, Any]) -> list[str]:
+    """Keep what a failed or stopped run made: the native files only (``scene.json``, or
+    ``house_scene.json`` and every room's, with their meshes) and ``partial.json`` holding
+    ``marker`` (why it is partial), written first so the folder never looks delivered; returns the
+    files written. The loaders refuse the folder unless asked for a partial result."""
     folder.mkdir(parents=True, exist_ok=True)
+    write_atomic(folder / RunFolder.PARTIAL, json.dumps(marker, indent=2, sort_keys=True) + "\n")
+    if isinstance(scene, House):
+        save_house(scene, folder, base_dir=base_dir)
+        return [RunFolder.PARTIAL, RunFolder.HOUSE_FILE, f"{RunFolder.ROOMS}/"]
     write_scene(scene, "native", folder, base_dir)
-    return [RunFolder.SCENE_FILE]
+    return [RunFolder.PARTIAL, RunFolder.SCENE_FILE]

@@ -34,7 +34,13 @@ import structlog
 from pydantic import ValidationError
 
 from scenemosaic.assets import referenced_files
-from scenemosaic.exceptions import AssetError, ImportFormatError, SceneValidationError, UnsafePathError
+from scenemosaic.exceptions import (
+    AssetError,
+    ImportFormatError,
+    PartialResultError,
+    SceneValidationError,
+    UnsafePathError,
+)
 from scenemosaic.exchange._common import FieldReader, read_json
 from scenemosaic.scene import (
     House,
@@ -49,7 +55,16 @@ from scenemosaic.scene import (
     write_atomic,
 )
 
-__all__ = ["ASSETS_DIR", "HOUSE_FORMAT", "SCENE_FILE", "read_house", "read_scene", "save_house", "save_scene"]
+__all__ = [
+    "ASSETS_DIR",
+    "HOUSE_FORMAT",
+    "SCENE_FILE",
+    "check_not_partial",
+    "read_house",
+    "read_scene",
+    "save_house",
+    "save_scene",
+]
 
 log = structlog.get_logger(__name__)
 
@@ -102,8 +117,17 @@ def save_scene(
     return target
 
 
+def check_not_partial(folder: Path) -> None:
+    """Raise :class:`~scenemosaic.exceptions.PartialResultError` when ``folder`` holds what a
+    failed or stopped run kept (``partial.json`` beside its scene)."""
+    marker = folder / RunFolder.PARTIAL
+    if marker.is_file():
+        data = read_json(marker)
+        raise PartialResultError(str(folder), data if isinstance(data, dict) else {})
+
+
 def read_scene(
-    path: str | os.PathLike[str], *, roots: Sequence[str | os.PathLike[str]] = ()
+    path: str | os.PathLike[str], *, roots: Sequence[str | os.PathLike[str]] = (), allow_partial: bool = False
 ) -> Scene:
     """Read a scene from a ``scene.json`` file or from a folder holding one.
 
@@ -113,10 +137,13 @@ def read_scene(
     object's id and the field. Every mesh uri must name a non-empty file inside the scene's
     folder or one of ``roots``, symlinks followed (an absolute uri too); otherwise an
     ``ImportFormatError`` names the file, the object and the field (``objects[3].asset.uri``).
-    Mesh uris stay as stored (relative to the scene folder).
+    Mesh uris stay as stored (relative to the scene folder). The partial result of a failed or
+    stopped run raises :class:`~scenemosaic.exceptions.PartialResultError` unless ``allow_partial``.
     """
     p = Path(path)
     file = p / SCENE_FILE if p.is_dir() else p
+    if not allow_partial:
+        check_not_partial(file.parent)
     if not file.is_file():
         where = f"no {SCENE_FILE} in folder" if p.is_dir() else "file not found"
         raise ImportFormatError(where, path=str(p))
@@ -267,12 +294,16 @@ def save_house(house: House, folder: str | os.PathLike[str], *, base_dir: str | 
     return target
 
 
-def read_house(path: str | os.PathLike[str]) -> House:
+def read_house(path: str | os.PathLike[str], *, allow_partial: bool = False) -> House:
     """Read a native house folder (or its ``house_scene.json``): every room's scene, in the index's
     order. The rooms' files are checked as :func:`read_scene` checks a scene's; their relative mesh
-    uris are made relative to the house folder (one folder resolves every room's meshes)."""
+    uris are made relative to the house folder (one folder resolves every room's meshes). The
+    partial result of a failed or stopped run raises
+    :class:`~scenemosaic.exceptions.PartialResultError` unless ``allow_partial``."""
     p = Path(path)
     file = p / RunFolder.HOUSE_FILE if p.is_dir() else p
+    if not allow_partial:
+        check_not_partial(file.parent)
     r = FieldReader(file)
     data = read_json(file)
     top = r.mapping(data, "")

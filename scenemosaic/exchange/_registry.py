@@ -5,21 +5,26 @@ content test and a reader (for inputs), a writer (for outputs), or both. ``load_
 the reader by name or by content (:func:`detect_format`); the pipeline writes every delivered
 format through :func:`write_scene`. Detection tries the registered readers in registration order
 (more specific formats first), so a plugin format registered later never shadows a built-in one.
+A format that can write a whole :class:`~scenemosaic.scene.House` as one world names a house
+writer beside its room writer; :func:`write_scene` picks the one that fits what it is given.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+import shutil
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
 import structlog
 
+from scenemosaic.assets import HullCache
 from scenemosaic.exceptions import ImportFormatError, UsageError
 from scenemosaic.exchange._common import read_json
-from scenemosaic.exchange._native import read_house
+from scenemosaic.exchange._native import check_not_partial, read_house
 from scenemosaic.scene import House, Provenance, Room, RunFolder, Scene, safe_name
 
 __all__ = [
@@ -33,6 +38,7 @@ __all__ = [
     "load_scene",
     "load_scenes",
     "register_format",
+    "writable_formats",
     "write_scene",
 ]
 
@@ -58,6 +64,8 @@ Reader = Callable[[Any, Path, ReadOptions], list[Scene]]
 """``read(parsed_json, path, options)`` -> the scenes the file holds."""
 Writer = Callable[[Scene, Path, "Path | None"], Path]
 """``write(scene, destination, base_dir)`` -> the main file written; ``base_dir`` resolves relative mesh uris."""
+HouseWriter = Callable[[House, Path, "Path | None"], Path]
+"""``write(house, destination, base_dir)`` -> the main file written, for a whole house in one world."""
 
 
 @dataclass(frozen=True)
@@ -74,6 +82,12 @@ class SceneFormat:
     """Reader; ``None`` for export-only formats."""
     write: Writer | None = None
     """Writer; ``None`` for import-only formats."""
+    uses_hulls: bool = False
+    """Whether the writers take ``hull_cache=`` (the formats that carry collision hulls: the
+    caller's CoACD cache is then the one they read, not the default)."""
+    write_house: HouseWriter | None = None
+    """Writer of a whole :class:`~scenemosaic.scene.House` (every room in one file or world, at the
+    same destination as ``write``); ``None`` when the format writes one room at a time."""
     folder_file: str | None = None
     """A folder holding a file of this name is this format (``scene.json``, ``poses.json``)."""
     takes_room: bool = False
@@ -90,7 +104,7 @@ def register_format(fmt: SceneFormat, *, replace: bool = False) -> SceneFormat:
         raise UsageError(f"invalid format name {fmt.name!r}")
     if fmt.name in FORMATS and not replace:
         raise UsageError(f"format {fmt.name!r} is already registered; pass replace=True to swap it")
-    if fmt.read is None and fmt.write is None:
+    if fmt.read is None and fmt.write is None and fmt.write_house is None:
         raise UsageError(f"format {fmt.name!r} has neither a reader nor a writer")
     FORMATS[fmt.name] = fmt
     return fmt
@@ -133,6 +147,7 @@ def load_scenes(
     asset_database: Any = None,
     asset_dir: str | os.PathLike[str] | None = None,
     variant: int | str | None = None,
+    allow_partial: bool = False,
 ) -> list[Scene]:
     """Import every scene ``path`` holds, in a stable order.
 
@@ -144,7 +159,9 @@ def load_scenes(
     or a parsed mapping) replaces the ProcTHOR asset sizes shipped with the package;
     ``asset_dir`` is where SceneEval asset meshes are looked up (default: ``assets/`` beside the file).
     A ``generate`` output folder (:class:`RunFolder`) gives its base scene, or with ``variant``
-    (a number from 1, or ``"variant_2"``) that variant.
+    (a number from 1, or ``"variant_2"``) that variant. What a failed or stopped run kept
+    (``partial.json`` beside it) raises :class:`~scenemosaic.exceptions.PartialResultError`
+    unless ``allow_partial``.
     """
     fmt = _check_format(format, path)
     p = Path(path)
@@ -152,6 +169,8 @@ def load_scenes(
         p = RunFolder(p).scene_folder(variant)
     elif variant is not None:
         raise UsageError(f"variant={variant!r} needs a generate output folder; {os.fspath(path)} is not one")
+    if not allow_partial:
+        check_not_partial(p if p.is_dir() else p.parent)
     options = ReadOptions(
         room=room if isinstance(room, Room) else None,
         asset_database=asset_database,
@@ -159,7 +178,7 @@ def load_scenes(
     )
     scenes: list[Scene] = []
     if p.is_dir() and RunFolder.holds_house(p):
-        scenes = read_house(p).rooms
+        scenes = read_house(p, allow_partial=True).rooms  # checked above
     elif p.is_dir():
         inner = _folder_format(p)
         if inner is not None and fmt in ("auto", inner.name):
@@ -188,6 +207,7 @@ def load_scene(
     asset_database: Any = None,
     asset_dir: str | os.PathLike[str] | None = None,
     variant: int | str | None = None,
+    allow_partial: bool = False,
 ) -> Scene | House:
     """Import the one scene ``path`` holds (see :func:`load_scenes`), or the whole house.
 
@@ -197,12 +217,13 @@ def load_scene(
     raises :class:`~scenemosaic.exceptions.UsageError` naming them: use :func:`load_scenes`.
     """
     scenes = load_scenes(
-        path, format, room=room, asset_database=asset_database, asset_dir=asset_dir, variant=variant
-    )
+        path, format, room=room, asset_database=asset_database, asset_dir=asset_dir, variant=variant,
+        allow_partial=allow_partial,
+    )  # fmt: skip
     if len(scenes) == 1:
         return scenes[0]
     if room is None and _one_house(scenes):
-        return load_house(path, format, asset_database=asset_database, variant=variant)
+        return load_house(path, format, asset_database=asset_database, variant=variant, allow_partial=allow_partial)
     ids = ", ".join(s.id for s in scenes[:8])
     raise UsageError(
         f"{os.fspath(path)} holds {len(scenes)} scenes ({ids}); use load_scenes() to read them all"
@@ -224,6 +245,7 @@ def load_house(
     *,
     asset_database: Any = None,
     variant: int | str | None = None,
+    allow_partial: bool = False,
 ) -> House:
     """Import a whole house: every room of an AI2-THOR / ProcTHOR house file, in its room order,
     or a delivered house (the ``base/`` or ``variant_<i>/`` of a house run; ``variant`` picks one
@@ -235,8 +257,8 @@ def load_house(
     elif variant is not None:
         raise UsageError(f"variant={variant!r} needs a generate output folder; {os.fspath(path)} is not one")
     if p.is_dir() and RunFolder.holds_house(p):
-        return read_house(p)
-    scenes = load_scenes(p, format, asset_database=asset_database)
+        return read_house(p, allow_partial=allow_partial)
+    scenes = load_scenes(p, format, asset_database=asset_database, allow_partial=allow_partial)
     if not _one_house(scenes):
         raise UsageError(f"{os.fspath(path)} is not a house (a multi-room AI2-THOR / ProcTHOR house file or a delivered house)")
     first = scenes[0].provenance
@@ -247,15 +269,81 @@ def load_house(
     )
 
 
-def write_scene(scene: Scene, format: str, destination: str | os.PathLike[str], base_dir: Path | None = None) -> Path:
-    """Write ``scene`` in the registered ``format``; returns the main file written."""
+def write_scene(
+    scene: Scene | House,
+    format: str,
+    destination: str | os.PathLike[str],
+    base_dir: str | os.PathLike[str] | None = None,
+    *,
+    hull_cache: HullCache | None = None,
+) -> Path:
+    """Write a scene, or a whole house, in the registered ``format``; returns the main file written.
+
+    A :class:`~scenemosaic.scene.House` is written by the format's house writer (``native``: a
+    native house folder; ``mjcf``, ``urdf``, ``usd``, ``glb``, ``sceneeval``: the whole house as
+    one world; ``procthor``: the AI2-THOR house file it came from); a format without one raises
+    :class:`~scenemosaic.exceptions.UsageError` naming those that have one. ``base_dir`` resolves
+    the relative mesh uris of what is written (the folder it was read from).
+
+    ``hull_cache`` is the CoACD cache the formats that carry collision hulls read (default: the
+    user's default cache).
+
+    If the writer fails, what it created is removed: a ``destination`` (or a folder above it) that
+    did not exist is gone again, and in a folder that did exist, the entries the writer added are.
+    """
     fmt = get_format(format)
-    if fmt.write is None:
-        raise UsageError(f"format {format!r} can be read but not written")
-    return fmt.write(scene, Path(destination), base_dir)
+    base = Path(base_dir) if base_dir is not None else None
+    target = Path(destination)
+    options: dict[str, Any] = {"hull_cache": hull_cache} if fmt.uses_hulls and hull_cache is not None else {}
+    if isinstance(scene, House):
+        house_writer = fmt.write_house
+        if house_writer is None:
+            raise UsageError(f"format {format!r} cannot write a whole house; {_writers_note(house=True)}")
+        with _removed_on_error(target):
+            return house_writer(scene, target, base, **options)
+    writer = fmt.write
+    if writer is None:
+        raise UsageError(f"format {format!r} cannot write a single scene; {_writers_note(house=False)}")
+    with _removed_on_error(target):
+        return writer(scene, target, base, **options)
+
+
+def writable_formats(*, house: bool = False) -> list[str]:
+    """The registered formats that can write a scene (``house=True``: a whole house), in registration order."""
+    return [name for name, f in FORMATS.items() if (f.write_house if house else f.write) is not None]
 
 
 # -- internals ------------------------------------------------------------------------------------
+
+
+def _writers_note(*, house: bool) -> str:
+    note = f"formats that write a {'house' if house else 'scene'}: {', '.join(writable_formats(house=house))}"
+    return note + ("; write one room with house.room('<room id>')" if house else "")
+
+
+@contextmanager
+def _removed_on_error(destination: Path) -> Iterator[None]:
+    """Undo what a failed writer created at ``destination``: the topmost of it and its parents that
+    did not exist, or else, in an existing folder, the entries that were not there."""
+    missing = [p for p in (destination, *destination.parents) if not os.path.lexists(p)]
+    created = missing[-1] if missing else None
+    before = set(destination.iterdir()) if created is None and destination.is_dir() else None
+    try:
+        yield
+    except BaseException:
+        if created is not None:
+            _remove(created)
+        elif before is not None:
+            for entry in set(destination.iterdir()) - before:
+                _remove(entry)
+        raise
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        path.unlink(missing_ok=True)
 
 
 def _check_format(format: str, path: str | os.PathLike[str]) -> str:

@@ -1,10 +1,13 @@
 """The field's scene metrics: COL, OOB and NAV (SceneEval's physical metrics), and the diversity of
 selected variants (Div-IoU, Div-N, RelKeep). Each is a documented function; :func:`evaluate`
-gathers them for a base scene and its variants (``scenemosaic evaluate`` prints it as JSON).
+gathers them for a base scene and its variants (``scenemosaic evaluate`` prints it as JSON);
+:func:`evaluate_house` for a whole house and its variants, room by room and house-wide
+(:func:`house_checks`: door clearance, reachability, walls).
 :func:`judge_scene` asks a vision model for the semantic POS and ROT scores (never faked: not
 measured without one).
 """
 
+from scenemosaic.metrics._house import HOUSE_BASE_FIGURES, evaluate_house, house_checks
 from scenemosaic.metrics._judge import JUDGE_VIEW_PX, JudgeAgent, JudgeOutput, ObjectVerdict, judge_scene
 from scenemosaic.metrics._metrics import (
     COL_SEPARATION_M,
@@ -43,6 +46,7 @@ from scenemosaic.metrics._seating import (
 __all__ = [
     "COL_SEPARATION_M",
     "DIV_GRID",
+    "HOUSE_BASE_FIGURES",
     "JUDGE_VIEW_PX",
     "NAV_GRID",
     "NAV_MAX_HEIGHT",
@@ -60,6 +64,8 @@ __all__ = [
     "div_iou",
     "div_n",
     "evaluate",
+    "evaluate_house",
+    "house_checks",
     "house_diversity",
     "house_occupancy",
     "judge_scene",

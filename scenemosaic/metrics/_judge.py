@@ -16,7 +16,7 @@ from typing import Any, ClassVar
 
 from pydantic import Field
 
-from scenemosaic.agents import MAX_ITEMS, AgentOutput, AgentPolicy, SceneState, TaskAgent
+from scenemosaic.agents import MAX_ITEMS, AgentLog, AgentOutput, AgentPolicy, SceneState, TaskAgent, run_agent
 from scenemosaic.exceptions import AgentOutputError, ModelError
 from scenemosaic.models import ImagePart, Model, ModelSettings
 from scenemosaic.render import render_topdown
@@ -100,15 +100,17 @@ class JudgeAgent(TaskAgent[SceneState, JudgeEvidence, JudgeOutput]):
         missing = sorted({o.id for o in state.scene.objects} - {v.object_id for v in output.objects})
         return [f"give a verdict for every object; missing: {', '.join(missing)}"] if missing else []
 
-    def apply(self, output: JudgeOutput, state: SceneState) -> None:
-        return None
-
 
 async def judge_scene(
-    scene: Scene, model: Model, *, settings: ModelSettings | None = None, base_dir: Any = None
+    scene: Scene,
+    model: Model,
+    *,
+    settings: ModelSettings | None = None,
+    base_dir: Any = None,
+    agent_log: AgentLog | None = None,
 ) -> dict[str, Any]:
     """``{"POS": %, "ROT": %, "objects": n}`` from a vision model, or ``None`` scores and the reason
-    they were not measured."""
+    they were not measured. ``agent_log``, when given, receives the judge's result (its requests)."""
     if model.uses_rule_solvers:
         return {"POS": None, "ROT": None, "note": "not measured: the judge needs a vision model, not the rules"}
     if not model.vision:
@@ -117,7 +119,7 @@ async def judge_scene(
         return {"POS": None, "ROT": None, "note": "not measured: the scene has no objects"}
     state = SceneState(scene=scene, base_dir=base_dir, policy=AgentPolicy(solver_fallback=False))
     try:
-        result = await JudgeAgent().run(state, model, settings)
+        result = await run_agent(JudgeAgent(), state, model, settings, log=agent_log)
         output, usage = result.output, result.usage
     except (ModelError, AgentOutputError) as exc:
         return {"POS": None, "ROT": None, "note": f"not measured: {type(exc).__name__}: {str(exc)[:200]}"}

@@ -44,7 +44,14 @@ from scenemosaic.models._rules import RulesModel
 from scenemosaic.models._schema import STRICT_SCHEMA_KEYWORDS, SchemaBounds, extract_json, strict_json_schema
 from scenemosaic.models._stack import RunModel, RunModelSettings, open_run_model, server_slots, usage_summary
 from scenemosaic.models._tokens import estimate_tokens
-from scenemosaic.models._usage import ModelCallLike, ModelPrice, UsageLimits, UsageRecord, UsageTracker
+from scenemosaic.models._usage import (
+    ModelCallLike,
+    ModelPrice,
+    UsageLimits,
+    UsageRecord,
+    UsageTracker,
+    charged_usage,
+)
 from scenemosaic.models._wrapper import WrapperModel
 
 __all__ = [
@@ -91,6 +98,7 @@ __all__ = [
     "UsageTracker",
     "WrapperModel",
     "canonical_request",
+    "charged_usage",
     "estimate_tokens",
     "extract_json",
     "is_unreachable",

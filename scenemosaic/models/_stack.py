@@ -11,8 +11,10 @@ every stage's agents ask::
       -> DeadlineModel                 the run's wall-clock budget for all model requests
 
 It is entered once around the whole run, so the breaker, the deadline and the usage are the
-run's: a breaker that tripped during structuring stays open for evolution. A stage's usage is
-the difference of two :meth:`RunModel.mark` readings. The offline ``rules`` model gets only the
+run's: a breaker that tripped during structuring stays open for evolution. The tracker holds
+every call of the run; a stage reads its own agents' usage from its agent log (the agents layer's
+``AgentLog``, in the same :func:`usage_summary` shape), and the calls since a
+:meth:`RunModel.mark` reading otherwise. The offline ``rules`` model gets only the
 instrumentation (it makes no requests).
 """
 

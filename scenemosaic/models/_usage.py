@@ -23,7 +23,7 @@ from typing import Protocol
 from scenemosaic.exceptions import UsageLimitExceeded
 from scenemosaic.models._base import Usage
 
-__all__ = ["ModelCallLike", "ModelPrice", "UsageLimits", "UsageRecord", "UsageTracker"]
+__all__ = ["ModelCallLike", "ModelPrice", "UsageLimits", "UsageRecord", "UsageTracker", "charged_usage"]
 
 
 class ModelCallLike(Protocol):
@@ -43,6 +43,17 @@ class ModelCallLike(Protocol):
     def ok(self) -> bool: ...
     @property
     def error(self) -> str | None: ...
+
+
+def charged_usage(usage: Usage, *, cancelled: bool = False) -> Usage:
+    """What one call costs the run, as every usage record counts it: a call cancelled because the
+    run was stopping (or its deadline passed) charges nothing; a call that reports no request (a
+    failed one, or a model that does not count its requests) charges one request."""
+    if cancelled:
+        return Usage()
+    if usage.requests == 0 and usage.cached == 0:
+        return usage + Usage(requests=1)
+    return usage
 
 
 @dataclass(frozen=True, slots=True)
@@ -148,11 +159,7 @@ class UsageTracker:
 
     def on_call(self, call: ModelCallLike) -> None:
         """Record one finished call (a cancelled one is listed but charges nothing); raise :class:`~scenemosaic.exceptions.UsageLimitExceeded` if a cap is crossed."""
-        usage = call.usage
-        if getattr(call, "error_type", None) == "CancelledError":
-            usage = Usage()  # the run was stopping: recorded, but no request is charged
-        elif usage.requests == 0 and usage.cached == 0:  # a failed call, or a model that did not count the request itself
-            usage = usage + Usage(requests=1)
+        usage = charged_usage(call.usage, cancelled=getattr(call, "error_type", None) == "CancelledError")
         agent = call.agent or "?"
         price = self.prices.get(call.model)
         cost = price.cost(usage) if price is not None else None

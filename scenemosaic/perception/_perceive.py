@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 import structlog
 
-from scenemosaic.agents import AgentPolicy, FallbackRecord, run_blocking
+from scenemosaic.agents import AgentLog, AgentPolicy, run_agent, run_blocking
 from scenemosaic.exceptions import ModelConfigError, UsageError
-from scenemosaic.models import CallClock, Model, ModelSettings, Usage
+from scenemosaic.models import CallClock, Model, ModelSettings
 from scenemosaic.perception._agents import (
     MAX_VERIFY_ROUNDS,
     InventoryAgent,
@@ -65,8 +65,8 @@ class PerceptionResult:
     camera: Camera
     reconstruction: Reconstruction
     report: dict[str, Any] = field(default_factory=dict)
-    fallbacks: list[FallbackRecord] = field(default_factory=list)
-    usage: Usage = field(default_factory=Usage)
+    agents: AgentLog = field(default_factory=AgentLog)
+    """The inventory and verification agents' results: outcomes, fallbacks, requests."""
 
 
 def reconstructor_for(spec: str | Reconstructor, *, clock: CallClock | None = None, camera_height: float | None = None) -> Reconstructor:
@@ -143,6 +143,7 @@ async def perceive(
     seed: int = 0,
     max_rounds: int = MAX_VERIFY_ROUNDS,
     clock: CallClock | None = None,
+    agent_log: AgentLog | None = None,
 ) -> PerceptionResult:
     """Turn a photograph into a scene (see the module's docstring).
 
@@ -153,7 +154,9 @@ async def perceive(
     ``None``). ``camera_height_m``: the camera's height above the floor when the user knows it
     (:func:`at_camera_height`: it replaces the scale read from the objects' usual sizes).
     ``clock``: the run's clock (``RunModel.clock``: request time-out and deadline),
-    which bounds every call to an HTTP segmenter or reconstructor.
+    which bounds every call to an HTTP segmenter or reconstructor. ``agent_log`` receives the
+    inventory and verification agents' results (it is the result's ``agents``; default: a new
+    one), also when perception fails.
     """
     if camera_height_m is not None and not (math.isfinite(camera_height_m) and camera_height_m > 0.0):
         raise UsageError(f"the camera's height must be a positive number of metres, got {camera_height_m!r}")
@@ -178,7 +181,10 @@ async def perceive(
         raise
     folder = Path(out_dir) / PERCEPTION_FOLDER if out_dir is not None else None
     try:
-        return await _perceive(image, model, hints, seg, rec_backend, hfov_deg, folder, policy, settings, seed, max_rounds, camera_height_m)
+        return await _perceive(
+            image, model, hints, seg, rec_backend, hfov_deg, folder, policy, settings, seed, max_rounds,
+            agent_log if agent_log is not None else AgentLog(), camera_height_m,
+        )  # fmt: skip
     finally:
         await _close(seg)
         await _close(rec_backend)
@@ -216,14 +222,13 @@ async def _perceive(
     settings: ModelSettings | None,
     seed: int,
     max_rounds: int,
+    agents: AgentLog,
     camera_height_m: float | None = None,
 ) -> PerceptionResult:
     camera = image.camera(hfov_deg)
     placeholder = Scene(id="photo", room=Room.rectangle(0.0, 0.0, 1.0, 1.0), objects=[])
     state = PerceptionState(scene=placeholder, seed=seed, policy=policy or AgentPolicy(), image=image, hints=hints)
-    listed = await InventoryAgent().run(state, model, settings)
-    usage = listed.usage
-    fallbacks = [listed.fallback] if listed.fallback is not None else []
+    listed = await run_agent(InventoryAgent(), state, model, settings, log=agents)
     log.info("perception_inventory", objects=len(state.inventory), answered_by=listed.outcome.answered_by)
 
     async def cut(objs: list[DetectedObject], how: Segmenter) -> None:
@@ -234,9 +239,7 @@ async def _perceive(
     rounds: list[dict[str, Any]] = []
     for rnd in range(1, max_rounds + 1):
         state.round = rnd
-        checked = await VerifyAgent().run(state, model, settings)
-        usage = usage + checked.usage
-        fallbacks += [checked.fallback] if checked.fallback is not None else []
+        checked = await run_agent(VerifyAgent(), state, model, settings, log=agents)
         requests = state.requests
         rounds.append({"round": rnd, "answered_by": checked.outcome.answered_by, "requests": [r.words() for r in requests]})
         if not requests:
@@ -284,7 +287,7 @@ async def _perceive(
         report.update(given)
     if folder is not None:
         await asyncio.to_thread(_write_result, folder, meshes, reconstruction, report)
-    return PerceptionResult(scene, inventory, dict(state.masks), camera, reconstruction, report, fallbacks, usage)
+    return PerceptionResult(scene, inventory, dict(state.masks), camera, reconstruction, report, agents)
 
 
 def _apply_requests(state: PerceptionState, requests: list[Any]) -> set[str]:

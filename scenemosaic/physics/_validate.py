@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
@@ -40,6 +41,7 @@ __all__ = [
     "motion_between",
     "scene_world",
     "support_gaps",
+    "validate_house",
     "validate_scene",
     "write_house_mjcf",
     "write_scene_mjcf",
@@ -219,6 +221,70 @@ def support_gaps(scene: Scene, shapes: Mapping[str, ObjectShape]) -> dict[str, f
     return gaps
 
 
+def _static_report(scene: Scene, shapes: Mapping[str, ObjectShape]) -> ValidationReport:
+    """What one scene's poses say before anything moves: collisions, out of bounds, support gaps,
+    nested furniture."""
+    return ValidationReport(
+        collisions=collision_report_for(scene, shapes),
+        out_of_bounds=check_out_of_bounds(scene, shapes=shapes),
+        support_gaps_m=support_gaps(scene, shapes) if scene.objects else {},
+        nested=nested_furniture(scene),
+    )
+
+
+@dataclass
+class _Settled:
+    """How a world's objects moved when it settled under gravity."""
+
+    motions: dict[str, ObjectMotion] = field(default_factory=dict)
+    tipped: set[str] = field(default_factory=set)
+    fell: set[str] = field(default_factory=set)
+    simulated_s: float = 0.0
+
+
+def _settle_world(builder: WorldBuilder, objects: Mapping[str, SceneObject]) -> _Settled:
+    """Run ``builder``'s world under gravity until it settles; how each of ``objects`` moved."""
+    world = builder.compile()
+    outcome = run_until_settled(world, _VALIDATION_SETTLE, min_time_s=_VALIDATION_MIN_S)
+    settled = _Settled(simulated_s=round(outcome.simulated_s, 6))
+    for wb in world.bodies:
+        before = objects[wb.object_id].pose
+        pos = world.data.xpos[wb.body_id]
+        quat = tuple(float(v) for v in world.data.xquat[wb.body_id])
+        if not all(math.isfinite(v) for v in (*pos, *quat)):
+            settled.fell.add(wb.object_id)
+            continue
+        after = Pose(
+            position=(float(pos[0]), float(pos[1]), float(pos[2])),
+            quaternion=quat_multiply(quat, (1.0, 0.0, 0.0, 0.0)),
+            scale=before.scale,
+        )
+        mot = motion_between(wb.object_id, before, after)
+        settled.motions[wb.object_id] = mot
+        if mot.tilt_deg > TIPPED_TILT_DEG:
+            settled.tipped.add(wb.object_id)
+        if before.position[2] - after.position[2] > FELL_DROP_M:
+            settled.fell.add(wb.object_id)
+    settled.fell.update(outcome.blown_up)
+    return settled
+
+
+def _with_motion(static: ValidationReport, scene: Scene, settled: _Settled) -> ValidationReport:
+    """``static`` completed with how ``scene``'s objects moved in a settled world (in the
+    scene's object order; an object that blew up counts as fallen)."""
+    ids = [o.id for o in scene.objects]
+    motions = [settled.motions[i] for i in ids if i in settled.motions]
+    return static.model_copy(
+        update={
+            "tipped": [i for i in ids if i in settled.tipped],
+            "fell": [i for i in ids if i in settled.fell],
+            "motions": motions,
+            "max_displacement_m": max((m.displacement_m for m in motions), default=0.0),
+            "simulated_s": settled.simulated_s,
+        }
+    )
+
+
 def validate_scene(
     scene: Scene,
     base_dir: str | Path | None = None,
@@ -238,42 +304,27 @@ def validate_scene(
     """
     require_finite_poses(scene, "validate the scene")
     shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
-    collisions = collision_report_for(scene, shapes)
-    oob = check_out_of_bounds(scene, shapes=shapes)
-    gaps = support_gaps(scene, shapes) if scene.objects else {}
+    static = _static_report(scene, shapes)
+    settled = _settle_world(scene_world(scene, shapes, sim), {o.id: o for o in scene.objects})
+    return _with_motion(static, scene, settled)
 
-    world = scene_world(scene, shapes, sim).compile()
-    outcome = run_until_settled(world, _VALIDATION_SETTLE, min_time_s=_VALIDATION_MIN_S)
-    motions: list[ObjectMotion] = []
-    tipped: list[str] = []
-    fell: list[str] = []
-    for wb in world.bodies:
-        before = scene.get(wb.object_id).pose
-        pos = world.data.xpos[wb.body_id]
-        quat = tuple(float(v) for v in world.data.xquat[wb.body_id])
-        if not all(math.isfinite(v) for v in (*pos, *quat)):
-            fell.append(wb.object_id)
-            continue
-        after = Pose(
-            position=(float(pos[0]), float(pos[1]), float(pos[2])),
-            quaternion=quat_multiply(quat, (1.0, 0.0, 0.0, 0.0)),
-            scale=before.scale,
-        )
-        mot = motion_between(wb.object_id, before, after)
-        motions.append(mot)
-        if mot.tilt_deg > TIPPED_TILT_DEG:
-            tipped.append(wb.object_id)
-        if before.position[2] - after.position[2] > FELL_DROP_M:
-            fell.append(wb.object_id)
-    fell.extend(oid for oid in outcome.blown_up if oid not in fell)
-    return ValidationReport(
-        collisions=collisions,
-        out_of_bounds=oob,
-        tipped=tipped,
-        fell=fell,
-        motions=motions,
-        max_displacement_m=max((m.displacement_m for m in motions), default=0.0),
-        support_gaps_m=gaps,
-        simulated_s=round(outcome.simulated_s, 6),
-        nested=nested_furniture(scene),
-    )
+
+def validate_house(
+    house: House,
+    base_dir: str | Path | None = None,
+    *,
+    hull_cache: HullCache | None = None,
+    hulls: HullInput | None = None,
+    sim: SimSettings | None = None,
+) -> dict[str, ValidationReport]:
+    """Check a whole house as it is delivered: per room, the checks of :func:`validate_scene` on
+    its poses, and how its objects moved when the whole house (:func:`house_world`, the world
+    ``scene.xml`` holds) settled under gravity once. Returns each room's report by room id."""
+    for scene in house.rooms:
+        require_finite_poses(scene, "validate the house")
+    shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in house.objects}
+    settled = _settle_world(house_world(house, shapes, sim), {o.id: o for o in house.objects})
+    return {
+        scene.id: _with_motion(_static_report(scene, {o.id: shapes[o.id] for o in scene.objects}), scene, settled)
+        for scene in house.rooms
+    }

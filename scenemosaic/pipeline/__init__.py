@@ -22,6 +22,9 @@ from scenemosaic.pipeline._config import (
     SettingsError,
     config_from_record,
     config_record,
+    setting_options,
+    settings_doc,
+    settings_table,
 )
 from scenemosaic.pipeline._result import GenerateResult
 from scenemosaic.pipeline._state import PipelineRun, Stage, StageCallback, StageRecord
@@ -29,12 +32,15 @@ from scenemosaic.pipeline._state import PipelineRun, Stage, StageCallback, Stage
 if TYPE_CHECKING:
     from scenemosaic.pipeline._checkpoint import checkpoint_config
     from scenemosaic.pipeline._demo import demo_scene
-    from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES
+    from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, HOUSE_STAGES
+    from scenemosaic.pipeline._report import RunReport
     from scenemosaic.pipeline._run import REPORT_FILE, agenerate, generate, run_sync
     from scenemosaic.pipeline._stages import STAGE_NAMES, STAGES
 
 _LAZY = {
+    "HOUSE_STAGES": "_house",
     "HOUSE_STAGE_NAMES": "_house",
+    "RunReport": "_report",
     "REPORT_FILE": "_run",
     "STAGES": "_stages",
     "STAGE_NAMES": "_stages",
@@ -58,6 +64,7 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = [
+    "HOUSE_STAGES",
     "HOUSE_STAGE_NAMES",
     "REPORT_FILE",
     "SETTINGS",
@@ -66,6 +73,7 @@ __all__ = [
     "GenerateConfig",
     "GenerateResult",
     "PipelineRun",
+    "RunReport",
     "Setting",
     "SettingsError",
     "Stage",
@@ -78,4 +86,7 @@ __all__ = [
     "demo_scene",
     "generate",
     "run_sync",
+    "setting_options",
+    "settings_doc",
+    "settings_table",
 ]

@@ -28,9 +28,10 @@ from scenemosaic.dag import StoredOutput, output_hash
 from scenemosaic.exceptions import UnsafePathError, UsageError
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record, deciding_settings
 from scenemosaic.pipeline._state import PipelineRun, StageRecord
-from scenemosaic.scene import Pose, RunFolder, Scene, confined_path, write_atomic
+from scenemosaic.scene import House, Pose, RunFolder, Scene, confined_path, write_atomic
 
 __all__ = [
+    "RoomOutcome",
     "RunCheckpoint",
     "checkpoint_config",
     "checkpoint_state",
@@ -60,7 +61,26 @@ class RunCheckpoint(BaseModel):
     validation: dict[str, Any] | None = None
     metrics: dict[str, Any] | None = None
     warnings: list[str] = []
+    notes: list[str] = []
     fallbacks: list[dict[str, str]] = []
+    house: House | None = None
+    rooms: dict[str, RoomOutcome] = {}
+    house_variants: list[House] = []
+    variant_checks: list[dict[str, Any]] = []
+
+
+class RoomOutcome(BaseModel):
+    """What one room's run of a house left for the house: its state, or why it has none (sent
+    back over the pipe from a worker process, kept in the house's checkpoint)."""
+
+    room_id: str
+    state: RunCheckpoint | None = None
+    error: str | None = None
+    error_type: str | None = None
+    seconds: float = 0.0
+
+
+RunCheckpoint.model_rebuild()
 
 
 def input_digest(path: Path, config: GenerateConfig) -> str | None:
@@ -103,7 +123,12 @@ def checkpoint_state(run: PipelineRun) -> RunCheckpoint:
         validation=run.validation,
         metrics=run.metrics,
         warnings=run.warnings,
+        notes=run.notes,
         fallbacks=[{"agent": f.agent, "reason": f.reason} for f in run.fallbacks],
+        house=run.house,
+        rooms=run.rooms,
+        house_variants=run.house_variants,
+        variant_checks=run.variant_checks,
     )
 
 
@@ -164,7 +189,12 @@ def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:
     run.validation = state.validation
     run.metrics = state.metrics
     run.warnings = list(state.warnings)
+    run.notes = list(state.notes)
     run.fallbacks = [FallbackRecord(**f) for f in state.fallbacks]
+    run.house = state.house
+    run.rooms = dict(state.rooms)
+    run.house_variants = list(state.house_variants)
+    run.variant_checks = list(state.variant_checks)
     return {r.name for r in run.records}
 
 
@@ -172,7 +202,11 @@ def _check_confined(state: RunCheckpoint, run: PipelineRun) -> None:
     """Every mesh a checkpoint names lies where an import would have allowed it (the input's
     folder): a checkpoint is a file on disk like any input, and resuming must not copy a file
     from elsewhere into the delivered folders."""
-    for scene in (state.scene, *state.variants):
+    houses = [h for h in (state.house, *state.house_variants) if h is not None]
+    rooms = [o.state for o in state.rooms.values() if o.state is not None]
+    scenes = [state.scene, *state.variants, *(s for h in houses for s in h.rooms)]
+    scenes += [s for r in rooms for s in (r.scene, *r.variants)]
+    for scene in scenes:
         for obj in scene.objects if scene is not None else []:
             if obj.asset.kind == "mesh" and obj.asset.uri is not None:
                 try:

@@ -9,11 +9,12 @@ docs (``docs/settings.md``) all read these markers; none of them keeps its own l
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from types import MappingProxyType
-from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
+from types import MappingProxyType, UnionType
+from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias, Union, get_args, get_origin
 
 from pydantic import (
     AfterValidator,
@@ -39,14 +40,21 @@ if TYPE_CHECKING:
 
 __all__ = [
     "SETTINGS",
+    "SETTINGS_TABLE_BEGIN",
+    "SETTINGS_TABLE_END",
     "GenerateConfig",
     "Setting",
     "SettingGroup",
+    "SettingOption",
     "SettingsError",
     "check_config",
     "config_from_record",
     "config_record",
     "deciding_settings",
+    "setting_bounds",
+    "setting_options",
+    "settings_doc",
+    "settings_table",
 ]
 
 SettingGroup = Literal["input", "perception", "model", "evolution", "limits", "run"]
@@ -197,26 +205,32 @@ class GenerateConfig(BaseModel):
     :class:`~scenemosaic.exceptions.UsageError`) naming every bad setting. Types are strict
     (``"5"`` is not a number); folders and files may be given as strings. Each field's
     :class:`Setting` marker (see :data:`SETTINGS`) says its group, whether it decides the results,
-    its ``generate`` flag and whether a batch manifest line takes it (``docs/settings.md``).
+    its ``generate`` flag and whether a batch manifest line takes it (``docs/settings.md``). Each
+    field's docstring is its ``description``; its first sentence is the ``generate`` option's help
+    (:func:`setting_options`).
     """
 
-    model_config = ConfigDict(frozen=True, strict=True, extra="forbid", arbitrary_types_allowed=True)
+    model_config = ConfigDict(
+        frozen=True, strict=True, extra="forbid", arbitrary_types_allowed=True, use_attribute_docstrings=True
+    )
 
     # -- input -------------------------------------------------------------------------------
     format: Annotated[str, Setting("input", decides=True, flag="--format")] = "auto"
-    """Input format (``auto`` or a registered reader: ``native``, ``front3d``, ``procthor``,
-    ``holodeck``, ``sam3d``, ``sceneeval``; or ``image``, which ``auto`` picks for ``.png``,
-    ``.jpg``... inputs: the image front end, ``docs/perception.md``)."""
+    """Input format: ``auto`` or a registered reader (``native``, ``front3d``, ``procthor``,
+    ``holodeck``, ``sam3d``, ``sceneeval``), or ``image``. ``auto`` picks ``image`` for a ``.png``
+    or ``.jpg`` input: the image front end (``docs/perception.md``)."""
     room: Annotated[str | None, Setting("input", decides=True, flag="--room")] = None
-    """Room id to take from a multi-room house file."""
+    """Take one room of a multi-room house, by its id (such as ``room|3``); without it the whole
+    house is generated (``docs/houses.md``)."""
     asset_dir: Annotated[
         Path | None, Field(strict=False), Setting("input", recorded=True, path=True, flag="--asset-dir")
     ] = None
-    """Folder of asset meshes a SceneEval input names by ``assetId`` (default: ``assets/`` beside it)."""
+    """Folder of the ``<assetId>.glb`` meshes a SceneEval input names (default: ``assets/`` beside
+    the input)."""
     max_input_mb: Annotated[Number | None, Field(gt=0), Setting("input", flag="--max-input-mb")] = None
-    """Largest input file the run reads, in MB (``--max-input-mb``); ``None``: the limit of the
-    input's kind, :data:`INPUT_SIZE_LIMITS_MB` (a scene document, a photograph). A larger file is
-    refused before it is read (exit 2)."""
+    """Largest input file the run reads, in MB (default: 256 for a scene file, 64 for a
+    photograph). A larger file is refused before it is read (exit 2); ``None`` takes the limit of
+    the input's kind from :data:`INPUT_SIZE_LIMITS_MB`."""
     priors_dir: Annotated[
         Path | None,
         Field(strict=False),
@@ -230,54 +244,56 @@ class GenerateConfig(BaseModel):
     detections: Annotated[
         Path | None, Field(strict=False), Setting("perception", recorded=True, path=True, flag="--detections")
     ] = None
-    """Object detections of a photograph input (``--detections``): COCO (``bbox`` = [x, y, w, h])
-    or an inventory JSON. The offline ``rules`` model needs them; a vision model takes them as hints."""
+    """A photograph's object boxes: COCO JSON (``bbox`` = [x, y, w, h]) or an inventory JSON
+    (needed with the ``rules`` model). A vision model takes them as hints."""
     segmenter: Annotated[SegmenterChoice, Setting("perception", decides=True, flag="--segmenter")] = "auto"
-    """How a photograph's objects are cut out (``--segmenter``): ``auto``, ``grabcut``, ``box``,
-    ``sam3``, an ``http://`` segmentation server, or a :class:`~scenemosaic.perception.Segmenter`."""
+    """A photograph's segmenter: ``auto``, ``grabcut``, ``box``, ``sam3`` or a segmentation server
+    (``http://HOST:PORT/segment``). From Python, a :class:`~scenemosaic.perception.Segmenter` too."""
     reconstructor: Annotated[ReconstructorChoice, Setting("perception", decides=True, flag="--reconstructor")] = "auto"
-    """How a photograph's objects are lifted to 3D (``--reconstructor``): ``auto``, ``box-lifter``,
-    ``sam3d[:pipeline.yaml]``, an ``http://`` server, or a :class:`~scenemosaic.perception.Reconstructor`."""
+    """A photograph's 3D lifter: ``auto``, ``box-lifter``, ``sam3d[:pipeline.yaml]`` or a
+    reconstruction server (``http://HOST:PORT/reconstruct``). From Python, a
+    :class:`~scenemosaic.perception.Reconstructor` too."""
     hfov_deg: Annotated[Number | None, Field(ge=5, le=170), Setting("perception", decides=True, flag="--hfov")] = None
-    """Horizontal field of view of a photograph input, degrees, 5 to 170 (``--hfov``); ``None``: from
-    its EXIF focal length, else :data:`~scenemosaic.perception.DEFAULT_HFOV_DEG`."""
+    """A photograph's horizontal field of view in degrees (default: from its EXIF focal length,
+    else 60). The fallback is :data:`~scenemosaic.perception.DEFAULT_HFOV_DEG`."""
     camera_height_m: Annotated[Number | None, Field(gt=0.1, le=10), Setting("perception", decides=True, flag="--camera-height")] = None
-    """The camera's height above the floor for a photograph input, metres (``--camera-height``),
-    when it is known (a tripod, a phone's AR session); ``None``: read from the objects' usual
-    sizes. A single view fixes the room only up to one scale, and this sets it."""
+    """A photograph's camera height above the floor in metres, when it is known: a tripod, a
+    phone's AR session (default: read from the objects' usual sizes). A single view fixes the room
+    only up to one scale, and this sets it."""
     prompt: Annotated[str | None, Setting("perception", decides=True, flag="--prompt")] = None
-    """Draw the room from this text first (``--prompt``): the model's images endpoint
+    """Draw the room from this text first, instead of an input. The model's images endpoint
     (``/images/generations``) makes ``OUT/prompt.png``, which then goes through the image front
-    end like a photograph. Give no input with it."""
+    end like a photograph."""
     image_model: Annotated[str | None, Setting("perception", decides=True, flag="--image-model")] = None
-    """The images endpoint's model name (``--image-model``); ``None``: the chat model's name."""
+    """The images endpoint's model (default: the chat model's name)."""
     image_size: Annotated[str, Setting("perception", decides=True, flag="--image-size")] = "1024x1024"
-    """Size asked of the images endpoint (``--image-size``)."""
+    """Size asked of the images endpoint."""
 
     # -- model -------------------------------------------------------------------------------
     model: Annotated[str | Model, Setting("model", decides=True, flag="--model")] = "rules"
-    """Model string (``rules``, ``openai:<model>[@<base_url>]``, ``replay:<cassette.json>``) or a
-    :class:`~scenemosaic.models.Model` instance, which the caller keeps ownership of (not closed here)."""
+    """The model: ``rules``, ``openai:<model>[@<base_url>]`` or ``replay:<cassette.json>``. From
+    Python, a :class:`~scenemosaic.models.Model` instance too, which the caller keeps ownership of
+    (it is not closed here)."""
     vision: Annotated[bool | None, Setting("model", decides=True, flag="--vision")] = None
-    """Force the model's vision setting (``False`` for text-only local servers); ``None`` keeps its default."""
+    """Send images to the model (off for text-only servers; default: the model's own setting)."""
     solver_fallback: Annotated[bool, Setting("model", decides=True, flag="--solver-fallback")] = True
-    """When a real model's answers stay unusable (after retries and repairs), use the agent's rule
-    solver and note it in the report (the run is then ``degraded``), instead of failing the run.
-    Configuration errors still fail."""
+    """Use an agent's rule solver when the model's answers stay unusable after retries and
+    repairs (default), or fail the run. A fallback is noted in the report and the run is then
+    ``degraded``; configuration errors still fail."""
     fallback: Annotated[Literal["transient", "rules"], Setting("model", decides=True, flag="--fallback")] = "transient"
-    """Which model failures the rule solvers answer for, with ``solver_fallback`` on (``--fallback``):
-    ``transient`` (default) — time-outs, 429, 5xx and unusable replies, while a model server that
-    cannot serve the run (nothing listening, unknown host, key refused, no such model) stops it at
-    once with exit 2 and the fix; ``rules`` — those too, so the run completes ``degraded`` on the
-    rule solvers (``docs/reliability.md``)."""
+    """Which model failures the rule solvers answer for: ``transient`` (time-outs, 429, 5xx,
+    unusable replies) or ``rules`` (a model server that cannot serve the run too). With
+    ``transient`` such a server (nothing listening, unknown host, key refused, no such model) stops
+    the run at once with exit 2 and the fix; with ``rules`` the run completes ``degraded`` on the
+    rule solvers (``docs/reliability.md``). Either needs ``solver_fallback`` on."""
     reply_cache: Annotated[
         Path | None,
         Field(strict=False),
         Setting("model", path=True, flag="--reply-cache", no_manifest=f"{_BATCH_OWNS} (OUT/.batch/replies, shared)"),
     ] = None
-    """Folder of the on-disk model reply cache (``--reply-cache``; ``models.CachedModel``): an
-    equal request is answered from it at no cost, so a re-run or retried job never pays twice.
-    ``None``: no cache (the rules model makes no requests either way)."""
+    """Folder of an on-disk model reply cache: equal requests are answered from it at no cost.
+    A re-run or retried job never pays twice (``models.CachedModel``); ``None``: no cache (the
+    rules model makes no requests either way)."""
     agents: Annotated[AgentList, Setting("model", no_flag=_OBJECTS, no_manifest=_OBJECTS)] = None
     """Structuring agents the manager may schedule; default
     :data:`~scenemosaic.structure.DEFAULT_AGENTS`. Add a plugin with
@@ -285,18 +301,21 @@ class GenerateConfig(BaseModel):
 
     # -- evolution ---------------------------------------------------------------------------
     variants: Annotated[int, Field(ge=0), Setting("evolution", decides=True, flag="--variants")] = 0
-    """Number of diverse whole-scene variants to deliver (m), 0 or more. Above 0, the evolve stage
-    grows each unit's structurally different variants (archetypes) beside the refined original, and
-    the compose stage selects m diverse valid combinations of them (dynamic max-min greedy on the
-    novelty distance), written as ``variant_1/`` ... ``variant_m/`` beside ``base/``; fewer when
-    the pool holds fewer distinct valid ones (the report says so). Needs ``evolve``."""
+    """Number of diverse whole-scene variants to deliver (m); above 0, the evolve stage also grows
+    unit variants. Those are each unit's structurally different variants (archetypes) beside the
+    refined original, and the compose stage selects m diverse valid combinations of them (dynamic
+    max-min greedy on the novelty distance), written as ``variant_1/`` ... ``variant_m/`` beside
+    ``base/``; fewer when the pool holds fewer distinct valid ones (the report says so). Needs
+    ``evolve``."""
     evolve: Annotated[bool, Setting("evolution", decides=True, flag="--evolve")] = True
-    """Run the evolve stage (the Critic-Actor refinement of every unit); ``--no-evolve`` delivers
-    the stabilized scene as it is. Skipped too when ``stabilize`` is off (it refines a stabilized scene)."""
+    """Refine every unit through the evolve stage's Critic-Actor loop (default on). Off
+    (``--no-evolve``) delivers the stabilized scene as it is; skipped too when ``stabilize`` is
+    off (it refines a stabilized scene)."""
     evolve_rounds: Annotated[int, Field(ge=1), Setting("evolution", decides=True, flag="--rounds")] = 8
-    """Round cap of each layout's Critic-Actor loop, 1 or more (``--rounds``; ``scenemosaic.evolve.MAX_ROUNDS``)."""
+    """Round cap of each layout's Critic-Actor loop. The default is
+    ``scenemosaic.evolve.MAX_ROUNDS``."""
     save_views: Annotated[bool, Setting("evolution", decides=True, flag="--save-views")] = False
-    """Write every unit view the critic sees, per round, as PNG under ``evolve/`` (``--save-views``)."""
+    """Write every unit view the critic sees, per round, as PNG under ``OUT/evolve/``."""
     layout_rules: Annotated[LayoutRules, Setting("evolution", no_flag=_OBJECTS, no_manifest=_OBJECTS)] = ()
     """Plugin rules of the evolve stage's critic (:data:`~scenemosaic.evolve.LayoutRule`): each
     sees every layout of every unit, and its findings join the built-in ones (``docs/plugins.md``)."""
@@ -305,19 +324,19 @@ class GenerateConfig(BaseModel):
     request_timeout_s: Annotated[
         Number | None, Field(gt=0), Setting("limits", decides=True, flag="--request-timeout")
     ] = None
-    """Time-out of one model request in seconds, above 0 (``--request-timeout``); ``None`` keeps the
-    model's own. See ``docs/reliability.md`` for the precedence of time-outs."""
+    """Seconds one model request may take (default: the model's own). See
+    ``docs/reliability.md`` for the precedence of time-outs."""
     deadline_s: Annotated[Number | None, Field(gt=0), Setting("limits", decides=True, flag="--deadline")] = None
-    """Wall-clock budget for all model requests of the run, in seconds, above 0 (``--deadline``):
-    once it has passed, agents answer with their rule solvers (the run is ``degraded``)."""
+    """Seconds all model requests of the run may take; then agents use their rule solvers. Once
+    this wall-clock budget has passed, the run is ``degraded``."""
     max_concurrency: Annotated[int | None, Field(ge=1), Setting("limits", flag="--max-concurrency")] = None
-    """Most model requests in flight at once, 1 or more (``--max-concurrency``); more wait in the
-    client, so a request's time-out measures the server's work, not a queue. ``None``: the server's
-    slot count when it reports one (llama.cpp), else no limit beyond the task graph's."""
+    """Most model requests in flight at once (default: the server's slots when it says). More wait
+    in the client, so a request's time-out measures the server's work, not a queue; a server that
+    reports no slot count (llama.cpp reports one) gets no limit beyond the task graph's."""
     requests_per_minute: Annotated[Number | None, Field(gt=0), Setting("limits", flag="--rpm")] = None
-    """Client-side request rate for the model, above 0 (``--rpm``; ``models.RateLimiter``)."""
+    """Most model requests per minute (client side: ``models.RateLimiter``)."""
     tokens_per_minute: Annotated[Number | None, Field(gt=0), Setting("limits", flag="--tpm")] = None
-    """Client-side token rate for the model, above 0 (``--tpm``)."""
+    """Most model tokens per minute (client side)."""
     rate_limit_dir: Annotated[
         Path | None,
         Field(strict=False),
@@ -334,34 +353,34 @@ class GenerateConfig(BaseModel):
 
     # -- run ---------------------------------------------------------------------------------
     seed: Annotated[int, Setting("run", decides=True, flag="--seed")] = 0
-    """Run seed; every random choice derives from it, so equal inputs give identical files."""
+    """Run seed. Every random choice derives from it, so equal inputs give identical files."""
     stabilize: Annotated[bool, Setting("run", decides=True, flag="--stabilize")] = True
-    """Run the physics stabilization stage (``--no-stabilize`` skips it, and with it evolve)."""
+    """Run the physics stabilization (default on); off skips evolve too."""
     strict: Annotated[bool, Setting("run", flag="--strict")] = False
-    """Treat a ``degraded`` outcome (unresolved collisions, fallen objects, solver fallbacks) as a
-    failure: the CLI exits 1 (``--strict``). The files are written either way."""
+    """Treat a degraded result (unresolved collisions, fallen objects, solver fallbacks) as a
+    failure: the CLI exits 1. The files are written either way."""
     overwrite: Annotated[
         bool, Setting("run", flag="--overwrite", no_manifest=f"{_BATCH_OWNS}: on (a batch owns its job folders)")
     ] = False
-    """Allow writing into an output folder that holds the results of another input."""
+    """Replace an output folder that holds another input's results."""
     resume: Annotated[
         bool,
         Setting(
             "run", flag="--resume", no_manifest=f"{_BATCH_OWNS}: off (a finished job is skipped, an unfinished one starts again)"
         ),
     ] = False
-    """Continue a stopped run in the same output folder: finished stages (and finished agents of
-    the structuring stage) are reused from the run's checkpoints (``--resume OUT``, which takes
-    the input and the settings from the checkpoint)."""
+    """Continue the stopped run in this output folder (INPUT and settings come from it). Its
+    finished stages (and the finished agents of the structuring stage) are reused from the run's
+    checkpoints; the flag takes the folder (``--resume OUT``)."""
     restart_stale: Annotated[
         bool, Setting("run", flag="--restart-stale", no_manifest=f"{_BATCH_OWNS}: off (a batch never resumes)")
     ] = False
-    """With ``resume``: when the checkpoint is stale (the input's content or a setting that decides
-    the results changed since the stopped run), start the run over instead of refusing
-    (``--restart-stale``). Without it such a resume is refused with exit 2."""
+    """With ``--resume``: when the input or a setting changed since the stopped run, start over
+    instead of refusing. The checkpoint is stale when the input's content or a setting that
+    decides the results changed; without this such a resume is refused with exit 2."""
     room_workers: Annotated[int | None, Field(ge=1), Setting("run", flag="--room-workers")] = None
-    """Processes that work on a house's rooms at once, 1 or more (``--room-workers``; a house input
-    only, ``docs/houses.md``). ``None``: one per CPU core, at most one per room. With 1, or with a
+    """Processes for a house's rooms (default: one per core, at most one per room). A house input
+    only (``docs/houses.md``). With 1, or with a
     model other than ``rules`` (one model stack serves every room) or Python-object settings, the
     rooms run concurrently in this process instead. The results do not depend on it."""
     cache_dir: Annotated[
@@ -369,7 +388,12 @@ class GenerateConfig(BaseModel):
         Field(strict=False),
         Setting("run", recorded=True, path=True, flag="--cache-dir", no_manifest=f"{_BATCH_OWNS} (the batch's --cache-dir)"),
     ] = None
-    """Hull cache folder (``--cache-dir``); default ``$SCENEMOSAIC_CACHE`` or ``~/.cache/scenemosaic``."""
+    """Hull cache folder (default: ``$SCENEMOSAIC_CACHE`` or ``~/.cache/scenemosaic``)."""
+
+    @property
+    def hull_cache_dir(self) -> Path | None:
+        """The folder of the run's CoACD hull cache (``cache_dir/hulls``; ``None``: the default cache)."""
+        return self.cache_dir / "hulls" if self.cache_dir else None
 
     @model_validator(mode="wrap")
     @classmethod
@@ -441,3 +465,163 @@ def check_config(config: GenerateConfig) -> None:
     Raises :class:`SettingsError`.
     """
     GenerateConfig.model_validate({name: getattr(config, name) for name in SETTINGS})
+
+
+# -- the settings as the CLI and the docs show them ------------------------------------------------
+# Derived from the fields alone (type, default, constraints, docstring, marker): ``scenemosaic
+# generate`` builds its options from :func:`setting_options` and ``docs/settings.md`` holds
+# :func:`settings_table`, so neither restates a default, a bound or a help text.
+
+_ROLE = re.compile(r":[a-z]+:`(~?)([^`<]*?)\s*(?:<[^>]*>)?`")
+_LITERAL = re.compile(r"``(.+?)``")
+
+
+@dataclass(frozen=True)
+class SettingOption:
+    """A setting's ``generate`` option, derived from its :class:`GenerateConfig` field.
+
+    ``decls``: the option's declaration (``--evolve/--no-evolve`` for a switch: a bool that is on
+    or unset by default; else the flag). ``kind``: what the option parses (``bool``, ``int``,
+    ``float``, ``str`` or ``Path``); ``choices``: a ``Literal`` field's values (shown; checked by
+    :class:`GenerateConfig` with the other settings). ``help``: plain text, the first sentence of
+    the field's docstring, then its bounds in brackets (:func:`setting_bounds`).
+    """
+
+    field: str
+    flag: str
+    decls: str
+    kind: type
+    default: Any
+    choices: tuple[str, ...]
+    help: str
+    group: SettingGroup
+
+    @property
+    def switch(self) -> bool:
+        """The option is ``--x/--no-x``."""
+        return "/" in self.decls
+
+
+def _members(annotation: Any) -> list[Any]:
+    """The types a field's annotation allows, ``Annotated`` unwrapped, ``None`` left out."""
+    members = get_args(annotation) if get_origin(annotation) in (Union, UnionType) else (annotation,)
+    out = []
+    for member in members:
+        while get_origin(member) is Annotated:
+            member = get_args(member)[0]
+        if member is not type(None):
+            out.append(member)
+    return out
+
+
+def _first_sentence(text: str) -> str:
+    """The first sentence of a docstring: up to the first full stop outside parentheses and
+    literals that ends a word."""
+    depth, literal, i = 0, False, 0
+    while i < len(text):
+        if text.startswith("``", i):
+            literal, i = not literal, i + 2
+            continue
+        char = text[i]
+        if not literal:
+            depth += (char == "(") - (char == ")")
+            if char == "." and depth == 0 and (i + 1 == len(text) or text[i + 1].isspace()) and text[i - 1] != ".":
+                return text[: i + 1]
+        i += 1
+    return text
+
+
+def _rst(text: str, literal: Callable[[str], str]) -> str:
+    """reStructuredText of a docstring as one line: roles by their (short) name, literals through ``literal``."""
+    text = _ROLE.sub(lambda m: literal(m.group(2).rsplit(".", 1)[-1] if m.group(1) else m.group(2)), text)
+    return " ".join(_LITERAL.sub(lambda m: literal(m.group(1)), text).split())
+
+
+def _number(value: Any) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def setting_bounds(field: str) -> str:
+    """A numeric setting's bounds in words (``1 or more``, ``above 0``, ``5 to 170``), from the
+    field's constraints; ``""`` for a setting without bounds."""
+    bounds: dict[str, Any] = {}
+    for mark in GenerateConfig.model_fields[field].metadata:
+        for key in ("gt", "ge", "lt", "le"):
+            if getattr(mark, key, None) is not None:
+                bounds[key] = getattr(mark, key)
+    if "ge" in bounds and "le" in bounds:
+        return f"{_number(bounds['ge'])} to {_number(bounds['le'])}"
+    words = {"gt": "above {}", "ge": "{} or more", "lt": "below {}", "le": "at most {}"}
+    return ", ".join(words[key].format(_number(value)) for key, value in bounds.items())
+
+
+def setting_options() -> tuple[SettingOption, ...]:
+    """The ``generate`` option of every setting that has a flag, in declaration order."""
+    out = []
+    for name, setting in SETTINGS.items():
+        if setting.flag is None:
+            continue
+        info = GenerateConfig.model_fields[name]
+        (first, *_) = _members(info.annotation)
+        choices: tuple[str, ...] = get_args(first) if get_origin(first) is Literal else ()
+        kind = first if first in (bool, int, float, str, Path) else str
+        switch = kind is bool and info.default is not False
+        decls = f"{setting.flag}/--no-{setting.flag.removeprefix('--')}" if switch else setting.flag
+        summary = _rst(_first_sentence(info.description or ""), str).removesuffix(".")
+        bounds = setting_bounds(name)
+        text = f"{summary}. [{bounds}]" if bounds else f"{summary}."
+        out.append(SettingOption(name, setting.flag, decls, kind, info.default, choices, text, setting.group))
+    return tuple(out)
+
+
+SETTINGS_TABLE_BEGIN = "<!-- settings table: made by scenemosaic.pipeline._config.settings_table(), from GenerateConfig's fields -->"
+SETTINGS_TABLE_END = "<!-- end of the settings table -->"
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|")
+
+
+def settings_table() -> str:
+    """``docs/settings.md``'s table of every setting, rendered from the fields: group, whether it
+    decides the results, flag, whether a manifest line takes it, default, values and docstring."""
+    options = {option.field: option for option in setting_options()}
+    rows = [
+        "| field | group | decides | flag | manifest | default | values | description |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for name, setting in SETTINGS.items():
+        info = GenerateConfig.model_fields[name]
+        option = options.get(name)
+        values = setting_bounds(name)
+        if option is not None and option.choices:
+            values = " or ".join(f"`{choice}`" for choice in option.choices)
+        elif option is not None and option.switch:
+            values = f"off: `--no-{option.flag.removeprefix('--')}`"
+        text = _rst(info.description or "", lambda s: f"`{s}`")
+        if setting.no_flag:
+            text += f" *No flag*: {setting.no_flag}."
+        if setting.no_manifest:
+            text += f" *Not in a manifest*: {setting.no_manifest}."
+        cells = [
+            f"`{name}`",
+            setting.group,
+            "yes" if setting.decides else "recorded" if setting.recorded else "",
+            f"`{setting.flag}`" if setting.flag else "—",
+            "—" if setting.no_manifest else "yes",
+            f"`{info.default!r}`",
+            values,
+            text,
+        ]
+        rows.append("| " + " | ".join(_cell(c) for c in cells) + " |")
+    return "\n".join(rows) + "\n"
+
+
+def settings_doc(text: str) -> str:
+    """``text`` (``docs/settings.md``) with the part between :data:`SETTINGS_TABLE_BEGIN` and
+    :data:`SETTINGS_TABLE_END` replaced by :func:`settings_table`; the prose around it is kept."""
+    head, begin, rest = text.partition(SETTINGS_TABLE_BEGIN)
+    _, end, tail = rest.partition(SETTINGS_TABLE_END)
+    if not begin or not end:
+        raise ValueError(f"the settings table's markers are missing: {SETTINGS_TABLE_BEGIN} ... {SETTINGS_TABLE_END}")
+    return f"{head}{begin}\n{settings_table()}{end}{tail}"

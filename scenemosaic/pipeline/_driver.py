@@ -70,7 +70,7 @@ async def run_stages(
         if on_stage:
             on_stage(name, "started")
         t0 = time.perf_counter()
-        run.stage_mark = run.model.mark() if run.model is not None else 0
+        run.stage_log, run.stage_mark = None, run.model.mark() if run.model is not None else 0
         bound = log.bind(stage=name)
         bound.info("stage_started")
         try:
@@ -103,8 +103,12 @@ async def run_stages(
 
 
 def _record_usage(run: PipelineRun, rec: StageRecord) -> None:
-    """A stage that asked the model (:meth:`PipelineRun.asking`) gets its usage: the calls since its start."""
-    if "usage" in rec.detail and run.model is not None:
-        rec.detail["usage"] = run.model.usage_since(run.stage_mark)
+    """A stage that asked the model (:meth:`PipelineRun.asking`) gets its usage: its agents'
+    requests, from its agent log (:meth:`PipelineRun.agent_log`); a stage that kept none (the
+    evaluate stage's judge), the calls of the run's model since the stage began."""
+    if "usage" not in rec.detail or run.model is None:
+        return
+    log = run.stage_log
+    rec.detail["usage"] = log.usage_summary() if log is not None else run.model.usage_since(run.stage_mark)
 
 

@@ -1,18 +1,25 @@
-"""A whole house in one run: every room worked on at once, then composed, checked and delivered as one.
+"""The stages of a whole-house run: every room worked on at once, then composed, checked and delivered as one.
 
-A multi-room house input (an AI2-THOR / ProcTHOR house file without ``room``) runs in two steps:
+A multi-room house input (an AI2-THOR / ProcTHOR house file without ``room``) runs
+:data:`HOUSE_STAGES` through the same driver as a room (``pipeline/_driver.py``: records,
+usage, checkpoint, interruption) over the same :class:`PipelineRun`, whose ``house`` holds it:
 
 1. **rooms** — each room is a run of its own over :data:`HOUSE_ROOM_STAGES` (import → assets →
-   structure → stabilize → evolve → doors) in ``OUT/rooms/<room>/``, with its own checkpoint, so
-   a stopped house resumes room by room. Rooms are independent until the house-level checks, so
-   they run concurrently: in ``room_workers`` processes when the model is the offline ``rules``
-   (CPU-bound work), else as tasks of this process sharing one model stack (waiting on a server).
-2. **the house** — ``compose`` draws whole-house variants from one candidate pool over every
-   room's unit variants (``compose.compose_house``: a candidate is valid when every room is, its
-   doors clear and its floor as connected as the base's); ``validate`` simulates every room and
-   checks the house (door clearance, reachability from room to room, nothing across a wall);
-   ``evaluate`` measures each room and the house; ``export`` delivers ``base/`` and each
-   ``variant_<i>/`` as whole houses (``exchange.deliver_house``) and the contact sheet.
+   structure → stabilize → evolve → doors → compose) in ``OUT/rooms/<room>/``, started from the
+   room's scene as the house import gave it (in memory) and with its own checkpoint, so a stopped
+   house resumes room by room. Rooms are independent until the house-level checks, so they run
+   concurrently: in ``room_workers`` processes (:mod:`scenemosaic.pipeline._house_worker`, each
+   room's result sent back over the pipe) when the model is the offline ``rules`` (CPU-bound
+   work), else as tasks of this process sharing the run's one model stack (waiting on a server).
+2. **compose** — whole-house variants from one candidate pool over every room's unit variants
+   (``compose.compose_house``: a candidate is valid when every room is, its doors clear and its
+   floor as connected as the base's);
+3. **validate** — the delivered whole-house world (``physics.validate_house``: every room's checks,
+   and the house's MuJoCo world settled once) and the house checks (door clearance, reachability
+   from room to room, nothing across a wall);
+4. **evaluate** — each room's metrics and the house's (``metrics.evaluate_house``);
+5. **export** — ``base/`` and each ``variant_<i>/`` as whole houses (``exchange.deliver_house``),
+   and the contact sheet.
 
 ``docs/houses.md`` describes the model, the checks and their constants.
 """
@@ -27,43 +34,40 @@ import sys
 import time
 import traceback
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import structlog
 
+from scenemosaic._processes import kill_group, worker_environment
+from scenemosaic.assets import HullCache
 from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
 from scenemosaic.exceptions import SceneMosaicError
-from scenemosaic.exchange import export_house_folder, formats_left_out, load_house, save_house
-from scenemosaic.metrics import evaluate, house_diversity, relkeep
-from scenemosaic.physics import check_collisions, check_out_of_bounds, validate_scene
+from scenemosaic.exchange import deliver_house, formats_left_out, load_house
+from scenemosaic.metrics import evaluate_house, house_checks
+from scenemosaic.physics import check_collisions, check_out_of_bounds, validate_house
 from scenemosaic.pipeline._checkpoint import (
-    RunCheckpoint,
+    RoomOutcome,
     checkpoint_state,
     input_digest,
     load_checkpoint,
     save_checkpoint,
-    write_json,
 )
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record
-from scenemosaic.pipeline._driver import as_interruption, run_stages
-from scenemosaic.pipeline._result import GenerateResult
-from scenemosaic.pipeline._stages import HOUSE_ROOM_STAGES
-from scenemosaic.pipeline._state import PipelineRun, StageCallback, StageRecord, open_model
+from scenemosaic.pipeline._driver import run_stages
+from scenemosaic.pipeline._stages import HOUSE_ROOM_STAGES, judge_scenes, note_shortfall, validation_warnings
+from scenemosaic.pipeline._state import PipelineRun, Stage, StageRecord
 from scenemosaic.render import contact_sheet
-from scenemosaic.scene import House, RunFolder, Scene, door_blockers, house_walkable, wall_crossings
+from scenemosaic.scene import House, RunFolder, Scene, house_walkable
 
 if TYPE_CHECKING:
     from scenemosaic.models import RunModel
 
-__all__ = ["HOUSE_STAGE_NAMES", "RoomOutcome", "agenerate_house", "is_house_input", "room_worker"]
+__all__ = ["HOUSE_STAGES", "HOUSE_STAGE_NAMES", "is_house_input", "room_worker"]
 
 log = structlog.get_logger(__name__)
 
-HOUSE_STAGE_NAMES = ("rooms", "compose", "validate", "evaluate", "export")
-"""The stages of a house run, in order (``rooms`` runs :data:`HOUSE_ROOM_STAGES` in every room)."""
 WORKER_MODULE = "scenemosaic.pipeline._house_worker"
 """The module a house run's worker processes run (``python -m``)."""
 
@@ -83,23 +87,16 @@ def is_house_input(input_path: Path, config: GenerateConfig) -> bool:
 # -- one room ---------------------------------------------------------------------------------------
 
 
-@dataclass
-class RoomOutcome:
-    """What one room's run left for the house (picklable: it comes back from a worker process)."""
-
-    room_id: str
-    state: RunCheckpoint | None
-    error: str | None = None
-    error_type: str | None = None
-    seconds: float = 0.0
-
-
-async def _room_part(
-    input_path: Path, root: Path, room_id: str, config: GenerateConfig, base_dir: Path, model: RunModel | None
+async def _run_room(
+    room: Scene, input_path: Path, root: Path, config: GenerateConfig, base_dir: Path, model: RunModel | None
 ) -> RoomOutcome:
+    """One room of the house through :data:`HOUSE_ROOM_STAGES` in ``OUT/rooms/<room>/``, from its
+    scene as given; ``model`` is the house run's model stack (``None``: the room opens its own)."""
     t0 = time.perf_counter()
-    folder = RunFolder(root).room(room_id)
-    run = PipelineRun(input_path=input_path, folder=folder, config=config.model_copy(update={"room": room_id}), base_dir=base_dir)
+    folder = RunFolder(root).room(room.id)
+    run = PipelineRun(
+        input_path=input_path, folder=folder, config=config.model_copy(update={"room": room.id}), base_dir=base_dir, source=room
+    )  # fmt: skip
     run.store = FileRunStore(folder.checkpoint)
     run.model = model
     digest = await asyncio.to_thread(input_digest, input_path, run.config)
@@ -108,8 +105,6 @@ async def _room_part(
         await asyncio.to_thread(save_checkpoint, run, digest)
     try:
         failure = await run_stages(run, finished, digest, None, HOUSE_ROOM_STAGES)
-        if failure is None:  # the stages' last word, reused ones included: what the house reads back
-            await asyncio.to_thread(save_checkpoint, run, digest)
     finally:
         if model is None and run.model is not None:
             await run.model.aclose()
@@ -117,56 +112,68 @@ async def _room_part(
         raise failure
     error = None if failure is None else f"{type(failure).__name__}: {failure}"
     if failure is not None and not isinstance(failure, SceneMosaicError):
-        log.error("room_failed", room=room_id, traceback="".join(traceback.format_exception(failure)))
-    return RoomOutcome(room_id, checkpoint_state(run), error, type(failure).__name__ if failure else None, time.perf_counter() - t0)
+        log.error("room_failed", room=room.id, traceback="".join(traceback.format_exception(failure)))
+    state = checkpoint_state(run)
+    return RoomOutcome(
+        room_id=room.id, state=state, error=error, error_type=type(failure).__name__ if failure else None, seconds=time.perf_counter() - t0
+    )  # fmt: skip
 
 
-async def room_worker(input_path: Path, root: Path, base_dir: Path) -> None:
+async def room_worker() -> None:
     """A worker process's loop (``python -m scenemosaic.pipeline._house_worker``): one job a line
-    on stdin — ``room <id>`` (that room's run; its state goes to its checkpoint) or ``export
-    <folder>`` (every house-wide format of the house saved there) — and one JSON line on stdout
-    when it ends."""
-    record = json.loads(RunFolder(root).run_record.read_text(encoding="utf-8"))
-    config = config_from_record(record["config"], resume=bool(record.get("resume")))
-    reader = asyncio.StreamReader()
+    on stdin (JSON), one reply a line on stdout when it ends. ``{"kind": "room", ...}`` runs a room
+    (its scene, the run's input, output folder, base folder and settings) and replies with its
+    :class:`RoomOutcome`; ``{"kind": "deliver", ...}`` delivers a whole house (``exchange.deliver_house``)
+    and replies with ``{"files"}`` or ``{"error"}``."""
+    reader = asyncio.StreamReader(limit=_LINE_LIMIT)
     loop = asyncio.get_running_loop()
     await loop.connect_read_pipe(lambda: asyncio.StreamReaderProtocol(reader), sys.stdin)
-    while line := (await reader.readline()).decode().strip():
-        kind, _, arg = line.partition(" ")
-        t0 = time.perf_counter()
-        reply: dict[str, Any] = {"job": line, "error": None, "error_type": None}
-        if kind == "room":
-            outcome = await _room_part(input_path, root, arg, config, base_dir, None)
-            reply.update(error=outcome.error, error_type=outcome.error_type)
-        else:
+    while line := (await reader.readline()).strip():
+        job = json.loads(line)
+        reply: dict[str, Any]
+        if job["kind"] == "room":
+            config = config_from_record(job["config"], resume=bool(job["resume"]))
+            room = Scene.model_validate(job["room"])
             try:
-                await asyncio.to_thread(export_house_folder, Path(arg))
+                outcome = await _run_room(room, Path(job["input"]), Path(job["root"]), config, Path(job["base_dir"]), None)
             except Exception as exc:  # reported to the parent, which fails the stage
-                reply.update(error=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
-        reply["seconds"] = time.perf_counter() - t0
-        print(json.dumps(reply), flush=True)
+                outcome = RoomOutcome(room_id=room.id, error=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
+            reply = outcome.model_dump(mode="json")
+        else:
+            house = House.model_validate(job["house"])
+            cache = HullCache(config_from_record(job["config"]).hull_cache_dir)
+            deliver = functools.partial(deliver_house, house, Path(job["folder"]), Path(job["base_dir"]), hull_cache=cache)
+            try:
+                reply = {"files": await asyncio.to_thread(deliver)}
+            except Exception as exc:  # reported to the parent, which fails the stage
+                reply = {"error": f"{type(exc).__name__}: {exc}"}
+        sys.stdout.write(json.dumps(reply) + "\n")
+        sys.stdout.flush()
+
+
+_LINE_LIMIT = 1 << 30
+"""Longest job or reply line (bytes): a house with its meshes' paths, or a room's whole state."""
 
 
 class _Workers:
-    """The child processes of a house run (``python -m scenemosaic.pipeline._house_worker``),
-    started on first use and kept for the run: each takes the next job as it finishes one."""
+    """The child processes of a house run (``python -m scenemosaic.pipeline._house_worker``), each
+    in its own process group and watching this process (it stops when this process is gone): each
+    takes the next job as it finishes one; they leave when every job is done."""
 
-    def __init__(self, run: HouseRun, count: int) -> None:
-        self.run, self.count = run, count
+    def __init__(self, count: int) -> None:
+        self.count = count
         self.procs: list[asyncio.subprocess.Process] = []
 
-    async def _start(self) -> None:
-        run = self.run
-        args = [str(run.input_path), str(run.folder.root), str(run.base_dir)]
+    async def map(self, jobs: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, dict[str, Any]]:
+        """Run every job (``(name, job)``); their replies by name."""
         pipe = asyncio.subprocess.PIPE
-        while len(self.procs) < self.count:
-            proc = await asyncio.create_subprocess_exec(sys.executable, "-m", WORKER_MODULE, *args, stdin=pipe, stdout=pipe)
+        while len(self.procs) < min(self.count, len(jobs)):
+            proc = await asyncio.create_subprocess_exec(
+                sys.executable, "-m", WORKER_MODULE, str(os.getpid()), stdin=pipe, stdout=pipe, env=worker_environment(),
+                start_new_session=True, limit=_LINE_LIMIT,
+            )  # fmt: skip
             self.procs.append(proc)
-
-    async def map(self, jobs: Sequence[str]) -> dict[str, dict[str, Any]]:
-        """Run every job (``room <id>``, ``export <folder>``); their replies by job."""
-        await self._start()
-        queue: asyncio.Queue[str] = asyncio.Queue()
+        queue: asyncio.Queue[tuple[str, dict[str, Any]]] = asyncio.Queue()
         for job in jobs:
             queue.put_nowait(job)
         replies: dict[str, dict[str, Any]] = {}
@@ -174,28 +181,31 @@ class _Workers:
         async def serve(proc: asyncio.subprocess.Process) -> None:
             assert proc.stdin is not None and proc.stdout is not None
             while not queue.empty():
-                job = queue.get_nowait()
-                proc.stdin.write(f"{job}\n".encode())
+                name, job = queue.get_nowait()
+                proc.stdin.write(json.dumps(job).encode() + b"\n")
                 await proc.stdin.drain()
                 line = await proc.stdout.readline()
                 if not line:
-                    raise SceneMosaicError(f"the worker process running {job!r} stopped (exit code {await proc.wait()})")
-                replies[job] = json.loads(line)
+                    raise SceneMosaicError(f"the worker process running {name} stopped (exit code {await proc.wait()})")
+                replies[name] = json.loads(line)
 
         try:
             await asyncio.gather(*(serve(p) for p in self.procs))
         except BaseException:
             self.kill()  # a stop or a failure: no job keeps working behind our back
             raise
+        await self.close()
         return replies
 
     def kill(self) -> None:
+        """Kill every worker and what it started (its process group)."""
         for proc in self.procs:
             if proc.returncode is None:
-                proc.kill()
+                kill_group(proc.pid)
         self.procs = []
 
     async def close(self) -> None:
+        """Let every worker leave (its stdin closed)."""
         for proc in self.procs:
             if proc.stdin is not None:
                 proc.stdin.close()
@@ -211,162 +221,60 @@ def _in_processes(config: GenerateConfig, rooms: int) -> int:
     return min(workers, rooms) if workers > 1 and portable and rooms > 1 else 0
 
 
-# -- the house run --------------------------------------------------------------------------------
-
-
-@dataclass
-class HouseRun:
-    """What a house run carries from stage to stage."""
-
-    input_path: Path
-    folder: RunFolder
-    config: GenerateConfig
-    base_dir: Path
-    house: House
-    rooms: dict[str, RoomOutcome] = field(default_factory=dict)
-    variants: list[House] = field(default_factory=list)
-    records: list[StageRecord] = field(default_factory=list)
-    warnings: list[str] = field(default_factory=list)
-    validation: dict[str, Any] | None = None
-    metrics: dict[str, Any] | None = None
-    room_validation: dict[str, dict[str, Any]] = field(default_factory=dict)
-    variant_checks: list[dict[str, Any]] = field(default_factory=list)
-    """The house checks of each variant, as compose measured them (evaluate reports them)."""
-    context: PipelineRun | None = None
-    """The hull cache, shapes and model stack shared by the house-level stages."""
-    workers: _Workers | None = None
-    """The worker processes, when the rooms run in them (the export uses them too)."""
-
-    def ctx(self) -> PipelineRun:
-        if self.context is None:
-            self.context = PipelineRun(input_path=self.input_path, folder=self.folder, config=self.config, base_dir=self.base_dir)
-        return self.context
-
-
-async def agenerate_house(
-    input_path: Path, folder: RunFolder, config: GenerateConfig, base_dir: Path, on_stage: StageCallback | None
-) -> GenerateResult:
-    """Run a whole house (see the module docstring); the output layout is ``OUT/base/`` (a whole
-    house), ``OUT/variant_<i>/`` (whole houses), ``OUT/rooms/<room>/`` (each room's work),
-    ``OUT/report.json`` (per-room and house figures) and ``OUT/contact_sheet.png``."""
-    started = time.perf_counter()
-    house = await asyncio.to_thread(load_house, input_path, config.format)
-    run = HouseRun(input_path=input_path, folder=folder, config=config, base_dir=base_dir, house=house)
-    digest = await asyncio.to_thread(input_digest, input_path, config)
-    record = {"input": str(input_path), "input_sha256": digest, "config": config_record(config), "house": True, "resume": config.resume}
-    await asyncio.to_thread(write_json, folder.run_record, record)
-    failure: BaseException | None = None
-    try:
-        for name, body in _HOUSE_STAGES:
-            rec = StageRecord(name=name)
-            run.records.append(rec)
-            if on_stage:
-                on_stage(name, "started")
-            t0 = time.perf_counter()
-            try:
-                await body(run, rec)
-            except (Exception, asyncio.CancelledError) as raised:
-                exc = as_interruption(raised)
-                rec.seconds = time.perf_counter() - t0
-                rec.status = "interrupted" if isinstance(exc, asyncio.CancelledError) else "failed"
-                rec.detail["error"] = "interrupted" if rec.status == "interrupted" else f"{type(exc).__name__}: {exc}"
-                if on_stage:
-                    on_stage(name, "failed")
-                failure = exc
-                break
-            rec.seconds = time.perf_counter() - t0
-            if rec.status == "pending":
-                rec.status = "done"
-            log.info("house_stage_finished", stage=name, seconds=round(rec.seconds, 3))
-            if on_stage:
-                on_stage(name, "done")
-    finally:
-        ctx = run.context
-        if ctx is not None and ctx.model is not None:
-            await ctx.model.aclose()
-        if run.workers is not None:
-            if failure is None:
-                await run.workers.close()
-            else:
-                run.workers.kill()
-    report = _report(run, time.perf_counter() - started, failure)
-    await asyncio.shield(asyncio.to_thread(write_json, folder.report, report))
-    if failure is not None:
-        raise failure
-    if report["status"] == "degraded":
-        log.warning("run_degraded", warnings=run.warnings)
-    return GenerateResult(scene=run.house, out_dir=folder.root, report=report)
-
-
 # -- stages -----------------------------------------------------------------------------------------
 
 
-async def _stage_rooms(run: HouseRun, rec: StageRecord) -> None:
+async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
+    """The house, every room in its world frame."""
+    run.house = await asyncio.to_thread(load_house, run.input_path, run.config.format)
+    rec.detail["source_format"] = run.house.rooms[0].provenance.source_format
+    rec.detail["rooms"] = run.house.room_ids
+
+
+async def _stage_rooms(run: PipelineRun, rec: StageRecord) -> None:
     """Every room through :data:`HOUSE_ROOM_STAGES`, concurrently (largest rooms first)."""
-    ids = sorted(run.house.room_ids, key=lambda rid: -len(run.house.room(rid).objects))
-    workers = _in_processes(run.config, len(ids))
+    assert run.house is not None
+    house = run.house
+    rooms = sorted(house.rooms, key=lambda s: -len(s.objects))
+    workers = _in_processes(run.config, len(rooms))
     rec.detail["workers"] = workers or 1
     rec.detail["processes"] = bool(workers)
     if workers:
-        run.workers = _Workers(run, workers)
-        replies = await run.workers.map([f"room {rid}" for rid in ids])
-        outcomes = []
-        for rid in ids:
-            reply = replies[f"room {rid}"]
-            state = await asyncio.to_thread(_room_state, run, rid)
-            outcomes.append(RoomOutcome(rid, state, reply["error"], reply["error_type"], float(reply["seconds"])))
+        common = {
+            "kind": "room", "input": str(run.input_path), "root": str(run.folder.root), "base_dir": str(run.base_dir),
+            "config": config_record(run.config), "resume": run.config.resume,
+        }  # fmt: skip
+        replies = await _Workers(workers).map([(f"room {s.id!r}", {**common, "room": s.model_dump(mode="json")}) for s in rooms])
+        by_id = {s.id: RoomOutcome.model_validate(replies[f"room {s.id!r}"]) for s in rooms}
     else:
-        ctx = run.ctx()
-        model = await open_model(run.config, ctx.started)
-        ctx.model = model
-        tasks = [_room_part(run.input_path, run.folder.root, rid, run.config, run.base_dir, model) for rid in ids]
-        outcomes = list(await asyncio.gather(*tasks))
-    by_id = {o.room_id: o for o in outcomes}
-    run.rooms = {rid: by_id[rid] for rid in run.house.room_ids}
-    rooms: list[Scene] = []
+        model = await run.asking(rec)  # the run's one model stack, shared by the rooms
+        tasks = [_run_room(s, run.input_path, run.folder.root, run.config, run.base_dir, model) for s in rooms]
+        by_id = {o.room_id: o for o in await asyncio.gather(*tasks)}
+    run.rooms = {rid: by_id[rid] for rid in house.room_ids}
+    done: list[Scene] = []
     failed = []
     for rid, outcome in run.rooms.items():
         state = outcome.state
         if outcome.error or state is None or state.scene is None:
             failed.append(f"{rid}: {outcome.error or 'no scene'}")
             continue
-        rooms.append(state.scene)
+        done.append(state.scene)
         run.warnings += [f"{rid}: {w}" for w in state.warnings]
     rec.detail["seconds_per_room"] = {rid: round(o.seconds, 3) for rid, o in run.rooms.items()}
-    rec.detail["critical_path_s"] = round(max((o.seconds for o in outcomes), default=0.0), 3)
-    rec.detail["sum_of_rooms_s"] = round(sum(o.seconds for o in outcomes), 3)
+    rec.detail["critical_path_s"] = round(max((o.seconds for o in run.rooms.values()), default=0.0), 3)
+    rec.detail["sum_of_rooms_s"] = round(sum(o.seconds for o in run.rooms.values()), 3)
     if failed:
         raise SceneMosaicError("room(s) failed: " + "; ".join(failed))
-    run.house = run.house.with_rooms(rooms)
+    run.house = house.with_rooms(done)
 
 
-def _room_state(run: HouseRun, room_id: str) -> RunCheckpoint | None:
-    """A room's state as its run's checkpoint left it (a worker process ran it)."""
-    part = PipelineRun(
-        input_path=run.input_path, folder=run.folder.room(room_id), config=run.config.model_copy(update={"room": room_id, "resume": True}),
-        base_dir=run.base_dir,
-    )  # fmt: skip
-    part.store = FileRunStore(part.folder.checkpoint)
-    load_checkpoint(part, input_digest(run.input_path, part.config))
-    return checkpoint_state(part)
+def _room_variants(run: PipelineRun, room_id: str) -> list[Scene]:
+    outcome = run.rooms.get(room_id)
+    return list(outcome.state.variants) if outcome is not None and outcome.state is not None else []
 
 
-def _house_checks(house: House) -> dict[str, Any]:
-    """Door clearance, reachability and walls: what only the whole house can say."""
-    walk = house_walkable(house)
-    blockers = door_blockers(house)
-    crossings = wall_crossings(house)
-    return {
-        "house_nav": round(walk.nav, 4),
-        "rooms_reached": {k: round(v, 4) for k, v in walk.reached().items()},
-        "unreachable_rooms": walk.unreachable_rooms(),
-        "door_blockers": [f"{b.object_id} ({b.door})" for b in blockers],
-        "wall_crossings": [f"{o} ({r}, {d:.3f} m)" for r, o, d in crossings],
-        "doorways": len(house.doorways()),
-    }
-
-
-def _checks_fail(checks: dict[str, Any]) -> list[str]:
+def _check_problems(checks: dict[str, Any]) -> list[str]:
+    """The house checks that fail, in words."""
     out = []
     if checks["unreachable_rooms"]:
         out.append(f"room(s) not reachable from the rest of the house: {', '.join(checks['unreachable_rooms'])}")
@@ -377,199 +285,130 @@ def _checks_fail(checks: dict[str, Any]) -> list[str]:
     return out
 
 
-def _variants_of(outcome: RoomOutcome) -> list[Scene]:
-    return list(outcome.state.variants) if outcome.state is not None else []
-
-
-async def _stage_compose(run: HouseRun, rec: StageRecord) -> None:
+async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     """Whole-house variants: one pool over every room's own valid variants (``compose_house``);
     a house is valid when every room stays reachable from every other."""
-    m = run.config.variants
-    room_variants = [_variants_of(run.rooms[s.id]) for s in run.house.rooms]
+    assert run.house is not None
+    house, m = run.house, run.config.variants
+    room_variants = [_room_variants(run, s.id) for s in house.rooms]
     if m <= 0 or not any(room_variants):
         rec.status = "skipped"
         rec.detail["reason"] = "no variants asked for" if m <= 0 else "no room has a variant"
         return
-    ctx = run.ctx()
-    base_unreachable = set(house_walkable(run.house).unreachable_rooms())
+    base_unreachable = set(house_walkable(house).unreachable_rooms())
 
     def reachable(rooms: list[Scene]) -> bool:
-        return set(house_walkable(run.house.with_rooms(rooms)).unreachable_rooms()) <= base_unreachable
+        return set(house_walkable(house.with_rooms(rooms)).unreachable_rooms()) <= base_unreachable
 
-    compose = functools.partial(compose_house, run.house.rooms, room_variants, m=m, seed=run.config.seed, accept=reachable)
+    compose = functools.partial(compose_house, house.rooms, room_variants, m=m, seed=run.config.seed, accept=reachable)
     variants, report = await asyncio.to_thread(compose)
     rec.detail.update(report.summary())
-    rec.detail["room_variants"] = {s.id: len(v) for s, v in zip(run.house.rooms, room_variants, strict=True)}
+    rec.detail["room_variants"] = {s.id: len(v) for s, v in zip(house.rooms, room_variants, strict=True)}
     checked = []
+    run.house_variants, run.variant_checks = [], []
     for i, rooms in enumerate(variants, start=1):
         for s in rooms:
             s.provenance.notes.append(f"house variant {i}: this room as {report.picked[i - 1][s.id]}")
-        house = run.house.with_rooms(rooms)
+        variant = house.with_rooms(rooms)
         name = run.folder.variant(i).name
         cols = oob = 0
         for s in rooms:
-            shapes = ctx.shapes(s)
-            cols += len((await asyncio.to_thread(check_collisions, s, run.base_dir, hull_cache=ctx.cache())).pairs)
+            shapes = run.shapes(s)
+            cols += len((await asyncio.to_thread(check_collisions, s, run.base_dir, hull_cache=run.cache())).pairs)
             oob += len((await asyncio.to_thread(functools.partial(check_out_of_bounds, s, shapes=shapes))).objects)
-        checks = await asyncio.to_thread(_house_checks, house)
+        checks = await asyncio.to_thread(house_checks, variant)
         run.variant_checks.append(checks)
         checked.append({"folder": name, "collision_pairs": cols, "out_of_bounds": oob, **checks})
-        problems = _checks_fail(checks) + ([f"{cols} colliding pair(s), {oob} object(s) out of bounds"] if cols or oob else [])
+        problems = _check_problems(checks) + ([f"{cols} colliding pair(s), {oob} object(s) out of bounds"] if cols or oob else [])
         if problems:
             run.warnings.append(f"{name}: " + "; ".join(problems))
-        run.variants.append(house)
+        run.house_variants.append(variant)
     rec.detail["variants"] = checked
-    if len(variants) < m:
-        rec.detail["shortfall"] = f"{m} variants asked for, {len(variants)} distinct valid ones in a pool of {report.pool_size}"
-        log.warning("fewer_variants_than_asked", asked=m, written=len(variants), pool=report.pool_size)
+    note_shortfall(run, rec, len(variants), report.pool_size)
 
 
-async def _stage_validate(run: HouseRun, rec: StageRecord) -> None:
-    """Simulate every room of the base house; then the house-wide checks."""
-    ctx = run.ctx()
+async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
+    """The delivered whole-house world, settled once in MuJoCo, with every room's checks; then
+    the house-wide checks."""
+    assert run.house is not None
+    house = run.house
+    reports = await asyncio.to_thread(functools.partial(validate_house, house, run.base_dir, hull_cache=run.cache()))
     per_room: dict[str, Any] = {}
-    for scene in run.house.rooms:
-        report = await asyncio.to_thread(functools.partial(validate_scene, scene, run.base_dir, hull_cache=ctx.cache()))
-        per_room[scene.id] = report.model_dump(mode="json")
-        rid = scene.id
-        if report.collisions.pairs:
-            run.warnings.append(f"{rid}: {len(report.collisions.pairs)} colliding pair(s) left")
-        if report.out_of_bounds.objects:
-            run.warnings.append(f"{rid}: {len(report.out_of_bounds.objects)} object(s) out of bounds")
-        if report.fell:
-            run.warnings.append(f"{rid}: object(s) fell in the validation run: " + ", ".join(report.fell[:10]))
-        if report.tipped:
-            run.warnings.append(f"{rid}: object(s) tipped in the validation run: " + ", ".join(report.tipped[:10]))
-    checks = await asyncio.to_thread(_house_checks, run.house)
-    run.warnings += [f"base: {p}" for p in _checks_fail(checks)]
-    run.room_validation = per_room
+    for rid, report in reports.items():
+        per_room[rid] = report.model_dump(mode="json")
+        state = run.rooms[rid].state if rid in run.rooms else None
+        if state is not None:  # each room's report shows its own
+            state.validation = per_room[rid]
+        run.warnings += [f"{rid}: {w}" for w in validation_warnings(report)]
+    checks = await asyncio.to_thread(house_checks, house)
+    run.warnings += [f"base: {p}" for p in _check_problems(checks)]
     run.validation = {
         "collision_pairs": sum(len(v["collisions"]["pairs"]) for v in per_room.values()),
         "out_of_bounds": sum(len(v["out_of_bounds"]["objects"]) for v in per_room.values()),
         "fell": sum(len(v["fell"]) for v in per_room.values()),
         "tipped": sum(len(v["tipped"]) for v in per_room.values()),
+        "max_displacement_m": max((v["max_displacement_m"] for v in per_room.values()), default=0.0),
         **checks,
     }
     rec.detail.update({k: v for k, v in run.validation.items() if not isinstance(v, dict | list) or len(v) <= 20})
 
 
-async def _stage_evaluate(run: HouseRun, rec: StageRecord) -> None:
+async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
     """Each room's metrics (base and variants) and the house's: NAV, reachability, diversity, RelKeep."""
-    ctx = run.ctx()
-    rooms: dict[str, Any] = {}
-    for k, scene in enumerate(run.house.rooms):
-        variants = [v.rooms[k] for v in run.variants]
-        measure = functools.partial(
-            evaluate, scene, variants, base_dir=run.base_dir, variant_dirs=[run.base_dir] * len(variants), hull_cache=ctx.cache()
-        )
-        rooms[scene.id] = await asyncio.to_thread(measure)
-
-    def house_figures() -> dict[str, Any]:
-        base = run.validation or _house_checks(run.house)  # validate measured the base
-        out: dict[str, Any] = {"base": {k: base[k] for k in ("house_nav", "unreachable_rooms", "door_blockers", "wall_crossings")}}
-        out["variants"] = []
-        for v, checks in zip(run.variants, run.variant_checks, strict=True):
-            keep = [relkeep(b, s) for b, s in zip(run.house.rooms, v.rooms, strict=True)]
-            out["variants"].append(
-                {
-                    "house_nav": checks["house_nav"],
-                    "unreachable_rooms": checks["unreachable_rooms"],
-                    "door_blockers": len(checks["door_blockers"]),
-                    "wall_crossings": len(checks["wall_crossings"]),
-                    "RelKeep": round(min(keep), 4) if keep else 1.0,
-                }
-            )
-        if run.variants:
-            out["diversity"] = house_diversity(run.variants)
-        return out
-
-    house = await asyncio.to_thread(house_figures)
-    run.metrics = {"house": house, "rooms": rooms}
-    rec.detail["house"] = house
+    assert run.house is not None
+    measure = functools.partial(
+        evaluate_house, run.house, run.house_variants, base_dir=run.base_dir,
+        variant_dirs=[run.base_dir] * len(run.house_variants), hull_cache=run.cache(),
+        base_checks=run.validation, variant_checks=run.variant_checks,
+    )  # fmt: skip
+    run.metrics = await asyncio.to_thread(measure)
+    for k, scene in enumerate(run.house.rooms):  # POS and ROT per room, from the run's model
+        judged = await judge_scenes(run, rec, [scene, *(v.rooms[k] for v in run.house_variants)])
+        if judged is not None:
+            run.metrics["rooms"][scene.id]["semantic_judge"] = {"base": judged[0], "variants": judged[1:]}
+    rec.detail["house"] = run.metrics["house"]
 
 
-async def _stage_export(run: HouseRun, rec: StageRecord) -> None:
-    """``base/`` and every ``variant_<i>/`` as whole houses (the native files here, the house-wide
-    formats in the worker processes when there are some), and the contact sheet of their plans."""
-    houses = [(run.folder.base, run.house), *((run.folder.variant(i), v) for i, v in enumerate(run.variants, start=1))]
-    for folder, house in houses:
-        await asyncio.to_thread(save_house, house, folder, base_dir=run.base_dir)
-    if run.workers is not None:
-        replies = await run.workers.map([f"export {folder}" for folder, _ in houses])
-        failed = [f"{job}: {r['error']}" for job, r in replies.items() if r["error"]]
-        if failed:
-            raise SceneMosaicError("house export failed: " + "; ".join(failed))
-    else:
-        for folder, _ in houses:
-            await asyncio.to_thread(export_house_folder, folder)
-    base = run.folder.base
-    rec.detail["files"] = sorted(str(p.relative_to(base)) for p in base.iterdir() if p.is_file())
-    if run.variants:
+async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
+    """``base/`` and every ``variant_<i>/`` as whole houses, and the contact sheet of their plans."""
+    assert run.house is not None
+    houses = [(run.folder.base, run.house), *((run.folder.variant(i), v) for i, v in enumerate(run.house_variants, start=1))]
+    workers = _in_processes(run.config, len(houses))
+    rec.detail["files"] = await _deliver(run, houses, workers)
+    if run.house_variants:
         folders = [folder for folder, _ in houses]
         await asyncio.to_thread(contact_sheet, [(f.name, f / RunFolder.TOPDOWN) for f in folders], run.folder.contact_sheet)
-        rec.detail["contact_sheet"] = RunFolder.CONTACT_SHEET
     missing = formats_left_out()
     if missing:
         rec.detail["formats_left_out"] = missing
+    if run.house_variants:
+        rec.detail["contact_sheet"] = RunFolder.CONTACT_SHEET
 
 
-_HOUSE_STAGES = (
-    ("rooms", _stage_rooms),
-    ("compose", _stage_compose),
-    ("validate", _stage_validate),
-    ("evaluate", _stage_evaluate),
-    ("export", _stage_export),
+async def _deliver(run: PipelineRun, houses: list[tuple[Path, House]], workers: int) -> list[str]:
+    """Deliver every house to its folder (in ``workers`` processes when above 0); the first's files."""
+    if not workers:
+        cache = run.cache()
+        written = [await asyncio.to_thread(deliver_house, h, folder, run.base_dir, hull_cache=cache) for folder, h in houses]
+        return written[0]
+    common = {"kind": "deliver", "base_dir": str(run.base_dir), "config": config_record(run.config)}
+    jobs = [(str(folder), {**common, "house": house.model_dump(mode="json"), "folder": str(folder)}) for folder, house in houses]
+    replies = await _Workers(workers).map(jobs)
+    failed = [f"{name}: {r['error']}" for name, r in replies.items() if "error" in r]
+    if failed:
+        raise SceneMosaicError("house export failed: " + "; ".join(failed))
+    return list(replies[str(houses[0][0])]["files"])
+
+
+HOUSE_STAGES: tuple[Stage, ...] = (
+    Stage("import", _stage_import),
+    Stage("rooms", _stage_rooms),
+    Stage("compose", _stage_compose),
+    Stage("validate", _stage_validate),
+    Stage("evaluate", _stage_evaluate),
+    Stage("export", _stage_export),
 )
+"""The stages of a house run, in order (``rooms`` runs :data:`HOUSE_ROOM_STAGES` in every room)."""
 
-
-# -- the report -----------------------------------------------------------------------------------
-
-
-def _report(run: HouseRun, total_s: float, failure: BaseException | None) -> dict[str, Any]:
-    if isinstance(failure, asyncio.CancelledError):
-        status, error = "interrupted", "interrupted: the run was stopped (signal or cancel); resume it with --resume"
-    elif failure is not None:
-        status, error = "failed", f"{type(failure).__name__}: {failure}"
-    else:
-        status, error = ("degraded" if run.warnings else "ok"), None
-    trace = None
-    if failure is not None and not isinstance(failure, SceneMosaicError | asyncio.CancelledError):
-        trace = "".join(traceback.format_exception(failure))
-    rooms: dict[str, Any] = {}
-    for s in run.house.rooms:
-        outcome = run.rooms.get(s.id)
-        state = outcome.state if outcome else None
-        rooms[s.id] = {
-            "room_type": (s.metadata.get("procthor") or {}).get("room_type"),
-            "objects": len(s.objects),
-            "seconds": round(outcome.seconds, 3) if outcome else None,
-            "error": outcome.error if outcome else None,
-            "stages": [
-                {"name": r["name"], "seconds": round(r["seconds"], 4), "status": r["status"], "detail": r["detail"]}
-                for r in (state.records if state else [])
-            ],
-            "warnings": list(state.warnings) if state else [],
-            "validation": run.room_validation.get(s.id),
-        }
-    delivered = any(r.name == "export" and r.status == "done" for r in run.records)
-    return {
-        "input": str(run.input_path),
-        "config": config_record(run.config) | {"variants_requested": run.config.variants},
-        "house": {"id": run.house.id, "rooms": run.house.room_ids, "doorways": len(run.house.doorways())},
-        "status": status,
-        "error": error,
-        "failed_stage": next((r.name for r in run.records if r.status in ("failed", "interrupted")), None),
-        "traceback": trace,
-        "warnings": list(run.warnings),
-        "total_seconds": round(total_s, 4),
-        "objects": len(run.house.objects),
-        "categories": sorted({o.category for o in run.house.objects}),
-        "variants_written": len(run.variants) if delivered else 0,
-        "stages": [
-            {"name": r.name, "seconds": round(r.seconds, 4), "status": r.status, "objects": None, "detail": r.detail}
-            for r in run.records
-        ],
-        "rooms": rooms,
-        "validation": run.validation,
-        "metrics": run.metrics,
-    }
+HOUSE_STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in HOUSE_STAGES)
+"""The names of :data:`HOUSE_STAGES`, in order."""

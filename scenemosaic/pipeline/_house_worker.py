@@ -1,8 +1,9 @@
-"""Entry point of a house run's worker process: ``python -m scenemosaic.pipeline._house_worker INPUT OUT BASE_DIR``.
+"""Entry point of a house run's worker process: ``python -m scenemosaic.pipeline._house_worker PARENT_PID``.
 
-It reads the run's settings from ``OUT/.checkpoint/run.json``, then runs one room per line of its
-stdin (``pipeline/_house.py``: :func:`room_worker`), so a house's rooms use several cores without
-``multiprocessing`` re-importing the caller's ``__main__``.
+It runs one job per line of its stdin (``pipeline/_house.py``: :func:`room_worker`: a room, or the
+delivery of a whole house), so a house uses several cores without ``multiprocessing``
+re-importing the caller's ``__main__``. When the house run ``PARENT_PID`` is gone (even killed),
+the worker stops itself (``scenemosaic._processes.watch_parent``).
 """
 
 from __future__ import annotations
@@ -10,9 +11,9 @@ from __future__ import annotations
 import asyncio
 import signal
 import sys
-from pathlib import Path
 
 from scenemosaic._logging import configure_logging
+from scenemosaic._processes import watch_parent
 from scenemosaic.pipeline._house import room_worker
 
 
@@ -20,9 +21,9 @@ def main(argv: list[str]) -> int:
     # Ctrl-C reaches the whole process group: the parent run stops the workers itself (it kills
     # them), so a worker does not die on its own with a traceback of its own
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    watch_parent(int(argv[1]))
     configure_logging("warning")
-    input_path, root, base_dir = (Path(a) for a in argv[1:4])
-    asyncio.run(room_worker(input_path, root, base_dir))
+    asyncio.run(room_worker())
     return 0
 
 

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import html
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from scenemosaic.exceptions import UsageError
+from scenemosaic.pipeline._report import RunReport
 from scenemosaic.scene import House, RunFolder, Scene
 
 __all__ = ["GenerateResult"]
@@ -14,13 +17,15 @@ __all__ = ["GenerateResult"]
 @dataclass
 class GenerateResult:
     """What ``generate`` produced: the final base scene (a :class:`~scenemosaic.scene.House` for a
-    whole-house run: ``scene.rooms``), the output folder and the report; its variants and metrics
-    on demand. In Jupyter it displays as a summary table and the contact sheet of the base and its
+    whole-house run: ``scene.rooms``, and one room's scene by :meth:`room`), the output folder and
+    the report; its variants and metrics on demand. In Jupyter it displays as a summary table (a
+    house's: its house figures and each room's) and the contact sheet of the base and its
     variants."""
 
     scene: Scene | House
     out_dir: Path
-    report: dict[str, Any]
+    report: dict[str, Any] = field(repr=False)  # the text repr stays short; ``report`` has it all
+    """The report as ``report.json`` holds it (:attr:`run_report` is the same, typed)."""
     _variants: list[Scene | House] | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
@@ -32,6 +37,11 @@ class GenerateResult:
     def base_dir(self) -> Path:
         """The delivered base scene's folder (``base/``)."""
         return self.folder.base
+
+    @property
+    def run_report(self) -> RunReport:
+        """The report as the typed :class:`~scenemosaic.pipeline.RunReport` (rooms and houses alike)."""
+        return RunReport.model_validate(self.report)
 
     @property
     def status(self) -> str:
@@ -58,9 +68,37 @@ class GenerateResult:
         return list(self._variants)
 
     @property
+    def rooms(self) -> list[str]:
+        """The ids of a whole-house run's rooms, in the house's order (empty for a one-room run)."""
+        return self.scene.room_ids if isinstance(self.scene, House) else []
+
+    def room(self, room_id: str, *, variant: int | None = None) -> Scene:
+        """One room's scene of a whole-house run: of the delivered base house, or of whole-house
+        variant ``variant`` (1 ... n). ``room_id`` is the room's id (``result.rooms``) or its
+        source id (ProcTHOR's ``room|4``). Raises ``KeyError`` naming the rooms for an unknown
+        room, and :class:`~scenemosaic.exceptions.UsageError` for a one-room run (whose
+        ``scene`` is the room) or a variant that was not written."""
+        if not isinstance(self.scene, House):
+            raise UsageError(
+                f"result.room({room_id!r}): this is a one-room run (its scene {self.scene.id!r} is the room); "
+                "rooms belong to a whole-house run"
+            )
+        house = self.scene
+        if variant is not None:
+            written = self.variants
+            if not 1 <= variant <= len(written):
+                wrote = f"variant_1 ... variant_{len(written)}" if written else "no variants"
+                raise UsageError(f"no variant {variant}: the run wrote {wrote}")
+            chosen = written[variant - 1]
+            assert isinstance(chosen, House)  # a house run's variants are houses
+            house = chosen
+        return house.room(room_id)
+
+    @property
     def metrics(self) -> dict[str, Any] | None:
         """COL, OOB, NAV of the base and each variant, RelKeep and the diversity (``None`` when
-        the evaluate stage did not run)."""
+        the evaluate stage did not run). For a whole-house run: ``{"house": {"base", "variants",
+        "diversity"}, "rooms": {room id: a room's figures}}``."""
         value = self.report.get("metrics")
         return value if isinstance(value, dict) else None
 
@@ -78,31 +116,78 @@ class GenerateResult:
         return p.read_bytes() if p is not None else None
 
     def _repr_html_(self) -> str:
-        """Jupyter shows a summary table (status, objects, each scene's metrics) over the preview."""
+        """Jupyter shows a summary table (status, objects, each scene's metrics; for a house the
+        house figures, each room's COL / OOB and the house diversity) over the preview."""
         import base64
-        import html
 
-        rows = [f"<tr><th>status</th><td>{html.escape(self.status)}</td></tr>"]
-        rows.append(f"<tr><th>objects</th><td>{len(self.scene.objects)}</td></tr>")
-        rows.append(f"<tr><th>output</th><td><code>{html.escape(str(self.out_dir))}</code></td></tr>")
-        out = [f"<table>{''.join(rows)}</table>"]
+        rows = [("status", html.escape(self.status))]
+        if isinstance(self.scene, House):
+            rows.append(("rooms", html.escape(", ".join(self.scene.room_ids))))
+        rows.append(("objects", str(len(self.scene.objects))))
+        rows.append(("output", f"<code>{html.escape(str(self.out_dir))}</code>"))
+        out = ["<table>" + "".join(f"<tr><th>{k}</th><td>{v}</td></tr>" for k, v in rows) + "</table>"]
         m = self.metrics
-        if m:
-            scenes = [(RunFolder.BASE, m.get("base") or {})] + [
-                (self.folder.variant(i).name, v) for i, v in enumerate(m.get("variants") or [], 1)
-            ]
-            keys = ["COL", "OOB", "NAV", "RelKeep"]
-            head = "".join(f"<th>{k}</th>" for k in keys)
-            body = "".join(
-                f"<tr><td>{name}</td>" + "".join(f"<td>{html.escape(str(v.get(k, '')))}</td>" for k in keys) + "</tr>"
-                for name, v in scenes
-            )
-            out.append(f"<table><tr><th></th>{head}</tr>{body}</table>")
-            div = m.get("diversity")
-            if isinstance(div, dict):
-                out.append(f"<p>Div-IoU {html.escape(str(div.get('Div-IoU')))}, Div-N {html.escape(str(div.get('Div-N')))}</p>")
+        if m and isinstance(self.scene, House):
+            out += self._house_metrics_html(m)
+        elif m:
+            scenes = self._named(m)
+            out.append(_table(["COL", "OOB", "NAV", "RelKeep"], scenes))
+            out.append(_diversity(m.get("diversity"), "Div-IoU"))
         png = self._repr_png_()
         if png is not None:
             data = base64.b64encode(png).decode("ascii")
             out.append(f'<img src="data:image/png;base64,{data}" style="max-width:100%"/>')
-        return "\n".join(out)
+        return "\n".join(part for part in out if part)
+
+    def _named(self, m: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
+        """``(base, its figures), (variant_1, ...), ...`` of a ``{"base", "variants"}`` block."""
+        base = m.get("base")
+        named = [(RunFolder.BASE, base if isinstance(base, dict) else {})]
+        for i, v in enumerate(m.get("variants") or [], 1):
+            named.append((self.folder.variant(i).name, v if isinstance(v, dict) else {}))
+        return named
+
+    def _house_metrics_html(self, m: dict[str, Any]) -> list[str]:
+        """The house figures of the base and each variant, each room's COL / OOB, the diversity."""
+        house = m.get("house")
+        house = house if isinstance(house, dict) else {}
+        columns = {
+            "house_nav": "house NAV",
+            "door_blockers": "door blockers",
+            "unreachable_rooms": "unreachable rooms",
+            "wall_crossings": "across walls",
+            "RelKeep": "RelKeep",
+        }
+        scenes = [(name, {label: _count(v.get(k, "")) for k, label in columns.items()}) for name, v in self._named(house)]
+        out = ["<p>house</p>" + _table(list(columns.values()), scenes)]
+        rooms = m.get("rooms")
+        if isinstance(rooms, dict) and rooms:
+            cells = [
+                (rid, {name: f"{v.get('COL', '')} / {v.get('OOB', '')}" for name, v in self._named(figures)})
+                for rid, figures in rooms.items()
+                if isinstance(figures, dict)
+            ]
+            out.append("<p>each room: COL / OOB</p>" + _table([name for name, _ in scenes], cells))
+        out.append(_diversity(house.get("diversity"), "house Div-IoU"))
+        return out
+
+
+def _count(value: Any) -> Any:
+    """A list of findings (door blockers, unreachable rooms) as its length; anything else as it is
+    (the base's house checks list their findings, a variant's count them)."""
+    return len(value) if isinstance(value, list) else value
+
+
+def _table(columns: list[str], rows: list[tuple[str, dict[str, Any]]]) -> str:
+    head = "".join(f"<th>{html.escape(k)}</th>" for k in columns)
+    body = "".join(
+        f"<tr><td>{html.escape(name)}</td>" + "".join(f"<td>{html.escape(str(v.get(k, '')))}</td>" for k in columns) + "</tr>"
+        for name, v in rows
+    )
+    return f"<table><tr><th></th>{head}</tr>{body}</table>"
+
+
+def _diversity(div: Any, label: str) -> str:
+    if not isinstance(div, dict):
+        return ""
+    return f"<p>{label} {html.escape(str(div.get('Div-IoU')))}, Div-N {html.escape(str(div.get('Div-N')))}</p>"

@@ -6,9 +6,10 @@
 * After every stage the run's state goes to its checkpoint (``pipeline/_checkpoint.py``);
   ``resume=True`` continues a stopped run from there (finished stages and finished agents are
   reused, hulls come from the on-disk cache).
-* A failing stage writes ``report.json`` (with the traceback of an unexpected error) and delivers
-  the last good scene to ``base/``. A cancelled run (Ctrl-C, SIGTERM: the CLI cancels the task)
-  writes the report *first*, then only ``base/scene.json``, so a second signal loses nothing.
+* A failing or cancelled run (Ctrl-C, SIGTERM: the CLI cancels the task) writes ``report.json``
+  *first* (with the traceback of an unexpected error), then keeps the last good scene or house in
+  ``base/`` as native files marked partial (``base/partial.json``: the loaders refuse it unless
+  asked for a partial result), so a second signal loses nothing and nothing looks delivered.
 * The outcome is ``ok``, ``degraded`` (the files are there, but collisions, fallen objects or
   solver fallbacks remain: each named in ``warnings``), ``failed`` or ``interrupted``.
 """
@@ -22,7 +23,6 @@ import fcntl
 import shutil
 import sys
 import time
-import traceback
 from collections.abc import Coroutine, Iterator
 from pathlib import Path
 from typing import IO, Any, TypeVar
@@ -30,8 +30,8 @@ from typing import IO, Any, TypeVar
 import structlog
 
 from scenemosaic.dag import FileRunStore
-from scenemosaic.exceptions import OutputSpaceError, SceneMosaicError, UsageError
-from scenemosaic.exchange import save_scene_only
+from scenemosaic.exceptions import OutputSpaceError, UsageError
+from scenemosaic.exchange import save_partial
 from scenemosaic.pipeline._checkpoint import (
     input_digest,
     load_checkpoint,
@@ -39,11 +39,12 @@ from scenemosaic.pipeline._checkpoint import (
     save_checkpoint,
     write_json,
 )
-from scenemosaic.pipeline._config import INPUT_SIZE_LIMITS_MB, GenerateConfig, check_config, config_record
+from scenemosaic.pipeline._config import INPUT_SIZE_LIMITS_MB, GenerateConfig, check_config
 from scenemosaic.pipeline._driver import run_stages
-from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, agenerate_house, is_house_input
+from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, HOUSE_STAGES, is_house_input
+from scenemosaic.pipeline._report import RunReport, run_report
 from scenemosaic.pipeline._result import GenerateResult
-from scenemosaic.pipeline._stages import STAGES, deliver_run, is_image_input
+from scenemosaic.pipeline._stages import STAGE_NAMES, STAGES, is_image_input
 from scenemosaic.pipeline._state import PipelineRun, StageCallback
 from scenemosaic.scene import RunFolder, not_a_regular_file
 
@@ -99,56 +100,7 @@ def _input_of(input_path: str | Path | None, folder: RunFolder, config: Generate
     return folder.prompt_image
 
 
-# -- the report -----------------------------------------------------------------------------------
-
-
-def _status(run: PipelineRun, failure: BaseException | None) -> str:
-    if isinstance(failure, asyncio.CancelledError):
-        return "interrupted"
-    if failure is not None:
-        return "failed"
-    return "degraded" if run.warnings else "ok"
-
-
-def _report(run: PipelineRun, total_s: float, failure: BaseException | None) -> dict[str, Any]:
-    scene = run.scene
-    status = _status(run, failure)
-    error: str | None = None
-    trace: str | None = None
-    if status == "interrupted":
-        error = "interrupted: the run was stopped (signal or cancel); resume it with --resume"
-    elif failure is not None:
-        error = f"{type(failure).__name__}: {failure}"
-        if not isinstance(failure, SceneMosaicError):  # a bug, not bad input: keep everything for the issue
-            trace = "".join(traceback.format_exception(failure))
-    failed_stage = next((r.name for r in run.records if r.status in ("failed", "interrupted")), None)
-    return {
-        "input": str(run.input_path),
-        "config": config_record(run.config) | {"variants_requested": run.config.variants},
-        "status": status,
-        "error": error,
-        "failed_stage": failed_stage,
-        "traceback": trace,
-        "warnings": list(run.warnings),
-        "total_seconds": round(total_s, 4),
-        "objects": len(scene.objects) if scene else 0,
-        "categories": sorted({o.category for o in scene.objects}) if scene else [],
-        "variants_written": len(run.variants) if _delivered(run) else 0,
-        "stages": [
-            {"name": r.name, "seconds": round(r.seconds, 4), "status": r.status, "objects": r.objects, "detail": r.detail}
-            for r in run.records
-        ],
-        "validation": run.validation,
-        "metrics": run.metrics,
-    }
-
-
 # -- the driver -----------------------------------------------------------------------------------
-
-
-def _delivered(run: PipelineRun) -> bool:
-    """Whether the export stage delivered the run's scenes."""
-    return any(r.name == "export" and r.status == "done" for r in run.records)
 
 
 async def agenerate(
@@ -243,8 +195,7 @@ async def _agenerate_locked(
     input_path: Path, folder: RunFolder, config: GenerateConfig, on_stage: StageCallback | None
 ) -> GenerateResult:
     base_dir = await asyncio.to_thread(_prepare_folders, input_path, folder, config)
-    if await asyncio.to_thread(is_house_input, input_path, config):  # every room at once (docs/houses.md)
-        return await agenerate_house(input_path, folder, config, base_dir, on_stage)
+    house = await asyncio.to_thread(is_house_input, input_path, config)  # every room at once (docs/houses.md)
     if is_image_input(input_path, config.format):  # a photograph's meshes are written beside what perception saw
         base_dir = folder.perception
     run = PipelineRun(input_path=input_path, folder=folder, config=config, base_dir=base_dir)
@@ -255,43 +206,45 @@ async def _agenerate_locked(
         await asyncio.to_thread(save_checkpoint, run, digest)
     started = time.perf_counter()
     try:  # the run's one model stack, opened by the first stage that asks, closed here
-        failure = await run_stages(run, finished, digest, on_stage, STAGES)
+        failure = await run_stages(run, finished, digest, on_stage, HOUSE_STAGES if house else STAGES)
     finally:
         if run.model is not None:
             await run.model.aclose()
     if failure is not None:
         await _keep_partial_results(run, failure, time.perf_counter() - started)
         raise failure
-    report = _report(run, time.perf_counter() - started, None)
+    report = run_report(run, time.perf_counter() - started, None)
     await asyncio.to_thread(_write_report, folder.report, report)
-    if report["status"] == "degraded":
+    if report.status == "degraded":
         log.warning("run_degraded", warnings=run.warnings)
-    assert run.scene is not None
-    return GenerateResult(scene=run.scene, out_dir=folder.root, report=report)
+    made = run.result
+    assert made is not None
+    return GenerateResult(scene=made, out_dir=folder.root, report=report.to_json())
 
 
 async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapsed: float) -> None:
-    """Report first, then the last good scene; shielded, so a second cancel cannot lose the report."""
+    """Report first, then the last good scene (or house) as a partial result; shielded, so a
+    second cancel cannot lose the report.
+
+    The partial result is the native files only (``scene.json`` or ``house_scene.json`` and each
+    room's, with their meshes) and ``partial.json`` saying why: nothing a simulator would load as
+    a finished scene, and the loaders refuse it unless asked for a partial result."""
 
     async def keep() -> None:
-        report = _report(run, elapsed, failure)
+        report = run_report(run, elapsed, failure)
         await asyncio.to_thread(_write_report, run.folder.report, report)
         if isinstance(failure, OutputSpaceError):  # the disk is full: the report was the one file worth trying
             return
-        if run.scene is None or (run.folder.base / RunFolder.SCENE_FILE).exists():
+        made = run.result
+        base = run.folder.base
+        if made is None or RunFolder.is_delivered(base):  # a resumed run's earlier delivery stays
             return
-        quick = isinstance(failure, asyncio.CancelledError)  # stopping: no hull or render work now
+        marker = {"status": report.status, "failed_stage": report.failed_stage, "error": report.error}
         try:
-            if quick:
-                files = await asyncio.to_thread(save_scene_only, run.scene, run.folder.base, run.base_dir)
-            else:
-                files = await asyncio.to_thread(deliver_run, run)
+            report.partial_files = await asyncio.to_thread(save_partial, made, base, run.base_dir, marker)
         except Exception as exc:  # the original failure matters more; note this one
             log.warning("partial_export_failed", error=str(exc))
-            report["partial_export_error"] = f"{type(exc).__name__}: {exc}"
-        else:
-            report["partial_files"] = files
-            report["variants_written"] = len(run.variants) if not quick else 0
+            report.partial_export_error = f"{type(exc).__name__}: {exc}"
         await asyncio.to_thread(_write_report, run.folder.report, report)
 
     task = asyncio.ensure_future(keep())
@@ -302,12 +255,13 @@ async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapse
             await asyncio.wait([task])
 
 
-def _write_report(path: Path, report: dict[str, Any]) -> None:
+def _write_report(path: Path, report: RunReport) -> None:
     """Write ``report.json``; on a full disk the report stays in memory, on the error (``report``)."""
+    payload = report.to_json()
     try:
-        write_json(path, report)
+        write_json(path, payload)
     except OutputSpaceError as full:
-        full.report = report
+        full.report = payload
         raise
 
 
@@ -355,7 +309,7 @@ def stage_progress(then: StageCallback | None = None) -> Iterator[StageCallback]
         task = bar.add_task("generate", total=len(STAGES))
 
         def callback(name: str, status: str) -> None:
-            if name == HOUSE_STAGE_NAMES[0] and status == "started":  # a whole house: its own stages
+            if status == "started" and name not in STAGE_NAMES:  # a stage of a whole house: its own stages
                 bar.update(task, total=len(HOUSE_STAGE_NAMES))
             if status == "started":
                 bar.update(task, description=f"generate: {name}")
@@ -373,7 +327,7 @@ def _stage_lines(then: StageCallback | None) -> StageCallback:
     state = {"done": 0, "total": len(STAGES)}
 
     def callback(name: str, status: str) -> None:
-        if name == HOUSE_STAGE_NAMES[0] and status == "started":
+        if status == "started" and name not in STAGE_NAMES:  # a stage of a whole house
             state["total"] = len(HOUSE_STAGE_NAMES)
         if status in ("done", "reused", "failed", "skipped"):
             state["done"] += 1

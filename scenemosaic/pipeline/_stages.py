@@ -17,16 +17,16 @@ from typing import Any
 
 import structlog
 
-from scenemosaic.agents import AgentOutcome
+from scenemosaic.agents import AgentLog
 from scenemosaic.assets import object_hulls
 from scenemosaic.compose import compose_variants, kept_layouts
 from scenemosaic.evolve import EvolutionReport, evolve_scene
 from scenemosaic.exceptions import UsageError
 from scenemosaic.exchange import deliver_scene, formats_left_out, load_scene
 from scenemosaic.metrics import evaluate, judge_scene, nav
-from scenemosaic.models import UsageRecord, usage_summary
 from scenemosaic.perception import PERCEPTION_INSTALL, is_image_path, perceive
 from scenemosaic.physics import (
+    ValidationReport,
     check_collisions,
     check_out_of_bounds,
     clear_doors,
@@ -52,7 +52,18 @@ from scenemosaic.structure import structure_scene
 
 log = structlog.get_logger(__name__)
 
-__all__ = ["HOUSE_ROOM_STAGES", "NAV_SLACK", "STAGES", "STAGE_NAMES", "deliver_run", "floor_share", "is_image_input"]
+__all__ = [
+    "HOUSE_ROOM_STAGES",
+    "NAV_SLACK",
+    "STAGES",
+    "STAGE_NAMES",
+    "deliver_run",
+    "floor_share",
+    "is_image_input",
+    "judge_scenes",
+    "note_shortfall",
+    "validation_warnings",
+]
 
 NAV_SLACK = 0.005
 """A variant's NAV must reach ``scene.WALK_MIN_SHARE`` (0.99); where the base scene's own NAV is
@@ -71,6 +82,10 @@ def is_image_input(run_input: Path, format: str) -> bool:
 
 async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
     cfg = run.config
+    if run.source is not None:  # a room of a house: the house import gave it
+        run.scene = run.source
+        rec.detail["source_format"] = run.scene.provenance.source_format
+        return
     if not is_image_input(run.input_path, cfg.format):
         read = functools.partial(_read_one, run.input_path, cfg.format, room=cfg.room, asset_dir=cfg.asset_dir)
         run.scene = await asyncio.to_thread(read)
@@ -82,12 +97,12 @@ async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
     result = await perceive(
         run.input_path, model.model, detections=cfg.detections, segmenter=cfg.segmenter, reconstructor=cfg.reconstructor,
         hfov_deg=cfg.hfov_deg, camera_height_m=cfg.camera_height_m, out_dir=run.out_dir, policy=run.policy, settings=model.settings, seed=cfg.seed,
-        clock=model.clock,
+        clock=model.clock, agent_log=run.agent_log(),
     )  # fmt: skip
     run.scene = result.scene
     rec.detail["source_format"] = "image"
     rec.detail["perception"] = result.report
-    run.note_fallbacks(result.fallbacks)
+    run.note_fallbacks(result.agents.fallbacks)
     if result.report.get("segmenter") == "box" and cfg.segmenter == "auto":
         run.warnings.append(f"no segmenter installed: the objects' boxes stood in for their masks ({PERCEPTION_INSTALL})")
 
@@ -143,20 +158,19 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     assert run.scene is not None and run.store is not None
     cfg = run.config
     notes_before = len(run.scene.provenance.notes)
-    fallbacks: list[Any] = []
-    outcomes: dict[str, AgentOutcome] = {}
     model = await run.asking(rec)
+    agents = run.agent_log()
     try:
         run.scene = await structure_scene(
             run.scene, model.model, agents=cfg.agents, settings=model.settings, policy=run.policy,
             store=run.store.scoped("agents"),  # finished agents are not asked again on --resume
-            seed=cfg.seed, priors_dir=cfg.priors_dir, base_dir=run.base_dir, fallbacks=fallbacks, outcomes=outcomes,
+            seed=cfg.seed, priors_dir=cfg.priors_dir, base_dir=run.base_dir, agent_log=agents,
         )  # fmt: skip
     finally:
         if not model.uses_rule_solvers:
-            rec.detail["solver_fallbacks"] = [{"agent": f.agent, "reason": f.reason} for f in fallbacks]
-        rec.detail["agents"] = _agent_breakdown(outcomes, model.calls_since(run.stage_mark))
-    run.note_fallbacks(fallbacks)
+            rec.detail["solver_fallbacks"] = [{"agent": f.agent, "reason": f.reason} for f in agents.fallbacks]
+        rec.detail["agents"] = _agent_breakdown(agents)
+    run.note_fallbacks(agents.fallbacks)
     # what the agents changed to make the input consistent (objects pulled inside walls...)
     rec.detail["repairs"] = run.scene.provenance.notes[notes_before:]
     # every re-parenting verification made ("verify: <object> -> <new parent> (<reason>)")
@@ -167,9 +181,9 @@ async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
     rec.detail["constraints"] = len(run.scene.constraints)
 
 
-def _agent_breakdown(outcomes: dict[str, AgentOutcome], calls: list[UsageRecord]) -> dict[str, Any]:
+def _agent_breakdown(agents: AgentLog) -> dict[str, Any]:
     """Per agent: how it was answered, model requests, repairs, tokens (``report.json``)."""
-    usage = usage_summary(calls)["by_agent"]
+    outcomes, usage = agents.outcomes, agents.usage_summary()["by_agent"]
     out: dict[str, Any] = {}
     for name in sorted(set(outcomes) | set(usage)):
         o, u = outcomes.get(name), usage.get(name, {})
@@ -219,7 +233,7 @@ async def _stage_evolve(run: PipelineRun, rec: StageRecord) -> None:
     run.scene, report = await evolve_scene(
         run.scene, model.model, shapes, variants=cfg.variants, settings=model.settings, policy=run.policy,
         max_rounds=cfg.evolve_rounds, seed=cfg.seed, base_dir=run.base_dir,
-        views_dir=run.folder.evolve if cfg.save_views else None, rules=cfg.layout_rules,
+        views_dir=run.folder.evolve if cfg.save_views else None, rules=cfg.layout_rules, agent_log=run.agent_log(),
     )  # fmt: skip
     summary = report.summary()
     rec.detail.update({k: v for k, v in summary.items() if k != "per_layout"})
@@ -229,7 +243,7 @@ async def _stage_evolve(run: PipelineRun, rec: StageRecord) -> None:
     run.layouts = {unit: (k.layout_ids, k.poses) for unit, k in kept.items()}
     for unit in report.units:
         for lay in unit.layouts:
-            run.note_fallbacks(lay.fallbacks, f" ({unit.anchor_id}/{lay.layout_id})", width=120)
+            run.note_fallbacks(lay.agents.fallbacks, f" ({unit.anchor_id}/{lay.layout_id})", width=120)
         o = unit.original
         if o.error:
             run.warnings.append(f"unit {unit.anchor_id}: evolution failed, kept the stabilized layout ({o.error[:160]})")
@@ -329,9 +343,19 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
             run.warnings.append(f"{name}: {len(cols.pairs)} colliding pair(s), {len(oob.objects)} object(s) out of bounds")
     run.variants = list(variants)
     rec.detail["variants"] = checked
-    if len(variants) < m:  # not a fault of the scenes composed: said, not degraded
-        rec.detail["shortfall"] = f"{m} variants asked for, {len(variants)} distinct valid ones in a pool of {report.pool_size}"
-        log.warning("fewer_variants_than_asked", asked=m, written=len(variants), pool=report.pool_size)
+    note_shortfall(run, rec, len(variants), report.pool_size)
+
+
+def note_shortfall(run: PipelineRun, rec: StageRecord, written: int, pool: int) -> None:
+    """Fewer distinct valid variants than asked for: not a fault of the scenes composed, so said
+    in the report's ``notes`` (the console prints them), not a warning that degrades the run. A
+    room of a house only records it: the house composes its own variants from every room's."""
+    m = run.config.variants
+    if written >= m:
+        return
+    rec.detail["shortfall"] = f"{m} variants asked for, {written} distinct valid ones in a pool of {pool}"
+    if run.source is None:
+        run.notes.append(f"fewer variants than asked for: {rec.detail['shortfall']}")
 
 
 # -- validate, evaluate ----------------------------------------------------------------------------
@@ -342,17 +366,23 @@ async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
     report = await asyncio.to_thread(functools.partial(validate_scene, run.scene, run.base_dir, hull_cache=run.cache()))
     rec.detail.update(report.model_dump(mode="json", include=_summary_fields(report)))
     run.validation = report.model_dump(mode="json")
+    run.warnings += validation_warnings(report)
+
+
+def validation_warnings(report: ValidationReport) -> list[str]:
+    """What a scene's validation found wrong, in words (each a warning: the run is ``degraded``)."""
+    out = []
     if report.collisions.pairs:
         worst = max(p.depth_m for p in report.collisions.pairs)
-        run.warnings.append(f"{len(report.collisions.pairs)} colliding pair(s) left, deepest {worst:.3f} m")
+        out.append(f"{len(report.collisions.pairs)} colliding pair(s) left, deepest {worst:.3f} m")
     if report.out_of_bounds.objects:
-        run.warnings.append(f"{len(report.out_of_bounds.objects)} object(s) out of bounds")
+        out.append(f"{len(report.out_of_bounds.objects)} object(s) out of bounds")
     if report.fell:
-        run.warnings.append("object(s) fell in the validation run: " + ", ".join(report.fell[:10]))
+        out.append("object(s) fell in the validation run: " + ", ".join(report.fell[:10]))
     if report.tipped:
-        run.warnings.append("object(s) tipped in the validation run: " + ", ".join(report.tipped[:10]))
-    for pair in report.nested:
-        run.warnings.append(f"furniture nested inside each other's boxes: {pair}")
+        out.append("object(s) tipped in the validation run: " + ", ".join(report.tipped[:10]))
+    out += [f"furniture nested inside each other's boxes: {pair}" for pair in report.nested]
+    return out
 
 
 async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
@@ -364,12 +394,21 @@ async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
         hull_cache=run.cache(),
     )  # fmt: skip
     result = await asyncio.to_thread(measure)
-    if not run.uses_rules:  # POS and ROT from the run's model
-        model = await run.asking(rec)
-        verdicts = [await judge_scene(s, model.model, settings=model.settings, base_dir=run.base_dir) for s in scenes]
-        result["semantic_judge"] = {"base": verdicts[0], "variants": verdicts[1:]}
+    judged = await judge_scenes(run, rec, scenes)
+    if judged is not None:
+        result["semantic_judge"] = {"base": judged[0], "variants": judged[1:]}
     rec.detail.update(result)
     run.metrics = result
+
+
+async def judge_scenes(run: PipelineRun, rec: StageRecord, scenes: list[Scene]) -> list[dict[str, Any]] | None:
+    """POS and ROT of each scene from the run's model (the semantic judge); ``None`` with the
+    offline rules, which cannot judge a render."""
+    if run.uses_rules:
+        return None
+    model = await run.asking(rec)
+    log = run.agent_log()
+    return [await judge_scene(s, model.model, settings=model.settings, base_dir=run.base_dir, agent_log=log) for s in scenes]
 
 
 # -- export ----------------------------------------------------------------------------------------
@@ -390,9 +429,9 @@ def deliver_run(run: PipelineRun) -> list[str]:
     """Write the base scene to ``base/`` and every variant to ``variant_<i>/`` in the delivered
     layout, then the contact sheet; returns the base folder's files."""
     assert run.scene is not None
-    files = deliver_scene(run.scene, run.folder.base, run.base_dir)
+    files = deliver_scene(run.scene, run.folder.base, run.base_dir, hull_cache=run.cache())
     for i, variant in enumerate(run.variants, start=1):
-        deliver_scene(variant, run.folder.variant(i), run.base_dir)
+        deliver_scene(variant, run.folder.variant(i), run.base_dir, hull_cache=run.cache())
     if run.variants:
         folders = [run.folder.base, *(run.folder.variant(i) for i in range(1, len(run.variants) + 1))]
         contact_sheet([(f.name, f / RunFolder.TOPDOWN) for f in folders], run.folder.contact_sheet)
@@ -414,9 +453,9 @@ STAGES: tuple[Stage, ...] = (
 """The stages ``generate`` runs, in order."""
 
 STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in STAGES)
+"""The names of :data:`STAGES`, in order."""
 
 HOUSE_ROOM_STAGES: tuple[Stage, ...] = STAGES[: STAGE_NAMES.index("compose") + 1]
 """What each room of a house runs on its own (``pipeline/_house.py``): :data:`STAGES` up to its
 own variants (compose); the house composes whole-house variants from those, and checks and
 delivers the house."""
-"""The names of :data:`STAGES`, in order."""

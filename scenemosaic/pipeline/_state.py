@@ -9,14 +9,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from scenemosaic.pipeline._config import GenerateConfig
-from scenemosaic.scene import Pose, RunFolder, Scene
+from scenemosaic.scene import House, Pose, RunFolder, Scene
 
 if TYPE_CHECKING:
-    from scenemosaic.agents import AgentPolicy, FallbackRecord
+    from scenemosaic.agents import AgentLog, AgentPolicy, FallbackRecord
     from scenemosaic.assets import HullCache
     from scenemosaic.dag import FileRunStore
     from scenemosaic.models import RunModel
     from scenemosaic.physics import ObjectShape
+    from scenemosaic.pipeline._checkpoint import RoomOutcome
 
 __all__ = ["PipelineRun", "Stage", "StageCallback", "StageFn", "StageRecord", "UnitLayoutRecord", "open_model"]
 
@@ -50,8 +51,19 @@ class PipelineRun:
     config: GenerateConfig
     base_dir: Path
     """Folder relative mesh paths of the input start from."""
+    source: Scene | None = None
+    """The scene to start from, given in memory (a room of a house run): the import stage takes
+    it instead of reading ``input_path``."""
     scene: Scene | None = None
     """The scene as the last finished stage left it."""
+    house: House | None = None
+    """A whole-house run: the house as the last finished house stage left it (``pipeline/_house.py``)."""
+    rooms: dict[str, RoomOutcome] = field(default_factory=dict)
+    """A whole-house run: each room's run, by room id, as the ``rooms`` stage left it."""
+    house_variants: list[House] = field(default_factory=list)
+    """A whole-house run: compose's whole-house variants, in selection order."""
+    variant_checks: list[dict[str, Any]] = field(default_factory=list)
+    """A whole-house run: the house checks of each variant, as compose measured them."""
     records: list[StageRecord] = field(default_factory=list)
     layouts: dict[str, UnitLayoutRecord] | None = None
     """Evolve's kept unit layouts, by anchor id: what compose combines."""
@@ -67,16 +79,32 @@ class PipelineRun:
     """Agents answered by their rule solvers instead of the model."""
     warnings: list[str] = field(default_factory=list)
     """What makes the outcome ``degraded``, in words."""
+    notes: list[str] = field(default_factory=list)
+    """What the user should know that does not degrade the outcome (fewer variants than asked for), in words."""
     model: RunModel | None = None
     """The run's one model stack (``models.open_run_model``), once a stage has asked for it."""
     store: FileRunStore | None = None
     """The run's store in ``.checkpoint/``: the stages' state and the structuring agents' outputs."""
+    stage_log: AgentLog | None = None
+    """The current stage's collector of agent results (:meth:`agent_log`): its usage, fallbacks and
+    per-agent breakdown; the driver starts each stage without one."""
     stage_mark: int = 0
-    """The model usage reading when the current stage began (its usage is the difference)."""
+    """The model usage reading when the current stage began: the usage of a stage that asked the
+    model without an agent log (the evaluate stage's judge) is the difference."""
     hull_cache: HullCache | None = None
     """The run's CoACD hull cache, opened on first use and shared by the stages."""
     started: float = field(default_factory=time.monotonic)
     """``time.monotonic()`` when the run began: the run deadline counts from here."""
+
+    @property
+    def result(self) -> Scene | House | None:
+        """What the run has made so far: the house of a whole-house run, else the scene."""
+        return self.house if self.house is not None else self.scene
+
+    @property
+    def delivered_variants(self) -> int:
+        """How many variants the run has (whole houses for a house run)."""
+        return len(self.house_variants) if self.house is not None else len(self.variants)
 
     @property
     def out_dir(self) -> Path:
@@ -97,8 +125,18 @@ class PipelineRun:
         if self.model is None:
             self.model = await open_model(self.config, self.started)
         rec.detail.update(self.model.detail)
-        rec.detail["usage"] = {}  # filled by the driver: the usage between the stage's marks
+        rec.detail["usage"] = {}  # filled by the driver: the stage's agent log's usage (else between its marks)
         return self.model
+
+    def agent_log(self) -> AgentLog:
+        """The current stage's collector of agent results, made on first use: a stage hands it to
+        the agents' runner (``structure_scene``, ``evolve_scene``, ``perceive``) and reads its
+        fallbacks and per-agent breakdown from it; the driver records its usage as the stage's."""
+        from scenemosaic.agents import AgentLog
+
+        if self.stage_log is None:
+            self.stage_log = AgentLog()
+        return self.stage_log
 
     @property
     def uses_rules(self) -> bool:
@@ -111,7 +149,7 @@ class PipelineRun:
         from scenemosaic.assets import HullCache
 
         if self.hull_cache is None:
-            self.hull_cache = HullCache(self.config.cache_dir / "hulls" if self.config.cache_dir else None)
+            self.hull_cache = HullCache(self.config.hull_cache_dir)
         return self.hull_cache
 
     def shapes(self, scene: Scene) -> dict[str, ObjectShape]:

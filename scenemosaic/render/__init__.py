@@ -41,7 +41,7 @@ from scenemosaic.render._topdown import (
 from scenemosaic.render._view import OrthoView, PixelMap, render_view
 from scenemosaic.scene import register_plan_renderer
 
-register_plan_renderer(plan_png)  # Scene._repr_png_: a notebook shows a scene as its plan
+register_plan_renderer(plan_png)  # Scene._repr_png_ and House._repr_png_: a notebook shows a plan
 
 __all__ = [
     "CEILING_COLOR",

@@ -18,6 +18,7 @@ from scenemosaic.render._view import OrthoView, PixelMap, _draw_annotations, _fo
 from scenemosaic.scene import House, Scene
 
 __all__ = [
+    "NOTEBOOK_HOUSE_PLAN_PX",
     "NOTEBOOK_PLAN_PX",
     "PLAN_PADDING_M",
     "house_view",
@@ -71,17 +72,23 @@ def _plan_view(scenes: Sequence[Scene]) -> OrthoView:
 
 NOTEBOOK_PLAN_PX = 512
 """Size of the plan a notebook shows for a scene (``Scene._repr_png_``)."""
+NOTEBOOK_HOUSE_PLAN_PX = 768
+"""Size of the plan a notebook shows for a house (``House._repr_png_``): larger than a room's, so
+each room's name and objects stay legible."""
 
 
-def plan_png(scene: Scene) -> bytes:
-    """The scene's plan for a notebook: :func:`render_topdown` at :data:`NOTEBOOK_PLAN_PX`, mesh
-    files resolved next to the file or folder the scene was read from (its
-    ``provenance.source_path``), else from the working directory."""
+def plan_png(scene: Scene | House) -> bytes:
+    """The plan for a notebook: a scene's (:func:`render_topdown` at :data:`NOTEBOOK_PLAN_PX`) or
+    a whole house's (:func:`render_house_plan` at :data:`NOTEBOOK_HOUSE_PLAN_PX`), mesh files
+    resolved next to the file or folder it was read from (its ``provenance.source_path``), else
+    from the working directory. The renderer behind ``Scene._repr_png_`` and ``House._repr_png_``."""
     base_dir: Path | None = None
     source = scene.provenance.source_path
     if source:
         path = Path(source)
         base_dir = path if path.is_dir() else path.parent
+    if isinstance(scene, House):
+        return render_house_plan(scene, base_dir=base_dir, size_px=NOTEBOOK_HOUSE_PLAN_PX)
     return render_topdown(scene, base_dir=base_dir, size_px=NOTEBOOK_PLAN_PX)
 
 

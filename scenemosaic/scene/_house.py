@@ -19,7 +19,7 @@ scene is exactly what a one-room run works on. What a room alone cannot see is b
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,7 +29,7 @@ from shapely.geometry import Point, Polygon
 from shapely.ops import unary_union
 
 from scenemosaic.scene._geometry import FloatArray
-from scenemosaic.scene._model import Opening, Provenance, Scene, SceneObject, Wall, _Model
+from scenemosaic.scene._model import Opening, Provenance, Scene, SceneObject, Wall, _Model, _plan_png
 from scenemosaic.scene._planar import convex_hull_2d
 from scenemosaic.scene._walkable import ROBOT_RADIUS, WALK_MAX_HEIGHT, FloorRaster, Walkable, is_thin
 
@@ -118,6 +118,19 @@ class House(_Model):
             if any(o.id == object_id for o in s.objects):
                 return s
         raise KeyError(object_id)
+
+    def __repr_args__(self) -> Iterator[tuple[str | None, Any]]:
+        """``repr``, ``str`` (and rich) show the id, the room ids and the object count, not every
+        room's full model (``model_dump`` gives that)."""
+        yield "id", self.id
+        yield "rooms", self.room_ids
+        yield "objects", len(self.objects)
+
+    def _repr_png_(self) -> bytes | None:
+        """Jupyter shows the house's plan, every room named (the renderer registered with
+        :func:`~scenemosaic.scene.register_plan_renderer`); ``None`` (the text repr) when none is
+        registered or the plan cannot be drawn."""
+        return _plan_png(self)
 
     def with_rooms(self, rooms: Sequence[Scene]) -> House:
         """This house with its room scenes replaced (same ids, same order)."""

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 import structlog
@@ -35,6 +35,9 @@ from scenemosaic.scene._limits import (
     scale_problem,
     size_problem,
 )
+
+if TYPE_CHECKING:
+    from scenemosaic.scene._house import House
 
 __all__ = [
     "CEILING",
@@ -59,19 +62,34 @@ __all__ = [
 
 log = structlog.get_logger(__name__)
 
-_plan_renderers: list[Callable[[Scene], bytes]] = []
-"""The one plan renderer :meth:`Scene._repr_png_` calls (the render package's; empty before it
-registers): a scene cannot import the render layer above it, so the renderer comes to it."""
+_plan_renderers: list[Callable[[Scene | House], bytes]] = []
+"""The one plan renderer :meth:`Scene._repr_png_` and :meth:`House._repr_png_` call (the render
+package's; empty before it registers): a scene cannot import the render layer above it, so the
+renderer comes to it."""
 
 
-def register_plan_renderer(renderer: Callable[[Scene], bytes]) -> None:
-    """Set the function that draws a scene's plan as PNG bytes for Jupyter (``Scene._repr_png_``).
+def register_plan_renderer(renderer: Callable[[Scene | House], bytes]) -> None:
+    """Set the function that draws a plan as PNG bytes for Jupyter: a scene's
+    (``Scene._repr_png_``) or a whole house's (``House._repr_png_``); it is given either.
 
     ``scenemosaic.render`` registers its top-down view when it is imported (every reader, writer
     and run imports it; ``import scenemosaic`` registers a stand-in that imports it on first use).
     A later call replaces the earlier renderer.
     """
     _plan_renderers[:] = [renderer]
+
+
+def _plan_png(model: Scene | House) -> bytes | None:
+    """The registered renderer's plan of a scene or a house, for a ``_repr_png_``; ``None`` (the
+    text repr) when no renderer is registered or the plan cannot be drawn."""
+    if not _plan_renderers:
+        return None
+    try:
+        return _plan_renderers[0](model)
+    except Exception as exc:  # a display hook must not raise: the text repr stays
+        log.warning("scene_plan_not_drawn", scene=model.id, error=f"{type(exc).__name__}: {exc}")
+        return None
+
 
 QUAT_NORM_TOLERANCE = 1e-6
 """Largest accepted deviation of a quaternion's norm from 1 before it is normalized (with a warning)."""
@@ -618,13 +636,7 @@ class Scene(_Model):
     def _repr_png_(self) -> bytes | None:
         """Jupyter shows the scene's plan (see :func:`register_plan_renderer`); ``None`` (the text
         repr) when no renderer is registered or the plan cannot be drawn."""
-        if not _plan_renderers:
-            return None
-        try:
-            return _plan_renderers[0](self)
-        except Exception as exc:  # a display hook must not raise: the text repr stays
-            log.warning("scene_plan_not_drawn", scene=self.id, error=f"{type(exc).__name__}: {exc}")
-            return None
+        return _plan_png(self)
 
     def to_json(self, *, indent: int | None = 2) -> str:
         """Canonical JSON text (stable key order, so equal scenes give identical bytes)."""

@@ -76,6 +76,9 @@ class RunFolder:
     """A house run's per-room work (``OUT/rooms/<room>/``); in a delivered house, its room scenes."""
     TOPDOWN = "topdown.png"
     """The top-down picture in ``base/`` and every ``variant_<i>/``."""
+    PARTIAL = "partial.json"
+    """Beside the scene (or house) a failed or stopped run kept in ``base/``: why it is partial
+    (``status``, ``failed_stage``, ``error``). Loaders refuse such a folder unless asked."""
 
     def __init__(self, root: str | os.PathLike[str]) -> None:
         self.root = Path(root)
@@ -141,6 +144,12 @@ class RunFolder:
     def holds_scene(cls, folder: Path) -> bool:
         """Whether a delivered folder holds a scene (``scene.json``) or a house (``house_scene.json``)."""
         return (folder / cls.SCENE_FILE).is_file() or (folder / cls.HOUSE_FILE).is_file()
+
+    @classmethod
+    def is_delivered(cls, folder: Path) -> bool:
+        """Whether a folder holds a delivered scene or house: one a finished run wrote, not the
+        partial result a failed or stopped run kept (``partial.json``)."""
+        return cls.holds_scene(folder) and not (folder / cls.PARTIAL).exists()
 
     @classmethod
     def holds_house(cls, folder: Path) -> bool:

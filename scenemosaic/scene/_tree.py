@@ -26,6 +26,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from scenemosaic.scene._geometry import FloatArray, quat_from_matrix
+from scenemosaic.scene._house import House
 from scenemosaic.scene._model import (
     CEILING,
     FLOOR,
@@ -224,8 +225,15 @@ def with_world_poses(scene: Scene, poses: Mapping[str, Pose]) -> Scene:
     return Scene.model_validate(data)
 
 
-def format_tree(scene: Scene) -> str:
-    """A readable tree of the scene: room, anchors, children with their relations, constraints."""
+def format_tree(scene: Scene | House) -> str:
+    """A readable tree of the scene: room, anchors, children with their relations, constraints
+    (a house: each room's tree under the house, in its room order)."""
+    if isinstance(scene, House):
+        trees = [f"{scene.id}  ({len(scene.rooms)} rooms, {len(scene.objects)} objects)"]
+        for part in scene.rooms:
+            trees.append(f"  {part.id}:")
+            trees += ["    " + line for line in format_tree(part).splitlines()]
+        return "\n".join(trees)
     lines: list[str] = []
     room = scene.room
     if room is not None:

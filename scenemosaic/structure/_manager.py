@@ -230,9 +230,6 @@ class ManagerAgent(TaskAgent[SceneState, SceneSummary, StructuringPlan]):
                 problems.append(f"schedule {name!r}: {why} ({', '.join(evidence[:5])})")
         return problems
 
-    def apply(self, output: StructuringPlan, state: SceneState) -> None:
-        """Nothing to change in the scene: the plan is the manager's output (``state.outputs``)."""
-
     def select(self, plan: StructuringPlan) -> list[TaskAgent[SceneState, Any, Any]]:
         """The agents ``plan`` schedules, in the order they were given."""
         return select_agents(plan, self.agents)

@@ -8,15 +8,7 @@ from typing import Any
 
 import structlog
 
-from scenemosaic.agents import (
-    AgentOutcome,
-    AgentPolicy,
-    AgentResult,
-    FallbackRecord,
-    SceneState,
-    TaskAgent,
-    run_agents,
-)
+from scenemosaic.agents import AgentLog, AgentPolicy, SceneState, TaskAgent, run_agents
 from scenemosaic.dag import EventListener, RunStore
 from scenemosaic.exceptions import AgentOutputError, NodeFailedError
 from scenemosaic.models import Model, ModelSettings, RulesModel
@@ -62,8 +54,7 @@ async def structure_scene(
     events: EventListener | None = None,
     max_concurrency: int | None = 8,
     base_dir: str | Path | None = None,
-    fallbacks: list[FallbackRecord] | None = None,
-    outcomes: dict[str, AgentOutcome] | None = None,
+    agent_log: AgentLog | None = None,
 ) -> Scene:
     """Structure ``scene``: room, parents, containment, walls, semantics, attributes, constraints, tree.
 
@@ -72,9 +63,9 @@ async def structure_scene(
     then the planned agents run as one graph, independent ones concurrently. ``model=None``
     uses the offline rules model. ``priors_dir`` replaces the ProcTHOR priors shipped with
     the package. The input scene is never modified; a new scene with ``structure`` set is
-    returned. ``policy`` sets the agents' attempt budget and solver fallback; agents that fell
-    back are appended to ``fallbacks`` when a list is given, and how each agent answered is put
-    in ``outcomes`` when a dict is given.
+    returned. ``policy`` sets the agents' attempt budget and solver fallback. ``agent_log``,
+    when given, receives every agent's result (how it answered, its fallback, its requests), in the
+    plan's order (the manager first), also when structuring fails.
 
     Raises :class:`~scenemosaic.exceptions.AgentOutputError` when an agent's output stays
     inconsistent with the scene and fallback is off (other run errors pass through unchanged).
@@ -92,15 +83,13 @@ async def structure_scene(
         base_dir=Path(base_dir) if base_dir is not None else None,
         policy=policy or AgentPolicy(),
     )
-    results: list[AgentResult[Any]] = []  # in the order the agents finished
+    ran = AgentLog()  # in the order the agents finished
     try:
         # the plan and the planned agents are two graphs: each keeps its own record in the store
         plan_store = store.scoped("plan") if store is not None else None
         agents_store = store.scoped("agents") if store is not None else None
-        await run_agents(
-            [manager], state, model, settings=settings, store=plan_store, events=events, on_result=results.append
-        )
-        plan = state.outputs["manager"]
+        planned = await run_agents([manager], state, model, settings=settings, store=plan_store, events=events, log=ran)
+        plan = planned["manager"]
         assert isinstance(plan, StructuringPlan)
         chosen = manager.select(plan)
         log.info("structuring_plan", agents=[a.name for a in chosen], skipped=[s.name for s in plan.skipped])
@@ -112,7 +101,7 @@ async def structure_scene(
             store=agents_store,
             events=events,
             max_concurrency=max_concurrency,
-            on_result=results.append,
+            log=ran,
         )
     except NodeFailedError as exc:
         cause: Any = exc.cause
@@ -121,11 +110,8 @@ async def structure_scene(
         raise
     finally:
         rank = {name: i for i, name in enumerate(["manager", *(a.name for a in available)])}
-        if fallbacks is not None:
-            fell_back = [r.fallback for r in results if r.fallback is not None]
-            fallbacks.extend(sorted(fell_back, key=lambda f: rank.get(f.agent, len(rank))))
-        if outcomes is not None:
-            outcomes.update((r.agent, r.outcome) for r in results)
+        if agent_log is not None:
+            agent_log.merge(ran, order=lambda agent: rank.get(agent, len(rank)))
     return _canonical(state.scene, notes_before=len(scene.provenance.notes), rank=rank)
 
 

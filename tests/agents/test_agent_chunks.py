@@ -7,7 +7,7 @@ from typing import Any, ClassVar
 
 from agent_solvers import SOLVERS
 
-from scenemosaic.agents import AgentPolicy, SceneState
+from scenemosaic.agents import AgentPolicy, SceneState, run_agent
 from scenemosaic.exchange import load_scene
 from scenemosaic.models import FunctionModel, Message, RequestContext, RulesModel
 from scenemosaic.structure import RoomAgent, SupportAgent
@@ -25,13 +25,13 @@ def _parents(state: SceneState) -> dict[str, str]:
 
 async def _roomed() -> SceneState:
     state = SceneState(load_scene(BEDROOM), policy=AgentPolicy(solver_fallback=True))
-    await RoomAgent().run(state, RulesModel())
+    await run_agent(RoomAgent(), state, RulesModel())
     return state
 
 
 async def test_chunked_answers_match_the_one_shot_answer() -> None:
     rules = await _roomed()
-    await SupportAgent().run(rules, RulesModel())
+    await run_agent(SupportAgent(), rules, RulesModel())
     evidence_sizes: list[int] = []
 
     def reply(messages: list[Message], context: RequestContext | None) -> Any:
@@ -41,7 +41,7 @@ async def test_chunked_answers_match_the_one_shot_answer() -> None:
 
     chunked = await _roomed()
     agent = SmallChunks()
-    result = await agent.run(chunked, FunctionModel(reply, vision=False))
+    result = await run_agent(agent, chunked, FunctionModel(reply, vision=False))
     assert len(evidence_sizes) == 5  # 22 objects, 5 a chunk
     assert max(evidence_sizes) < len(chunked.scene.objects)  # each prompt shows part of the scene
     assert _parents(chunked) == _parents(rules)
@@ -59,7 +59,7 @@ async def test_a_chunk_that_stays_wrong_falls_back_alone() -> None:
         return answer
 
     state = await _roomed()
-    result = await SmallChunks().run(state, FunctionModel(reply, vision=False))
+    result = await run_agent(SmallChunks(), state, FunctionModel(reply, vision=False))
     assert _parents(state)["bed"] == "floor"  # the solver's part for that chunk
     record = result.fallback
     assert record is not None and record.agent == "support" and "rule solver for 5 objects" in record.reason
@@ -80,7 +80,7 @@ async def test_the_reply_cap_follows_the_objects_asked_about() -> None:
     answer = SupportAgent().solve(SupportAgent().gather(state))
     server = FakeServer(chat_reply(json.loads(answer.model_dump_json())))
     model, _ = server.model()
-    await SupportAgent().run(state, model, ModelSettings(max_tokens=4000))
+    await run_agent(SupportAgent(), state, model, ModelSettings(max_tokens=4000))
     base, per_object = SupportAgent.reply_tokens or (0, 0)
     assert server.bodies[0]["max_tokens"] == base + per_object * 22
     capped = SupportAgent().reply_settings(ModelSettings(max_tokens=300), SupportAgent().gather(state))

@@ -10,7 +10,7 @@ import pytest
 from pydantic import BaseModel
 
 from scenemosaic import GenerateConfig, generate, load_scene
-from scenemosaic.agents import AgentOutput, AgentPolicy, SceneState, TaskAgent
+from scenemosaic.agents import AgentOutput, AgentPolicy, SceneState, TaskAgent, run_agent
 from scenemosaic.exceptions import (
     AgentOutputError,
     ModelConfigError,
@@ -78,7 +78,7 @@ class FailingModel(Model):
 async def test_persistent_model_failures_fall_back_to_the_solver(error: Exception) -> None:
     state = SceneState(scene=Scene(), policy=FALLBACK)
     model = FailingModel(error)
-    result = await DoublingAgent().run(state, model)
+    result = await run_agent(DoublingAgent(), state, model)
     assert result.output == Answer(value=6) and state.scene.metadata["demo"] == 6
     assert result.fallback is not None and result.fallback.agent == "demo"
     assert type(error).__name__ in result.fallback.reason or "attempts" in result.fallback.reason
@@ -151,7 +151,7 @@ async def test_agent_falls_back_when_checked_output_stays_unusable(repo_data: Pa
         await SupportAgent().run(SceneState(scene=scene), hallucinating)
 
     state = SceneState(scene=scene, policy=FALLBACK)
-    result = await SupportAgent().run(state, hallucinating)
+    result = await run_agent(SupportAgent(), state, hallucinating)
     assert result.output == SupportAgent().solve(SupportAgent().gather(SceneState(scene=scene)))
     assert result.fallback is not None and result.fallback.agent == "support"
     assert "object id 'no_such_object' does not exist in this scene" in result.fallback.reason
@@ -201,7 +201,7 @@ async def test_a_fallback_comes_back_in_the_result_not_in_the_state() -> None:
     """The run's result says the solver answered and why; the shared state gets only the applied output."""
     state = SceneState(scene=Scene(), policy=FALLBACK)
     before = set(vars(state))
-    result = await DoublingAgent().run(state, FunctionModel(lambda m, c: '{"value": 5}', vision=False))
+    result = await run_agent(DoublingAgent(), state, FunctionModel(lambda m, c: '{"value": 5}', vision=False))
     assert result.output == Answer(value=6) and result.agent == "demo"
     outcome = result.outcome
     assert outcome.answered_by == "solver_fallback" and outcome.requests == 3 and outcome.repairs == 2

@@ -7,7 +7,7 @@ from typing import ClassVar
 import pytest
 from pydantic import BaseModel, Field
 
-from scenemosaic.agents import AgentOutput, AgentPolicy, SceneState, TaskAgent
+from scenemosaic.agents import AgentOutput, AgentPolicy, SceneState, TaskAgent, run_agent
 from scenemosaic.exceptions import AgentOutputError
 from scenemosaic.models import FunctionModel
 from scenemosaic.scene import AssetRef, Pose, Scene, SceneObject
@@ -83,7 +83,7 @@ async def test_a_model_answer_with_an_unknown_id_is_sent_back_with_the_base_word
         return next(replies)
 
     state = SceneState(_scene("chair_0"), policy=AgentPolicy(solver_fallback=False))
-    result = await PickAgent().run(state, FunctionModel(answer, vision=False))
+    result = await run_agent(PickAgent(), state, FunctionModel(answer, vision=False))
     assert result.output.picks[0].object_id == "chair_0" and state.scene.metadata["picks"] == ["chair_0"]
     assert result.problems == (("object id 'ghost' does not exist in this scene",),)
     assert "- object id 'ghost' does not exist in this scene" in sent[1]

@@ -11,13 +11,14 @@ import pytest
 from pydantic import BaseModel
 
 from scenemosaic.agents import (
+    AgentLog,
     AgentPolicy,
-    AgentResult,
     SceneState,
     TaskAgent,
     add_agent_nodes,
     agent_dependencies,
     agent_node,
+    run_agent,
     run_agents,
 )
 from scenemosaic.dag import FileRunStore, Node, NodeContext, NodePolicy, RetryPolicy, RunEvent, Runner
@@ -120,8 +121,9 @@ def test_agent_node_carries_name_dependencies_and_policy() -> None:
 async def test_run_agents_runs_in_dependency_order_and_applies_outputs() -> None:
     state, model = make_state(3), SolverModel()
     events: list[RunEvent] = []
-    results: list[AgentResult[BaseModel]] = []
-    out = await run_agents([DoubleAgent(), RoomAgent()], state, model, events=events.append, on_result=results.append)
+    log = AgentLog()
+    out = await run_agents([DoubleAgent(), RoomAgent()], state, model, events=events.append, log=log)
+    results = log.results
     assert out == {"room": CountOutput(value=3), "double": CountOutput(value=6)}
     assert state.outputs == out and written(state) == {"room": 3, "double": 6}
     assert model.requests == {"room": 1, "double": 1}
@@ -227,7 +229,7 @@ async def test_agent_scene_work_and_rule_solvers_run_off_the_event_loop() -> Non
         from_loop.set()
 
     state = make_state(3)
-    _, result = await asyncio.gather(answer(), agent.run(state, RulesModel()))
+    _, result = await asyncio.gather(answer(), run_agent(agent, state, RulesModel()))
     assert result.output == CountOutput(value=3) and written(state) == {"room": 3}
     assert set(threads) == {"gather", "check", "apply"}
     assert loop_thread not in threads.values() and solver_threads and loop_thread not in solver_threads
@@ -244,7 +246,7 @@ async def test_agents_may_keep_their_hooks_on_the_loop() -> None:
             seen.append(threading.get_ident())
             super().apply(output, state)
 
-    await OnLoop().run(make_state(2), SolverModel())
+    await run_agent(OnLoop(), make_state(2), SolverModel())
     assert seen == [loop_thread]
 
 

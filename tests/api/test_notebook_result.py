@@ -1,5 +1,6 @@
 """The result a notebook gets from ``generate``: variants and metrics on demand, inline display,
-and a synchronous call that works inside a running event loop (a Jupyter cell)."""
+and a synchronous call that works inside a running event loop (a Jupyter cell); a house shown as
+its plan with a short repr, and a house run's result giving each room's scene."""
 
 from __future__ import annotations
 
@@ -13,8 +14,15 @@ import pytest
 import scenemosaic as sm
 import scenemosaic.pipeline
 from scenemosaic.exchange import read_scene
+from scenemosaic.render import render_house_plan
+from scenemosaic.render._topdown import NOTEBOOK_HOUSE_PLAN_PX
+from scenemosaic.scene import House, Scene
 
-ROOM = Path(__file__).resolve().parents[2] / "data" / "layouts" / "physcene" / "DiningRoom-19325_diningroom.json"
+DATA = Path(__file__).resolve().parents[2] / "data"
+ROOM = DATA / "layouts" / "physcene" / "DiningRoom-19325_diningroom.json"
+FOUR_ROOMS = DATA / "houses" / "procthor" / "procthor_4room.json"
+TWO_ROOMS = DATA / "houses" / "procthor" / "procthor10k_house3703_2room.json"
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.fixture(scope="module")
@@ -62,3 +70,77 @@ def test_a_progress_bar_follows_the_stages_and_passes_them_on(tmp_path: Path, ca
     lines = [line for line in err.splitlines() if line.startswith("generate: ")]
     assert len(lines) == len(sm.pipeline.STAGES), err
     assert f"({len(sm.pipeline.STAGES)}/{len(sm.pipeline.STAGES)}, " in lines[-1]
+
+
+def test_a_house_shows_as_its_whole_plan_with_a_short_repr() -> None:
+    four, two = sm.load_scene(FOUR_ROOMS), sm.load_scene(TWO_ROOMS)
+    assert isinstance(four, House) and isinstance(two, House)
+    png = four._repr_png_()
+    assert png is not None and png.startswith(PNG_SIGNATURE)
+    # the house's plan, every room named (not one room's, not the pydantic text)
+    assert png == render_house_plan(four, base_dir=FOUR_ROOMS.parent, size_px=NOTEBOOK_HOUSE_PLAN_PX)
+    assert png != four.rooms[0]._repr_png_()
+    assert png != four.with_rooms(four.rooms[:-1])._repr_png_()  # the last room is drawn too
+    other = two._repr_png_()
+    assert other is not None and other.startswith(PNG_SIGNATURE) and other != png
+    text = repr(four)
+    assert len(text) < 200 and len(str(four)) < 200, text
+    assert "procthor_4room" in text and all(r in text for r in four.room_ids) and "objects=74" in text
+
+
+def test_a_house_plan_that_cannot_be_drawn_falls_back_to_the_text_repr(monkeypatch: pytest.MonkeyPatch) -> None:
+    from scenemosaic.scene import _model
+
+    house = sm.load_scene(TWO_ROOMS)
+
+    def broken(_: object) -> bytes:
+        raise RuntimeError("no plan")
+
+    monkeypatch.setattr(_model, "_plan_renderers", [broken])
+    assert house._repr_png_() is None
+    monkeypatch.setattr(_model, "_plan_renderers", [])
+    assert house._repr_png_() is None
+
+
+@pytest.fixture(scope="module")
+def house_result(tmp_path_factory: pytest.TempPathFactory) -> sm.GenerateResult:
+    return sm.generate(TWO_ROOMS, tmp_path_factory.mktemp("nb_house") / "out", sm.GenerateConfig(variants=1))
+
+
+def test_a_house_result_gives_each_room(house_result: sm.GenerateResult) -> None:
+    house = house_result.scene
+    assert isinstance(house, House)
+    assert house_result.rooms == ["room_2", "room_3"]
+    kitchen = house_result.room("room_2")
+    assert isinstance(kitchen, Scene) and kitchen.model_dump_json() == house.rooms[0].model_dump_json()
+    assert house_result.room("room|3").id == "room_3"  # the source's id works too
+    delivered = read_scene(house_result.base_dir / "rooms" / "room_3")
+    assert {o.id: o.pose for o in house_result.room("room_3").objects} == {o.id: o.pose for o in delivered.objects}
+    in_variant = house_result.room("room_3", variant=1)
+    variant = house_result.variants[0]
+    assert isinstance(variant, House) and in_variant.model_dump_json() == variant.room("room_3").model_dump_json()
+    with pytest.raises(KeyError, match="room_2, room_3"):
+        house_result.room("room_9")
+    with pytest.raises(sm.UsageError, match="variant_1"):
+        house_result.room("room_2", variant=2)
+
+
+def test_a_house_result_displays_the_house_figures(house_result: sm.GenerateResult) -> None:
+    png = house_result._repr_png_()
+    assert png is not None and png == (house_result.out_dir / "contact_sheet.png").read_bytes()
+    page = house_result._repr_html_()
+    m = house_result.metrics
+    assert m is not None and set(m) == {"house", "rooms"}
+    for shown in ("house NAV", "door blockers", "room_2", "room_3", "COL / OOB", "variant_1", "house Div-IoU"):
+        assert shown in page, shown
+    assert f"<td>{m['house']['base']['house_nav']}</td>" in page
+    assert f"house Div-IoU {m['house']['diversity']['Div-IoU']}" in page
+    rooms = page.split("COL / OOB", 1)[1]
+    room = m["rooms"]["room_3"]
+    assert f"<td>room_3</td><td>{room['base']['COL']} / {room['base']['OOB']}</td>" in rooms
+
+
+def test_a_room_run_has_no_rooms_to_pick(result: sm.GenerateResult) -> None:
+    assert result.rooms == []
+    with pytest.raises(sm.UsageError, match="one-room run"):
+        result.room("floor")

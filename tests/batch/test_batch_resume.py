@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 from batch_helpers import BEDROOM_2, write_manifest
+from process_helpers import worker_pids
 
 from scenemosaic.batch import SUMMARY_FILE, BatchSummary, run_batch
 
@@ -23,18 +24,8 @@ def _summary(out: Path) -> BatchSummary | None:
 
 
 def _workers_of(batch_pid: int) -> list[int]:
-    """Local batch workers whose batch process is ``batch_pid`` (their command line names it)."""
-    found = []
-    for entry in Path("/proc").iterdir():
-        if not entry.name.isdigit():
-            continue
-        try:
-            argv = (entry / "cmdline").read_bytes().split(b"\0")
-        except OSError:
-            continue
-        if b"scenemosaic.batch._worker" in argv and str(batch_pid).encode() in argv:
-            found.append(int(entry.name))
-    return found
+    """Local batch workers whose batch process is ``batch_pid``."""
+    return worker_pids("scenemosaic.batch._worker", batch_pid)
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc to find the orphaned worker")

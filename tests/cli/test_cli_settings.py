@@ -128,3 +128,25 @@ def test_a_bad_value_exits_2_named_by_its_flag(
     assert result.exit_code == 2, result.output
     assert named in result.output and "Traceback" not in result.output
     assert not seen
+
+
+def test_every_option_is_made_from_its_field() -> None:
+    """generate's setting options take their default, help and bounds from GenerateConfig's fields
+    (none is written in the CLI), and --help lists every flag with its help."""
+    from scenemosaic.pipeline._config import setting_options
+
+    options = _generate_options()
+    for option in setting_options():
+        param = options[option.field]
+        assert option.flag in param.opts, option.field
+        if option.field != "resume":  # --resume takes the stopped run's folder
+            assert param.default == GenerateConfig.model_fields[option.field].default, option.field
+        assert param.help == cli.escape(option.help) and param.help, option.field
+        assert param.secondary_opts == ([f"--no-{option.flag[2:]}"] if option.switch else []), option.field
+    helped = runner.invoke(app, ["generate", "--help"], env={"COLUMNS": "400"})
+    assert helped.exit_code == 0, helped.output
+    lines = {line.split()[1]: line for line in helped.output.splitlines() if line.startswith("│ --")}
+    for option in setting_options():
+        assert option.help[:30] in lines[option.flag], option.flag
+    assert "[5 to 170]" in lines["--hfov"] and "[transient|rules]" in lines["--fallback"]
+    assert "-o" in lines["--out"] and "--resume" in lines and "--log-level" in lines

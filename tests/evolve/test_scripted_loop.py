@@ -94,7 +94,7 @@ async def test_note_to_expressions_to_poses_with_memory_and_a_refused_hostile_re
     ev2, prompt2 = seen["critic"][1]
     assert ev2.round == 2 and "round 1" in ev2.memory and "dining_chair_0.center.u + 0.1" in prompt2
     assert result.stop_reason == "critic asked for no change"
-    actor_outcome = next(o for o in result.outcomes if o.agent == "actor")
+    actor_outcome = result.agents.outcomes["actor"]
     assert actor_outcome.answered_by == "model" and actor_outcome.repairs == 1
 
 
@@ -169,7 +169,7 @@ async def test_a_vision_critic_sees_the_unit_view_and_hallucinated_ids_or_prose_
         assert view.size == (1024, 1024)
     assert "not a valid CriticOutput" in _text(seen[1])
     assert "'sofa_9', which is not an object of this unit" in _text(seen[2])
-    critic_outcome = next(o for o in result.outcomes if o.agent == "critic")
+    critic_outcome = result.agents.outcomes["critic"]
     assert critic_outcome.answered_by == "model" and critic_outcome.repairs == 2
     assert result.stop_reason == "critic asked for no change"
 

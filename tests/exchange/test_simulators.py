@@ -13,6 +13,7 @@ import numpy as np
 import pybullet
 import pytest
 from pxr import Usd, UsdGeom, UsdPhysics
+from simulator_checks import REST_M, STEPS, bullet_client, link_position, usd_object_prims
 
 from scenemosaic import GenerateConfig, demo_scene, generate
 from scenemosaic.exceptions import MissingExtraError
@@ -20,10 +21,6 @@ from scenemosaic.exchange import PYBULLET_INSTALL_HINT, load_pybullet, read_scen
 from scenemosaic.physics import is_fixed
 from scenemosaic.render import category_color
 from scenemosaic.scene import Scene
-
-STEPS = 500
-REST_M = 0.01
-"""Largest drift of an object over the 500 steps, and how far below the floor anything may reach."""
 
 
 @pytest.fixture(scope="module")
@@ -66,18 +63,8 @@ def test_mjcf_visuals_carry_the_category_colours(base: Path, scene: Scene) -> No
 
 @pytest.fixture
 def bullet() -> Iterator[int]:
-    client = pybullet.connect(pybullet.DIRECT)
-    pybullet.setGravity(0, 0, -9.81, physicsClientId=client)
-    yield client
-    pybullet.disconnect(client)
-
-
-def _link_position(body: int, client: int) -> np.ndarray:
-    """The body's link frame (PyBullet reports the centre of mass): our object's position."""
-    position, orientation = pybullet.getBasePositionAndOrientation(body, physicsClientId=client)
-    local = pybullet.getDynamicsInfo(body, -1, physicsClientId=client)[3:5]
-    inverse = pybullet.invertTransform(*local)
-    return np.asarray(pybullet.multiplyTransforms(position, orientation, *inverse)[0])
+    with bullet_client() as client:
+        yield client
 
 
 def test_pybullet_loads_scene_sdf_in_one_call_with_free_objects_at_rest(
@@ -88,7 +75,7 @@ def test_pybullet_loads_scene_sdf_in_one_call_with_free_objects_at_rest(
     start = {}
     for obj in scene.objects:
         body = bodies[obj.id]
-        start[obj.id] = _link_position(body, bullet)
+        start[obj.id] = link_position(body, bullet)
         assert np.allclose(start[obj.id], obj.pose.position, atol=1e-6), obj.id
         mass, friction = pybullet.getDynamicsInfo(body, -1, physicsClientId=bullet)[:2]
         assert (mass > 0) == (not is_fixed(scene, obj)), obj.id  # mass 0: PyBullet's static body
@@ -97,32 +84,28 @@ def test_pybullet_loads_scene_sdf_in_one_call_with_free_objects_at_rest(
         pybullet.stepSimulation(physicsClientId=bullet)
     for obj in scene.objects:
         body = bodies[obj.id]
-        assert np.linalg.norm(_link_position(body, bullet) - start[obj.id]) < REST_M, obj.id
+        assert np.linalg.norm(link_position(body, bullet) - start[obj.id]) < REST_M, obj.id
         assert pybullet.getAABB(body, physicsClientId=bullet)[0][2] > -REST_M, obj.id
 
     chair = bodies["chair"]  # free: a push moves it
-    before = _link_position(chair, bullet)
+    before = link_position(chair, bullet)
     pybullet.resetBaseVelocity(chair, [1.0, 0.0, 0.0], physicsClientId=bullet)
     for _ in range(20):
         pybullet.stepSimulation(physicsClientId=bullet)
-    assert np.linalg.norm(_link_position(chair, bullet) - before) > 0.02
+    assert np.linalg.norm(link_position(chair, bullet) - before) > 0.02
 
 
 def test_plain_pybullet_load_sdf_places_every_object(base: Path, scene: Scene, bullet: int) -> None:
     bodies = pybullet.loadSDF(str(base / "scene.sdf"), physicsClientId=bullet)
     names = {pybullet.getBodyInfo(b, physicsClientId=bullet)[1].decode(): b for b in bodies}
     for obj in scene.objects:
-        assert np.allclose(_link_position(names[obj.id], bullet), obj.pose.position, atol=1e-6), obj.id
+        assert np.allclose(link_position(names[obj.id], bullet), obj.pose.position, atol=1e-6), obj.id
 
 
 def test_usd_has_a_rigid_body_per_movable_object_at_its_pose(base: Path, scene: Scene) -> None:
     """``pxr`` carries no simulator: the stage is checked for what Isaac Sim / Omniverse simulate."""
     stage = Usd.Stage.Open(str(base / "scene.usda"))
-    prims = {
-        p.GetCustomDataByKey("scenemosaic:objectId"): p
-        for p in stage.Traverse()
-        if p.GetCustomDataByKey("scenemosaic:objectId")
-    }
+    prims = usd_object_prims(stage)
     for obj in scene.objects:
         prim = prims[obj.id]
         assert prim.HasAPI(UsdPhysics.RigidBodyAPI) == (not is_fixed(scene, obj)), obj.id

@@ -16,8 +16,10 @@ from typer.testing import CliRunner
 
 from scenemosaic import FunctionModel, GenerateConfig, ReplayModel, generate, load_scene
 from scenemosaic.cli import app
+from scenemosaic.exceptions import PartialResultError
 from scenemosaic.exchange import Y_UP_TO_Z_UP, read_scene
 from scenemosaic.models import Message, RequestContext
+from scenemosaic.scene import RunFolder
 
 LIVING = "LivingDiningRoom-124277_livingroom.json"
 DINING = "DiningRoom-19325_diningroom.json"
@@ -157,9 +159,20 @@ def test_failed_stage_keeps_partial_results(tmp_path: Path, repo_data: Path) -> 
     assert report["status"] == "failed"
     failed = [s for s in report["stages"] if s["status"] == "failed"]
     assert [s["name"] for s in failed] == ["structure"]
-    # the imported scene is not lost
-    partial = read_scene(tmp_path / "o" / "base")
+    # the imported scene is not lost, but kept as a partial result: native files and the reason,
+    # nothing a simulator would load as a finished scene, and loaders refuse it unless asked
+    base = tmp_path / "o" / "base"
+    assert sorted(report["partial_files"]) == ["partial.json", "scene.json"]
+    assert not (base / "scene.xml").exists() and not (base / "scene.urdf").exists()
+    marker = json.loads((base / "partial.json").read_text())
+    assert marker["status"] == "failed" and marker["failed_stage"] == "structure"
+    with pytest.raises(PartialResultError, match="allow_partial"):
+        read_scene(base)
+    with pytest.raises(PartialResultError):
+        load_scene(tmp_path / "o")
+    partial = read_scene(base, allow_partial=True)
     assert len(partial.objects) == 6
+    assert not RunFolder.is_delivered(base)
 
 
 def test_same_seed_gives_identical_scene_files(tmp_path: Path, repo_data: Path) -> None:
@@ -300,4 +313,5 @@ async def test_cancelling_generate_keeps_the_report_and_the_last_good_scene(tmp_
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["status"] == "interrupted" and report["failed_stage"] == "structure"
     assert [s["name"] for s in report["stages"] if s["status"] == "interrupted"] == ["structure"]
-    assert len(read_scene(tmp_path / "base").objects) == 6  # the imported scene is kept
+    assert len(read_scene(tmp_path / "base", allow_partial=True).objects) == 6  # the imported scene is kept, marked partial
+    assert json.loads((tmp_path / "base" / "partial.json").read_text())["status"] == "interrupted"

@@ -148,3 +148,44 @@ def test_an_unusable_priors_folder_fails_before_the_run(tmp_path: Path) -> None:
     with pytest.raises(SettingsError, match="priors_dir"):
         GenerateConfig(priors_dir=broken)
     assert GenerateConfig(priors_dir=PROCTHOR_PRIORS_DIR).priors_dir == PROCTHOR_PRIORS_DIR
+
+
+def test_the_docs_table_is_the_one_the_fields_make() -> None:
+    """``docs/settings.md``'s table is rendered from the fields (the prose around it is kept), so
+    the doc cannot drift from them."""
+    from scenemosaic.pipeline._config import SETTINGS_TABLE_BEGIN, settings_doc, settings_table
+
+    text = DOCS.read_text(encoding="utf-8")
+    assert settings_doc(text) == text, (
+        "docs/settings.md's table differs from GenerateConfig's fields: rewrite it with the command in its 'The settings'"
+    )
+    assert settings_table() in text and text.index(SETTINGS_TABLE_BEGIN) > text.index("## The settings")
+
+
+def test_every_flag_has_a_help_sentence_and_its_bounds() -> None:
+    from scenemosaic.pipeline._config import setting_bounds, setting_options
+
+    options = {o.field: o for o in setting_options()}
+    assert set(options) == {f for f, s in SETTINGS.items() if s.flag is not None}
+    for name, option in options.items():
+        assert option.help.endswith((".", "]")) and 5 < len(option.help) < 200, (name, option.help)
+        assert "``" not in option.help and ":class:" not in option.help, name
+        assert option.default == GenerateConfig.model_fields[name].default, name
+    assert (setting_bounds("hfov_deg"), setting_bounds("variants"), setting_bounds("deadline_s")) == ("5 to 170", "0 or more", "above 0")
+    assert options["evolve_rounds"].help.endswith("[1 or more]") and options["fallback"].choices == ("transient", "rules")
+    assert {o.decls for o in options.values() if o.switch} == {
+        "--vision/--no-vision", "--solver-fallback/--no-solver-fallback", "--evolve/--no-evolve", "--stabilize/--no-stabilize",
+    }  # fmt: skip
+
+
+def test_the_defaults_a_docstring_names_are_the_code_s() -> None:
+    """Where a docstring gives the number a ``None`` default stands for, it is the constant's."""
+    from scenemosaic.evolve import MAX_ROUNDS
+    from scenemosaic.perception import DEFAULT_HFOV_DEG
+    from scenemosaic.pipeline._config import INPUT_SIZE_LIMITS_MB
+
+    doc = {name: " ".join((info.description or "").split()) for name, info in GenerateConfig.model_fields.items()}
+    limits = INPUT_SIZE_LIMITS_MB
+    assert f"{limits['scene']:g} for a scene file, {limits['image']:g} for a photograph" in doc["max_input_mb"]
+    assert f"else {DEFAULT_HFOV_DEG:g})" in doc["hfov_deg"]
+    assert GenerateConfig.model_fields["evolve_rounds"].default == MAX_ROUNDS

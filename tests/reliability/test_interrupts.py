@@ -66,13 +66,15 @@ def test_a_signal_in_any_stage_stops_quickly_keeps_the_report_and_resumes(
     rep = report(out)
     assert rep["status"] == "interrupted" and rep["failed_stage"] == stage
     assert "resume" in rep["error"]
-    if stage != "import":  # the last good scene is kept
+    if stage != "import":  # the last good scene is kept, marked partial
         assert (out / "base" / "scene.json").is_file()
+        assert (out / "base" / "partial.json").is_file()
 
     resumed = run_cli(["generate", "--resume", str(out)], tmp_path)
     assert resumed.code == 0, resumed.stderr[-2000:]
     final = report(out)
     assert final["status"] in ("ok", "degraded")
+    assert not (out / "base" / "partial.json").exists()  # delivered now
     statuses = {s["name"]: s["status"] for s in final["stages"]}
     before = ["import", "assets", "structure", "stabilize", "evolve", "doors", "compose", "validate", "evaluate", "export"]
     for name in before[: before.index(stage)]:

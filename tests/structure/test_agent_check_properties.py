@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 from pydantic import ValidationError
 from shapely.geometry import Polygon
 
-from scenemosaic.agents import SceneState, TaskAgent
+from scenemosaic.agents import SceneState, TaskAgent, run_agent
 from scenemosaic.exchange import load_scene
 from scenemosaic.models import RulesModel
 from scenemosaic.scene import Scene, nested_pairs
@@ -52,7 +52,7 @@ def _before(room: str, name: str) -> SceneState:
         for agent in order:
             if agent.name == name:
                 return
-            await agent.run(state, RulesModel())
+            await run_agent(agent, state, RulesModel())
 
     asyncio.run(run())
     return state

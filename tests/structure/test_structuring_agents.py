@@ -10,7 +10,7 @@ import pytest
 from agent_solvers import solver_answer
 from shapely.geometry import Polygon
 
-from scenemosaic.agents import AgentPolicy, SceneState, TaskAgent, agent_dependencies
+from scenemosaic.agents import AgentPolicy, SceneState, TaskAgent, agent_dependencies, run_agent
 from scenemosaic.exceptions import AgentOutputError
 from scenemosaic.models import FunctionModel, Message, RequestContext, RulesModel
 from scenemosaic.physics import is_fixed
@@ -37,7 +37,7 @@ def box(oid: str, cat: str, size: tuple[float, float, float], pos: tuple[float, 
 async def run_chain(state: SceneState, agents: list[TaskAgent[SceneState, Any, Any]]) -> None:
     model = RulesModel()
     for a in agents:
-        await a.run(state, model)
+        await run_agent(a, state, model)
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +50,7 @@ async def test_room_keeps_input_room_and_completes_walls() -> None:
     room = Room(floor=[(0, 0), (4, 0), (4, 3), (0, 3)], ceiling_height=2.5)
     scene = Scene(room=room, objects=[box("t", "table", (1, 1, 0.7), (2, 1.5, 0))])
     state = SceneState(scene)
-    out = (await RoomAgent().run(state, RulesModel())).output
+    out = (await run_agent(RoomAgent(), state, RulesModel())).output
     assert out.kept_input
     assert state.scene.room is not None
     assert state.scene.room.floor == room.floor and state.scene.room.ceiling_height == 2.5
@@ -71,7 +71,7 @@ async def test_room_fits_rotated_rectangle_and_snaps_to_wall_furniture() -> None
         box("chair", "chair", (0.5, 0.5, 0.9), at(1.8, 0.0), yaw),
     ])
     state = SceneState(scene)
-    out = (await RoomAgent().run(state, RulesModel())).output
+    out = (await run_agent(RoomAgent(), state, RulesModel())).output
     assert abs(out.yaw_deg - 30.0) < 1e-6
     poly = Polygon(out.floor)
     assert poly.area < 0.95 * Polygon(out.floor).envelope.area  # rotated, not axis-aligned
@@ -131,11 +131,11 @@ BASE = {"desk": FLOOR, "laptop": "desk", "chair": FLOOR, "lamp": CEILING, "bed":
 )
 async def test_support_hostile_outputs_fail_cleanly(priors: Any, reply: dict[str, Any], needle: str) -> None:
     state = SceneState(desk_scene())
-    await RoomAgent().run(state, RulesModel())
+    await run_agent(RoomAgent(), state, RulesModel())
     before = state.scene.to_json()
     calls: list[list[Message]] = []
     with pytest.raises(AgentOutputError) as err:
-        await SupportAgent(priors).run(state, _scripted({"support": reply}, calls))
+        await run_agent(SupportAgent(priors), state, _scripted({"support": reply}, calls))
     assert any(needle in p for p in err.value.problems), err.value.problems
     assert err.value.agent == "support"
     assert len(calls) == AgentPolicy().max_attempts
@@ -157,10 +157,10 @@ async def test_hostile_output_through_the_whole_dag_leaves_input_untouched(proct
 
 async def test_repair_succeeds_on_second_reply(priors: Any) -> None:
     state = SceneState(desk_scene())
-    await RoomAgent().run(state, RulesModel())
+    await run_agent(RoomAgent(), state, RulesModel())
     replies = [_support_reply(**BASE, mug="ghost"), _support_reply(**BASE, mug="desk")]
     model = FunctionModel({"support": lambda m, c: replies.pop(0)})
-    _out = (await SupportAgent(priors).run(state, model)).output
+    _out = (await run_agent(SupportAgent(priors), state, model)).output
     assert not replies
     assert state.scene.support_of("mug").parent == "desk"  # type: ignore[union-attr]
 
@@ -189,7 +189,7 @@ async def test_containment_rejects_a_leaf_container(priors: Any) -> None:
     await run_chain(state, [RoomAgent(), SupportAgent(priors)])
     bad = {"items": [{"object_id": "laptop", "container_id": "mug", "opening": "top"}]}
     with pytest.raises(AgentOutputError, match="mug"):
-        await ContainmentAgent(priors).run(state, _scripted({"containment": bad}, []))
+        await run_agent(ContainmentAgent(priors), state, _scripted({"containment": bad}, []))
 
 
 # -- walls -----------------------------------------------------------------------------------
@@ -224,7 +224,7 @@ async def test_walls_flush_and_mounted(priors: Any) -> None:
 
 async def run_wall_chain(state: SceneState, priors: Any) -> Any:
     await run_chain(state, [RoomAgent(), SupportAgent(priors)])
-    return await WallAttachmentAgent().run(state, RulesModel())
+    return await run_agent(WallAttachmentAgent(), state, RulesModel())
 
 
 async def test_walls_reject_unknown_wall(priors: Any) -> None:
@@ -232,7 +232,7 @@ async def test_walls_reject_unknown_wall(priors: Any) -> None:
     await run_chain(state, [RoomAgent(), SupportAgent(priors)])
     bad = {"items": [{"object_id": "wardrobe", "wall_id": "wall_9", "distance": 0.0, "facing": "back", "flush": True}]}
     with pytest.raises(AgentOutputError, match="wall_9"):
-        await WallAttachmentAgent().run(state, _scripted({"walls": bad}, []))
+        await run_agent(WallAttachmentAgent(), state, _scripted({"walls": bad}, []))
 
 
 # -- semantics -------------------------------------------------------------------------------
@@ -252,7 +252,7 @@ async def test_semantics_turns_wardrobe_facing_the_wall_and_reports_chairs(prior
     scene = Scene.model_validate(scene.model_dump())
     state = SceneState(scene)
     await run_chain(state, [RoomAgent(), SupportAgent(priors), WallAttachmentAgent()])
-    out = (await SemanticsAgent().run(state, RulesModel())).output
+    out = (await run_agent(SemanticsAgent(), state, RulesModel())).output
     items = {i.object_id: i for i in out.objects}
     assert items["wardrobe"].yaw_fix_deg == 180 and not items["wardrobe"].front_ok
     w = state.scene.get("wardrobe")
@@ -268,7 +268,7 @@ async def test_semantics_turns_wardrobe_facing_the_wall_and_reports_chairs(prior
 async def test_attributes_table(priors: Any) -> None:
     state = SceneState(wall_scene())
     await run_chain(state, [RoomAgent(), SupportAgent(priors)])
-    out = (await AttributesAgent().run(state, RulesModel())).output
+    out = (await run_agent(AttributesAgent(), state, RulesModel())).output
     sim = {o.id: o.sim for o in state.scene.objects}
     # wall-mounted: dynamic in their wall unit (gravity toward the wall settles them onto it), held
     # where they hang in the whole scene under real gravity
@@ -287,7 +287,7 @@ async def test_attributes_reject_implausible_mass(priors: Any) -> None:
     await run_chain(state, [RoomAgent(), SupportAgent(priors)])
     bad = {"objects": [{"object_id": "mug", "mass_kg": 50.0, "friction": 0.4}]}
     with pytest.raises(AgentOutputError, match="implausible"):
-        await AttributesAgent().run(state, _scripted({"attributes": bad}, []))
+        await run_agent(AttributesAgent(), state, _scripted({"attributes": bad}, []))
 
 
 # -- constraints -----------------------------------------------------------------------------
@@ -311,14 +311,14 @@ async def test_constraints_reject_weak_pair_and_foreign_objects(priors: Any) -> 
         "anchor_b": {"anchor_id": "floor", "related_objects": ["sofa"], "layout_note": "below"},
     }]}
     with pytest.raises(AgentOutputError, match="weak pair"):
-        await ConstraintsAgent().run(state, _scripted({"constraints": weak}, []))
+        await run_agent(ConstraintsAgent(), state, _scripted({"constraints": weak}, []))
     foreign = {"constraints": [{
         "id": "c0", "kind": "orientation", "description": "sofa faces table",
         "anchor_a": {"anchor_id": "table", "related_objects": ["sofa"], "layout_note": "x"},
         "anchor_b": {"anchor_id": "floor", "related_objects": ["table", "ghost"], "layout_note": "y"},
     }]}
     with pytest.raises(AgentOutputError) as err:
-        await ConstraintsAgent().run(state, _scripted({"constraints": foreign}, []))
+        await run_agent(ConstraintsAgent(), state, _scripted({"constraints": foreign}, []))
     assert any("not in the unit" in p for p in err.value.problems)
     assert any("'ghost'" in p for p in err.value.problems)
     assert state.scene.constraints == []
@@ -336,7 +336,7 @@ async def test_verification_fixes_missing_parents_and_builds_the_tree() -> None:
         relations=[Relation(kind="attach", child="cup", parent="table")],
     )
     state = SceneState(scene)
-    out = (await VerificationAgent().run(state, RulesModel())).output
+    out = (await run_agent(VerificationAgent(), state, RulesModel())).output
     assert {(f.object_id, f.parent) for f in out.fixes} == {("table", FLOOR), ("lamp", CEILING)}
     assert state.scene.structure is not None
     assert [u.anchor_id for u in state.scene.structure.units] == [FLOOR, CEILING, "table"]
@@ -347,7 +347,7 @@ async def test_verification_rejects_a_fix_that_leaves_a_cycle() -> None:
     state = SceneState(scene)
     bad = {"fixes": [{"object_id": "a", "parent": "b"}, {"object_id": "b", "parent": "a"}]}
     with pytest.raises(AgentOutputError, match="cycle"):
-        await VerificationAgent().run(state, _scripted({"verify": bad}, []))
+        await run_agent(VerificationAgent(), state, _scripted({"verify": bad}, []))
     assert state.scene.structure is None
 
 
@@ -371,7 +371,7 @@ async def test_manager_rejects_a_plan_without_support(priors: Any) -> None:
     state = SceneState(desk_scene())
     bad = {"agents": [{"name": "room"}, {"name": "verify"}]}
     with pytest.raises(AgentOutputError, match="support"):
-        await ManagerAgent(priors=priors).run(state, _scripted({"manager": bad}, []))
+        await run_agent(ManagerAgent(priors=priors), state, _scripted({"manager": bad}, []))
 
 
 async def test_semantics_rejects_a_renamed_category(priors: Any) -> None:
@@ -385,9 +385,9 @@ async def test_semantics_rejects_a_renamed_category(priors: Any) -> None:
     await run_chain(state, [RoomAgent(), SupportAgent(priors)])
     renamed = {"objects": [{"object_id": "lamp", "category": "double_bed"}, {"object_id": "bed", "category": "double_bed"}]}
     with pytest.raises(AgentOutputError, match="keep its category"):
-        await SemanticsAgent().run(state, _scripted({"semantics": renamed}, []))
+        await run_agent(SemanticsAgent(), state, _scripted({"semantics": renamed}, []))
     respelled = {"objects": [{"object_id": "lamp", "category": "pendant_lamp"}, {"object_id": "bed", "category": "double_bed"}]}
-    await SemanticsAgent().run(state, _scripted({"semantics": respelled}, []))
+    await run_agent(SemanticsAgent(), state, _scripted({"semantics": respelled}, []))
     assert state.scene.get("lamp").category == "pendant_lamp"
 
 
@@ -399,14 +399,14 @@ async def test_support_rejects_furniture_hung_from_the_ceiling_or_a_wall(priors:
         box("lamp", "pendant_lamp", (0.4, 0.4, 0.4), (2.0, 2.0, 2.3)),
     ])
     state = SceneState(scene)
-    await RoomAgent().run(state, RulesModel())
+    await run_agent(RoomAgent(), state, RulesModel())
     wrong = {"assignments": [
         {"object_id": "bed", "parent": "ceiling"},
         {"object_id": "wardrobe", "parent": "wall_2"},
         {"object_id": "lamp", "parent": "floor"},
     ]}
     with pytest.raises(AgentOutputError) as info:
-        await SupportAgent(priors).run(state, _scripted({"support": wrong}, []))
+        await run_agent(SupportAgent(priors), state, _scripted({"support": wrong}, []))
     problems = " ".join(info.value.problems)
     assert "'bed' (double_bed) does not hang from the ceiling" in problems
     assert "'wardrobe' (wardrobe) stands on the floor" in problems

@@ -11,7 +11,7 @@ import pytest
 from agent_solvers import solver_answer
 
 from scenemosaic import demo_scene
-from scenemosaic.agents import SceneState
+from scenemosaic.agents import SceneState, run_agent
 from scenemosaic.exceptions import AgentOutputError
 from scenemosaic.models import FunctionModel, Message, RequestContext, RulesModel
 from scenemosaic.scene import (
@@ -121,7 +121,7 @@ async def test_constraint_note_naming_another_units_object_is_rejected(
         "anchor_b": {"anchor_id": "desk", "related_objects": ["mug"], "layout_note": "pull (chair) under (desk)"},
     }]}
     with pytest.raises(AgentOutputError) as err:
-        await ConstraintsAgent(priors_dir=procthor_dir).run(state, _scripted({"constraints": bad}))
+        await run_agent(ConstraintsAgent(priors_dir=procthor_dir), state, _scripted({"constraints": bad}))
     assert any("layout note of 'desk' names (chair)" in p for p in err.value.problems), err.value.problems
     assert state.scene is structured  # nothing applied
 
@@ -136,7 +136,7 @@ async def test_verification_solver_breaks_a_parent_cycle() -> None:
         relations=[Relation(kind="attach", child="a", parent="b"), Relation(kind="attach", child="b", parent="a")],
     )
     state = SceneState(scene)
-    out = (await VerificationAgent().run(state, RulesModel())).output
+    out = (await run_agent(VerificationAgent(), state, RulesModel())).output
     assert [(f.object_id, f.parent) for f in out.fixes] == [("a", FLOOR)]  # the lower one stands on the floor
     assert state.scene.support_of("a").parent == FLOOR  # type: ignore[union-attr]
     assert state.scene.support_of("b").parent == "a"  # type: ignore[union-attr]
@@ -178,7 +178,7 @@ async def test_verification_drops_and_reports_a_constraint_leaving_its_unit(
                             anchor_b=desk_clause)
     )
     state = SceneState(scene)
-    out = (await VerificationAgent().run(state, RulesModel())).output
+    out = (await run_agent(VerificationAgent(), state, RulesModel())).output
     assert out.drop_constraints == ["c7"]
     assert state.scene.constraints == []
     note = next(n for n in state.scene.provenance.notes if "c7" in n)
@@ -191,7 +191,7 @@ async def test_verification_keeps_a_valid_constraint() -> None:
     desk = ConstraintClause(anchor_id="desk", related_objects=["mug"], layout_note="(desk) is the reference")
     c = CrossUnitConstraint(id="c1", kind="orientation", description="d", anchor_a=floor, anchor_b=desk)
     state = SceneState(_desk_scene_with(c))
-    out = (await VerificationAgent().run(state, RulesModel())).output
+    out = (await run_agent(VerificationAgent(), state, RulesModel())).output
     assert out.drop_constraints == [] and out.fixes == []
     assert state.scene.constraints == [c]
     units = {u.anchor_id: u for u in state.scene.structure.units}  # type: ignore[union-attr]
@@ -218,6 +218,6 @@ async def test_verification_rejects_hallucinated_ids(reply: dict[str, Any], need
     state = SceneState(scene)
     before = scene.to_json()
     with pytest.raises(AgentOutputError) as err:
-        await VerificationAgent().run(state, _scripted({"verify": reply}))
+        await run_agent(VerificationAgent(), state, _scripted({"verify": reply}))
     assert any(needle in p for p in err.value.problems), err.value.problems
     assert state.scene.to_json() == before and state.scene.structure is None

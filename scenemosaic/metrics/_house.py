@@ -1,0 +1,96 @@
+"""A whole house's figures: the house-wide checks (:func:`house_checks`) and every metric of a base
+house and its variants (:func:`evaluate_house`), room by room and for the house.
+
+The pipeline's house run reports exactly these (``report.json`` ``validation`` and
+``metrics``), and ``scenemosaic evaluate`` prints :func:`evaluate_house` for a house run, so the
+report and the command agree. The checks and their constants: ``docs/houses.md``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from scenemosaic.assets import HullCache
+from scenemosaic.metrics._metrics import evaluate, house_diversity, relkeep
+from scenemosaic.scene import House, door_blockers, house_walkable, wall_crossings
+
+__all__ = ["HOUSE_BASE_FIGURES", "evaluate_house", "house_checks"]
+
+HOUSE_BASE_FIGURES = ("house_nav", "unreachable_rooms", "door_blockers", "wall_crossings")
+"""The keys of :func:`house_checks` that :func:`evaluate_house` reports for the base house."""
+
+
+def house_checks(house: House) -> dict[str, Any]:
+    """Door clearance, reachability and walls: what only the whole house can say, JSON-ready.
+
+    ``house_nav`` (the largest walkable piece over every floor and doorway, ``house_walkable``),
+    ``rooms_reached`` (per room, its share of that piece), ``unreachable_rooms``,
+    ``door_blockers`` (``"<object> (<door>)"`` per object in a door's zone), ``wall_crossings``
+    (``"<object> (<room>, <depth> m)"`` per object reaching past its room's floor) and
+    ``doorways`` (how many doors and open stretches join rooms or lead outside).
+    """
+    walk = house_walkable(house)
+    blockers = door_blockers(house)
+    crossings = wall_crossings(house)
+    return {
+        "house_nav": round(walk.nav, 4),
+        "rooms_reached": {k: round(v, 4) for k, v in walk.reached().items()},
+        "unreachable_rooms": walk.unreachable_rooms(),
+        "door_blockers": [f"{b.object_id} ({b.door})" for b in blockers],
+        "wall_crossings": [f"{o} ({r}, {d:.3f} m)" for r, o, d in crossings],
+        "doorways": len(house.doorways()),
+    }
+
+
+def evaluate_house(
+    base: House,
+    variants: Sequence[House] = (),
+    *,
+    base_dir: str | Path | None = None,
+    variant_dirs: Sequence[str | Path | None] = (),
+    hull_cache: HullCache | None = None,
+    base_checks: dict[str, Any] | None = None,
+    variant_checks: Sequence[dict[str, Any]] | None = None,
+) -> dict[str, Any]:
+    """Every metric of a base house and its whole-house variants, JSON-ready.
+
+    ``{"house": {...}, "rooms": {room id: ...}}``:
+
+    * ``rooms``: per room, :func:`~scenemosaic.metrics.evaluate` of the base's room and the same
+      room of every variant (COL, OOB, NAV, RelKeep, Div-IoU, Div-N of that room);
+    * ``house``: ``base`` (:data:`HOUSE_BASE_FIGURES` of :func:`house_checks`), ``variants`` (per
+      variant: ``house_nav``, ``unreachable_rooms``, how many ``door_blockers`` and
+      ``wall_crossings``, and ``RelKeep``, the smallest over its rooms, 1.0 for a house without
+      rooms to compare) and, with variants, ``diversity`` (:func:`house_diversity`).
+
+    ``base_dir`` and ``variant_dirs`` (one per variant; default: none) resolve each house's
+    relative mesh uris: the delivered ``base/`` and ``variant_<i>/`` folders a house was read
+    from, or the input's folder for houses in memory. ``base_checks`` and ``variant_checks`` are
+    :func:`house_checks` already measured on these houses (a run's validate and compose stages);
+    they are measured here when not given.
+    """
+    dirs = list(variant_dirs) or [None] * len(variants)
+    rooms: dict[str, Any] = {}
+    for k, scene in enumerate(base.rooms):
+        rooms[scene.id] = evaluate(
+            scene, [v.rooms[k] for v in variants], base_dir=base_dir, variant_dirs=dirs, hull_cache=hull_cache
+        )
+    base_figures = base_checks if base_checks is not None else house_checks(base)
+    checks = list(variant_checks) if variant_checks is not None else [house_checks(v) for v in variants]
+    house: dict[str, Any] = {"base": {k: base_figures[k] for k in HOUSE_BASE_FIGURES}, "variants": []}
+    for v, c in zip(variants, checks, strict=True):
+        keep = [relkeep(b, s) for b, s in zip(base.rooms, v.rooms, strict=True)]
+        house["variants"].append(
+            {
+                "house_nav": c["house_nav"],
+                "unreachable_rooms": c["unreachable_rooms"],
+                "door_blockers": len(c["door_blockers"]),
+                "wall_crossings": len(c["wall_crossings"]),
+                "RelKeep": round(min(keep), 4) if keep else 1.0,
+            }
+        )
+    if variants:
+        house["diversity"] = house_diversity(variants)
+    return {"house": house, "rooms": rooms}
