@@ -13,12 +13,18 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import subprocess
+import sys
 import sysconfig
 import threading
 import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from multiprocessing.connection import wait
 from pathlib import Path
 
-__all__ = ["STOP_GRACE_S", "kill_group", "watch_parent", "worker_environment"]
+__all__ = ["STOP_GRACE_S", "JobEnd", "WorkerJob", "kill_group", "run_jobs", "watch_parent", "worker_environment"]
 
 STOP_GRACE_S = 5.0
 """Seconds a worker told to stop (SIGTERM) has to leave before its process group is killed."""
@@ -61,3 +67,254 @@ def kill_group(pid: int) -> None:
         os.killpg(pid, signal.SIGKILL)
     with contextlib.suppress(OSError):
         os.kill(pid, signal.SIGKILL)
+
+
+# -- the pool -------------------------------------------------------------------------------------
+
+_EXIT_POLL_S = 0.05
+
+
+@dataclass(frozen=True)
+class WorkerJob:
+    """One job for a worker process: its ``payload`` (one line, sent on the worker's stdin), its
+    time limit and, for a worker of its own, the file its output goes to."""
+
+    name: str
+    payload: bytes
+    limit_s: float | None = None
+    """Seconds the job may run; then its worker is stopped (SIGTERM, then its group killed)."""
+    log_path: Path | None = None
+    """Where the worker's stdout and stderr go (appended); ``None``: this process's own."""
+
+
+@dataclass(frozen=True)
+class JobEnd:
+    """How a job ended: the worker's reply (one line, without its newline), or why there is none."""
+
+    reply: bytes | None
+    seconds: float
+    timed_out: bool = False
+    exit_code: int | None = None
+    """The worker's exit status when it left without a reply (negative: the signal that killed it)."""
+
+    def failure(self) -> str:
+        """Why there is no reply, in words."""
+        if self.timed_out:
+            return f"stopped after its time-out of {self.seconds:.0f} s"
+        code = self.exit_code
+        if code is not None and code < 0:
+            with contextlib.suppress(ValueError):
+                return f"worker process died from {signal.Signals(-code).name}"
+        return f"worker process ended (exit code {code}) without a result"
+
+
+@dataclass
+class _Worker:
+    process: subprocess.Popen[bytes]
+    pipe: int
+    """Read end of the reply pipe; readable when the worker replied or is gone."""
+    job: WorkerJob | None = None
+    """The job it works on (a worker without reuse keeps it while it leaves)."""
+    started: float = 0.0
+    received: bytearray = field(default_factory=bytearray)
+    closed: bool = False
+    """The pipe reached its end: the worker has sent all it will send."""
+    kill_at: float | None = None
+    """Set once it was told to stop (its time-out, or lingering after its pipe ended)."""
+    killed: bool = False
+    timed_out: bool = False
+    ended: bool = False
+    """Its job was reported (it may still be leaving)."""
+
+    @property
+    def busy(self) -> bool:
+        return self.job is not None and not self.ended
+
+    def next_check(self, now: float) -> float | None:
+        """When the loop must look at this worker even if its pipe stays quiet."""
+        if self.closed:  # leaving: its exit makes no noise on the pipe, so look again soon
+            return now + _EXIT_POLL_S
+        if self.kill_at is not None:
+            return None if self.killed else self.kill_at
+        if self.busy and self.job is not None and self.job.limit_s is not None:
+            return self.started + self.job.limit_s
+        return None
+
+
+def _spawn(module: str, args: list[str], log_path: Path | None) -> _Worker:
+    read_end, write_end = os.pipe()
+    try:
+        out = open(log_path, "ab") if log_path is not None else None  # noqa: SIM115 - handed to the child, closed below
+        try:
+            process = subprocess.Popen(
+                [sys.executable, "-m", module, str(write_end), str(os.getpid()), *args],
+                stdin=subprocess.PIPE, stdout=out, stderr=out, pass_fds=(write_end,), env=worker_environment(),
+                start_new_session=True,  # its own process group: one signal reaches its helpers too
+            )  # fmt: skip
+        finally:
+            if out is not None:
+                out.close()
+    except BaseException:
+        os.close(read_end)
+        raise
+    finally:
+        os.close(write_end)
+    os.set_blocking(read_end, False)
+    return _Worker(process, read_end)
+
+
+def _send(worker: _Worker, job: WorkerJob, reuse: bool) -> None:
+    worker.job, worker.started, worker.received = job, time.monotonic(), bytearray()
+    assert worker.process.stdin is not None
+    try:
+        worker.process.stdin.write(job.payload.rstrip(b"\n") + b"\n")
+        worker.process.stdin.flush()
+        if not reuse:
+            worker.process.stdin.close()  # one job: the worker leaves when it is done
+    except OSError:  # it died at once; the pipe's end and its exit code say so
+        pass
+
+
+def _read(worker: _Worker) -> None:
+    while not worker.closed:
+        try:
+            chunk = os.read(worker.pipe, 65536)
+        except BlockingIOError:
+            return
+        if not chunk:
+            worker.closed = True
+            return
+        worker.received.extend(chunk)
+
+
+def _stop(worker: _Worker, now: float) -> None:
+    """SIGTERM now (a pipeline writes its report), SIGKILL to the group at ``kill_at``."""
+    if worker.kill_at is None:
+        worker.kill_at = now + STOP_GRACE_S
+        with contextlib.suppress(OSError):
+            worker.process.send_signal(signal.SIGTERM)
+
+
+def run_jobs(
+    jobs: list[WorkerJob],
+    *,
+    module: str,
+    args: list[str] | None = None,
+    workers: int,
+    reuse: bool,
+    on_start: Callable[[WorkerJob], None] | None = None,
+    on_end: Callable[[WorkerJob, JobEnd], None],
+    stop: threading.Event | None = None,
+) -> None:
+    """Run ``jobs`` in worker processes (``python -m module REPLY_FD PARENT_PID *args``), at most
+    ``workers`` at once, in order; ``on_start`` and ``on_end`` are called in this thread.
+
+    A worker reads one job a line on stdin and writes one reply a line to the pipe ``REPLY_FD``.
+    With ``reuse`` a worker takes the next job when it replied (a house's rooms: one start-up per
+    worker); without, every job gets a fresh worker that leaves after it (a batch's jobs: nothing
+    of one job lives on in the next). A job past its ``limit_s`` gets SIGTERM, and its worker's
+    process group SIGKILL :data:`STOP_GRACE_S` later; a worker that dies fails its job only (the
+    next job gets a new worker). When this call stops (an exception, ``stop`` set), every worker
+    still running is stopped the same way before it returns or raises.
+    """
+    queue = deque(jobs)
+    running: list[_Worker] = []
+    wake_r, wake_w = os.pipe()
+    os.set_blocking(wake_r, False)
+    if stop is not None:
+        def _wake() -> None:
+            stop.wait()
+            with contextlib.suppress(OSError):
+                os.write(wake_w, b"x")
+
+        threading.Thread(target=_wake, name="pool-stop", daemon=True).start()
+    try:
+        while True:
+            if stop is not None and stop.is_set():
+                return
+            while queue:
+                idle = next((w for w in running if reuse and w.job is None and w.kill_at is None and not w.closed), None)
+                if idle is None and len(running) >= workers:
+                    break
+                job = queue.popleft()
+                worker = idle or _spawn(module, args or [], job.log_path)
+                if idle is None:
+                    running.append(worker)
+                if on_start is not None:
+                    on_start(job)
+                _send(worker, job, reuse)
+            if not queue and not any(w.busy or not reuse for w in running):
+                return
+            now = time.monotonic()
+            wakes = [t for t in (w.next_check(now) for w in running) if t is not None]
+            wait([*(w.pipe for w in running if not w.closed), wake_r], timeout=max(0.0, min(wakes) - now) if wakes else None)
+            now = time.monotonic()
+            for worker in list(running):
+                _tend(worker, now, reuse, running, on_end)
+    finally:
+        _stop_all(running, reuse)
+        if stop is not None:
+            stop.set()  # lets the waker leave
+        os.close(wake_r)
+        os.close(wake_w)
+
+
+def _tend(worker: _Worker, now: float, reuse: bool, running: list[_Worker], on_end: Callable[[WorkerJob, JobEnd], None]) -> None:
+    """Take what ``worker`` sent and act on its state: report its job, reap it, stop or kill it."""
+    _read(worker)
+    job = worker.job
+    if job is not None and worker.busy and (b"\n" in worker.received or (worker.closed and worker.received)):
+        line, _, rest = bytes(worker.received).partition(b"\n")
+        worker.received = bytearray(rest)
+        worker.ended = True
+        on_end(job, JobEnd(line, now - worker.started, worker.timed_out))
+        if reuse and not worker.timed_out:
+            worker.job, worker.ended = None, False  # ready for the next job
+            return
+    exited = worker.process.poll() is not None
+    if exited:
+        if job is not None and worker.busy:
+            worker.ended = True
+            on_end(job, JobEnd(None, now - worker.started, worker.timed_out, worker.process.returncode))
+        running.remove(worker)
+        os.close(worker.pipe)
+        if worker.process.stdin is not None:
+            with contextlib.suppress(OSError):
+                worker.process.stdin.close()
+    elif worker.closed:  # leaving: give it the grace period, then kill it
+        if worker.kill_at is None:
+            worker.kill_at = now + STOP_GRACE_S
+        elif now >= worker.kill_at and not worker.killed:
+            worker.killed = True
+            kill_group(worker.process.pid)
+    elif worker.kill_at is not None:
+        if now >= worker.kill_at and not worker.killed:
+            worker.killed = True
+            kill_group(worker.process.pid)
+    elif job is not None and worker.busy and job.limit_s is not None and now >= worker.started + job.limit_s:
+        worker.timed_out = True
+        _stop(worker, now)
+
+
+def _stop_all(running: list[_Worker], reuse: bool) -> None:
+    """Every worker still here leaves: idle reused workers by the end of their stdin, the others
+    SIGTERM, then SIGKILL of their group after the grace period."""
+    now = time.monotonic()
+    for worker in running:
+        if reuse and not worker.busy and worker.process.stdin is not None:
+            with contextlib.suppress(OSError):
+                worker.process.stdin.close()
+        elif worker.process.poll() is None:
+            _stop(worker, now)
+    deadline = now + STOP_GRACE_S
+    for worker in running:
+        try:
+            worker.process.wait(max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            kill_group(worker.process.pid)
+            worker.process.wait()
+        with contextlib.suppress(OSError):
+            os.close(worker.pipe)
+        if worker.process.stdin is not None:
+            with contextlib.suppress(OSError):
+                worker.process.stdin.close()

@@ -1,7 +1,8 @@
 """The worker process of the ``local`` executor: ``python -m scenemosaic.batch._worker FD PARENT_PID LEVEL``.
 
-It reads its :class:`~scenemosaic.batch.JobSpec` as JSON from stdin, runs the job, and writes
-the :class:`~scenemosaic.batch.JobOutcome` as JSON to the pipe ``FD``; stdout and stderr are
+It reads its :class:`~scenemosaic.batch.JobSpec` as one JSON line from stdin, runs the job, and
+writes the :class:`~scenemosaic.batch.JobOutcome` as one JSON line to the pipe ``FD`` (the
+package's worker pool, ``scenemosaic._processes.run_jobs``); stdout and stderr are
 the job's log file. SIGTERM or SIGINT cancel the pipeline, which writes its report (the run
 stopped) before the process leaves without an outcome. When the batch process ``PARENT_PID`` is
 gone, the worker stops itself the same way (and for good ``STOP_GRACE_S`` later).
@@ -29,7 +30,7 @@ def main(argv: list[str]) -> int:
     os.set_inheritable(fd, False)  # processes this job starts must not hold the pipe open
     watch_parent(parent_pid)
     configure_logging(level, json_lines=True)
-    spec = JobSpec.model_validate_json(sys.stdin.buffer.read())
+    spec = JobSpec.model_validate_json(sys.stdin.buffer.readline())
 
     stopped = threading.Event()
 
@@ -57,7 +58,7 @@ def main(argv: list[str]) -> int:
         os.close(fd)
         return 1
     with os.fdopen(fd, "wb") as pipe:
-        pipe.write(outcome.model_dump_json().encode("utf-8"))
+        pipe.write(outcome.model_dump_json().encode("utf-8") + b"\n")
     return 0
 
 

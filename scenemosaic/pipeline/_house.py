@@ -31,6 +31,7 @@ import functools
 import json
 import os
 import sys
+import threading
 import time
 import traceback
 from collections.abc import Sequence
@@ -39,7 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 import structlog
 
-from scenemosaic._processes import kill_group, worker_environment
+from scenemosaic._processes import STOP_GRACE_S, JobEnd, WorkerJob, run_jobs
 from scenemosaic.assets import HullCache
 from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
@@ -119,99 +120,68 @@ async def _run_room(
     )  # fmt: skip
 
 
-async def room_worker() -> None:
+def room_worker(reply_fd: int) -> None:
     """A worker process's loop (``python -m scenemosaic.pipeline._house_worker``): one job a line
-    on stdin (JSON), one reply a line on stdout when it ends. ``{"kind": "room", ...}`` runs a room
-    (its scene, the run's input, output folder, base folder and settings) and replies with its
-    :class:`RoomOutcome`; ``{"kind": "deliver", ...}`` delivers a whole house (``exchange.deliver_house``)
-    and replies with ``{"files"}`` or ``{"error"}``."""
-    reader = asyncio.StreamReader(limit=_LINE_LIMIT)
-    loop = asyncio.get_running_loop()
-    await loop.connect_read_pipe(lambda: asyncio.StreamReaderProtocol(reader), sys.stdin)
-    while line := (await reader.readline()).strip():
-        job = json.loads(line)
-        reply: dict[str, Any]
-        if job["kind"] == "room":
-            config = config_from_record(job["config"], resume=bool(job["resume"]))
-            room = Scene.model_validate(job["room"])
-            try:
-                outcome = await _run_room(room, Path(job["input"]), Path(job["root"]), config, Path(job["base_dir"]), None)
-            except Exception as exc:  # reported to the parent, which fails the stage
-                outcome = RoomOutcome(room_id=room.id, error=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
-            reply = outcome.model_dump(mode="json")
-        else:
-            house = House.model_validate(job["house"])
-            cache = HullCache(config_from_record(job["config"]).hull_cache_dir)
-            deliver = functools.partial(deliver_house, house, Path(job["folder"]), Path(job["base_dir"]), hull_cache=cache)
-            try:
-                reply = {"files": await asyncio.to_thread(deliver)}
-            except Exception as exc:  # reported to the parent, which fails the stage
-                reply = {"error": f"{type(exc).__name__}: {exc}"}
-        sys.stdout.write(json.dumps(reply) + "\n")
-        sys.stdout.flush()
+    on stdin (JSON), one reply a line on the pipe ``reply_fd`` when it ends (the package's worker
+    pool, ``scenemosaic._processes.run_jobs``). ``{"kind": "room", ...}`` runs a room (its scene,
+    the run's input, output folder, base folder and settings) and replies with its
+    :class:`RoomOutcome`; ``{"kind": "deliver", ...}`` delivers a whole house
+    (``exchange.deliver_house``) and replies with ``{"files"}`` or ``{"error"}``."""
+    with os.fdopen(reply_fd, "wb") as replies:
+        for line in sys.stdin.buffer:
+            if line.strip():
+                replies.write(json.dumps(asyncio.run(_work(json.loads(line)))).encode() + b"\n")
+                replies.flush()
 
 
-_LINE_LIMIT = 1 << 30
-"""Longest job or reply line (bytes): a house with its meshes' paths, or a room's whole state."""
-
-
-class _Workers:
-    """The child processes of a house run (``python -m scenemosaic.pipeline._house_worker``), each
-    in its own process group and watching this process (it stops when this process is gone): each
-    takes the next job as it finishes one; they leave when every job is done."""
-
-    def __init__(self, count: int) -> None:
-        self.count = count
-        self.procs: list[asyncio.subprocess.Process] = []
-
-    async def map(self, jobs: Sequence[tuple[str, dict[str, Any]]]) -> dict[str, dict[str, Any]]:
-        """Run every job (``(name, job)``); their replies by name."""
-        pipe = asyncio.subprocess.PIPE
-        while len(self.procs) < min(self.count, len(jobs)):
-            proc = await asyncio.create_subprocess_exec(
-                sys.executable, "-m", WORKER_MODULE, str(os.getpid()), stdin=pipe, stdout=pipe, env=worker_environment(),
-                start_new_session=True, limit=_LINE_LIMIT,
-            )  # fmt: skip
-            self.procs.append(proc)
-        queue: asyncio.Queue[tuple[str, dict[str, Any]]] = asyncio.Queue()
-        for job in jobs:
-            queue.put_nowait(job)
-        replies: dict[str, dict[str, Any]] = {}
-
-        async def serve(proc: asyncio.subprocess.Process) -> None:
-            assert proc.stdin is not None and proc.stdout is not None
-            while not queue.empty():
-                name, job = queue.get_nowait()
-                proc.stdin.write(json.dumps(job).encode() + b"\n")
-                await proc.stdin.drain()
-                line = await proc.stdout.readline()
-                if not line:
-                    raise SceneMosaicError(f"the worker process running {name} stopped (exit code {await proc.wait()})")
-                replies[name] = json.loads(line)
-
+async def _work(job: dict[str, Any]) -> dict[str, Any]:
+    """One job of a worker process (see :func:`room_worker`); its reply."""
+    config = config_from_record(job["config"], resume=bool(job.get("resume")))
+    if job["kind"] == "room":
+        room = Scene.model_validate(job["room"])
         try:
-            await asyncio.gather(*(serve(p) for p in self.procs))
-        except BaseException:
-            self.kill()  # a stop or a failure: no job keeps working behind our back
-            raise
-        await self.close()
-        return replies
+            outcome = await _run_room(room, Path(job["input"]), Path(job["root"]), config, Path(job["base_dir"]), None)
+        except Exception as exc:  # reported to the parent, which fails the stage
+            outcome = RoomOutcome(room_id=room.id, error=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
+        return outcome.model_dump(mode="json")
+    house = House.model_validate(job["house"])
+    deliver = functools.partial(
+        deliver_house, house, Path(job["folder"]), Path(job["base_dir"]), hull_cache=HullCache(config.hull_cache_dir)
+    )  # fmt: skip
+    try:
+        return {"files": await asyncio.to_thread(deliver)}
+    except Exception as exc:  # reported to the parent, which fails the stage
+        return {"error": f"{type(exc).__name__}: {exc}"}
 
-    def kill(self) -> None:
-        """Kill every worker and what it started (its process group)."""
-        for proc in self.procs:
-            if proc.returncode is None:
-                kill_group(proc.pid)
-        self.procs = []
 
-    async def close(self) -> None:
-        """Let every worker leave (its stdin closed)."""
-        for proc in self.procs:
-            if proc.stdin is not None:
-                proc.stdin.close()
-        for proc in self.procs:
-            await proc.wait()
-        self.procs = []
+async def _in_workers(jobs: Sequence[tuple[str, dict[str, Any]]], count: int) -> dict[str, dict[str, Any]]:
+    """Run every job (``(name, job)``) in ``count`` worker processes of the package's one pool
+    (``scenemosaic._processes.run_jobs``, reused from job to job); their replies by name. A
+    worker that dies fails the stage; a cancel stops every worker at once."""
+    replies: dict[str, dict[str, Any]] = {}
+    failures: list[str] = []
+
+    def ended(job: WorkerJob, end: JobEnd) -> None:
+        if end.reply is None:
+            failures.append(f"{job.name}: {end.failure()}")
+        else:
+            replies[job.name] = json.loads(end.reply)
+
+    stop = threading.Event()
+    pool = functools.partial(
+        run_jobs, [WorkerJob(name, json.dumps(job).encode()) for name, job in jobs], module=WORKER_MODULE,
+        workers=count, reuse=True, on_end=ended, stop=stop,
+    )  # fmt: skip
+    running = asyncio.ensure_future(asyncio.to_thread(pool))
+    try:
+        await asyncio.shield(running)
+    except asyncio.CancelledError:
+        stop.set()  # the workers are stopped (they leave at SIGTERM) before the cancel goes on
+        await asyncio.wait([running], timeout=STOP_GRACE_S + 1)
+        raise
+    if failures:
+        raise SceneMosaicError("worker process(es) stopped: " + "; ".join(failures))
+    return replies
 
 
 def _in_processes(config: GenerateConfig, rooms: int) -> int:
@@ -244,7 +214,7 @@ async def _stage_rooms(run: PipelineRun, rec: StageRecord) -> None:
             "kind": "room", "input": str(run.input_path), "root": str(run.folder.root), "base_dir": str(run.base_dir),
             "config": config_record(run.config), "resume": run.config.resume,
         }  # fmt: skip
-        replies = await _Workers(workers).map([(f"room {s.id!r}", {**common, "room": s.model_dump(mode="json")}) for s in rooms])
+        replies = await _in_workers([(f"room {s.id!r}", {**common, "room": s.model_dump(mode="json")}) for s in rooms], workers)
         by_id = {s.id: RoomOutcome.model_validate(replies[f"room {s.id!r}"]) for s in rooms}
     else:
         model = await run.asking(rec)  # the run's one model stack, shared by the rooms
@@ -393,7 +363,7 @@ async def _deliver(run: PipelineRun, houses: list[tuple[Path, House]], workers: 
         return written[0]
     common = {"kind": "deliver", "base_dir": str(run.base_dir), "config": config_record(run.config)}
     jobs = [(str(folder), {**common, "house": house.model_dump(mode="json"), "folder": str(folder)}) for folder, house in houses]
-    replies = await _Workers(workers).map(jobs)
+    replies = await _in_workers(jobs, workers)
     failed = [f"{name}: {r['error']}" for name, r in replies.items() if "error" in r]
     if failed:
         raise SceneMosaicError("house export failed: " + "; ".join(failed))

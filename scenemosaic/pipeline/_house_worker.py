@@ -1,14 +1,15 @@
-"""Entry point of a house run's worker process: ``python -m scenemosaic.pipeline._house_worker PARENT_PID``.
+"""Entry point of a house run's worker process: ``python -m scenemosaic.pipeline._house_worker REPLY_FD PARENT_PID``.
 
-It runs one job per line of its stdin (``pipeline/_house.py``: :func:`room_worker`: a room, or the
-delivery of a whole house), so a house uses several cores without ``multiprocessing``
-re-importing the caller's ``__main__``. When the house run ``PARENT_PID`` is gone (even killed),
-the worker stops itself (``scenemosaic._processes.watch_parent``).
+Started by the package's worker pool (``scenemosaic._processes.run_jobs``), it runs one job per
+line of its stdin (``pipeline/_house.py``: :func:`room_worker`: a room, or the delivery of a whole
+house) and writes each reply as one line to the pipe ``REPLY_FD``, so a house uses several cores
+without ``multiprocessing`` re-importing the caller's ``__main__``. When the house run
+``PARENT_PID`` is gone (even killed), the worker stops itself (``scenemosaic._processes.watch_parent``).
 """
 
 from __future__ import annotations
 
-import asyncio
+import os
 import signal
 import sys
 
@@ -18,12 +19,14 @@ from scenemosaic.pipeline._house import room_worker
 
 
 def main(argv: list[str]) -> int:
-    # Ctrl-C reaches the whole process group: the parent run stops the workers itself (it kills
-    # them), so a worker does not die on its own with a traceback of its own
+    # Ctrl-C reaches the whole process group: the parent run stops the workers itself, so a
+    # worker does not die on its own with a traceback of its own
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    watch_parent(int(argv[1]))
+    reply_fd, parent_pid = int(argv[1]), int(argv[2])
+    os.set_inheritable(reply_fd, False)  # processes a room starts must not hold the pipe open
+    watch_parent(parent_pid)
     configure_logging("warning")
-    asyncio.run(room_worker())
+    room_worker(reply_fd)
     return 0
 
 
