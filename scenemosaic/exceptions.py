@@ -33,7 +33,8 @@ Usage errors (the caller gave us something wrong) are kept apart from run errors
         │   └── ModelUnavailableError   a circuit breaker holds requests back from a failing endpoint
         ├── AgentOutputError            a validated agent output is inconsistent with the scene
         │                               (unknown object id, parent cycle, support by a leaf)
-        └── PhysicsError                simulation failed (blow-up that no fallback could fix)
+        ├── PhysicsError                simulation failed (blow-up that no fallback could fix)
+        └── StageOrderError             a stage needs a result no earlier stage made (a bug in a stage list)
 """
 
 from __future__ import annotations
@@ -67,6 +68,7 @@ __all__ = [
     "RunError",
     "SceneMosaicError",
     "SceneValidationError",
+    "StageOrderError",
     "UnsafePathError",
     "UsageError",
     "UsageLimitExceeded",
@@ -284,6 +286,11 @@ class AgentOutputError(RunError):
         super().__init__(message)
         self.agent = agent
         self.problems = list(problems or [])
+
+
+class StageOrderError(RunError):
+    """A pipeline stage asked for a result that no earlier stage made (the scene before import,
+    the house in a room's run): a bug in a stage list, not bad input."""
 
 
 class PhysicsError(RunError):

@@ -27,7 +27,7 @@ from scenemosaic.pipeline._config import (
     settings_table,
 )
 from scenemosaic.pipeline._result import GenerateResult
-from scenemosaic.pipeline._state import PipelineRun, Stage, StageCallback, StageRecord
+from scenemosaic.pipeline._state import PipelineRun, RunSetup, Stage, StageCallback, StageRecord
 
 if TYPE_CHECKING:
     from scenemosaic.pipeline._checkpoint import checkpoint_config
@@ -74,6 +74,7 @@ __all__ = [
     "GenerateResult",
     "PipelineRun",
     "RunReport",
+    "RunSetup",
     "Setting",
     "SettingsError",
     "Stage",

@@ -134,11 +134,11 @@ def checkpoint_state(run: PipelineRun) -> RunCheckpoint:
 
 def save_checkpoint(run: PipelineRun, digest: str | None) -> None:
     """Keep the run's state (after a finished stage, and once at the start)."""
-    assert run.store is not None
+    store = run.need_store()
     record = config_record(run.config)
     write_json(run.folder.run_record, {"input": str(run.input_path), "input_sha256": digest, "config": record})
     state = checkpoint_state(run)
-    run.store.put(PIPELINE_NODE, _key(record, digest), StoredOutput(state, output_hash(state)))
+    store.put(PIPELINE_NODE, _key(record, digest), StoredOutput(state, output_hash(state)))
 
 
 def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:
@@ -151,7 +151,7 @@ def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:
     """
     from scenemosaic.agents import FallbackRecord
 
-    assert run.store is not None
+    store = run.need_store()
     try:
         data = json.loads(run.folder.run_record.read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -170,11 +170,11 @@ def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:
         if not run.config.restart_stale:
             raise UsageError(f"cannot resume {run.out_dir}: {stale}; run it again without --resume, or add --restart-stale")
         log.warning("stale_checkpoint_restarted", out=str(run.out_dir), reason=stale)
-        run.store.clear()
+        store.clear()
         for scope in ("agents", "plan"):
-            run.store.scoped(scope).clear()
+            store.scoped(scope).clear()
         return set()
-    stored = run.store.get(PIPELINE_NODE, _key(record, digest))
+    stored = store.get(PIPELINE_NODE, _key(record, digest))
     if stored is None:
         return set()
     state: RunCheckpoint = stored.output

@@ -58,7 +58,7 @@ from scenemosaic.pipeline._checkpoint import (
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record
 from scenemosaic.pipeline._driver import run_stages
 from scenemosaic.pipeline._stages import HOUSE_ROOM_STAGES, judge_scenes, note_shortfall, validation_warnings
-from scenemosaic.pipeline._state import PipelineRun, Stage, StageRecord
+from scenemosaic.pipeline._state import PipelineRun, RunSetup, Stage, StageRecord
 from scenemosaic.render import contact_sheet
 from scenemosaic.scene import House, RunFolder, Scene, house_walkable
 
@@ -95,9 +95,8 @@ async def _run_room(
     scene as given; ``model`` is the house run's model stack (``None``: the room opens its own)."""
     t0 = time.perf_counter()
     folder = RunFolder(root).room(room.id)
-    run = PipelineRun(
-        input_path=input_path, folder=folder, config=config.model_copy(update={"room": room.id}), base_dir=base_dir, source=room
-    )  # fmt: skip
+    config = config.model_copy(update={"room": room.id})
+    run = PipelineRun(RunSetup(input_path=input_path, folder=folder, config=config, base_dir=base_dir, source=room))
     run.store = FileRunStore(folder.checkpoint)
     run.model = model
     digest = await asyncio.to_thread(input_digest, input_path, run.config)
@@ -203,8 +202,7 @@ async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
 
 async def _stage_rooms(run: PipelineRun, rec: StageRecord) -> None:
     """Every room through :data:`HOUSE_ROOM_STAGES`, concurrently (largest rooms first)."""
-    assert run.house is not None
-    house = run.house
+    house = run.need_house()
     rooms = sorted(house.rooms, key=lambda s: -len(s.objects))
     workers = _in_processes(run.config, len(rooms))
     rec.detail["workers"] = workers or 1
@@ -258,8 +256,7 @@ def _check_problems(checks: dict[str, Any]) -> list[str]:
 async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     """Whole-house variants: one pool over every room's own valid variants (``compose_house``);
     a house is valid when every room stays reachable from every other."""
-    assert run.house is not None
-    house, m = run.house, run.config.variants
+    house, m = run.need_house(), run.config.variants
     room_variants = [_room_variants(run, s.id) for s in house.rooms]
     if m <= 0 or not any(room_variants):
         rec.status = "skipped"
@@ -300,8 +297,7 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
 async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
     """The delivered whole-house world, settled once in MuJoCo, with every room's checks; then
     the house-wide checks."""
-    assert run.house is not None
-    house = run.house
+    house = run.need_house()
     reports = await asyncio.to_thread(functools.partial(validate_house, house, run.base_dir, hull_cache=run.cache()))
     per_room: dict[str, Any] = {}
     for rid, report in reports.items():
@@ -325,14 +321,14 @@ async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
 
 async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
     """Each room's metrics (base and variants) and the house's: NAV, reachability, diversity, RelKeep."""
-    assert run.house is not None
+    house = run.need_house()
     measure = functools.partial(
-        evaluate_house, run.house, run.house_variants, base_dir=run.base_dir,
+        evaluate_house, house, run.house_variants, base_dir=run.base_dir,
         variant_dirs=[run.base_dir] * len(run.house_variants), hull_cache=run.cache(),
         base_checks=run.validation, variant_checks=run.variant_checks,
     )  # fmt: skip
     run.metrics = await asyncio.to_thread(measure)
-    for k, scene in enumerate(run.house.rooms):  # POS and ROT per room, from the run's model
+    for k, scene in enumerate(house.rooms):  # POS and ROT per room, from the run's model
         judged = await judge_scenes(run, rec, [scene, *(v.rooms[k] for v in run.house_variants)])
         if judged is not None:
             run.metrics["rooms"][scene.id]["semantic_judge"] = {"base": judged[0], "variants": judged[1:]}
@@ -341,8 +337,7 @@ async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
 
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     """``base/`` and every ``variant_<i>/`` as whole houses, and the contact sheet of their plans."""
-    assert run.house is not None
-    houses = [(run.folder.base, run.house), *((run.folder.variant(i), v) for i, v in enumerate(run.house_variants, start=1))]
+    houses = [(run.folder.base, run.need_house()), *((run.folder.variant(i), v) for i, v in enumerate(run.house_variants, start=1))]
     workers = _in_processes(run.config, len(houses))
     rec.detail["files"] = await _deliver(run, houses, workers)
     if run.house_variants:

@@ -144,10 +144,10 @@ def _status(run: PipelineRun, failure: BaseException | None) -> RunStatus:
 
 
 def _rooms(run: PipelineRun) -> dict[str, RoomReport]:
-    assert run.house is not None
+    house = run.need_house()
     reused = any(r.name == "rooms" and r.status == "reused" for r in run.records)  # so were every room's stages
     out: dict[str, RoomReport] = {}
-    for s in run.house.rooms:
+    for s in house.rooms:
         outcome = run.rooms.get(s.id)
         state = outcome.state if outcome else None
         out[s.id] = RoomReport(

@@ -45,7 +45,7 @@ from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, HOUSE_STAGES, is_hous
 from scenemosaic.pipeline._report import RunReport, run_report
 from scenemosaic.pipeline._result import GenerateResult
 from scenemosaic.pipeline._stages import STAGE_NAMES, STAGES, is_image_input
-from scenemosaic.pipeline._state import PipelineRun, StageCallback
+from scenemosaic.pipeline._state import PipelineRun, RunSetup, StageCallback
 from scenemosaic.scene import RunFolder, not_a_regular_file
 
 __all__ = ["REPORT_FILE", "agenerate", "generate", "run_sync", "stage_progress"]
@@ -198,7 +198,7 @@ async def _agenerate_locked(
     house = await asyncio.to_thread(is_house_input, input_path, config)  # every room at once (docs/houses.md)
     if is_image_input(input_path, config.format):  # a photograph's meshes are written beside what perception saw
         base_dir = folder.perception
-    run = PipelineRun(input_path=input_path, folder=folder, config=config, base_dir=base_dir)
+    run = PipelineRun(RunSetup(input_path=input_path, folder=folder, config=config, base_dir=base_dir))
     run.store = FileRunStore(folder.checkpoint)
     digest = await asyncio.to_thread(input_digest, input_path, config)
     finished = await asyncio.to_thread(load_checkpoint, run, digest) if config.resume else set()

@@ -137,8 +137,7 @@ async def _draw_prompt(run: PipelineRun, rec: StageRecord) -> None:
 
 
 async def _stage_assets(run: PipelineRun, rec: StageRecord) -> None:
-    assert run.scene is not None
-    scene, cache = run.scene, run.cache()
+    scene, cache = run.need_scene(), run.cache()
 
     def prepare() -> dict[str, int]:
         counts: dict[str, int] = {}
@@ -155,30 +154,31 @@ async def _stage_assets(run: PipelineRun, rec: StageRecord) -> None:
 
 
 async def _stage_structure(run: PipelineRun, rec: StageRecord) -> None:
-    assert run.scene is not None and run.store is not None
+    scene, store = run.need_scene(), run.need_store()
     cfg = run.config
-    notes_before = len(run.scene.provenance.notes)
+    notes_before = len(scene.provenance.notes)
     model = await run.asking(rec)
     agents = run.agent_log()
     try:
-        run.scene = await structure_scene(
-            run.scene, model.model, agents=cfg.agents, settings=model.settings, policy=run.policy,
-            store=run.store.scoped("agents"),  # finished agents are not asked again on --resume
+        scene = await structure_scene(
+            scene, model.model, agents=cfg.agents, settings=model.settings, policy=run.policy,
+            store=store.scoped("agents"),  # finished agents are not asked again on --resume
             seed=cfg.seed, priors_dir=cfg.priors_dir, base_dir=run.base_dir, agent_log=agents,
         )  # fmt: skip
     finally:
         if not model.uses_rule_solvers:
             rec.detail["solver_fallbacks"] = [{"agent": f.agent, "reason": f.reason} for f in agents.fallbacks]
         rec.detail["agents"] = _agent_breakdown(agents)
+    run.scene = scene
     run.note_fallbacks(agents.fallbacks)
     # what the agents changed to make the input consistent (objects pulled inside walls...)
-    rec.detail["repairs"] = run.scene.provenance.notes[notes_before:]
+    rec.detail["repairs"] = scene.provenance.notes[notes_before:]
     # every re-parenting verification made ("verify: <object> -> <new parent> (<reason>)")
     rec.detail["reparented"] = [n[len("verify: ") :] for n in rec.detail["repairs"] if n.startswith("verify: ") and " -> " in n]
-    structure = run.scene.structure
+    structure = scene.structure
     rec.detail["units"] = len(structure.units) if structure else 0
-    rec.detail["relations"] = len(run.scene.relations)
-    rec.detail["constraints"] = len(run.scene.constraints)
+    rec.detail["relations"] = len(scene.relations)
+    rec.detail["constraints"] = len(scene.constraints)
 
 
 def _agent_breakdown(agents: AgentLog) -> dict[str, Any]:
@@ -200,11 +200,11 @@ def _agent_breakdown(agents: AgentLog) -> dict[str, Any]:
 
 
 async def _stage_stabilize(run: PipelineRun, rec: StageRecord) -> None:
-    assert run.scene is not None
+    scene = run.need_scene()
     if not run.config.stabilize:
         rec.status = "skipped"
         return
-    run.scene, report = await stabilize_scene(run.scene, base_dir=run.base_dir, seed=run.config.seed, hull_cache=run.cache())
+    run.scene, report = await stabilize_scene(scene, base_dir=run.base_dir, seed=run.config.seed, hull_cache=run.cache())
     rec.detail.update(report.model_dump(mode="json", include=_summary_fields(report)))
 
 
@@ -222,16 +222,16 @@ def _summary_fields(report: Any) -> set[str]:
 
 async def _stage_evolve(run: PipelineRun, rec: StageRecord) -> None:
     """Refine every unit through the Critic-Actor loop (and grow unit variants when asked)."""
-    assert run.scene is not None
+    scene = run.need_scene()
     cfg = run.config
     if not (cfg.evolve and cfg.stabilize):  # it refines a stabilized scene
         rec.status = "skipped"
         rec.detail["reason"] = "evolve off" if not cfg.evolve else "stabilize off: nothing stabilized to refine"
         return
-    shapes = await asyncio.to_thread(run.shapes, run.scene)
+    shapes = await asyncio.to_thread(run.shapes, scene)
     model = await run.asking(rec)
     run.scene, report = await evolve_scene(
-        run.scene, model.model, shapes, variants=cfg.variants, settings=model.settings, policy=run.policy,
+        scene, model.model, shapes, variants=cfg.variants, settings=model.settings, policy=run.policy,
         max_rounds=cfg.evolve_rounds, seed=cfg.seed, base_dir=run.base_dir,
         views_dir=run.folder.evolve if cfg.save_views else None, rules=cfg.layout_rules, agent_log=run.agent_log(),
     )  # fmt: skip
@@ -275,13 +275,13 @@ def _write_layouts(report: EvolutionReport, folder: RunFolder) -> list[str]:
 async def _stage_doors(run: PipelineRun, rec: StageRecord) -> None:
     """A room with doors (a room of a house): move furniture out of their clearance zones and out
     of the way from them into the room (``physics.clear_doors``, ``docs/houses.md``)."""
-    assert run.scene is not None
-    if not door_zones(run.scene):
+    scene = run.need_scene()
+    if not door_zones(scene):
         rec.status = "skipped"
         rec.detail["reason"] = "no doors"
         return
-    shapes = await asyncio.to_thread(run.shapes, run.scene)
-    run.scene, repair = await asyncio.to_thread(clear_doors, run.scene, shapes)
+    shapes = await asyncio.to_thread(run.shapes, scene)
+    run.scene, repair = await asyncio.to_thread(clear_doors, scene, shapes)
     rec.detail["moved"] = {k: round(v, 3) for k, v in repair.moved.items()}
     rec.detail["blocking"] = repair.stuck
     rec.detail["cut_off"] = repair.cut_off
@@ -301,12 +301,11 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     """Select ``variants`` diverse whole scenes from evolve's unit layouts (held by the run)."""
     from scenemosaic.compose import UnitLayouts
 
-    assert run.scene is not None
-    if run.config.variants <= 0 or not run.layouts:
+    scene, m = run.need_scene(), run.config.variants
+    if m <= 0 or not run.layouts:
         rec.status = "skipped"
-        rec.detail["reason"] = "no variants asked for" if run.config.variants <= 0 else "no evolved unit layouts"
+        rec.detail["reason"] = "no variants asked for" if m <= 0 else "no evolved unit layouts"
         return
-    scene, m = run.scene, run.config.variants
     layouts = {unit: UnitLayouts(unit, ids, poses) for unit, (ids, poses) in run.layouts.items()}
     shapes = await asyncio.to_thread(run.shapes, scene)
     share = floor_share(await asyncio.to_thread(nav, scene))
@@ -362,8 +361,7 @@ def note_shortfall(run: PipelineRun, rec: StageRecord, written: int, pool: int) 
 
 
 async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
-    assert run.scene is not None
-    report = await asyncio.to_thread(functools.partial(validate_scene, run.scene, run.base_dir, hull_cache=run.cache()))
+    report = await asyncio.to_thread(functools.partial(validate_scene, run.need_scene(), run.base_dir, hull_cache=run.cache()))
     rec.detail.update(report.model_dump(mode="json", include=_summary_fields(report)))
     run.validation = report.model_dump(mode="json")
     run.warnings += validation_warnings(report)
@@ -387,10 +385,10 @@ def validation_warnings(report: ValidationReport) -> list[str]:
 
 async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
     """The field's metrics of the base scene and of every variant, into ``report.json``."""
-    assert run.scene is not None
-    scenes = [run.scene, *run.variants]
+    scene = run.need_scene()
+    scenes = [scene, *run.variants]
     measure = functools.partial(
-        evaluate, run.scene, run.variants, base_dir=run.base_dir, variant_dirs=[run.base_dir] * len(run.variants),
+        evaluate, scene, run.variants, base_dir=run.base_dir, variant_dirs=[run.base_dir] * len(run.variants),
         hull_cache=run.cache(),
     )  # fmt: skip
     result = await asyncio.to_thread(measure)
@@ -415,7 +413,6 @@ async def judge_scenes(run: PipelineRun, rec: StageRecord, scenes: list[Scene]) 
 
 
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
-    assert run.scene is not None
     rec.detail["files"] = await asyncio.to_thread(deliver_run, run)
     missing = formats_left_out()
     if missing:
@@ -428,8 +425,7 @@ async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
 def deliver_run(run: PipelineRun) -> list[str]:
     """Write the base scene to ``base/`` and every variant to ``variant_<i>/`` in the delivered
     layout, then the contact sheet; returns the base folder's files."""
-    assert run.scene is not None
-    files = deliver_scene(run.scene, run.folder.base, run.base_dir, hull_cache=run.cache())
+    files = deliver_scene(run.need_scene(), run.folder.base, run.base_dir, hull_cache=run.cache())
     for i, variant in enumerate(run.variants, start=1):
         deliver_scene(variant, run.folder.variant(i), run.base_dir, hull_cache=run.cache())
     if run.variants:

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from scenemosaic.exceptions import StageOrderError
 from scenemosaic.pipeline._config import GenerateConfig
 from scenemosaic.scene import House, Pose, RunFolder, Scene
 
@@ -19,7 +20,16 @@ if TYPE_CHECKING:
     from scenemosaic.physics import ObjectShape
     from scenemosaic.pipeline._checkpoint import RoomOutcome
 
-__all__ = ["PipelineRun", "Stage", "StageCallback", "StageFn", "StageRecord", "UnitLayoutRecord", "open_model"]
+__all__ = [
+    "PipelineRun",
+    "RunSetup",
+    "Stage",
+    "StageCallback",
+    "StageFn",
+    "StageRecord",
+    "UnitLayoutRecord",
+    "open_model",
+]
 
 StageCallback = Callable[[str, str], None]
 """Called as ``callback(stage_name, status)`` with status ``"started"``, ``"done"``, ``"reused"`` or ``"failed"``."""
@@ -41,10 +51,10 @@ class StageRecord:
     detail: dict[str, Any] = field(default_factory=dict)
 
 
-@dataclass
-class PipelineRun:
-    """The state threaded through the stages: each stage reads what the ones before it left here
-    and leaves its own result, in memory. Files are outputs (and the checkpoint, for ``--resume``)."""
+@dataclass(frozen=True)
+class RunSetup:
+    """What a run is given, fixed for its whole length: its input, output folder, settings and the
+    folder the input's mesh paths start from (a room of a house: its scene, in memory)."""
 
     input_path: Path
     folder: RunFolder
@@ -54,6 +64,17 @@ class PipelineRun:
     source: Scene | None = None
     """The scene to start from, given in memory (a room of a house run): the import stage takes
     it instead of reading ``input_path``."""
+
+
+@dataclass
+class PipelineRun:
+    """One run: what it is given (:attr:`setup`, fixed), the services its stages share (the model
+    stack, the run store, the hull cache: opened on first use) and what its stages have made so
+    far (the scene or house, variants, checks, warnings), in memory. Files are outputs (and the
+    checkpoint, for ``--resume``). A stage reads a result an earlier stage must have left through
+    :meth:`need_scene` / :meth:`need_house`."""
+
+    setup: RunSetup
     scene: Scene | None = None
     """The scene as the last finished stage left it."""
     house: House | None = None
@@ -95,6 +116,49 @@ class PipelineRun:
     """The run's CoACD hull cache, opened on first use and shared by the stages."""
     started: float = field(default_factory=time.monotonic)
     """``time.monotonic()`` when the run began: the run deadline counts from here."""
+
+    @property
+    def input_path(self) -> Path:
+        """The run's input."""
+        return self.setup.input_path
+
+    @property
+    def folder(self) -> RunFolder:
+        """The run's output folder and its paths."""
+        return self.setup.folder
+
+    @property
+    def config(self) -> GenerateConfig:
+        """The run's settings."""
+        return self.setup.config
+
+    @property
+    def base_dir(self) -> Path:
+        """Folder relative mesh paths of the input start from."""
+        return self.setup.base_dir
+
+    @property
+    def source(self) -> Scene | None:
+        """The scene given in memory (a room of a house run), if any."""
+        return self.setup.source
+
+    def need_scene(self) -> Scene:
+        """The scene the stages before this one made (raises :class:`StageOrderError` when none did)."""
+        if self.scene is None:
+            raise StageOrderError("this stage needs the scene an earlier stage makes (import); none did")
+        return self.scene
+
+    def need_store(self) -> FileRunStore:
+        """The run's store (the driver opens it before the first stage)."""
+        if self.store is None:
+            raise StageOrderError("this stage needs the run store the driver opens; none was opened")
+        return self.store
+
+    def need_house(self) -> House:
+        """The house of a whole-house run (raises :class:`StageOrderError` when no stage made one)."""
+        if self.house is None:
+            raise StageOrderError("this stage needs the house the house import makes; none did")
+        return self.house
 
     @property
     def result(self) -> Scene | House | None:

@@ -56,7 +56,7 @@ def test_resume_refuses_a_checkpoint_naming_a_mesh_outside_the_input(tmp_path: P
     """A checkpoint is a file on disk like any input: one whose scene names a mesh outside the
     input's folder (tampered with) is refused, and nothing is copied from there."""
     from scenemosaic.dag import FileRunStore
-    from scenemosaic.pipeline import PipelineRun
+    from scenemosaic.pipeline import PipelineRun, RunSetup
     from scenemosaic.pipeline._checkpoint import input_digest, load_checkpoint, save_checkpoint
     from scenemosaic.scene import AssetRef
 
@@ -69,7 +69,7 @@ def test_resume_refuses_a_checkpoint_naming_a_mesh_outside_the_input(tmp_path: P
     with pytest.raises(_Stop):
         generate(room, out.root, GenerateConfig(), on_stage=_stop_before("structure"))
     config = GenerateConfig(resume=True)
-    run = PipelineRun(input_path=room, folder=out, config=config, base_dir=room.parent)
+    run = PipelineRun(RunSetup(input_path=room, folder=out, config=config, base_dir=room.parent))
     run.store = FileRunStore(out.checkpoint)
     digest = input_digest(room, config)
     assert load_checkpoint(run, digest) and run.scene is not None  # the honest checkpoint resumes

@@ -21,7 +21,7 @@ from scenemosaic._processes import STOP_GRACE_S
 from scenemosaic.cli import app
 from scenemosaic.exchange import load_house
 from scenemosaic.physics import validate_house
-from scenemosaic.pipeline import GenerateConfig, PipelineRun, StageRecord, generate
+from scenemosaic.pipeline import GenerateConfig, PipelineRun, RunSetup, StageRecord, generate
 from scenemosaic.pipeline._report import RunReport
 from scenemosaic.pipeline._stages import note_shortfall
 from scenemosaic.scene import Pose, RunFolder
@@ -58,14 +58,14 @@ def test_house_workers_die_with_a_killed_parent(tmp_path: Path) -> None:
 
 def test_a_shortfall_is_a_note_of_the_run_not_of_a_room_of_a_house(tmp_path: Path) -> None:
     config = GenerateConfig(variants=5)
-    run = PipelineRun(input_path=tmp_path / "in.json", folder=RunFolder(tmp_path), config=config, base_dir=tmp_path)
+    run = PipelineRun(RunSetup(input_path=tmp_path / "in.json", folder=RunFolder(tmp_path), config=config, base_dir=tmp_path))
     rec = StageRecord("compose")
     note_shortfall(run, rec, 3, 12)
     assert run.notes == ["fewer variants than asked for: 5 variants asked for, 3 distinct valid ones in a pool of 12"]
     assert run.warnings == [] and rec.detail["shortfall"]
     house = load_house(TWO_ROOMS)
     room = PipelineRun(
-        input_path=TWO_ROOMS, folder=RunFolder(tmp_path / "r"), config=config, base_dir=TWO_ROOMS.parent, source=house.rooms[0]
+        RunSetup(input_path=TWO_ROOMS, folder=RunFolder(tmp_path / "r"), config=config, base_dir=TWO_ROOMS.parent, source=house.rooms[0])
     )
     rec = StageRecord("compose")
     note_shortfall(room, rec, 3, 12)
