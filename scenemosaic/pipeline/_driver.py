@@ -104,8 +104,9 @@ async def run_stages(
 
 def _record_usage(run: PipelineRun, rec: StageRecord) -> None:
     """A stage that asked the model (:meth:`PipelineRun.asking`) gets its usage: its agents'
-    requests, from its agent log (:meth:`PipelineRun.agent_log`); a stage that kept none (the
-    evaluate stage's judge), the calls of the run's model since the stage began."""
+    requests, from its agent log (:meth:`PipelineRun.agent_log`); a stage that kept none (a
+    house's ``rooms`` stage, whose rooms keep their own), the calls of the run's model since the
+    stage began."""
     if "usage" not in rec.detail or run.model is None:
         return
     log = run.stage_log

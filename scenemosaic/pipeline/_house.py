@@ -27,6 +27,7 @@ usage, checkpoint, interruption) over the same :class:`PipelineRun`, whose ``hou
 from __future__ import annotations
 
 import asyncio
+import errno
 import functools
 import json
 import os
@@ -44,7 +45,7 @@ from scenemosaic._processes import STOP_GRACE_S, JobEnd, WorkerJob, run_jobs
 from scenemosaic.assets import HullCache
 from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
-from scenemosaic.exceptions import SceneMosaicError
+from scenemosaic.exceptions import OutputSpaceError, SceneMosaicError
 from scenemosaic.exchange import deliver_house, formats_left_out, load_house
 from scenemosaic.metrics import evaluate_house, house_checks
 from scenemosaic.physics import check_collisions, check_out_of_bounds, validate_house
@@ -135,7 +136,7 @@ def room_worker(reply_fd: int) -> None:
 
 async def _work(job: dict[str, Any]) -> dict[str, Any]:
     """One job of a worker process (see :func:`room_worker`); its reply."""
-    config = config_from_record(job["config"], resume=bool(job.get("resume")))
+    config = config_from_record(job["config"], resume=bool(job.get("resume")), restart_stale=bool(job.get("restart_stale")))
     if job["kind"] == "room":
         room = Scene.model_validate(job["room"])
         try:
@@ -210,7 +211,7 @@ async def _stage_rooms(run: PipelineRun, rec: StageRecord) -> None:
     if workers:
         common = {
             "kind": "room", "input": str(run.input_path), "root": str(run.folder.root), "base_dir": str(run.base_dir),
-            "config": config_record(run.config), "resume": run.config.resume,
+            "config": config_record(run.config), "resume": run.config.resume, "restart_stale": run.config.restart_stale,
         }  # fmt: skip
         replies = await _in_workers([(f"room {s.id!r}", {**common, "room": s.model_dump(mode="json")}) for s in rooms], workers)
         by_id = {s.id: RoomOutcome.model_validate(replies[f"room {s.id!r}"]) for s in rooms}
@@ -232,6 +233,9 @@ async def _stage_rooms(run: PipelineRun, rec: StageRecord) -> None:
     rec.detail["critical_path_s"] = round(max((o.seconds for o in run.rooms.values()), default=0.0), 3)
     rec.detail["sum_of_rooms_s"] = round(sum(o.seconds for o in run.rooms.values()), 3)
     if failed:
+        full = next((o for o in run.rooms.values() if o.error_type == OutputSpaceError.__name__), None)
+        if full is not None:  # the disk, not the room: said as such, like any run's full disk
+            raise OutputSpaceError(str(run.folder.room(full.room_id)), errno.ENOSPC)
         raise SceneMosaicError("room(s) failed: " + "; ".join(failed))
     run.house = house.with_rooms(done)
 

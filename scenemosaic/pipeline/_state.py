@@ -111,7 +111,7 @@ class PipelineRun:
     per-agent breakdown; the driver starts each stage without one."""
     stage_mark: int = 0
     """The model usage reading when the current stage began: the usage of a stage that asked the
-    model without an agent log (the evaluate stage's judge) is the difference."""
+    model without an agent log of its own (a house's ``rooms`` stage) is the difference."""
     hull_cache: HullCache | None = None
     """The run's CoACD hull cache, opened on first use and shared by the stages."""
     started: float = field(default_factory=time.monotonic)

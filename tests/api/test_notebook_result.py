@@ -107,6 +107,7 @@ def house_result(tmp_path_factory: pytest.TempPathFactory) -> sm.GenerateResult:
     return sm.generate(TWO_ROOMS, tmp_path_factory.mktemp("nb_house") / "out", sm.GenerateConfig(variants=1))
 
 
+@pytest.mark.house  # a whole-house run (module fixture)
 def test_a_house_result_gives_each_room(house_result: sm.GenerateResult) -> None:
     house = house_result.scene
     assert isinstance(house, House)
@@ -125,6 +126,7 @@ def test_a_house_result_gives_each_room(house_result: sm.GenerateResult) -> None
         house_result.room("room_2", variant=2)
 
 
+@pytest.mark.house  # a whole-house run (module fixture)
 def test_a_house_result_displays_the_house_figures(house_result: sm.GenerateResult) -> None:
     png = house_result._repr_png_()
     assert png is not None and png == (house_result.out_dir / "contact_sheet.png").read_bytes()

@@ -30,6 +30,7 @@ def test_example_runs(script: Path, tmp_path: Path) -> None:
     assert done.stdout.strip(), "an example should show its result"
 
 
+@pytest.mark.house  # a whole-house run
 def test_the_plugin_agent_runs_in_every_room_of_a_house(tmp_path: Path) -> None:
     done = _run([str(ROOT / "examples/custom_agent.py"), str(TWO_ROOMS), str(tmp_path / "out")], tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]
@@ -40,6 +41,7 @@ def test_the_plugin_agent_runs_in_every_room_of_a_house(tmp_path: Path) -> None:
         assert f"crowding of {room}: {crowding}" in done.stdout, done.stdout
 
 
+@pytest.mark.house  # a whole-house run
 def test_generate_room_takes_a_house(tmp_path: Path) -> None:
     done = _run([str(ROOT / "examples/generate_room.py"), str(TWO_ROOMS), str(tmp_path / "out")], tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]

@@ -202,3 +202,39 @@ def test_commands_refuse_a_partial_result_unless_asked(tmp_path: Path) -> None:
         read = runner.invoke(app, [*command, "--allow-partial"])
         assert read.exit_code == 0, (command, read.output)
     assert not (tmp_path / "x" / "base" / "partial.json").exists()
+
+
+@pytest.mark.house
+def test_a_changed_house_is_refused_on_resume_and_restarted_on_request(tmp_path: Path) -> None:
+    """Resuming a house whose file changed: one line naming the fix (no worker traceback); with
+    --restart-stale every room starts over, in the worker processes too."""
+    source = tmp_path / "house.json"
+    source.write_text(TWO_ROOMS.read_text())
+    out = tmp_path / "h"
+    runner = CliRunner()
+    first = runner.invoke(app, ["generate", str(source), "--out", str(out), "--room-workers", "2", "--no-evolve"])
+    assert first.exit_code == 0, first.output
+    data = json.loads(source.read_text())
+    data["objects"][0]["position"]["x"] += 0.01
+    source.write_text(json.dumps(data))
+    refused = runner.invoke(app, ["generate", "--resume", str(out)], env={"COLUMNS": "400"})
+    assert refused.exit_code == 2 and "--restart-stale" in refused.output and "Traceback" not in refused.output
+    again = runner.invoke(app, ["generate", "--resume", str(out), "--restart-stale"])
+    assert again.exit_code == 0, again.output
+    report = json.loads((out / "report.json").read_text())
+    assert report["status"] in ("ok", "degraded")
+    for rid, room in report["rooms"].items():
+        assert {s["name"]: s["status"] for s in room["stages"]}["import"] == "done", rid  # started over
+
+
+@pytest.mark.house
+def test_a_newline_in_the_output_folder_reaches_the_workers_whole(tmp_path: Path) -> None:
+    """The worker jobs are JSON: an output folder with a newline in its name is one folder, every
+    format is written in it, and nothing lands beside it."""
+    out = tmp_path / "odd\nname"
+    result = CliRunner().invoke(app, ["generate", str(TWO_ROOMS), "--out", str(out), "--room-workers", "2", "--no-evolve"])
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["odd\nname"]
+    for name in ("scene.xml", "scene.urdf", "scene.glb", "house_scene.json"):
+        assert (out / "base" / name).is_file(), name
+    assert json.loads((out / "report.json").read_text())["stages"][1]["detail"]["processes"]
