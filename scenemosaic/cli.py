@@ -818,6 +818,9 @@ def edit(
 
             edited, _ = stabilize_scene_sync(edited, base_dir=base_dir, hull_cache=HullCache())
         check = _edit_check(scene, edited, base_dir)
+        edited_house = house.with_rooms([edited if r.id == scene.id else r for r in house.rooms]) if house else None
+        if house is not None and edited_house is not None:  # what only the whole house shows
+            check.new += _house_edit_check(house, edited_house)
         _out.print(check.summary, markup=False, highlight=False)
         if check.new and not allow_invalid:
             _err.print(
@@ -826,15 +829,27 @@ def edit(
                 highlight=False,
             )
             raise typer.Exit(code=EXIT_BAD_INPUT)
-        if house is not None:
-            rooms = [edited if r.id == scene.id else r for r in house.rooms]
-            files = deliver_house(house.with_rooms(rooms), out, base_dir)
+        if edited_house is not None:
+            files = deliver_house(edited_house, out, base_dir)
         else:
             files = deliver_scene(edited, out, base_dir)
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
     _out.print(f"{out}: {', '.join(files)}", markup=False, highlight=False)
+
+
+def _house_edit_check(before: House, after: House) -> list[str]:
+    """What an edit of one room adds that only the house shows: a door blocked, an object across a
+    wall, a room cut off from the others (``metrics.house_checks``)."""
+    from scenemosaic.metrics import house_checks
+
+    old, new = house_checks(before), house_checks(after)
+    added = [f"a door blocked by {b}" for b in new["door_blockers"] if b not in old["door_blockers"]]
+    crossing = {c.split(" (")[0] for c in old["wall_crossings"]}  # by object: its depth may change
+    added += [f"an object across a wall: {c}" for c in new["wall_crossings"] if c.split(" (")[0] not in crossing]
+    added += [f"room {r} cut off from the house" for r in new["unreachable_rooms"] if r not in old["unreachable_rooms"]]
+    return added
 
 
 class _EditCheck:

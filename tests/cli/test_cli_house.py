@@ -228,3 +228,23 @@ def test_render_draws_the_house_plan_or_one_room(run_dir: Path, houses: dict[str
     assert "--unit needs one room" in _refused(["render", str(run_dir), "--unit", "floor", "--out", str(tmp_path / "n.png")])
     single = load_scene(run_dir, room=ROOM)
     assert isinstance(single, Scene) and not isinstance(single, House)
+
+
+def test_edit_refuses_an_edit_that_blocks_a_door_of_the_house(run_dir: Path, houses: dict[str, House], tmp_path: Path) -> None:
+    """An object moved into a door's clearance zone is a problem only the house shows: refused,
+    named, nothing written."""
+    from scenemosaic.scene import door_zones
+
+    base = houses["base"]
+    zone, obj = next(
+        (z, o) for z in door_zones(base) for o in base.room(z.room_id).objects
+        if (r := base.room(z.room_id).support_of(o.id)) is not None and r.parent == "floor" and o.size[2] > 0.3
+    )  # fmt: skip
+    du = zone.polygon.centroid.x - obj.pose.position[0]  # the floor's u and v run along x and y
+    dv = zone.polygon.centroid.y - obj.pose.position[1]
+    out = tmp_path / "blocked"
+    move = [f"{obj.id}.center.u = {obj.id}.center.u + {du:.4f}", f"{obj.id}.center.v = {obj.id}.center.v + {dv:.4f}"]
+    args = ["edit", str(run_dir), "--room", zone.room_id, *move]
+    said = _refused([*args, "--out", str(out)])
+    assert f"a door blocked by {obj.id}" in said and "nothing written" in said
+    assert not out.exists()
