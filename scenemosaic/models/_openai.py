@@ -105,6 +105,8 @@ _PROMPT_SIZE = re.compile(
     r"\((\d+) in the messages|messages resulted in (\d+) tokens|prompt is too long: (\d+) tokens", re.I
 )
 _EXCERPT_BYTES = 2000
+PROBE_MAX_BYTES = 1 << 20
+"""Largest ``GET /props`` reply read (bytes): llama.cpp's is a few kilobytes."""
 
 
 class _UnusableReply(Exception):
@@ -306,12 +308,19 @@ class OpenAIChatModel(CompletionModel):
 
     async def server_slots(self, timeout_s: float = 3.0) -> int | None:
         """How many requests the server says it works on at once, when it says (llama.cpp's
-        ``GET /props`` ``total_slots``); ``None`` for servers that do not (no retries, no error)."""
+        ``GET /props`` ``total_slots``); ``None`` for servers that do not (no retries, no error).
+
+        The probe is bounded as a whole, like every reply: ``timeout_s`` for connect, send and the
+        whole body (a server that trickles bytes is cut), and :data:`PROBE_MAX_BYTES` of body (an
+        endless one is cut)."""
         root = self.base_url[: -len("/v1")] if self.base_url.endswith("/v1") else self.base_url
         try:
-            response = await self._http().get(f"{root}/props", timeout=timeout_s)
-            slots = response.json().get("total_slots") if response.status_code == 200 else None
-        except (httpx.HTTPError, ValueError, AttributeError):
+            async with asyncio.timeout(timeout_s):
+                async with self._http().stream("GET", f"{root}/props", timeout=timeout_s) as response:
+                    raw, whole = await read_capped(response, PROBE_MAX_BYTES)
+            data = json.loads(raw) if response.status_code == 200 and whole else None
+            slots = data.get("total_slots") if isinstance(data, dict) else None
+        except (httpx.HTTPError, TimeoutError, ValueError, RecursionError):
             return None
         return slots if isinstance(slots, int) and not isinstance(slots, bool) and slots > 0 else None
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 
+import httpx
 import pytest
 from llm_fakes import VALID, Verdict, user_messages
 
@@ -242,3 +243,34 @@ async def test_server_slots_is_none_when_the_server_does_not_say() -> None:
                   httpx.Response(200, text="<html>"), httpx.ConnectError("refused")):
         model, _ = FakeServer(reply).model()
         assert await model.server_slots() is None
+
+
+class _Trickle(httpx.AsyncByteStream):
+    """A body that never ends: ``chunk`` every ``pause`` seconds."""
+
+    def __init__(self, chunk: bytes, pause: float) -> None:
+        self.chunk, self.pause, self.sent = chunk, pause, 0
+
+    async def __aiter__(self):  # type: ignore[no-untyped-def]
+        while True:
+            self.sent += len(self.chunk)
+            yield self.chunk
+            await asyncio.sleep(self.pause)
+
+
+@pytest.mark.parametrize(("chunk", "pause"), [(b"{", 0.2), (b"x" * 65536, 0.0)], ids=["trickling", "endless"])
+async def test_the_server_probe_is_bounded_in_time_and_bytes(chunk: bytes, pause: float) -> None:
+    """A /props reply that trickles a byte at a time, or streams without end, gives up within the
+    probe's time-out and reads no more than its byte cap (the run then goes on without slots)."""
+    import time
+
+    from llm_fakes import FakeServer
+
+    from scenemosaic.models._openai import PROBE_MAX_BYTES
+
+    body = _Trickle(chunk, pause)
+    model, _ = FakeServer(httpx.Response(200, stream=body)).model()
+    started = time.monotonic()
+    assert await model.server_slots(timeout_s=1.0) is None
+    assert time.monotonic() - started < 2.0
+    assert body.sent <= PROBE_MAX_BYTES + len(chunk)
