@@ -46,6 +46,7 @@ from scenemosaic.scene import (
     SceneObject,
     Wall,
     coordinate_problem,
+    house_problem,
     object_count_problem,
     quat_to_matrix,
     sanitize_id,
@@ -194,6 +195,7 @@ def import_procthor(data: Any, path: Path, *, asset_database: Any = None) -> lis
     rooms_raw = r.array(r.get(top, "rooms", ""), "rooms")
     if not rooms_raw:
         r.fail("rooms", "the house has no rooms")
+    _check_house_size(r, rooms_raw)
     walls_by_id = _walls_by_id(r, top)
     builds: list[_RoomBuild] = []
     room_ids: set[str] = set()
@@ -288,6 +290,22 @@ def _walls_by_id(r: FieldReader, top: Mapping[str, Any]) -> dict[str, _SourceWal
             empty=w.get("empty") is True,
         )
     return out
+
+
+def _check_house_size(r: FieldReader, rooms_raw: list[Any]) -> None:
+    """Refuse a house too large to work on as one (``scene.house_problem``) before building any
+    room: too many rooms, or rooms spread too far apart."""
+    xs: list[float] = []
+    ys: list[float] = []
+    for raw in rooms_raw:
+        points = raw.get("floorPolygon") if isinstance(raw, dict) else None
+        for p in points if isinstance(points, list) else []:
+            if isinstance(p, dict) and all(isinstance(p.get(k), int | float) for k in ("x", "z")):
+                xs.append(float(p["x"]))
+                ys.append(float(p["z"]))
+    problem = house_problem(len(rooms_raw), xs, ys)
+    if problem is not None:
+        r.fail("rooms", f"the house is too large: {problem}")
 
 
 def _build_room(

@@ -29,6 +29,7 @@ from shapely.geometry import Point, Polygon
 from shapely.ops import unary_union
 
 from scenemosaic.scene._geometry import FloatArray
+from scenemosaic.scene._limits import house_problem
 from scenemosaic.scene._model import Opening, Provenance, Scene, SceneObject, Wall, _Model, _plan_png
 from scenemosaic.scene._planar import convex_hull_2d
 from scenemosaic.scene._walkable import ROBOT_RADIUS, WALK_MAX_HEIGHT, FloorRaster, Walkable, is_thin
@@ -91,6 +92,10 @@ class House(_Model):
             if clash:
                 raise ValueError(f"object id(s) {sorted(clash)[:3]} appear in two rooms")
             ids |= {o.id for o in s.objects}
+        floors = [pt for s in v if s.room is not None for pt in s.room.floor]
+        problem = house_problem(len(v), (pt[0] for pt in floors), (pt[1] for pt in floors))
+        if problem is not None:
+            raise ValueError(f"the house is too large: {problem}")
         return v
 
     @property

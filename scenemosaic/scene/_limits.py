@@ -16,6 +16,8 @@ from collections.abc import Iterable
 __all__ = [
     "COACD_MAX_FACES",
     "MAX_COORDINATE",
+    "MAX_HOUSE_ROOMS",
+    "MAX_HOUSE_SPAN_M",
     "MAX_HULL_VERTICES",
     "MAX_MESH_FACES",
     "MAX_OBJECTS",
@@ -24,6 +26,7 @@ __all__ = [
     "MIN_OBJECT_SIZE",
     "MIN_SCALE",
     "coordinate_problem",
+    "house_problem",
     "object_count_problem",
     "scale_problem",
     "size_problem",
@@ -36,6 +39,15 @@ items, so a larger scene could not be described to them."""
 MAX_COORDINATE = 1000.0
 """Largest absolute value, in metres, of any coordinate of an object position, floor point or
 wall end. A kilometre holds any indoor scene; beyond it float32 physics loses millimetres."""
+
+MAX_HOUSE_ROOMS = 200
+"""Most rooms in one house. Real homes hold a few dozen; past this a house is refused at import,
+before any room is built (checks across rooms grow with the number of rooms)."""
+
+MAX_HOUSE_SPAN_M = 200.0
+"""Largest extent, in metres, of a house's plan along either axis (its rooms' floors together).
+The house-wide walkable raster has 5 cm cells: 200 m is 4,000 cells a side (16 M cells, tens of
+MB); rooms kilometres apart would need gigabytes, so such a house is refused at import."""
 
 MIN_OBJECT_SIZE = 0.001
 """Smallest size, in metres, of an object along each of its axes (``asset.extents * pose.scale``).
@@ -70,6 +82,22 @@ def object_count_problem(count: int) -> str | None:
     """Why ``count`` objects are too many for one scene, or ``None``."""
     if count > MAX_OBJECTS:
         return f"{count} objects; a scene holds at most {MAX_OBJECTS}"
+    return None
+
+
+def house_problem(rooms: int, xs: Iterable[float], ys: Iterable[float]) -> str | None:
+    """Why a house of ``rooms`` rooms whose floor points have these coordinates (metres) is too
+    large to work on as one, or ``None``."""
+    if rooms > MAX_HOUSE_ROOMS:
+        return f"{rooms} rooms; a house holds at most {MAX_HOUSE_ROOMS}"
+    xs, ys = list(xs), list(ys)
+    if xs and ys:
+        span = max(max(xs) - min(xs), max(ys) - min(ys))
+        if span > MAX_HOUSE_SPAN_M:
+            return (
+                f"its rooms spread over {span:,.0f} m; a house's plan spans at most {MAX_HOUSE_SPAN_M:g} m "
+                "(generate rooms far apart one by one, with --room)"
+            )
     return None
 
 
