@@ -341,10 +341,31 @@ def _stage_lines(then: StageCallback | None) -> StageCallback:
 
 
 def run_sync(coro: Coroutine[Any, Any, T]) -> T:
-    """Run ``coro`` to completion from synchronous code, with or without a running loop here."""
+    """Run ``coro`` to completion from synchronous code, with or without a running loop here.
+
+    Inside a running loop (a notebook cell) the coroutine runs on a loop of its own in a worker
+    thread. An interrupt of the caller (Ctrl-C, the notebook's stop button: ``KeyboardInterrupt``
+    while it waits) cancels the coroutine there, as Ctrl-C cancels ``asyncio.run``, waits for it
+    to wind down (a run writes its report, ``interrupted``, and keeps its partial result) and
+    then raises the interrupt: nothing goes on running unseen."""
     try:
         asyncio.get_running_loop()
     except RuntimeError:
         return asyncio.run(coro)
+    started: concurrent.futures.Future[tuple[asyncio.AbstractEventLoop, asyncio.Task[T]]] = concurrent.futures.Future()
+
+    async def hosted() -> T:
+        task = asyncio.ensure_future(coro)
+        started.set_result((asyncio.get_running_loop(), task))
+        return await task
+
     with concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="scenemosaic-sync") as pool:
-        return pool.submit(asyncio.run, coro).result()
+        done = pool.submit(asyncio.run, hosted())
+        try:
+            return done.result()
+        except KeyboardInterrupt:
+            loop, task = started.result()
+            with contextlib.suppress(RuntimeError):  # the run ended meanwhile: its loop is closed
+                loop.call_soon_threadsafe(task.cancel)
+            concurrent.futures.wait([done])  # the run stops and writes what it must
+            raise
