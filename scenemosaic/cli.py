@@ -225,7 +225,15 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
         async def main() -> GenerateResult:
             stop.install(asyncio.get_running_loop())
             stop.task = asyncio.current_task()  # type: ignore[assignment]
-            return await pipeline.agenerate(input_path, out, config, on_stage=on_stage)
+            try:
+                return await pipeline.agenerate(input_path, out, config, on_stage=on_stage)
+            except asyncio.CancelledError:
+                if stop.signal is None:
+                    raise
+                # the report and the partial result are on disk: leave now, not after the stage's
+                # worker thread (a long compose or export) ends, which asyncio.run would wait for
+                progress.stop()
+                _interrupted(out, stop.signal)
 
         try:
             return asyncio.run(main())
@@ -234,9 +242,15 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
                 raise
         finally:
             flush_logs()
-    _err.print(f"[yellow]interrupted[/yellow]: report and last good scene in {escape(str(out))}; continue with --resume {escape(str(out))}")
-    _hard_exit(_exit_code(stop.signal))
-    raise AssertionError("unreachable")  # pragma: no cover
+    _interrupted(out, stop.signal)
+
+
+def _interrupted(out: Path, sig: int | None) -> NoReturn:
+    """The one line of a run stopped by a signal, then the exit (130 or 143)."""
+    flush_logs()
+    kept = "report and partial result" if (RunFolder(out).base / RunFolder.PARTIAL).exists() else "report"
+    _err.print(f"[yellow]interrupted[/yellow]: {kept} in {escape(str(out))}; continue with --resume {escape(str(out))}")
+    _hard_exit(_exit_code(sig))
 
 
 def _failed_stage(out: Path) -> str | None:

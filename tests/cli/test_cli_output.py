@@ -115,7 +115,7 @@ def test_ctrl_c_prints_one_calm_line(tmp_path: Path) -> None:
     _, rest = proc.communicate(timeout=30)
     assert proc.returncode == 130
     said = [line for line in rest.splitlines() if line.strip() and "━" not in line]
-    assert len(said) == 1 and said[0].startswith("interrupted: report and last good scene in"), rest
+    assert len(said) == 1 and said[0].startswith("interrupted: report and partial result in"), rest
     assert "{" not in rest and "CancelledError" not in rest
 
 

@@ -1,15 +1,17 @@
 """Runs the ``scenemosaic`` CLI in this process with one stage made slow or broken, for tests.
 
-Usage: ``python cli_driver.py <stage|-> <sleep|raise|-> -- <scenemosaic arguments>``. ``sleep``
-makes the named stage wait (10 minutes) before doing its work, so a test can send a signal while
-that stage runs; ``raise`` makes it fail with an unexpected ``RuntimeError`` (a stand-in for a
-bug). Prints ``STAGE-STARTED <name>`` on stderr when the slowed stage begins.
+Usage: ``python cli_driver.py <stage|-> <sleep|block|raise|-> -- <scenemosaic arguments>``.
+``sleep`` makes the named stage wait (10 minutes) before doing its work, so a test can send a
+signal while that stage runs; ``block`` makes it wait the same in a worker thread (CPU work a
+cancel cannot interrupt, like a long compose); ``raise`` makes it fail with an unexpected
+``RuntimeError`` (a stand-in for a bug). Prints ``STAGE-STARTED <name>`` on stderr when the slowed stage begins.
 """
 
 from __future__ import annotations
 
 import asyncio
 import sys
+import time
 
 from scenemosaic.pipeline import PipelineRun, Stage, StageRecord, _run
 
@@ -26,6 +28,8 @@ def _patched(stage_name: str, action: str) -> tuple[Stage, ...]:
             print(f"STAGE-STARTED {stage_name}", file=sys.stderr, flush=True)
             if action == "raise":
                 raise RuntimeError("injected failure for a test")
+            if action == "block":
+                await asyncio.to_thread(time.sleep, 600)
             await asyncio.sleep(600)
             await original(run, rec)
 

@@ -27,8 +27,8 @@ STAGE_SIGNALS = [
 ]
 
 
-def _start_held(stage: str, out: Path, source: Path, tmp_path: Path) -> subprocess.Popen[str]:
-    cmd = [sys.executable, str(HERE / "cli_driver.py"), stage, "sleep", "--", "generate", str(source), "--out", str(out)]
+def _start_held(stage: str, out: Path, source: Path, tmp_path: Path, action: str = "sleep") -> subprocess.Popen[str]:
+    cmd = [sys.executable, str(HERE / "cli_driver.py"), stage, action, "--", "generate", str(source), "--out", str(out)]
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=cli_env(tmp_path))
     assert proc.stderr is not None
     deadline = time.monotonic() + 120
@@ -91,6 +91,19 @@ def test_a_second_signal_still_leaves_the_report(tmp_path: Path, dining: Path) -
     proc.communicate(timeout=30)
     assert proc.returncode == 130
     assert report(out)["status"] == "interrupted"
+
+
+def test_one_signal_does_not_wait_for_a_stages_worker_thread(tmp_path: Path, dining: Path) -> None:
+    """A stage busy in a worker thread (a long compose or export) cannot be interrupted there: the
+    run writes its report and leaves at once, without waiting for the thread."""
+    out = tmp_path / "out"
+    proc = _start_held("compose", out, dining, tmp_path, action="block")
+    t0 = time.monotonic()
+    os.kill(proc.pid, signal.SIGTERM)
+    proc.communicate(timeout=30)
+    assert proc.returncode == 143
+    assert time.monotonic() - t0 < 10
+    assert report(out)["status"] == "interrupted" and report(out)["failed_stage"] == "compose"
 
 
 def test_resume_refuses_a_folder_without_a_run(tmp_path: Path) -> None:
