@@ -221,13 +221,15 @@ def run_jobs(
     running: list[_Worker] = []
     wake_r, wake_w = os.pipe()
     os.set_blocking(wake_r, False)
+    waker: threading.Thread | None = None
     if stop is not None:
         def _wake() -> None:
             stop.wait()
             with contextlib.suppress(OSError):
                 os.write(wake_w, b"x")
 
-        threading.Thread(target=_wake, name="pool-stop", daemon=True).start()
+        waker = threading.Thread(target=_wake, name="pool-stop", daemon=True)
+        waker.start()
     try:
         while True:
             if stop is not None and stop.is_set():
@@ -253,8 +255,9 @@ def run_jobs(
                 _tend(worker, now, reuse, running, on_end)
     finally:
         _stop_all(running, reuse)
-        if stop is not None:
-            stop.set()  # lets the waker leave
+        if stop is not None and waker is not None:
+            stop.set()  # lets the waker leave; it is gone before its pipe is closed
+            waker.join()
         os.close(wake_r)
         os.close(wake_w)
 
