@@ -52,14 +52,19 @@ def test_an_interrupt_stops_a_synchronous_generate_in_a_running_loop(tmp_path: P
         env={**os.environ, "MUJOCO_GL": "egl"},
     )  # fmt: skip
     assert proc.stdout is not None
-    deadline = time.monotonic() + 120
-    for line in proc.stdout:
-        if "EVOLVE-STARTED" in line:
-            break
-        assert time.monotonic() < deadline
-    t0 = time.monotonic()
-    os.kill(proc.pid, signal.SIGINT)
-    rest, _ = proc.communicate(timeout=60)
+    try:
+        deadline = time.monotonic() + 120
+        for line in proc.stdout:
+            if "EVOLVE-STARTED" in line:
+                break
+            assert time.monotonic() < deadline
+        t0 = time.monotonic()
+        os.kill(proc.pid, signal.SIGINT)
+        rest, _ = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:  # a run that went on: not left behind
+            proc.kill()
+            proc.wait()
     assert "INTERRUPTED" in rest
     assert time.monotonic() - t0 < 20, "the run went on after the interrupt"
     report = json.loads((out / "report.json").read_text())
