@@ -284,7 +284,7 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
         name = run.folder.variant(i).name
         cols = oob = 0
         for s in rooms:
-            shapes = run.shapes(s)
+            shapes = await asyncio.to_thread(run.shapes, s)  # hulls may be computed: off the event loop
             cols += len((await asyncio.to_thread(check_collisions, s, run.base_dir, hull_cache=run.cache())).pairs)
             oob += len((await asyncio.to_thread(functools.partial(check_out_of_bounds, s, shapes=shapes))).objects)
         checks = await asyncio.to_thread(house_checks, variant)
