@@ -4,6 +4,9 @@ The offline archetype agent proposes, in this order of preference, the ones that
 the original (an arrangement whose every object lands within 0.3 m and 20° of an object of
 the same category in the original is the same arrangement, and is skipped):
 
+* ``plan_<k>`` — in a room with doors (a room of a house), the room plans of
+  ``evolve/_plans.py``: the furniture regrouped on other walls, each plan valid for the house
+  by construction (doors clear and reachable, the floor connected, fixtures in place);
 * ``rotated_180`` — the whole arrangement turned half a turn about the surface centre (floor,
   ceiling and object tops);
 * ``mirrored_lr`` / ``mirrored_ud`` — mirrored about the surface's vertical / horizontal centre
@@ -51,11 +54,18 @@ from scenemosaic.evolve._analysis import (
     wall_status,
 )
 from scenemosaic.evolve._context import UnitContext, WallLine
+from scenemosaic.evolve._plans import (
+    Placement,
+    doors_kept,
+    fixed_children,
+    move_group,
+    plan_summary,
+    room_plans,
+)
 from scenemosaic.scene import FloorRaster, UnitLayout, mask_iou, normalize_degrees
 
 __all__ = ["RuleArchetype", "instantiate", "max_alternatives", "rule_archetypes"]
 
-Placement = dict[str, tuple[float, float, float]]
 SAME_PLACE_M = 0.3
 SAME_TURN_DEG = 20.0
 
@@ -121,17 +131,6 @@ def _group(ctx: UnitContext, head: str) -> list[str]:
     return [head, *sorted(members)]
 
 
-def _move_group(place: Placement, layout: UnitLayout, members: list[str], pivot: np.ndarray, to: np.ndarray, turn: float) -> None:
-    """Turn ``members`` by ``turn`` degrees (clockwise in the view, like rotations) about ``pivot``
-    and carry the pivot to ``to``."""
-    a = math.radians(-turn)  # a clockwise in-plane turn is a negative angle in (u, v)
-    rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
-    for k in members:
-        c = np.asarray(layout.center(k)) - pivot
-        p = to + rot @ c
-        place[k] = (float(p[0]), float(p[1]), normalize_degrees(layout.rotation(k) + turn))
-
-
 def _fit_to_wall(place: Placement, layout: UnitLayout, ctx: UnitContext, members: list[str], wall: WallLine | None) -> None:
     """Put a group placed at ``wall`` right: nightstands tucked beside their bed's head, the head
     piece's back flush against the wall, and the group slid along it until every member's span
@@ -169,8 +168,8 @@ def _swap(a: str, b: str) -> Callable[[UnitLayout, UnitContext], Placement]:
         out = _current(layout)
         ca, cb = np.asarray(layout.center(a)), np.asarray(layout.center(b))
         ra, rb = layout.rotation(a), layout.rotation(b)
-        _move_group(out, layout, _group(ctx, a), ca, cb, normalize_degrees(rb - ra))
-        _move_group(out, layout, _group(ctx, b), cb, ca, normalize_degrees(ra - rb))
+        move_group(out, layout, _group(ctx, a), ca, cb, normalize_degrees(rb - ra))
+        move_group(out, layout, _group(ctx, b), cb, ca, normalize_degrees(ra - rb))
         _fit_to_wall(out, layout, ctx, _group(ctx, a), wall_status(layout, ctx, b)[1])
         _fit_to_wall(out, layout, ctx, _group(ctx, b), wall_status(layout, ctx, a)[1])
         return out
@@ -182,7 +181,7 @@ def _turn(table: str) -> Callable[[UnitLayout, UnitContext], Placement]:
     def place(layout: UnitLayout, ctx: UnitContext) -> Placement:
         out = _current(layout)
         c = np.asarray(layout.center(table))
-        _move_group(out, layout, _group(ctx, table), c, c, 90.0)
+        move_group(out, layout, _group(ctx, table), c, c, 90.0)
         return out
 
     return place
@@ -193,7 +192,7 @@ def _centred(table: str) -> Callable[[UnitLayout, UnitContext], Placement]:
         out = _current(layout)
         c = np.asarray(layout.center(table))
         middle = np.asarray(Polygon(ctx.surface.region).centroid.coords[0])
-        _move_group(out, layout, _group(ctx, table), c, middle, 0.0)
+        move_group(out, layout, _group(ctx, table), c, middle, 0.0)
         return out
 
     return place
@@ -248,7 +247,7 @@ class _Room:
         """The group turned by ``turn`` and carried from ``here`` to ``to``, with the layout it
         makes, when every member lands on the surface clear of the rest."""
         place: Placement = {}
-        _move_group(place, self.layout, self.members, here, to, turn)
+        move_group(place, self.layout, self.members, here, to, turn)
         moved = self.layout.copy()
         for k, (u, v, r) in place.items():
             moved.set_rotation(k, r)
@@ -369,7 +368,7 @@ def _wall_place(
         if best is not None and key >= best[0]:
             continue
         place: Placement = {}
-        _move_group(place, layout, members, here, to, turn)
+        move_group(place, layout, members, here, to, turn)
         moved = layout.copy()
         for k, (u, v, r) in place.items():
             moved.set_rotation(k, r)
@@ -530,9 +529,33 @@ def _slides(layout: UnitLayout, ctx: UnitContext, table: str, scattered: bool) -
     return out
 
 
+def _plan_place(place: Placement) -> Callable[[UnitLayout, UnitContext], Placement]:
+    def placed(layout: UnitLayout, ctx: UnitContext) -> Placement:
+        return dict(place)
+
+    return placed
+
+
+def _plans(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
+    """The room plans of a floor unit with doors (``evolve/_plans.py``), as archetypes."""
+    out = []
+    for k, place in enumerate(room_plans(layout, ctx)):
+        moved = plan_summary(layout, place)
+        out.append(
+            RuleArchetype(
+                f"plan_{k + 1}", f"room plan {k + 1}",
+                f"the furniture regrouped ({moved} moved, each group whole), doors clear and reachable, fixtures in place",
+                _plan_place(place),
+            )
+        )  # fmt: skip
+    return out
+
+
 def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     kind = ctx.unit.anchor_kind
     out: list[RuleArchetype] = []
+    if ctx.in_house:
+        out += _plans(layout, ctx)
     seated: list[RuleArchetype] = []
     if kind == "floor":
         for table in sorted(set(ctx.seat_table.values())):
@@ -611,12 +634,17 @@ def _same(a: Placement, b: Placement, layout: UnitLayout) -> bool:
     return True
 
 
-def _pinned(placed: Placement, ctx: UnitContext) -> Placement:
-    """Objects a cross-unit clause ties down keep their place in every arrangement."""
+def _pinned(placed: Placement, ctx: UnitContext, layout: UnitLayout | None = None) -> Placement:
+    """Objects a cross-unit clause ties down keep their place in every arrangement; on a floor,
+    so do its fixtures (``evolve/_plans.fixed_children``) when ``layout`` is given."""
     out = dict(placed)
     for k, (_, (u, v), r) in ctx.pinned.items():
         if k in out:
             out[k] = (u, v, r)
+    if layout is not None and ctx.floor:
+        for k in fixed_children(layout, ctx):
+            if k in out:
+                out[k] = (*layout.center(k), layout.rotation(k))
     return out
 
 
@@ -747,7 +775,7 @@ def rule_archetypes(layout: UnitLayout, ctx: UnitContext, limit: int | None = No
     seen = [_seated_all(layout, ctx, base)]
     kept: list[tuple[RuleArchetype, Placement]] = []
     for cand in _candidates(layout, ctx):
-        placed = _pinned(cand.place(layout, ctx), ctx)
+        placed = _pinned(cand.place(layout, ctx), ctx, layout)
         if cand.layout_id.startswith("swapped_"):
             moved = {k for k in placed if math.dist(placed[k][:2], base[k][:2]) > 1e-6}
             if not _fits(layout, ctx, placed, moved):
@@ -756,9 +784,17 @@ def rule_archetypes(layout: UnitLayout, ctx: UnitContext, limit: int | None = No
         if any(_same(p, looks, layout) for p in seen):
             continue
         seen.append(looks)
-        if not _plausible(layout, ctx, placed):
+        if not _plausible(layout, ctx, placed) or not doors_kept(layout, ctx, placed):
             continue
         kept.append((cand, placed))
+    plans = [c for c, _ in kept if c.layout_id.startswith("plan_")]
+    if plans:  # a room of a house: its plans first, then the patterns that differ most
+        rest = [(c, p) for c, p in kept if not c.layout_id.startswith("plan_")]
+        if limit is None:
+            return plans + [c for c, _ in rest]
+        return plans[:limit] + (
+            _spread(layout, ctx, rest, limit - len(plans)) if len(plans) < limit and rest else []
+        )
     if limit is not None and len(kept) > limit:
         return _spread(layout, ctx, kept, limit)
     return [c for c, _ in kept]
@@ -791,5 +827,5 @@ def instantiate(layout: UnitLayout, ctx: UnitContext, archetype: object) -> tupl
                     break
     if chosen is None:
         chosen = cands[0]
-        return _pinned(chosen.place(layout, ctx), ctx), _clip(f"no rule pattern matches {layout_id!r}; used {chosen.layout_id}", 300)
-    return _pinned(chosen.place(layout, ctx), ctx), _clip(f"rule pattern {chosen.layout_id}: {chosen.reasoning}", 300)
+        return _pinned(chosen.place(layout, ctx), ctx, layout), _clip(f"no rule pattern matches {layout_id!r}; used {chosen.layout_id}", 300)
+    return _pinned(chosen.place(layout, ctx), ctx, layout), _clip(f"rule pattern {chosen.layout_id}: {chosen.reasoning}", 300)

@@ -112,12 +112,17 @@ class UnitContext:
     keep_clear: list[Any] = field(default_factory=list)
     """Floor that no seat slot may take (floor units): the clearance zone in front of each door
     (``scene.door_zones``), as (u, v) shapely polygons."""
+    passages: list[Any] = field(default_factory=list)
+    """The same zones in front of the room's open stretches of wall (open-plan rooms of a house):
+    a variant keeps them reachable (floor units)."""
     clauses: list[ConstraintClause] = field(default_factory=list)
     pinned: dict[str, tuple[str, tuple[float, float], float]] = field(default_factory=dict)
     """Children a cross-unit clause ties down: id -> (constraint kind, centre, rotation) to keep."""
     thin: set[str] = field(default_factory=set)
     obstacle_polygons: list[tuple[SceneObject, Any]] | None = field(default=None, repr=False)
     """The obstacles' outlines on the surface (shapely polygons), computed on first use."""
+    plan_cache: dict[Any, Any] = field(default_factory=dict, repr=False)
+    """Room plans already computed for a layout of this unit (``evolve/_plans.py``)."""
 
     @property
     def frozen_rotation(self) -> bool:
@@ -127,6 +132,11 @@ class UnitContext:
     @property
     def floor(self) -> bool:
         return self.unit.anchor_kind == "floor"
+
+    @property
+    def in_house(self) -> bool:
+        """A floor unit of a room with doors or open passages to other rooms (a room of a house)."""
+        return self.floor and bool(self.keep_clear or self.passages)
 
 
 def _box_distance(a: SceneObject, b: SceneObject) -> float:
@@ -190,6 +200,11 @@ def unit_context(scene: Scene, unit: LocalUnit, obstacles: list[SceneObject], th
         for zone in door_zones(scene):
             pts = np.asarray(zone.polygon.exterior.coords)[:, :2]
             ctx.keep_clear.append(Polygon([surface.to_uv(np.array([x, y, 0.0])) for x, y in pts]))
+        for zone in door_zones(scene, kinds=("opening",)):
+            if zone.polygon.geom_type != "Polygon":
+                continue
+            pts = np.asarray(zone.polygon.exterior.coords)[:, :2]
+            ctx.passages.append(Polygon([surface.to_uv(np.array([x, y, 0.0])) for x, y in pts]))
         for rel in functional_relations(scene):
             if rel.kind == "faces" and rel.subject in by_id and rel.leader in by_id and rel.subject not in ctx.seat_table:
                 ctx.keep_facing.add((rel.subject, rel.leader))

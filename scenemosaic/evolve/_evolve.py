@@ -27,6 +27,7 @@ from scenemosaic.evolve._analysis import LayoutRule
 from scenemosaic.evolve._archetypes import max_alternatives
 from scenemosaic.evolve._context import UnitContext, unit_context
 from scenemosaic.evolve._loop import MAX_ROUNDS, LayoutResult, evolve_layout
+from scenemosaic.evolve._plans import MAX_PLANS
 from scenemosaic.exceptions import (
     ModelConfigError,
     ReplayMissError,
@@ -38,6 +39,7 @@ from scenemosaic.exceptions import (
 from scenemosaic.models import Model, ModelSettings, Usage
 from scenemosaic.physics import ObjectShape, is_thin, require_finite_poses
 from scenemosaic.scene import (
+    FLOOR,
     LocalUnit,
     Scene,
     UnitLayout,
@@ -182,6 +184,9 @@ async def evolve_scene(
     policy = policy or AgentPolicy()
     followers = {r.subject for r in functional_relations(scene) if r.follows}
     counts = alternative_counts(units, variants, followers)
+    if variants and FLOOR in contexts and contexts[FLOOR].in_house:
+        # a room of a house (doors, open passages): its floor gets a room plan per variant asked for
+        counts[FLOOR] = max(counts[FLOOR], min(variants, MAX_PLANS))
     nodes: list[Node] = []
     logs: list[AgentLog] = []  # one per node: what its agents did, kept however the node ends
 

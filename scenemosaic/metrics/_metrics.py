@@ -250,12 +250,30 @@ def relation_holds(scene: Scene, rel: Relation, tolerance: float = RELATION_TOLE
     return bool(over >= 0.5 and float(plo[2]) - tolerance <= float(lo[2]) <= float(phi[2]) + tolerance)
 
 
+def _kept_as(base: Scene, variant: Scene, rel: Relation) -> Relation:
+    """The relation of ``variant`` that stands for ``base``'s ``rel``: a wall piece re-hung with
+    its group (``scene.follow_leaders``) is supported by another wall, which the variant's own
+    relation names; every other relation is checked as the base states it."""
+    if rel.parent in (FLOOR, CEILING) or base.anchor_kind(rel.parent) != "wall":
+        return rel
+    now = variant.support_of(rel.child)
+    if (
+        now is not None
+        and now.kind == rel.kind
+        and now.parent != rel.parent
+        and variant.anchor_kind(now.parent) == "wall"
+    ):
+        return now
+    return rel
+
+
 def relkeep(base: Scene, variant: Scene) -> float:
-    """RelKeep: the fraction of ``base``'s attach/contain relations that hold in ``variant``."""
+    """RelKeep: the fraction of ``base``'s attach/contain relations that hold in ``variant`` (a
+    wall piece counts as kept on the wall its variant's relation names: ``docs/evolution.md``)."""
     rels = [r for r in base.relations if r.is_support and any(o.id == r.child for o in variant.objects)]
     if not rels:
         return 1.0
-    return sum(1 for r in rels if relation_holds(variant, r)) / len(rels)
+    return sum(1 for r in rels if relation_holds(variant, _kept_as(base, variant, r))) / len(rels)
 
 
 

@@ -14,9 +14,11 @@ check (:func:`confined_path`).
 """
 
 from scenemosaic.scene._categories import (
+    FIXTURE_CATEGORIES,
     PROCTHOR_PRIORS_DIR,
     CategoryTraits,
     SupportPriors,
+    is_fixture,
     is_known,
     load_priors,
     normalize_category,
@@ -183,6 +185,7 @@ __all__ = [
     "DOOR_CLEARANCE_DEPTH_M",
     "DOOR_MATCH_TOLERANCE_M",
     "FACES_DEG",
+    "FIXTURE_CATEGORIES",
     "FLOOR",
     "FUNCTIONAL_KINDS",
     "GRID_STEP_M",
@@ -280,6 +283,7 @@ __all__ = [
     "functional_relations",
     "house_problem",
     "house_walkable",
+    "is_fixture",
     "is_known",
     "is_thin",
     "load_priors",

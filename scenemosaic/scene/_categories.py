@@ -25,9 +25,11 @@ from typing import Literal
 import structlog
 
 __all__ = [
+    "FIXTURE_CATEGORIES",
     "PROCTHOR_PRIORS_DIR",
     "CategoryTraits",
     "SupportPriors",
+    "is_fixture",
     "load_priors",
     "normalize_category",
     "priors_problem",
@@ -321,6 +323,26 @@ def _known(category: str) -> str | None:
         if key in category:
             return target
     return None
+
+
+FIXTURE_CATEGORIES: frozenset[str] = frozenset(
+    {
+        "bathtub", "countertop", "counter", "dishwasher", "fireplace", "fridge", "kitchen_cabinet", "oven",
+        "radiator", "range", "refrigerator", "shower", "shower_door", "shower_head", "sink", "stove",
+        "stove_burner", "toilet", "washing_machine", "clothes_dryer", "dryer",
+    }
+)  # fmt: skip
+"""Plumbing, appliances and built-ins: pieces a layout variant never moves (``docs/evolution.md``,
+*Fixtures*). A category counts as a fixture when it is one of these (after
+:func:`normalize_category`) or its traits say ``built_in``."""
+
+
+def is_fixture(category: str, fixtures: frozenset[str] | set[str] | None = None) -> bool:
+    """Whether pieces of ``category`` stay where they are in every variant: built-in by its
+    traits or listed in ``fixtures`` (default :data:`FIXTURE_CATEGORIES`)."""
+    c = normalize_category(category)
+    table = FIXTURE_CATEGORIES if fixtures is None else fixtures
+    return c in table or traits(c).built_in
 
 
 def traits(category: str) -> CategoryTraits:

@@ -2,8 +2,8 @@
 
 A scene's support relations say what rests on what. The relations here say what a person
 would notice if a variant broke them: a seat **faces** its table, a sofa its TV and the TV the
-sofa; a ceiling lamp, a wall TV or a picture hangs **over** a group (a dining table, a bed, a
-seating group); a rug lies **under** one; a nightstand stands **beside** its bed's head, and two
+sofa; a ceiling lamp hangs **over** a group (a dining table, a bed, a seating group), and a wall
+TV, picture or mirror over a piece that stands against a wall (a bed, a sofa, a TV stand, a dresser); a rug lies **under** one; a nightstand stands **beside** its bed's head, and two
 nightstands **flank** the bed. They are found in a base scene by :func:`functional_relations`
 and checked in a variant by :func:`functional_holds`; RelKeep per kind counts them.
 
@@ -18,7 +18,7 @@ Thresholds are named here and documented in ``docs/evolution.md``.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -29,8 +29,8 @@ from shapely.ops import unary_union
 from scenemosaic.scene._categories import normalize_category, traits
 from scenemosaic.scene._geometry import FloatArray, front_vector, quat_from_yaw, quat_multiply
 from scenemosaic.scene._ids import CEILING, FLOOR
-from scenemosaic.scene._model import Pose, Scene, SceneObject
-from scenemosaic.scene._tree import with_world_poses
+from scenemosaic.scene._model import Pose, Scene, SceneObject, Wall
+from scenemosaic.scene._tree import build_structure, with_world_poses
 from scenemosaic.scene._walkable import is_thin
 
 __all__ = [
@@ -69,6 +69,13 @@ FOLLOW_TURN_DEG = 1.0
 """A wall piece follows its group along the wall only while the group keeps its heading."""
 FOLLOW_WALL_M = 0.05
 """... and stays as far from that wall as in the base, within this many metres."""
+REHANG_GAP_M = 0.3
+"""A group that turned or left its wall carries its wall piece to the wall its leader now backs
+onto: the wall within this many metres of the leader's back..."""
+REHANG_FACING_DEG = 30.0
+"""... with the leader's front within this many degrees of the wall's inward normal."""
+OPENING_CLEAR_M = 0.05
+"""A re-hung wall piece keeps this far, metres, from the doors and windows of its new wall."""
 
 _BEDS = ("bed",)
 _NIGHTSTANDS = frozenset({"nightstand"})
@@ -198,6 +205,10 @@ def _sorted_group(group: Iterable[SceneObject]) -> tuple[tuple[str, ...], str]:
 def functional_relations(scene: Scene) -> list[Functional]:
     """Every functional relation that holds in ``scene`` (found from its geometry, sorted)."""
     leaders = _leaders(scene)
+    wall_leaders = [
+        o for o in scene.objects
+        if _on_floor(scene, o) and not is_thin(o) and traits(o.category).against_wall and _cat(o) not in _NIGHTSTANDS
+    ]  # fmt: skip
     out: list[Functional] = []
     for o in scene.objects:
         r = scene.support_of(o.id)
@@ -207,7 +218,10 @@ def functional_relations(scene: Scene) -> list[Functional]:
         hanging = parent == CEILING or (r is None and cat in _HANGING)
         on_wall = parent not in (FLOOR, CEILING) and scene.anchor_kind(parent) == "wall" and cat in _WALL_OVER
         if hanging or on_wall:
-            below = [g for g in _under_group(o, leaders) if float(g.aabb()[1][2]) <= float(o.aabb()[0][2]) + 0.05]
+            # a wall piece serves a piece that stands against a wall (a bed, a sofa, a TV stand, a
+            # dresser), not a chair that happens to stand below it
+            pool = wall_leaders if on_wall else leaders
+            below = [g for g in _under_group(o, pool) if float(g.aabb()[1][2]) <= float(o.aabb()[0][2]) + 0.05]
             if below:
                 group, leader = _sorted_group(below)
                 out.append(Functional("over", o.id, group, leader))
@@ -273,14 +287,18 @@ def _yaw(o: SceneObject) -> float:
 def follow_leaders(base: Scene, scene: Scene, relations: Sequence[Functional]) -> Scene | None:
     """``scene`` with every ``over``/``under`` subject moved as its leader moved from ``base``:
     a hanging lamp or a rug turns and shifts with its group; a wall piece slides along its wall
-    as far as the group slid along it. The follower keeps its offset in the leader's frame, or that
+    as far as the group slid along it, or, when the group turned or left that wall, is re-hung on
+    the wall the leader now backs onto (same height, same distance from the wall, the same offset
+    beside the leader, facing into the room, clear of that wall's doors and windows; its support
+    relation names the new wall). The follower keeps its offset in the leader's frame, or that
     offset mirrored across the leader's axes (a table reads the same mirrored either way, a bed
     only left to right: a mirrored variant mirrors the lamp too), or, last, its heading and world
     offset: the first that keeps it over its group and inside the room is taken. ``None``
-    when a subject cannot follow (its group turned away from its wall or left it, or no way keeps
+    when a subject cannot follow (no wall behind its group's leader takes it, or no way keeps
     it in the room). A subject whose leader did not move is back at its base pose, whatever its
     own unit's variant did."""
     targets: dict[str, Pose] = {}
+    walls: dict[str, str] = {}
     inside = Polygon(base.room.floor).buffer(1e-3) if base.room is not None else None
     for rel in relations:
         if not rel.follows:
@@ -291,18 +309,38 @@ def follow_leaders(base: Scene, scene: Scene, relations: Sequence[Functional]) -
             group = [scene.get(g) for g in rel.group]
         except KeyError:
             continue
-        target = _follow(base, rel, lead0, lead1, sub0, group, inside)
-        if target is None:
+        found = _follow(base, rel, lead0, lead1, sub0, group, inside)
+        if found is None:
             return None
+        target, wall = found
         now = scene.get(rel.subject).pose
         if not (np.allclose(now.position, target.position, atol=1e-9) and np.allclose(now.quaternion, target.quaternion, atol=1e-9)):
             targets[rel.subject] = target
-    return with_world_poses(scene, targets) if targets else scene
+        current = scene.support_of(rel.subject)
+        if wall is not None and current is not None and current.parent != wall:
+            walls[rel.subject] = wall
+    out = with_world_poses(scene, targets) if targets else scene
+    return _rehung(out, walls) if walls else out
+
+
+def _rehung(scene: Scene, walls: Mapping[str, str]) -> Scene:
+    """``scene`` with the wall relations (support and ``against``) of the pieces in ``walls``
+    naming their new wall, and its structure rebuilt to match."""
+    relations = []
+    for r in scene.relations:
+        if r.child in walls and r.parent != walls[r.child] and scene.anchor_kind(r.parent) == "wall":
+            r = r.model_copy(update={"parent": walls[r.child]})
+        relations.append(r)
+    out = scene.model_copy(update={"relations": relations})
+    if scene.structure is not None:
+        out = out.model_copy(update={"structure": build_structure(out)})
+    return out
 
 
 def _follow(
     base: Scene, rel: Functional, lead0: SceneObject, lead1: SceneObject, sub0: SceneObject, group: list[SceneObject], inside: Polygon | None
-) -> Pose | None:
+) -> tuple[Pose, str | None] | None:
+    """Where the subject goes, and the wall it hangs on when it is a wall piece (``None`` else)."""
     turn = _yaw(lead1) - _yaw(lead0)
     shift = _xy(lead1) - _xy(lead0)
     r = base.support_of(rel.subject)
@@ -311,14 +349,16 @@ def _follow(
     if parent not in (FLOOR, CEILING) and base.anchor_kind(parent) == "wall":
         assert base.room is not None
         wall = base.room.wall(parent)
-        if abs(math.degrees(math.atan2(math.sin(turn), math.cos(turn)))) > FOLLOW_TURN_DEG:
-            return None
-        if abs(wall.gap(lead1.corners()) - wall.gap(lead0.corners())) > FOLLOW_WALL_M:
-            return None
+        turned = abs(math.degrees(math.atan2(math.sin(turn), math.cos(turn)))) > FOLLOW_TURN_DEG
+        if turned or abs(wall.gap(lead1.corners()) - wall.gap(lead0.corners())) > FOLLOW_WALL_M:
+            return _rehang(base, wall, lead0, lead1, sub0, group)
         t = np.asarray(wall.end, dtype=np.float64)[:2] - np.asarray(wall.start, dtype=np.float64)[:2]
         t = t / float(np.linalg.norm(t))
         pos[:2] += t * float(shift @ t)
-        return Pose(position=(float(pos[0]), float(pos[1]), float(pos[2])), quaternion=sub0.pose.quaternion, scale=sub0.pose.scale)
+        slid = Pose(position=(float(pos[0]), float(pos[1]), float(pos[2])), quaternion=sub0.pose.quaternion, scale=sub0.pose.scale)
+        if not _fits_wall(sub0.model_copy(update={"pose": slid}), wall, sub0):
+            return None
+        return slid, wall.id
     area = unary_union([_foot(g).buffer(OVER_MARGIN_M) for g in group])
     y0, y1 = _yaw(lead0), _yaw(lead1)
     offset = _rot(-y0) @ (_xy(sub0) - _xy(lead0))  # in the leader's own frame
@@ -332,8 +372,85 @@ def _follow(
         if not area.contains(Point(xy)):
             continue
         if inside is None or inside.covers(Polygon(sub0.model_copy(update={"pose": pose}).footprint())):
-            return pose
+            return pose, None
     return None
+
+
+def _fits_wall(moved: SceneObject, wall: Wall, before: SceneObject | None) -> bool:
+    """Whether a wall piece lies within its wall's length and clear (by :data:`OPENING_CLEAR_M`)
+    of the wall's doors and windows; a piece that overlapped one already where it hung in the
+    base (``before``) only has to stay within the wall."""
+    start, t = np.asarray(wall.start, dtype=np.float64), wall.direction
+
+    def span(o: SceneObject) -> tuple[float, float, float, float]:
+        along = (o.corners()[:, :2] - start) @ t
+        lo, hi = o.aabb()
+        return float(along.min()), float(along.max()), float(lo[2]), float(hi[2])
+
+    def on_opening(o: SceneObject) -> bool:
+        a0, a1, z0, z1 = span(o)
+        return any(
+            a1 > op.center - op.width / 2 - OPENING_CLEAR_M and a0 < op.center + op.width / 2 + OPENING_CLEAR_M
+            and z1 > op.bottom - OPENING_CLEAR_M and z0 < op.bottom + op.height + OPENING_CLEAR_M
+            for op in wall.openings
+        )  # fmt: skip
+
+    a0, a1, _, _ = span(moved)
+    if a0 < -1e-3 or a1 > wall.length + 1e-3:
+        return False
+    return not on_opening(moved) or (before is not None and on_opening(before))
+
+
+def _rehang(
+    base: Scene,
+    old: Wall,
+    lead0: SceneObject,
+    lead1: SceneObject,
+    sub0: SceneObject,
+    group: list[SceneObject],
+) -> tuple[Pose, str] | None:
+    """A wall piece carried to the wall its leader backs onto now (:data:`REHANG_GAP_M`,
+    :data:`REHANG_FACING_DEG`): as far from that wall and as high as it hung, as far beside the
+    leader's centre (turned with the leader), facing into the room; ``None`` when no wall is
+    behind the leader, or the piece would not fit on it, cover one of its openings or leave the
+    group it hangs over."""
+    assert base.room is not None
+    front = _front(lead1)
+    corners = lead1.corners()
+    cos_max = math.cos(math.radians(REHANG_FACING_DEG))
+    behind = [
+        (w.gap(corners), w.id, w) for w in base.room.walls
+        if float(front @ w.inward_normal) >= cos_max and -0.02 <= w.gap(corners) <= REHANG_GAP_M
+    ]  # fmt: skip
+    if not behind:
+        return None
+    _, _, wall = min(behind, key=lambda b: (b[0], b[1]))
+    n0, n1 = old.inward_normal, wall.inward_normal
+    t0, t1 = old.direction, wall.direction
+    p0 = _xy(sub0)
+    depth = float((p0 - np.asarray(old.start)) @ n0)
+    turn = _yaw(lead1) - _yaw(lead0)
+    lateral = _rot(turn) @ (t0 * float((p0 - _xy(lead0)) @ t0))
+    start = np.asarray(wall.start, dtype=np.float64)
+    along = float((_xy(lead1) - start) @ t1) + float(lateral @ t1)
+    xy = start + t1 * along + n1 * depth
+    spin = math.atan2(float(n1[1]), float(n1[0])) - math.atan2(float(n0[1]), float(n0[0]))
+    z = float(sub0.pose.position[2])
+    pose = Pose(
+        position=(float(xy[0]), float(xy[1]), z),
+        quaternion=_turned(sub0.pose.quaternion, spin),
+        scale=sub0.pose.scale,
+    )
+    moved = sub0.model_copy(update={"pose": pose})
+    if not _fits_wall(moved, wall, None):
+        return None
+    area = unary_union([_foot(g).buffer(OVER_MARGIN_M) for g in group])
+    if not area.contains(Point(xy)):
+        return None
+    floor = Polygon(base.room.floor).buffer(0.02)
+    if not floor.covers(Polygon(moved.footprint())):
+        return None
+    return pose, wall.id
 
 
 def _rot(a: float) -> FloatArray:

@@ -254,11 +254,14 @@ class DoorZone:
     height: float
 
 
-def door_zones(house: House | Scene, depth: float = DOOR_CLEARANCE_DEPTH_M) -> list[DoorZone]:
+def door_zones(
+    house: House | Scene, depth: float = DOOR_CLEARANCE_DEPTH_M, kinds: tuple[str, ...] = ("door",)
+) -> list[DoorZone]:
     """The clearance zone of every door on every side it opens onto: a rectangle as wide as the
     door, ``depth`` deep from the wall's face into the room, clipped to the room's floor. An open
     stretch of wall (kind ``opening``: open-plan rooms) is no door and has no zone; reachability
-    (:func:`house_walkable`) covers it.
+    (:func:`house_walkable`) covers it. ``kinds=("opening",)`` gives the same rectangles in front
+    of the open stretches instead (the evolution keeps them reachable).
 
     A single room (a :class:`Scene`) gives the zones of the doors cut into its own walls.
     """
@@ -271,7 +274,7 @@ def door_zones(house: House | Scene, depth: float = DOOR_CLEARANCE_DEPTH_M) -> l
         k = 0
         for wall in scene.room.walls:
             for op in wall.openings:
-                if op.kind != "door":
+                if op.kind not in kinds:
                     continue
                 c = _opening_centre(wall, op)
                 half, inward = wall.direction * (op.width / 2), wall.inward_normal * depth

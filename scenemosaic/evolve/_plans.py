@@ -1,0 +1,443 @@
+"""Room plans: whole rearrangements of a room's floor that are valid for the house by construction.
+
+A floor unit of a room with doors (every room of a house) gets, before the other archetypes,
+up to :data:`MAX_PLANS` **room plans**. A plan moves the room's furniture the way a designer
+redraws a room, group by group, and is searched for with the house's constraints in it, not
+repaired after:
+
+* **Groups move whole.** The children are joined into functional groups (a seat and its table
+  or desk, a nightstand and its bed, a sofa, its coffee table and the TV stand it faces, a rug
+  and what stands on it); a group moves as one rigid body, turned and carried, or mirrored
+  across its main piece's axis, so every relation inside it holds wherever it goes. Pieces of
+  other units that hang over a group (a wall TV over its stand, a picture over a bed) follow it
+  in composition (``scene.follow_leaders``), onto the new wall when the group changes wall.
+* **Fixtures stay.** Built-in categories (``scene.is_fixture``: counters, sinks, fridges,
+  stoves, toilets, bathtubs, showers, ...) and pieces a cross-unit clause ties down never move;
+  the table is documented in ``docs/evolution.md``.
+* **Valid by construction.** A group with a piece that belongs against a wall (the TV stand,
+  the bed, the desk, else the largest) is backed flush against a wall, every
+  :data:`PLAN_STEP_M` along it; a free group (a dining table and its chairs) is tried on a grid
+  over the floor, turned by quarter turns. A place is kept only when every member lies on the
+  floor clear of the fixed pieces, of the other units' low pieces, of the **door zones**
+  (``scene.door_zones``) and of the groups already placed (by :data:`PLAN_MARGIN_M`), with the
+  strip in front of its main piece free. The finished plan must leave the floor's walkable
+  part as connected as the base's and every door reachable from it (the robot radius and the
+  door test of ``scene.cut_off_doors``).
+* **Different from each other.** Groups are placed largest first; each takes, among its valid
+  places, the one farthest from where it stood in the base and in the plans made before (a
+  seeded jitter breaks near ties), so successive plans spread the furniture over the walls.
+  A plan whose largest group did not move at least :data:`PLAN_MIN_MOVE_M` (or turn) is no plan.
+
+Plans are deterministic for a given layout and context (seeded by :data:`PLAN_SEED`) and cached
+on the unit's context, so the archetype agent and the instantiation compute them once.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from shapely import prepare
+from shapely.geometry import Point, Polygon
+from shapely.ops import unary_union
+
+from scenemosaic.evolve._context import UnitContext, WallLine
+from scenemosaic.scene import (
+    ROBOT_RADIUS,
+    WALK_MAX_HEIGHT,
+    WALK_MIN_SHARE,
+    FloorRaster,
+    UnitLayout,
+    is_fixture,
+    normalize_degrees,
+)
+
+__all__ = [
+    "MAX_PLANS", "PLAN_MARGIN_M", "PLAN_MIN_MOVE_M", "PLAN_STEP_M", "Placement", "doors_kept", "fixed_children", "move_group", "plan_summary", "room_plans", "walk_check",
+]  # fmt: skip
+
+Placement = dict[str, tuple[float, float, float]]
+
+MAX_PLANS = 8
+"""Most room plans one floor unit gets."""
+PLAN_STEP_M = 0.2
+"""Spacing, metres, of the places tried along a wall (and of the grid a free group is tried on)."""
+PLAN_MARGIN_M = 0.08
+"""A placed group keeps at least this far, metres, from everything it does not bring along."""
+PLAN_MIN_MOVE_M = 0.8
+"""A plan must carry its largest group at least this far, metres (or turn it a quarter turn)."""
+PLAN_FRONT_M = 0.6
+"""Depth, metres, of the strip kept free in front of a group's main piece."""
+PLAN_TRIES = 16
+"""Seeded attempts at each plan before the planner gives up on more plans."""
+PLAN_SEED = 1729
+"""Seed of the plans' jitter (plans are the same for the same room on every run)."""
+PLAN_CELL_M = 0.05
+"""Cell of the raster the walkable check of a finished plan runs on, metres."""
+_JITTER_M = 0.6
+_LEADS = ("tv_stand", "bed", "desk")
+
+
+def move_group(
+    place: Placement, layout: UnitLayout, members: list[str], pivot: np.ndarray, to: np.ndarray, turn: float
+) -> None:
+    """Turn ``members`` by ``turn`` degrees (clockwise in the view, like rotations) about ``pivot``
+    and carry the pivot to ``to``, writing their new (u, v, rotation) into ``place``."""
+    a = math.radians(-turn)  # a clockwise in-plane turn is a negative angle in (u, v)
+    rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    for k in members:
+        c = np.asarray(layout.center(k)) - pivot
+        p = to + rot @ c
+        place[k] = (float(p[0]), float(p[1]), normalize_degrees(layout.rotation(k) + turn))
+
+
+def _facing(rotation: float) -> np.ndarray:
+    r = math.radians(rotation)
+    return np.array([-math.sin(r), -math.cos(r)])
+
+
+@dataclass
+class _Group:
+    lead: str
+    members: list[str]
+    on_wall: bool
+    area: float
+
+
+@dataclass
+class _Option:
+    place: Placement
+    shapes: list[Polygon]
+    """The solid members' outlines and the front strip: what later groups must stay clear of."""
+    solid: list[Polygon]
+    centre: np.ndarray
+    turn: float
+
+
+def fixed_children(layout: UnitLayout, ctx: UnitContext) -> set[str]:
+    """Children a variant never moves: fixtures by category (``scene.is_fixture``) and pieces a clause pins."""
+    return {k for k in layout.ids if is_fixture(layout.object(k).category) or k in ctx.pinned}
+
+
+def _groups(layout: UnitLayout, ctx: UnitContext, fixed: set[str]) -> list[_Group]:
+    parent = {k: k for k in layout.ids}
+
+    def find(k: str) -> str:
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    def join(a: str, b: str) -> None:
+        if a in parent and b in parent and a not in fixed and b not in fixed:
+            parent[find(a)] = find(b)
+
+    for a, b in [
+        *ctx.seat_table.items(),
+        *ctx.nightstand_bed.items(),
+        *ctx.sofa_tv.items(),
+        *ctx.keep_facing,
+    ]:
+        join(a, b)
+    solid = [k for k in layout.ids if k not in ctx.thin and k not in fixed]
+    for rug in sorted(ctx.thin - fixed):  # a rug goes with what stands on it
+        area = Polygon(layout.polygon(rug))
+        on = [k for k in solid if area.contains(Point(layout.center(k)))]
+        for k in on:
+            join(rug, k)
+    members: dict[str, list[str]] = {}
+    for k in layout.ids:
+        if k not in fixed:
+            members.setdefault(find(k), []).append(k)
+    out = []
+    for ms in members.values():
+        walls = [k for k in ms if k in ctx.against_wall]
+        area = sum(Polygon(layout.polygon(k)).area for k in ms if k not in ctx.thin)
+        if walls:
+            rank = {c: i for i, c in enumerate(_LEADS)}
+            lead = min(
+                walls,
+                key=lambda k: (
+                    _lead_rank(layout.object(k).category, rank),
+                    -Polygon(layout.polygon(k)).area,
+                    k,
+                ),
+            )
+        else:
+            lead = max(
+                (k for k in ms if k not in ctx.thin),
+                key=lambda k: (Polygon(layout.polygon(k)).area, k),
+                default=ms[0],
+            )
+        out.append(_Group(lead, sorted(ms), bool(walls), area))
+    return sorted(out, key=lambda g: (-g.area, g.lead))
+
+
+def _lead_rank(category: str, rank: dict[str, int]) -> int:
+    for name, i in rank.items():
+        if name in category:
+            return i
+    return len(rank)
+
+
+class _Planner:
+    """The static side of a room's plans: the region, what never moves, each group's valid places."""
+
+    def __init__(self, layout: UnitLayout, ctx: UnitContext) -> None:
+        self.layout, self.ctx = layout, ctx
+        self.fixed = fixed_children(layout, ctx)
+        self.groups = _groups(layout, ctx, self.fixed)
+        self.region = Polygon(ctx.surface.region).buffer(-0.005, join_style="mitre")
+        prepare(self.region)
+        fixed_polys = [Polygon(layout.polygon(k)) for k in self.fixed if k not in ctx.thin]
+        from scenemosaic.evolve._analysis import obstacle_polygons
+
+        others = [(float(o.aabb()[0][2]), p) for o, p in obstacle_polygons(ctx) if p.area > 0]
+        self.walk_obstacles = [p for z, p in others if z < WALK_MAX_HEIGHT]
+        self.fixed_grown = [p.buffer(PLAN_MARGIN_M, join_style="mitre") for p in fixed_polys]
+        self.others = others
+        self.static = Polygon()
+        self.options = {g.lead: self._options(g) for g in self.groups}
+
+    def _static_for(self, g: _Group) -> None:
+        """What never moves and stands in ``g``'s way: the fixtures, the door zones and the other
+        units' pieces that hang lower than the group's top (a picture above a sofa does not)."""
+        top = max(self.layout.span(k)[1] for k in g.members)
+        low = [p.buffer(PLAN_MARGIN_M, join_style="mitre") for z, p in self.others if z < top]
+        parts = [*self.fixed_grown, *low, *self.ctx.keep_clear]
+        self.static = unary_union(parts) if parts else Polygon()
+        prepare(self.static)
+
+    def _placed(self, g: _Group, place: Placement) -> tuple[list[Polygon], list[Polygon]] | None:
+        trial = self.layout.copy()
+        for k, (u, v, r) in place.items():
+            trial.set_rotation(k, r)
+            trial.set_center(k, u, v)
+        solid = []
+        for k in g.members:
+            shape = Polygon(trial.polygon(k))
+            if not self.region.covers(shape):
+                return None
+            if k not in self.ctx.thin:
+                if self.static.intersects(shape):
+                    return None
+                solid.append(shape)
+        lu, lv, lr = place[g.lead]
+        extra = []
+        if g.lead not in self.ctx.thin and (g.lead in self.ctx.with_front):
+            from scenemosaic.evolve._analysis import front_strip
+
+            strip = front_strip(trial.polygon(g.lead), np.array([lu, lv]), lr, PLAN_FRONT_M)
+            if not self.region.covers(strip) or self.static.intersects(strip):
+                return None
+            extra.append(strip)
+        return solid, [*solid, *extra]
+
+    def _option(
+        self, g: _Group, pivot: np.ndarray, to: np.ndarray, turn: float, mirror: bool
+    ) -> _Option | None:
+        layout = self.layout
+        place: Placement = {}
+        if mirror:  # the group mirrored across its main piece's front axis
+            f = _facing(layout.rotation(g.lead))
+            side = np.array([f[1], -f[0]])
+            mirrored = layout.copy()
+            for k in g.members:
+                c = np.asarray(layout.center(k)) - pivot
+                c = c - 2 * float(c @ side) * side
+                fk = _facing(layout.rotation(k))
+                fk = fk - 2 * float(fk @ side) * side
+                rot = math.degrees(math.atan2(-fk[0], -fk[1]))
+                mirrored.set_rotation(k, rot)
+                mirrored.set_center(k, *(pivot + c))
+            move_group(place, mirrored, g.members, pivot, to, turn)
+        else:
+            move_group(place, layout, g.members, pivot, to, turn)
+        found = self._placed(g, place)
+        if found is None:
+            return None
+        return _Option(place, found[1], found[0], to, turn)
+
+    def _options(self, g: _Group) -> list[_Option]:
+        self._static_for(g)
+        layout = self.layout
+        pivot = np.asarray(layout.center(g.lead))
+        out: list[_Option] = []
+        mirrors = (False, True) if len(g.members) > 1 else (False,)
+        if g.on_wall:
+            for wall in self.ctx.walls:
+                if wall.length < 0.5:
+                    continue
+                turn = normalize_degrees(wall.facing - layout.rotation(g.lead))
+                for to in _wall_positions(layout, g.lead, wall):
+                    for mirror in mirrors:
+                        opt = self._option(g, pivot, to, turn, mirror)
+                        if opt is not None:
+                            out.append(opt)
+        else:
+            x0, y0, x1, y1 = self.region.bounds
+            for u in np.arange(x0 + PLAN_STEP_M, x1, 2 * PLAN_STEP_M):
+                for v in np.arange(y0 + PLAN_STEP_M, y1, 2 * PLAN_STEP_M):
+                    for turn in (0.0, 90.0, 180.0, -90.0):
+                        opt = self._option(g, pivot, np.array([u, v]), turn, False)
+                        if opt is not None:
+                            out.append(opt)
+        return out
+
+    def walkable(self, place: Placement) -> tuple[float, bool]:
+        """The plan's walkable share and whether every door zone reaches its main piece."""
+        return walk_check(self.layout, self.ctx, place, self.walk_obstacles)
+
+
+def walk_check(
+    layout: UnitLayout, ctx: UnitContext, place: Placement, obstacles: list[Polygon] | None = None
+) -> tuple[float, bool]:
+    """How a placement of a floor unit leaves the floor for a robot: the walkable share (largest
+    piece over all, ``ROBOT_RADIUS`` erosion on a :data:`PLAN_CELL_M` raster, the other units' low
+    pieces standing) and whether every door zone (and open passage) touches the largest piece."""
+    if obstacles is None:
+        from scenemosaic.evolve._analysis import obstacle_polygons
+
+        obstacles = [
+            p for o, p in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < WALK_MAX_HEIGHT and p.area > 0
+        ]
+    trial = layout.copy()
+    for k, (u, v, r) in place.items():
+        trial.set_rotation(k, r)
+        trial.set_center(k, u, v)
+    feet = [
+        Polygon(trial.polygon(k))
+        for k in trial.ids
+        if k not in ctx.thin and trial.span(k)[0] < WALK_MAX_HEIGHT
+    ]
+    raster = FloorRaster(np.asarray(ctx.surface.region, dtype=np.float64), cell=PLAN_CELL_M)
+    walk = raster.walkable(raster.blocked([*feet, *obstacles]), ROBOT_RADIUS)
+    if not walk.total:
+        return 0.0, False
+    main = walk.labels == walk.main
+    doors = all(
+        bool((main & raster.mask(z.buffer(ROBOT_RADIUS))).any()) for z in [*ctx.keep_clear, *ctx.passages]
+    )
+    return walk.share, doors
+
+
+def doors_kept(layout: UnitLayout, ctx: UnitContext, place: Placement) -> bool:
+    """Whether a placement of a floor unit with doors is valid for the house as the base is: no
+    solid piece in a door zone that the base kept clear, the floor as connected (within half a
+    percent, at least :data:`WALK_MIN_SHARE` where the base reaches it) and every door reachable
+    where the base's is."""
+    if not ctx.in_house:
+        return True
+    base = {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids}
+    trial = layout.copy()
+    for k, (u, v, r) in place.items():
+        trial.set_rotation(k, r)
+        trial.set_center(k, u, v)
+    for k in trial.ids:
+        if k in ctx.thin:
+            continue
+        now, before = Polygon(trial.polygon(k)), Polygon(layout.polygon(k))
+        for zone in ctx.keep_clear:
+            if now.intersection(zone).area > 1e-3 and before.intersection(zone).area <= 1e-3:
+                return False
+    base_share, base_doors = walk_check(layout, ctx, base)
+    share, doors = walk_check(layout, ctx, place)
+    return share >= min(WALK_MIN_SHARE, base_share - 0.005) and (doors or not base_doors)
+
+
+def _wall_positions(layout: UnitLayout, piece: str, wall: WallLine) -> list[np.ndarray]:
+    """The centres ``piece`` may take backed flush against ``wall``, every ``PLAN_STEP_M``."""
+    from scenemosaic.evolve._analysis import WALL_FLUSH_GAP
+
+    trial = layout.copy()
+    trial.set_rotation(piece, wall.facing)
+    poly = trial.polygon(piece)
+    back = (WALL_FLUSH_GAP - wall.gap(poly)) * np.asarray(wall.inward)
+    lo, hi = wall.along(poly + back)
+    start = np.asarray(trial.center(piece)) + back
+    return [start + t * wall.tangent for t in np.arange(-lo, wall.length - hi + 1e-9, PLAN_STEP_M)]
+
+
+def _plan(
+    planner: _Planner, rng: np.random.Generator, history: dict[str, list[np.ndarray]]
+) -> tuple[Placement, dict[str, _Option]] | None:
+    layout = planner.layout
+    place: Placement = {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids}
+    taken: list[Polygon] = []
+    chosen: dict[str, _Option] = {}
+    for g in planner.groups:
+        blocked = (
+            unary_union([p.buffer(PLAN_MARGIN_M, join_style="mitre") for p in taken]) if taken else Polygon()
+        )
+        best: tuple[float, _Option] | None = None
+        for opt in planner.options[g.lead]:
+            if taken and any(blocked.intersects(s) for s in opt.shapes):
+                continue
+            seen = history[g.lead]
+            score = min(float(np.linalg.norm(opt.centre - c)) for c in seen) + float(rng.random()) * _JITTER_M
+            if best is None or score > best[0]:
+                best = (score, opt)
+        if best is None:
+            return None
+        chosen[g.lead] = best[1]
+        place.update(best[1].place)
+        taken += best[1].shapes
+    if planner.groups:
+        first = planner.groups[0]
+        opt = chosen[first.lead]
+        moved = float(np.linalg.norm(opt.centre - np.asarray(layout.center(first.lead))))
+        if moved < PLAN_MIN_MOVE_M and abs(normalize_degrees(opt.turn)) < 45.0:
+            return None
+    return place, chosen
+
+
+def room_plans(layout: UnitLayout, ctx: UnitContext, limit: int = MAX_PLANS) -> list[Placement]:
+    """Up to ``limit`` room plans of a floor unit with doors (module docstring), most different
+    first; none for other units or when nothing can move."""
+    key = (
+        limit,
+        tuple(
+            (k, round(layout.center(k)[0], 4), round(layout.center(k)[1], 4), round(layout.rotation(k), 2))
+            for k in layout.ids
+        ),
+    )
+    cached = ctx.plan_cache.get(key)
+    if cached is not None:
+        return list(cached)
+    plans: list[Placement] = []
+    if ctx.in_house and limit > 0:
+        planner = _Planner(layout, ctx)
+        if planner.groups and any(planner.options.values()):
+            base_share, _ = planner.walkable({k: (*layout.center(k), layout.rotation(k)) for k in layout.ids})
+            need = min(WALK_MIN_SHARE, base_share - 0.005)
+            history = {g.lead: [np.asarray(layout.center(g.lead))] for g in planner.groups}
+            rng = np.random.default_rng(PLAN_SEED)
+            fails = 0
+            while len(plans) < limit and fails < PLAN_TRIES:
+                found = _plan(planner, rng, history)
+                if found is None:
+                    fails += 1
+                    continue
+                place, chosen = found
+                share, doors = planner.walkable(place)
+                if share < need or not doors:
+                    fails += 1
+                    for lead, opt in chosen.items():  # steer the next attempt elsewhere
+                        history[lead].append(opt.centre)
+                    continue
+                plans.append(place)
+                for lead, opt in chosen.items():
+                    history[lead].append(opt.centre)
+    ctx.plan_cache[key] = list(plans)
+    return plans
+
+
+def plan_summary(layout: UnitLayout, place: Placement) -> str:
+    """Which pieces a plan moves, in words (for the archetype's reasoning)."""
+    moved = [
+        k for k, (u, v, r) in place.items()
+        if math.dist((u, v), layout.center(k)) > 0.3 or abs(normalize_degrees(r - layout.rotation(k))) > 20
+    ]  # fmt: skip
+    cats = sorted({layout.object(k).category for k in moved})
+    return ", ".join(cats[:6]) or "nothing"
