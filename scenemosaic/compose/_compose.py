@@ -109,6 +109,8 @@ class CompositionReport:
     not_accepted: int = 0
     """Of those, the ones ``accept`` turned down."""
     pruned: int = 0
+    near_copies: int = 0
+    """Candidates never selected for lying within ``MIN_NOVELTY`` of a selected scene."""
     checks: int = 0
     """Scene-level interpenetration checks run (cached ones counted once)."""
     wall_s: float = 0.0
@@ -125,6 +127,7 @@ class CompositionReport:
             "rejected_by_scene_check": self.rejected,
             "rejected_by_accept": self.not_accepted,
             "pruned": self.pruned,
+            "near_copies": self.near_copies,
             "scene_checks": self.checks,
             "wall_s": round(self.wall_s, 3),
         }
@@ -325,6 +328,7 @@ def compose_variants(
 def _selection_figures(report: CompositionReport, sel: Selection) -> None:
     report.considered, report.sampled = sel.considered, sel.sampled
     report.rejected, report.pruned = len(sel.rejected) + sel.vetoed, sel.pruned
+    report.near_copies = sel.near_copies
     report.min_distances = sel.min_distances[1:]
 
 

@@ -28,6 +28,7 @@ __all__ = [
     "ALPHA",
     "CHUNK",
     "MAX_ENUMERATED",
+    "MIN_NOVELTY",
     "OCCUPANCY_WEIGHT",
     "TIE_BAND",
     "VETO_MAX_ROWS",
@@ -84,6 +85,10 @@ OCCUPANCY_WEIGHT = 2.0
 addition to the method (``docs/composition.md``): N alone ranks a mirror image of a symmetric
 room as very novel though a person sees the same room; the footprint term prefers variants that
 put furniture on other floor."""
+MIN_NOVELTY = 0.1
+"""No near-copies: a candidate whose novelty distance to a scene already selected (the original
+included) is below this is never selected; a run with fewer candidates this far apart delivers
+fewer variants and says so (``docs/composition.md``)."""
 TIE_BAND = 0.2
 """Candidates whose minimum distance to the selected set is within this fraction of the largest
 count as near ties in :func:`select_diverse`, and the one whose footprint overlaps least, in
@@ -271,6 +276,8 @@ class Selection:
     vetoed: int = 0
     """Candidates dropped unchecked because they share a turned-down part (a :data:`Veto`)."""
     pruned: int = 0
+    near_copies: int = 0
+    """Candidates dropped for lying closer than the minimum novelty distance to a selected scene."""
 
 
 Veto = tuple[tuple[int, int], ...]
@@ -291,6 +298,7 @@ def select_diverse(
     valid: Callable[[tuple[int, ...]], bool | Veto] | None = None,
     max_candidates: int | None = None,
     seed: int = 0,
+    min_distance: float = MIN_NOVELTY,
 ) -> Selection:
     """Dynamic max-min greedy: start from the original (every group's variant 0); repeatedly add the
     candidate whose minimum distance to the selected set is largest (near ties, within
@@ -299,7 +307,8 @@ def select_diverse(
     lowest index); when
     ``valid`` turns it down (scene-level interpenetration), drop it and take the next; after each
     addition drop every candidate whose minimum distance is below ``alpha`` times the added one's
-    (the d_max of that step); stop at ``m`` + 1 scenes or an empty pool.
+    (the d_max of that step), and every candidate closer than ``min_distance`` to a selected
+    scene (:data:`MIN_NOVELTY`: no near-copies); stop at ``m`` + 1 scenes or an empty pool.
 
     ``max_candidates`` scores a seeded uniform sample of that many candidates instead of the whole
     pool (``Selection.sampled`` says so). Each ordered (selected, candidate) distance is computed
@@ -319,6 +328,9 @@ def select_diverse(
     min_d = pool.distances(origin, rows)
     sum_d = np.zeros(len(rows), dtype=np.float64)  # summed footprint distance to the variants picked
     alive = np.ones(len(rows), dtype=bool)
+    copies = min_d < min_distance
+    sel.near_copies += int(copies.sum())
+    alive &= ~copies
     grid = rows if rows.ndim == 2 else (pool.choices(rows) if len(rows) <= VETO_MAX_ROWS else None)
     while len(sel.picked) < m + 1 and alive.any():
         # the alive rows, farthest first (a stable sort: ties in flat-index order); those within
@@ -365,4 +377,7 @@ def select_diverse(
             low = alive & (min_d < alpha * d_max)
             sel.pruned += int(low.sum())
             alive &= ~low
+            copies = alive & (min_d < min_distance)
+            sel.near_copies += int(copies.sum())
+            alive &= ~copies
     return sel

@@ -49,6 +49,9 @@ class WallLine:
     a: tuple[float, float]
     b: tuple[float, float]
     inward: tuple[float, float]
+    openings: tuple[tuple[float, float, float, float], ...] = ()
+    """The wall's doors, windows and open stretches: (from, to) along the wall from ``a``, and
+    (bottom, top) heights, metres."""
 
     @property
     def length(self) -> float:
@@ -159,7 +162,8 @@ def unit_context(scene: Scene, unit: LocalUnit, obstacles: list[SceneObject], th
             b = surface.to_uv(np.array([w.end[0], w.end[1], 0.0]))
             n = np.array([w.inward_normal[0], w.inward_normal[1], 0.0])
             inward = (float(n @ surface.u_axis), float(n @ surface.v_axis))
-            ctx.walls.append(WallLine(w.id, a, b, inward))
+            cuts = tuple((o.center - o.width / 2, o.center + o.width / 2, o.bottom, o.bottom + o.height) for o in w.openings)
+            ctx.walls.append(WallLine(w.id, a, b, inward, cuts))
         for o in kids:
             t = traits(o.category)
             if t.against_wall and t.placement == "floor":

@@ -23,7 +23,7 @@ repaired after:
   strip in front of its main piece free. The finished plan must leave the floor's walkable
   part as connected as the base's and every door reachable from it (the robot radius and the
   door test of ``scene.cut_off_doors``).
-* **Different from each other.** Groups are placed largest first; each takes, among its valid
+* **Different from each other.** Groups are placed most constrained first (fewest valid places); each takes, among its valid
   places, the one farthest from where it stood in the base and in the plans made before (a
   seeded jitter breaks near ties), so successive plans spread the furniture over the walls.
   A plan whose largest group did not move at least :data:`PLAN_MIN_MOVE_M` (or turn) is no plan.
@@ -75,6 +75,10 @@ PLAN_SEED = 1729
 """Seed of the plans' jitter (plans are the same for the same room on every run)."""
 PLAN_CELL_M = 0.05
 """Cell of the raster the walkable check of a finished plan runs on, metres."""
+PLAN_BRANCH = 4
+"""Places of one group the plan search tries before it gives up on the group before it."""
+PLAN_EXPANSIONS = 400
+"""Places the plan search tries in all for one plan."""
 _JITTER_M = 0.6
 _LEADS = ("tv_stand", "bed", "desk")
 
@@ -90,6 +94,12 @@ def move_group(
         c = np.asarray(layout.center(k)) - pivot
         p = to + rot @ c
         place[k] = (float(p[0]), float(p[1]), normalize_degrees(layout.rotation(k) + turn))
+
+
+def _turned(vector: np.ndarray, turn: float) -> np.ndarray:
+    """``vector`` (u, v) turned by ``turn`` degrees clockwise in the view (like rotations)."""
+    a = math.radians(-turn)
+    return np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]]) @ np.asarray(vector, dtype=np.float64)
 
 
 def _facing(rotation: float) -> np.ndarray:
@@ -235,7 +245,7 @@ class _Planner:
         return solid, [*solid, *extra]
 
     def _option(
-        self, g: _Group, pivot: np.ndarray, to: np.ndarray, turn: float, mirror: bool
+        self, g: _Group, pivot: np.ndarray, to: np.ndarray, turn: float, mirror: bool, wall: WallLine | None = None
     ) -> _Option | None:
         layout = self.layout
         place: Placement = {}
@@ -255,9 +265,36 @@ class _Planner:
         else:
             move_group(place, layout, g.members, pivot, to, turn)
         found = self._placed(g, place)
-        if found is None:
+        if found is None or not self._followers_fit(g, to, turn, wall):
             return None
         return _Option(place, found[1], found[0], to, turn)
+
+    def _followers_fit(self, g: _Group, to: np.ndarray, turn: float, wall: WallLine | None) -> bool:
+        """Whether the wall pieces hanging over ``g``'s members (``ctx.followers``) can hang where
+        composition will carry them (``scene.follow_leaders``): on ``wall`` (the one the group backs
+        onto), within its length and clear of its doors and windows. A group that is not backed
+        against a wall takes no wall piece along."""
+        for piece, leader, _ in self.ctx.followers:
+            if leader not in g.members:
+                continue
+            corners = self.ctx.surface.project(piece.corners())
+            own = min(self.ctx.walls, key=lambda w: abs(w.gap(corners)), default=None)
+            if own is None or abs(own.gap(corners)) > 0.05:
+                continue  # not a wall piece (a ceiling lamp, a rug): it follows anywhere
+            if wall is None:
+                return False
+            lead0 = np.asarray(self.layout.center(leader))
+            lead1 = to + _turned(lead0 - np.asarray(self.layout.center(g.lead)), turn)
+            lo0, hi0 = own.along(corners)
+            lateral = _turned(own.tangent * ((lo0 + hi0) / 2 - float((lead0 - np.asarray(own.a)) @ own.tangent)), turn)
+            mid = float((lead1 - np.asarray(wall.a)) @ wall.tangent) + float(lateral @ wall.tangent)
+            lo, hi = mid - (hi0 - lo0) / 2, mid + (hi0 - lo0) / 2
+            if lo < 0 or hi > wall.length:
+                return False
+            zlo, zhi = (float(v[2]) for v in piece.aabb())
+            if any(hi > a - 0.05 and lo < b + 0.05 and zhi > z0 - 0.05 and zlo < z1 + 0.05 for a, b, z0, z1 in wall.openings):
+                return False
+        return True
 
     def _options(self, g: _Group) -> list[_Option]:
         self._static_for(g)
@@ -272,7 +309,7 @@ class _Planner:
                 turn = normalize_degrees(wall.facing - layout.rotation(g.lead))
                 for to in _wall_positions(layout, g.lead, wall):
                     for mirror in mirrors:
-                        opt = self._option(g, pivot, to, turn, mirror)
+                        opt = self._option(g, pivot, to, turn, mirror, wall)
                         if opt is not None:
                             out.append(opt)
         else:
@@ -362,27 +399,44 @@ def _wall_positions(layout: UnitLayout, piece: str, wall: WallLine) -> list[np.n
 def _plan(
     planner: _Planner, rng: np.random.Generator, history: dict[str, list[np.ndarray]]
 ) -> tuple[Placement, dict[str, _Option]] | None:
+    """One plan: the groups placed most constrained first (fewest valid places), each at its
+    best-scored place clear of those already placed; a group left without a place sends the
+    search back to the previous group's next best (:data:`PLAN_BRANCH` each, at most
+    :data:`PLAN_EXPANSIONS` places tried in all)."""
     layout = planner.layout
-    place: Placement = {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids}
-    taken: list[Polygon] = []
-    chosen: dict[str, _Option] = {}
-    for g in planner.groups:
-        blocked = (
-            unary_union([p.buffer(PLAN_MARGIN_M, join_style="mitre") for p in taken]) if taken else Polygon()
-        )
-        best: tuple[float, _Option] | None = None
-        for opt in planner.options[g.lead]:
+    order = sorted(planner.groups, key=lambda g: (len(planner.options[g.lead]), -g.area, g.lead))
+    jitter = {g.lead: rng.random(len(planner.options[g.lead])) * _JITTER_M for g in order}
+    budget = [PLAN_EXPANSIONS]
+
+    def search(i: int, taken: list[Polygon]) -> list[_Option] | None:
+        if i == len(order):
+            return []
+        g = order[i]
+        blocked = unary_union([p.buffer(PLAN_MARGIN_M, join_style="mitre") for p in taken]) if taken else Polygon()
+        scored = []
+        for j, opt in enumerate(planner.options[g.lead]):
             if taken and any(blocked.intersects(s) for s in opt.shapes):
                 continue
-            seen = history[g.lead]
-            score = min(float(np.linalg.norm(opt.centre - c)) for c in seen) + float(rng.random()) * _JITTER_M
-            if best is None or score > best[0]:
-                best = (score, opt)
-        if best is None:
-            return None
-        chosen[g.lead] = best[1]
-        place.update(best[1].place)
-        taken += best[1].shapes
+            score = min(float(np.linalg.norm(opt.centre - c)) for c in history[g.lead]) + float(jitter[g.lead][j])
+            scored.append((-score, j, opt))
+        scored.sort(key=lambda x: (x[0], x[1]))
+        for _, _, opt in scored[:PLAN_BRANCH]:
+            if budget[0] <= 0:
+                return None
+            budget[0] -= 1
+            rest = search(i + 1, [*taken, *opt.shapes])
+            if rest is not None:
+                return [opt, *rest]
+        return None
+
+    found = search(0, [])
+    if found is None:
+        return None
+    place: Placement = {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids}
+    chosen: dict[str, _Option] = {}
+    for g, opt in zip(order, found, strict=True):
+        chosen[g.lead] = opt
+        place.update(opt.place)
     if planner.groups:
         first = planner.groups[0]
         opt = chosen[first.lead]

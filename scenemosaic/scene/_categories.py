@@ -342,7 +342,8 @@ def is_fixture(category: str, fixtures: frozenset[str] | set[str] | None = None)
     traits or listed in ``fixtures`` (default :data:`FIXTURE_CATEGORIES`)."""
     c = normalize_category(category)
     table = FIXTURE_CATEGORIES if fixtures is None else fixtures
-    return c in table or traits(c).built_in
+    joined = {f.replace("_", "") for f in table}  # AI2-THOR's ``WashingMachine`` reads ``washingmachine``
+    return c in table or c.replace("_", "") in joined or traits(c).built_in
 
 
 def traits(category: str) -> CategoryTraits:

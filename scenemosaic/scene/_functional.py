@@ -221,6 +221,8 @@ def functional_relations(scene: Scene) -> list[Functional]:
             # a wall piece serves a piece that stands against a wall (a bed, a sofa, a TV stand, a
             # dresser), not a chair that happens to stand below it
             pool = wall_leaders if on_wall else leaders
+            if on_wall and cat == "television":  # a TV serves its stand or cabinet, not a bed or a sofa it would hang behind
+                pool = [g for g in wall_leaders if traits(g.category).contains]
             below = [g for g in _under_group(o, pool) if float(g.aabb()[1][2]) <= float(o.aabb()[0][2]) + 0.05]
             if below:
                 group, leader = _sorted_group(below)

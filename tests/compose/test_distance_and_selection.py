@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from scenemosaic.compose import (
+    MIN_NOVELTY,
     Arrangement,
     CandidatePool,
     GroupVariants,
@@ -156,3 +157,20 @@ def test_grafting_chains_round_trip_through_the_polar_decomposition(seed: int) -
     assert np.linalg.det(r) == pytest.approx(1.0)
     # the object's own scale survives the chain
     assert np.allclose(np.sort(s), np.sort(np.linalg.svd(local[:3, :3], compute_uv=False)), atol=1e-9)
+
+
+def test_near_copies_are_never_selected() -> None:
+    """A pool whose variants are tiny nudges of the original yields no variant at all rather than
+    a near-copy (``MIN_NOVELTY``); far variants still are selected, none within the minimum."""
+    rng = np.random.default_rng(7)
+    group = _random_group(rng, "a", 4, 6)
+    group.positions[1:4] = group.positions[0] + rng.normal(0, 1e-3, size=(3, 4, 3))  # near-copies of variant 0
+    group.rotations[1:4] = group.rotations[0]
+    group.quaternions[1:4] = group.quaternions[0]
+    pool = CandidatePool([group])
+    sel = select_diverse(pool, m=5, alpha=0.0)  # no pruning by the greedy's own step: the minimum alone
+    assert sel.near_copies >= 3
+    assert all(d >= MIN_NOVELTY for d in sel.min_distances[1:])
+    assert not {(1,), (2,), (3,)} & set(sel.picked)
+    allowed = select_diverse(pool, m=5, alpha=0.0, min_distance=0.0)
+    assert len(allowed.picked) > len(sel.picked)

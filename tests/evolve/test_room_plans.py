@@ -1,0 +1,135 @@
+"""Room plans of a house's rooms (``evolve/_plans.py``): valid for the house by construction.
+
+Each plan is checked on its own placement, before any loop runs, on rooms of shipped houses:
+groups move rigidly, fixtures stay, no solid piece enters a door zone, the floor stays connected
+with every door reachable, the largest group really moves, and the plans differ from each other.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from shapely.geometry import Polygon
+
+from scenemosaic import GenerateConfig, agenerate
+from scenemosaic.evolve import UnitContext, rule_archetypes, unit_context, unit_obstacles
+from scenemosaic.evolve._plans import PLAN_MIN_MOVE_M, _groups, fixed_children, room_plans, walk_check
+from scenemosaic.physics import is_thin
+from scenemosaic.scene import WALK_MIN_SHARE, Scene, UnitLayout, is_fixture
+
+HOUSES = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor"
+ROOMS = [("procthor10k_train4_4room.json", "room|4"), ("procthor10k_train1_10room.json", "room|3"), ("procthor_6room.json", "room|6")]
+
+
+async def _floor(house: str, room: str, out: Path) -> tuple[Scene, UnitLayout, UnitContext]:
+    scene = (await agenerate(HOUSES / house, out, GenerateConfig(evolve=False, room=room))).scene
+    assert isinstance(scene, Scene) and scene.structure is not None
+    unit = next(u for u in scene.structure.units if u.anchor_id == "floor")
+    ctx = unit_context(scene, unit, unit_obstacles(scene, unit, scene.structure.units), {o.id for o in scene.objects if is_thin(o)})
+    return scene, UnitLayout.from_scene(scene, unit, ctx.surface), ctx
+
+
+@pytest.mark.parametrize(("house", "room"), ROOMS)
+async def test_plans_are_valid_for_the_house_by_construction(house: str, room: str, tmp_path: Path) -> None:
+    _, layout, ctx = await _floor(house, room, tmp_path)
+    assert ctx.in_house and ctx.keep_clear
+    plans = room_plans(layout, ctx, 5)
+    assert len(plans) >= 3, f"{room}: only {len(plans)} plans"
+    fixed = fixed_children(layout, ctx)
+    groups = _groups(layout, ctx, fixed)
+    base_share, _ = walk_check(layout, ctx, {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids})
+    leads = []
+    for place in plans:
+        trial = layout.copy()
+        for k, (u, v, r) in place.items():
+            trial.set_rotation(k, r)
+            trial.set_center(k, u, v)
+        for k in fixed:  # fixtures and pinned pieces never move
+            assert math.dist(trial.center(k), layout.center(k)) < 1e-9
+        for g in groups:  # every group moved as one rigid body: its inner distances kept
+            for a, b in itertools.combinations(g.members, 2):
+                before = math.dist(layout.center(a), layout.center(b))
+                assert math.dist(trial.center(a), trial.center(b)) == pytest.approx(before, abs=1e-6)
+        region = Polygon(ctx.surface.region).buffer(1e-6)
+        for k in trial.ids:
+            shape = Polygon(trial.polygon(k))
+            assert region.covers(shape), f"{k} leaves the floor"
+            if k not in ctx.thin:
+                assert all(shape.intersection(z).area < 1e-6 for z in ctx.keep_clear), f"{k} stands in a door zone"
+        share, doors = walk_check(layout, ctx, place)
+        assert doors and share >= min(WALK_MIN_SHARE, base_share - 0.005)
+        first = groups[0].lead
+        moved = math.dist(place[first][:2], layout.center(first))
+        turned = abs(((place[first][2] - layout.rotation(first)) + 180) % 360 - 180)
+        assert moved >= PLAN_MIN_MOVE_M or turned >= 45
+        leads.append(np.array([place[g.lead][:2] for g in groups]))
+    for a, b in itertools.combinations(leads, 2):  # no two plans put every group in the same place
+        assert float(np.abs(a - b).max()) > 0.3
+
+
+async def test_plans_come_first_and_fixtures_stay_in_every_archetype(tmp_path: Path) -> None:
+    _, layout, ctx = await _floor("procthor10k_train4_4room.json", "room|6", tmp_path)  # the kitchen
+    fixed = {k for k in layout.ids if is_fixture(layout.object(k).category)}
+    assert fixed, "the kitchen has a counter and a fridge"
+    found = rule_archetypes(layout, ctx, 5)
+    assert found and found[0].layout_id.startswith("plan_")
+    for arch in found:
+        place = arch.place(layout, ctx)
+        from scenemosaic.evolve._archetypes import _pinned
+
+        kept = _pinned(place, ctx, layout)
+        for k in fixed:
+            assert math.dist(kept[k][:2], layout.center(k)) < 1e-9
+
+
+def test_fixture_table() -> None:
+    for cat in ("Toilet", "CounterTop", "Fridge", "stove_burner", "Bathtub", "WashingMachine", "sink"):
+        assert is_fixture(cat), cat
+    for cat in ("bed", "sofa", "dining_table", "desk", "dresser", "wardrobe", "tv_stand", "shelving_unit", "chair"):
+        assert not is_fixture(cat), cat
+    assert is_fixture("bed", fixtures={"bed"})  # the table is overridable
+
+
+async def test_a_wall_piece_is_rehung_on_the_wall_its_group_moves_to(tmp_path: Path) -> None:
+    """The painting over the dresser of a shipped bedroom follows the dresser to another wall:
+    same height, flush on the new wall, facing the room, its support relation naming that wall,
+    and RelKeep counts it kept (``scene.follow_leaders``, ``metrics.relkeep``)."""
+    from scenemosaic.metrics import relation_holds, relkeep
+    from scenemosaic.scene import (
+        Pose,
+        follow_leaders,
+        functional_holds,
+        functional_relations,
+        quat_from_yaw,
+        with_world_poses,
+    )
+
+    scene = (await agenerate(HOUSES / "procthor_4room.json", tmp_path, GenerateConfig(evolve=False, room="room|4"))).scene
+    assert isinstance(scene, Scene) and scene.room is not None
+    rels = [r for r in functional_relations(scene) if r.follows and r.kind == "over"]
+    over = next(r for r in rels if scene.get(r.subject).category == "painting" and scene.get(r.leader).category == "dresser")
+    painting, dresser = scene.get(over.subject), scene.get(over.leader)
+    old_wall = scene.support_of(painting.id)
+    assert old_wall is not None
+    target = next(w for w in scene.room.walls if w.id != old_wall.parent and not w.openings and w.length > 3.0)
+    n = np.asarray(target.inward_normal)
+    yaw = math.atan2(float(n[0]), float(-n[1]))  # front (local -Y) along the wall's inward normal
+    mid = (np.asarray(target.start) + np.asarray(target.end)) / 2
+    trial = dresser.model_copy(update={"pose": Pose(position=(float(mid[0]), float(mid[1]), dresser.pose.position[2]), quaternion=quat_from_yaw(yaw), scale=dresser.pose.scale)})
+    back = 0.01 - target.gap(trial.corners())
+    pos = mid + n * back
+    moved = with_world_poses(scene, {dresser.id: trial.pose.model_copy(update={"position": (float(pos[0]), float(pos[1]), dresser.pose.position[2])})})
+    followed = follow_leaders(scene, moved, rels)
+    assert followed is not None
+    hung = followed.get(painting.id)
+    now = followed.support_of(painting.id)
+    assert now is not None and now.parent == target.id
+    assert hung.pose.position[2] == pytest.approx(painting.pose.position[2], abs=1e-9)
+    assert abs(target.gap(hung.corners())) < 0.02  # flush on the new wall, in the room
+    assert functional_holds(followed, over)
+    assert not relation_holds(followed, old_wall) and relkeep(scene, followed) == pytest.approx(1.0)
+    assert followed.structure is not None and any(painting.id in u.children for u in followed.structure.units if u.anchor_id == target.id)
