@@ -62,7 +62,7 @@ from scenemosaic.evolve._plans import (
     plan_summary,
     room_plans,
 )
-from scenemosaic.scene import FloorRaster, UnitLayout, mask_iou, normalize_degrees
+from scenemosaic.scene import FloorRaster, UnitLayout, is_screen, mask_iou, normalize_degrees
 
 __all__ = ["RuleArchetype", "instantiate", "max_alternatives", "rule_archetypes"]
 
@@ -648,6 +648,9 @@ def _pinned(placed: Placement, ctx: UnitContext, layout: UnitLayout | None = Non
     return out
 
 
+TV_TURN_MAX = 45.0
+"""A screen on a stand or cabinet is never turned further than this, degrees, from the way it faces
+in the base (a TV turned to the wall behind it is no arrangement)."""
 SWAP_FIT_M = 0.05
 """A swap is offered only when every piece of both groups lands inside the room within this..."""
 SWAP_OVERLAP_M2 = 0.01
@@ -705,11 +708,16 @@ def _seated_all(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> Plac
 def _plausible(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:
     """Whether the loop can make a placement right, judged before it runs: wall pieces that
     faced each other (a sofa and its TV) still do (the loop does not carry wall pieces across
-    the room), and every table's seats have an even slot plan where the table now stands."""
+    the room), a screen on a stand or cabinet keeps facing the way its stand does (``TV_TURN_MAX``), and
+    every table's seats have an even slot plan where the table now stands."""
     trial = layout.copy()
     for k, (u, v, r) in placed.items():
         trial.set_rotation(k, r)
         trial.set_center(k, u, v)
+    if ctx.unit.anchor_kind == "object":
+        for k in trial.ids:
+            if is_screen(layout.object(k).category) and abs(normalize_degrees(trial.rotation(k) - layout.rotation(k))) > TV_TURN_MAX:
+                return False
     for piece, target in sorted(ctx.keep_facing):
         if piece in ctx.against_wall and piece in trial.ids and target in trial.ids and not layout_faces(trial, piece, target):
             return False

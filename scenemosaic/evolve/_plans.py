@@ -50,6 +50,7 @@ from scenemosaic.scene import (
     FloorRaster,
     UnitLayout,
     is_fixture,
+    is_screen,
     normalize_degrees,
 )
 
@@ -296,22 +297,38 @@ class _Planner:
                 return False
         return True
 
+    def _lead_outline(self, g: _Group, opt: _Option) -> np.ndarray:
+        trial = self.layout.copy()
+        u, v, r = opt.place[g.lead]
+        trial.set_rotation(g.lead, r)
+        trial.set_center(g.lead, u, v)
+        return trial.polygon(g.lead)
+
     def _options(self, g: _Group) -> list[_Option]:
         self._static_for(g)
         layout = self.layout
         pivot = np.asarray(layout.center(g.lead))
         out: list[_Option] = []
         mirrors = (False, True) if len(g.members) > 1 else (False,)
+        screens = [self.ctx.surface.project(o.corners()) for o in self.ctx.obstacles if is_screen(o.category)]
+        bed = "bed" in layout.object(g.lead).category and "dog" not in layout.object(g.lead).category
         if g.on_wall:
             for wall in self.ctx.walls:
                 if wall.length < 0.5:
                     continue
+                # a bed never backs onto the stretch of wall a TV hangs on (nobody watches the wall they lie against)
+                hung = [wall.along(c) for c in screens if abs(wall.gap(c)) < 0.05] if bed else []
                 turn = normalize_degrees(wall.facing - layout.rotation(g.lead))
                 for to in _wall_positions(layout, g.lead, wall):
                     for mirror in mirrors:
                         opt = self._option(g, pivot, to, turn, mirror, wall)
-                        if opt is not None:
-                            out.append(opt)
+                        if opt is None:
+                            continue
+                        if hung:
+                            lo, hi = wall.along(self._lead_outline(g, opt))
+                            if any(hi > a and lo < b for a, b in hung):
+                                continue
+                        out.append(opt)
         else:
             x0, y0, x1, y1 = self.region.bounds
             for u in np.arange(x0 + PLAN_STEP_M, x1, 2 * PLAN_STEP_M):

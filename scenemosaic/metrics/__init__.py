@@ -7,7 +7,16 @@ gathers them for a base scene and its variants (``scenemosaic evaluate`` prints 
 measured without one).
 """
 
-from scenemosaic.metrics._house import HOUSE_BASE_FIGURES, evaluate_house, house_checks
+from scenemosaic.metrics._house import (
+    FURNITURE_M2,
+    HOUSE_BASE_FIGURES,
+    MOVED_M,
+    TURNED_DEG,
+    evaluate_house,
+    furniture,
+    house_checks,
+    moved_furniture,
+)
 from scenemosaic.metrics._judge import JUDGE_VIEW_PX, JudgeAgent, JudgeOutput, ObjectVerdict, judge_scene
 from scenemosaic.metrics._metrics import (
     COL_SEPARATION_M,
@@ -34,6 +43,7 @@ from scenemosaic.metrics._metrics import (
     relkeep_summary,
     scene_metrics,
 )
+from scenemosaic.metrics._plausibility import PLAUSIBILITY_RULES, plausibility
 from scenemosaic.metrics._seating import (
     SEAT_SQUARE_DEG,
     SeatCheck,
@@ -46,16 +56,20 @@ from scenemosaic.metrics._seating import (
 __all__ = [
     "COL_SEPARATION_M",
     "DIV_GRID",
+    "FURNITURE_M2",
     "HOUSE_BASE_FIGURES",
     "JUDGE_VIEW_PX",
+    "MOVED_M",
     "NAV_GRID",
     "NAV_MAX_HEIGHT",
     "NAV_ROBOT_RADIUS",
     "OOB_EDGE_M",
     "OOB_INSIDE",
     "OOB_SAMPLES",
+    "PLAUSIBILITY_RULES",
     "RELATION_TOLERANCE_M",
     "SEAT_SQUARE_DEG",
+    "TURNED_DEG",
     "JudgeAgent",
     "JudgeOutput",
     "ObjectVerdict",
@@ -65,13 +79,16 @@ __all__ = [
     "div_n",
     "evaluate",
     "evaluate_house",
+    "furniture",
     "house_checks",
     "house_diversity",
     "house_occupancy",
     "judge_scene",
+    "moved_furniture",
     "nav",
     "occupancy",
     "oob",
+    "plausibility",
     "relation_holds",
     "relkeep",
     "relkeep_by_kind",

@@ -8,15 +8,29 @@ report and the command agree. The checks and their constants: ``docs/houses.md``
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from shapely.geometry import Polygon
+
 from scenemosaic.assets import HullCache
 from scenemosaic.metrics._metrics import evaluate, house_diversity, relkeep
-from scenemosaic.scene import House, door_blockers, house_walkable, wall_crossings
+from scenemosaic.physics import is_thin
+from scenemosaic.scene import (
+    FLOOR,
+    House,
+    Scene,
+    door_blockers,
+    house_walkable,
+    is_fixture,
+    normalize_degrees,
+    wall_crossings,
+    yaw_from_quat,
+)
 
-__all__ = ["HOUSE_BASE_FIGURES", "evaluate_house", "house_checks"]
+__all__ = ["FURNITURE_M2", "HOUSE_BASE_FIGURES", "MOVED_M", "TURNED_DEG", "evaluate_house", "furniture", "house_checks", "moved_furniture"]
 
 HOUSE_BASE_FIGURES = ("house_nav", "unreachable_rooms", "door_blockers", "wall_crossings")
 """The keys of :func:`house_checks` that :func:`evaluate_house` reports for the base house."""
@@ -63,7 +77,9 @@ def evaluate_house(
     * ``house``: ``base`` (:data:`HOUSE_BASE_FIGURES` of :func:`house_checks`), ``variants`` (per
       variant: ``house_nav``, ``unreachable_rooms``, how many ``door_blockers`` and
       ``wall_crossings``, and ``RelKeep``, the smallest over its rooms, 1.0 for a house without
-      rooms to compare) and, with variants, ``diversity`` (:func:`house_diversity`).
+      rooms to compare) and, with variants, ``diversity`` (:func:`house_diversity`),
+      ``rooms_rearranged`` (rooms with furniture some variant moves: :func:`moved_furniture`) and
+      ``rooms_not_rearranged`` (the ids of rooms with furniture no variant moves).
 
     ``base_dir`` and ``variant_dirs`` (one per variant; default: none) resolve each house's
     relative mesh uris: the delivered ``base/`` and ``variant_<i>/`` folders a house was read
@@ -93,4 +109,47 @@ def evaluate_house(
         )
     if variants:
         house["diversity"] = house_diversity(variants)
+        frozen = []
+        for k, scene in enumerate(base.rooms):
+            pieces = furniture(scene)
+            if pieces and not moved_furniture(scene, [v.rooms[k] for v in variants]):
+                frozen.append(scene.id)
+        house["rooms_rearranged"] = sum(1 for s in base.rooms if furniture(s)) - len(frozen)
+        house["rooms_not_rearranged"] = frozen
     return {"house": house, "rooms": rooms}
+
+
+FURNITURE_M2 = 0.15
+"""A floor piece with at least this much footprint (square metres) that is no fixture is furniture."""
+MOVED_M = 0.3
+"""Furniture moved when it is this far (metres) from where it stood in the base..."""
+TURNED_DEG = 20.0
+"""... or turned this many degrees."""
+
+
+def furniture(scene: Scene) -> list[str]:
+    """The room's furniture: floor-standing, solid, no fixture (``scene.is_fixture``), with at
+    least :data:`FURNITURE_M2` of footprint (a chair, not a plunger)."""
+    out = []
+    for o in scene.objects:
+        rel = scene.support_of(o.id)
+        standing = (rel is None or rel.parent == FLOOR) and not is_thin(o) and not is_fixture(o.category)
+        if standing and float(Polygon(o.footprint()).area) >= FURNITURE_M2:
+            out.append(o.id)
+    return out
+
+
+def moved_furniture(base: Scene, variants: Sequence[Scene]) -> list[str]:
+    """The furniture of ``base`` (:func:`furniture`) that some variant moves by :data:`MOVED_M` or
+    turns by :data:`TURNED_DEG`."""
+    out = []
+    for oid in furniture(base):
+        a = base.get(oid)
+        for v in variants:
+            b = v.get(oid)
+            shift = math.dist(a.pose.position[:2], b.pose.position[:2])
+            turn = abs(normalize_degrees(math.degrees(yaw_from_quat(b.pose.quaternion) - yaw_from_quat(a.pose.quaternion))))
+            if shift >= MOVED_M or turn >= TURNED_DEG:
+                out.append(oid)
+                break
+    return out

@@ -38,6 +38,7 @@ from shapely.geometry import Polygon
 
 from scenemosaic.assets import HullCache
 from scenemosaic.compose import Arrangement, novelty_distance
+from scenemosaic.metrics._plausibility import plausibility
 from scenemosaic.physics import check_collisions, is_thin
 from scenemosaic.render import object_world_mesh
 from scenemosaic.scene import (
@@ -301,11 +302,13 @@ def relkeep_summary(rows: Sequence[dict[str, float | None]]) -> dict[str, float 
 
 
 def scene_metrics(scene: Scene, base_dir: str | Path | None = None, *, hull_cache: HullCache | None = None) -> dict[str, float]:
-    """COL, OOB and NAV of one scene (fractions; NAV 1.0 is one connected walkable floor)."""
+    """COL, OOB and NAV of one scene (fractions; NAV 1.0 is one connected walkable floor) and
+    PLAUS, the lowest of its plausibility figures (``metrics.plausibility``; 1.0: every rule met)."""
     return {
         "COL": round(col(scene, base_dir, hull_cache=hull_cache), 4),
         "OOB": round(oob(scene, base_dir), 4),
         "NAV": round(nav(scene), 4),
+        "PLAUS": min(plausibility(scene).values()),
     }
 
 

@@ -332,6 +332,9 @@ async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
         base_checks=run.validation, variant_checks=run.variant_checks,
     )  # fmt: skip
     run.metrics = await asyncio.to_thread(measure)
+    frozen = run.metrics["house"].get("rooms_not_rearranged") or []
+    if frozen:  # said, not hidden: these rooms' variants differ in smaller pieces only
+        run.notes.append(f"room(s) whose furniture no variant moves (no other arrangement fits their free floor): {', '.join(frozen)}")
     for k, scene in enumerate(house.rooms):  # POS and ROT per room, from the run's model
         judged = await judge_scenes(run, rec, [scene, *(v.rooms[k] for v in run.house_variants)])
         if judged is not None:

@@ -27,9 +27,11 @@ import structlog
 __all__ = [
     "FIXTURE_CATEGORIES",
     "PROCTHOR_PRIORS_DIR",
+    "SCREEN_CATEGORIES",
     "CategoryTraits",
     "SupportPriors",
     "is_fixture",
+    "is_screen",
     "load_priors",
     "normalize_category",
     "priors_problem",
@@ -344,6 +346,15 @@ def is_fixture(category: str, fixtures: frozenset[str] | set[str] | None = None)
     table = FIXTURE_CATEGORIES if fixtures is None else fixtures
     joined = {f.replace("_", "") for f in table}  # AI2-THOR's ``WashingMachine`` reads ``washingmachine``
     return c in table or c.replace("_", "") in joined or traits(c).built_in
+
+
+SCREEN_CATEGORIES: frozenset[str] = frozenset({"television"})
+"""Screens: a variant keeps one facing the way its stand does, and no bed backs onto its wall."""
+
+
+def is_screen(category: str) -> bool:
+    """Whether ``category`` is a screen (:data:`SCREEN_CATEGORIES`, after :func:`normalize_category`)."""
+    return normalize_category(category) in SCREEN_CATEGORIES
 
 
 def traits(category: str) -> CategoryTraits:

@@ -1,0 +1,164 @@
+"""House diversity benchmark: are a house's variants ones a designer would draw, and all valid?
+
+Every shipped multi-room house (``data/houses/procthor``), and every house file in the folders
+given with ``--extra`` (houses the solver was not tuned on: keep them apart in the figures), runs
+``generate --variants 5`` offline (rules model, seed 0). Per house:
+
+* ``div_iou`` / ``div_n`` — the house's diversity over its five variants (``metrics.house_diversity``);
+* ``rooms_moved`` / ``rooms_movable`` — rooms in which some variant moves a piece of furniture
+  (``metrics.moved_furniture``: a non-fixture floor piece with at least 0.15 m² of footprint, by
+  0.3 m or 20 degrees) / rooms that have such a piece;
+* ``room_div_iou_max`` — the highest per-room Div-IoU among the bedrooms, living rooms and dining
+  rooms with at least 4 m² of free floor (``room_div_iou`` lists them);
+* ``plausibility_min`` — the lowest ``PLAUS`` (``metrics.plausibility``) of any room of any variant;
+* ``min_novelty`` — the smallest selection distance between variants (``MIN_NOVELTY`` is the floor);
+* validity over base and variants: ``col_max``, ``oob_max``, ``nav_min`` (per room),
+  ``house_nav_min``, ``door_blockers``, ``unreachable``, ``relkeep_min``; ``status``, ``seconds``.
+
+The last line is one JSON object: per house the figures above, and pooled ``houses``,
+``div_iou_max`` over houses of 3+ rooms (shipped and extra apart), ``rooms_moved`` / ``rooms_movable``,
+``plausibility_min``, ``seconds``.
+
+Run: ``.venv/bin/python benchmarks/house_diversity.py [--only NAME] [--extra DIR ...]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from shapely.geometry import Polygon
+from shapely.ops import unary_union
+
+from scenemosaic import GenerateConfig, generate
+from scenemosaic.exchange import load_scene
+from scenemosaic.metrics import furniture, moved_furniture
+from scenemosaic.scene import FLOOR, House, Scene, is_thin
+
+REPO = Path(__file__).resolve().parents[1]
+SHIPPED = REPO / "data" / "houses" / "procthor"
+FREE_FLOOR_M2 = 4.0
+"""Rooms with at least this much free floor are held to the per-room diversity bar, square metres."""
+ROOM_TYPES = ("bedroom", "livingroom", "living_room", "diningroom", "dining_room")
+
+
+def _free_floor(room: Scene) -> float:
+    if room.room is None:
+        return 0.0
+    floor = Polygon(room.room.floor)
+    feet = [Polygon(o.footprint()) for o in room.objects if not is_thin(o) and (room.support_of(o.id) is None or room.support_of(o.id).parent == FLOOR)]  # type: ignore[union-attr]
+    return float(floor.difference(unary_union(feet)).area) if feet else float(floor.area)
+
+
+def _house(path: Path, out: Path, group: str) -> dict[str, Any]:
+    t0 = time.perf_counter()
+    result = generate(path, out, GenerateConfig(variants=5))
+    seconds = round(time.perf_counter() - t0, 1)
+    report = result.report
+    base = load_scene(out, allow_partial=False)
+    assert isinstance(base, House)
+    variants = [load_scene(out, variant=i) for i in range(1, len(result.variants) + 1)]
+    metrics = report.get("metrics", {})
+    rooms_metrics = metrics.get("rooms", {})
+    moved = movable = 0
+    room_div: dict[str, float] = {}
+    plaus, cols, oobs, navs, relkeeps = [], [], [], [], []
+    for k, room in enumerate(base.rooms):
+        if furniture(room):
+            movable += 1
+            if moved_furniture(room, [v.rooms[k] for v in variants if isinstance(v, House)]):
+                moved += 1
+        rm = rooms_metrics.get(room.id, {})
+        rows = [rm.get("base", {}), *rm.get("variants", [])]
+        plaus += [r.get("PLAUS", 1.0) for r in rows]
+        cols += [r.get("COL", 0.0) for r in rows]
+        oobs += [r.get("OOB", 0.0) for r in rows]
+        navs += [r.get("NAV", 1.0) for r in rows]
+        relkeeps += [r["RelKeep"] for r in rm.get("variants", []) if r.get("RelKeep") is not None]
+        rtype = str(report.get("rooms", {}).get(room.id, {}).get("room_type") or "").lower()
+        div = (rm.get("diversity") or {}).get("Div-IoU")
+        if div is not None and rtype in ROOM_TYPES and _free_floor(room) >= FREE_FLOOR_M2:
+            room_div[f"{room.id} ({rtype})"] = div
+    house = metrics.get("house", {})
+    rows = [house.get("base", {}), *house.get("variants", [])]
+    compose: dict[str, Any] = next((s["detail"] for s in report.get("stages", []) if s["name"] == "compose"), {})
+    return {
+        "house": path.stem,
+        "group": group,
+        "rooms": len(base.rooms),
+        "objects": len(base.objects),
+        "status": result.status,
+        "variants": len(variants),
+        "div_iou": (house.get("diversity") or {}).get("Div-IoU"),
+        "div_n": (house.get("diversity") or {}).get("Div-N"),
+        "rooms_moved": moved,
+        "rooms_movable": movable,
+        "room_div_iou_max": max(room_div.values()) if room_div else None,
+        "room_div_iou": room_div,
+        "plausibility_min": min(plaus) if plaus else 1.0,
+        "min_novelty": min(compose.get("min_distances") or [0.0]),
+        "col_max": max(cols, default=0.0),
+        "oob_max": max(oobs, default=0.0),
+        "nav_min": min(navs, default=1.0),
+        "house_nav_min": min((r.get("house_nav", 1.0) for r in rows), default=1.0),
+        "door_blockers": sum(len(r.get("door_blockers") or []) if isinstance(r.get("door_blockers"), list) else int(r.get("door_blockers") or 0) for r in rows),
+        "unreachable": sum(len(r.get("unreachable_rooms") or []) for r in rows),
+        "relkeep_min": min(relkeeps, default=1.0),
+        "seconds": seconds,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", default=None, help="run only houses whose name contains this")
+    parser.add_argument("--extra", type=Path, nargs="*", default=[], help="folders of house files not tuned on")
+    args = parser.parse_args(argv)
+    t0 = time.perf_counter()
+    work = Path(tempfile.mkdtemp(prefix="house_diversity_"))
+    inputs = [(p, "shipped") for p in sorted(SHIPPED.glob("*.json")) if p.name != "SOURCES.json"]
+    for folder in args.extra:
+        inputs += [(p, "extra") for p in sorted(folder.glob("*.json")) if p.name != "SOURCES.json"]
+    rows = []
+    for path, group in inputs:
+        if args.only and args.only not in path.stem:
+            continue
+        data = json.loads(path.read_text())
+        if len(data.get("rooms", [])) < 2:
+            continue  # a one-room house is a room: benchmarks/plausibility.py covers rooms
+        row = _house(path, work / path.stem, group)
+        print(json.dumps(row), flush=True)
+        rows.append(row)
+
+    def worst(key: str, group: str, pick: Any = max) -> Any:
+        vals = [r[key] for r in rows if r["group"] == group and r["rooms"] >= 3 and r[key] is not None]
+        return pick(vals) if vals else None
+
+    figures = {
+        "houses": len(rows),
+        "ok": sum(r["status"] == "ok" for r in rows),
+        "div_iou_max_shipped": worst("div_iou", "shipped"),
+        "div_iou_max_extra": worst("div_iou", "extra"),
+        "room_div_iou_max": max((r["room_div_iou_max"] for r in rows if r["room_div_iou_max"] is not None), default=None),
+        "rooms_moved": sum(r["rooms_moved"] for r in rows),
+        "rooms_movable": sum(r["rooms_movable"] for r in rows),
+        "plausibility_min": min((r["plausibility_min"] for r in rows), default=1.0),
+        "min_novelty": min((r["min_novelty"] for r in rows), default=None),
+        "col_max": max((r["col_max"] for r in rows), default=0.0),
+        "oob_max": max((r["oob_max"] for r in rows), default=0.0),
+        "nav_min": min((r["nav_min"] for r in rows), default=1.0),
+        "door_blockers": sum(r["door_blockers"] for r in rows),
+        "unreachable": sum(r["unreachable"] for r in rows),
+        "relkeep_min": min((r["relkeep_min"] for r in rows), default=1.0),
+        "per_house": {r["house"]: {k: r[k] for k in ("group", "rooms", "div_iou", "div_n", "rooms_moved", "rooms_movable", "room_div_iou_max", "plausibility_min", "status", "seconds")} for r in rows},
+        "seconds": round(time.perf_counter() - t0, 1),
+    }
+    print(json.dumps(figures))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
