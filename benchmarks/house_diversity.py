@@ -1,7 +1,8 @@
 """House diversity benchmark: are a house's variants ones a designer would draw, and all valid?
 
-Every shipped multi-room house (``data/houses/procthor``), and every house file in the folders
-given with ``--extra`` (houses the solver was not tuned on: keep them apart in the figures), runs
+Every shipped multi-room house: those the solver was shaped on (``data/houses/procthor``) and the
+held-out ones it was not (``data/houses/held_out``, reported apart), and every house file in the
+folders given with ``--extra`` (group ``extra``), runs
 ``generate --variants 5`` offline (rules model, seed 0). Per house:
 
 * ``div_iou`` / ``div_n`` — the house's diversity over its five variants (``metrics.house_diversity``);
@@ -16,7 +17,7 @@ given with ``--extra`` (houses the solver was not tuned on: keep them apart in t
   ``house_nav_min``, ``door_blockers``, ``unreachable``, ``relkeep_min``; ``status``, ``seconds``.
 
 The last line is one JSON object: per house the figures above, and pooled ``houses``,
-``div_iou_max`` over houses of 3+ rooms (shipped and extra apart), ``rooms_moved`` / ``rooms_movable``,
+``div_iou_max`` over houses of 3+ rooms (shipped, held-out and extra apart), ``rooms_moved`` / ``rooms_movable``,
 ``plausibility_min``, ``seconds``.
 
 Run: ``.venv/bin/python benchmarks/house_diversity.py [--only NAME] [--extra DIR ...]``.
@@ -41,6 +42,7 @@ from scenemosaic.scene import FLOOR, House, Scene, is_thin
 
 REPO = Path(__file__).resolve().parents[1]
 SHIPPED = REPO / "data" / "houses" / "procthor"
+HELD_OUT = REPO / "data" / "houses" / "held_out"
 FREE_FLOOR_M2 = 4.0
 """Rooms with at least this much free floor are held to the per-room diversity bar, square metres."""
 ROOM_TYPES = ("bedroom", "livingroom", "living_room", "diningroom", "dining_room")
@@ -120,6 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     work = Path(tempfile.mkdtemp(prefix="house_diversity_"))
     inputs = [(p, "shipped") for p in sorted(SHIPPED.glob("*.json")) if p.name != "SOURCES.json"]
+    inputs += [(p, "held_out") for p in sorted(HELD_OUT.glob("*.json")) if p.name != "SOURCES.json"]
     for folder in args.extra:
         inputs += [(p, "extra") for p in sorted(folder.glob("*.json")) if p.name != "SOURCES.json"]
     rows = []
@@ -141,6 +144,7 @@ def main(argv: list[str] | None = None) -> int:
         "houses": len(rows),
         "ok": sum(r["status"] == "ok" for r in rows),
         "div_iou_max_shipped": worst("div_iou", "shipped"),
+        "div_iou_max_held_out": worst("div_iou", "held_out"),
         "div_iou_max_extra": worst("div_iou", "extra"),
         "room_div_iou_max": max((r["room_div_iou_max"] for r in rows if r["room_div_iou_max"] is not None), default=None),
         "rooms_moved": sum(r["rooms_moved"] for r in rows),

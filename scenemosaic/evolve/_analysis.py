@@ -1052,6 +1052,14 @@ def _legacy_seat(layout: UnitLayout, ctx: UnitContext, seat: str, table: str) ->
         out.append(
             Finding("faces_table", (seat, table), "semantic", f"Turn ({seat}) to face the table ({table}) squarely.", {seat: Target(rotation=want)})
         )
+        return out
+    square, on_side, side = _square_on_side(layout, table, seat)
+    if on_side and not square and traits(layout.object(table).category).table:
+        # facing the table roughly is not enough: square to the side it sits at, as the seating judge holds it
+        n = _table_sides(layout, table)[side][0]
+        out.append(
+            Finding("faces_table", (seat, table), "semantic", f"Turn ({seat}) square to the {side} side of the table ({table}).", {seat: Target(rotation=facing_degrees(-n))})
+        )
     return out
 
 

@@ -2,7 +2,8 @@
 
 A room cut from a house has doors in its walls (``Opening`` of kind ``door``); the zone in front
 of each (:func:`scenemosaic.scene.door_zones`: the door's width by ``DOOR_CLEARANCE_DEPTH_M``)
-must hold nothing a robot walks into. :func:`clear_doors` takes every floor-standing piece whose
+must hold nothing a robot walks into. A wall piece hung low in a zone (a picture beside the
+door frame) slides along its wall out of it. :func:`clear_doors` then takes every floor-standing piece whose
 footprint enters a zone (an item on a table in the zone moves with its table) and packs it back
 onto the floor less the zones, the other furniture standing where it stands
 (:func:`scenemosaic.scene.pack_surface`: the nearest free place), then checks the moved room for
@@ -44,7 +45,7 @@ from scenemosaic.scene import (
     rigid_moves,
 )
 
-__all__ = ["DOOR_PACK_CELL_M", "RECONNECT_REACH_M", "RECONNECT_ROUNDS", "DoorRepair", "clear_doors"]
+__all__ = ["DOOR_PACK_CELL_M", "RECONNECT_REACH_M", "RECONNECT_ROUNDS", "WALL_SLIDE_STEP_M", "DoorRepair", "clear_doors"]
 
 DOOR_PACK_CELL_M = 0.02
 """Raster cell (metres) of the search for a free place on the floor."""
@@ -53,6 +54,8 @@ RECONNECT_REACH_M = 1.0
 moved for it goes at least this far from every door."""
 RECONNECT_ROUNDS = 4
 """Most pieces moved to reopen the room's doors."""
+WALL_SLIDE_STEP_M = 0.05
+"""Step (metres) of the places along its wall tried for a wall piece hung in a door's way."""
 
 
 @dataclass
@@ -102,8 +105,10 @@ def clear_doors(
     repair = DoorRepair()
     if scene.room is None or not door_zones(scene, depth):
         return scene, repair
-    blockers = sorted({r for b in door_blockers(scene, depth=depth) if (r := _floor_root(scene, b.object_id)) is not None})
-    repaired = _move_out(scene, shapes, blockers, door_zones(scene, depth), 0.01, repair) if blockers else scene
+    hung = sorted({b.object_id for b in door_blockers(scene, depth=depth) if _wall_of(scene, b.object_id) is not None})
+    repaired = _slide_along_walls(scene, shapes, hung, door_zones(scene, depth), repair) if hung else scene
+    blockers = sorted({r for b in door_blockers(repaired, depth=depth) if (r := _floor_root(repaired, b.object_id)) is not None})
+    repaired = _move_out(repaired, shapes, blockers, door_zones(repaired, depth), 0.01, repair) if blockers else repaired
     repaired = _reconnect(repaired, shapes, depth, repair)
     repair.stuck = sorted({b.object_id for b in door_blockers(repaired, depth=depth)})
     repair.cut_off = cut_off_doors(repaired, depth=depth)
@@ -141,6 +146,51 @@ def _reconnect(scene: Scene, shapes: Mapping[str, ObjectShape], depth: float, re
         if moved is None:
             return scene
         scene = moved
+    return scene
+
+
+def _wall_of(scene: Scene, object_id: str) -> str | None:
+    """The wall ``object_id`` hangs on, else ``None``."""
+    rel = scene.support_of(object_id)
+    if rel is None or rel.parent == FLOOR or scene.anchor_kind(rel.parent) != "wall":
+        return None
+    return rel.parent
+
+
+def _slide_along_walls(
+    scene: Scene, shapes: Mapping[str, ObjectShape], movers: list[str], zones: list[DoorZone], repair: DoorRepair
+) -> Scene:
+    """Slide each wall piece in ``movers`` (a picture or TV hung low beside a door) along its wall,
+    the shortest way (every ``WALL_SLIDE_STEP_M``, up to the wall's length) that takes its
+    footprint out of every door zone and keeps it on the wall, clear of the wall's openings and
+    of every other object's hull; a piece with no such place stays (and is reported stuck)."""
+    assert scene.room is not None
+    keep_out = unary_union([z.polygon for z in zones]).buffer(0.01, join_style="mitre")
+    for oid in movers:
+        wall = scene.room.wall(_wall_of(scene, oid) or "")
+        obj = scene.get(oid)
+        t = np.asarray(wall.direction, dtype=np.float64)
+        start = np.asarray(wall.start, dtype=np.float64)
+        zlo, zhi = (float(v[2]) for v in obj.aabb())
+        steps = np.arange(WALL_SLIDE_STEP_M, wall.length + 1e-9, WALL_SLIDE_STEP_M)
+        for d in sorted([*steps, *(-steps)], key=lambda x: (abs(x), x)):
+            x, y, z = obj.pose.position
+            pose = obj.pose.model_copy(update={"position": (x + float(t[0] * d), y + float(t[1] * d), z)})
+            moved = obj.model_copy(update={"pose": pose})
+            along = (moved.corners()[:, :2] - start) @ t
+            lo, hi = float(along.min()), float(along.max())
+            if lo < -1e-3 or hi > wall.length + 1e-3 or _foot(moved).intersects(keep_out):
+                continue
+            if any(hi > o.center - o.width / 2 and lo < o.center + o.width / 2 and zhi > o.bottom and zlo < o.bottom + o.height for o in wall.openings):
+                continue
+            candidate = rigid_moves(scene, {oid: pose})
+            trial = scene.model_copy(update={"objects": [o.model_copy(update={"pose": candidate[o.id]}) if o.id in candidate else o for o in scene.objects]})
+            moved_ids = set(candidate)
+            if any((p.a in moved_ids) != (p.b in moved_ids) for p in collision_report_for(trial, shapes).pairs):
+                continue
+            repair.moved[oid] = repair.moved.get(oid, 0.0) + abs(float(d))
+            scene = trial
+            break
     return scene
 
 

@@ -5,7 +5,7 @@ A multi-room house input (an AI2-THOR / ProcTHOR house file without ``room``) ru
 usage, checkpoint, interruption) over the same :class:`PipelineRun`, whose ``house`` holds it:
 
 1. **rooms** — each room is a run of its own over :data:`HOUSE_ROOM_STAGES` (import → assets →
-   structure → stabilize → evolve → doors → compose) in ``OUT/rooms/<room>/``, started from the
+   structure → stabilize → doors → evolve → compose) in ``OUT/rooms/<room>/``, started from the
    room's scene as the house import gave it (in memory) and with its own checkpoint, so a stopped
    house resumes room by room. Rooms are independent until the house-level checks, so they run
    concurrently: in ``room_workers`` processes (:mod:`scenemosaic.pipeline._house_worker`, each

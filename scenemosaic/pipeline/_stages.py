@@ -1,4 +1,4 @@
-"""The stages of ``generate``, in order: import → assets → structure → stabilize → evolve → doors → compose → validate → evaluate → export.
+"""The stages of ``generate``, in order: import → assets → structure → stabilize → doors → evolve → compose → validate → evaluate → export.
 
 Each stage is one async function over the :class:`~scenemosaic.pipeline.PipelineRun`: it reads
 what the stages before it left there, leaves its own result, and records its figures. The model

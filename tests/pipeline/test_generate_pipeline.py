@@ -48,7 +48,7 @@ def test_output_layout_is_complete(living_run: tuple[Path, Path]) -> None:
     report = json.loads((out / "report.json").read_text())
     assert report["status"] == "ok"
     assert [s["name"] for s in report["stages"]] == [
-        "import", "assets", "structure", "stabilize", "evolve", "doors", "compose", "validate", "evaluate", "export",
+        "import", "assets", "structure", "stabilize", "doors", "evolve", "compose", "validate", "evaluate", "export",
     ]  # fmt: skip
     assert (out / "evolve" / "floor" / "original.json").is_file()
     skipped = {"compose", "doors"}  # no --variants; a room without doors

@@ -76,7 +76,7 @@ def test_a_signal_in_any_stage_stops_quickly_keeps_the_report_and_resumes(
     assert final["status"] in ("ok", "degraded")
     assert not (out / "base" / "partial.json").exists()  # delivered now
     statuses = {s["name"]: s["status"] for s in final["stages"]}
-    before = ["import", "assets", "structure", "stabilize", "evolve", "doors", "compose", "validate", "evaluate", "export"]
+    before = ["import", "assets", "structure", "stabilize", "doors", "evolve", "compose", "validate", "evaluate", "export"]
     for name in before[: before.index(stage)]:
         # not run again (compose: no --variants; doors: the dining room has none)
         assert statuses[name] == ("skipped" if name in ("compose", "doors") else "reused"), statuses
