@@ -53,3 +53,23 @@ def test_a_piece_that_closes_the_way_to_a_clear_door_moves_away_from_it() -> Non
     repaired, repair = clear_doors(scene, shapes(scene))
     assert not cut_off_doors(repaired) and not repair.cut_off
     assert repair.moved and not check_collisions(repaired).pairs
+
+
+def test_a_picture_hung_in_a_doors_way_slides_along_its_wall() -> None:
+    """A picture hung low on the door's wall, half over the door's span, slides along the wall
+    (not onto the floor) until it clears the door's zone and the opening; the cabinet stays."""
+    from scenemosaic.scene import Relation
+
+    picture = SceneObject(
+        id="picture", category="painting", asset=AssetRef(kind="box", extents=(0.03, 0.6, 0.5)),
+        pose=Pose.from_yaw((3.985, 2.0, 1.2), 0.0),
+    )  # fmt: skip
+    scene = room_with_door(picture, box("cabinet", 1.0, 2.6, (0.6, 0.5, 0.9)))
+    scene = scene.model_copy(update={"relations": [Relation(kind="attach", child="picture", parent="wall_1")]})
+    assert [b.object_id for b in door_blockers(scene)] == ["picture"]
+    repaired, repair = clear_doors(scene, shapes(scene))
+    assert set(repair.moved) == {"picture"} and not repair.stuck
+    x, y, z = repaired.get("picture").pose.position
+    assert (x, z) == pytest.approx((3.985, 1.2)) and y - 0.3 >= 1.5 + 0.45  # on its wall, past the door's span
+    assert y + 0.3 <= 3.0 and not door_blockers(repaired)
+    assert repaired.get("cabinet").pose == scene.get("cabinet").pose
