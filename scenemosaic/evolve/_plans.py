@@ -70,6 +70,11 @@ PLAN_MIN_MOVE_M = 0.8
 """A plan must carry its largest group at least this far, metres (or turn it a quarter turn)."""
 PLAN_FRONT_M = 0.6
 """Depth, metres, of the strip kept free in front of a group's main piece."""
+PLAN_PUSH_M = 3.0
+"""How far, metres, a group's second wall piece (a sofa across from its TV stand) may be pushed
+straight back to stand flush against the wall behind it."""
+BACK_FACING_DEG = 20.0
+"""A wall is behind a piece when its inward normal is within this many degrees of the piece's front."""
 PLAN_TRIES = 16
 """Seeded attempts at each plan before the planner gives up on more plans."""
 PLAN_SEED = 1729
@@ -265,16 +270,61 @@ class _Planner:
             move_group(place, mirrored, g.members, pivot, to, turn)
         else:
             move_group(place, layout, g.members, pivot, to, turn)
+        if not self._backed(g, place):
+            return None
         found = self._placed(g, place)
-        if found is None or not self._followers_fit(g, to, turn, wall):
+        if found is None or not self._followers_fit(g, place, turn, wall):
             return None
         return _Option(place, found[1], found[0], to, turn)
 
-    def _followers_fit(self, g: _Group, to: np.ndarray, turn: float, wall: WallLine | None) -> bool:
+    def _wall_behind(self, outline: np.ndarray, rotation: float, reach: float) -> tuple[WallLine, float] | None:
+        """The wall a piece facing ``rotation`` has behind it (its inward normal within
+        ``BACK_FACING_DEG`` of the piece's front, the piece's span mostly in front of it) and how
+        far the piece must move back to stand flush against it; the nearest within ``reach``."""
+        from scenemosaic.evolve._analysis import WALL_FLUSH_GAP
+
+        f = _facing(rotation)
+        found = []
+        for w in self.ctx.walls:
+            if float(np.asarray(w.inward) @ f) < math.cos(math.radians(BACK_FACING_DEG)) or w.overlap(outline) < 0.5:
+                continue
+            back = w.gap(outline) - WALL_FLUSH_GAP
+            if -0.01 <= back <= reach:
+                found.append((back, w.id, w))
+        if not found:
+            return None
+        back, _, w = min(found, key=lambda x: (x[0], x[1]))
+        return w, max(back, 0.0)
+
+    def _backed(self, g: _Group, place: Placement) -> bool:
+        """Push every piece of ``g`` that belongs against a wall, other than its main piece (a sofa
+        facing the TV stand that was backed onto the new wall), straight back along its own axis
+        until it stands flush against the wall behind it, so it keeps facing what it faced; a
+        group with such a piece and no wall behind it within :data:`PLAN_PUSH_M` is no option
+        (the loop would turn it to a wall). Nightstands and seats at tables go with their bed
+        or table as they are."""
+        trial = None
+        for k in g.members:
+            if k == g.lead or k not in self.ctx.against_wall or k in self.ctx.nightstand_bed or k in self.ctx.seat_table:
+                continue
+            if trial is None:
+                trial = self.layout.copy()
+            u, v, r = place[k]
+            trial.set_rotation(k, r)
+            trial.set_center(k, u, v)
+            behind = self._wall_behind(trial.polygon(k), r, PLAN_PUSH_M)
+            if behind is None:
+                return False
+            _, back = behind
+            c = np.array([u, v]) - _facing(r) * back
+            place[k] = (float(c[0]), float(c[1]), r)
+        return True
+
+    def _followers_fit(self, g: _Group, place: Placement, turn: float, wall: WallLine | None) -> bool:
         """Whether the wall pieces hanging over ``g``'s members (``ctx.followers``) can hang where
-        composition will carry them (``scene.follow_leaders``): on ``wall`` (the one the group backs
-        onto), within its length and clear of its doors and windows. A group that is not backed
-        against a wall takes no wall piece along."""
+        composition will carry them (``scene.follow_leaders``): on the wall their leader backs onto
+        (``wall`` for the main piece), within its length and clear of its doors and windows. A
+        piece whose leader backs onto no wall cannot follow it."""
         for piece, leader, _ in self.ctx.followers:
             if leader not in g.members:
                 continue
@@ -282,18 +332,26 @@ class _Planner:
             own = min(self.ctx.walls, key=lambda w: abs(w.gap(corners)), default=None)
             if own is None or abs(own.gap(corners)) > 0.05:
                 continue  # not a wall piece (a ceiling lamp, a rug): it follows anywhere
-            if wall is None:
+            u, v, r = place[leader]
+            target = wall if leader == g.lead else None
+            if target is None:
+                trial = self.layout.copy()
+                trial.set_rotation(leader, r)
+                trial.set_center(leader, u, v)
+                behind = self._wall_behind(trial.polygon(leader), r, 0.3)
+                target = behind[0] if behind is not None else None
+            if target is None:
                 return False
             lead0 = np.asarray(self.layout.center(leader))
-            lead1 = to + _turned(lead0 - np.asarray(self.layout.center(g.lead)), turn)
+            lead1 = np.array([u, v])
             lo0, hi0 = own.along(corners)
             lateral = _turned(own.tangent * ((lo0 + hi0) / 2 - float((lead0 - np.asarray(own.a)) @ own.tangent)), turn)
-            mid = float((lead1 - np.asarray(wall.a)) @ wall.tangent) + float(lateral @ wall.tangent)
+            mid = float((lead1 - np.asarray(target.a)) @ target.tangent) + float(lateral @ target.tangent)
             lo, hi = mid - (hi0 - lo0) / 2, mid + (hi0 - lo0) / 2
-            if lo < 0 or hi > wall.length:
+            if lo < 0 or hi > target.length:
                 return False
             zlo, zhi = (float(v[2]) for v in piece.aabb())
-            if any(hi > a - 0.05 and lo < b + 0.05 and zhi > z0 - 0.05 and zlo < z1 + 0.05 for a, b, z0, z1 in wall.openings):
+            if any(hi > a - 0.05 and lo < b + 0.05 and zhi > z0 - 0.05 and zlo < z1 + 0.05 for a, b, z0, z1 in target.openings):
                 return False
         return True
 

@@ -7,8 +7,8 @@ judges that pass (1.0 when the scene has none to judge):
 * ``tv_faces_stand`` — a television standing on a TV stand (or any cabinet), or hung over one,
   faces the way the stand faces (within :data:`TV_STAND_DEG`): a TV turned to the wall behind
   it is wrong however clean its physics;
-* ``tv_off_headboard`` — a wall-hung television is not on the wall behind a bed's head (the wall
-  the bed backs onto, within :data:`BACK_WALL_M`, where its span along the wall overlaps the bed's):
+* ``tv_off_headboard`` — a wall-hung television is not on the wall behind a bed's head
+  (``scene.on_headboard_wall``: the wall the bed backs onto, where their spans along it overlap):
   nobody watches the wall they lie against;
 * ``tv_not_behind_sofa`` — a television is not behind a sofa it stands within
   :data:`SOFA_REACH_M` of (on the side the sofa's back faces): the sofa would face away from it;
@@ -34,15 +34,14 @@ from scenemosaic.scene import (
     front_vector,
     is_screen,
     normalize_category,
+    on_headboard_wall,
     traits,
 )
 
-__all__ = ["BACK_WALL_M", "PLAUSIBILITY_RULES", "SOFA_REACH_M", "TV_STAND_DEG", "plausibility"]
+__all__ = ["PLAUSIBILITY_RULES", "SOFA_REACH_M", "TV_STAND_DEG", "plausibility"]
 
 TV_STAND_DEG = 45.0
 """A TV faces the way its stand faces when their fronts are this close, degrees."""
-BACK_WALL_M = 0.3
-"""A bed backs onto the wall within this many metres of its head, facing away from it."""
 SOFA_REACH_M = 1.5
 """A TV this close to a sofa's footprint (metres) and on its back side is behind it."""
 PLAUSIBILITY_RULES = ("tv_faces_stand", "tv_off_headboard", "tv_not_behind_sofa", "seats_square")
@@ -80,56 +79,21 @@ def _stand_of(scene: Scene, tv: SceneObject) -> SceneObject | None:
     return min(below, key=lambda o: (float(Polygon(o.footprint()).distance(centre)), o.id)) if below else None
 
 
-def _on_wall(scene: Scene, o: SceneObject) -> str | None:
-    rel = scene.support_of(o.id)
-    if rel is not None and rel.parent not in (FLOOR, CEILING) and scene.anchor_kind(rel.parent) == "wall":
-        return rel.parent
-    return None
-
-
-def _headboard_walls(scene: Scene) -> list[tuple[str, SceneObject]]:
-    """(wall id, bed) for every bed backing onto a wall."""
-    if scene.room is None:
-        return []
-    out = []
-    cos_max = math.cos(math.radians(30.0))
-    for bed in (o for o in scene.objects if "bed" in _cat(o) and "dog" not in _cat(o)):
-        f, corners = _front(bed), bed.corners()
-        for w in scene.room.walls:
-            if float(f @ w.inward_normal) >= cos_max and -0.02 <= w.gap(corners) <= BACK_WALL_M:
-                out.append((w.id, bed))
-    return out
-
-
-def _along(scene: Scene, wall_id: str, o: SceneObject) -> tuple[float, float]:
-    assert scene.room is not None
-    w = scene.room.wall(wall_id)
-    t = (o.corners()[:, :2] - np.asarray(w.start)) @ w.direction
-    return float(t.min()), float(t.max())
-
-
 def plausibility(scene: Scene) -> dict[str, float]:
     """The plausibility figures of one scene (module docstring), each in [0, 1]."""
     tvs = [o for o in scene.objects if is_screen(o.category)]
     facing: list[bool] = []
     headboard: list[bool] = []
     behind: list[bool] = []
-    beds = _headboard_walls(scene)
     sofas = [o for o in scene.objects if "sofa" in _cat(o)]
     cos_stand = math.cos(math.radians(TV_STAND_DEG))
     for tv in tvs:
         stand = _stand_of(scene, tv)
         if stand is not None:
             facing.append(float(_front(tv) @ _front(stand)) >= cos_stand)
-        wall = _on_wall(scene, tv)
-        if wall is not None:
-            lo, hi = _along(scene, wall, tv)
-            hit = False
-            for w, bed in beds:
-                if w == wall:
-                    blo, bhi = _along(scene, wall, bed)
-                    hit = hit or (hi > blo and lo < bhi)
-            headboard.append(not hit)
+        rel = scene.support_of(tv.id)
+        if rel is not None and rel.parent not in (FLOOR, CEILING) and scene.anchor_kind(rel.parent) == "wall":
+            headboard.append(on_headboard_wall(scene, tv.id) is None)
         for sofa in sofas:
             foot = Polygon(sofa.footprint())
             if foot.distance(Polygon(tv.footprint())) > SOFA_REACH_M:

@@ -26,6 +26,7 @@ from scenemosaic.physics._reports import (
     UnitReport,
     ValidationReport,
 )
+from scenemosaic.physics._screens import SCREEN_STEP_M, rehang_screens
 from scenemosaic.physics._settings import (
     COLLISION_TOLERANCE_M,
     FELL_DROP_M,
@@ -65,6 +66,7 @@ __all__ = [
     "OOB_MIN_INSIDE_FRACTION",
     "RESTING_MIN_INSIDE_FRACTION",
     "ROOM_FRICTION",
+    "SCREEN_STEP_M",
     "THIN_RATIO",
     "TIPPED_TILT_DEG",
     "CollisionPair",
@@ -97,6 +99,7 @@ __all__ = [
     "object_mass",
     "object_shape",
     "plan_units",
+    "rehang_screens",
     "require_finite_poses",
     "resting_footprint",
     "rests_within",

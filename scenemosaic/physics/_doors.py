@@ -35,6 +35,7 @@ from scenemosaic.scene import (
     Pose,
     Scene,
     SceneObject,
+    build_structure,
     convex_hull_2d,
     cut_off_doors,
     descendants,
@@ -161,33 +162,47 @@ def _slide_along_walls(
     scene: Scene, shapes: Mapping[str, ObjectShape], movers: list[str], zones: list[DoorZone], repair: DoorRepair
 ) -> Scene:
     """Slide each wall piece in ``movers`` (a picture or TV hung low beside a door) along its wall,
-    the shortest way (every ``WALL_SLIDE_STEP_M``, up to the wall's length) that takes its
-    footprint out of every door zone and keeps it on the wall, clear of the wall's openings and
+    the shortest way (every ``WALL_SLIDE_STEP_M``) that takes its footprint out of every door zone
+    and keeps it whole on its wall, or on a wall in line with it (the same plane, split by a room's
+    corner elsewhere: its support relation then names that wall), clear of that wall's openings and
     of every other object's hull; a piece with no such place stays (and is reported stuck)."""
     assert scene.room is not None
     keep_out = unary_union([z.polygon for z in zones]).buffer(0.01, join_style="mitre")
     for oid in movers:
-        wall = scene.room.wall(_wall_of(scene, oid) or "")
+        own = scene.room.wall(_wall_of(scene, oid) or "")
         obj = scene.get(oid)
-        t = np.asarray(wall.direction, dtype=np.float64)
-        start = np.asarray(wall.start, dtype=np.float64)
+        t = np.asarray(own.direction, dtype=np.float64)
+        start = np.asarray(own.start, dtype=np.float64)
+        n = np.asarray(own.inward_normal, dtype=np.float64)
+        inline = [
+            w for w in scene.room.walls
+            if float(np.asarray(w.direction) @ t) > 1 - 1e-6 and abs(float((np.asarray(w.start) - start) @ n)) < 1e-3
+        ]  # fmt: skip
+        spans = {w.id: (float((np.asarray(w.start) - start) @ t), float((np.asarray(w.end) - start) @ t)) for w in inline}
         zlo, zhi = (float(v[2]) for v in obj.aabb())
-        steps = np.arange(WALL_SLIDE_STEP_M, wall.length + 1e-9, WALL_SLIDE_STEP_M)
+        reach = max(b for _, b in spans.values()) - min(a for a, _ in spans.values())
+        steps = np.arange(WALL_SLIDE_STEP_M, reach + 1e-9, WALL_SLIDE_STEP_M)
         for d in sorted([*steps, *(-steps)], key=lambda x: (abs(x), x)):
             x, y, z = obj.pose.position
             pose = obj.pose.model_copy(update={"position": (x + float(t[0] * d), y + float(t[1] * d), z)})
             moved = obj.model_copy(update={"pose": pose})
             along = (moved.corners()[:, :2] - start) @ t
             lo, hi = float(along.min()), float(along.max())
-            if lo < -1e-3 or hi > wall.length + 1e-3 or _foot(moved).intersects(keep_out):
+            host = next((w for w in inline if spans[w.id][0] - 1e-3 <= lo and hi <= spans[w.id][1] + 1e-3), None)
+            if host is None or _foot(moved).intersects(keep_out):
                 continue
-            if any(hi > o.center - o.width / 2 and lo < o.center + o.width / 2 and zhi > o.bottom and zlo < o.bottom + o.height for o in wall.openings):
+            a0 = spans[host.id][0]
+            if any(hi - a0 > o.center - o.width / 2 and lo - a0 < o.center + o.width / 2 and zhi > o.bottom and zlo < o.bottom + o.height for o in host.openings):
                 continue
             candidate = rigid_moves(scene, {oid: pose})
             trial = scene.model_copy(update={"objects": [o.model_copy(update={"pose": candidate[o.id]}) if o.id in candidate else o for o in scene.objects]})
             moved_ids = set(candidate)
             if any((p.a in moved_ids) != (p.b in moved_ids) for p in collision_report_for(trial, shapes).pairs):
                 continue
+            if host.id != own.id:  # hung on the wall in line with its own now
+                trial = trial.model_copy(update={"relations": [r.model_copy(update={"parent": host.id}) if r.child == oid and r.parent == own.id else r for r in trial.relations]})
+                if trial.structure is not None:
+                    trial = trial.model_copy(update={"structure": build_structure(trial)})
             repair.moved[oid] = repair.moved.get(oid, 0.0) + abs(float(d))
             scene = trial
             break

@@ -23,13 +23,14 @@ from scenemosaic.compose import compose_variants, kept_layouts
 from scenemosaic.evolve import EvolutionReport, evolve_scene
 from scenemosaic.exceptions import UsageError
 from scenemosaic.exchange import deliver_scene, formats_left_out, load_scene
-from scenemosaic.metrics import evaluate, judge_scene, nav
+from scenemosaic.metrics import evaluate, judge_scene, nav, plausibility
 from scenemosaic.perception import PERCEPTION_INSTALL, is_image_path, perceive
 from scenemosaic.physics import (
     ValidationReport,
     check_collisions,
     check_out_of_bounds,
     clear_doors,
+    rehang_screens,
     stabilize_scene,
     validate_scene,
 )
@@ -45,6 +46,8 @@ from scenemosaic.scene import (
     door_zones,
     functional_holds,
     functional_relations,
+    is_screen,
+    on_headboard_wall,
     wall_crossings,
     write_atomic,
 )
@@ -281,15 +284,26 @@ def _write_layouts(report: EvolutionReport, folder: RunFolder) -> list[str]:
 
 
 async def _stage_doors(run: PipelineRun, rec: StageRecord) -> None:
-    """A room with doors (a room of a house): move furniture out of their clearance zones and out
-    of the way from them into the room (``physics.clear_doors``, ``docs/houses.md``), before the
-    evolution, whose variants then keep the doors clear by construction (``evolve/_plans.py``)."""
+    """A TV hung on the wall behind a bed's head moves to the wall the bed faces
+    (``physics.rehang_screens``); a room with doors (a room of a house): furniture moves out of
+    their clearance zones and out of the way from them into the room (``physics.clear_doors``,
+    ``docs/houses.md``), before the evolution, whose variants then keep the doors clear by
+    construction (``evolve/_plans.py``)."""
     scene = run.need_scene()
-    if not door_zones(scene):
+    hung_wrong = any(on_headboard_wall(scene, o.id) for o in scene.objects if is_screen(o.category))
+    if not door_zones(scene) and not hung_wrong:
         rec.status = "skipped"
         rec.detail["reason"] = "no doors"
         return
     shapes = await asyncio.to_thread(run.shapes, scene)
+    if hung_wrong:  # a TV on the wall behind a bed's head: to the wall the bed faces
+        scene, rehung, stuck = await asyncio.to_thread(rehang_screens, scene, shapes)
+        rec.detail["screens_moved"] = rehung
+        if stuck:
+            run.warnings.append(f"screens: {', '.join(stuck)} still hang(s) on the wall behind a bed's head")
+    if not door_zones(scene):
+        run.scene = scene
+        return
     run.scene, repair = await asyncio.to_thread(clear_doors, scene, shapes)
     rec.detail["moved"] = {k: round(v, 3) for k, v in repair.moved.items()}
     rec.detail["blocking"] = repair.stuck
@@ -322,11 +336,16 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     cut = set(await asyncio.to_thread(cut_off_doors, scene))
     crossing = {oid for _, oid, _ in await asyncio.to_thread(wall_crossings, scene)}
     relations = await asyncio.to_thread(functional_relations, scene)
+    plausible = await asyncio.to_thread(plausibility, scene)
 
     def walkable(candidate: Scene) -> bool:
         """As connected a walkable floor as the base; no door blocked, no object across a wall anew;
-        every functional relation of the base kept (a sofa still facing its TV, a lamp over its table)."""
+        every functional relation of the base kept (a sofa still facing its TV, a lamp over its table);
+        no plausibility rule broken that the base keeps (``metrics.plausibility``: a TV on the headboard wall)."""
         if not all(functional_holds(candidate, r) for r in relations):
+            return False
+        now = plausibility(candidate)
+        if any(now[k] < v for k, v in plausible.items()):
             return False
         if nav(candidate) < share or not {b.object_id for b in door_blockers(candidate)} <= blocked:
             return False

@@ -42,6 +42,7 @@ from scenemosaic.scene._files import confined_path, missing_file, not_a_regular_
 from scenemosaic.scene._functional import (
     FACES_DEG,
     FUNCTIONAL_KINDS,
+    OPENING_CLEAR_M,
     OVER_MARGIN_M,
     Functional,
     FunctionalKind,
@@ -49,6 +50,8 @@ from scenemosaic.scene._functional import (
     follow_leaders,
     functional_holds,
     functional_relations,
+    headboard_walls,
+    on_headboard_wall,
     points_at,
 )
 from scenemosaic.scene._geometry import (
@@ -213,6 +216,7 @@ __all__ = [
     "MIN_SCALE",
     "NESTED_FRACTION",
     "OBJECT_ID_PATTERN",
+    "OPENING_CLEAR_M",
     "OVER_MARGIN_M",
     "PACK_CLEARANCE_M",
     "PROCTHOR_PRIORS_DIR",
@@ -284,6 +288,7 @@ __all__ = [
     "front_vector",
     "functional_holds",
     "functional_relations",
+    "headboard_walls",
     "house_problem",
     "house_walkable",
     "is_fixture",
@@ -300,6 +305,7 @@ __all__ = [
     "normalize_degrees",
     "not_a_regular_file",
     "object_count_problem",
+    "on_headboard_wall",
     "pack_surface",
     "points_at",
     "priors_problem",

@@ -37,6 +37,8 @@ __all__ = [
     "FACES_DEG",
     "FACES_REACH_M",
     "FUNCTIONAL_KINDS",
+    "HEADBOARD_WALL_M",
+    "OPENING_CLEAR_M",
     "OVER_MARGIN_M",
     "SCREEN_REACH_M",
     "Functional",
@@ -45,6 +47,8 @@ __all__ = [
     "follow_leaders",
     "functional_holds",
     "functional_relations",
+    "headboard_walls",
+    "on_headboard_wall",
     "points_at",
 ]
 
@@ -74,6 +78,9 @@ REHANG_GAP_M = 0.3
 onto: the wall within this many metres of the leader's back..."""
 REHANG_FACING_DEG = 30.0
 """... with the leader's front within this many degrees of the wall's inward normal."""
+HEADBOARD_WALL_M = 0.3
+"""A bed backs onto a wall when its back is within this many metres of it and its front within
+``REHANG_FACING_DEG`` of the wall's inward normal (the wall behind its head)."""
 OPENING_CLEAR_M = 0.05
 """A re-hung wall piece keeps this far, metres, from the doors and windows of its new wall."""
 
@@ -261,6 +268,42 @@ def functional_relations(scene: Scene) -> list[Functional]:
         if len(sides) == 2:
             out.append(Functional("flanks", bed.id, tuple(sorted(sides.values())), bed.id))
     return sorted(out, key=lambda f: (FUNCTIONAL_KINDS.index(f.kind), f.subject, f.group))
+
+
+def headboard_walls(scene: Scene) -> list[tuple[str, str]]:
+    """``(wall id, bed id)`` for every bed backing onto a wall (:data:`HEADBOARD_WALL_M`)."""
+    if scene.room is None:
+        return []
+    out = []
+    cos_max = math.cos(math.radians(REHANG_FACING_DEG))
+    for bed in (o for o in scene.objects if _is_bed(o) and "dog" not in _cat(o)):
+        f, corners = _front(bed), bed.corners()
+        for w in scene.room.walls:
+            if float(f @ w.inward_normal) >= cos_max and -0.02 <= w.gap(corners) <= HEADBOARD_WALL_M:
+                out.append((w.id, bed.id))
+    return out
+
+
+def on_headboard_wall(scene: Scene, object_id: str) -> str | None:
+    """The bed whose head backs onto the stretch of wall ``object_id`` hangs on (their spans along
+    that wall overlap), else ``None``: a TV there faces the way the bed does."""
+    rel = scene.support_of(object_id)
+    if scene.room is None or rel is None or rel.parent in (FLOOR, CEILING) or scene.anchor_kind(rel.parent) != "wall":
+        return None
+    wall = scene.room.wall(rel.parent)
+    start, t = np.asarray(wall.start, dtype=np.float64), wall.direction
+
+    def span(o: SceneObject) -> tuple[float, float]:
+        a = (o.corners()[:, :2] - start) @ t
+        return float(a.min()), float(a.max())
+
+    lo, hi = span(scene.get(object_id))
+    for wid, bed in headboard_walls(scene):
+        if wid == wall.id:
+            blo, bhi = span(scene.get(bed))
+            if hi > blo and lo < bhi:
+                return bed
+    return None
 
 
 def functional_holds(scene: Scene, rel: Functional) -> bool:
