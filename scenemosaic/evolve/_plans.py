@@ -26,7 +26,8 @@ repaired after:
 * **Different from each other.** Groups are placed most constrained first (fewest valid places); each takes, among its valid
   places, the one farthest from where it stood in the base and in the plans made before (a
   seeded jitter breaks near ties), so successive plans spread the furniture over the walls.
-  A plan whose largest group did not move at least :data:`PLAN_MIN_MOVE_M` (or turn) is no plan.
+  A plan in which no group of furniture (the largest, or any with :data:`PLAN_MIN_AREA_M2` of
+  footprint) moved at least :data:`PLAN_MIN_MOVE_M` (or turned) is no plan.
 
 Plans are deterministic for a given layout and context (seeded by :data:`PLAN_SEED`) and cached
 on the unit's context, so the archetype agent and the instantiation compute them once.
@@ -67,7 +68,10 @@ PLAN_STEP_M = 0.2
 PLAN_MARGIN_M = 0.08
 """A placed group keeps at least this far, metres, from everything it does not bring along."""
 PLAN_MIN_MOVE_M = 0.8
-"""A plan must carry its largest group at least this far, metres (or turn it a quarter turn)."""
+"""A plan must carry its largest group, or another group of furniture (``PLAN_MIN_AREA_M2``), at
+least this far, metres (or turn it by 45 degrees or more)."""
+PLAN_MIN_AREA_M2 = 0.5
+"""A group with this much solid footprint (square metres) counts as furniture for that rule."""
 PLAN_FRONT_M = 0.6
 """Depth, metres, of the strip kept free in front of a group's main piece."""
 PLAN_PUSH_M = 3.0
@@ -129,6 +133,8 @@ class _Option:
     solid: list[Polygon]
     centre: np.ndarray
     turn: float
+    stays: bool = False
+    """The group where it stands in the base."""
 
 
 def fixed_children(layout: UnitLayout, ctx: UnitContext) -> set[str]:
@@ -204,7 +210,10 @@ class _Planner:
         self.layout, self.ctx = layout, ctx
         self.fixed = fixed_children(layout, ctx)
         self.groups = _groups(layout, ctx, self.fixed)
-        self.region = Polygon(ctx.surface.region).buffer(-0.005, join_style="mitre")
+        from scenemosaic.evolve._analysis import WALL_FLUSH_GAP
+
+        # inset by the flush gap less a millimetre: a piece backed flush against a wall is inside
+        self.region = Polygon(ctx.surface.region).buffer(-(WALL_FLUSH_GAP - 0.001), join_style="mitre")
         prepare(self.region)
         fixed_polys = [Polygon(layout.polygon(k)) for k in self.fixed if k not in ctx.thin]
         from scenemosaic.evolve._analysis import obstacle_polygons
@@ -367,6 +376,10 @@ class _Planner:
         layout = self.layout
         pivot = np.asarray(layout.center(g.lead))
         out: list[_Option] = []
+        stay = self._option(g, pivot, pivot, 0.0, False)  # where it stands: a group may keep its place
+        if stay is not None:
+            stay.stays = True
+            out.append(stay)
         mirrors = (False, True) if len(g.members) > 1 else (False,)
         screens = [self.ctx.surface.project(o.corners()) for o in self.ctx.obstacles if is_screen(o.category)]
         bed = "bed" in layout.object(g.lead).category and "dog" not in layout.object(g.lead).category
@@ -495,7 +508,9 @@ def _plan(
             score = min(float(np.linalg.norm(opt.centre - c)) for c in history[g.lead]) + float(jitter[g.lead][j])
             scored.append((-score, j, opt))
         scored.sort(key=lambda x: (x[0], x[1]))
-        for _, _, opt in scored[:PLAN_BRANCH]:
+        tried = scored[:PLAN_BRANCH]
+        tried += [x for x in scored[PLAN_BRANCH:] if x[2].stays]  # keeping its place is always tried too
+        for _, _, opt in tried:
             if budget[0] <= 0:
                 return None
             budget[0] -= 1
@@ -512,12 +527,13 @@ def _plan(
     for g, opt in zip(order, found, strict=True):
         chosen[g.lead] = opt
         place.update(opt.place)
-    if planner.groups:
-        first = planner.groups[0]
-        opt = chosen[first.lead]
-        moved = float(np.linalg.norm(opt.centre - np.asarray(layout.center(first.lead))))
-        if moved < PLAN_MIN_MOVE_M and abs(normalize_degrees(opt.turn)) < 45.0:
-            return None
+    def moved(g: _Group) -> bool:
+        opt = chosen[g.lead]
+        far = float(np.linalg.norm(opt.centre - np.asarray(layout.center(g.lead))))
+        return far >= PLAN_MIN_MOVE_M or abs(normalize_degrees(opt.turn)) >= 45.0
+
+    if not any(moved(g) for g in planner.groups if g.area >= PLAN_MIN_AREA_M2 or g is planner.groups[0]):
+        return None  # only small pieces moved: no new arrangement of the room
     return place, chosen
 
 

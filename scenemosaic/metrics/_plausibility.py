@@ -8,10 +8,11 @@ judges that pass (1.0 when the scene has none to judge):
   faces the way the stand faces (within :data:`TV_STAND_DEG`): a TV turned to the wall behind
   it is wrong however clean its physics;
 * ``tv_off_headboard`` — a wall-hung television is not on the wall behind a bed's head
-  (``scene.on_headboard_wall``: the wall the bed backs onto, where their spans along it overlap):
+  (``scene.on_backing_wall``: the wall the bed backs onto, where their spans along it overlap):
   nobody watches the wall they lie against;
 * ``tv_not_behind_sofa`` — a television is not behind a sofa it stands within
-  :data:`SOFA_REACH_M` of (on the side the sofa's back faces): the sofa would face away from it;
+  :data:`SOFA_REACH_M` of (on the side the sofa's back faces, within the sofa's width): the sofa
+  would face away from it;
 * ``seats_square`` — seats square to their table side (``seating_figures``, the seating judge).
 
 :func:`plausibility` gives them for one scene; ``PLAUS`` in the metrics rows
@@ -34,7 +35,7 @@ from scenemosaic.scene import (
     front_vector,
     is_screen,
     normalize_category,
-    on_headboard_wall,
+    on_backing_wall,
     traits,
 )
 
@@ -93,12 +94,17 @@ def plausibility(scene: Scene) -> dict[str, float]:
             facing.append(float(_front(tv) @ _front(stand)) >= cos_stand)
         rel = scene.support_of(tv.id)
         if rel is not None and rel.parent not in (FLOOR, CEILING) and scene.anchor_kind(rel.parent) == "wall":
-            headboard.append(on_headboard_wall(scene, tv.id) is None)
+            headboard.append(on_backing_wall(scene, tv.id, kind="bed") is None)
         for sofa in sofas:
             foot = Polygon(sofa.footprint())
             if foot.distance(Polygon(tv.footprint())) > SOFA_REACH_M:
                 continue
-            behind.append(float((_xy(tv) - _xy(sofa)) @ _front(sofa)) >= 0.0)
+            f = _front(sofa)
+            rel_xy = _xy(tv) - _xy(sofa)
+            half = float(np.ptp((sofa.footprint() - _xy(sofa)) @ np.array([f[1], -f[0]]))) / 2
+            if abs(float(rel_xy @ np.array([f[1], -f[0]]))) > half:
+                continue  # beside the sofa, not behind it
+            behind.append(float(rel_xy @ f) >= 0.0)
     seats = seating_figures(scene, [scene])
 
     def share(flags: list[bool]) -> float:

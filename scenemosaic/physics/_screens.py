@@ -1,12 +1,12 @@
-"""Screens hung where nobody can watch them: a wall TV on the wall behind a bed's head moves.
+"""Screens hung where nobody can watch them: a wall TV behind a bed's head or a sofa's back moves.
 
-A source (a ProcTHOR house, an image-to-3D layout) may hang a TV on the stretch of wall a bed backs
-onto (``scene.on_headboard_wall``): whoever lies in the bed faces away from it. :func:`rehang_screens`
-carries such a TV to the wall the bed faces (else to the wall nearest to facing it), centred on the
-bed's axis as far as the wall allows, at the same height and distance from the wall, turned to face
+A source (a ProcTHOR house, an image-to-3D layout) may hang a TV on the stretch of wall a bed or a
+sofa backs onto (``scene.on_backing_wall``): whoever lies or sits there faces away from it.
+:func:`rehang_screens` carries such a TV to the wall the bed or sofa faces (else to the wall nearest to facing it),
+centred on its axis as far as the wall allows, at the same height and distance from the wall, turned to face
 into the room; a place is taken only when the TV lies whole on that wall, clear (by
 ``OPENING_CLEAR_M``) of its doors and windows, of every door's clearance zone, of every other
-object's hull, and not on another bed's headboard wall. Its support relation then names the new
+object's hull, and not behind another bed or sofa. Its support relation then names the new
 wall. A TV with no such place stays (and is reported).
 """
 
@@ -26,7 +26,7 @@ from scenemosaic.scene import (
     door_blockers,
     front_vector,
     is_screen,
-    on_headboard_wall,
+    on_backing_wall,
     quat_from_yaw,
     quat_multiply,
 )
@@ -34,21 +34,21 @@ from scenemosaic.scene import (
 __all__ = ["SCREEN_STEP_M", "rehang_screens"]
 
 SCREEN_STEP_M = 0.1
-"""Step (metres) of the places along a wall tried for a re-hung TV, outward from the bed's axis."""
+"""Step (metres) of the places along a wall tried for a re-hung TV, outward from the bed's (sofa's) axis."""
 
 
 def rehang_screens(scene: Scene, shapes: Mapping[str, ObjectShape]) -> tuple[Scene, dict[str, str], list[str]]:
-    """Move every wall TV hung on a bed's headboard wall (module docstring). Returns the scene (a
+    """Move every wall TV hung behind a bed's head or a sofa's back (module docstring). Returns the scene (a
     copy when something moved; the input is kept), ``{tv: new wall}`` and the TVs left where they hang."""
     moved: dict[str, str] = {}
     stuck: list[str] = []
     if scene.room is None:
         return scene, moved, stuck
     for tv in [o for o in scene.objects if is_screen(o.category)]:
-        bed_id = on_headboard_wall(scene, tv.id)
-        if bed_id is None:
+        piece_id = on_backing_wall(scene, tv.id)
+        if piece_id is None:
             continue
-        placed = _rehang(scene, shapes, tv.id, bed_id)
+        placed = _rehang(scene, shapes, tv.id, piece_id)
         if placed is None:
             stuck.append(tv.id)
             continue
@@ -57,27 +57,27 @@ def rehang_screens(scene: Scene, shapes: Mapping[str, ObjectShape]) -> tuple[Sce
     return scene, moved, stuck
 
 
-def _rehang(scene: Scene, shapes: Mapping[str, ObjectShape], tv_id: str, bed_id: str) -> tuple[Scene, str] | None:
+def _rehang(scene: Scene, shapes: Mapping[str, ObjectShape], tv_id: str, piece_id: str) -> tuple[Scene, str] | None:
     assert scene.room is not None
-    tv, bed = scene.get(tv_id), scene.get(bed_id)
+    tv, piece = scene.get(tv_id), scene.get(piece_id)
     rel = scene.support_of(tv_id)
     assert rel is not None
     old = scene.room.wall(rel.parent)
-    front = front_vector(bed.pose.quaternion)[:2]
+    front = front_vector(piece.pose.quaternion)[:2]
     front = front / max(float(np.linalg.norm(front)), 1e-9)
     p0 = np.asarray(tv.pose.position[:2], dtype=np.float64)
     depth = float((p0 - np.asarray(old.start)) @ old.inward_normal)
     walls = sorted(
         (w for w in scene.room.walls if w.id != old.id and w.length > 0.3),
-        key=lambda w: (float(np.asarray(w.inward_normal) @ front), w.id),  # the wall the bed faces first
+        key=lambda w: (float(np.asarray(w.inward_normal) @ front), w.id),  # the wall the piece faces first
     )
     blocked_before = {b.object_id for b in door_blockers(scene)}
-    bed_xy = np.asarray(bed.pose.position[:2], dtype=np.float64)
+    piece_xy = np.asarray(piece.pose.position[:2], dtype=np.float64)
     for wall in walls:
         n, t, start = np.asarray(wall.inward_normal), np.asarray(wall.direction), np.asarray(wall.start, dtype=np.float64)
         spin = math.atan2(float(n[1]), float(n[0])) - math.atan2(float(old.inward_normal[1]), float(old.inward_normal[0]))
         quat = quat_multiply(quat_from_yaw(spin), tv.pose.quaternion)
-        centre = float((bed_xy - start) @ t)
+        centre = float((piece_xy - start) @ t)
         offsets = np.arange(0.0, wall.length + 1e-9, SCREEN_STEP_M)
         for d in sorted({*offsets, *(-offsets)}, key=lambda x: (abs(x), x)):
             along = centre + float(d)
@@ -98,15 +98,15 @@ def _rehang(scene: Scene, shapes: Mapping[str, ObjectShape], tv_id: str, bed_id:
             relations = [r.model_copy(update={"parent": wall.id}) if r.child == tv_id and r.parent == old.id else r for r in scene.relations]
             objects = [hung if o.id == tv_id else o for o in scene.objects]
             trial = scene.model_copy(update={"objects": objects, "relations": relations})
-            if on_headboard_wall(trial, tv_id) is not None:
-                break  # another bed's head is against this wall
+            if on_backing_wall(trial, tv_id) is not None:
+                break  # another bed or sofa backs onto this wall
             if tv_id in {b.object_id for b in door_blockers(trial)} - blocked_before:
                 continue
             if any(tv_id in (p.a, p.b) for p in collision_report_for(trial, shapes).pairs):
                 continue
             if trial.structure is not None:
                 trial = trial.model_copy(update={"structure": build_structure(trial)})
-            note = f"screens: moved {tv_id} from the wall behind {bed_id}'s head ({old.id}) to {wall.id}"
+            note = f"screens: moved {tv_id} from the wall behind {piece_id} ({old.id}) to {wall.id}"
             trial = trial.model_copy(update={"provenance": trial.provenance.model_copy(update={"notes": [*trial.provenance.notes, note]})})
             return trial, wall.id
     return None

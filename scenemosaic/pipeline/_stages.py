@@ -47,7 +47,7 @@ from scenemosaic.scene import (
     functional_holds,
     functional_relations,
     is_screen,
-    on_headboard_wall,
+    on_backing_wall,
     wall_crossings,
     write_atomic,
 )
@@ -284,23 +284,23 @@ def _write_layouts(report: EvolutionReport, folder: RunFolder) -> list[str]:
 
 
 async def _stage_doors(run: PipelineRun, rec: StageRecord) -> None:
-    """A TV hung on the wall behind a bed's head moves to the wall the bed faces
+    """A TV hung on the wall behind a bed's head or a sofa's back moves to the wall it faces
     (``physics.rehang_screens``); a room with doors (a room of a house): furniture moves out of
     their clearance zones and out of the way from them into the room (``physics.clear_doors``,
     ``docs/houses.md``), before the evolution, whose variants then keep the doors clear by
     construction (``evolve/_plans.py``)."""
     scene = run.need_scene()
-    hung_wrong = any(on_headboard_wall(scene, o.id) for o in scene.objects if is_screen(o.category))
+    hung_wrong = any(on_backing_wall(scene, o.id) for o in scene.objects if is_screen(o.category))
     if not door_zones(scene) and not hung_wrong:
         rec.status = "skipped"
         rec.detail["reason"] = "no doors"
         return
     shapes = await asyncio.to_thread(run.shapes, scene)
-    if hung_wrong:  # a TV on the wall behind a bed's head: to the wall the bed faces
+    if hung_wrong:  # a TV behind a bed's head or a sofa's back: to the wall it faces
         scene, rehung, stuck = await asyncio.to_thread(rehang_screens, scene, shapes)
         rec.detail["screens_moved"] = rehung
         if stuck:
-            run.warnings.append(f"screens: {', '.join(stuck)} still hang(s) on the wall behind a bed's head")
+            run.warnings.append(f"screens: {', '.join(stuck)} still hang(s) behind a bed's head or a sofa's back")
     if not door_zones(scene):
         run.scene = scene
         return

@@ -43,12 +43,12 @@ __all__ = [
     "SCREEN_REACH_M",
     "Functional",
     "FunctionalKind",
+    "backing_walls",
     "faces",
     "follow_leaders",
     "functional_holds",
     "functional_relations",
-    "headboard_walls",
-    "on_headboard_wall",
+    "on_backing_wall",
     "points_at",
 ]
 
@@ -270,23 +270,25 @@ def functional_relations(scene: Scene) -> list[Functional]:
     return sorted(out, key=lambda f: (FUNCTIONAL_KINDS.index(f.kind), f.subject, f.group))
 
 
-def headboard_walls(scene: Scene) -> list[tuple[str, str]]:
-    """``(wall id, bed id)`` for every bed backing onto a wall (:data:`HEADBOARD_WALL_M`)."""
+def backing_walls(scene: Scene) -> list[tuple[str, str]]:
+    """``(wall id, piece id)`` for every bed and sofa backing onto a wall: its back within
+    :data:`HEADBOARD_WALL_M` of it, its front within ``REHANG_FACING_DEG`` of the wall's inward normal."""
     if scene.room is None:
         return []
     out = []
     cos_max = math.cos(math.radians(REHANG_FACING_DEG))
-    for bed in (o for o in scene.objects if _is_bed(o) and "dog" not in _cat(o)):
-        f, corners = _front(bed), bed.corners()
+    for piece in (o for o in scene.objects if (_is_bed(o) and "dog" not in _cat(o)) or "sofa" in _cat(o)):
+        f, corners = _front(piece), piece.corners()
         for w in scene.room.walls:
             if float(f @ w.inward_normal) >= cos_max and -0.02 <= w.gap(corners) <= HEADBOARD_WALL_M:
-                out.append((w.id, bed.id))
+                out.append((w.id, piece.id))
     return out
 
 
-def on_headboard_wall(scene: Scene, object_id: str) -> str | None:
-    """The bed whose head backs onto the stretch of wall ``object_id`` hangs on (their spans along
-    that wall overlap), else ``None``: a TV there faces the way the bed does."""
+def on_backing_wall(scene: Scene, object_id: str, kind: str | None = None) -> str | None:
+    """The bed or sofa (``kind``: ``"bed"`` or ``"sofa"`` only) backing onto the stretch of wall
+    ``object_id`` hangs on (their spans along that wall overlap), else ``None``: a TV there faces
+    the way the bed or sofa does."""
     rel = scene.support_of(object_id)
     if scene.room is None or rel is None or rel.parent in (FLOOR, CEILING) or scene.anchor_kind(rel.parent) != "wall":
         return None
@@ -298,11 +300,11 @@ def on_headboard_wall(scene: Scene, object_id: str) -> str | None:
         return float(a.min()), float(a.max())
 
     lo, hi = span(scene.get(object_id))
-    for wid, bed in headboard_walls(scene):
-        if wid == wall.id:
-            blo, bhi = span(scene.get(bed))
+    for wid, piece in backing_walls(scene):
+        if wid == wall.id and (kind is None or kind in _cat(scene.get(piece))):
+            blo, bhi = span(scene.get(piece))
             if hi > blo and lo < bhi:
-                return bed
+                return piece
     return None
 
 

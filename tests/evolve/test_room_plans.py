@@ -17,7 +17,7 @@ from shapely.geometry import Polygon
 
 from scenemosaic import GenerateConfig, agenerate
 from scenemosaic.evolve import UnitContext, rule_archetypes, unit_context, unit_obstacles
-from scenemosaic.evolve._plans import PLAN_MIN_MOVE_M, _groups, fixed_children, room_plans, walk_check
+from scenemosaic.evolve._plans import PLAN_MIN_AREA_M2, PLAN_MIN_MOVE_M, _groups, fixed_children, room_plans, walk_check
 from scenemosaic.physics import is_thin
 from scenemosaic.scene import WALK_MIN_SHARE, Scene, UnitLayout, is_fixture
 
@@ -62,10 +62,13 @@ async def test_plans_are_valid_for_the_house_by_construction(house: str, room: s
                 assert all(shape.intersection(z).area < 1e-6 for z in ctx.keep_clear), f"{k} stands in a door zone"
         share, doors = walk_check(layout, ctx, place)
         assert doors and share >= min(WALK_MIN_SHARE, base_share - 0.005)
-        first = groups[0].lead
-        moved = math.dist(place[first][:2], layout.center(first))
-        turned = abs(((place[first][2] - layout.rotation(first)) + 180) % 360 - 180)
-        assert moved >= PLAN_MIN_MOVE_M or turned >= 45
+        furniture = [g for g in groups if g.area >= PLAN_MIN_AREA_M2 or g is groups[0]]
+        moves = [
+            math.dist(place[g.lead][:2], layout.center(g.lead)) >= PLAN_MIN_MOVE_M
+            or abs(((place[g.lead][2] - layout.rotation(g.lead)) + 180) % 360 - 180) >= 45
+            for g in furniture
+        ]  # fmt: skip
+        assert any(moves), "only small pieces moved"
         leads.append(np.array([place[g.lead][:2] for g in groups]))
     for a, b in itertools.combinations(leads, 2):  # no two plans put every group in the same place
         assert float(np.abs(a - b).max()) > 0.3

@@ -17,7 +17,7 @@ from scenemosaic.scene import (
     Scene,
     SceneObject,
     front_vector,
-    on_headboard_wall,
+    on_backing_wall,
 )
 
 
@@ -42,7 +42,7 @@ def _shapes(scene: Scene) -> dict:
 
 def test_the_tv_behind_the_beds_head_moves_to_the_wall_the_bed_faces() -> None:
     scene = _bedroom()
-    assert on_headboard_wall(scene, "tv") == "bed"
+    assert on_backing_wall(scene, "tv") == "bed"
     fixed, moved, stuck = rehang_screens(scene, _shapes(scene))
     assert scene.room is not None
     east = _wall(scene.room, (-1.0, 0.0))
@@ -52,7 +52,7 @@ def test_the_tv_behind_the_beds_head_moves_to_the_wall_the_bed_faces() -> None:
     assert x == pytest.approx(4.0 - 0.03) and y == pytest.approx(1.5) and z == pytest.approx(1.2)  # across from the bed, same height
     assert np.allclose(front_vector(tv.pose.quaternion)[:2], (-1.0, 0.0), atol=1e-9)  # facing the bed
     rel = fixed.support_of("tv")
-    assert rel is not None and rel.parent == east and on_headboard_wall(fixed, "tv") is None
+    assert rel is not None and rel.parent == east and on_backing_wall(fixed, "tv") is None
     assert scene.get("tv").pose.position == pytest.approx((0.03, 1.5, 1.2))  # the input is kept
     assert any(n.startswith("screens: moved tv") for n in fixed.provenance.notes) and not scene.provenance.notes
 
@@ -62,4 +62,4 @@ def test_a_window_sends_the_tv_to_another_wall_never_back_behind_the_bed() -> No
     fixed, moved, stuck = rehang_screens(scene, _shapes(scene))
     assert scene.room is not None and not stuck
     assert moved["tv"] not in (_wall(scene.room, (-1.0, 0.0)), _wall(scene.room, (1.0, 0.0)))
-    assert on_headboard_wall(fixed, "tv") is None
+    assert on_backing_wall(fixed, "tv") is None
