@@ -221,6 +221,10 @@ class _Planner:
         others = [(float(o.aabb()[0][2]), p) for o, p in obstacle_polygons(ctx) if p.area > 0]
         self.walk_obstacles = [p for z, p in others if z < WALK_MAX_HEIGHT]
         self.fixed_grown = [p.buffer(PLAN_MARGIN_M, join_style="mitre") for p in fixed_polys]
+        self.fixed_solid = fixed_polys
+        self.raster = FloorRaster(np.asarray(ctx.surface.region, dtype=np.float64), cell=PLAN_CELL_M)
+        self.door_masks = [self.raster.mask(z.buffer(ROBOT_RADIUS)) for z in [*ctx.keep_clear, *ctx.passages]]
+        self.need = WALK_MIN_SHARE
         self.others = others
         self.static = Polygon()
         self.options = {g.lead: self._options(g) for g in self.groups}
@@ -410,6 +414,18 @@ class _Planner:
                             out.append(opt)
         return out
 
+    def open_floor(self, solid: list[Polygon]) -> bool:
+        """Whether the groups placed so far (their solid outlines), the fixtures and the other
+        units' low pieces leave the floor as connected as the plan needs (``need``) with every door
+        and passage reachable: checked after each group, so a search drops a place that cuts the
+        room early instead of at the end."""
+        raster = self.raster
+        walk = raster.walkable(raster.blocked([*self.fixed_solid, *self.walk_obstacles, *solid]), ROBOT_RADIUS)
+        if not walk.total or walk.share < self.need:
+            return False
+        main = walk.labels == walk.main
+        return all(bool((main & m).any()) for m in self.door_masks)
+
     def walkable(self, place: Placement) -> tuple[float, bool]:
         """The plan's walkable share and whether every door zone reaches its main piece."""
         return walk_check(self.layout, self.ctx, place, self.walk_obstacles)
@@ -496,7 +512,7 @@ def _plan(
     jitter = {g.lead: rng.random(len(planner.options[g.lead])) * _JITTER_M for g in order}
     budget = [PLAN_EXPANSIONS]
 
-    def search(i: int, taken: list[Polygon]) -> list[_Option] | None:
+    def search(i: int, taken: list[Polygon], solid: list[Polygon]) -> list[_Option] | None:
         if i == len(order):
             return []
         g = order[i]
@@ -514,12 +530,15 @@ def _plan(
             if budget[0] <= 0:
                 return None
             budget[0] -= 1
-            rest = search(i + 1, [*taken, *opt.shapes])
+            now = [*solid, *opt.solid]
+            if not planner.open_floor(now):
+                continue  # what is placed so far already cuts the floor or a door off
+            rest = search(i + 1, [*taken, *opt.shapes], now)
             if rest is not None:
                 return [opt, *rest]
         return None
 
-    found = search(0, [])
+    found = search(0, [], [])
     if found is None:
         return None
     place: Placement = {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids}
@@ -556,6 +575,7 @@ def room_plans(layout: UnitLayout, ctx: UnitContext, limit: int = MAX_PLANS) -> 
         if planner.groups and any(planner.options.values()):
             base_share, _ = planner.walkable({k: (*layout.center(k), layout.rotation(k)) for k in layout.ids})
             need = min(WALK_MIN_SHARE, base_share - 0.005)
+            planner.need = need
             history = {g.lead: [np.asarray(layout.center(g.lead))] for g in planner.groups}
             rng = np.random.default_rng(PLAN_SEED)
             fails = 0
