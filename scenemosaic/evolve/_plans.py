@@ -406,8 +406,8 @@ class _Planner:
                         out.append(opt)
         else:
             x0, y0, x1, y1 = self.region.bounds
-            for u in np.arange(x0 + PLAN_STEP_M, x1, 2 * PLAN_STEP_M):
-                for v in np.arange(y0 + PLAN_STEP_M, y1, 2 * PLAN_STEP_M):
+            for u in np.arange(x0 + PLAN_STEP_M, x1, PLAN_STEP_M):
+                for v in np.arange(y0 + PLAN_STEP_M, y1, PLAN_STEP_M):
                     for turn in (0.0, 90.0, 180.0, -90.0):
                         opt = self._option(g, pivot, np.array([u, v]), turn, False)
                         if opt is not None:
