@@ -29,8 +29,16 @@ from typing import Any
 import numpy as np
 import structlog
 
-from scenemosaic.compose._distance import Arrangement
-from scenemosaic.compose._pool import ALPHA, CandidatePool, GroupVariants, Selection, Veto, select_diverse
+from scenemosaic.compose._distance import Arrangement, novelty_distance
+from scenemosaic.compose._pool import (
+    ALPHA,
+    MIN_NOVELTY,
+    CandidatePool,
+    GroupVariants,
+    Selection,
+    Veto,
+    select_diverse,
+)
 from scenemosaic.evolve import EvolutionReport
 from scenemosaic.physics import ObjectShape, collision_report_for
 from scenemosaic.scene import (
@@ -108,6 +116,9 @@ class CompositionReport:
     """Candidates turned down when the selection reached them (interpenetration or ``accept``)."""
     not_accepted: int = 0
     """Of those, the ones ``accept`` turned down."""
+    rooms_respread: int = 0
+    """House variants in which a room took an arrangement no earlier variant had given it
+    (``compose_house``'s spreading of each room's arrangements)."""
     pruned: int = 0
     near_copies: int = 0
     """Candidates never selected for lying within ``MIN_NOVELTY`` of a selected scene."""
@@ -128,6 +139,7 @@ class CompositionReport:
             "rejected_by_accept": self.not_accepted,
             "pruned": self.pruned,
             "near_copies": self.near_copies,
+            "rooms_respread": self.rooms_respread,
             "scene_checks": self.checks,
             "wall_s": round(self.wall_s, 3),
         }
@@ -332,6 +344,40 @@ def _selection_figures(report: CompositionReport, sel: Selection) -> None:
     report.min_distances = sel.min_distances[1:]
 
 
+def _spread_rooms(
+    pool: CandidatePool, picked: list[tuple[int, ...]], valid: Callable[[tuple[int, ...]], bool]
+) -> list[tuple[int, ...]]:
+    """The house variants with each room's arrangements spread over them: where a house variant
+    gives a room an arrangement an earlier variant already gave it (the whole-house max-min may,
+    when the other rooms make the houses differ), the room takes one no variant has used yet, the
+    one farthest from those it has shown, as long as the house stays valid (``valid``: every room
+    reachable) and no closer to a selected house than :data:`MIN_NOVELTY`. Every room then shows as
+    many different arrangements as it has, and a room's own diversity follows the house's."""
+    out = [picked[0]]
+    used: list[set[int]] = [{0} for _ in pool.shape]
+    for choice in picked[1:]:
+        now = list(choice)
+        for g, k in enumerate(choice):
+            if k not in used[g]:
+                continue
+            grp = pool.groups[g]
+            arr = [Arrangement(grp.positions[j], grp.rotations[j], grp.quaternions[j]) for j in range(grp.count)]
+            free = [j for j in range(grp.count) if j not in used[g]]
+            ranked = sorted(free, key=lambda j: (-min(novelty_distance(arr[u], arr[j]) for u in used[g]), j))
+            others = np.array([*out, *picked[len(out) + 1 :]], dtype=np.int64)
+            for j in ranked:
+                trial = (*now[:g], j, *now[g + 1 :])
+                if float(pool.distances(trial, others).min()) < MIN_NOVELTY:
+                    continue
+                if valid(trial):
+                    now[g] = j
+                    break
+        for g, k in enumerate(now):
+            used[g].add(k)
+        out.append(tuple(now))
+    return out
+
+
 def compose_house(
     rooms: Sequence[Scene],
     room_variants: Sequence[Sequence[Scene]],
@@ -386,8 +432,10 @@ def compose_house(
     # the method's plain max-min on N: the tie band breaks near ties by footprint, which a house's pool has not
     sel: Selection = select_diverse(pool, m, alpha=alpha, tie_band=0.0, valid=valid, max_candidates=max_candidates, seed=seed)
     _selection_figures(report, sel)
+    picked = _spread_rooms(pool, sel.picked, valid)
+    report.rooms_respread = sum(a != b for a, b in zip(picked, sel.picked, strict=True))
     variants: list[list[Scene]] = []
-    for choice in sel.picked[1:]:
+    for choice in picked[1:]:
         house = build(choice)
         variants.append([s.model_copy(deep=True) if k else s for s, k in zip(house, choice, strict=True)])
         report.picked.append({g.name: g.labels[k] for g, k in zip(groups, choice, strict=True)})
