@@ -47,7 +47,7 @@ from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
 from scenemosaic.exceptions import OutputSpaceError, SceneMosaicError
 from scenemosaic.exchange import deliver_house, formats_left_out, load_house
-from scenemosaic.metrics import evaluate_house, house_checks
+from scenemosaic.metrics import evaluate_house, furniture, house_checks
 from scenemosaic.physics import check_collisions, check_out_of_bounds, validate_house
 from scenemosaic.pipeline._checkpoint import (
     RoomOutcome,
@@ -245,6 +245,14 @@ def _room_variants(run: PipelineRun, room_id: str) -> list[Scene]:
     return list(outcome.state.variants) if outcome is not None and outcome.state is not None else []
 
 
+def _planned(run: PipelineRun, room_id: str) -> bool:
+    """Whether the room's floor kept a room plan among its evolved layouts (``evolve/_plans.py``)."""
+    outcome = run.rooms.get(room_id)
+    layouts = outcome.state.layouts if outcome is not None and outcome.state is not None else None
+    floor = (layouts or {}).get("floor")
+    return floor is not None and any(lid.startswith("plan_") for lid in floor[0])
+
+
 def _check_problems(checks: dict[str, Any]) -> list[str]:
     """The house checks that fail, in words."""
     out = []
@@ -266,6 +274,10 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
         rec.status = "skipped"
         rec.detail["reason"] = "no variants asked for" if m <= 0 else "no room has a variant"
         return
+    unplanned = [s.id for s in house.rooms if furniture(s) and not _planned(run, s.id)]
+    if unplanned:  # said, not hidden: their variants differ in smaller pieces only
+        rec.detail["rooms_without_plan"] = unplanned
+        run.notes.append(f"room(s) whose free floor holds no other arrangement of their furniture groups: {', '.join(unplanned)}")
     base_unreachable = set(house_walkable(house).unreachable_rooms())
 
     def reachable(rooms: list[Scene]) -> bool:
@@ -332,9 +344,9 @@ async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
         base_checks=run.validation, variant_checks=run.variant_checks,
     )  # fmt: skip
     run.metrics = await asyncio.to_thread(measure)
-    frozen = run.metrics["house"].get("rooms_not_rearranged") or []
-    if frozen:  # said, not hidden: these rooms' variants differ in smaller pieces only
-        run.notes.append(f"room(s) whose furniture no variant moves (no other arrangement fits their free floor): {', '.join(frozen)}")
+    frozen = [rid for rid in run.metrics["house"].get("rooms_not_rearranged") or [] if _planned(run, rid)]
+    if frozen:  # had room plans, none selected (rooms without any were said at compose)
+        run.notes.append(f"room(s) whose furniture no selected variant moves: {', '.join(frozen)}")
     for k, scene in enumerate(house.rooms):  # POS and ROT per room, from the run's model
         judged = await judge_scenes(run, rec, [scene, *(v.rooms[k] for v in run.house_variants)])
         if judged is not None:
