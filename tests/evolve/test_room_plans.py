@@ -17,7 +17,14 @@ from shapely.geometry import Polygon
 
 from scenemosaic import GenerateConfig, agenerate
 from scenemosaic.evolve import UnitContext, rule_archetypes, unit_context, unit_obstacles
-from scenemosaic.evolve._plans import PLAN_MIN_AREA_M2, PLAN_MIN_MOVE_M, _groups, fixed_children, room_plans, walk_check
+from scenemosaic.evolve._plans import (
+    PLAN_MIN_AREA_M2,
+    PLAN_MIN_MOVE_M,
+    _groups,
+    fixed_children,
+    room_plans,
+    walk_check,
+)
 from scenemosaic.physics import is_thin
 from scenemosaic.scene import WALK_MIN_SHARE, Scene, UnitLayout, is_fixture
 
