@@ -57,6 +57,7 @@ def test_load_scene_reads_the_house_or_one_room(two_room_run: GenerateResult) ->
     assert {o.id for o in room.objects} == {o.id for o in house.room("room_2").objects}
 
 
+@pytest.mark.house  # two more whole-house runs: make test-houses
 @pytest.mark.parametrize("room_workers", [1, 2])
 def test_resume_over_a_finished_house_reuses_every_room(
     two_room_run: GenerateResult, tmp_path: Path, room_workers: int
@@ -75,6 +76,7 @@ def test_resume_over_a_finished_house_reuses_every_room(
     assert _room_files(out) == before
 
 
+@pytest.mark.house  # another whole-house run: make test-houses
 def test_one_room_process_gives_the_same_rooms_as_two(two_room_run: GenerateResult, tmp_path: Path) -> None:
     result = generate(TWO_ROOMS, tmp_path / "one", GenerateConfig(variants=VARIANTS, room_workers=1, overwrite=True))
     rooms = next(s for s in result.report["stages"] if s["name"] == "rooms")
@@ -84,6 +86,7 @@ def test_one_room_process_gives_the_same_rooms_as_two(two_room_run: GenerateResu
     assert _room_files(tmp_path / "one") == _room_files(two_room_run.out_dir)
 
 
+@pytest.mark.house  # another whole-house run: make test-houses
 def test_cli_generates_the_house_and_prints_its_summary(tmp_path: Path) -> None:
     out = tmp_path / "cli_house"
     result = runner.invoke(app, ["generate", str(TWO_ROOMS), "--out", str(out), "--model", "rules"])
