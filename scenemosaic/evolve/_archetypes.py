@@ -58,6 +58,7 @@ from scenemosaic.evolve._plans import (
     Placement,
     doors_kept,
     fixed_children,
+    flush_positions,
     move_group,
     plan_summary,
     room_plans,
@@ -265,14 +266,7 @@ class _Room:
 def _wall_positions(layout: UnitLayout, piece: str, wall: WallLine) -> tuple[float, list[np.ndarray]]:
     """The turn that backs ``piece`` against ``wall`` and the centres it may take along it, every
     ``MOVE_STEP``, its back flush and its span within the wall."""
-    turn = normalize_degrees(wall.facing - layout.rotation(piece))
-    trial = layout.copy()
-    trial.set_rotation(piece, wall.facing)
-    poly = trial.polygon(piece)
-    back = (WALL_FLUSH_GAP - wall.gap(poly)) * np.asarray(wall.inward)
-    lo, hi = wall.along(poly + back)
-    start = np.asarray(trial.center(piece)) + back
-    return turn, [start + t * wall.tangent for t in np.arange(-lo, wall.length - hi + 1e-9, MOVE_STEP)]
+    return normalize_degrees(wall.facing - layout.rotation(piece)), flush_positions(layout, piece, wall, MOVE_STEP)
 
 
 def _spot(layout: UnitLayout, ctx: UnitContext, piece: str, wall: WallLine) -> Placement | None:

@@ -56,7 +56,7 @@ from scenemosaic.scene import (
 )
 
 __all__ = [
-    "MAX_PLANS", "PLAN_MARGIN_M", "PLAN_MIN_MOVE_M", "PLAN_STEP_M", "Placement", "doors_kept", "fixed_children", "move_group", "plan_summary", "room_plans", "walk_check",
+    "MAX_PLANS", "PLAN_MARGIN_M", "PLAN_MIN_MOVE_M", "PLAN_STEP_M", "Placement", "doors_kept", "fixed_children", "flush_positions", "move_group", "plan_summary", "room_plans", "walk_check",
 ]  # fmt: skip
 
 Placement = dict[str, tuple[float, float, float]]
@@ -394,7 +394,7 @@ class _Planner:
                 # a bed never backs onto the stretch of wall a TV hangs on (nobody watches the wall they lie against)
                 hung = [wall.along(c) for c in screens if abs(wall.gap(c)) < 0.05] if bed else []
                 turn = normalize_degrees(wall.facing - layout.rotation(g.lead))
-                for to in _wall_positions(layout, g.lead, wall):
+                for to in flush_positions(layout, g.lead, wall):
                     for mirror in mirrors:
                         opt = self._option(g, pivot, to, turn, mirror, wall)
                         if opt is None:
@@ -487,8 +487,10 @@ def doors_kept(layout: UnitLayout, ctx: UnitContext, place: Placement) -> bool:
     return share >= min(WALK_MIN_SHARE, base_share - 0.005) and (doors or not base_doors)
 
 
-def _wall_positions(layout: UnitLayout, piece: str, wall: WallLine) -> list[np.ndarray]:
-    """The centres ``piece`` may take backed flush against ``wall``, every ``PLAN_STEP_M``."""
+def flush_positions(layout: UnitLayout, piece: str, wall: WallLine, step: float = PLAN_STEP_M) -> list[np.ndarray]:
+    """The centres ``piece`` may take turned to face away from ``wall``, its back flush against it
+    and its span within it, every ``step`` metres along it (the plans' and the archetypes' one
+    definition of a place on a wall)."""
     from scenemosaic.evolve._analysis import WALL_FLUSH_GAP
 
     trial = layout.copy()
@@ -497,7 +499,7 @@ def _wall_positions(layout: UnitLayout, piece: str, wall: WallLine) -> list[np.n
     back = (WALL_FLUSH_GAP - wall.gap(poly)) * np.asarray(wall.inward)
     lo, hi = wall.along(poly + back)
     start = np.asarray(trial.center(piece)) + back
-    return [start + t * wall.tangent for t in np.arange(-lo, wall.length - hi + 1e-9, PLAN_STEP_M)]
+    return [start + t * wall.tangent for t in np.arange(-lo, wall.length - hi + 1e-9, step)]
 
 
 def _plan(

@@ -20,10 +20,10 @@ import numpy as np
 from scenemosaic.physics._checks import collision_report_for
 from scenemosaic.physics._hulls import ObjectShape
 from scenemosaic.scene import (
-    OPENING_CLEAR_M,
     Scene,
     build_structure,
     door_blockers,
+    fits_wall,
     front_vector,
     is_screen,
     on_backing_wall,
@@ -84,16 +84,7 @@ def _rehang(scene: Scene, shapes: Mapping[str, ObjectShape], tv_id: str, piece_i
             xy = start + t * along + n * depth
             pose = tv.pose.model_copy(update={"position": (float(xy[0]), float(xy[1]), tv.pose.position[2]), "quaternion": quat})
             hung = tv.model_copy(update={"pose": pose})
-            span = (hung.corners()[:, :2] - start) @ t
-            lo, hi = float(span.min()), float(span.max())
-            if lo < -1e-3 or hi > wall.length + 1e-3:
-                continue
-            zlo, zhi = (float(v[2]) for v in hung.aabb())
-            if any(
-                hi > o.center - o.width / 2 - OPENING_CLEAR_M and lo < o.center + o.width / 2 + OPENING_CLEAR_M
-                and zhi > o.bottom - OPENING_CLEAR_M and zlo < o.bottom + o.height + OPENING_CLEAR_M
-                for o in wall.openings
-            ):  # fmt: skip
+            if not fits_wall(hung, wall, None):  # within the wall, clear of its doors and windows
                 continue
             relations = [r.model_copy(update={"parent": wall.id}) if r.child == tv_id and r.parent == old.id else r for r in scene.relations]
             objects = [hung if o.id == tv_id else o for o in scene.objects]

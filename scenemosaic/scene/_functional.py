@@ -45,6 +45,7 @@ __all__ = [
     "FunctionalKind",
     "backing_walls",
     "faces",
+    "fits_wall",
     "follow_leaders",
     "functional_holds",
     "functional_relations",
@@ -403,7 +404,7 @@ def _follow(
         t = t / float(np.linalg.norm(t))
         pos[:2] += t * float(shift @ t)
         slid = Pose(position=(float(pos[0]), float(pos[1]), float(pos[2])), quaternion=sub0.pose.quaternion, scale=sub0.pose.scale)
-        if not _fits_wall(sub0.model_copy(update={"pose": slid}), wall, sub0):
+        if not fits_wall(sub0.model_copy(update={"pose": slid}), wall, sub0):
             return None
         return slid, wall.id
     area = unary_union([_foot(g).buffer(OVER_MARGIN_M) for g in group])
@@ -423,7 +424,7 @@ def _follow(
     return None
 
 
-def _fits_wall(moved: SceneObject, wall: Wall, before: SceneObject | None) -> bool:
+def fits_wall(moved: SceneObject, wall: Wall, before: SceneObject | None) -> bool:
     """Whether a wall piece lies within its wall's length and clear (by :data:`OPENING_CLEAR_M`)
     of the wall's doors and windows; a piece that overlapped one already where it hung in the
     base (``before``) only has to stay within the wall."""
@@ -489,7 +490,7 @@ def _rehang(
         scale=sub0.pose.scale,
     )
     moved = sub0.model_copy(update={"pose": pose})
-    if not _fits_wall(moved, wall, None):
+    if not fits_wall(moved, wall, None):
         return None
     area = unary_union([_foot(g).buffer(OVER_MARGIN_M) for g in group])
     if not area.contains(Point(xy)):
