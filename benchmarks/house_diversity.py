@@ -1,7 +1,8 @@
 """House diversity benchmark: are a house's variants ones a designer would draw, and all valid?
 
 Every shipped multi-room house: those the solver was shaped on (``data/houses/procthor``) and the
-held-out ones it was not (``data/houses/held_out``, reported apart), and every house file in the
+held-out ones it was not (every other folder of ``data/houses``: ``held_out``, ``schema_forms``;
+reported apart), and every house file in the
 folders given with ``--extra`` (group ``extra``), runs
 ``generate --variants 5`` offline (rules model, seed 0). Per house:
 
@@ -10,7 +11,8 @@ folders given with ``--extra`` (group ``extra``), runs
   (``metrics.moved_furniture``: a non-fixture floor piece with at least 0.15 m² of footprint, by
   0.3 m or 20 degrees) / rooms that have such a piece;
 * ``room_div_iou_max`` — the highest per-room Div-IoU among the bedrooms, living rooms and dining
-  rooms with at least 4 m² of free floor (``room_div_iou`` lists them);
+  rooms with at least 4 m² of free floor: floor that neither furniture nor a door's or passage's
+  clearance zone takes (``room_div_iou`` lists them; ``free_floor`` gives every such room's);
 * ``plausibility_min`` — the lowest ``PLAUS`` (``metrics.plausibility``) of any room of any variant;
 * ``min_novelty`` — the smallest selection distance between variants (``MIN_NOVELTY`` is the floor);
 * validity over base and variants: ``col_max``, ``oob_max``, ``nav_min`` (per room),
@@ -38,21 +40,25 @@ from shapely.ops import unary_union
 from scenemosaic import GenerateConfig, generate
 from scenemosaic.exchange import load_scene
 from scenemosaic.metrics import furniture, moved_furniture
-from scenemosaic.scene import FLOOR, House, Scene, is_thin
+from scenemosaic.scene import FLOOR, House, Scene, door_zones, is_thin
 
 REPO = Path(__file__).resolve().parents[1]
-SHIPPED = REPO / "data" / "houses" / "procthor"
-HELD_OUT = REPO / "data" / "houses" / "held_out"
+HOUSES = REPO / "data" / "houses"
+SHIPPED = HOUSES / "procthor"
 FREE_FLOOR_M2 = 4.0
 """Rooms with at least this much free floor are held to the per-room diversity bar, square metres."""
 ROOM_TYPES = ("bedroom", "livingroom", "living_room", "diningroom", "dining_room")
 
 
 def _free_floor(room: Scene) -> float:
+    """The floor furniture could stand on: the room's floor less the footprints of what stands on
+    it and less the clearance zones in front of its doors and open passages (``scene.door_zones``:
+    floor no piece may take), square metres."""
     if room.room is None:
         return 0.0
     floor = Polygon(room.room.floor)
     feet = [Polygon(o.footprint()) for o in room.objects if not is_thin(o) and (room.support_of(o.id) is None or room.support_of(o.id).parent == FLOOR)]  # type: ignore[union-attr]
+    feet += [z.polygon for z in (*door_zones(room), *door_zones(room, kinds=("opening",)))]
     return float(floor.difference(unary_union(feet)).area) if feet else float(floor.area)
 
 
@@ -68,6 +74,7 @@ def _house(path: Path, out: Path, group: str) -> dict[str, Any]:
     rooms_metrics = metrics.get("rooms", {})
     moved = movable = 0
     room_div: dict[str, float] = {}
+    free: dict[str, float] = {}
     plaus, cols, oobs, navs, relkeeps = [], [], [], [], []
     for k, room in enumerate(base.rooms):
         if furniture(room):
@@ -85,6 +92,8 @@ def _house(path: Path, out: Path, group: str) -> dict[str, Any]:
         div = (rm.get("diversity") or {}).get("Div-IoU")
         if div is not None and rtype in ROOM_TYPES and _free_floor(room) >= FREE_FLOOR_M2:
             room_div[f"{room.id} ({rtype})"] = div
+        if rtype in ROOM_TYPES:
+            free[f"{room.id} ({rtype})"] = round(_free_floor(room), 2)
     house = metrics.get("house", {})
     rows = [house.get("base", {}), *house.get("variants", [])]
     compose: dict[str, Any] = next((s["detail"] for s in report.get("stages", []) if s["name"] == "compose"), {})
@@ -101,6 +110,7 @@ def _house(path: Path, out: Path, group: str) -> dict[str, Any]:
         "rooms_movable": movable,
         "room_div_iou_max": max(room_div.values()) if room_div else None,
         "room_div_iou": room_div,
+        "free_floor": free,
         "plausibility_min": min(plaus) if plaus else 1.0,
         "min_novelty": min(compose.get("min_distances") or [0.0]),
         "col_max": max(cols, default=0.0),
@@ -122,7 +132,8 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     work = Path(tempfile.mkdtemp(prefix="house_diversity_"))
     inputs = [(p, "shipped") for p in sorted(SHIPPED.glob("*.json")) if p.name != "SOURCES.json"]
-    inputs += [(p, "held_out") for p in sorted(HELD_OUT.glob("*.json")) if p.name != "SOURCES.json"]
+    for folder in sorted(p for p in HOUSES.iterdir() if p.is_dir() and p != SHIPPED):  # held_out, schema_forms, ...
+        inputs += [(p, "held_out") for p in sorted(folder.glob("*.json")) if p.name != "SOURCES.json"]
     for folder in args.extra:
         inputs += [(p, "extra") for p in sorted(folder.glob("*.json")) if p.name != "SOURCES.json"]
     rows = []

@@ -1,7 +1,8 @@
 """Prompt-size benchmark: tokens each structuring agent sends, and the run's critical path.
 
 Every agent's prompt is built the way a model run builds it (the agents before it answered
-with their rule solvers, as a model that agrees with them would), then counted:
+with their rule solvers, as a model that agrees with them would, and their answers applied as a
+run applies them, ``run_agent``), then counted:
 
 * with ``--tokenize-url http://127.0.0.1:8089`` by a llama.cpp server itself (its chat
   template applied by ``/apply-template``, then ``/tokenize``);
@@ -33,7 +34,7 @@ from typing import Any
 
 import httpx
 
-from scenemosaic.agents import SceneState, agent_dependencies
+from scenemosaic.agents import SceneState, agent_dependencies, run_agent
 from scenemosaic.exchange import load_scene, load_scenes
 from scenemosaic.models import Message, RulesModel, TextPart, estimate_tokens
 from scenemosaic.scene import Pose, Scene
@@ -98,7 +99,7 @@ async def prompt_sizes(scene: Scene, count: Counter) -> tuple[dict[str, int], in
                 parts = agent.split(evidence, agent.chunk_size) if agent.chunk_size else [([], evidence)]
                 sizes[agent.name] = max(count(agent.messages(part, state, vision=False)) for _, part in parts)
                 chunks[agent.name] = len(parts)
-            await agent.run(state, model)
+            await run_agent(agent, state, model)
             done.add(agent.name)
             pending.remove(agent)
     calls: dict[str, int] = {}
@@ -118,7 +119,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--tokenize-url", default=None, help="llama.cpp server root, e.g. http://127.0.0.1:8089")
     args = parser.parse_args(argv)
     count = Counter(args.tokenize_url)
-    small, path16 = asyncio.run(prompt_sizes(load_scene(ROOM16), count))
+    room16 = load_scene(ROOM16)
+    assert isinstance(room16, Scene)
+    small, path16 = asyncio.run(prompt_sizes(room16, count))
     large, _ = asyncio.run(prompt_sizes(room60(), count))
     figures: dict[str, Any] = {
         "counter": "server /tokenize" if args.tokenize_url else "estimate (3.5 chars/token)",

@@ -1,11 +1,16 @@
 """Worker processes of the package (a batch's jobs, a house run's rooms): how they are started,
 how they notice that the process that started them is gone, and how they are stopped.
 
-A worker is a fresh interpreter (``python -m <module>``) in its own process group, so one signal
-reaches whatever it started (CoACD's processes) and the caller's script needs no ``__main__``
-guard. It gets the environment of :func:`worker_environment` (it imports this very package) and
-runs :func:`watch_parent` in a thread: when its parent dies (SIGKILL included), it stops itself,
-first gently (SIGTERM: the pipeline writes what it must), then for good.
+A worker is a fresh interpreter (``python -m <module>``, through a few lines of bootstrap) in its
+own process group, so one signal reaches whatever it started (CoACD's processes) and the caller's
+script needs no ``__main__`` guard. It gets the environment of :func:`worker_environment` (it
+imports this very package). When its parent dies (SIGKILL included) it goes too, as the pool
+says (``orphan``): ``"stop"`` — SIGTERM, so a pipeline writes its report (a batch job, in a folder
+of its own) — or ``"kill"`` — SIGKILL at once (a house's room worker, which writes into the house's
+folder, whose lock died with the parent). On Linux the kernel sends that signal
+(``PR_SET_PDEATHSIG``, set before the worker imports anything), so it comes within milliseconds
+even while the worker's Python is busy in native code or still loading; everywhere,
+:func:`watch_parent` also looks every 0.2 s and stops the worker itself.
 """
 
 from __future__ import annotations
@@ -23,12 +28,41 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from multiprocessing.connection import wait
 from pathlib import Path
+from typing import Literal
 
-__all__ = ["STOP_GRACE_S", "JobEnd", "WorkerJob", "kill_group", "run_jobs", "watch_parent", "worker_environment"]
+__all__ = [
+    "STOP_GRACE_S",
+    "JobEnd",
+    "Orphan",
+    "WorkerJob",
+    "kill_group",
+    "run_jobs",
+    "watch_parent",
+    "worker_environment",
+]
 
 STOP_GRACE_S = 5.0
 """Seconds a worker told to stop (SIGTERM) has to leave before its process group is killed."""
 _ORPHAN_POLL_S = 0.2
+
+Orphan = Literal["stop", "kill"]
+"""What a worker does when the process that started it dies (see the module docstring)."""
+_ORPHAN_SIGNALS: dict[str, int] = {"stop": signal.SIGTERM, "kill": signal.SIGKILL}
+
+_BOOTSTRAP = """\
+import os, sys
+orphan, module, parent = int(sys.argv[1]), sys.argv[2], int(sys.argv[4])
+if sys.platform.startswith("linux"):
+    import ctypes
+    ctypes.CDLL(None, use_errno=True).prctl(1, orphan)  # PR_SET_PDEATHSIG
+if os.getppid() != parent:  # the parent died before that
+    os._exit(1)
+import runpy
+sys.argv = sys.argv[2:]
+runpy.run_module(module, run_name="__main__", alter_sys=True)
+"""
+"""What a worker runs first (``python -c``): the signal the kernel sends it when the thread that
+started it ends (the pool's: it outlives every worker it starts), then ``python -m module``."""
 
 
 def worker_environment() -> dict[str, str]:
@@ -45,19 +79,23 @@ def worker_environment() -> dict[str, str]:
     return env
 
 
-def _watch(parent_pid: int) -> None:
+def _watch(parent_pid: int, orphan: Orphan) -> None:
     while os.getppid() == parent_pid:
         time.sleep(_ORPHAN_POLL_S)
-    with contextlib.suppress(OSError):
-        os.kill(os.getpid(), signal.SIGTERM)
-    time.sleep(STOP_GRACE_S)
+    if orphan == "stop":
+        with contextlib.suppress(OSError):
+            os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(STOP_GRACE_S)
+    with contextlib.suppress(OSError):  # this worker and what it started (its own process group)
+        os.killpg(os.getpgrp(), signal.SIGKILL)
     os._exit(1)
 
 
-def watch_parent(parent_pid: int) -> None:
+def watch_parent(parent_pid: int, orphan: Orphan = "stop") -> None:
     """In a worker: stop this process when ``parent_pid`` is no longer its parent (the parent
-    died): SIGTERM to itself at once, and an exit :data:`STOP_GRACE_S` later if still here."""
-    threading.Thread(target=_watch, args=(parent_pid,), name="parent-watch", daemon=True).start()
+    died). ``"stop"``: SIGTERM to itself at once, and its process group killed
+    :data:`STOP_GRACE_S` later if still here; ``"kill"``: its process group killed at once."""
+    threading.Thread(target=_watch, args=(parent_pid, orphan), name="parent-watch", daemon=True).start()
 
 
 def kill_group(pid: int) -> None:
@@ -141,13 +179,14 @@ class _Worker:
         return None
 
 
-def _spawn(module: str, args: list[str], log_path: Path | None) -> _Worker:
+def _spawn(module: str, args: list[str], log_path: Path | None, orphan: Orphan) -> _Worker:
     read_end, write_end = os.pipe()
     try:
         out = open(log_path, "ab") if log_path is not None else None  # noqa: SIM115 - handed to the child, closed below
         try:
+            boot = [sys.executable, "-c", _BOOTSTRAP, str(int(_ORPHAN_SIGNALS[orphan]))]
             process = subprocess.Popen(
-                [sys.executable, "-m", module, str(write_end), str(os.getpid()), *args],
+                [*boot, module, str(write_end), str(os.getpid()), *args],
                 stdin=subprocess.PIPE, stdout=out, stderr=out, pass_fds=(write_end,), env=worker_environment(),
                 start_new_session=True,  # its own process group: one signal reaches its helpers too
             )  # fmt: skip
@@ -205,9 +244,12 @@ def run_jobs(
     on_start: Callable[[WorkerJob], None] | None = None,
     on_end: Callable[[WorkerJob, JobEnd], None],
     stop: threading.Event | None = None,
+    orphan: Orphan = "stop",
 ) -> None:
     """Run ``jobs`` in worker processes (``python -m module REPLY_FD PARENT_PID *args``), at most
-    ``workers`` at once, in order; ``on_start`` and ``on_end`` are called in this thread.
+    ``workers`` at once, in order; ``on_start`` and ``on_end`` are called in this thread, which
+    outlives every worker (``orphan`` says what a worker does should this process die: see the
+    module docstring; the worker module calls :func:`watch_parent` with the same).
 
     A worker reads one job a line on stdin and writes one reply a line to the pipe ``REPLY_FD``.
     With ``reuse`` a worker takes the next job when it replied (a house's rooms: one start-up per
@@ -239,7 +281,7 @@ def run_jobs(
                 if idle is None and len(running) >= workers:
                     break
                 job = queue.popleft()
-                worker = idle or _spawn(module, args or [], job.log_path)
+                worker = idle or _spawn(module, args or [], job.log_path, orphan)
                 if idle is None:
                     running.append(worker)
                 if on_start is not None:

@@ -142,7 +142,10 @@ class _Stop:
     The pipeline writes ``report.json`` first thing when cancelled. A second signal that comes
     before it is on disk (two signals back to back) waits for it, at most
     :data:`REPORT_WAIT_S`, then exits: the report is not lost. Worker threads and CoACD processes
-    are not waited for.
+    are not waited for. A signal that comes before the run's loop is up (:meth:`hold`: while the
+    pipeline's modules load) is kept and stops the run as soon as it starts, instead of raising
+    ``KeyboardInterrupt`` inside an import, where a library may swallow it (the run then went on
+    to the end) — or, for SIGTERM, killing the process before it writes anything.
     """
 
     def __init__(self, report: Path | None = None) -> None:
@@ -154,17 +157,45 @@ class _Stop:
         self.on_stop: Callable[[str], None] | None = None
         """Shows that the run is stopping (the progress bar's label); no line is printed, so an
         interrupted run ends with one line."""
+        self.pending: int | None = None
+        """A signal received before :meth:`install`."""
+        self._previous: dict[int, Any] = {}
+
+    def hold(self) -> None:
+        """Keep SIGINT and SIGTERM until :meth:`install` (main thread only; :meth:`release` undoes it)."""
+        if threading.current_thread() is not threading.main_thread():
+            return
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            self._previous[sig] = signal.signal(sig, self._early)
+
+    def release(self) -> None:
+        """The signal handlers as they were before :meth:`hold`."""
+        for sig, previous in self._previous.items():
+            signal.signal(sig, previous)
+        self._previous.clear()
+
+    def _early(self, sig: int, frame: object) -> None:
+        if self.pending is not None:  # a second one: nothing has started, leave at once
+            sys.stderr.flush()
+            os._exit(_exit_code(self.pending))
+        self.pending = sig
 
     def install(self, loop: asyncio.AbstractEventLoop) -> None:
         self.loop = loop
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, self._received, sig)
+        if self.pending is not None:
+            loop.call_soon(self._received, self.pending)
 
     def _reported(self) -> bool:
         try:
             return self.report is None or self.report.stat().st_mtime >= self.started - 1.0
         except OSError:
             return False
+
+    def wrote_report(self) -> bool:
+        """Whether this run wrote its report (one stopped as it started wrote none)."""
+        return self._reported()
 
     def _exit_when_reported(self, deadline: float) -> None:
         if self._reported() or time.monotonic() >= deadline or self.loop is None:
@@ -201,6 +232,14 @@ def _hard_exit(code: int) -> NoReturn:
 
 def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfig) -> GenerateResult:
     stop = _Stop(RunFolder(out).report)
+    stop.hold()
+    try:
+        return _run_held(input_path, out, config, stop)
+    finally:
+        stop.release()
+
+
+def _run_held(input_path: Path | None, out: Path, config: GenerateConfig, stop: _Stop) -> GenerateResult:
     with Progress(
         SpinnerColumn(),
         TextColumn("[bold]{task.description}"),
@@ -233,7 +272,7 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
                 # the report and the partial result are on disk: leave now, not after the stage's
                 # worker thread (a long compose or export) ends, which asyncio.run would wait for
                 progress.stop()
-                _interrupted(out, stop.signal)
+                _interrupted(out, stop.signal, stop.wrote_report())
 
         try:
             return asyncio.run(main())
@@ -242,12 +281,15 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
                 raise
         finally:
             flush_logs()
-    _interrupted(out, stop.signal)
+    _interrupted(out, stop.signal, stop.wrote_report())
 
 
-def _interrupted(out: Path, sig: int | None) -> NoReturn:
+def _interrupted(out: Path, sig: int | None, reported: bool = True) -> NoReturn:
     """The one line of a run stopped by a signal, then the exit (130 or 143)."""
     flush_logs()
+    if not reported:  # stopped before the run wrote anything (a signal as it started)
+        _err.print("[yellow]interrupted[/yellow] before the run started: nothing written")
+        _hard_exit(_exit_code(sig))
     kept = "report and partial result" if (RunFolder(out).base / RunFolder.PARTIAL).exists() else "report"
     _err.print(f"[yellow]interrupted[/yellow]: {kept} in {escape(str(out))}; continue with --resume {escape(str(out))}")
     _hard_exit(_exit_code(sig))
@@ -280,7 +322,8 @@ def _run_cli(input_path: Path | None, out: Path, config: GenerateConfig) -> None
         _err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
         report = _file_state(RunFolder(out).report)
         if report is not None and report != earlier_report:  # not an earlier run's (a refused overwrite)
-            _err.print(f"partial results and the report are in {out}", markup=False, highlight=False)
+            kept = "the partial result and the report are" if (RunFolder(out).base / RunFolder.PARTIAL).exists() else "the report is"
+            _err.print(f"{kept} in {out}", markup=False, highlight=False)
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
     except Exception as exc:  # a bug: one line here, the traceback in the report
         stage = _failed_stage(out)
@@ -405,6 +448,7 @@ def demo(
     """Run generate on the bundled procedural demo scene, offline (rules model, no key, no network)."""
     from scenemosaic.exchange import save_scene
 
+    _writable_folder(out)
     source = out / "input"
     save_scene(pipeline.demo_scene(), source)
     _run_cli(source, out, GenerateConfig(model="rules", seed=seed, overwrite=True))
@@ -647,6 +691,31 @@ def _load_any(
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
 
 
+def _writable_folder(folder: Path) -> None:
+    """Make the output folder ``folder`` and show that it takes a file; one that cannot be made
+    or written (under a file, read-only, no permission) is the user's to fix: one line, exit 2."""
+    import tempfile
+
+    problem = "it exists and is not a folder" if folder.exists() and not folder.is_dir() else None
+    if problem is None:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            with tempfile.TemporaryFile(dir=folder):
+                pass
+        except OSError as exc:
+            problem = exc.strerror or str(exc)
+    if problem is not None:
+        _err.print(f"[red]error:[/red] cannot write the output folder {escape(str(folder))}: {escape(problem)}", highlight=False)
+        raise typer.Exit(code=EXIT_BAD_INPUT)
+
+
+def _write_failed(exc: OSError) -> NoReturn:
+    """A write refused by the system after the folder checks (a folder where a file goes): one line, exit 2."""
+    where = f": {exc.filename}" if exc.filename else ""
+    _err.print(f"[red]error:[/red] cannot write{escape(where)} ({escape(exc.strerror or str(exc))})", highlight=False)
+    raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+
+
 def _load_or_exit(
     path: Path, variant: str | None = None, room: str | None = None, allow_partial: bool = False
 ) -> tuple[Scene, Path]:
@@ -727,12 +796,15 @@ def export(
     for name, folder in _scene_folders(path):
         scene, base_dir = _load_any(folder, room=room, allow_partial=allow_partial)
         target = out if single else out / name
+        _writable_folder(target)
         destination = target / dict(DELIVERED_FORMATS).get(fmt, "")  # where generate puts it
         try:
             written = write_scene(scene, fmt, destination, base_dir)
         except SceneMosaicError as exc:
             _err.print(f"[red]error:[/red] {escape(str(exc))}")
             raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+        except OSError as exc:
+            _write_failed(exc)
         _out.print(f"{name}: {written}", markup=False, highlight=False)
 
 
@@ -755,12 +827,18 @@ def render(
     from scenemosaic.render import render_house_plan, render_topdown, render_view, topdown_view
 
     loaded, base_dir = _load_any(path, variant, room, allow_partial)
+    if out.is_dir():
+        _err.print(f"[red]error:[/red] --out {escape(str(out))} is a folder; give the PNG file to write", highlight=False)
+        raise typer.Exit(code=EXIT_BAD_INPUT)
     if isinstance(loaded, House):
         if unit is not None:
             _err.print(f"[red]error:[/red] --unit needs one room: add --room ({escape(', '.join(loaded.room_ids))})")
             raise typer.Exit(code=EXIT_BAD_INPUT)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        write_atomic(out, render_house_plan(loaded, base_dir=base_dir, size_px=size))
+        _writable_folder(out.parent)
+        try:
+            write_atomic(out, render_house_plan(loaded, base_dir=base_dir, size_px=size))
+        except OSError as exc:
+            _write_failed(exc)
         _out.print(str(out), markup=False, highlight=False)
         return
     scene = loaded
@@ -785,8 +863,11 @@ def render(
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write_atomic(out, png)
+    _writable_folder(out.parent)
+    try:
+        write_atomic(out, png)
+    except OSError as exc:
+        _write_failed(exc)
     _out.print(str(out), markup=False, highlight=False)
 
 
@@ -843,6 +924,7 @@ def edit(
                 highlight=False,
             )
             raise typer.Exit(code=EXIT_BAD_INPUT)
+        _writable_folder(out)
         if edited_house is not None:
             files = deliver_house(edited_house, out, base_dir)
         else:
@@ -850,6 +932,8 @@ def edit(
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {escape(str(exc))}")
         raise typer.Exit(code=EXIT_BAD_INPUT) from exc
+    except OSError as exc:
+        _write_failed(exc)
     _out.print(f"{out}: {', '.join(files)}", markup=False, highlight=False)
 
 
@@ -918,12 +1002,19 @@ def schema(
     if out is None:
         typer.echo(text, nl=False)
     else:
-        write_atomic(out, text)
+        try:
+            write_atomic(out, text)
+        except OSError as exc:
+            _write_failed(exc)
 
 
 def main() -> None:
     """Console-script entry point."""
-    app()
+    try:
+        app()
+    except KeyboardInterrupt:  # Ctrl-C as the command starts, before it handles signals itself
+        _err.print("[yellow]interrupted[/yellow] before the command started: nothing written")
+        raise SystemExit(EXIT_SIGINT) from None
 
 
 if __name__ == "__main__":

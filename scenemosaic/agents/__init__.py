@@ -28,7 +28,7 @@ from scenemosaic.agents._base import (
     prompt_paths,
     run_blocking,
 )
-from scenemosaic.agents._evidence import TABLE_NOTE, evidence_legend, evidence_text
+from scenemosaic.agents._evidence import NESTED_ROWS_NOTE, TABLE_NOTE, evidence_legend, evidence_text
 from scenemosaic.agents._log import AgentLog
 from scenemosaic.agents._node import (
     add_agent_nodes,
@@ -41,6 +41,7 @@ from scenemosaic.agents._node import (
 
 __all__ = [
     "MAX_ITEMS",
+    "NESTED_ROWS_NOTE",
     "PROMPTS_FOLDER",
     "TABLE_NOTE",
     "AgentLog",

@@ -45,7 +45,7 @@ from typing import (
 import structlog
 from pydantic import BaseModel, ConfigDict
 
-from scenemosaic.agents._evidence import TABLE_NOTE, evidence_legend, evidence_text
+from scenemosaic.agents._evidence import NESTED_ROWS_NOTE, TABLE_NOTE, evidence_legend, evidence_text
 from scenemosaic.exceptions import (
     AgentOutputError,
     ModelConfigError,
@@ -320,6 +320,10 @@ REPAIR_ECHO_CHARS = 6000
 """A rejected reply is quoted back at most this long (a runaway reply would fill the context)."""
 
 
+_SHOWN_PROBLEMS = 5
+"""Problems an unusable rule solver's error message quotes (the exception keeps them all)."""
+
+
 def _repair(prompt: list[Message], reply: str, intro: str, problems: list[str]) -> list[Message]:
     """The request that asks again: the original prompt, the last reply, what is wrong with it.
     Earlier failed tries are not repeated, so repairs do not make the prompt grow."""
@@ -491,6 +495,10 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
     early instead of filling the whole default cap. ``None``: the run's cap."""
     prompt_extra: ClassVar[frozenset[str]] = frozenset()
     """Evidence fields marked ``prompt=False`` that this agent's prompt shows all the same."""
+    nested_rows: ClassVar[bool] = False
+    """Write the lists of records inside the evidence's table cells as rows of their own
+    (:data:`~scenemosaic.agents.NESTED_ROWS_NOTE`), not as JSON objects repeating every key: for an
+    agent whose evidence nests many records (verification's receptacle options)."""
     _output_variable: ClassVar[Any] = None
     """The type variable standing for the output in a generic subclass's own parameters."""
 
@@ -585,7 +593,7 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
     def render_evidence_text(self, evidence: EvidenceT) -> str:
         """Text rendering of the evidence (also what text-only models get instead of images):
         compact tables, numbers to 1 cm, ``prompt_omit`` left out (:func:`scenemosaic.agents.evidence_text`)."""
-        return evidence_text(evidence, omit=self.prompt_omit, extra=self.prompt_extra)
+        return evidence_text(evidence, omit=self.prompt_omit, extra=self.prompt_extra, nested_rows=self.nested_rows)
 
     def system_prompt(self, evidence: EvidenceT, *, legend: bool = True) -> str:
         """The template, how to read the evidence and what its fields mean (``legend``), and the
@@ -593,7 +601,8 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
         ``response_format``; a model without one pastes it, see ``OpenAIChatModel``)."""
         parts = [load_prompt(type(self))]
         if legend:
-            parts += [TABLE_NOTE, evidence_legend(type(evidence), self.prompt_omit, self.prompt_extra)]
+            note = f"{TABLE_NOTE} {NESTED_ROWS_NOTE}" if self.nested_rows else TABLE_NOTE
+            parts += [note, evidence_legend(type(evidence), self.prompt_omit, self.prompt_extra)]
         parts.append("Reply with one JSON object of the requested schema, and nothing else.")
         return "\n\n".join(p for p in parts if p)
 
@@ -602,7 +611,10 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
         field legend, numbers to 1 dm. Images are kept for vision models."""
         parts: list[TextPart | ImagePart] = [
             TextPart(
-                "Evidence:\n" + evidence_text(evidence, digits=1, omit=self.prompt_omit, extra=self.prompt_extra)
+                "Evidence:\n"
+                + evidence_text(
+                    evidence, digits=1, omit=self.prompt_omit, extra=self.prompt_extra, nested_rows=self.nested_rows
+                )
             )
         ]
         if vision:
@@ -856,8 +868,10 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
         solver_problems = self.problems(output, state)
         if solver_problems:  # the solver itself is wrong: a bug worth failing loudly on
             what = "the model's output and the rule solver's are" if model_problems else "the rule solver's output is"
-            raise AgentOutputError(
-                f"agent {self.name!r}: {what} unusable: " + "; ".join(model_problems + solver_problems),
+            every = model_problems + solver_problems
+            more = f"; and {len(every) - _SHOWN_PROBLEMS} more" if len(every) > _SHOWN_PROBLEMS else ""
+            raise AgentOutputError(  # one line: the first problems; all of them on the exception
+                f"agent {self.name!r}: {what} unusable: " + "; ".join(every[:_SHOWN_PROBLEMS]) + more,
                 agent=self.name,
                 problems=model_problems + solver_problems,
             )

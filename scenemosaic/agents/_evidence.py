@@ -16,7 +16,7 @@ from typing import Any
 
 from pydantic import BaseModel
 
-__all__ = ["TABLE_NOTE", "evidence_legend", "evidence_text"]
+__all__ = ["NESTED_ROWS_NOTE", "TABLE_NOTE", "evidence_legend", "evidence_text"]
 
 TABLE_NOTE = (
     "Evidence format: a list of records is a table: its column names once, then one record per "
@@ -25,6 +25,12 @@ TABLE_NOTE = (
     "angles degrees."
 )
 """How to read :func:`evidence_text`, said once in each system prompt."""
+NESTED_ROWS_NOTE = (
+    "A column written name(a,b,c) holds a list of records in each row: the records separated by ';', "
+    "each one's values a,b,c separated by ','."
+)
+"""How to read the records nested in a table's cells (``evidence_text(..., nested_rows=True)``);
+said in the system prompt of an agent that uses them."""
 
 def _in_prompt(model: type[BaseModel], field: str) -> bool:
     extra = model.model_fields[field].json_schema_extra
@@ -70,32 +76,60 @@ def _cell(value: Any) -> str:
     return str(value).replace("|", "/").replace("\n", " ")
 
 
-def _table(name: str, rows: list[dict[str, Any]]) -> str:
+def _records(value: Any) -> bool:
+    return isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value)
+
+
+def _table(name: str, rows: list[dict[str, Any]], nested_rows: bool = False) -> str:
     columns: list[str] = []
     for row in rows:
         columns += [k for k in row if k not in columns]
-    lines = [f"{name} ({len(rows)}; columns {'|'.join(columns)}):"]
-    lines += ["|".join(_cell(row.get(c)) for c in columns) for row in rows]
+    inner: dict[str, list[str]] = {}  # a column of lists of records: its records' own columns
+    if nested_rows:
+        for c in columns:
+            cells = [row[c] for row in rows if row.get(c) not in (None, [])]
+            if cells and all(_records(v) for v in cells):
+                inner[c] = []
+                for record in (r for v in cells for r in v):
+                    inner[c] += [k for k in record if k not in inner[c]]
+    header = [f"{c}({','.join(inner[c])})" if c in inner else c for c in columns]
+    lines = [f"{name} ({len(rows)}; columns {'|'.join(header)}):"]
+    for row in rows:
+        cells = []
+        for c in columns:
+            if c in inner:
+                records = row.get(c) or []
+                cells.append(";".join(",".join(_cell(r.get(k)) for k in inner[c]) for r in records))
+            else:
+                cells.append(_cell(row.get(c)))
+        lines.append("|".join(cells))
     return "\n".join(lines)
 
 
-def _block(name: str, value: Any) -> str:
-    if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
-        return _table(name, value)
+def _block(name: str, value: Any, nested_rows: bool = False) -> str:
+    if _records(value):
+        return _table(name, value, nested_rows)
     if isinstance(value, dict) and value and all(isinstance(v, dict) for v in value.values()):
-        parts = [_block(f"{name}.{k}", v) for k, v in value.items()]
+        parts = [_block(f"{name}.{k}", v, nested_rows) for k, v in value.items()]
         return "\n".join(parts)
     return f"{name}: {json.dumps(value, separators=(',', ':'), sort_keys=True)}"
 
 
 def evidence_text(
-    evidence: BaseModel, *, digits: int = 2, omit: frozenset[str] = frozenset(), extra: frozenset[str] = frozenset()
+    evidence: BaseModel,
+    *,
+    digits: int = 2,
+    omit: frozenset[str] = frozenset(),
+    extra: frozenset[str] = frozenset(),
+    nested_rows: bool = False,
 ) -> str:
     """The evidence as compact text: one block per field, tables for lists of records, numbers
     rounded to ``digits`` decimals (2: 1 cm); fields named in ``omit`` are left out of every
-    record, fields named in ``extra`` shown even when marked ``prompt=False``."""
+    record, fields named in ``extra`` shown even when marked ``prompt=False``. With
+    ``nested_rows``, a table column holding lists of records is written as rows of its own
+    (:data:`NESTED_ROWS_NOTE`) instead of JSON objects, which repeat every key in every record."""
     data = _plain(evidence, digits, omit, extra)
-    return "\n".join(_block(k, v) for k, v in data.items())
+    return "\n".join(_block(k, v, nested_rows) for k, v in data.items())
 
 
 def evidence_legend(

@@ -51,8 +51,11 @@ def _exclusive(folder: Path) -> Iterator[None]:
     except ImportError:  # pragma: no cover - not POSIX: no lock
         yield
         return
-    folder.mkdir(parents=True, exist_ok=True)
-    handle: IO[str] = open(folder / "lock", "a", encoding="utf-8")  # noqa: SIM115 - held for the whole batch
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        handle: IO[str] = open(folder / "lock", "a", encoding="utf-8")  # noqa: SIM115 - held for the whole batch
+    except OSError as exc:  # under a file, read-only, no permission: the user's to fix, not a crash
+        raise UsageError(f"cannot write the output folder {folder.parent}: {exc.strerror or exc}") from exc
     try:
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
+import structlog
 from pydantic import BaseModel
 
 from scenemosaic.dag._graph import GraphFingerprint
@@ -45,6 +46,8 @@ __all__ = [
     "encode_output",
     "input_hash",
 ]
+
+_log = structlog.get_logger(__name__)
 
 
 @dataclass(frozen=True, slots=True)
@@ -205,18 +208,27 @@ class FileRunStore(RunStore):
         return self.root / "nodes" / quote(node, safe="") / f"{input_hash}.json"
 
     def get(self, node: str, input_hash: str) -> StoredOutput | None:
+        """The record's output, or ``None`` when there is none, or when it is damaged (truncated,
+        not a record, a value its type no longer reads): the node then runs again, as on a miss."""
         path = self._record_path(node, input_hash)
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             return None
-        kind = data["kind"]
-        payload = base64.b64decode(data["value"]) if kind == "pickle" else json.dumps(data["value"]).encode()
-        return StoredOutput(
-            output=decode_output(kind, data["type"], payload),
-            output_hash=data["output_hash"],
-            added_nodes=tuple(data.get("added_nodes", ())),
-        )
+        except (OSError, ValueError, RecursionError) as exc:
+            _damaged(path, exc)
+            return None
+        try:
+            kind = data["kind"]
+            payload = base64.b64decode(data["value"]) if kind == "pickle" else json.dumps(data["value"]).encode()
+            return StoredOutput(
+                output=decode_output(kind, data["type"], payload),
+                output_hash=str(data["output_hash"]),
+                added_nodes=tuple(data.get("added_nodes", ())),
+            )
+        except (KeyError, TypeError, ValueError, AttributeError, ImportError, RecursionError, pickle.UnpicklingError) as exc:
+            _damaged(path, exc)
+            return None
 
     def put(self, node: str, input_hash: str, record: StoredOutput) -> None:
         kind, type_path, payload = encode_output(record.output)
@@ -250,6 +262,11 @@ class FileRunStore(RunStore):
     def scoped(self, name: str) -> FileRunStore:
         """A store for another graph of the same run, in ``<root>/scopes/<name>``."""
         return FileRunStore(self.root / "scopes" / quote(name, safe=""))
+
+
+def _damaged(path: Path, exc: BaseException) -> None:
+    """A stored record that cannot be read counts as absent (its node runs again); said in the log."""
+    _log.warning("run_store_record_damaged", path=str(path), error=f"{type(exc).__name__}: {str(exc)[:200]}")
 
 
 def _write_atomic(path: Path, text: str) -> None:

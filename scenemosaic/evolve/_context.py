@@ -15,6 +15,7 @@ from scenemosaic.scene import (
     SceneObject,
     UnitLayout,
     UnitSurface,
+    descendants,
     door_zones,
     functional_relations,
     surface_for,
@@ -113,8 +114,13 @@ class UnitContext:
     moves it with the table): (the piece, its leader, the leader's (u, v, rotation) when the
     context was made). They are not obstacles; the passage rule sees them where they will hang."""
     keep_clear: list[Any] = field(default_factory=list)
-    """Floor that no seat slot may take (floor units): the clearance zone in front of each door
-    (``scene.door_zones``), as (u, v) shapely polygons."""
+    """What a variant must not newly put a piece in, as (u, v) shapely polygons: on a floor unit
+    the clearance zone in front of each door (``scene.door_zones``: no seat slot, no plan, no
+    archetype takes it); on a wall unit the stretch of each door and window in the wall, from the
+    floor to the opening's top (a picture hung there blocks the door or covers the window)."""
+    riders: dict[str, list[Any]] = field(default_factory=dict)
+    """Floor units: the outlines, (u, v) points, of what rests on each child (a TV on its stand),
+    in the stabilized scene; they move with the child, so a place for the child must hold them too."""
     passages: list[Any] = field(default_factory=list)
     """The same zones in front of the room's open stretches of wall (open-plan rooms of a house):
     a variant keeps them reachable (floor units)."""
@@ -140,6 +146,31 @@ class UnitContext:
     def in_house(self) -> bool:
         """A floor unit of a room with doors or open passages to other rooms (a room of a house)."""
         return self.floor and bool(self.keep_clear or self.passages)
+
+
+def _opening_zones(scene: Scene, wall_id: str, surface: UnitSurface) -> list[Any]:
+    """The doors and windows of wall ``wall_id`` on its surface, as (u, v) polygons: each
+    opening's width, from below the floor to its top (a door: a piece hung anywhere lower than
+    its top stands in its way) or from its sill to its top (a window)."""
+    from shapely.geometry import Polygon
+
+    wall = next((w for w in scene.room.walls if w.id == wall_id), None) if scene.room is not None else None
+    if wall is None:
+        return []
+    start, direction = np.asarray(wall.start, dtype=np.float64), np.asarray(wall.direction, dtype=np.float64)
+    out = []
+    for op in wall.openings:
+        if op.kind == "opening":
+            continue
+        lo, hi = op.center - op.width / 2, op.center + op.width / 2
+        bottom = -1.0 if op.kind == "door" else op.bottom
+        top = op.bottom + op.height
+        corners = []
+        for t, z in ((lo, bottom), (hi, bottom), (hi, top), (lo, top)):
+            x, y = start + direction * t
+            corners.append(surface.to_uv(np.array([x, y, z])))
+        out.append(Polygon(corners))
+    return out
 
 
 def _box_distance(a: SceneObject, b: SceneObject) -> float:
@@ -198,12 +229,16 @@ def unit_context(scene: Scene, unit: LocalUnit, obstacles: list[SceneObject], th
                     ctx.nightstand_bed[o.id] = beds[0]
     constraints = {c.id: c for c in scene.constraints}
     layout = UnitLayout.from_scene(scene, unit)
+    if unit.anchor_kind == "wall" and scene.room is not None:
+        ctx.keep_clear = _opening_zones(scene, unit.anchor_id, surface)
     if unit.anchor_kind == "floor":
         from shapely.geometry import Polygon
 
         for zone in door_zones(scene):
             pts = np.asarray(zone.polygon.exterior.coords)[:, :2]
             ctx.keep_clear.append(Polygon([surface.to_uv(np.array([x, y, 0.0])) for x, y in pts]))
+        for o in kids:
+            ctx.riders[o.id] = [ctx.surface.project(scene.get(d).corners()) for d in sorted(descendants(scene, o.id))]
         for zone in door_zones(scene, kinds=("opening",)):
             if zone.polygon.geom_type != "Polygon":
                 continue

@@ -63,10 +63,35 @@ class UnitEvolution:
     original: LayoutResult
     variants: list[LayoutResult] = field(default_factory=list)
     archetypes_asked: bool = False
+    promoted_from: str | None = None
+    """Set when the refined original still broke a rule and a variant met them all: the id of
+    that broken original, now first among the variants (:meth:`promote_valid`)."""
 
     @property
     def layouts(self) -> list[LayoutResult]:
         return [self.original, *self.variants]
+
+    def promote_valid(self) -> bool:
+        """Rules met, not reported: when the refined original breaks a rule (the source's seats
+        1 and 3 on a table's long sides, the loop unable to reseat them where they stand) and a
+        variant of the unit came out physically clean with every rule met, that variant becomes
+        the unit's base: the one that moves the children least from the refined original (ties by
+        layout id). The broken original stays among the variants, where composition drops it.
+        Returns whether a variant was promoted."""
+        o = self.original
+        if o.error is not None or not o.violations:
+            return False
+        ok = [v for v in self.variants if v.error is None and v.valid and not v.violations]
+        if not ok:
+            return False
+
+        def moved(v: LayoutResult) -> float:
+            return sum(math.dist(p.position, v.local_poses[k].position) for k, p in o.local_poses.items() if k in v.local_poses)
+
+        best = min(ok, key=lambda v: (moved(v), v.layout_id))
+        self.variants = [o, *(v for v in self.variants if v is not best)]
+        self.original, self.promoted_from = best, o.layout_id
+        return True
 
 
 @dataclass
@@ -268,6 +293,8 @@ async def evolve_scene(
         if arch is not None:
             orig.agents.merge(arch["agents"])
             ev.variants = [outputs[f"evolve/{u.anchor_id}/{i}"] for i in arch["ids"]]
+        if ev.promote_valid():
+            log.info("unit_base_promoted", unit=u.anchor_id, layout=ev.original.layout_id, broke=ev.variants[0].violations[:3])
         report.units.append(ev)
 
     def refined() -> Scene:

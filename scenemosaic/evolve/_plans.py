@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from shapely import prepare
-from shapely.geometry import Point, Polygon
+from shapely.geometry import MultiPoint, Point, Polygon
 from shapely.ops import unary_union
 
 from scenemosaic.evolve._context import UnitContext, WallLine
@@ -89,6 +89,8 @@ PLAN_BRANCH = 4
 """Places of one group the plan search tries before it gives up on the group before it."""
 PLAN_EXPANSIONS = 400
 """Places the plan search tries in all for one plan."""
+RIDER_REACH_M = 0.03
+"""How far past the floor's edge what rests on a piece may reach, metres (:class:`_Planner`)."""
 _JITTER_M = 0.6
 _LEADS = ("tv_stand", "bed", "desk")
 
@@ -142,7 +144,9 @@ def fixed_children(layout: UnitLayout, ctx: UnitContext) -> set[str]:
     return {k for k in layout.ids if is_fixture(layout.object(k).category) or k in ctx.pinned}
 
 
-def _groups(layout: UnitLayout, ctx: UnitContext, fixed: set[str]) -> list[_Group]:
+def _groups(layout: UnitLayout, ctx: UnitContext, fixed: set[str], *, facing: bool = True) -> list[_Group]:
+    """The unit's pieces joined into groups that move whole (module docstring); without
+    ``facing`` the lounge pieces that only face each other (``ctx.keep_facing``) are not joined."""
     parent = {k: k for k in layout.ids}
 
     def find(k: str) -> str:
@@ -159,7 +163,7 @@ def _groups(layout: UnitLayout, ctx: UnitContext, fixed: set[str]) -> list[_Grou
         *ctx.seat_table.items(),
         *ctx.nightstand_bed.items(),
         *ctx.sofa_tv.items(),
-        *ctx.keep_facing,
+        *(ctx.keep_facing if facing else ()),
     ]:
         join(a, b)
     solid = [k for k in layout.ids if k not in ctx.thin and k not in fixed]
@@ -196,6 +200,27 @@ def _groups(layout: UnitLayout, ctx: UnitContext, fixed: set[str]) -> list[_Grou
     return sorted(out, key=lambda g: (-g.area, g.lead))
 
 
+def _seated(layout: UnitLayout, ctx: UnitContext) -> UnitLayout:
+    """``layout`` with every table's seats in their etiquette slots where they all fit
+    (``seat_slots``): a group moves with its seats where the loop will put them, not where the
+    source or the settling left them (an armchair half a metre off its table's side would make
+    the group too wide for every other place)."""
+    from scenemosaic.evolve._analysis import seat_slots
+
+    tables: dict[str, list[str]] = {}
+    for seat, table in ctx.seat_table.items():
+        if seat in layout.ids and table in layout.ids and seat not in ctx.pinned:
+            tables.setdefault(table, []).append(seat)
+    if not tables:
+        return layout
+    out = layout.copy()
+    for table, seats in sorted(tables.items()):
+        for k, slot in seat_slots(out, ctx, table, sorted(seats)).items():
+            out.set_rotation(k, slot.rotation)
+            out.set_center(k, slot.u, slot.v)
+    return out
+
+
 def _lead_rank(category: str, rank: dict[str, int]) -> int:
     for name, i in rank.items():
         if name in category:
@@ -207,7 +232,9 @@ class _Planner:
     """The static side of a room's plans: the region, what never moves, each group's valid places."""
 
     def __init__(self, layout: UnitLayout, ctx: UnitContext) -> None:
-        self.layout, self.ctx = layout, ctx
+        self.source, self.ctx = layout, ctx
+        self.layout = _seated(layout, ctx)
+        layout = self.layout
         self.fixed = fixed_children(layout, ctx)
         self.groups = _groups(layout, ctx, self.fixed)
         from scenemosaic.evolve._analysis import WALL_FLUSH_GAP
@@ -215,6 +242,10 @@ class _Planner:
         # inset by the flush gap less a millimetre: a piece backed flush against a wall is inside
         self.region = Polygon(ctx.surface.region).buffer(-(WALL_FLUSH_GAP - 0.001), join_style="mitre")
         prepare(self.region)
+        # what rests on a piece may reach a little past it, over the wall's skirting (a TV's back
+        # flush with its stand's): checked against the floor grown by RIDER_REACH_M
+        self.loose_region = Polygon(ctx.surface.region).buffer(RIDER_REACH_M, join_style="mitre")
+        prepare(self.loose_region)
         fixed_polys = [Polygon(layout.polygon(k)) for k in self.fixed if k not in ctx.thin]
         from scenemosaic.evolve._analysis import obstacle_polygons
 
@@ -226,15 +257,59 @@ class _Planner:
         self.door_masks = [self.raster.mask(z.buffer(ROBOT_RADIUS)) for z in [*ctx.keep_clear, *ctx.passages]]
         self.need = WALK_MIN_SHARE
         self.others = others
-        self.static = Polygon()
+        self.static = self.solid_static = Polygon()
         self.options = {g.lead: self._options(g) for g in self.groups}
+        self.facing: list[tuple[str, str]] = []
+        """Facing pairs split across groups (:meth:`_split_stuck`): a plan keeps them facing."""
+        self._split_stuck(layout)
+
+    def _moves(self, g: _Group, opt: _Option) -> bool:
+        far = float(np.linalg.norm(opt.centre - np.asarray(self.layout.center(g.lead))))
+        return far >= PLAN_MIN_MOVE_M or abs(normalize_degrees(opt.turn)) >= 45.0
+
+    def _split_stuck(self, layout: UnitLayout) -> None:
+        """A group that has no other place as a whole (a TV stand facing an armchair that sits
+        at a table across a narrow room) is split where its pieces only face each other: the
+        parts are placed apart, and a plan keeps the facing pieces facing (checked as it goes)."""
+        stuck = [g for g in self.groups if len(g.members) > 1 and not any(self._moves(g, o) for o in self.options[g.lead])]
+        if not stuck or not self.ctx.keep_facing:
+            return
+        loose = _groups(layout, self.ctx, self.fixed, facing=False)
+        for g in stuck:
+            parts = [h for h in loose if set(h.members) <= set(g.members)]
+            if len(parts) < 2:
+                continue
+            part_of = {k: h.lead for h in parts for k in h.members}
+            self.groups = [x for x in self.groups if x is not g] + parts
+            del self.options[g.lead]
+            for h in parts:
+                self.options[h.lead] = self._options(h)
+            self.facing += [(a, b) for a, b in sorted(self.ctx.keep_facing) if a in part_of and b in part_of and part_of[a] != part_of[b]]
+        self.groups.sort(key=lambda x: (-x.area, x.lead))
+
+    def facing_kept(self, place: Placement, done: set[str]) -> bool:
+        """Whether every split facing pair whose two pieces are both in ``done`` still faces."""
+        pairs = [(a, b) for a, b in self.facing if a in done and b in done]
+        if not pairs:
+            return True
+        from scenemosaic.evolve._analysis import layout_faces
+
+        trial = self.layout.copy()
+        for k in done:
+            u, v, r = place[k]
+            trial.set_rotation(k, r)
+            trial.set_center(k, u, v)
+        return all(layout_faces(trial, a, b) for a, b in pairs)
 
     def _static_for(self, g: _Group) -> None:
         """What never moves and stands in ``g``'s way: the fixtures, the door zones and the other
         units' pieces that hang lower than the group's top (a picture above a sofa does not)."""
         top = max(self.layout.span(k)[1] for k in g.members)
         low = [p.buffer(PLAN_MARGIN_M, join_style="mitre") for z, p in self.others if z < top]
-        parts = [*self.fixed_grown, *low, *self.ctx.keep_clear]
+        parts = [*self.fixed_grown, *low]
+        self.solid_static = unary_union(parts) if parts else Polygon()
+        prepare(self.solid_static)
+        parts += self.ctx.keep_clear
         self.static = unary_union(parts) if parts else Polygon()
         prepare(self.static)
 
@@ -245,8 +320,9 @@ class _Planner:
             trial.set_center(k, u, v)
         solid = []
         for k in g.members:
-            shape = Polygon(trial.polygon(k))
-            if not self.region.covers(shape):
+            own = Polygon(trial.polygon(k))
+            shape = self._with_riders(k, trial) if self.ctx.riders.get(k) else own
+            if not self.region.covers(own) or not self.loose_region.covers(shape):
                 return None
             if k not in self.ctx.thin:
                 if self.static.intersects(shape):
@@ -258,10 +334,24 @@ class _Planner:
             from scenemosaic.evolve._analysis import front_strip
 
             strip = front_strip(trial.polygon(g.lead), np.array([lu, lv]), lr, PLAN_FRONT_M)
-            if not self.region.covers(strip) or self.static.intersects(strip):
+            # the floor in front of a piece may be a door's way in (both stay free); not a fixture
+            if not self.region.covers(strip) or self.solid_static.intersects(strip):
                 return None
             extra.append(strip)
         return solid, [*solid, *extra]
+
+    def _with_riders(self, k: str, trial: UnitLayout) -> Polygon:
+        """``k``'s outline where ``trial`` puts it, with what rests on it carried along (the
+        convex hull of both: a TV wider than its stand reaches past the stand's ends)."""
+        riders = self.ctx.riders.get(k)
+        if not riders:
+            return Polygon(trial.polygon(k))
+        c0, r0 = np.asarray(self.source.center(k)), self.source.rotation(k)
+        c1, r1 = np.asarray(trial.center(k)), trial.rotation(k)
+        a = math.radians(-(r1 - r0))
+        rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+        pts = [np.asarray(trial.polygon(k))] + [c1 + (np.asarray(p)[:, :2] - c0) @ rot.T for p in riders]
+        return MultiPoint(np.vstack(pts)).convex_hull
 
     def _option(
         self, g: _Group, pivot: np.ndarray, to: np.ndarray, turn: float, mirror: bool, wall: WallLine | None = None
@@ -283,7 +373,7 @@ class _Planner:
             move_group(place, mirrored, g.members, pivot, to, turn)
         else:
             move_group(place, layout, g.members, pivot, to, turn)
-        if not self._backed(g, place):
+        if not self._backed(g, place) or not self._faces_kept(g, place):
             return None
         found = self._placed(g, place)
         if found is None or not self._followers_fit(g, place, turn, wall):
@@ -332,6 +422,22 @@ class _Planner:
             c = np.array([u, v]) - _facing(r) * back
             place[k] = (float(c[0]), float(c[1]), r)
         return True
+
+    def _faces_kept(self, g: _Group, place: Placement) -> bool:
+        """Whether the wall pieces of ``g`` that faced another of its pieces still do once the
+        group is placed (a sofa pushed back to a nearer wall sees its TV stand at a wider angle:
+        the loop does not carry wall pieces across the room to put that right)."""
+        pairs = [(a, b) for a, b in sorted(self.ctx.keep_facing) if a in self.ctx.against_wall and a in g.members and b in g.members]
+        if not pairs:
+            return True
+        from scenemosaic.evolve._analysis import layout_faces
+
+        trial = self.layout.copy()
+        for k in g.members:
+            u, v, r = place[k]
+            trial.set_rotation(k, r)
+            trial.set_center(k, u, v)
+        return all(layout_faces(trial, a, b) for a, b in pairs)
 
     def _followers_fit(self, g: _Group, place: Placement, turn: float, wall: WallLine | None) -> bool:
         """Whether the wall pieces hanging over ``g``'s members (``ctx.followers``) can hang where
@@ -394,7 +500,7 @@ class _Planner:
                 # a bed never backs onto the stretch of wall a TV hangs on (nobody watches the wall they lie against)
                 hung = [wall.along(c) for c in screens if abs(wall.gap(c)) < 0.05] if bed else []
                 turn = normalize_degrees(wall.facing - layout.rotation(g.lead))
-                for to in flush_positions(layout, g.lead, wall):
+                for to in flush_positions(layout, g.lead, wall, corners=True):
                     for mirror in mirrors:
                         opt = self._option(g, pivot, to, turn, mirror, wall)
                         if opt is None:
@@ -464,11 +570,11 @@ def walk_check(
 
 
 def doors_kept(layout: UnitLayout, ctx: UnitContext, place: Placement) -> bool:
-    """Whether a placement of a floor unit with doors is valid for the house as the base is: no
+    """Whether a placement is valid for the house as the base is. A floor unit with doors: no
     solid piece in a door zone that the base kept clear, the floor as connected (within half a
     percent, at least :data:`WALK_MIN_SHARE` where the base reaches it) and every door reachable
-    where the base's is."""
-    if not ctx.in_house:
+    where the base's is. A wall unit: no piece newly across one of its doors or windows."""
+    if not ctx.keep_clear and not ctx.in_house:
         return True
     base = {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids}
     trial = layout.copy()
@@ -476,21 +582,28 @@ def doors_kept(layout: UnitLayout, ctx: UnitContext, place: Placement) -> bool:
         trial.set_rotation(k, r)
         trial.set_center(k, u, v)
     for k in trial.ids:
-        if k in ctx.thin:
+        if k in ctx.thin and ctx.floor:
             continue
         now, before = Polygon(trial.polygon(k)), Polygon(layout.polygon(k))
         for zone in ctx.keep_clear:
             if now.intersection(zone).area > 1e-3 and before.intersection(zone).area <= 1e-3:
                 return False
+    if not ctx.in_house:
+        return True  # a wall unit: its doors and windows are all it must keep
     base_share, base_doors = walk_check(layout, ctx, base)
     share, doors = walk_check(layout, ctx, place)
     return share >= min(WALK_MIN_SHARE, base_share - 0.005) and (doors or not base_doors)
 
 
-def flush_positions(layout: UnitLayout, piece: str, wall: WallLine, step: float = PLAN_STEP_M) -> list[np.ndarray]:
+def flush_positions(
+    layout: UnitLayout, piece: str, wall: WallLine, step: float = PLAN_STEP_M, *, corners: bool = False
+) -> list[np.ndarray]:
     """The centres ``piece`` may take turned to face away from ``wall``, its back flush against it
     and its span within it, every ``step`` metres along it (the plans' and the archetypes' one
-    definition of a place on a wall)."""
+    definition of a place on a wall). With ``corners`` the places keep the flush gap to the
+    wall's two ends too, and the place pushed into the far corner is one of them (a room plan's
+    piece may stand in either corner; the steps alone start exactly at the wall's start, where
+    the side wall leaves no gap, and may stop short of its end)."""
     from scenemosaic.evolve._analysis import WALL_FLUSH_GAP
 
     trial = layout.copy()
@@ -499,7 +612,15 @@ def flush_positions(layout: UnitLayout, piece: str, wall: WallLine, step: float 
     back = (WALL_FLUSH_GAP - wall.gap(poly)) * np.asarray(wall.inward)
     lo, hi = wall.along(poly + back)
     start = np.asarray(trial.center(piece)) + back
-    return [start + t * wall.tangent for t in np.arange(-lo, wall.length - hi + 1e-9, step)]
+    if not corners:
+        return [start + t * wall.tangent for t in np.arange(-lo, wall.length - hi + 1e-9, step)]
+    first, last = -lo + WALL_FLUSH_GAP, wall.length - hi - WALL_FLUSH_GAP
+    if last < first - 1e-9:
+        return []
+    steps = [float(t) for t in np.arange(first, last + 1e-9, step)]
+    if last - steps[-1] > 0.01:
+        steps.append(last)
+    return [start + t * wall.tangent for t in steps]
 
 
 def _plan(
@@ -514,10 +635,13 @@ def _plan(
     jitter = {g.lead: rng.random(len(planner.options[g.lead])) * _JITTER_M for g in order}
     budget = [PLAN_EXPANSIONS]
 
+    placed: Placement = {}
+
     def search(i: int, taken: list[Polygon], solid: list[Polygon]) -> list[_Option] | None:
         if i == len(order):
             return []
         g = order[i]
+        done = {k for h in order[: i + 1] for k in h.members}
         blocked = unary_union([p.buffer(PLAN_MARGIN_M, join_style="mitre") for p in taken]) if taken else Polygon()
         scored = []
         for j, opt in enumerate(planner.options[g.lead]):
@@ -533,6 +657,9 @@ def _plan(
                 return None
             budget[0] -= 1
             now = [*solid, *opt.solid]
+            placed.update(opt.place)
+            if planner.facing and not planner.facing_kept(placed, done):
+                continue  # two pieces split apart no longer face each other
             if not planner.open_floor(now):
                 continue  # what is placed so far already cuts the floor or a door off
             rest = search(i + 1, [*taken, *opt.shapes], now)
@@ -549,13 +676,24 @@ def _plan(
         chosen[g.lead] = opt
         place.update(opt.place)
     def moved(g: _Group) -> bool:
-        opt = chosen[g.lead]
-        far = float(np.linalg.norm(opt.centre - np.asarray(layout.center(g.lead))))
-        return far >= PLAN_MIN_MOVE_M or abs(normalize_degrees(opt.turn)) >= 45.0
+        return planner._moves(g, chosen[g.lead])
 
     if not any(moved(g) for g in planner.groups if g.area >= PLAN_MIN_AREA_M2 or g is planner.groups[0]):
         return None  # only small pieces moved: no new arrangement of the room
     return place, chosen
+
+
+def _same_plan(planner: _Planner, a: Placement, b: Placement) -> bool:
+    """Whether two plans put every group of furniture (the largest, and every one with
+    :data:`PLAN_MIN_AREA_M2` of footprint) at the same place: main pieces within half of
+    :data:`PLAN_MIN_MOVE_M` and turned alike."""
+    for g in planner.groups:
+        if g.area < PLAN_MIN_AREA_M2 and g is not planner.groups[0]:
+            continue
+        (ua, va, ra), (ub, vb, rb) = a[g.lead], b[g.lead]
+        if math.dist((ua, va), (ub, vb)) > PLAN_MIN_MOVE_M / 2 or abs(normalize_degrees(ra - rb)) > 20.0:
+            return False
+    return True
 
 
 def room_plans(layout: UnitLayout, ctx: UnitContext, limit: int = MAX_PLANS) -> list[Placement]:
@@ -593,7 +731,10 @@ def room_plans(layout: UnitLayout, ctx: UnitContext, limit: int = MAX_PLANS) -> 
                     for lead, opt in chosen.items():  # steer the next attempt elsewhere
                         history[lead].append(opt.centre)
                     continue
-                plans.append(place)
+                if any(_same_plan(planner, place, other) for other in plans):
+                    fails += 1  # the furniture where an earlier plan put it: steer elsewhere
+                else:
+                    plans.append(place)
                 for lead, opt in chosen.items():
                     history[lead].append(opt.centre)
     ctx.plan_cache[key] = list(plans)

@@ -111,7 +111,9 @@ register_format(
         "procthor",
         "AI2-THOR / ProcTHOR / Holodeck house with rooms and objects (written back: house.json, for a room or a house taken from one)",
         detect=looks_like_procthor,
-        read=lambda data, path, o: import_procthor(data, path, asset_database=o.asset_database),
+        read=lambda data, path, o: import_procthor(
+            data, path, asset_database=o.asset_database, allow_orphans=o.allow_orphans
+        ),
         write=lambda scene, folder, base_dir: export_procthor(scene, folder, base_dir),
         write_house=export_procthor_house,
     )

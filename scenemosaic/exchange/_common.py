@@ -87,7 +87,11 @@ class FieldReader:
         """A finite number (booleans are refused)."""
         if isinstance(value, bool) or not isinstance(value, int | float):
             self.fail(field, f"expected a number, got {_kind(value)}")
-        out = float(value)
+        try:
+            out = float(value)
+        except OverflowError:  # an integer of hundreds of digits: past any float
+            digits = int(int(value).bit_length() * math.log10(2))
+            self.fail(field, f"must be finite, got an integer of about {digits} digits")
         if not math.isfinite(out):
             self.fail(field, f"must be finite, got {value!r}")
         return out

@@ -10,6 +10,14 @@ assets face their local +Z, i.e. +Y after the swap, so a half turn about Z maps 
 Objects carry no size: each ``assetId`` is looked up in an asset database (the
 ``asset-database.json`` that ProcTHOR publishes: ``{objectType: [{assetId, boundingBox:
 {x, y, z}}, ...]}``). ``position`` is the centre of the asset's bounding box.
+
+Both published forms of the house schema are read (``metadata.schema``; a file without one is
+the first form): ``1.0.0`` gives a door or window's hole as ``holePolygon`` and an exterior wall
+the ``roomId`` ``"exterior"``; ``0.0.1`` gives the same hole as ``boundingBox`` ``{min, max}``
+(with an ``assetOffset`` that only places the door's mesh in it) and an exterior wall the id of
+the room it closes, its own id reading ``wall|exterior|...``. ProcTHOR's own upgrade from 0.0.1 to
+1.0.0 keeps the hole's two corners as they are, so both forms give the same openings. Material
+and colour fields, which changed shape between the two, are not read.
 """
 
 from __future__ import annotations
@@ -58,6 +66,8 @@ from scenemosaic.scene import (
 __all__ = [
     "DEFAULT_CEILING_HEIGHT",
     "HOUSE_FILE",
+    "OUTSIDE_ROOM_TOLERANCE_M",
+    "SCHEMAS_READ",
     "SHARED_WALL_THICKNESS_M",
     "AssetDatabase",
     "export_procthor",
@@ -81,6 +91,20 @@ meet on a line. Each room's floor is cut back by half this along every stretch o
 another room shares, so the two rooms' walls there (each standing outside its own floor, this
 thick) are the same slab, centred on the line: one wall, and neither room loses more floor than
 half of it. Exterior walls keep the polygon as it is."""
+
+OUTSIDE_ROOM_TOLERANCE_M = 0.1
+"""How far (metres) outside every floor polygon a top-level object's centre may lie and still go to
+the nearest room (with a provenance note): the thickness of a shared wall, so a piece hung on or
+pushed against a wall belongs to the room it stands in. A centre farther out is an orphan: the
+house lacks the room it stood in, and the import fails naming it unless ``allow_orphans``. (No
+shipped house has a centre outside its floors at all.)"""
+SCHEMAS_READ = ("0.0.1", "1.0.0")
+"""The ``metadata.schema`` versions of the AI2-THOR / ProcTHOR house format this reader knows; a
+later minor version of 1 is read as 1.0.0, a major version above 1 (the multi-floor schema 2.0.0
+of some forks) is refused."""
+OUTSIDE = "exterior"
+"""The name a door or window gives the outside as its ``room0`` or ``room1`` (Holodeck; ProcTHOR
+names the room itself twice)."""
 
 # swaps Unity's y and z: Unity coordinates <-> our Z-up world (its own inverse)
 _SWAP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
@@ -182,16 +206,27 @@ class _RoomBuild:
     """The stretches of boundary given up to shared walls: (start, end, inward unit normal)."""
 
 
-def import_procthor(data: Any, path: Path, *, asset_database: Any = None) -> list[Scene]:
+def import_procthor(
+    data: Any, path: Path, *, asset_database: Any = None, allow_orphans: bool = False
+) -> list[Scene]:
     """One :class:`Scene` per room of a parsed house, in the house's room order.
 
-    Each top-level object goes to the room whose floor polygon contains its centre (the
-    nearest room, with a provenance note, when none does); its ``children`` follow it and get
-    an ``attach`` relation to it. Top-level objects get no relation: structuring decides.
+    Each top-level object goes to the room whose floor polygon contains its centre; its
+    ``children`` follow it and get an ``attach`` relation to it. Top-level objects get no relation:
+    structuring decides. A centre just outside every floor (at most
+    :data:`OUTSIDE_ROOM_TOLERANCE_M`) goes to the nearest room with a provenance note.
+
+    An object farther out than that (an *orphan*: the room it stood in is not in the file), or a
+    door or window whose ``room0`` / ``room1`` names a room the file does not hold (other than
+    ``"exterior"``), raises :class:`~scenemosaic.exceptions.ImportFormatError` naming them all.
+    With ``allow_orphans`` the import goes on instead: orphans go to the nearest room, such a door
+    or window is cut into the rooms it names that the house holds, and every room's
+    ``metadata["procthor"]["import_warnings"]`` says what was done (a run reports it, ``degraded``).
     """
     db = load_asset_database(asset_database)
     r = FieldReader(path)
     top = r.mapping(data, "")
+    _check_schema(r, top)
     rooms_raw = r.array(r.get(top, "rooms", ""), "rooms")
     if not rooms_raw:
         r.fail("rooms", "the house has no rooms")
@@ -204,40 +239,72 @@ def import_procthor(data: Any, path: Path, *, asset_database: Any = None) -> lis
     _cut_back_shared_walls(builds)
     by_source = {b.source_id: b for b in builds}
     _open_empty_walls(walls_by_id, by_source)
+    strays: list[str] = []  # doors and windows onto rooms the house does not hold
     for key in ("doors", "windows"):
         for i, raw in enumerate(r.array(top.get(key) or [], key)):
-            _add_opening(r, raw, f"{key}[{i}]", key, walls_by_id, by_source)
+            f = f"{key}[{i}]"
+            missing = _rooms_not_held(r, raw, f, by_source)
+            if missing:
+                item_id = raw.get("id") if isinstance(raw, dict) else None
+                named = f" ({item_id!r})" if isinstance(item_id, str) else ""
+                strays.append(f"{f}{named} opens onto {' and '.join(repr(m) for m in missing)}")
+            _add_opening(r, raw, f, key, walls_by_id, by_source)
 
     taken: set[str] = set()
+    orphans: list[_Orphan] = []
     for i, raw in enumerate(r.array(r.get(top, "objects", ""), "objects")):
         field_name = f"objects[{i}]"
         item = r.mapping(raw, field_name)
         centre = r.xyz(r.get(item, "position", field_name), f"{field_name}.position")
-        build = _room_for(builds, centre[0], centre[2])
-        if not build.polygon.covers(Point(centre[0], centre[2])):
+        build, distance = _room_for(builds, centre[0], centre[2])
+        raw_id = item.get("id")
+        if distance > OUTSIDE_ROOM_TOLERANCE_M:
+            asset = item.get("assetId")
+            orphans.append(
+                _Orphan(
+                    field_name, raw_id if isinstance(raw_id, str) else "", asset if isinstance(asset, str) else "",
+                    build.source_id, distance,
+                )
+            )  # fmt: skip
+            build.notes.append(
+                f"{field_name} lies {distance:.2f} m outside every floor polygon; assigned to the nearest room (allow_orphans)"
+            )
+        elif distance > 0.0:
             build.notes.append(f"{field_name} lies outside every floor polygon; assigned to the nearest room")
         _add_object(r, item, field_name, None, build, db, taken)
+    problems = _orphan_problems(orphans, strays, by_source)
+    if problems and not allow_orphans:
+        r.fail(
+            "objects" if orphans else "doors" if strays[0].startswith("doors") else "windows",
+            "; ".join(text for text, _ in problems) + f" (is a room missing from {path.name}'s rooms?). "
+            "To put each in the nearest room instead, allow orphans (generate --allow-orphans, "
+            "load_scene(..., allow_orphans=True)); the run is then reported degraded",
+        )
+    warnings = [f"{text}: {done} (allow_orphans)" for text, done in problems]
+    if warnings:
+        log.warning("procthor_orphans_allowed", path=str(path), problems=warnings)
 
     for b in builds:
         _clear_shared_walls(b)
     scenes = []
     for i, b in enumerate(builds):
         r.check(object_count_problem(len(b.objects)), "objects", what=f"room {b.source_id!r} (rooms[{i}])")
+        meta: dict[str, Any] = {
+            "room_id": b.source_id,
+            "room_type": b.room_type,
+            "asset_ids": b.asset_ids,
+            "source_ids": b.source_ids,
+            "asset_database": db.source,
+        }
+        if warnings:  # the house's, on every room: whichever is worked on, the house it came from is incomplete
+            meta["import_warnings"] = list(warnings)
         scenes.append(
             Scene(
                 id=b.room.id,
                 room=b.room,
                 objects=b.objects,
                 relations=b.relations,
-                metadata={
-                    "procthor": {
-                        "room_id": b.source_id,
-                        "room_type": b.room_type,
-                        "asset_ids": b.asset_ids,
-                        "source_ids": b.source_ids,
-                        "asset_database": db.source,
-                    }
-                },
+                metadata={"procthor": meta},
                 provenance=Provenance(
                     source_format="procthor", source_path=path.as_posix(), importer=IMPORTER, notes=b.notes
                 ),
@@ -247,6 +314,76 @@ def import_procthor(data: Any, path: Path, *, asset_database: Any = None) -> lis
         "procthor_imported", path=str(path), rooms=len(scenes), objects=sum(len(s.objects) for s in scenes)
     )
     return scenes
+
+
+_LISTED = 8
+"""How many orphans an error names one by one (the rest are counted)."""
+
+
+@dataclass(frozen=True)
+class _Orphan:
+    field: str
+    source_id: str
+    asset_id: str
+    nearest: str
+    distance: float
+
+
+def _orphan_problems(
+    orphans: list[_Orphan], strays: list[str], by_source: Mapping[str, _RoomBuild]
+) -> list[tuple[str, str]]:
+    """What the house holds outside its rooms, in words: the orphans (how many, their ids, the
+    nearest room of each group) and the doors and windows onto rooms it does not hold; each with
+    what ``allow_orphans`` does about it."""
+    out: list[tuple[str, str]] = []
+    if orphans:
+        groups: dict[str, list[_Orphan]] = {}
+        for o in orphans:
+            groups.setdefault(o.nearest, []).append(o)
+        parts = []
+        for nearest, group in groups.items():
+            names = [
+                f"{o.source_id or o.field!r} ({', '.join(filter(None, [o.asset_id, f'{o.distance:.2f} m']))})"
+                for o in group[:_LISTED]
+            ]
+            more = f" and {len(group) - _LISTED} more" if len(group) > _LISTED else ""
+            room_type = by_source[nearest].room_type
+            parts.append(f"nearest room {nearest!r}{f' ({room_type})' if room_type else ''}: {', '.join(names)}{more}")
+        out.append((
+            f"{len(orphans)} object(s) lie outside every room (centre more than "
+            f"{OUTSIDE_ROOM_TOLERANCE_M:g} m from each floor): " + "; ".join(parts),
+            "each put in the nearest room",
+        ))  # fmt: skip
+    if strays:
+        held = ", ".join(repr(k) for k in by_source)
+        out.append((
+            f"{len(strays)} door(s) or window(s) open onto a room the house does not hold ({held}): " + "; ".join(strays),
+            "cut into the rooms the house holds only",
+        ))  # fmt: skip
+    return out
+
+
+def _rooms_not_held(r: FieldReader, raw: Any, f: str, by_source: Mapping[str, _RoomBuild]) -> list[str]:
+    """The rooms a door or window names (``room0``, ``room1``) that the house does not hold; the
+    outside (:data:`OUTSIDE`) is not one."""
+    item = r.mapping(raw, f)
+    names = dict.fromkeys(item.get(k) for k in ("room0", "room1"))
+    return [n for n in names if isinstance(n, str) and n not in by_source and n != OUTSIDE]
+
+
+def _check_schema(r: FieldReader, top: Mapping[str, Any]) -> None:
+    """Refuse a house schema this reader does not know (see :data:`SCHEMAS_READ`)."""
+    meta = top.get("metadata")
+    schema = meta.get("schema") if isinstance(meta, Mapping) else None
+    if schema is None:
+        return  # the first form: ProcTHOR's own upgrade reads a missing version as 0.0.1
+    major = re.match(r"\s*(\d+)\.", str(schema))
+    if major is None or int(major.group(1)) > 1:
+        multi = " (a multi-floor house)" if isinstance(top.get("floors"), list) else ""
+        r.fail(
+            "metadata.schema",
+            f"house schema {schema!r}{multi} is not read; this reader knows {' and '.join(SCHEMAS_READ)}",
+        )
 
 
 # -- rooms and walls ------------------------------------------------------------------------------
@@ -282,6 +419,8 @@ def _walls_by_id(r: FieldReader, top: Mapping[str, Any]) -> dict[str, _SourceWal
             r.fail(f"{f}.polygon", "the wall has no bottom edge (two distinct points at its lowest height)")
         high = max(p[1] for p in pts)
         room_id = w.get("roomId")
+        if wid.split("|")[1:2] == ["exterior"]:  # schema 0.0.1 gives it the id of the room it closes
+            room_id = None
         out[wid] = _SourceWall(
             room_id=room_id if isinstance(room_id, str) else None,
             start=base[0],
@@ -455,20 +594,16 @@ def _add_opening(
 ) -> None:
     """Cut a door or window into the wall it lies on, once in each room it opens onto.
 
-    AI2-THOR measures ``holePolygon`` along ``wall0`` from its start, so the hole's centre is
-    placed on ``wall0`` in world coordinates and then found on each room's own wall through that
-    point. ``room0`` and ``room1`` are the same room for an exterior window or door (the other
-    side is the outside): it is cut once, not twice. Shared by the ProcTHOR and Holodeck readers.
+    AI2-THOR measures the hole (:func:`_hole`) along ``wall0`` from its start, so the hole's
+    centre is placed on ``wall0`` in world coordinates and then found on each room's own wall
+    through that point. ``room0`` and ``room1`` are the same room for an exterior window or door
+    (the other side is the outside): it is cut once, not twice. A room the house does not hold is
+    skipped (:func:`import_procthor` decides whether that is an error). Shared by the ProcTHOR and
+    Holodeck readers.
     """
     item = r.mapping(raw, f)
-    hole = r.array(r.get(item, "holePolygon", f), f"{f}.holePolygon")
-    if len(hole) < 2:
-        r.fail(f"{f}.holePolygon", "expected two corners")
-    x0, y0, _ = r.xyz(hole[0], f"{f}.holePolygon[0]")
-    x1, y1, _ = r.xyz(hole[1], f"{f}.holePolygon[1]")
-    width, height = abs(x1 - x0), abs(y1 - y0)
-    if width <= 0 or height <= 0:
-        r.fail(f"{f}.holePolygon", "the hole has zero width or height")
+    x0, x1, y0, y1 = _hole(r, item, f)
+    width, height = x1 - x0, y1 - y0
     wall_key = r.text(r.get(item, "wall0", f), f"{f}.wall0")
     wall = walls_by_id.get(wall_key)
     if wall is None:
@@ -491,8 +626,36 @@ def _add_opening(
         along = float(np.dot(centre - np.asarray(target.start), target.direction))
         target.openings = [
             *target.openings,
-            Opening(kind=kind, center=along, width=width, bottom=max(0.0, min(y0, y1)), height=height),
+            Opening(kind=kind, center=along, width=width, bottom=max(0.0, y0), height=height),
         ]
+
+
+def _hole(r: FieldReader, item: Mapping[str, Any], f: str) -> tuple[float, float, float, float]:
+    """A door or window's hole in its ``wall0``: ``(x0, x1, y0, y1)``, x along the wall from its
+    first point, y up from the floor (metres, ``x0 < x1``, ``y0 < y1``).
+
+    Schema 1.0.0 gives ``holePolygon`` (two opposite corners, or more points: their extent);
+    schema 0.0.1 gives ``boundingBox: {min, max}``, the same two corners."""
+    if "holePolygon" in item:
+        hole = r.array(item["holePolygon"], f"{f}.holePolygon")
+        if len(hole) < 2:
+            r.fail(f"{f}.holePolygon", "expected two corners")
+        points = [r.xyz(p, f"{f}.holePolygon[{j}]") for j, p in enumerate(hole)]
+        field = f"{f}.holePolygon"
+    elif "boundingBox" in item:
+        box = r.mapping(item["boundingBox"], f"{f}.boundingBox")
+        points = [r.xyz(r.get(box, k, f"{f}.boundingBox"), f"{f}.boundingBox.{k}") for k in ("min", "max")]
+        field = f"{f}.boundingBox"
+    else:
+        r.fail(
+            f,
+            "the door or window has no hole: expected holePolygon (house schema 1.0.0) "
+            "or boundingBox (house schema 0.0.1)",
+        )
+    xs, ys = [p[0] for p in points], [p[1] for p in points]
+    if max(xs) - min(xs) <= 0 or max(ys) - min(ys) <= 0:
+        r.fail(field, "the hole has zero width or height")
+    return min(xs), max(xs), min(ys), max(ys)
 
 
 def _wall_through(walls: list[Wall], point: FloatArray, reach: float) -> Wall | None:
@@ -510,12 +673,15 @@ def _wall_through(walls: list[Wall], point: FloatArray, reach: float) -> Wall | 
     return None if best is None else best[1]
 
 
-def _room_for(builds: list[_RoomBuild], x: float, z: float) -> _RoomBuild:
+def _room_for(builds: list[_RoomBuild], x: float, z: float) -> tuple[_RoomBuild, float]:
+    """The room whose floor polygon (as the house draws it) covers ``(x, z)``, else the nearest
+    one; with the distance to it (0 when covered)."""
     p = Point(x, z)
     for b in builds:
         if b.polygon.covers(p):
-            return b
-    return min(builds, key=lambda b: b.polygon.distance(p))
+            return b, 0.0
+    nearest = min(builds, key=lambda b: b.polygon.distance(p))
+    return nearest, float(nearest.polygon.distance(p))
 
 
 # -- objects --------------------------------------------------------------------------------------

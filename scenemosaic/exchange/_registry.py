@@ -58,6 +58,9 @@ class ReadOptions:
     """ProcTHOR asset database (a path or a parsed mapping); default: the one shipped with the package."""
     asset_dir: Path | None = None
     """Folder holding mesh assets a scene file names but does not carry (SceneEval ``assetId`` meshes)."""
+    allow_orphans: bool = False
+    """A house whose objects lie outside every room, or whose doors open onto rooms it does not
+    hold, is read (each put in the nearest room, the rooms' metadata saying so) instead of refused."""
 
 
 Reader = Callable[[Any, Path, ReadOptions], list[Scene]]
@@ -148,6 +151,7 @@ def load_scenes(
     asset_dir: str | os.PathLike[str] | None = None,
     variant: int | str | None = None,
     allow_partial: bool = False,
+    allow_orphans: bool = False,
 ) -> list[Scene]:
     """Import every scene ``path`` holds, in a stable order.
 
@@ -161,7 +165,9 @@ def load_scenes(
     A ``generate`` output folder (:class:`RunFolder`) gives its base scene, or with ``variant``
     (a number from 1, or ``"variant_2"``) that variant. What a failed or stopped run kept
     (``partial.json`` beside it) raises :class:`~scenemosaic.exceptions.PartialResultError`
-    unless ``allow_partial``.
+    unless ``allow_partial``. A house with objects outside every room or doors onto rooms it
+    does not hold raises :class:`~scenemosaic.exceptions.ImportFormatError` naming them, unless
+    ``allow_orphans`` (each then goes to the nearest room; ``docs/importers.md``).
     """
     fmt = _check_format(format, path)
     p = Path(path)
@@ -175,6 +181,7 @@ def load_scenes(
         room=room if isinstance(room, Room) else None,
         asset_database=asset_database,
         asset_dir=Path(asset_dir) if asset_dir is not None else None,
+        allow_orphans=allow_orphans,
     )
     scenes: list[Scene] = []
     if p.is_dir() and RunFolder.holds_house(p):
@@ -208,6 +215,7 @@ def load_scene(
     asset_dir: str | os.PathLike[str] | None = None,
     variant: int | str | None = None,
     allow_partial: bool = False,
+    allow_orphans: bool = False,
 ) -> Scene | House:
     """Import the one scene ``path`` holds (see :func:`load_scenes`), or the whole house.
 
@@ -218,12 +226,15 @@ def load_scene(
     """
     scenes = load_scenes(
         path, format, room=room, asset_database=asset_database, asset_dir=asset_dir, variant=variant,
-        allow_partial=allow_partial,
+        allow_partial=allow_partial, allow_orphans=allow_orphans,
     )  # fmt: skip
     if len(scenes) == 1:
         return scenes[0]
     if room is None and _one_house(scenes):
-        return load_house(path, format, asset_database=asset_database, variant=variant, allow_partial=allow_partial)
+        return load_house(
+            path, format, asset_database=asset_database, variant=variant, allow_partial=allow_partial,
+            allow_orphans=allow_orphans,
+        )
     ids = ", ".join(s.id for s in scenes[:8])
     raise UsageError(
         f"{os.fspath(path)} holds {len(scenes)} scenes ({ids}); use load_scenes() to read them all"
@@ -246,11 +257,12 @@ def load_house(
     asset_database: Any = None,
     variant: int | str | None = None,
     allow_partial: bool = False,
+    allow_orphans: bool = False,
 ) -> House:
     """Import a whole house: every room of an AI2-THOR / ProcTHOR house file, in its room order,
     or a delivered house (the ``base/`` or ``variant_<i>/`` of a house run; ``variant`` picks one
     of a run folder). Raises :class:`~scenemosaic.exceptions.UsageError` for a source that is
-    not a house."""
+    not a house; ``allow_orphans`` as for :func:`load_scenes`."""
     p = Path(path)
     if RunFolder.is_run(p):
         p = RunFolder(p).scene_folder(variant)
@@ -258,7 +270,9 @@ def load_house(
         raise UsageError(f"variant={variant!r} needs a generate output folder; {os.fspath(path)} is not one")
     if p.is_dir() and RunFolder.holds_house(p):
         return read_house(p, allow_partial=allow_partial)
-    scenes = load_scenes(p, format, asset_database=asset_database, allow_partial=allow_partial)
+    scenes = load_scenes(
+        p, format, asset_database=asset_database, allow_partial=allow_partial, allow_orphans=allow_orphans
+    )
     if not _one_house(scenes):
         raise UsageError(f"{os.fspath(path)} is not a house (a multi-room AI2-THOR / ProcTHOR house file or a delivered house)")
     first = scenes[0].provenance
@@ -358,16 +372,21 @@ def _check_format(format: str, path: str | os.PathLike[str]) -> str:
 
 
 def _select_room(scenes: list[Scene], room: str, path: Path) -> list[Scene]:
-    def names(scene: Scene) -> set[str]:
-        out = {scene.id}
-        if scene.room is not None:
-            out.add(scene.room.id)
-        source = scene.metadata.get("procthor", {}).get("room_id")
-        if isinstance(source, str):
-            out.add(source)
-        return out
+    """The scenes named ``room``: by our ids first (a scene's or its room's, unique by
+    construction), else by the source file's room id. A house may hold both ``room|2`` and
+    ``room_2``: they become ``room_2`` and ``room_2_2``, and ``room_2`` names the first."""
 
-    picked = [s for s in scenes if room in names(s)]
+    def ours(scene: Scene) -> set[str]:
+        return {scene.id} | ({scene.room.id} if scene.room is not None else set())
+
+    def source(scene: Scene) -> set[str]:
+        value = scene.metadata.get("procthor", {}).get("room_id")
+        return {value} if isinstance(value, str) else set()
+
+    def names(scene: Scene) -> set[str]:
+        return ours(scene) | source(scene)
+
+    picked = [s for s in scenes if room in ours(s)] or [s for s in scenes if room in source(s)]
     if not picked:
         known = ", ".join(sorted({n for s in scenes for n in names(s)}))
         raise UsageError(f"{path} has no room {room!r}; it has: {known}")

@@ -3,7 +3,8 @@
 A room cut from a house has doors in its walls (``Opening`` of kind ``door``); the zone in front
 of each (:func:`scenemosaic.scene.door_zones`: the door's width by ``DOOR_CLEARANCE_DEPTH_M``)
 must hold nothing a robot walks into. A wall piece hung low in a zone (a picture beside the
-door frame) slides along its wall out of it. :func:`clear_doors` then takes every floor-standing piece whose
+door frame) slides along its wall out of it, or, with no place there, is re-hung on another wall
+of the room. :func:`clear_doors` then takes every floor-standing piece whose
 footprint enters a zone (an item on a table in the zone moves with its table) and packs it back
 onto the floor less the zones, the other furniture standing where it stands
 (:func:`scenemosaic.scene.pack_surface`: the nearest free place), then checks the moved room for
@@ -18,6 +19,7 @@ the smallest nearby piece whose removal opens the way (``RECONNECT_REACH_M``, ``
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -35,14 +37,18 @@ from scenemosaic.scene import (
     Pose,
     Scene,
     SceneObject,
+    Wall,
     build_structure,
     convex_hull_2d,
     cut_off_doors,
     descendants,
     door_blockers,
     door_zones,
+    fits_wall,
     is_thin,
     pack_surface,
+    quat_from_yaw,
+    quat_multiply,
     rigid_moves,
 )
 
@@ -206,6 +212,47 @@ def _slide_along_walls(
             repair.moved[oid] = repair.moved.get(oid, 0.0) + abs(float(d))
             scene = trial
             break
+        else:
+            scene = _to_other_wall(scene, shapes, oid, own, keep_out, repair)
+    return scene
+
+
+def _to_other_wall(
+    scene: Scene, shapes: Mapping[str, ObjectShape], oid: str, own: Wall, keep_out: Polygon, repair: DoorRepair
+) -> Scene:
+    """A wall piece that cannot slide out of a door's way along its own wall re-hung on another
+    wall of the room: as high and as far from the wall as it hung, facing into the room, the
+    longest walls first and on each the place nearest its middle (every ``WALL_SLIDE_STEP_M``),
+    within the wall's length, clear of its doors and windows (``scene.fits_wall``), of every door
+    zone and of every other object's hull; its support relation then names that wall. The scene
+    itself when no wall has such a place."""
+    assert scene.room is not None
+    obj = scene.get(oid)
+    n0 = np.asarray(own.inward_normal, dtype=np.float64)
+    xy0 = np.asarray(obj.pose.position[:2], dtype=np.float64)
+    depth = float((xy0 - np.asarray(own.start)) @ n0)
+    floor = Polygon(scene.room.floor).buffer(0.02)
+    for wall in sorted((w for w in scene.room.walls if w.id != own.id), key=lambda w: (-w.length, w.id)):
+        n1, t1 = np.asarray(wall.inward_normal, dtype=np.float64), np.asarray(wall.direction, dtype=np.float64)
+        spin = math.atan2(float(n1[1]), float(n1[0])) - math.atan2(float(n0[1]), float(n0[0]))
+        quat = quat_multiply(quat_from_yaw(spin), obj.pose.quaternion)
+        offsets = np.arange(0.0, wall.length / 2 + 1e-9, WALL_SLIDE_STEP_M)
+        for off in sorted({*offsets, *(-offsets)}, key=lambda x: (abs(x), x)):
+            xy = np.asarray(wall.start) + t1 * (wall.length / 2 + off) + n1 * depth
+            pose = obj.pose.model_copy(update={"position": (float(xy[0]), float(xy[1]), obj.pose.position[2]), "quaternion": quat})
+            moved = obj.model_copy(update={"pose": pose})
+            if not fits_wall(moved, wall, None) or _foot(moved).intersects(keep_out) or not floor.covers(_foot(moved)):
+                continue
+            candidate = rigid_moves(scene, {oid: pose})
+            trial = scene.model_copy(update={"objects": [o.model_copy(update={"pose": candidate[o.id]}) if o.id in candidate else o for o in scene.objects]})
+            moved_ids = set(candidate)
+            if any((p.a in moved_ids) != (p.b in moved_ids) for p in collision_report_for(trial, shapes).pairs):
+                continue
+            trial = trial.model_copy(update={"relations": [r.model_copy(update={"parent": wall.id}) if r.child == oid and r.parent == own.id else r for r in trial.relations]})
+            if trial.structure is not None:
+                trial = trial.model_copy(update={"structure": build_structure(trial)})
+            repair.moved[oid] = repair.moved.get(oid, 0.0) + float(np.linalg.norm(xy - xy0))
+            return trial
     return scene
 
 

@@ -169,6 +169,8 @@ def _pack_children(
     inside.sort(key=lambda c: -float(np.prod(_size(scene.get(c))[:2])))  # largest first, as pack_surface does
     for cid in inside:  # on the board its bottom is nearest above, else the nearest other with room
         child = scene.get(cid)
+        if child.sim.static:
+            continue  # held in place (a static piece is not packed): it stays where it stands
         bottom = float(child.aabb()[0][2]) - float(anchor.pose.position[2])
         fits = [k for k, c in enumerate(compartments) if compartment_fits(_size(child), c)]
         order = sorted(fits, key=lambda k: (compartments[k][4] > bottom + 0.05, abs(compartments[k][4] - bottom)))

@@ -136,7 +136,8 @@ def save_checkpoint(run: PipelineRun, digest: str | None) -> None:
     """Keep the run's state (after a finished stage, and once at the start)."""
     store = run.need_store()
     record = config_record(run.config)
-    write_json(run.folder.run_record, {"input": str(run.input_path), "input_sha256": digest, "config": record})
+    # the input as an absolute path: ``--resume OUT`` may be given from another working directory
+    write_json(run.folder.run_record, {"input": str(run.input_path.absolute()), "input_sha256": digest, "config": record})
     state = checkpoint_state(run)
     store.put(PIPELINE_NODE, _key(record, digest), StoredOutput(state, output_hash(state)))
 
@@ -156,7 +157,9 @@ def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:
         data = json.loads(run.folder.run_record.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return set()
-    if Path(data.get("input", "")).resolve() != run.input_path.resolve():
+    if not isinstance(data, dict) or not isinstance(data.get("input"), str):
+        raise UsageError(f"cannot resume {run.out_dir}: its {run.folder.run_record.name} is damaged; run it again without --resume")
+    if Path(data["input"]).resolve() != run.input_path.resolve():
         raise UsageError(f"{run.out_dir} holds a run of {data.get('input')}, not of {run.input_path}; cannot resume")
     record = config_record(run.config)
     keys = set(deciding_settings())
@@ -228,12 +231,18 @@ def checkpoint_config(out_dir: str | Path) -> tuple[Path, GenerateConfig]:
         data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
         raise UsageError(f"{out_dir} holds no run to resume ({path} unreadable: {exc})") from exc
-    return Path(data["input"]), config_from_record(data.get("config", {}), resume=True)
+    if not isinstance(data, dict) or not isinstance(data.get("input"), str) or not isinstance(data.get("config", {}), dict):
+        raise UsageError(f"{out_dir} holds no run to resume ({path} is damaged: no input or settings)")
+    try:
+        config = config_from_record(data.get("config", {}), resume=True)
+    except (ValueError, TypeError) as exc:  # pydantic's ValidationError is a ValueError
+        raise UsageError(f"{out_dir} holds no run to resume ({path} is damaged: {str(exc).splitlines()[0]})") from exc
+    return Path(data["input"]), config
 
 
 def previous_input(folder: RunFolder) -> str | None:
     """The input of the run whose results (or checkpoint) are in ``folder``, if any."""
-    for candidate in (folder.report, folder.run_record):
+    for candidate in (folder.run_record, folder.report):  # run.json's input is absolute
         try:
             value = json.loads(candidate.read_text(encoding="utf-8")).get("input")
         except (OSError, ValueError, AttributeError):

@@ -231,6 +231,11 @@ class GenerateConfig(BaseModel):
     """Largest input file the run reads, in MB (default: 256 for a scene file, 64 for a
     photograph). A larger file is refused before it is read (exit 2); ``None`` takes the limit of
     the input's kind from :data:`INPUT_SIZE_LIMITS_MB`."""
+    allow_orphans: Annotated[bool, Setting("input", decides=True, flag="--allow-orphans")] = False
+    """Read a house whose objects lie outside every room, or whose doors open onto rooms it does
+    not hold (a room's record is missing), putting each in the nearest room. Off by default: such
+    a house is refused with exit 2, naming the objects and doors. On, the run goes on, says so on
+    the console and ends ``degraded`` with that reason first (``docs/importers.md``)."""
     priors_dir: Annotated[
         Path | None,
         Field(strict=False),

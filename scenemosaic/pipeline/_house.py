@@ -58,7 +58,13 @@ from scenemosaic.pipeline._checkpoint import (
 )
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record
 from scenemosaic.pipeline._driver import run_stages
-from scenemosaic.pipeline._stages import HOUSE_ROOM_STAGES, judge_scenes, note_shortfall, validation_warnings
+from scenemosaic.pipeline._stages import (
+    HOUSE_ROOM_STAGES,
+    judge_scenes,
+    note_import_warnings,
+    note_shortfall,
+    validation_warnings,
+)
 from scenemosaic.pipeline._state import PipelineRun, RunSetup, Stage, StageRecord
 from scenemosaic.render import contact_sheet
 from scenemosaic.scene import House, RunFolder, Scene, house_walkable
@@ -81,7 +87,7 @@ def is_house_input(input_path: Path, config: GenerateConfig) -> bool:
     if not (input_path.is_file() and input_path.suffix.lower() == ".json"):
         return False
     try:
-        return len(load_house(input_path, config.format).rooms) > 1
+        return len(load_house(input_path, config.format, allow_orphans=config.allow_orphans).rooms) > 1
     except SceneMosaicError:
         return False  # not a house, or a broken one: the one-scene import says what is wrong
 
@@ -170,7 +176,7 @@ async def _in_workers(jobs: Sequence[tuple[str, dict[str, Any]]], count: int) ->
     stop = threading.Event()
     pool = functools.partial(
         run_jobs, [WorkerJob(name, json.dumps(job).encode()) for name, job in jobs], module=WORKER_MODULE,
-        workers=count, reuse=True, on_end=ended, stop=stop,
+        workers=count, reuse=True, on_end=ended, stop=stop, orphan="kill",
     )  # fmt: skip
     running = asyncio.ensure_future(asyncio.to_thread(pool))
     try:
@@ -196,9 +202,12 @@ def _in_processes(config: GenerateConfig, rooms: int) -> int:
 
 async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
     """The house, every room in its world frame."""
-    run.house = await asyncio.to_thread(load_house, run.input_path, run.config.format)
+    run.house = await asyncio.to_thread(
+        functools.partial(load_house, run.input_path, run.config.format, allow_orphans=run.config.allow_orphans)
+    )
     rec.detail["source_format"] = run.house.rooms[0].provenance.source_format
     rec.detail["rooms"] = run.house.room_ids
+    note_import_warnings(run, run.house.rooms)
 
 
 async def _stage_rooms(run: PipelineRun, rec: StageRecord) -> None:

@@ -4,7 +4,9 @@ Started by the package's worker pool (``scenemosaic._processes.run_jobs``), it r
 line of its stdin (``pipeline/_house.py``: :func:`room_worker`: a room, or the delivery of a whole
 house) and writes each reply as one line to the pipe ``REPLY_FD``, so a house uses several cores
 without ``multiprocessing`` re-importing the caller's ``__main__``. When the house run
-``PARENT_PID`` is gone (even killed), the worker stops itself (``scenemosaic._processes.watch_parent``).
+``PARENT_PID`` is gone (even killed), the worker and what it started are killed at once
+(``orphan="kill"``: it writes into the house's folder, whose lock died with the run;
+``scenemosaic._processes``).
 """
 
 from __future__ import annotations
@@ -13,9 +15,7 @@ import os
 import signal
 import sys
 
-from scenemosaic._logging import configure_logging
 from scenemosaic._processes import watch_parent
-from scenemosaic.pipeline._house import room_worker
 
 
 def main(argv: list[str]) -> int:
@@ -24,7 +24,10 @@ def main(argv: list[str]) -> int:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     reply_fd, parent_pid = int(argv[1]), int(argv[2])
     os.set_inheritable(reply_fd, False)  # processes a room starts must not hold the pipe open
-    watch_parent(parent_pid)
+    watch_parent(parent_pid, "kill")  # before the pipeline's imports: they take seconds
+    from scenemosaic._logging import configure_logging
+    from scenemosaic.pipeline._house import room_worker
+
     configure_logging("warning")
     room_worker(reply_fd)
     return 0

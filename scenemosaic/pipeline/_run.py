@@ -80,7 +80,9 @@ def _prepare_folders(input_path: Path, folder: RunFolder, config: GenerateConfig
             )
         if not config.resume:
             for target in folder.outputs():
-                if target.is_dir():
+                if target.is_symlink():  # planted (base/ -> elsewhere): the link goes, never what it points at
+                    target.unlink()
+                elif target.is_dir():
                     shutil.rmtree(target)
                 elif target.exists():
                     target.unlink()

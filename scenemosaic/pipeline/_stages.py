@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import functools
 import json
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +65,7 @@ __all__ = [
     "floor_share",
     "is_image_input",
     "judge_scenes",
+    "note_import_warnings",
     "note_shortfall",
     "validation_warnings",
 ]
@@ -90,9 +92,12 @@ async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
         rec.detail["source_format"] = run.scene.provenance.source_format
         return
     if not is_image_input(run.input_path, cfg.format):
-        read = functools.partial(_read_one, run.input_path, cfg.format, room=cfg.room, asset_dir=cfg.asset_dir)
+        read = functools.partial(
+            _read_one, run.input_path, cfg.format, room=cfg.room, asset_dir=cfg.asset_dir, allow_orphans=cfg.allow_orphans
+        )
         run.scene = await asyncio.to_thread(read)
         rec.detail["source_format"] = run.scene.provenance.source_format
+        note_import_warnings(run, [run.scene])
         return
     model = await run.asking(rec)
     if cfg.prompt is not None:
@@ -110,12 +115,25 @@ async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
         run.warnings.append(f"no segmenter installed: the objects' boxes stood in for their masks ({PERCEPTION_INSTALL})")
 
 
-def _read_one(path: Path, format: str, *, room: str | None, asset_dir: Path | None) -> Scene:
+def _read_one(path: Path, format: str, *, room: str | None, asset_dir: Path | None, allow_orphans: bool) -> Scene:
     """The one scene a run's input holds (a house reaches here only with ``room``: ``pipeline/_house.py``)."""
-    loaded = load_scene(path, format, room=room, asset_dir=asset_dir)
+    loaded = load_scene(path, format, room=room, asset_dir=asset_dir, allow_orphans=allow_orphans)
     if isinstance(loaded, House):  # pragma: no cover - the driver sends whole houses to the house run
         raise UsageError(f"{path} is a house; generate it whole, or pick a room with --room ({', '.join(loaded.room_ids)})")
     return loaded
+
+
+def note_import_warnings(run: PipelineRun, scenes: Sequence[Scene]) -> None:
+    """Put what the import let through only because it was told to (a house's orphans, read with
+    ``allow_orphans``: ``metadata["procthor"]["import_warnings"]``) first among the run's warnings,
+    so the run ends ``degraded`` with that reason first (the importer has said it on the console)."""
+    found: dict[str, None] = {}
+    for scene in scenes:
+        for text in (scene.metadata.get("procthor") or {}).get("import_warnings") or []:
+            found[str(text)] = None
+    fresh = [f"input: {w}" for w in found if f"input: {w}" not in run.warnings]
+    if fresh:
+        run.warnings[:0] = fresh
 
 
 async def _draw_prompt(run: PipelineRun, rec: StageRecord) -> None:
@@ -256,6 +274,9 @@ async def _stage_evolve(run: PipelineRun, rec: StageRecord) -> None:
         for lay in unit.layouts:
             run.note_fallbacks(lay.agents.fallbacks, f" ({unit.anchor_id}/{lay.layout_id})", width=120)
         o = unit.original
+        if unit.promoted_from is not None:
+            broke = "; ".join(unit.variants[0].violations[:3])
+            run.notes.append(f"unit {unit.anchor_id}: the refined layout broke rules ({broke}); its base is layout {o.layout_id}, the valid one closest to it")
         if o.error:
             run.warnings.append(f"unit {unit.anchor_id}: evolution failed, kept the stabilized layout ({o.error[:160]})")
         elif o.violations:

@@ -93,6 +93,7 @@ from scenemosaic.scene._ids import (
 from scenemosaic.scene._limits import (
     COACD_MAX_FACES,
     MAX_COORDINATE,
+    MAX_FLOOR_POINTS,
     MAX_HOUSE_ROOMS,
     MAX_HOUSE_SPAN_M,
     MAX_HULL_VERTICES,
@@ -201,6 +202,7 @@ __all__ = [
     "MAX_COORDINATE",
     "MAX_EXPRESSIONS",
     "MAX_EXPRESSION_CHARS",
+    "MAX_FLOOR_POINTS",
     "MAX_HOUSE_ROOMS",
     "MAX_HOUSE_SPAN_M",
     "MAX_HULL_VERTICES",

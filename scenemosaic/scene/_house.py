@@ -233,11 +233,15 @@ class Doorway:
         """Whether it opens from one room to the outside."""
         return len(self.sides) == 1
 
-    def passage(self) -> Polygon:
+    def passage(self, reach: float = 0.0) -> Polygon:
         """The hole through the wall: as wide as the door, from one room's floor edge to the
-        other's (just the first side's wall line for a door to the outside)."""
-        a = self.sides[0].centre
-        b = self.sides[-1].centre if len(self.sides) > 1 else a
+        other's (just the first side's wall line for a door to the outside).
+
+        ``reach`` (metres, default 0) extends it that far past both floor edges, into the rooms,
+        still as wide as the door: the reachability raster's passage (:func:`house_walkable`),
+        which then overlaps both floors whatever the cells' offset."""
+        a = self.sides[0].centre - self.normal * reach
+        b = (self.sides[-1].centre if len(self.sides) > 1 else self.sides[0].centre) + self.normal * reach
         half = self.direction * (self.width / 2)
         pts = [a - half, a + half, b + half, b - half]
         poly = Polygon([tuple(p) for p in pts])
@@ -405,21 +409,45 @@ def house_walkable(house: House, *, radius: float = ROBOT_RADIUS, cell: float = 
     """One walkable raster over the whole house: every room's floor and every doorway's passage
     through its wall are floor; each object whose bottom is below ``WALK_MAX_HEIGHT`` blocks its
     box footprint; the free cells are eroded by a disk of ``radius`` and split into 4-connected
-    pieces (the same definition as a room's NAV, :class:`FloorRaster`)."""
-    floors = [Polygon(s.room.floor) for s in house.rooms if s.room is not None]
-    passages = [d.passage() for d in house.doorways() if not d.leads_outside]
-    region = unary_union([*floors, *(p.buffer(1e-3, join_style="mitre") for p in passages)])
-    minx, miny, maxx, maxy = region.bounds
+    pieces (the same definition as a room's NAV, :class:`FloorRaster`).
+
+    The answer does not hang on where the cells fall (the cells lie on the world's grid of
+    ``cell`` metres, so a house moved by part of a cell meets them elsewhere):
+
+    * a doorway's passage reaches a cell past both floor edges (``Doorway.passage(reach=cell)``),
+      so the cells along the edges, whose centres lie on neither floor, still join the rooms;
+    * where two rooms' floor cells meet outside every passage (floors that touch with no wall
+      between them), both cells are wall: rooms join only through their doorways.
+    """
+    rooms = [s for s in house.rooms if s.room is not None]
+    floors = [Polygon(s.room.floor) for s in rooms if s.room is not None]
+    passages = [d.passage(reach=cell) for d in house.doorways() if not d.leads_outside]
+    minx, miny, maxx, maxy = unary_union([*floors, *passages]).bounds
+    minx, miny = np.floor(minx / cell) * cell, np.floor(miny / cell) * cell
     raster = FloorRaster(np.array([[minx, miny], [maxx, miny], [maxx, maxy], [minx, maxy]]), cell=cell)
-    inside = np.zeros(raster.shape, dtype=bool)
+    owner = np.zeros(raster.shape, dtype=np.int64)  # 1 + the index of the room whose floor holds the cell
     room_cells: dict[str, np.ndarray] = {}
-    for s, poly in zip((s for s in house.rooms if s.room is not None), floors, strict=True):
+    for k, (s, poly) in enumerate(zip(rooms, floors, strict=True)):
         cells = raster.mask(poly)
         room_cells[s.id] = cells
-        inside |= cells
-    for p in passages:
-        inside |= raster.mask(p)
-    raster.inside = inside
+        owner[cells] = k + 1
+    through = raster.blocked(passages)
+    raster.inside = ((owner > 0) | through) & ~_seams(owner, through)
     footprints = [convex_hull_2d(o.corners()[:, :2]) for o in house.objects if _blocks_walking(o, WALK_MAX_HEIGHT)]
     walk = raster.walkable(raster.blocked(footprints), radius)
     return HouseWalkable(walk, raster, room_cells)
+
+
+def _seams(owner: np.ndarray, through: np.ndarray) -> np.ndarray:
+    """The cells of two rooms' floors that are 4-neighbours with neither in a passage: the line
+    where two floors touch with no doorway, which the robot may not cross."""
+    out = np.zeros(owner.shape, dtype=bool)
+    for axis in (0, 1):
+        lo = [slice(None), slice(None)]
+        hi = [slice(None), slice(None)]
+        lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+        a, b = owner[tuple(lo)], owner[tuple(hi)]
+        meet = (a > 0) & (b > 0) & (a != b) & ~through[tuple(lo)] & ~through[tuple(hi)]
+        out[tuple(lo)] |= meet
+        out[tuple(hi)] |= meet
+    return out

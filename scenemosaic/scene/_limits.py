@@ -16,6 +16,7 @@ from collections.abc import Iterable
 __all__ = [
     "COACD_MAX_FACES",
     "MAX_COORDINATE",
+    "MAX_FLOOR_POINTS",
     "MAX_HOUSE_ROOMS",
     "MAX_HOUSE_SPAN_M",
     "MAX_HULL_VERTICES",
@@ -35,6 +36,11 @@ __all__ = [
 MAX_OBJECTS = 512
 """Most objects in one scene. The structuring agents bound every list they return to this many
 items, so a larger scene could not be described to them."""
+
+MAX_FLOOR_POINTS = 256
+"""Most points of a room's floor polygon, and most walls of a room. A real room has a few dozen
+corners (a round bay drawn point by point, a few more); the structuring agents' room outputs are
+bounded to the same number."""
 
 MAX_COORDINATE = 1000.0
 """Largest absolute value, in metres, of any coordinate of an object position, floor point or

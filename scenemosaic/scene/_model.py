@@ -29,6 +29,7 @@ from scenemosaic.exceptions import SceneValidationError
 from scenemosaic.scene._geometry import FloatArray, quat_from_yaw, quat_to_matrix, yaw_from_quat
 from scenemosaic.scene._ids import CEILING, FLOOR, MAX_ID_LENGTH, OBJECT_ID_PATTERN
 from scenemosaic.scene._limits import (
+    MAX_FLOOR_POINTS,
     MAX_OBJECT_SIZE,
     coordinate_problem,
     object_count_problem,
@@ -365,8 +366,10 @@ class Room(_Model):
     """A room: floor polygon (counter-clockwise, metres, z = 0), walls and ceiling height."""
 
     id: ObjectId = "room"
-    floor: list[Vec2] = Field(min_length=3, description="Floor polygon, counter-clockwise seen from above.")
-    walls: list[Wall] = Field(default_factory=list)
+    floor: list[Vec2] = Field(
+        min_length=3, max_length=MAX_FLOOR_POINTS, description="Floor polygon, counter-clockwise seen from above."
+    )
+    walls: list[Wall] = Field(default_factory=list, max_length=MAX_FLOOR_POINTS)
     ceiling_height: float = Field(default=2.8, gt=0)
 
     @field_validator("ceiling_height")

@@ -45,6 +45,7 @@ from scenemosaic.structure._walls import flush_walls
 
 __all__ = [
     "FUNCTIONAL_PAIRS",
+    "MAX_CONSTRAINTS",
     "WEAK_PAIRS",
     "ConstraintEvidence",
     "ConstraintsAgent",
@@ -56,6 +57,11 @@ __all__ = [
     "procthor_group_pairs",
 ]
 
+MAX_CONSTRAINTS = 64
+"""Most cross-unit constraints the constraints agent returns (its output schema's bound, which a
+recorded model run's requests are keyed on). A scene with more functional groups than this (70
+desks, each with its monitor and chair) keeps the first ones found; the groups past them are
+not held together across units (evolve may move a desk away from its chair)."""
 SEAT_REACH = 0.8
 """A chair this close (metres) to a table's footprint is one of its chairs."""
 NIGHTSTAND_REACH = 0.6
@@ -169,7 +175,7 @@ class ConstraintsOutput(AgentOutput):
     """The cross-unit constraints of the scene, and the functional relations inside one unit
     (both replace any earlier ones)."""
 
-    constraints: list[CrossUnitConstraint] = Field(default_factory=list, max_length=64)
+    constraints: list[CrossUnitConstraint] = Field(default_factory=list, max_length=MAX_CONSTRAINTS)
     within_unit: list[UnitRelation] = Field(default_factory=list, max_length=MAX_ITEMS)
 
 
@@ -450,6 +456,8 @@ def solve_constraints(evidence: ConstraintEvidence) -> ConstraintsOutput:
         else:
             kind = "beside" if f.kind == "placement" else "faces"
             within += [UnitRelation(kind=kind, object_id=s, reference_id=ref.id) for s in subject_ids]
+            continue
+        if len(out) == MAX_CONSTRAINTS:
             continue
         out.append(
             CrossUnitConstraint(

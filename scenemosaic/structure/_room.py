@@ -13,6 +13,7 @@ its back to that side is snapped to the object with only a hairline gap.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import ClassVar
 
 import numpy as np
@@ -23,6 +24,7 @@ from shapely.ops import nearest_points
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.scene import (
+    MAX_FLOOR_POINTS,
     ROOM_MARGIN,
     WALL_SNAP_GAP,
     FootprintItem,
@@ -80,9 +82,9 @@ class RoomOutput(AgentOutput):
     """The room boundary the agent settled on."""
 
     floor: list[tuple[float, float]] = Field(
-        min_length=3, max_length=64, description="Counter-clockwise polygon."
+        min_length=3, max_length=MAX_FLOOR_POINTS, description="Counter-clockwise polygon."
     )
-    walls: list[WallSpec] = Field(default_factory=list, max_length=64)
+    walls: list[WallSpec] = Field(default_factory=list, max_length=MAX_FLOOR_POINTS)
     ceiling_height: float = Field(gt=0, le=20)
     kept_input: bool = Field(default=False, description="True when the input room was kept.")
     yaw_deg: float = Field(default=0.0, description="Heading of the fitted rectangle.")
@@ -271,9 +273,24 @@ RING_GAP = 0.05
 """How far (metres) one wall's end may be from the next wall's start, and a wall from the floor's edge."""
 
 
-def _wall_ring_problems(output: RoomOutput, poly: Polygon) -> list[str]:
+Edge = tuple[tuple[float, float], tuple[float, float]]
+"""A wall or floor edge: start and end (x, y), metres."""
+
+
+def _given_edges(room: Room | None) -> list[Edge]:
+    """The input room's walls and floor edges: a kept room may have walls shorter than
+    :data:`MIN_WALL_LENGTH` (a 10 cm jog round a column, an edge drawn in short pieces)."""
+    if room is None:
+        return []
+    floor = [(float(x), float(y)) for x, y in room.floor]
+    edges = [(floor[i], floor[(i + 1) % len(floor)]) for i in range(len(floor))]
+    return edges + [((float(w.start[0]), float(w.start[1])), (float(w.end[0]), float(w.end[1]))) for w in room.walls]
+
+
+def _wall_ring_problems(output: RoomOutput, poly: Polygon, given: Sequence[Edge] = ()) -> list[str]:
     """The walls must form a closed, non-degenerate ring along the floor polygon's edge, with the
-    room on each wall's left. No walls at all is fine: they are then built from the polygon."""
+    room on each wall's left. No walls at all is fine: they are then built from the polygon.
+    ``given``: the input room's edges (:func:`_given_edges`), which may be short."""
     walls = output.walls
     if not walls:
         return []
@@ -282,7 +299,9 @@ def _wall_ring_problems(output: RoomOutput, poly: Polygon) -> list[str]:
     seen: list[tuple[tuple[float, float], tuple[float, float]]] = []
     for w in walls:
         length = math.dist(w.start, w.end)
-        if length < MIN_WALL_LENGTH:
+        if length < MIN_WALL_LENGTH and not any(
+            math.dist(w.start, a) + math.dist(w.end, b) < RING_GAP for a, b in given
+        ):
             problems.append(
                 f"wall {w.id!r} is {length:.2f} m long; every wall runs along one edge of the floor "
                 f"polygon, from one corner to the next (at least {MIN_WALL_LENGTH:g} m)"
@@ -379,7 +398,7 @@ class RoomAgent(FloorPlanImages, TaskAgent[SceneState, RoomEvidence, RoomOutput]
             problems.append(
                 "the floor corners run clockwise; list them counter-clockwise seen from above (x right, y up)"
             )
-        problems += _wall_ring_problems(output, poly)
+        problems += _wall_ring_problems(output, poly, _given_edges(state.scene.room))
         problems += _extent_problems(output, poly, state)
         grown = poly.buffer(CONTAIN_TOLERANCE)
         shifts = {s.object_id: s for s in output.shifts}

@@ -36,6 +36,7 @@ from scenemosaic.assets import compartment_fits, interior_boards
 from scenemosaic.scene import (
     CEILING,
     FLOOR,
+    MAX_FLOOR_POINTS,
     CrossUnitConstraint,
     PackItem,
     Relation,
@@ -59,6 +60,7 @@ from scenemosaic.structure._facts import (
 from scenemosaic.structure._room import MAX_PULL_IN, ObjectShift
 
 __all__ = [
+    "MAX_PROBLEMS",
     "PLAUSIBLE_P",
     "ItemPlacement",
     "NestedFacts",
@@ -69,6 +71,13 @@ __all__ = [
     "VerificationOutput",
     "placement_options",
 ]
+
+
+PROMPT_OPTIONS = 3
+"""Receptacles a verification prompt offers each item (the nearest; the rule solver reads up to 8)."""
+MAX_PROBLEMS = MAX_ITEMS
+"""Most problems verification reports; past it, the last line says how many more there were (400
+items on one counter that holds 60 would otherwise report 340 lines)."""
 
 
 class ParentFix(AgentOutput):
@@ -119,8 +128,8 @@ class VerificationOutput(AgentOutput):
         max_length=MAX_ITEMS,
         description="Translations that part furniture standing inside other furniture (dz stays 0).",
     )
-    drop_constraints: list[str] = Field(default_factory=list, max_length=64)
-    problems: list[str] = Field(default_factory=list, max_length=64)
+    drop_constraints: list[str] = Field(default_factory=list, max_length=MAX_ITEMS)
+    problems: list[str] = Field(default_factory=list, max_length=MAX_PROBLEMS)
     lay_down: list[str] = Field(
         default_factory=list,
         max_length=MAX_ITEMS,
@@ -142,7 +151,7 @@ class VerificationEvidence(AgentOutput):
     """Objects with their parents, the constraints, and furniture standing inside furniture."""
 
     objects: list[ObjectFacts] = Field(max_length=MAX_ITEMS)
-    constraints: list[CrossUnitConstraint] = Field(default_factory=list, max_length=64)
+    constraints: list[CrossUnitConstraint] = Field(default_factory=list, max_length=MAX_ITEMS)
     anchors: list[str] = Field(
         default_factory=list,
         max_length=MAX_ITEMS,
@@ -150,7 +159,7 @@ class VerificationEvidence(AgentOutput):
         json_schema_extra={"prompt": False},
     )
     nested: list[NestedFacts] = Field(default_factory=list, max_length=MAX_ITEMS)
-    floor: list[Vec2] = Field(default_factory=list, max_length=256, description="Room floor polygon, if any.")
+    floor: list[Vec2] = Field(default_factory=list, max_length=MAX_FLOOR_POINTS, description="Room floor polygon, if any.")
     items: list[ItemPlacement] = Field(default_factory=list, max_length=MAX_ITEMS)
     standing_thin: list[str] = Field(
         default_factory=list,
@@ -497,6 +506,9 @@ def solve_verification(evidence: VerificationEvidence) -> VerificationOutput:
                     f"constraint {c.id} dropped: {', '.join(bad)} not in the unit of {clause.anchor_id}"
                 )
                 break
+    if len(problems) > MAX_PROBLEMS:
+        more = len(problems) - MAX_PROBLEMS + 1
+        problems = [*problems[: MAX_PROBLEMS - 1], f"... and {more} more problems of the kinds above"]
     return VerificationOutput(fixes=fixes, moves=moves, drop_constraints=drop, problems=problems, lay_down=lay)
 
 
@@ -519,7 +531,9 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
     runs_last: ClassVar[bool] = True
     prompt: ClassVar[str] = "verify"
     reply_tokens: ClassVar[tuple[int, int] | None] = (400, 20)
-    prompt_omit: ClassVar[frozenset[str]] = frozenset({"top", "relation", "label"})
+    # a constraint's description says again what its clauses' notes say; headings decide nothing here
+    prompt_omit: ClassVar[frozenset[str]] = frozenset({"top", "relation", "label", "description", "yaw_deg"})
+    nested_rows: ClassVar[bool] = True
     object_id_fields: ClassVar[tuple[str, ...]] = ("fixes.object_id", "moves.object_id", "lay_down")
 
     def __init__(self, priors: SupportPriors | None = None) -> None:
@@ -532,9 +546,9 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
             objects=objs,
             constraints=list(scene.constraints),
             anchors=sorted(scene.anchor_ids()),
-            nested=[
+            nested=[  # past MAX_ITEMS pairs (a pile of furniture), physics parts the rest
                 NestedFacts(a=p.a, b=p.b, shared=round(p.shared, 3), depth=round(p.depth_m, 3), axis=p.axis)
-                for p in nested_pairs(scene)
+                for p in nested_pairs(scene)[:MAX_ITEMS]
             ],
             floor=[(round(x, 3), round(y, 3)) for x, y in scene.room.floor] if scene.room is not None else [],
             items=placement_options(objs, {o.id: o.parent for o in objs}, self.priors, _compartments(scene)),
@@ -549,6 +563,12 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
 
     def solve(self, evidence: VerificationEvidence) -> VerificationOutput:
         return solve_verification(evidence)
+
+    def render_evidence_text(self, evidence: VerificationEvidence) -> str:
+        """The evidence with each item's :data:`PROMPT_OPTIONS` nearest receptacles (the rule
+        solver reads them all), so a 60-object room's prompt stays within a small model's context."""
+        items = [i.model_copy(update={"options": i.options[:PROMPT_OPTIONS]}) for i in evidence.items]
+        return super().render_evidence_text(evidence.model_copy(update={"items": items}))
 
     def answer_without_model(self, evidence: VerificationEvidence) -> VerificationOutput | None:
         """The rule pass's empty answer when it finds nothing to fix or report: a clean scene needs no call."""

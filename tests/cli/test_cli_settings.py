@@ -57,6 +57,7 @@ def test_every_flag_reaches_its_setting(tmp_path: Path, monkeypatch: pytest.Monk
     values: dict[str, tuple[list[str], Any]] = {
         "format": (["image"], "image"),
         "room": (["room|3"], "room|3"),
+        "allow_orphans": ([], True),
         "asset_dir": ([str(tmp_path / "assets")], tmp_path / "assets"),
         "priors_dir": ([str(tmp_path / "priors")], tmp_path / "priors"),
         "detections": ([str(tmp_path / "boxes.json")], tmp_path / "boxes.json"),

@@ -17,10 +17,14 @@ from shapely.geometry import Polygon
 
 from scenemosaic import GenerateConfig, agenerate
 from scenemosaic.evolve import UnitContext, rule_archetypes, unit_context, unit_obstacles
+from scenemosaic.evolve._analysis import layout_faces
 from scenemosaic.evolve._plans import (
     PLAN_MIN_AREA_M2,
     PLAN_MIN_MOVE_M,
-    _groups,
+    RIDER_REACH_M,
+    _Planner,
+    _seated,
+    doors_kept,
     fixed_children,
     room_plans,
     walk_check,
@@ -29,7 +33,7 @@ from scenemosaic.physics import is_thin
 from scenemosaic.scene import WALK_MIN_SHARE, Scene, UnitLayout, is_fixture
 
 HOUSES = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor"
-ROOMS = [("procthor10k_train4_4room.json", "room|4"), ("procthor10k_train1_10room.json", "room|3"), ("procthor_6room.json", "room|6")]
+ROOMS = [("procthor10k_train4_4room.json", "room|4"), ("procthor10k_train4_4room.json", "room|7"), ("procthor10k_train1_10room.json", "room|3"), ("procthor_6room.json", "room|6")]
 
 
 async def _floor(house: str, room: str, out: Path) -> tuple[Scene, UnitLayout, UnitContext]:
@@ -47,7 +51,8 @@ async def test_plans_are_valid_for_the_house_by_construction(house: str, room: s
     plans = room_plans(layout, ctx, 5)
     assert len(plans) >= 3, f"{room}: only {len(plans)} plans"
     fixed = fixed_children(layout, ctx)
-    groups = _groups(layout, ctx, fixed)
+    groups = _Planner(layout, ctx).groups
+    seated = _seated(layout, ctx)  # where the loop seats the seats: the groups move from there
     base_share, _ = walk_check(layout, ctx, {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids})
     leads = []
     for place in plans:
@@ -58,17 +63,23 @@ async def test_plans_are_valid_for_the_house_by_construction(house: str, room: s
         for k in fixed:  # fixtures and pinned pieces never move
             assert math.dist(trial.center(k), layout.center(k)) < 1e-9
         for g in groups:  # every group moved as one rigid body: its inner distances kept
-            for a, b in itertools.combinations(g.members, 2):
-                before = math.dist(layout.center(a), layout.center(b))
+            pushed = {k for k in g.members if k != g.lead and k in ctx.against_wall and k not in ctx.nightstand_bed and k not in ctx.seat_table}
+            for a, b in itertools.combinations(sorted(set(g.members) - pushed), 2):  # a sofa pushed back to its wall aside
+                before = math.dist(seated.center(a), seated.center(b))
                 assert math.dist(trial.center(a), trial.center(b)) == pytest.approx(before, abs=1e-6)
         region = Polygon(ctx.surface.region).buffer(1e-6)
+        loose = Polygon(ctx.surface.region).buffer(RIDER_REACH_M + 1e-6, join_style="mitre")
         for k in trial.ids:
-            shape = Polygon(trial.polygon(k))
-            assert region.covers(shape), f"{k} leaves the floor"
+            shape = _carried(layout, trial, ctx, k)  # with what stands on it (a TV on its stand)
+            assert region.covers(Polygon(trial.polygon(k))), f"{k} leaves the floor"
+            assert loose.covers(shape), f"what stands on {k} reaches past the floor"
             if k not in ctx.thin:
                 assert all(shape.intersection(z).area < 1e-6 for z in ctx.keep_clear), f"{k} stands in a door zone"
         share, doors = walk_check(layout, ctx, place)
         assert doors and share >= min(WALK_MIN_SHARE, base_share - 0.005)
+        for a, b in sorted(ctx.keep_facing):  # a wall piece still faces what it faced (the loop cannot carry it back)
+            if a in ctx.against_wall and layout_faces(layout, a, b):
+                assert layout_faces(trial, a, b), f"{a} no longer faces {b}"
         furniture = [g for g in groups if g.area >= PLAN_MIN_AREA_M2 or g is groups[0]]
         moves = [
             math.dist(place[g.lead][:2], layout.center(g.lead)) >= PLAN_MIN_MOVE_M
@@ -79,6 +90,56 @@ async def test_plans_are_valid_for_the_house_by_construction(house: str, room: s
         leads.append(np.array([place[g.lead][:2] for g in groups]))
     for a, b in itertools.combinations(leads, 2):  # no two plans put every group in the same place
         assert float(np.abs(a - b).max()) > 0.3
+
+
+def _carried(layout: UnitLayout, trial: UnitLayout, ctx: UnitContext, k: str) -> Polygon:
+    """``k``'s outline in ``trial`` with the outlines of what rests on it moved along rigidly."""
+    from shapely.geometry import MultiPoint
+
+    a = math.radians(-(trial.rotation(k) - layout.rotation(k)))
+    rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    c0, c1 = np.asarray(layout.center(k)), np.asarray(trial.center(k))
+    pts = [np.asarray(trial.polygon(k))] + [c1 + (np.asarray(p)[:, :2] - c0) @ rot.T for p in ctx.riders.get(k, [])]
+    return MultiPoint(np.vstack(pts)).convex_hull
+
+
+async def test_a_group_too_long_for_the_room_is_split_and_keeps_facing(tmp_path: Path) -> None:
+    """A narrow living room whose TV stand faces the armchair of a dining table across the room
+    (a double door along one side): the three pieces have no other place as one body, so the
+    table with its armchair moves on its own and the TV still faces the armchair in every plan."""
+    _, layout, ctx = await _floor("procthor10k_house3703_2room.json", "room|3", tmp_path)
+    pairs = sorted(ctx.keep_facing)
+    assert pairs, "the TV stand faces the armchair"
+    planner = _Planner(layout, ctx)
+    assert planner.facing == [p for p in pairs if any(p[0] in g.members for g in planner.groups)]
+    assert all(not set(p) <= set(g.members) for p in planner.facing for g in planner.groups)  # split
+    plans = room_plans(layout, ctx, 5)
+    assert len(plans) >= 2
+    for place in plans:
+        trial = layout.copy()
+        for k, (u, v, r) in place.items():
+            trial.set_rotation(k, r)
+            trial.set_center(k, u, v)
+        assert all(layout_faces(trial, a, b) for a, b in planner.facing)
+        assert doors_kept(layout, ctx, place)
+
+
+async def test_a_wall_unit_keeps_its_doors_and_windows(tmp_path: Path) -> None:
+    """A wall unit's context holds its doors and windows; a placement that moves a picture onto
+    the door's stretch of wall is refused (``doors_kept``), one that leaves it where it was is not."""
+    scene = (await agenerate(HOUSES / "procthor10k_house3703_2room.json", tmp_path, GenerateConfig(evolve=False, room="room|3"))).scene
+    assert isinstance(scene, Scene) and scene.room is not None and scene.structure is not None
+    wall = next(w for w in scene.room.walls if any(o.kind == "door" for o in w.openings))
+    unit = next(u for u in scene.structure.units if u.anchor_id == wall.id)
+    ctx = unit_context(scene, unit, unit_obstacles(scene, unit, scene.structure.units), set())
+    layout = UnitLayout.from_scene(scene, unit, ctx.surface)
+    assert ctx.keep_clear and not ctx.in_house
+    base = {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids}
+    assert doors_kept(layout, ctx, base)
+    door = ctx.keep_clear[0]
+    k = layout.ids[0]
+    u, v = door.centroid.x, layout.center(k)[1]
+    assert not doors_kept(layout, ctx, {**base, k: (u, v, layout.rotation(k))})
 
 
 async def test_plans_come_first_and_fixtures_stay_in_every_archetype(tmp_path: Path) -> None:

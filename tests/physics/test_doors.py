@@ -73,3 +73,33 @@ def test_a_picture_hung_in_a_doors_way_slides_along_its_wall() -> None:
     assert (x, z) == pytest.approx((3.985, 1.2)) and y - 0.3 >= 1.5 + 0.45  # on its wall, past the door's span
     assert y + 0.3 <= 3.0 and not door_blockers(repaired)
     assert repaired.get("cabinet").pose == scene.get("cabinet").pose
+
+
+def test_a_picture_too_wide_to_slide_clear_of_a_door_is_rehung_on_another_wall() -> None:
+    """A 2.4 m picture hung low across the door of a 3 m wall fits on neither side of the door:
+    it is re-hung on another wall of the room, as high and as far from it, facing into the room,
+    its support relation naming that wall, and no door is blocked."""
+    import numpy as np
+
+    from scenemosaic.scene import Relation
+
+    picture = SceneObject(
+        id="picture", category="painting", asset=AssetRef(kind="box", extents=(0.03, 2.4, 0.5)),
+        pose=Pose.from_yaw((3.985, 1.5, 1.2), 0.0),
+    )  # fmt: skip
+    scene = room_with_door(picture)
+    scene = scene.model_copy(update={"relations": [Relation(kind="attach", child="picture", parent="wall_1")]})
+    assert [b.object_id for b in door_blockers(scene)] == ["picture"]
+    repaired, repair = clear_doors(scene, shapes(scene))
+    assert set(repair.moved) == {"picture"} and not repair.stuck and not door_blockers(repaired)
+    assert repaired.room is not None
+    rel = repaired.support_of("picture")
+    assert rel is not None and rel.parent != "wall_1"
+    wall = repaired.room.wall(rel.parent)
+    hung = repaired.get("picture")
+    assert hung.pose.position[2] == pytest.approx(1.2)
+    assert abs(wall.gap(hung.corners())) < 0.01  # flush against the new wall, on the room's side
+    along = (hung.corners()[:, :2] - np.asarray(wall.start)) @ np.asarray(wall.direction)
+    assert along.max() - along.min() == pytest.approx(2.4, abs=1e-6)  # lies along it, turned with it
+    assert along.min() >= -1e-6 and along.max() <= wall.length + 1e-6
+    assert not check_collisions(repaired).pairs

@@ -146,3 +146,14 @@ def test_control_characters_from_an_input_are_shown_escaped_never_raw() -> None:
     shown = escape("object 'a\x00b' in [/x] \x1b[31mred")
     assert "\x00" not in shown and "\x1b" not in shown
     assert shown == "object 'a\\x00b' in \\[/x] \\x1b[31mred"
+
+
+def test_a_401_digit_integer_in_a_procthor_house_is_a_format_error(tmp_path: Path) -> None:
+    """An integer past any float (one the JSON parser reads whole) names its field, exit 2."""
+    house = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor" / "procthor_1room_bedroom.json"
+    source = tmp_path / "house.json"
+    text = house.read_text(encoding="utf-8")
+    assert '"x": 0.0' in text
+    source.write_text(text.replace('"x": 0.0', '"x": ' + "9" * 401, 1), encoding="utf-8")
+    _refused(tmp_path, source, "must be finite", "integer of about 401 digits", "the report is in")
+    assert not (tmp_path / "out" / "base").exists()  # nothing to keep: the line says the report only
