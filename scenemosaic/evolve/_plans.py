@@ -89,6 +89,8 @@ PLAN_BRANCH = 4
 """Places of one group the plan search tries before it gives up on the group before it."""
 PLAN_EXPANSIONS = 400
 """Places the plan search tries in all for one plan."""
+PLAN_REPEATS = 4
+"""Plans that repeat an earlier one (:func:`_same_plan`) after which a room's search stops."""
 RIDER_REACH_M = 0.03
 """How far past the floor's edge what rests on a piece may reach, metres (:class:`_Planner`)."""
 _JITTER_M = 0.6
@@ -718,7 +720,7 @@ def room_plans(layout: UnitLayout, ctx: UnitContext, limit: int = MAX_PLANS) -> 
             planner.need = need
             history = {g.lead: [np.asarray(layout.center(g.lead))] for g in planner.groups}
             rng = np.random.default_rng(PLAN_SEED)
-            fails = 0
+            fails = repeats = 0
             while len(plans) < limit and fails < PLAN_TRIES:
                 found = _plan(planner, rng, history)
                 if found is None:
@@ -733,6 +735,9 @@ def room_plans(layout: UnitLayout, ctx: UnitContext, limit: int = MAX_PLANS) -> 
                     continue
                 if any(_same_plan(planner, place, other) for other in plans):
                     fails += 1  # the furniture where an earlier plan put it: steer elsewhere
+                    repeats += 1
+                    if repeats >= PLAN_REPEATS:
+                        break  # the room holds no other arrangement the search can find
                 else:
                     plans.append(place)
                 for lead, opt in chosen.items():

@@ -40,6 +40,7 @@ def test_a_house_missing_a_room_is_refused_naming_its_orphans(no_bathroom: Path,
 
 
 @pytest.mark.slow
+@pytest.mark.house  # a whole house run: make test-houses
 def test_allow_orphans_runs_on_degraded_with_that_reason_first(no_bathroom: Path, tmp_path: Path) -> None:
     out = tmp_path / "out"
     done = runner.invoke(app, ["generate", str(no_bathroom), "--model", "rules", "--no-evolve", "--allow-orphans", "--out", str(out)])

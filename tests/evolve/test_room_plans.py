@@ -44,6 +44,7 @@ async def _floor(house: str, room: str, out: Path) -> tuple[Scene, UnitLayout, U
     return scene, UnitLayout.from_scene(scene, unit, ctx.surface), ctx
 
 
+@pytest.mark.house  # four house rooms built to their floor unit (~20 s each): make test-houses
 @pytest.mark.parametrize(("house", "room"), ROOMS)
 async def test_plans_are_valid_for_the_house_by_construction(house: str, room: str, tmp_path: Path) -> None:
     _, layout, ctx = await _floor(house, room, tmp_path)
@@ -142,6 +143,7 @@ async def test_a_wall_unit_keeps_its_doors_and_windows(tmp_path: Path) -> None:
     assert not doors_kept(layout, ctx, {**base, k: (u, v, layout.rotation(k))})
 
 
+@pytest.mark.house  # a kitchen built to its floor unit: make test-houses
 async def test_plans_come_first_and_fixtures_stay_in_every_archetype(tmp_path: Path) -> None:
     _, layout, ctx = await _floor("procthor10k_train4_4room.json", "room|6", tmp_path)  # the kitchen
     fixed = {k for k in layout.ids if is_fixture(layout.object(k).category)}

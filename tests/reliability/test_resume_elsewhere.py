@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from cli_helpers import DINING, cli_env
 
 
@@ -18,6 +19,7 @@ def _cli(args: list[str], cwd: Path, tmp_path: Path) -> subprocess.CompletedProc
     )  # fmt: skip
 
 
+@pytest.mark.house  # a run stopped and resumed twice (~30 s): make test-houses
 def test_resume_from_another_directory_and_damaged_checkpoints(tmp_path: Path) -> None:
     here, elsewhere = tmp_path / "here", tmp_path / "elsewhere"
     here.mkdir()
