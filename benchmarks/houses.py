@@ -20,8 +20,11 @@ same per group (``groups``), the houses that are not ``ok`` (``not_ok``) and ``s
 Target (issue 37): every house ``ok``, every room ok, house NAV >= 0.99, no door blocked, every
 room reachable, no wall crossing.
 
-Run: ``.venv/bin/python benchmarks/houses.py [--only NAME] [--group FOLDER] [--keep DIR]``
-(about 25 minutes for the shipped houses on two cores).
+Run: ``.venv/bin/python benchmarks/houses.py [--only NAME] [--group FOLDER] [--keep DIR] [--reuse DIR]``
+(about 25 minutes for the shipped houses on two cores). ``--reuse DIR`` reads the reports of runs
+already made the same way (5 variants, rules model, seed 0; ``benchmarks/house_diversity.py``
+leaves one folder per house stem in its temporary folder) instead of running those houses again;
+``reused`` in a house's line says which.
 """
 
 from __future__ import annotations
@@ -47,14 +50,21 @@ def _count(value: Any) -> int:
     return int(value or 0)
 
 
-def _house(path: Path, out: Path, group: str) -> dict[str, Any]:
+def _house(path: Path, out: Path, group: str, reuse: Path | None) -> dict[str, Any]:
     t0 = time.perf_counter()
     row: dict[str, Any] = {"house": path.stem, "group": group}
-    try:
-        result = generate(path, out, GenerateConfig(variants=VARIANTS))
-    except Exception as exc:  # a benchmark records the failure and goes on to the next house
-        return {**row, "status": "failed", "error": f"{type(exc).__name__}: {exc}"[:200], "seconds": round(time.perf_counter() - t0, 1)}
-    report = result.report
+    done = reuse / path.stem / "report.json" if reuse is not None else None
+    if done is not None and done.is_file():  # the same run made by another benchmark: read, not redone
+        report = json.loads(done.read_text())
+        if (report.get("config") or {}).get("variants") != VARIANTS:
+            raise SystemExit(f"{done}: not a run with {VARIANTS} variants")
+        status, variants, seconds = report["status"], int(report.get("variants_written") or 0), report.get("total_seconds")
+    else:
+        try:
+            result = generate(path, out, GenerateConfig(variants=VARIANTS))
+        except Exception as exc:  # a benchmark records the failure and goes on to the next house
+            return {**row, "status": "failed", "error": f"{type(exc).__name__}: {exc}"[:200], "seconds": round(time.perf_counter() - t0, 1)}
+        report, status, variants, seconds = result.report, result.status, len(result.variants), None
     metrics = report.get("metrics", {})
     house = metrics.get("house", {})
     house_rows = [house.get("base", {}), *house.get("variants", [])]
@@ -69,16 +79,17 @@ def _house(path: Path, out: Path, group: str) -> dict[str, Any]:
             ok += 1
     return {
         **row,
-        "status": result.status,
+        "status": status,
         "rooms": len(rooms),
         "rooms_ok": ok,
-        "variants": len(result.variants),
+        "variants": variants,
         "house_nav_min": min((float(r.get("house_nav", 1.0)) for r in house_rows), default=1.0),
         "door_blockers": sum(_count(r.get("door_blockers")) for r in house_rows),
         "unreachable": sum(_count(r.get("unreachable_rooms")) for r in house_rows),
         "wall_crossings": sum(_count(r.get("wall_crossings")) for r in house_rows),
         "warnings": [str(w)[:120] for w in report.get("warnings", [])[:2]],
-        "seconds": round(time.perf_counter() - t0, 1),
+        "seconds": round(float(seconds), 1) if seconds is not None else round(time.perf_counter() - t0, 1),
+        "reused": done is not None and done.is_file(),
     }
 
 
@@ -101,6 +112,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", default=None, help="run only houses whose name contains this")
     parser.add_argument("--group", action="append", default=[], help="run only this folder of data/houses (repeatable)")
     parser.add_argument("--keep", type=Path, default=None, help="keep every run's folder here")
+    parser.add_argument(
+        "--reuse", type=Path, default=None,
+        help="a folder of runs already made the same way (benchmarks/house_diversity.py's, one per house stem): read their reports",
+    )  # fmt: skip
     args = parser.parse_args(argv)
     t0 = time.perf_counter()
     work = args.keep or Path(tempfile.mkdtemp(prefix="houses_"))
@@ -111,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
         for path in sorted(folder.glob("*.json")):
             if path.name == "SOURCES.json" or (args.only and args.only not in path.stem):
                 continue
-            row = _house(path, work / folder.name / path.stem, folder.name)
+            row = _house(path, work / folder.name / path.stem, folder.name, args.reuse)
             print(json.dumps(row), flush=True)
             rows.append(row)
     groups = {g: _pool([r for r in rows if r["group"] == g]) for g in sorted({r["group"] for r in rows})}
