@@ -15,6 +15,7 @@ from scenemosaic.scene import (
     SceneObject,
     UnitLayout,
     UnitSurface,
+    convex_hull_2d,
     descendants,
     door_zones,
     functional_relations,
@@ -118,6 +119,10 @@ class UnitContext:
     the clearance zone in front of each door (``scene.door_zones``: no seat slot, no plan, no
     archetype takes it); on a wall unit the stretch of each door and window in the wall, from the
     floor to the opening's top (a picture hung there blocks the door or covers the window)."""
+    faces_outside: list[tuple[str, Any, tuple[float, float]]] = field(default_factory=list)
+    """Floor units: children that face a piece of another unit which stays put for them (a sofa
+    facing the TV hung on the wall across the room): (child, the piece's outline as a (u, v)
+    shapely polygon, its centre); a room plan keeps each facing it."""
     riders: dict[str, list[Any]] = field(default_factory=dict)
     """Floor units: the outlines, (u, v) points, of what rests on each child (a TV on its stand),
     in the stabilized scene; they move with the child, so a place for the child must hold them too."""
@@ -247,6 +252,10 @@ def unit_context(scene: Scene, unit: LocalUnit, obstacles: list[SceneObject], th
         for rel in functional_relations(scene):
             if rel.kind == "faces" and rel.subject in by_id and rel.leader in by_id and rel.subject not in ctx.seat_table:
                 ctx.keep_facing.add((rel.subject, rel.leader))
+            if rel.kind == "faces" and rel.subject in by_id and rel.leader not in by_id and not rel.follows:
+                target = scene.get(rel.leader)
+                outline = Polygon(convex_hull_2d(surface.project(target.corners())))
+                ctx.faces_outside.append((rel.subject, outline, surface.to_uv(np.asarray(target.pose.position))))
             if rel.follows and rel.leader in by_id and rel.subject not in by_id:
                 lead = layout.center(rel.leader)
                 ctx.followers.append((scene.get(rel.subject), rel.leader, (lead[0], lead[1], layout.rotation(rel.leader))))

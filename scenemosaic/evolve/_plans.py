@@ -53,6 +53,7 @@ from scenemosaic.scene import (
     is_fixture,
     is_screen,
     normalize_degrees,
+    points_at,
 )
 
 __all__ = [
@@ -430,7 +431,8 @@ class _Planner:
         group is placed (a sofa pushed back to a nearer wall sees its TV stand at a wider angle:
         the loop does not carry wall pieces across the room to put that right)."""
         pairs = [(a, b) for a, b in sorted(self.ctx.keep_facing) if a in self.ctx.against_wall and a in g.members and b in g.members]
-        if not pairs:
+        outside = [(a, outline, c) for a, outline, c in self.ctx.faces_outside if a in g.members]
+        if not pairs and not outside:
             return True
         from scenemosaic.evolve._analysis import layout_faces
 
@@ -439,6 +441,8 @@ class _Planner:
             u, v, r = place[k]
             trial.set_rotation(k, r)
             trial.set_center(k, u, v)
+        if not all(points_at(np.asarray(trial.center(a)), _facing(trial.rotation(a)), outline, np.asarray(c)) for a, outline, c in outside):
+            return False  # a sofa turned away from the TV on the wall across the room
         return all(layout_faces(trial, a, b) for a, b in pairs)
 
     def _followers_fit(self, g: _Group, place: Placement, turn: float, wall: WallLine | None) -> bool:

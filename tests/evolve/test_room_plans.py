@@ -206,3 +206,26 @@ async def test_a_wall_piece_is_rehung_on_the_wall_its_group_moves_to(tmp_path: P
     assert functional_holds(followed, over)
     assert not relation_holds(followed, old_wall) and relkeep(scene, followed) == pytest.approx(1.0)
     assert followed.structure is not None and any(painting.id in u.children for u in followed.structure.units if u.anchor_id == target.id)
+
+
+@pytest.mark.house  # a living room built to its floor unit: make test-houses
+async def test_a_sofa_facing_a_wall_tv_keeps_facing_it_in_every_plan(tmp_path: Path) -> None:
+    """A held-out living room whose sofa faces the TV hung on the wall across the room (another
+    unit's piece): the plans move the sofa only where it still faces the TV (compose would refuse
+    any other), and there are several such plans."""
+    from scenemosaic.scene import points_at
+
+    house = HOUSES.parent / "schema_forms" / "cc_kitchen_living_schema_0_0_1.json"
+    scene = (await agenerate(house, tmp_path, GenerateConfig(evolve=False, room="room_3"))).scene
+    assert isinstance(scene, Scene) and scene.structure is not None
+    unit = next(u for u in scene.structure.units if u.anchor_id == "floor")
+    ctx = unit_context(scene, unit, unit_obstacles(scene, unit, scene.structure.units), {o.id for o in scene.objects if is_thin(o)})
+    layout = UnitLayout.from_scene(scene, unit, ctx.surface)
+    assert ctx.faces_outside, "the sofa faces the wall TV"
+    plans = room_plans(layout, ctx, 5)
+    assert len(plans) >= 3
+    for place in plans:
+        for piece, outline, centre in ctx.faces_outside:
+            u, v, r = place[piece]
+            front = np.array([-math.sin(math.radians(r)), -math.cos(math.radians(r))])
+            assert points_at(np.array([u, v]), front, outline, np.asarray(centre)), f"{piece} turned away"
