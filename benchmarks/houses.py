@@ -1,7 +1,8 @@
 """Houses benchmark: does every shipped house come out valid, whatever its source?
 
 Every house file under ``data/houses/<folder>/`` (each folder a group: ``procthor`` the houses the
-solvers were shaped on, the others held out and reported apart), one-room houses included, runs
+solvers were shaped on, the others held out and reported apart), one-room houses included (run as
+a room: one room, no house-level figures), runs
 ``generate --variants 5`` offline (rules model, seed 0), as a user would. Per house:
 
 * ``status`` — the run's (``ok``, ``degraded``, ``failed``; an exception counts as ``failed``);
@@ -69,10 +70,13 @@ def _house(path: Path, out: Path, group: str, reuse: Path | None) -> dict[str, A
     house = metrics.get("house", {})
     house_rows = [house.get("base", {}), *house.get("variants", [])]
     unreachable_rooms = {str(u) for r in house_rows for u in r.get("unreachable_rooms") or []}
-    rooms = report.get("rooms", {})
+    rooms = report.get("rooms") or {}
+    room_metrics = metrics.get("rooms", {})
+    if not rooms:  # a one-room house runs as a room: its report and metrics are a room's
+        rooms, room_metrics = {"room": {"error": report.get("error")}}, {"room": metrics}
     ok = 0
     for rid, rec in rooms.items():
-        rm = metrics.get("rooms", {}).get(rid, {})
+        rm = room_metrics.get(rid, {})
         rows = [rm.get("base", {}), *rm.get("variants", [])]
         clean = all(float(x.get("COL", 0.0)) == 0.0 and float(x.get("OOB", 0.0)) == 0.0 for x in rows)
         if rec.get("error") is None and clean and rid not in unreachable_rooms:
