@@ -121,8 +121,9 @@ class UnitContext:
     floor to the opening's top (a picture hung there blocks the door or covers the window)."""
     faces_outside: list[tuple[str, Any, tuple[float, float]]] = field(default_factory=list)
     """Floor units: children that face a piece of another unit which stays put for them (a sofa
-    facing the TV hung on the wall across the room): (child, the piece's outline as a (u, v)
-    shapely polygon, its centre); a room plan keeps each facing it."""
+    facing the TV hung on the wall across the room; not a TV standing on one of the unit's own
+    pieces, which moves with it): (child, the piece's outline as a (u, v) shapely polygon, its
+    centre); a room plan keeps each facing it."""
     riders: dict[str, list[Any]] = field(default_factory=dict)
     """Floor units: the outlines, (u, v) points, of what rests on each child (a TV on its stand),
     in the stabilized scene; they move with the child, so a place for the child must hold them too."""
@@ -249,10 +250,11 @@ def unit_context(scene: Scene, unit: LocalUnit, obstacles: list[SceneObject], th
                 continue
             pts = np.asarray(zone.polygon.exterior.coords)[:, :2]
             ctx.passages.append(Polygon([surface.to_uv(np.array([x, y, 0.0])) for x, y in pts]))
+        carried = {d for o in kids for d in descendants(scene, o.id)}  # what moves with a child (a TV on its stand)
         for rel in functional_relations(scene):
             if rel.kind == "faces" and rel.subject in by_id and rel.leader in by_id and rel.subject not in ctx.seat_table:
                 ctx.keep_facing.add((rel.subject, rel.leader))
-            if rel.kind == "faces" and rel.subject in by_id and rel.leader not in by_id and not rel.follows:
+            if rel.kind == "faces" and rel.subject in by_id and rel.leader not in by_id and rel.leader not in carried and not rel.follows:
                 target = scene.get(rel.leader)
                 outline = Polygon(convex_hull_2d(surface.project(target.corners())))
                 ctx.faces_outside.append((rel.subject, outline, surface.to_uv(np.asarray(target.pose.position))))
