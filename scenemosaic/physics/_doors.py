@@ -200,21 +200,33 @@ def _slide_along_walls(
             a0 = spans[host.id][0]
             if any(hi - a0 > o.center - o.width / 2 and lo - a0 < o.center + o.width / 2 and zhi > o.bottom and zlo < o.bottom + o.height for o in host.openings):
                 continue
-            candidate = rigid_moves(scene, {oid: pose})
-            trial = scene.model_copy(update={"objects": [o.model_copy(update={"pose": candidate[o.id]}) if o.id in candidate else o for o in scene.objects]})
-            moved_ids = set(candidate)
-            if any((p.a in moved_ids) != (p.b in moved_ids) for p in collision_report_for(trial, shapes).pairs):
+            trial = _hung(scene, shapes, oid, pose, own.id, host.id)  # on the wall in line with its own, maybe
+            if trial is None:
                 continue
-            if host.id != own.id:  # hung on the wall in line with its own now
-                trial = trial.model_copy(update={"relations": [r.model_copy(update={"parent": host.id}) if r.child == oid and r.parent == own.id else r for r in trial.relations]})
-                if trial.structure is not None:
-                    trial = trial.model_copy(update={"structure": build_structure(trial)})
             repair.moved[oid] = repair.moved.get(oid, 0.0) + abs(float(d))
             scene = trial
             break
         else:
             scene = _to_other_wall(scene, shapes, oid, own, keep_out, repair)
     return scene
+
+
+def _hung(
+    scene: Scene, shapes: Mapping[str, ObjectShape], oid: str, pose: Pose, own: str, host: str
+) -> Scene | None:
+    """``scene`` with wall piece ``oid`` (and what rests on it) at ``pose`` on wall ``host``
+    (its support relation re-parented from ``own`` when that differs, the structure rebuilt);
+    ``None`` when the move makes a new collision."""
+    candidate = rigid_moves(scene, {oid: pose})
+    trial = scene.model_copy(update={"objects": [o.model_copy(update={"pose": candidate[o.id]}) if o.id in candidate else o for o in scene.objects]})
+    moved_ids = set(candidate)
+    if any((p.a in moved_ids) != (p.b in moved_ids) for p in collision_report_for(trial, shapes).pairs):
+        return None
+    if host != own:
+        trial = trial.model_copy(update={"relations": [r.model_copy(update={"parent": host}) if r.child == oid and r.parent == own else r for r in trial.relations]})
+        if trial.structure is not None:
+            trial = trial.model_copy(update={"structure": build_structure(trial)})
+    return trial
 
 
 def _to_other_wall(
@@ -243,14 +255,9 @@ def _to_other_wall(
             moved = obj.model_copy(update={"pose": pose})
             if not fits_wall(moved, wall, None) or _foot(moved).intersects(keep_out) or not floor.covers(_foot(moved)):
                 continue
-            candidate = rigid_moves(scene, {oid: pose})
-            trial = scene.model_copy(update={"objects": [o.model_copy(update={"pose": candidate[o.id]}) if o.id in candidate else o for o in scene.objects]})
-            moved_ids = set(candidate)
-            if any((p.a in moved_ids) != (p.b in moved_ids) for p in collision_report_for(trial, shapes).pairs):
+            trial = _hung(scene, shapes, oid, pose, own.id, wall.id)
+            if trial is None:
                 continue
-            trial = trial.model_copy(update={"relations": [r.model_copy(update={"parent": wall.id}) if r.child == oid and r.parent == own.id else r for r in trial.relations]})
-            if trial.structure is not None:
-                trial = trial.model_copy(update={"structure": build_structure(trial)})
             repair.moved[oid] = repair.moved.get(oid, 0.0) + float(np.linalg.norm(xy - xy0))
             return trial
     return scene
