@@ -262,8 +262,17 @@ class _Planner:
         self.others = others
         self.static = self.solid_static = Polygon()
         self.options = {g.lead: self._options(g) for g in self.groups}
-        self.facing: list[tuple[str, str]] = []
-        """Facing pairs split across groups (:meth:`_split_stuck`): a plan keeps them facing."""
+        self.facing: list[tuple[str, str]] = [
+            (a, b)
+            for a, b in sorted(ctx.keep_facing)
+            if a in ctx.against_wall and a in layout.ids and b in layout.ids and (a in self.fixed) != (b in self.fixed)
+        ]
+        """Facing pairs a plan keeps facing: a wall piece that never moves and what it faces (a
+        pinned TV stand and the armchair across from it), and pairs split across groups
+        (:meth:`_split_stuck`)."""
+        if self.facing:  # a group facing a piece that never moves keeps only the places that face it
+            for g in self.groups:
+                self.options[g.lead] = [o for o in self.options[g.lead] if self.facing_kept(o.place, set(g.members))]
         self._split_stuck(layout)
 
     def _moves(self, g: _Group, opt: _Option) -> bool:
@@ -291,8 +300,10 @@ class _Planner:
         self.groups.sort(key=lambda x: (-x.area, x.lead))
 
     def facing_kept(self, place: Placement, done: set[str]) -> bool:
-        """Whether every split facing pair whose two pieces are both in ``done`` still faces."""
-        pairs = [(a, b) for a, b in self.facing if a in done and b in done]
+        """Whether every facing pair of :attr:`facing` whose two pieces are placed (in ``done``, or
+        never moving) still faces."""
+        placed = done | self.fixed
+        pairs = [(a, b) for a, b in self.facing if a in placed and b in placed]
         if not pairs:
             return True
         from scenemosaic.evolve._analysis import layout_faces

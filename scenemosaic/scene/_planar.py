@@ -18,25 +18,30 @@ __all__ = ["convex_hull_2d", "edge_axes", "minimal_containing_shift", "sat_overl
 
 
 def convex_hull_2d(points: FloatArray) -> FloatArray:
-    """Counter-clockwise convex hull (monotone chain) of 2D points, shape (k, 2)."""
-    pts = np.unique(np.round(points, 9), axis=0)
+    """Counter-clockwise convex hull (monotone chain) of 2D points, shape (k, 2), starting at the
+    lowest point in (x, y) order; points are compared rounded to 1e-9.
+
+    Plain Python floats on purpose: the hull of a box's few corners is asked for hundreds of
+    thousands of times while a room is planned, and numpy's per-call overhead (``unique`` over
+    rows) cost more than the hull itself; the arithmetic is the same IEEE doubles either way."""
+    pts = sorted(set(map(tuple, np.round(points, 9).tolist())))
     if len(pts) <= 2:
-        return pts
+        return np.array(pts, dtype=np.float64).reshape(-1, 2)
 
-    def cross(o: FloatArray, a: FloatArray, b: FloatArray) -> float:
-        return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+    def turn(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
-    lower: list[FloatArray] = []
+    lower: list[tuple[float, float]] = []
     for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+        while len(lower) >= 2 and turn(lower[-2], lower[-1], p) <= 0:
             lower.pop()
         lower.append(p)
-    upper: list[FloatArray] = []
-    for p in pts[::-1]:
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+    upper: list[tuple[float, float]] = []
+    for p in reversed(pts):
+        while len(upper) >= 2 and turn(upper[-2], upper[-1], p) <= 0:
             upper.pop()
         upper.append(p)
-    return np.array(lower[:-1] + upper[:-1])
+    return np.array(lower[:-1] + upper[:-1], dtype=np.float64)
 
 
 def edge_axes(poly: FloatArray) -> FloatArray:

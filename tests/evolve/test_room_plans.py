@@ -229,3 +229,29 @@ async def test_a_sofa_facing_a_wall_tv_keeps_facing_it_in_every_plan(tmp_path: P
             u, v, r = place[piece]
             front = np.array([-math.sin(math.radians(r)), -math.cos(math.radians(r))])
             assert points_at(np.array([u, v]), front, outline, np.asarray(centre)), f"{piece} turned away"
+
+
+@pytest.mark.house  # a living room built to its floor unit: make test-houses
+async def test_a_piece_facing_a_pinned_stand_keeps_facing_it_in_every_plan(tmp_path: Path) -> None:
+    """A held-out living room whose TV stand stays where it is (pinned by a clause across units)
+    and faces an armchair: the armchair moves only where the stand still faces it (a plan that
+    turned it away was refused later, leaving one plan of eight), and there are several plans."""
+    house = HOUSES.parent / "schema_forms" / "ai2thor_746_schema_0_0_1.json"
+    scene = (await agenerate(house, tmp_path, GenerateConfig(evolve=False, room="room_7"))).scene
+    assert isinstance(scene, Scene) and scene.structure is not None
+    unit = next(u for u in scene.structure.units if u.anchor_id == "floor")
+    ctx = unit_context(scene, unit, unit_obstacles(scene, unit, scene.structure.units), {o.id for o in scene.objects if is_thin(o)})
+    layout = UnitLayout.from_scene(scene, unit, ctx.surface)
+    fixed = fixed_children(layout, ctx)
+    pairs = [(a, b) for a, b in sorted(ctx.keep_facing) if a in ctx.against_wall and (a in fixed) != (b in fixed)]
+    assert pairs, "a pinned wall piece faces one that may move"
+    plans = room_plans(layout, ctx, 5)
+    assert len(plans) >= 3
+    kept = rule_archetypes(layout, ctx, 5)
+    assert sum(a.layout_id.startswith("plan_") for a in kept) >= 3  # the plans survive the loop's own checks
+    for place in plans:
+        trial = layout.copy()
+        for k, (u, v, r) in place.items():
+            trial.set_rotation(k, r)
+            trial.set_center(k, u, v)
+        assert all(layout_faces(trial, a, b) for a, b in pairs)

@@ -1,0 +1,37 @@
+"""The 2D convex hull every footprint goes through (``scene.convex_hull_2d``), checked as geometry."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from shapely.geometry import MultiPoint, Point, Polygon
+
+from scenemosaic.scene import convex_hull_2d
+
+coords = st.floats(min_value=-50, max_value=50, allow_nan=False, allow_infinity=False, width=64)
+
+
+@settings(max_examples=300, deadline=None)
+@given(arrays(np.float64, st.tuples(st.integers(1, 16), st.just(2)), elements=coords))
+def test_the_hull_is_the_smallest_convex_ccw_polygon_of_the_points(points: np.ndarray) -> None:
+    hull = convex_hull_2d(points)
+    rounded = {tuple(p) for p in np.round(points, 9).tolist()}
+    assert hull.shape[1] == 2 and len(hull) <= len(rounded)
+    assert {tuple(p) for p in hull.tolist()} <= rounded  # its corners are input points
+    assert tuple(hull[0]) == min(rounded)  # starts at the lowest point in (x, y) order
+    if len(hull) >= 3:
+        ring = Polygon(hull)
+        assert ring.exterior.is_ccw and ring.is_valid
+        assert abs(ring.area - MultiPoint(list(rounded)).convex_hull.area) < 1e-6 * max(1.0, ring.area)
+        grown = ring.buffer(1e-6)
+        assert all(grown.covers(Point(p)) for p in rounded)
+
+
+def test_a_box_seen_from_above_gives_its_four_corners_once() -> None:
+    corners = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]])
+    hull = convex_hull_2d(np.vstack([corners, corners[::-1], [[1.0, 0.5]]]))  # top and bottom face, and a point inside
+    assert hull.tolist() == [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]]
+    assert convex_hull_2d(np.array([[1.0, 1.0], [1.0, 1.0]])).shape == (1, 2)
+    assert convex_hull_2d(np.zeros((0, 2))).shape == (0, 2)
