@@ -394,7 +394,8 @@ def compose_house(
     variants (``room_variants[i]``, each already valid on its own: composed and checked in the
     room, doors clear), so a candidate is one arrangement per room and the pool, the product over
     the rooms, stays lazy. Rooms are walled apart, so no interpenetration check spans two rooms;
-    ``accept`` tests what only the whole house can say (every room reachable from every other).
+    ``accept`` tests what only the whole house can say (every room reachable from every other); it
+    is handed the room scenes themselves (the base's too) and must not change them.
     The novelty distance and the max-min greedy run over all of the house's objects. Returns each
     variant as its room scenes (in ``rooms`` order) and the report (``picked``: the room variant
     each house took, ``"base"`` or ``"variant_<k>"``).
@@ -424,7 +425,9 @@ def compose_house(
 
     def valid(choice: tuple[int, ...]) -> bool:
         report.checks += 1
-        if accept is None or accept(build(choice)):
+        # ``accept`` reads the rooms, it does not change them: no copies (the same room scenes
+        # each time also let it keep what it worked out per room arrangement)
+        if accept is None or accept([opts[k] for opts, k in zip(options, choice, strict=True)]):
             return True
         report.not_accepted += 1
         return False

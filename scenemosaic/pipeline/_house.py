@@ -67,7 +67,7 @@ from scenemosaic.pipeline._stages import (
 )
 from scenemosaic.pipeline._state import PipelineRun, RunSetup, Stage, StageRecord
 from scenemosaic.render import contact_sheet
-from scenemosaic.scene import House, RunFolder, Scene, house_walkable
+from scenemosaic.scene import House, HouseFloor, RunFolder, Scene
 
 if TYPE_CHECKING:
     from scenemosaic.models import RunModel
@@ -287,10 +287,11 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     if unplanned:  # said, not hidden: their variants differ in smaller pieces only
         rec.detail["rooms_without_plan"] = unplanned
         run.notes.append(f"room(s) whose free floor holds no other arrangement of their furniture groups: {', '.join(unplanned)}")
-    base_unreachable = set(house_walkable(house).unreachable_rooms())
+    floor = HouseFloor(house)  # the floors and doorways rasterized once, each room arrangement once
+    base_unreachable = set(floor.walkable(house.rooms).unreachable_rooms())
 
     def reachable(rooms: list[Scene]) -> bool:
-        return set(house_walkable(house.with_rooms(rooms)).unreachable_rooms()) <= base_unreachable
+        return set(floor.walkable(rooms).unreachable_rooms()) <= base_unreachable
 
     compose = functools.partial(compose_house, house.rooms, room_variants, m=m, seed=run.config.seed, accept=reachable)
     variants, report = await asyncio.to_thread(compose)

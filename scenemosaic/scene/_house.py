@@ -44,6 +44,7 @@ __all__ = [
     "DoorZone",
     "Doorway",
     "House",
+    "HouseFloor",
     "HouseWalkable",
     "cut_off_doors",
     "door_blockers",
@@ -418,24 +419,52 @@ def house_walkable(house: House, *, radius: float = ROBOT_RADIUS, cell: float = 
       so the cells along the edges, whose centres lie on neither floor, still join the rooms;
     * where two rooms' floor cells meet outside every passage (floors that touch with no wall
       between them), both cells are wall: rooms join only through their doorways.
+
+    To judge many arrangements of one house's rooms, build a :class:`HouseFloor` once.
     """
-    rooms = [s for s in house.rooms if s.room is not None]
-    floors = [Polygon(s.room.floor) for s in rooms if s.room is not None]
-    passages = [d.passage(reach=cell) for d in house.doorways() if not d.leads_outside]
-    minx, miny, maxx, maxy = unary_union([*floors, *passages]).bounds
-    minx, miny = np.floor(minx / cell) * cell, np.floor(miny / cell) * cell
-    raster = FloorRaster(np.array([[minx, miny], [maxx, miny], [maxx, maxy], [minx, maxy]]), cell=cell)
-    owner = np.zeros(raster.shape, dtype=np.int64)  # 1 + the index of the room whose floor holds the cell
-    room_cells: dict[str, np.ndarray] = {}
-    for k, (s, poly) in enumerate(zip(rooms, floors, strict=True)):
-        cells = raster.mask(poly)
-        room_cells[s.id] = cells
-        owner[cells] = k + 1
-    through = raster.blocked(passages)
-    raster.inside = ((owner > 0) | through) & ~_seams(owner, through)
-    footprints = [convex_hull_2d(o.corners()[:, :2]) for o in house.objects if _blocks_walking(o, WALK_MAX_HEIGHT)]
-    walk = raster.walkable(raster.blocked(footprints), radius)
-    return HouseWalkable(walk, raster, room_cells)
+    return HouseFloor(house, radius=radius, cell=cell).walkable(house.rooms)
+
+
+class HouseFloor:
+    """A house's walkable raster without its furniture (floors, passages, the seams between
+    rooms), built once, and :meth:`walkable` for any arrangement of its rooms' objects: the same
+    answer as :func:`house_walkable` of the house with those rooms. Each room scene's blocked cells
+    are kept while the scene is alive, so candidates that share a room's arrangement (a house's
+    composition tries many) rasterize it once."""
+
+    def __init__(self, house: House, *, radius: float = ROBOT_RADIUS, cell: float = HOUSE_CELL_M) -> None:
+        rooms = [s for s in house.rooms if s.room is not None]
+        floors = [Polygon(s.room.floor) for s in rooms if s.room is not None]
+        passages = [d.passage(reach=cell) for d in house.doorways() if not d.leads_outside]
+        minx, miny, maxx, maxy = unary_union([*floors, *passages]).bounds
+        minx, miny = np.floor(minx / cell) * cell, np.floor(miny / cell) * cell
+        self.raster = FloorRaster(np.array([[minx, miny], [maxx, miny], [maxx, maxy], [minx, maxy]]), cell=cell)
+        owner = np.zeros(self.raster.shape, dtype=np.int64)  # 1 + the index of the room whose floor holds the cell
+        self.room_cells: dict[str, np.ndarray] = {}
+        for k, (s, poly) in enumerate(zip(rooms, floors, strict=True)):
+            cells = self.raster.mask(poly)
+            self.room_cells[s.id] = cells
+            owner[cells] = k + 1
+        through = self.raster.blocked(passages)
+        self.raster.inside = ((owner > 0) | through) & ~_seams(owner, through)
+        self.radius = radius
+        self._blocked: dict[int, tuple[Scene, np.ndarray]] = {}
+
+    def _room_blocked(self, room: Scene) -> np.ndarray:
+        known = self._blocked.get(id(room))
+        if known is not None and known[0] is room:
+            return known[1]
+        footprints = [convex_hull_2d(o.corners()[:, :2]) for o in room.objects if _blocks_walking(o, WALK_MAX_HEIGHT)]
+        mask = self.raster.blocked(footprints)
+        self._blocked[id(room)] = (room, mask)  # the scene held with its mask: its id is not reused meanwhile
+        return mask
+
+    def walkable(self, rooms: Sequence[Scene]) -> HouseWalkable:
+        """The house's walkable raster with ``rooms`` (the house's room scenes, in any arrangement)."""
+        blocked = np.zeros(self.raster.shape, dtype=bool)
+        for room in rooms:
+            blocked |= self._room_blocked(room)
+        return HouseWalkable(self.raster.walkable(blocked, self.radius), self.raster, self.room_cells)
 
 
 def _seams(owner: np.ndarray, through: np.ndarray) -> np.ndarray:

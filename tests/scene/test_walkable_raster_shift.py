@@ -151,3 +151,20 @@ def test_a_shipped_house_gives_one_answer_at_every_offset(path: Path) -> None:
     per_room = pieces_per_room(shifted(walled, *cases[-1]))
     for a, b in [(a, b) for a in per_room for b in per_room if a < b]:
         assert per_room[a].isdisjoint(per_room[b]), (a, b)
+
+
+def test_one_house_floor_judges_many_arrangements_as_house_walkable_does() -> None:
+    """``HouseFloor`` (built once, each room arrangement rasterized once) answers as
+    ``house_walkable`` of the house with those rooms, for the base and for a room whose
+    wardrobe now stands across the door, in either order and asked again."""
+    from scenemosaic.scene import HouseFloor
+
+    house = two_rooms()
+    wardrobe = box("wardrobe", 3.65, 1.5, (0.6, 1.6, 2.0))
+    blocked_a = house.rooms[0].model_copy(update={"objects": [wardrobe]})
+    floor = HouseFloor(house)
+    for rooms in ([house.rooms[0], house.rooms[1]], [blocked_a, house.rooms[1]], [house.rooms[0], house.rooms[1]], [blocked_a, house.rooms[1]]):
+        ours = floor.walkable(rooms)
+        theirs = house_walkable(house.with_rooms(rooms))
+        assert np.array_equal(ours.walkable.labels, theirs.walkable.labels) and ours.unreachable_rooms() == theirs.unreachable_rooms()
+    assert floor.walkable([blocked_a, house.rooms[1]]).unreachable_rooms() and not floor.walkable(house.rooms).unreachable_rooms()
