@@ -240,10 +240,7 @@ class _Composer:
     def _clean(self, objs: list[Any], split: set[str] | None) -> bool:
         self.report.checks += 1
         world = Scene.model_construct(objects=objs)
-        pairs = collision_report_for(world, self.shapes).pairs
-        if split is None:
-            return not pairs
-        return not any((p.a in split) != (p.b in split) for p in pairs)
+        return not collision_report_for(world, self.shapes, across=split).pairs
 
     def _group_objects(self, g: int, k: int) -> list[Any]:
         s = self.group_scenes[g][k]

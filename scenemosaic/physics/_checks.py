@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from pathlib import Path
 
 import mujoco
@@ -65,10 +65,16 @@ def require_finite_poses(scene: Scene, action: str) -> None:
 
 
 def collision_report_for(
-    scene: Scene, shapes: Mapping[str, ObjectShape], *, tolerance_m: float = COLLISION_TOLERANCE_M
+    scene: Scene,
+    shapes: Mapping[str, ObjectShape],
+    *,
+    tolerance_m: float = COLLISION_TOLERANCE_M,
+    across: Collection[str] | None = None,
 ) -> CollisionReport:
     """Pairwise hull penetration of every non-thin object pair whose bounds overlap (only the
-    objects of such pairs go into the MuJoCo world that measures it)."""
+    objects of such pairs go into the MuJoCo world that measures it); with ``across``, only the
+    pairs with one object in it and the other not (two groups' pieces against each other: a
+    world is built only when two of them come near)."""
     objs = [o for o in scene.objects]
     thin = [o.id for o in objs if is_thin(o)]
     solid = [o for o in objs if o.id not in thin]
@@ -89,6 +95,8 @@ def collision_report_for(
     for i, a in enumerate(solid):
         alo, ahi = obj_box[a.id]
         for b in solid[i + 1 :]:
+            if across is not None and (a.id in across) == (b.id in across):
+                continue
             blo, bhi = obj_box[b.id]
             if not (np.any(alo > bhi + reach) or np.any(blo > ahi + reach)):
                 near.append((a, b))

@@ -239,3 +239,20 @@ async def test_nan_pose_is_a_physics_error_naming_the_object(field: str) -> None
         assert info.value.object_ids == ["bad"]
     with pytest.raises(PhysicsError):
         support_gaps(scene, {o.id: object_shape(o) for o in scene.objects})
+
+
+def test_across_counts_only_the_pairs_between_the_two_sides() -> None:
+    """``collision_report_for(..., across=)`` (compose's check of two groups against each other)
+    reports the same pairs as the full check, less those with both objects on one side."""
+    from scenemosaic.physics import collision_report_for, object_shape
+
+    a1 = _box("a1", (1.0, 1.0, 1.0), (1.0, 1.0, 0.0))
+    a2 = _box("a2", (1.0, 1.0, 1.0), (1.95, 1.0, 0.0))  # into a1: one side
+    b1 = _box("b1", (1.0, 1.0, 1.0), (2.9, 1.0, 0.0))  # into a2: across
+    b2 = _box("b2", (0.5, 0.5, 0.5), (1.0, 3.0, 0.0))  # apart from all
+    scene = _scene([a1, a2, b1, b2], {})
+    shapes = {o.id: object_shape(o) for o in scene.objects}
+    full = {(p.a, p.b) for p in collision_report_for(scene, shapes).pairs}
+    assert full == {("a1", "a2"), ("a2", "b1")}
+    assert [(p.a, p.b) for p in collision_report_for(scene, shapes, across={"a1", "a2"}).pairs] == [("a2", "b1")]
+    assert collision_report_for(scene, shapes, across={"b2"}).pairs == []
