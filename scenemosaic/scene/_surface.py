@@ -30,6 +30,7 @@ centre in the plane and keeps its height above the surface. The anchor never mov
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -308,10 +309,17 @@ def _box_center_local(obj: SceneObject) -> FloatArray:
 
 
 def _corners_at(obj: SceneObject, rotation: FloatArray, center: FloatArray) -> FloatArray:
-    sx, sy, sz = (float(v) for v in obj.size)
-    local = np.array([[x, y, z] for x in (-sx / 2, sx / 2) for y in (-sy / 2, sy / 2) for z in (-sz / 2, sz / 2)])
-    out: FloatArray = local @ rotation.T + center
+    out: FloatArray = _box_corners(tuple(float(v) for v in obj.size)) @ rotation.T + center
     return out
+
+
+@functools.lru_cache(maxsize=4096)
+def _box_corners(size: tuple[float, ...]) -> FloatArray:
+    """The eight corners of a box of ``size`` centred at the origin (read-only: shared)."""
+    sx, sy, sz = size
+    local = np.array([[x, y, z] for x in (-sx / 2, sx / 2) for y in (-sy / 2, sy / 2) for z in (-sz / 2, sz / 2)])
+    local.flags.writeable = False
+    return local
 
 
 @dataclass
