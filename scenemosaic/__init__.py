@@ -206,4 +206,25 @@ def _default_logging() -> None:
         configure_logging("warning")
 
 
-_default_logging()
+_SILENT_MODULES = frozenset({"scenemosaic.cli", "scenemosaic.exceptions", "scenemosaic._logging"})
+"""The package's modules that log nothing when imported and import nothing that does."""
+
+
+class _LoggingDefaults:
+    """Sets the package's logging defaults (:func:`_default_logging`) just before the first of its
+    modules that may log is imported (every module that logs imports structlog), instead of at
+    ``import scenemosaic``: structlog, which loads asyncio and rich's tracebacks with it, then
+    loads only with the modules that use it, and ``scenemosaic --help`` goes without it. A finder
+    on ``sys.meta_path`` that finds nothing itself; inert once it has fired."""
+
+    fired = False
+
+    def find_spec(self, fullname: str, path: Any = None, target: Any = None) -> None:
+        if not self.fired and fullname.startswith("scenemosaic.") and fullname not in _SILENT_MODULES:
+            self.fired = True  # first: the imports below pass through here too
+            _default_logging()
+        return None
+
+
+if not any(isinstance(finder, _LoggingDefaults) for finder in sys.meta_path):
+    sys.meta_path.insert(0, _LoggingDefaults())

@@ -4,11 +4,16 @@ render | edit | schema``.
 Errors are one line (the traceback of an unexpected one goes to ``report.json``); exit codes:
 0 done, 1 unexpected error (or degraded under ``--strict``), 2 bad input or settings, 130 SIGINT,
 143 SIGTERM.
+
+The CLI starts light: a command imports what it uses in its body, so ``--help`` loads no part of
+the library (no pipeline, no scene model) and ``inspect`` no MuJoCo, CoACD or trimesh;
+``generate``'s options for the run's settings are made when that command is used or its help
+shown (:class:`_SettingsCommand`). ``benchmarks/cli.py`` times them.
 """
 
 from __future__ import annotations
 
-import asyncio
+import functools
 import json
 import os
 import re
@@ -20,22 +25,22 @@ from collections.abc import Callable
 from enum import StrEnum
 from inspect import Parameter, Signature, signature
 from pathlib import Path
-from typing import Annotated, Any, NoReturn, TypeVar
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn, TypeVar
 
 import typer
 from rich.console import Console
 from rich.markup import escape as _escape_markup
-from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-from rich.table import Table
 from typer.core import TyperArgument, TyperCommand, TyperOption
 from typer.models import CommandFunctionType
 
-from scenemosaic import pipeline  # its stages load on first use: --help stays light
-from scenemosaic._logging import configure_logging, flush_logs
-from scenemosaic.batch import SUMMARY_FILE, BatchSummary, JobRecord, load_manifest, run_batch
 from scenemosaic.exceptions import SceneMosaicError
-from scenemosaic.pipeline import SETTINGS, GenerateConfig, GenerateResult, SettingsError
-from scenemosaic.scene import House, RunFolder, Scene, write_atomic
+
+if TYPE_CHECKING:  # the commands import these in their bodies: the CLI starts without them
+    import asyncio
+
+    from scenemosaic.batch import BatchSummary, JobRecord
+    from scenemosaic.pipeline import GenerateConfig, GenerateResult
+    from scenemosaic.scene import House, Scene
 
 __all__ = ["app", "main"]
 
@@ -87,7 +92,7 @@ def escape(text: str) -> str:
     return _escape_markup(_CONTROL_CHARS.sub(lambda m: f"\\x{ord(m.group()):02x}", text))
 
 
-_err = Console(stderr=True, emoji=False)  # "openai:m:" is a model name, not an emoji code
+_err = Console(stderr=True, emoji=False, soft_wrap=True)  # "openai:m:" is a model name, not an emoji code; a long path is not broken
 _out = Console(emoji=False)
 
 REPORTED_EVENTS = ("run_degraded", "stage_failed", "stage_interrupted")
@@ -97,6 +102,8 @@ _log_settings = {"level": "warning", "log_format": "text"}
 
 
 def _configure_logging(key: str, value: str) -> str:
+    from scenemosaic._logging import configure_logging  # structlog: loaded by a command, not by --help
+
     try:
         settings = {**_log_settings, key: value}
         configure_logging(settings["level"], log_format=settings["log_format"], suppress=REPORTED_EVENTS)
@@ -104,6 +111,13 @@ def _configure_logging(key: str, value: str) -> str:
         raise typer.BadParameter(str(exc)) from exc
     _log_settings[key] = value
     return value
+
+
+def _flush_logs() -> None:
+    """Write the warnings the log still holds folded (``scenemosaic._logging.flush_logs``)."""
+    from scenemosaic._logging import flush_logs
+
+    flush_logs()
 
 
 LogLevelOpt = Annotated[
@@ -231,6 +245,8 @@ def _hard_exit(code: int) -> NoReturn:
 
 
 def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfig) -> GenerateResult:
+    from scenemosaic.scene import RunFolder
+
     stop = _Stop(RunFolder(out).report)
     stop.hold()
     try:
@@ -240,6 +256,12 @@ def _run_with_progress(input_path: Path | None, out: Path, config: GenerateConfi
 
 
 def _run_held(input_path: Path | None, out: Path, config: GenerateConfig, stop: _Stop) -> GenerateResult:
+    import asyncio
+
+    from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    from scenemosaic import pipeline  # its stages load on first use, after the signals are held
+
     with Progress(
         SpinnerColumn(),
         TextColumn("[bold]{task.description}"),
@@ -258,7 +280,7 @@ def _run_held(input_path: Path | None, out: Path, config: GenerateConfig, stop: 
             if status == "started":
                 progress.update(bar, description=name)
             else:
-                flush_logs()  # the stage's folded warnings, before the next stage's
+                _flush_logs()  # the stage's folded warnings, before the next stage's
                 progress.advance(bar)
 
         async def main() -> GenerateResult:
@@ -280,13 +302,15 @@ def _run_held(input_path: Path | None, out: Path, config: GenerateConfig, stop: 
             if stop.signal is None:
                 raise
         finally:
-            flush_logs()
+            _flush_logs()
     _interrupted(out, stop.signal, stop.wrote_report())
 
 
 def _interrupted(out: Path, sig: int | None, reported: bool = True) -> NoReturn:
     """The one line of a run stopped by a signal, then the exit (130 or 143)."""
-    flush_logs()
+    from scenemosaic.scene import RunFolder
+
+    _flush_logs()
     if not reported:  # stopped before the run wrote anything (a signal as it started)
         _err.print("[yellow]interrupted[/yellow] before the run started: nothing written")
         _hard_exit(_exit_code(sig))
@@ -296,6 +320,8 @@ def _interrupted(out: Path, sig: int | None, reported: bool = True) -> NoReturn:
 
 
 def _failed_stage(out: Path) -> str | None:
+    from scenemosaic.scene import RunFolder
+
     try:
         value = json.loads(RunFolder(out).report.read_text(encoding="utf-8")).get("failed_stage")
     except (OSError, ValueError, AttributeError):
@@ -315,6 +341,8 @@ def _file_state(path: Path) -> tuple[int, int] | None:
 
 def _run_cli(input_path: Path | None, out: Path, config: GenerateConfig) -> None:
     """Run, then map the outcome to an exit code: errors are one line, never a traceback."""
+    from scenemosaic.scene import RunFolder
+
     earlier_report = _file_state(RunFolder(out).report)
     try:
         result = _run_with_progress(input_path, out, config)
@@ -368,11 +396,59 @@ _PANELS: dict[str, str] = {
 """generate's help panel of each group of settings (``Setting.group``)."""
 
 
-def _with_setting_options(command: CommandFunctionType) -> CommandFunctionType:
-    """``command`` with an option for every setting that has a flag, built from GenerateConfig's
-    fields (``setting_options``: flag, default, choices, help and bounds), so that none is restated
-    here; each reaches ``**settings`` under its field's name. ``--resume`` takes the stopped run's
-    output folder (the setting itself is on or off)."""
+class _SettingsCommand(_Command):
+    """A command that takes the run's settings (``generate``): its option for each setting
+    (:func:`_with_setting_options`) is made the first time its parameters are asked for, to parse
+    its arguments or to show its help, not when the CLI starts. The options come from the
+    pipeline's settings, which import pydantic and the scene model; ``scenemosaic --help`` and
+    the other commands need none of it (the top-level help lists this command by its help text).
+
+    The command is registered with the parameters its function declares (``**settings`` left
+    out); once loaded, its parameters and callback are those of the command typer builds from the
+    function with every setting's option added.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        self._with_settings = False
+        super().__init__(*args, **kwargs)
+
+    @property
+    def params(self) -> list[Any]:
+        if not self._with_settings:
+            registered = self.callback
+            assert registered is not None, "typer registers a command with its function"
+            function = getattr(registered, "__wrapped__", registered)  # typer's wrapper keeps the function
+            one = _App(add_completion=False, pretty_exceptions_enable=False)
+            one.command(name=self.name)(_with_setting_options(function))
+            built = typer.main.get_command(one)
+            self._params, self.callback = built.params, built.callback
+            self._with_settings = True
+        return self._params
+
+    @params.setter
+    def params(self, value: list[Any]) -> None:
+        self._params = value
+
+
+def _declared_params(command: CommandFunctionType) -> CommandFunctionType:
+    """``command`` shown to typer without its ``**settings``: what :class:`_SettingsCommand`
+    registers before the settings' options are made."""
+    params = [p for p in signature(command, eval_str=True).parameters.values() if p.kind is not Parameter.VAR_KEYWORD]
+    command.__signature__ = Signature(params, return_annotation=None)  # type: ignore[attr-defined]
+    return command
+
+
+def _with_setting_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """``command`` (a copy) with an option for every setting that has a flag, built from
+    GenerateConfig's fields (``setting_options``: flag, default, choices, help and bounds), so that
+    none is restated here; each reaches ``**settings`` under its field's name. ``--resume`` takes
+    the stopped run's output folder (the setting itself is on or off)."""
+    from scenemosaic import pipeline
+
+    @functools.wraps(command)
+    def with_settings(**kwargs: Any) -> Any:
+        return command(**kwargs)
+
     params = [p for p in signature(command, eval_str=True).parameters.values() if p.kind is not Parameter.VAR_KEYWORD]
     for option in pipeline.setting_options():
         kind: Any = Path if option.field == "resume" else option.kind
@@ -385,12 +461,12 @@ def _with_setting_options(command: CommandFunctionType) -> CommandFunctionType:
         )
         annotation = Annotated[kind if default is not None else kind | None, info]  # type: ignore[valid-type]
         params.append(Parameter(option.field, Parameter.KEYWORD_ONLY, default=default, annotation=annotation))
-    command.__signature__ = Signature(params, return_annotation=None)  # type: ignore[attr-defined]
-    return command
+    with_settings.__signature__ = Signature(params, return_annotation=None)  # type: ignore[attr-defined]
+    return with_settings
 
 
-@app.command()
-@_with_setting_options
+@app.command(cls=_SettingsCommand)
+@_declared_params
 def generate(
     input_path: Annotated[
         Path | None,
@@ -409,10 +485,12 @@ def generate(
     Exit codes: 0 done (also when degraded, unless --strict), 1 unexpected error or degraded
     under --strict, 2 bad input or settings, 130 stopped by Ctrl-C, 143 stopped by SIGTERM.
     """
+    from scenemosaic.pipeline import GenerateConfig, SettingsError, checkpoint_config
+
     resume: Path | None = settings.pop("resume")
     if resume is not None:
         try:
-            input_path, config = pipeline.checkpoint_config(resume)
+            input_path, config = checkpoint_config(resume)
         except SceneMosaicError as exc:
             _err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
             raise typer.Exit(code=EXIT_BAD_INPUT) from exc
@@ -434,6 +512,8 @@ def generate(
 
 def _flag_of(field: str) -> str:
     """A setting's ``generate`` flag (``evolve_rounds`` -> ``--rounds``), else its name."""
+    from scenemosaic.pipeline import SETTINGS
+
     setting = SETTINGS.get(field)
     return setting.flag if setting is not None and setting.flag else repr(field)
 
@@ -447,10 +527,11 @@ def demo(
 ) -> None:
     """Run generate on the bundled procedural demo scene, offline (rules model, no key, no network)."""
     from scenemosaic.exchange import save_scene
+    from scenemosaic.pipeline import GenerateConfig, demo_scene
 
     _writable_folder(out)
     source = out / "input"
-    save_scene(pipeline.demo_scene(), source)
+    save_scene(demo_scene(), source)
     _run_cli(source, out, GenerateConfig(model="rules", seed=seed, overwrite=True))
 
 
@@ -470,7 +551,7 @@ def inspect(
 ) -> None:
     """Show a scene's tree: anchors, their children, units and cross-unit constraints (a house:
     its rooms and the doors between them; --room for one room's tree)."""
-    from scenemosaic.scene import format_tree
+    from scenemosaic.scene import House, format_tree
 
     loaded, _ = _load_any(scene_path, variant, room, allow_partial)
     if isinstance(loaded, House):
@@ -522,6 +603,7 @@ def evaluate(
     """
     from scenemosaic.metrics import evaluate as evaluate_scenes
     from scenemosaic.metrics import evaluate_house
+    from scenemosaic.scene import House, Scene
 
     (_, base, folder), *rest = _load_scenes(path, room, allow_partial)
     dirs = [f for _, _, f in rest]
@@ -560,6 +642,10 @@ def _raise_terminated(signum: int, frame: object) -> None:
 
 
 def _print_batch_summary(summary: BatchSummary) -> None:
+    from rich.table import Table
+
+    from scenemosaic.batch import SUMMARY_FILE
+
     table = Table(title=f"batch {escape(str(summary.out))}", title_justify="left")
     table.add_column("job")
     table.add_column("status")
@@ -611,6 +697,10 @@ def batch(
     or settings, 130 stopped by Ctrl-C, 143 stopped by SIGTERM (finished jobs stay recorded in
     OUT/batch_summary.json; run again to do the rest).
     """
+    from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    from scenemosaic.batch import SUMMARY_FILE, load_manifest, run_batch
+
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _raise_terminated) if in_main_thread else None
     try:
@@ -667,6 +757,8 @@ def batch(
 def _scene_folders(path: Path) -> list[tuple[str, Path]]:
     """``[(name, folder)]``: a generate output folder's ``base`` and ``variant_<i>`` (in order),
     or the one scene ``path`` names (a folder or a file, named by its folder)."""
+    from scenemosaic.scene import RunFolder
+
     if RunFolder.is_run(path):
         return RunFolder(path).scenes()
     return [(path.stem if path.is_file() else path.name, path)]
@@ -679,6 +771,7 @@ def _load_any(
     a house gives ``room`` when one is named) and the folder its mesh paths start from. The
     partial result of a failed or stopped run is refused unless ``allow_partial``."""
     from scenemosaic.exchange import load_scene
+    from scenemosaic.scene import RunFolder
 
     try:
         if RunFolder.is_run(path):
@@ -720,6 +813,8 @@ def _load_or_exit(
     path: Path, variant: str | None = None, room: str | None = None, allow_partial: bool = False
 ) -> tuple[Scene, Path]:
     """Like :func:`_load_any`, for a command that works on one room: a house needs ``--room``."""
+    from scenemosaic.scene import House
+
     scene, folder = _load_any(path, variant, room, allow_partial)
     if isinstance(scene, House):
         _err.print(f"[red]error:[/red] {escape(str(path))} is a house; pick a room with --room ({', '.join(scene.room_ids)})")
@@ -739,7 +834,7 @@ def _room_or_exit(house: House, room: str | None, path: Path) -> Scene:
     raise typer.Exit(code=EXIT_BAD_INPUT)
 
 
-_Loaded = TypeVar("_Loaded", Scene, House)
+_Loaded = TypeVar("_Loaded", "Scene", "House")
 
 
 def _load_scenes(path: Path, room: str | None = None, allow_partial: bool = False) -> list[tuple[str, Scene | House, Path]]:
@@ -750,6 +845,8 @@ def _load_scenes(path: Path, room: str | None = None, allow_partial: bool = Fals
 
 def _all_of(kind: type[_Loaded], loaded: list[tuple[str, Scene | House, Path]]) -> list[_Loaded]:
     """The scenes of ``loaded``, each a ``kind`` (a run whose base is a house has house variants)."""
+    from scenemosaic.scene import House
+
     out = [s for _, s, _ in loaded if isinstance(s, kind)]
     if len(out) != len(loaded):
         odd = ", ".join(name for name, s, _ in loaded if not isinstance(s, kind))
@@ -787,6 +884,7 @@ def export(
     """Write a saved scene (or every scene of a generate run) in another format: a house whole,
     as one world (--room: that room only)."""
     from scenemosaic.exchange import DELIVERED_FORMATS, writable_formats, write_scene
+    from scenemosaic.scene import RunFolder
 
     writers = sorted({*writable_formats(), *writable_formats(house=True)})
     if fmt not in writers:
@@ -825,6 +923,7 @@ def render(
     """Draw a scene's floor plan (a house's whole plan), or one local unit's orthographic view as
     the critic sees it, as PNG."""
     from scenemosaic.render import render_house_plan, render_topdown, render_view, topdown_view
+    from scenemosaic.scene import House, write_atomic
 
     loaded, base_dir = _load_any(path, variant, room, allow_partial)
     if out.is_dir():
@@ -896,6 +995,7 @@ def edit(
     the room to edit; the whole house is written, that room changed.
     """
     from scenemosaic.exchange import deliver_house, deliver_scene
+    from scenemosaic.scene import House
 
     loaded, base_dir = _load_any(path, variant, allow_partial=allow_partial)
     house: House | None = None
@@ -996,7 +1096,7 @@ def schema(
     out: Annotated[Path | None, typer.Option("--out", "-o", help="Write to this file instead of stdout.")] = None,
 ) -> None:
     """Print (or write) the JSON Schema of scene.json."""
-    from scenemosaic.scene import Scene
+    from scenemosaic.scene import Scene, write_atomic
 
     text = json.dumps(Scene.model_json_schema(), indent=2, sort_keys=True) + "\n"
     if out is None:

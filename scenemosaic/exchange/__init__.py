@@ -21,68 +21,79 @@ Every malformed input raises :class:`~scenemosaic.exceptions.ImportFormatError` 
 file and the field, values beyond the scene limits included. A reader only opens files inside
 the input's own folder (or ``asset_dir=``), symlinks followed (``scenemosaic.scene.confined_path``).
 Conventions and rules: ``docs/importers.md`` and ``docs/exports.md``.
+
+Names load on first use (as in :mod:`scenemosaic`): importing the package registers the formats
+and imports no format's backend (trimesh, MuJoCo, scipy, shapely), so reading a native scene or
+house stays light (``scenemosaic inspect``).
 """
 
-from scenemosaic.exchange import _builtin  # noqa: F401 - registers the built-in formats
-from scenemosaic.exchange._deliver import (
-    DELIVERED_FORMATS,
-    HOUSE_INDEX_FILE,
-    HOUSE_ROOMS_DIR,
-    OPTIONAL_FORMATS,
-    deliver_house,
-    deliver_scene,
-    export_house_folder,
-    formats_left_out,
-    save_partial,
-)
-from scenemosaic.exchange._glb import (
-    GLB_ROOT_NODE,
-    Y_UP_TO_Z_UP,
-    Z_UP_TO_Y_UP,
-    build_glb_scene,
-    build_house_glb_scene,
-    export_glb,
-    export_house_glb,
-)
-from scenemosaic.exchange._mjcf import export_house_mjcf, export_mjcf
-from scenemosaic.exchange._native import read_house, read_scene, save_house, save_scene
-from scenemosaic.exchange._procthor import (
-    HOUSE_FILE,
-    SHARED_WALL_THICKNESS_M,
-    AssetDatabase,
-    export_procthor,
-    export_procthor_house,
-    load_asset_database,
-)
-from scenemosaic.exchange._pybullet import PYBULLET_INSTALL_HINT, load_pybullet
-from scenemosaic.exchange._registry import (
-    FORMATS,
-    ImportFormat,
-    ReadOptions,
-    SceneFormat,
-    detect_format,
-    get_format,
-    load_house,
-    load_scene,
-    load_scenes,
-    register_format,
-    writable_formats,
-    write_scene,
-)
-from scenemosaic.exchange._sam3d import read_sdf_sim, write_sam3d_example
-from scenemosaic.exchange._sceneeval import (
-    LOCAL_TO_GLTF,
-    MODEL_ID_PREFIX,
-    SupportType,
-    export_house_sceneeval,
-    export_sceneeval,
-    gltf_to_world,
-    house_sceneeval_state,
-    sceneeval_state,
-    support_type,
-)
-from scenemosaic.exchange._urdf import SDF_SCENE_FILE, export_house_urdf, export_urdf
-from scenemosaic.exchange._usd import export_house_usd, export_usd
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+from scenemosaic.exchange import _builtin  # noqa: F401 - registers the built-in formats (light: see there)
+
+if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
+    from scenemosaic.exchange._deliver import (
+        DELIVERED_FORMATS,
+        HOUSE_INDEX_FILE,
+        HOUSE_ROOMS_DIR,
+        OPTIONAL_FORMATS,
+        deliver_house,
+        deliver_scene,
+        export_house_folder,
+        formats_left_out,
+        save_partial,
+    )
+    from scenemosaic.exchange._glb import (
+        GLB_ROOT_NODE,
+        Y_UP_TO_Z_UP,
+        Z_UP_TO_Y_UP,
+        build_glb_scene,
+        build_house_glb_scene,
+        export_glb,
+        export_house_glb,
+    )
+    from scenemosaic.exchange._mjcf import export_house_mjcf, export_mjcf
+    from scenemosaic.exchange._native import read_house, read_scene, save_house, save_scene
+    from scenemosaic.exchange._procthor import (
+        HOUSE_FILE,
+        SHARED_WALL_THICKNESS_M,
+        AssetDatabase,
+        export_procthor,
+        export_procthor_house,
+        load_asset_database,
+    )
+    from scenemosaic.exchange._pybullet import PYBULLET_INSTALL_HINT, load_pybullet
+    from scenemosaic.exchange._registry import (
+        FORMATS,
+        ImportFormat,
+        ReadOptions,
+        SceneFormat,
+        detect_format,
+        get_format,
+        load_house,
+        load_scene,
+        load_scenes,
+        register_format,
+        writable_formats,
+        write_scene,
+    )
+    from scenemosaic.exchange._sam3d import read_sdf_sim, write_sam3d_example
+    from scenemosaic.exchange._sceneeval import (
+        LOCAL_TO_GLTF,
+        MODEL_ID_PREFIX,
+        SupportType,
+        export_house_sceneeval,
+        export_sceneeval,
+        gltf_to_world,
+        house_sceneeval_state,
+        sceneeval_state,
+        support_type,
+    )
+    from scenemosaic.exchange._urdf import SDF_SCENE_FILE, export_house_urdf, export_urdf
+    from scenemosaic.exchange._usd import export_house_usd, export_usd
 
 __all__ = [
     "DELIVERED_FORMATS",
@@ -144,3 +155,82 @@ __all__ = [
     "write_sam3d_example",
     "write_scene",
 ]
+
+_EXPORTS: dict[str, str] = {
+    "DELIVERED_FORMATS": "_deliver",
+    "HOUSE_INDEX_FILE": "_deliver",
+    "HOUSE_ROOMS_DIR": "_deliver",
+    "OPTIONAL_FORMATS": "_deliver",
+    "deliver_house": "_deliver",
+    "deliver_scene": "_deliver",
+    "export_house_folder": "_deliver",
+    "formats_left_out": "_deliver",
+    "save_partial": "_deliver",
+    "GLB_ROOT_NODE": "_glb",
+    "Y_UP_TO_Z_UP": "_glb",
+    "Z_UP_TO_Y_UP": "_glb",
+    "build_glb_scene": "_glb",
+    "build_house_glb_scene": "_glb",
+    "export_glb": "_glb",
+    "export_house_glb": "_glb",
+    "export_house_mjcf": "_mjcf",
+    "export_mjcf": "_mjcf",
+    "read_house": "_native",
+    "read_scene": "_native",
+    "save_house": "_native",
+    "save_scene": "_native",
+    "HOUSE_FILE": "_procthor",
+    "SHARED_WALL_THICKNESS_M": "_procthor",
+    "AssetDatabase": "_procthor",
+    "export_procthor": "_procthor",
+    "export_procthor_house": "_procthor",
+    "load_asset_database": "_procthor",
+    "PYBULLET_INSTALL_HINT": "_pybullet",
+    "load_pybullet": "_pybullet",
+    "FORMATS": "_registry",
+    "ImportFormat": "_registry",
+    "ReadOptions": "_registry",
+    "SceneFormat": "_registry",
+    "detect_format": "_registry",
+    "get_format": "_registry",
+    "load_house": "_registry",
+    "load_scene": "_registry",
+    "load_scenes": "_registry",
+    "register_format": "_registry",
+    "writable_formats": "_registry",
+    "write_scene": "_registry",
+    "read_sdf_sim": "_sam3d",
+    "write_sam3d_example": "_sam3d",
+    "LOCAL_TO_GLTF": "_sceneeval",
+    "MODEL_ID_PREFIX": "_sceneeval",
+    "SupportType": "_sceneeval",
+    "export_house_sceneeval": "_sceneeval",
+    "export_sceneeval": "_sceneeval",
+    "gltf_to_world": "_sceneeval",
+    "house_sceneeval_state": "_sceneeval",
+    "sceneeval_state": "_sceneeval",
+    "support_type": "_sceneeval",
+    "SDF_SCENE_FILE": "_urdf",
+    "export_house_urdf": "_urdf",
+    "export_urdf": "_urdf",
+    "export_house_usd": "_usd",
+    "export_usd": "_usd",
+}
+"""The module of each public name, imported when the name is first used."""
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'scenemosaic.exchange' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"scenemosaic.exchange.{module}"), name)
+    globals()[name] = value  # later lookups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
+
+if set(__all__) != set(_EXPORTS):  # pragma: no cover - a guard for maintainers
+    raise ImportError("scenemosaic.exchange.__all__ and _EXPORTS disagree")

@@ -3,36 +3,46 @@
 Detection order matters: specific content tests first (3D-FRONT's ``ThreedFront``, SceneEval's
 ``"format": "sceneState"``, a Holodeck room before a ProcTHOR house because both have ``rooms`` +
 ``objects``, a SAM3D pose file), the native scene model last because its test is the loosest.
+
+A format's module is imported when one of its functions is first called (:func:`_module`), not
+here: registering the formats loads none of their backends (trimesh, MuJoCo, scipy, shapely), so
+reading a native scene or house (``scenemosaic inspect``, ``load_scene`` of a run's output)
+loads none of them either.
 """
 
 from __future__ import annotations
 
+import importlib
 from pathlib import Path
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
-from scenemosaic.assets import HullCache
-from scenemosaic.exchange._front3d import import_front3d, looks_like_front3d
-from scenemosaic.exchange._glb import export_glb, export_house_glb
-from scenemosaic.exchange._holodeck import import_holodeck, looks_like_holodeck
-from scenemosaic.exchange._mjcf import export_house_mjcf, export_mjcf
+from scenemosaic.exchange._common import POSES_FILE
 from scenemosaic.exchange._native import SCENE_FILE, save_house, save_scene, scene_from_data
-from scenemosaic.exchange._procthor import (
-    export_procthor,
-    export_procthor_house,
-    import_procthor,
-    looks_like_procthor,
-)
-from scenemosaic.exchange._registry import ReadOptions, SceneFormat, register_format
-from scenemosaic.exchange._sam3d import POSES_FILE, import_sam3d, looks_like_sam3d
-from scenemosaic.exchange._sceneeval import export_house_sceneeval, export_sceneeval
-from scenemosaic.exchange._sceneeval_read import import_sceneeval, looks_like_sceneeval
-from scenemosaic.exchange._urdf import export_house_urdf, export_urdf
-from scenemosaic.exchange._usd import export_house_usd, export_usd
+from scenemosaic.exchange._registry import HouseWriter, ReadOptions, SceneFormat, register_format
 from scenemosaic.scene import House, Provenance, Scene
+
+if TYPE_CHECKING:
+    from scenemosaic.assets import HullCache
 
 __all__ = ["NATIVE_IMPORTER"]
 
 NATIVE_IMPORTER = "scenemosaic.exchange.native"
+
+
+def _module(name: str) -> ModuleType:
+    """The format module ``scenemosaic.exchange.<name>``, imported on first use."""
+    return importlib.import_module(f"scenemosaic.exchange.{name}")
+
+
+def _house_writer(module: str, name: str) -> HouseWriter:
+    """The house writer ``name`` of the format module ``module``, imported when it first writes."""
+
+    def write(house: House, destination: Path, base_dir: Path | None, **options: Any) -> Path:
+        written: Path = getattr(_module(module), name)(house, destination, base_dir, **options)
+        return written
+
+    return write
 
 
 def _looks_native(data: Any) -> bool:
@@ -60,22 +70,32 @@ def _write_native_house(house: House, folder: Path, base_dir: Path | None) -> Pa
 
 
 def _write_glb(scene: Scene, path: Path, base_dir: Path | None) -> Path:
+    from scenemosaic.exchange._glb import export_glb
+
     return export_glb(scene, path, base_dir=base_dir)
 
 
 def _write_sceneeval(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
+    from scenemosaic.exchange._sceneeval import export_sceneeval
+
     return export_sceneeval(scene, folder, base_dir=base_dir)
 
 
 def _write_mjcf(scene: Scene, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
+    from scenemosaic.exchange._mjcf import export_mjcf
+
     return export_mjcf(scene, folder, base_dir=base_dir, hull_cache=hull_cache)
 
 
 def _write_usd(scene: Scene, destination: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
+    from scenemosaic.exchange._usd import export_usd
+
     return export_usd(scene, destination, base_dir=base_dir, hull_cache=hull_cache)
 
 
 def _write_urdf(scene: Scene, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
+    from scenemosaic.exchange._urdf import export_urdf
+
     return export_urdf(scene, folder, base_dir=base_dir, hull_cache=hull_cache)
 
 
@@ -83,8 +103,8 @@ register_format(
     SceneFormat(
         "front3d",
         "3D-FRONT / ATISS / PhyScene layout with a ThreedFront key",
-        detect=looks_like_front3d,
-        read=lambda data, path, o: [import_front3d(data, path, room=o.room)],
+        detect=lambda data: _module("_front3d").looks_like_front3d(data),
+        read=lambda data, path, o: [_module("_front3d").import_front3d(data, path, room=o.room)],
         takes_room=True,
     )
 )
@@ -92,38 +112,38 @@ register_format(
     SceneFormat(
         "sceneeval",
         "SceneEval sceneState (SceneEval, SceneSmith, LayoutVLM) with assets/<assetId>.glb meshes",
-        detect=looks_like_sceneeval,
-        read=lambda data, path, o: [import_sceneeval(data, path, asset_dir=o.asset_dir)],
+        detect=lambda data: _module("_sceneeval_read").looks_like_sceneeval(data),
+        read=lambda data, path, o: [_module("_sceneeval_read").import_sceneeval(data, path, asset_dir=o.asset_dir)],
         write=_write_sceneeval,
-        write_house=export_house_sceneeval,
+        write_house=_house_writer("_sceneeval", "export_house_sceneeval"),
     )
 )
 register_format(  # before procthor: a Holodeck room also has rooms + objects
     SceneFormat(
         "holodeck",
         "Holodeck single-room output (flat object list, parents named in the ids)",
-        detect=looks_like_holodeck,
-        read=lambda data, path, o: [import_holodeck(data, path, asset_database=o.asset_database)],
+        detect=lambda data: _module("_holodeck").looks_like_holodeck(data),
+        read=lambda data, path, o: [_module("_holodeck").import_holodeck(data, path, asset_database=o.asset_database)],
     )
 )
 register_format(
     SceneFormat(
         "procthor",
         "AI2-THOR / ProcTHOR / Holodeck house with rooms and objects (written back: house.json, for a room or a house taken from one)",
-        detect=looks_like_procthor,
-        read=lambda data, path, o: import_procthor(
+        detect=lambda data: _module("_procthor").looks_like_procthor(data),
+        read=lambda data, path, o: _module("_procthor").import_procthor(
             data, path, asset_database=o.asset_database, allow_orphans=o.allow_orphans
         ),
-        write=lambda scene, folder, base_dir: export_procthor(scene, folder, base_dir),
-        write_house=export_procthor_house,
+        write=lambda scene, folder, base_dir: _module("_procthor").export_procthor(scene, folder, base_dir),
+        write_house=_house_writer("_procthor", "export_procthor_house"),
     )
 )
 register_format(
     SceneFormat(
         "sam3d",
         f"image-to-3D object set: {POSES_FILE} with a mesh per object",
-        detect=looks_like_sam3d,
-        read=lambda data, path, o: [import_sam3d(data, path, room=o.room)],
+        detect=lambda data: _module("_sam3d").looks_like_sam3d(data),
+        read=lambda data, path, o: [_module("_sam3d").import_sam3d(data, path, room=o.room)],
         folder_file=POSES_FILE,
         takes_room=True,
     )
@@ -140,17 +160,28 @@ register_format(
     )
 )
 register_format(
-    SceneFormat("glb", "one GLB with a node per object (Y-up, as glTF)", write=_write_glb, write_house=export_house_glb)
+    SceneFormat(
+        "glb",
+        "one GLB with a node per object (Y-up, as glTF)",
+        write=_write_glb,
+        write_house=_house_writer("_glb", "export_house_glb"),
+    )
 )
 register_format(
-    SceneFormat("mjcf", "MuJoCo scene.xml + mjcf/ meshes", write=_write_mjcf, write_house=export_house_mjcf, uses_hulls=True)
+    SceneFormat(
+        "mjcf",
+        "MuJoCo scene.xml + mjcf/ meshes",
+        write=_write_mjcf,
+        write_house=_house_writer("_mjcf", "export_house_mjcf"),
+        uses_hulls=True,
+    )
 )
 register_format(
     SceneFormat(
         "usd",
         "ASCII USD scene.usda with UsdPhysics + usd/ per-object geometry (needs scenemosaic[usd])",
         write=_write_usd,
-        write_house=export_house_usd,
+        write_house=_house_writer("_usd", "export_house_usd"),
         uses_hulls=True,
     )
 )
@@ -159,7 +190,7 @@ register_format(
         "urdf",
         "URDF scene.urdf + urdf/<id>.urdf per object + urdf/meshes/",
         write=_write_urdf,
-        write_house=export_house_urdf,
+        write_house=_house_writer("_urdf", "export_house_urdf"),
         uses_hulls=True,
     )
 )

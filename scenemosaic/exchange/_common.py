@@ -15,7 +15,11 @@ from pydantic import ValidationError
 from scenemosaic.exceptions import ImportFormatError, UnsafePathError
 from scenemosaic.scene import SceneObject, confined_path, object_count_problem
 
-__all__ = ["FieldReader", "normalize_label", "read_json"]
+__all__ = ["POSES_FILE", "FieldReader", "normalize_label", "read_json"]
+
+POSES_FILE = "poses.json"
+"""Name of the pose file inside a SAM3D object folder (here, not in ``_sam3d``, so that the
+format registry names it without importing that reader)."""
 
 _LABEL_RE = re.compile(r"^[a-z][a-z0-9_]{0,47}$")
 

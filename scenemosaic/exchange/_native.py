@@ -33,7 +33,6 @@ from typing import Any
 import structlog
 from pydantic import ValidationError
 
-from scenemosaic.assets import referenced_files
 from scenemosaic.exceptions import (
     AssetError,
     ImportFormatError,
@@ -245,6 +244,9 @@ def copy_mesh(src: Path, folder: Path, object_id: str, subfolder: str = ASSETS_D
     ``src`` is resolved. Side files must lie in its folder; every file written must land in the
     copy's own folder (a symlink planted in the destination does not redirect a copy).
     """
+    # imported here: the assets package loads trimesh, and reading a scene needs none of it
+    from scenemosaic.assets import referenced_files
+
     if src.is_dir():
         raise AssetError(f"object {object_id!r}: mesh uri names a directory, not a file: {src}")
     if not src.is_file():

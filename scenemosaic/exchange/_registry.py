@@ -17,15 +17,17 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import structlog
 
-from scenemosaic.assets import HullCache
 from scenemosaic.exceptions import ImportFormatError, UsageError
 from scenemosaic.exchange._common import read_json
 from scenemosaic.exchange._native import check_not_partial, read_house
 from scenemosaic.scene import House, Provenance, Room, RunFolder, Scene, safe_name
+
+if TYPE_CHECKING:
+    from scenemosaic.assets import HullCache
 
 __all__ = [
     "FORMATS",

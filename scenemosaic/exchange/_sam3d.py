@@ -53,7 +53,7 @@ from pydantic import ValidationError
 from scipy.spatial.transform import Rotation
 
 from scenemosaic.exceptions import AssetError, ImportFormatError
-from scenemosaic.exchange._common import FieldReader
+from scenemosaic.exchange._common import POSES_FILE, FieldReader
 from scenemosaic.exchange._native import copy_mesh
 from scenemosaic.scene import (
     CEILING,
@@ -90,8 +90,6 @@ __all__ = [
 
 log = structlog.get_logger(__name__)
 
-POSES_FILE = "poses.json"
-"""Name of the pose file inside a SAM3D object folder."""
 UNIT_SCALES: Mapping[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001}
 """Metres per unit for the accepted ``units`` values."""
 IMPORTER = "scenemosaic.exchange.sam3d"
