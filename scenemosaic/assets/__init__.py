@@ -9,10 +9,27 @@ Every file a mesh names (buffers, textures, materials) must lie in the mesh's fo
 (:func:`referenced_files`); meshes above ``MAX_MESH_FACES`` faces are refused.
 """
 
+from scenemosaic.assets._articulation import (
+    DOOR_OPEN_DEG,
+    DRAWER_TRAVEL_FRACTION,
+    LID_OPEN_DEG,
+    TOILET_LID_OPEN_DEG,
+    HingeSide,
+    JointType,
+    PartKind,
+    PartSpec,
+    pieces_in_box,
+)
 from scenemosaic.assets._canonical import CanonicalMesh, load_mesh, mesh_hash
 from scenemosaic.assets._files import MESH_SUFFIXES, referenced_files
 from scenemosaic.assets._hulls import CoacdParams, HullCache, default_cache_dir, shutdown_workers
-from scenemosaic.assets._objects import default_hull_cache, object_hulls, object_mesh
+from scenemosaic.assets._objects import (
+    default_hull_cache,
+    object_articulation,
+    object_hulls,
+    object_mesh,
+    object_part_meshes,
+)
 from scenemosaic.assets._procedural import (
     MAX_PARTS,
     SHELF_PITCH,
@@ -20,19 +37,28 @@ from scenemosaic.assets._procedural import (
     compartment_fits,
     interior_boards,
     known_categories,
+    procedural_articulation,
     procedural_key,
     procedural_mesh,
     procedural_parts,
 )
 
 __all__ = [
+    "DOOR_OPEN_DEG",
+    "DRAWER_TRAVEL_FRACTION",
+    "LID_OPEN_DEG",
     "MAX_PARTS",
     "MESH_SUFFIXES",
     "SHELF_PITCH",
+    "TOILET_LID_OPEN_DEG",
     "Box6",
     "CanonicalMesh",
     "CoacdParams",
+    "HingeSide",
     "HullCache",
+    "JointType",
+    "PartKind",
+    "PartSpec",
     "compartment_fits",
     "default_cache_dir",
     "default_hull_cache",
@@ -40,8 +66,12 @@ __all__ = [
     "known_categories",
     "load_mesh",
     "mesh_hash",
+    "object_articulation",
     "object_hulls",
     "object_mesh",
+    "object_part_meshes",
+    "pieces_in_box",
+    "procedural_articulation",
     "procedural_key",
     "procedural_mesh",
     "procedural_parts",

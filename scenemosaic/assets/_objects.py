@@ -14,13 +14,20 @@ import numpy.typing as npt
 import structlog
 import trimesh
 
+from scenemosaic.assets._articulation import PartSpec
 from scenemosaic.assets._canonical import load_mesh, load_source_mesh, mesh_hash
 from scenemosaic.assets._hulls import CoacdParams, HullCache
-from scenemosaic.assets._procedural import procedural_mesh, procedural_parts
+from scenemosaic.assets._procedural import procedural_articulation, procedural_mesh, procedural_parts
 from scenemosaic.exceptions import AssetError, UnsafePathError
 from scenemosaic.scene import SceneObject, confined_path, missing_file, real_path
 
-__all__ = ["default_hull_cache", "object_hulls", "object_mesh"]
+__all__ = [
+    "default_hull_cache",
+    "object_articulation",
+    "object_hulls",
+    "object_mesh",
+    "object_part_meshes",
+]
 
 log = structlog.get_logger(__name__)
 
@@ -183,4 +190,41 @@ def object_hulls(
     if not out:
         log.warning("hulls_empty_using_box", object_id=obj.id)
         return [_box_mesh(size)]
+    return out
+
+
+def object_articulation(obj: SceneObject) -> list[PartSpec]:
+    """The movable parts of ``obj`` (drawers, doors, lids) in its local, scaled frame, closed.
+
+    A procedural asset's parts come from its builder (:func:`procedural_articulation`, for the
+    object's size), their ``pieces`` indexing :func:`object_hulls`' list. A box has none. A mesh
+    asset has none unless it declares them (not read from files yet: see ``docs/articulation.md``).
+    """
+    if obj.asset.kind != "procedural":
+        return []
+    return procedural_articulation(obj.asset.category or obj.category, _size(obj))
+
+
+def object_part_meshes(
+    obj: SceneObject, base_dir: str | Path | None = None
+) -> dict[str | None, trimesh.Trimesh]:
+    """The visual mesh of ``obj`` split by its movable parts: ``None`` -> what does not move (the
+    carcass), each part's name -> its pieces, all in the object's local frame, closed. An object
+    without movable parts gives ``{None: object_mesh(obj)}``.
+    """
+    parts = object_articulation(obj)
+    if not parts:
+        return {None: object_mesh(obj, base_dir)}
+    pieces = procedural_parts(obj.asset.category or obj.category, _size(obj))
+    moving = {i for part in parts for i in part.pieces}
+    groups: dict[str | None, list[int]] = {None: [i for i in range(len(pieces)) if i not in moving]}
+    for part in parts:
+        groups[part.name] = list(part.pieces)
+    out: dict[str | None, trimesh.Trimesh] = {}
+    for name, indices in groups.items():
+        if not indices:
+            continue
+        mesh = trimesh.util.concatenate([pieces[i] for i in indices])
+        assert isinstance(mesh, trimesh.Trimesh)
+        out[name] = mesh
     return out

@@ -8,6 +8,11 @@ as a collision geom; part counts stay at or below :data:`MAX_PARTS`.
 
 Sizes come from the caller; builders pick proportions as fractions of the box and cap the
 absolute thickness of boards, legs and rails, so any positive size gives a valid model.
+
+Builders of furniture that opens (chests of drawers, cabinets, wardrobes, fridges, microwaves,
+washing machines, toilets, boxes) draw each drawer, door and lid as its own pieces and say how it
+moves (:class:`~scenemosaic.assets.PartSpec`, read with :func:`procedural_articulation`): the
+articulation of a category lives with its builder. The pieces are drawn closed.
 """
 
 from __future__ import annotations
@@ -22,6 +27,15 @@ import numpy.typing as npt
 import structlog
 import trimesh
 
+from scenemosaic.assets._articulation import (
+    TOILET_LID_OPEN_DEG,
+    Box6,
+    HingeSide,
+    PartSpec,
+    drawer,
+    front_door,
+    lid,
+)
 from scenemosaic.exceptions import AssetError
 from scenemosaic.scene import normalize_category
 
@@ -31,6 +45,7 @@ __all__ = [
     "Box6",
     "interior_boards",
     "known_categories",
+    "procedural_articulation",
     "procedural_key",
     "procedural_mesh",
     "procedural_parts",
@@ -41,11 +56,10 @@ log = structlog.get_logger(__name__)
 FloatArray = npt.NDArray[np.float64]
 Parts = list[trimesh.Trimesh]
 Builder = Callable[[float, float, float], Parts]
-Box6 = tuple[float, float, float, float, float, float]
-"""An axis-aligned box in the object frame: ``(x0, x1, y0, y1, z_bottom, z_top)``."""
 
-MAX_PARTS = 20
-"""Upper bound on the parts of one procedural model (each part becomes a physics geom)."""
+MAX_PARTS = 32
+"""Upper bound on the parts of one procedural model (each part becomes a physics geom). Rigid
+models stay within 20; a chest of six drawers, each a front, a handle, a bottom and a back, needs 30."""
 
 _SECTIONS = 8
 """Sides of prisms and frustums; a multiple of 4 so a round part touches all four sides of its box."""
@@ -276,6 +290,80 @@ def _drawer_fronts(
     return out
 
 
+def _box6(mesh: trimesh.Trimesh) -> Box6:
+    (x0, y0, z0), (x1, y1, z1) = np.asarray(mesh.bounds, dtype=np.float64)
+    return (float(x0), float(x1), float(y0), float(y1), float(z0), float(z1))
+
+
+Articulated = tuple[Parts, list[Box6], list[PartSpec]]
+"""What the builder of a model that opens returns: its pieces, its free compartments (inside its
+drawers, behind its doors) and its movable parts."""
+
+
+def _drawers(
+    parts: Parts,
+    x: Interval,
+    z: Interval,
+    front: float,
+    back: float,
+    inner: Interval,
+    rows: int,
+    cols: int,
+    *,
+    handle: float,
+    thickness: float,
+) -> tuple[list[Box6], list[PartSpec]]:
+    """Drawers in a rows x cols grid on the plane ``y = front``, appended to ``parts``.
+
+    Each drawer is four pieces: its front (``y in [front + handle, front + handle + thickness]``),
+    a handle standing out to ``front``, a bottom board and a back panel reaching to ``y = back``,
+    the box between them within ``inner`` (the carcass's inner width). Rows go bottom to top,
+    columns left (-X) to right; drawers are numbered in that order. Returns the inside of each
+    drawer (over its bottom, from its front to its back panel, up to the top of its front) and the
+    drawers' :class:`PartSpec`.
+    """
+    insides: list[Box6] = []
+    specs: list[PartSpec] = []
+    fy = (front + handle, front + handle + thickness)
+    for zr in _split(z[0], z[1], rows, 0.01):
+        height = zr[1] - zr[0]
+        board = min(0.012, 0.1 * height)
+        for xr in _split(x[0], x[1], cols, 0.01):
+            bx = (max(xr[0], inner[0]) + 0.002, min(xr[1], inner[1]) - 0.002)
+            cx, cz = 0.5 * (xr[0] + xr[1]), 0.5 * (zr[0] + zr[1])
+            hw, hh = 0.2 * (xr[1] - xr[0]), 0.1 * height
+            pieces = [
+                _box(xr, fy, zr),
+                _box((cx - hw, cx + hw), (front, fy[0]), (cz - hh, cz + hh)),
+                _box(bx, (fy[1], back), (zr[0], zr[0] + board)),
+                _box(bx, (back - board, back), (zr[0] + board, zr[0] + 0.75 * height)),
+            ]
+            start = len(parts)
+            parts.extend(pieces)
+            specs.append(
+                drawer(
+                    f"drawer_{len(specs)}",
+                    range(start, start + 4),
+                    start + 1,
+                    [_box6(piece) for piece in pieces],
+                )
+            )
+            insides.append((bx[0], bx[1], fy[1], back - board, zr[0] + board, zr[1]))
+    return insides, specs
+
+
+def _hinge_sides(n: int) -> list[HingeSide]:
+    """Which edge each of ``n`` doors side by side hangs on, left to right (the hinge-side rule).
+
+    One door hangs on its left (-X) edge, its handle at the right: the common right-handed door.
+    Several are hung in pairs meeting in the middle: the left door of a pair on its left edge, the
+    right one on its right edge; a last door without a partner hangs on its right (outer) edge.
+    """
+    if n == 1:
+        return ["-x"]
+    return ["-x" if i % 2 == 0 and i + 1 < n else "+x" for i in range(n)]
+
+
 # --------------------------------------------------------------------------------------------
 # builders: (w, d, h) -> convex parts filling [-w/2, w/2] x [-d/2, d/2] x [0, h], front -Y
 # --------------------------------------------------------------------------------------------
@@ -298,31 +386,27 @@ def _bed(w: float, d: float, h: float) -> Parts:
     return parts
 
 
-def _case(w: float, d: float, h: float, *, plinth: float, top: float, front: float) -> tuple[Parts, Interval]:
-    """A carcass: plinth (inset), body set back by ``front``, full-size top. Returns parts and the body's z."""
-    hx, hy = w / 2, d / 2
-    parts = [_box((-hx + 0.02 * w, hx - 0.02 * w), (-hy + front + 0.02 * d, hy - 0.02 * d), (0.0, plinth))]
-    body_z = (plinth, h - top)
-    parts.append(_box((-hx, hx), (-hy + front, hy), body_z))
-    parts.append(_box((-hx, hx), (-hy, hy), (h - top, h)))
-    return parts, body_z
-
-
-def _nightstand(w: float, d: float, h: float) -> Parts:
+def _nightstand_layout(w: float, d: float, h: float) -> Articulated:
+    """Hollow bedside chest: two drawers at the front (-Y), each a box that slides out."""
     hx, hy = w / 2, d / 2
     handle, front = _cap(d, 0.04, 0.02), _cap(d, 0.04, 0.02)
-    parts, body_z = _case(w, d, h, plinth=0.08 * h, top=_cap(h, 0.06, 0.03), front=handle + front)
-    inset = 0.05 * w
-    parts += _drawer_fronts(
-        (-hx + inset, hx - inset),
+    parts, _, body_z = _hollow_case(
+        w, d, h, plinth=0.08 * h, top=_cap(h, 0.06, 0.03), front=handle + front, boards=[]
+    )
+    wall, back = _cap(w, 0.04, 0.018), _cap(d, 0.04, 0.012)
+    insides, specs = _drawers(
+        parts,
+        (-hx + 0.05 * w, hx - 0.05 * w),
         (body_z[0] + 0.04 * h, body_z[1] - 0.04 * h),
         -hy,
+        hy - back - 0.005,
+        (-hx + wall, hx - wall),
         2,
         1,
         handle=handle,
         thickness=front,
     )
-    return parts
+    return parts, insides, specs
 
 
 SHELF_PITCH = 0.4
@@ -390,53 +474,76 @@ def _hollow_case(
     return parts, compartments, (plinth, ceiling)
 
 
-def _dresser_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
-    """Hollow chest: one compartment per row of drawers (a board behind each gap between rows)."""
+def _dresser_layout(w: float, d: float, h: float) -> Articulated:
+    """Hollow chest of three rows of drawers (two columns when wider than 0.9 m), each drawer a
+    box that slides out; what is in the chest is in its drawers."""
     hx, hy = w / 2, d / 2
     handle, front = _cap(d, 0.04, 0.02), _cap(d, 0.04, 0.02)
     plinth, top = 0.07 * h, _cap(h, 0.05, 0.03)
     rows, cols = 3, (2 if w > 0.9 else 1)
-    fronts_z = (plinth + 0.03 * h, h - top - 0.03 * h)
-    row_z = _split(fronts_z[0], fronts_z[1], rows, 0.01)
-    boards = [0.5 * (a[1] + b[0]) for a, b in itertools.pairwise(row_z)]
-    parts, compartments, _ = _hollow_case(
-        w, d, h, plinth=plinth, top=top, front=handle + front, boards=boards
+    parts, _, _ = _hollow_case(w, d, h, plinth=plinth, top=top, front=handle + front, boards=[])
+    wall, back = _cap(w, 0.04, 0.018), _cap(d, 0.04, 0.012)
+    insides, specs = _drawers(
+        parts,
+        (-hx + 0.04 * w, hx - 0.04 * w),
+        (plinth + 0.03 * h, h - top - 0.03 * h),
+        -hy,
+        hy - back - 0.005,
+        (-hx + wall, hx - wall),
+        rows,
+        cols,
+        handle=handle,
+        thickness=front,
     )
-    parts += _drawer_fronts(
-        (-hx + 0.04 * w, hx - 0.04 * w), fronts_z, -hy, rows, cols, handle=handle, thickness=front
-    )
-    return parts, compartments
+    return parts, insides, specs
 
 
-def _doored_layout(w: float, d: float, h: float, *, cornice: float) -> tuple[Parts, list[Box6]]:
-    """Wardrobe/cabinet: hollow carcass with shelves, one or two doors at the front (-Y), vertical handles."""
+def _door_count(w: float) -> int:
+    """One door up to 0.6 m of width, else pairs of doors about 0.55 m wide each (at most six)."""
+    if w <= 0.6:
+        return 1
+    return int(min(6, 2 * max(1, round(w / 1.1))))
+
+
+def _doored_layout(w: float, d: float, h: float, *, cornice: float) -> Articulated:
+    """Wardrobe/cabinet: hollow carcass with shelves, doors at the front (-Y) hung by the
+    hinge-side rule (``_hinge_sides``), a vertical handle near each door's free edge."""
     hx, hy = w / 2, d / 2
     handle, door = _cap(d, 0.04, 0.025), _cap(d, 0.04, 0.025)
     parts, compartments, body_z = _hollow_case(
         w, d, h, plinth=_cap(h, 0.05, 0.1), top=cornice, front=handle + door
     )
-    n_doors = 2 if w > 0.6 else 1
+    n_doors = _door_count(w)
     door_z = (body_z[0] + 0.01 * h, body_z[1] - 0.01 * h)
-    for i, xr in enumerate(_split(-hx + 0.02 * w, hx - 0.02 * w, n_doors, 0.01)):
-        parts.append(_box(xr, (-hy + handle, -hy + handle + door), door_z))
-        # handles near the meeting edge of the doors (or the free edge of a single door)
-        edge = xr[1] - 0.1 * (xr[1] - xr[0]) if (i == 0) else xr[0] + 0.1 * (xr[1] - xr[0])
+    specs: list[PartSpec] = []
+    xrs = _split(-hx + 0.02 * w, hx - 0.02 * w, n_doors, 0.01)
+    for i, (xr, side) in enumerate(zip(xrs, _hinge_sides(n_doors), strict=True)):
+        # the handle near the door's free edge: the right one for a door hung on its left edge
+        edge = xr[1] - 0.1 * (xr[1] - xr[0]) if side == "-x" else xr[0] + 0.1 * (xr[1] - xr[0])
         hw = 0.02 * (xr[1] - xr[0])
         zc, zh = 0.5 * (door_z[0] + door_z[1]), 0.12 * (door_z[1] - door_z[0])
-        parts.append(_box((edge - hw, edge + hw), (-hy, -hy + handle), (zc - zh, zc + zh)))
-    return parts, compartments
+        pieces = [
+            _box(xr, (-hy + handle, -hy + handle + door), door_z),
+            _box((edge - hw, edge + hw), (-hy, -hy + handle), (zc - zh, zc + zh)),
+        ]
+        start = len(parts)
+        parts.extend(pieces)
+        boxes = [_box6(p) for p in pieces]
+        specs.append(front_door(f"door_{i}", (start, start + 1), start + 1, boxes, hinge=side))
+    return parts, compartments, specs
 
 
-def _wardrobe_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
+def _wardrobe_layout(w: float, d: float, h: float) -> Articulated:
     return _doored_layout(w, d, h, cornice=_cap(h, 0.04, 0.06))
 
 
-def _cabinet_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
+def _cabinet_layout(w: float, d: float, h: float) -> Articulated:
     return _doored_layout(w, d, h, cornice=_cap(h, 0.05, 0.03))
 
 
-def _fridge_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
-    """Hollow fridge: a freezer door above a larger fridge door, a board behind the split, shelves."""
+def _fridge_layout(w: float, d: float, h: float) -> Articulated:
+    """Hollow fridge: a freezer door above a larger fridge door, a board behind the split, shelves.
+    Both doors hang on their left (-X) edge, their handles at the right."""
     hx, hy = w / 2, d / 2
     handle, door = _cap(d, 0.05, 0.035), _cap(d, 0.05, 0.04)
     plinth, top = _cap(h, 0.03, 0.04), _cap(h, 0.03, 0.03)
@@ -453,13 +560,17 @@ def _fridge_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
     )
     gap = 0.005 * h
     door_x = (-hx + 0.01 * w, hx - 0.01 * w)
-    for zr in ((body_z[0], split - gap), (split + gap, body_z[1])):
-        parts.append(_box(door_x, (-hy + handle, -hy + handle + door), zr))
+    specs: list[PartSpec] = []
+    for name, zr in (("door_fridge", (body_z[0], split - gap)), ("door_freezer", (split + gap, body_z[1]))):
         span = zr[1] - zr[0]
-        parts.append(
-            _box((hx - 0.14 * w, hx - 0.1 * w), (-hy, -hy + handle), (zr[0] + 0.2 * span, zr[1] - 0.2 * span))
-        )
-    return parts, compartments
+        pieces = [
+            _box(door_x, (-hy + handle, -hy + handle + door), zr),
+            _box((hx - 0.14 * w, hx - 0.1 * w), (-hy, -hy + handle), (zr[0] + 0.2 * span, zr[1] - 0.2 * span)),
+        ]
+        start = len(parts)
+        parts.extend(pieces)
+        specs.append(front_door(name, (start, start + 1), start + 1, [_box6(p) for p in pieces], hinge="-x"))
+    return parts, compartments, specs
 
 
 def _table(w: float, d: float, h: float) -> Parts:
@@ -505,34 +616,45 @@ def _side_table(w: float, d: float, h: float) -> Parts:
     return _low_table(w, d, h, drawer=True)
 
 
-def _desk(w: float, d: float, h: float) -> Parts:
-    """Desk: top, a side panel at -X, a drawer pedestal at +X, a modesty panel at the back (+Y)."""
+def _desk(w: float, d: float, h: float) -> Articulated:
+    """Desk: top, a side panel at -X, a hollow pedestal of three drawers at +X, a modesty panel at
+    the back (+Y); knee space open to -Y."""
     hx, hy = w / 2, d / 2
     top = _cap(h, 0.05, 0.035)
     panel = _cap(w, 0.04, 0.03)
     under = (0.0, h - top)
     ped_w = min(0.3 * w, 0.45)
     handle, front = _cap(d, 0.03, 0.015), _cap(d, 0.03, 0.02)
+    px = (hx - 0.01 * w - ped_w, hx - 0.01 * w)
+    py = (-hy + 0.03 * d + handle + front, hy - 0.03 * d)
+    wall, back = _cap(ped_w, 0.06, 0.018), _cap(d, 0.04, 0.012)
+    inner = (px[0] + wall, px[1] - wall)
     parts = [
         _box((-hx, hx), (-hy, hy), (h - top, h)),
         _box((-hx + 0.01 * w, -hx + 0.01 * w + panel), (-hy + 0.03 * d, hy - 0.03 * d), under),
-        _box((hx - 0.01 * w - ped_w, hx - 0.01 * w), (-hy + 0.03 * d + handle + front, hy - 0.03 * d), under),
         _box(
-            (-hx + 0.01 * w + panel, hx - 0.01 * w - ped_w),
+            (-hx + 0.01 * w + panel, px[0]),
             (hy - 0.03 * d - panel, hy - 0.03 * d),
             (0.35 * h, h - top),
         ),
+        _box((px[0], inner[0]), py, under),
+        _box((inner[1], px[1]), py, under),
+        _box(inner, (py[1] - back, py[1]), under),
+        _box(inner, (py[0], py[1] - back), (0.0, 0.02 * h)),
     ]
-    parts += _drawer_fronts(
-        (hx - 0.01 * w - ped_w + 0.01 * w, hx - 0.02 * w),
+    _, specs = _drawers(
+        parts,
+        (px[0] + 0.01 * w, hx - 0.02 * w),
         (0.03 * h, h - top - 0.02 * h),
         -hy + 0.03 * d,
+        py[1] - back - 0.005,
+        inner,
         3,
         1,
         handle=handle,
         thickness=front,
     )
-    return parts
+    return parts, [], specs
 
 
 def _dressing_table(w: float, d: float, h: float) -> Parts:
@@ -1198,19 +1320,26 @@ def _dumbbell(w: float, d: float, h: float) -> Parts:
     ]
 
 
-def _toilet(w: float, d: float, h: float) -> Parts:
-    """Bowl and seat toward -Y on a pedestal, cistern at the back (+Y)."""
+def _toilet(w: float, d: float, h: float) -> Articulated:
+    """Bowl toward -Y on a pedestal, cistern at the back (+Y), a lid over the bowl hinged at its
+    back edge just before the cistern."""
     hx, hy = w / 2, d / 2
     tank_d = _cap(d, 0.25, 0.22)
     seat = 0.42 * h
     bowl_y = (-hy, hy - tank_d + 0.02 * d)
-    return [
+    lid_piece = _cyl(
+        (-hx + 0.03 * w, hx - 0.03 * w), (-hy, hy - tank_d - 0.01 * d), (seat, seat + _cap(h, 0.04, 0.035))
+    )
+    parts = [
         _frustum(_centered(hx, 0.7), (-hy + 0.2 * d, hy - tank_d), (0.0, 0.25 * h), bottom=1.0, top=0.8),
         _profile((-hx + 0.04 * w, hx - 0.04 * w), bowl_y, (0.2 * h, seat), (0.55, 0.9, 1.0)),
-        _cyl((-hx + 0.03 * w, hx - 0.03 * w), bowl_y, (seat, seat + _cap(h, 0.04, 0.035))),
+        lid_piece,
         _box((-hx, hx), (hy - tank_d, hy), (0.4 * h, h)),
         _box(_centered(hx, 0.6), (hy - tank_d - 0.03 * d, hy), (0.2 * h, 0.42 * h)),
     ]
+    box = _box6(lid_piece)
+    grip = (*_frac((box[0], box[1]), 0.35, 0.65), box[2], box[2] + 0.04, box[4], box[5])
+    return parts, [], [lid("lid", (2,), 2, [box], handle_box=grip, open_deg=TOILET_LID_OPEN_DEG)]
 
 
 def _toilet_paper(w: float, d: float, h: float) -> Parts:
@@ -1253,8 +1382,8 @@ def _garbage_can_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]
     return parts, [inside]
 
 
-def _box_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
-    """A closed box: floor, four walls and a lid, hollow inside."""
+def _box_layout(w: float, d: float, h: float) -> Articulated:
+    """A closed box: floor, four walls and a lid hinged at its back edge, hollow inside."""
     wall = _cap(min(w, d), 0.05, 0.01)
     parts, inside = _tub(
         (-w / 2, w / 2),
@@ -1264,7 +1393,10 @@ def _box_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
         wall=wall,
         lid=_cap(h, 0.05, 0.01),
     )
-    return parts, [inside]
+    box = _box6(parts[-1])
+    grip = (*_frac((box[0], box[1]), 0.3, 0.7), box[2], box[2] + min(0.03, 0.2 * d), box[4], box[5])
+    k = len(parts) - 1
+    return parts, [inside], [lid("lid", (k,), k, [box], handle_box=grip)]
 
 
 def _sink(w: float, d: float, h: float) -> Parts:
@@ -1300,27 +1432,47 @@ def _faucet(w: float, d: float, h: float) -> Parts:
     ]
 
 
-def _microwave(w: float, d: float, h: float) -> Parts:
-    """Microwave, oven: a body, a door on the left of the front (-Y), a control panel on the right."""
+def _microwave(w: float, d: float, h: float) -> Articulated:
+    """Microwave, oven: a body, a door on the left of the front (-Y) hung on its left edge with a
+    handle bar at its right, a control panel on the right."""
     hx, hy = w / 2, d / 2
     door = _cap(d, 0.06, 0.03)
-    return [
+    grip = 0.4 * door
+    door_x, door_z = (-hx + 0.03 * w, hx - 0.3 * w), (0.06 * h, 0.94 * h)
+    parts = [
         _box((-hx, hx), (-hy + door, hy), (0.0, h)),
-        _box((-hx + 0.03 * w, hx - 0.3 * w), (-hy, -hy + door), (0.06 * h, 0.94 * h)),
         _box((hx - 0.27 * w, hx - 0.03 * w), (-hy + 0.4 * door, -hy + door), (0.06 * h, 0.94 * h)),
     ]
+    pieces = [
+        _box(door_x, (-hy + grip, -hy + door), door_z),
+        _box((door_x[1] - 0.06 * w, door_x[1] - 0.03 * w), (-hy, -hy + grip), (0.2 * h, 0.8 * h)),
+    ]
+    parts.extend(pieces)
+    return parts, [], [front_door("door", (2, 3), 3, [_box6(p) for p in pieces], hinge="-x")]
 
 
-def _washing_machine(w: float, d: float, h: float) -> Parts:
-    """Washing machine, dryer: a body, a round door at the front (-Y), a control strip on top."""
+def _washing_machine(w: float, d: float, h: float) -> Articulated:
+    """Washing machine, dryer: a body, a round door at the front (-Y) hung on its left edge with a
+    grip at its right, a control strip on top."""
     hx, hy = w / 2, d / 2
     door = _cap(d, 0.06, 0.05)
+    grip = 0.4 * door
     side = min(0.7 * w, 0.55 * h)
-    return [
+    door_z = (0.3 * h, 0.3 * h + side)
+    parts = [
         _box((-hx, hx), (-hy + door, hy), (0.0, h)),
-        _rod((-side / 2, side / 2), (-hy, -hy + door), (0.3 * h, 0.3 * h + side), (1.0, 1.0), axis=1),
         _box((-hx + 0.05 * w, hx - 0.05 * w), (-hy + 0.5 * door, -hy + door), (0.85 * h, 0.97 * h)),
     ]
+    pieces = [
+        _rod((-side / 2, side / 2), (-hy + grip, -hy + door), door_z, (1.0, 1.0), axis=1),
+        _box(
+            (side / 2 - 0.12 * side, side / 2 - 0.04 * side),
+            (-hy, -hy + grip),
+            (door_z[0] + 0.35 * side, door_z[0] + 0.65 * side),
+        ),
+    ]
+    parts.extend(pieces)
+    return parts, [], [front_door("door", (2, 3), 3, [_box6(p) for p in pieces], hinge="-x")]
 
 
 def _toaster(w: float, d: float, h: float) -> Parts:
@@ -1424,17 +1576,41 @@ def _boots(w: float, d: float, h: float) -> Parts:
 
 
 Layout = Callable[[float, float, float], tuple[Parts, list[Box6]]]
+ArticulatedBuilder = Callable[[float, float, float], Articulated]
+
+# Furniture that opens: the builder also says how each drawer, door and lid moves.
+_ARTICULATED: dict[str, ArticulatedBuilder] = {
+    "box": _box_layout,
+    "cabinet": _cabinet_layout,
+    "desk": _desk,
+    "dresser": _dresser_layout,
+    "fridge": _fridge_layout,
+    "microwave": _microwave,
+    "nightstand": _nightstand_layout,
+    "toilet": _toilet,
+    "wardrobe": _wardrobe_layout,
+    "washing_machine": _washing_machine,
+}
+
+
+def _layout_of(build: ArticulatedBuilder) -> Layout:
+    def layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
+        parts, compartments, _ = build(w, d, h)
+        return parts, compartments
+
+    layout.__doc__ = build.__doc__
+    return layout
+
+
+_CONTAINERS_THAT_OPEN = ("box", "cabinet", "dresser", "fridge", "wardrobe")
+"""Articulated models that are also hollow containers (their compartments are ``interior_boards``)."""
 
 # Hollow containers: their builders also say where the free compartments are (``interior_boards``).
 _LAYOUTS: dict[str, Layout] = {
     "bookshelf": _bookshelf_layout,
-    "box": _box_layout,
-    "cabinet": _cabinet_layout,
-    "dresser": _dresser_layout,
-    "fridge": _fridge_layout,
     "garbage_can": _garbage_can_layout,
     "tv_stand": _tv_stand_layout,
-    "wardrobe": _wardrobe_layout,
+    **{key: _layout_of(_ARTICULATED[key]) for key in _CONTAINERS_THAT_OPEN},
 }
 
 
@@ -1463,7 +1639,6 @@ _BUILDERS: dict[str, Builder] = {
     "chair": _chair,
     "coffee_machine": _coffee_machine,
     "coffee_table": _coffee_table,
-    "desk": _desk,
     "dressing_table": _dressing_table,
     "dumbbell": _dumbbell,
     "faucet": _faucet,
@@ -1476,9 +1651,7 @@ _BUILDERS: dict[str, Builder] = {
     "knife": _knife,
     "l_shaped_sofa": _l_shaped_sofa,
     "laptop": _laptop,
-    "microwave": _microwave,
     "mug": _mug,
-    "nightstand": _nightstand,
     "office_chair": _office_chair,
     "paddle": _paddle,
     "painting": _painting,
@@ -1504,14 +1677,13 @@ _BUILDERS: dict[str, Builder] = {
     "teddy_bear": _teddy_bear,
     "television": _tv,
     "toaster": _toaster,
-    "toilet": _toilet,
     "toilet_paper": _toilet_paper,
     "towel_holder": _towel_holder,
     "vacuum_cleaner": _vacuum_cleaner,
     "vase": _vase,
-    "washing_machine": _washing_machine,
     "watch": _watch,
     **{key: _parts_only(layout) for key, layout in _LAYOUTS.items()},
+    **{key: _parts_only(_layout_of(build)) for key, build in _ARTICULATED.items()},
 }
 
 # Builder keys are categories of the scene vocabulary (``scene.normalize_category``), which maps the
@@ -1729,6 +1901,25 @@ def procedural_parts(category: str, extents: tuple[float, float, float]) -> list
 
 
 @functools.lru_cache(maxsize=512)
+def _articulation(key: str, w: float, d: float, h: float) -> tuple[PartSpec, ...]:
+    build = _ARTICULATED.get(key)
+    return tuple(build(w, d, h)[2]) if build is not None else ()
+
+
+def procedural_articulation(category: str, extents: tuple[float, float, float]) -> list[PartSpec]:
+    """The parts of a procedural model that open (drawers, doors, lids), as its builder draws them.
+
+    Each :class:`~scenemosaic.assets.PartSpec` names the indices of its pieces in
+    :func:`procedural_parts` (same category and extents), its joint (a slide for a drawer, a hinge
+    for a door or a lid, with its axis, a point on it and its limits) and its handle, in the
+    object frame with the parts closed. Categories that do not open give ``[]``. See
+    ``docs/articulation.md`` for the categories and the hinge-side rule.
+    """
+    w, d, h = _check_extents(category, extents)
+    return list(_articulation(procedural_key(category), w, d, h))
+
+
+@functools.lru_cache(maxsize=512)
 def _compartments(key: str, w: float, d: float, h: float) -> tuple[Box6, ...]:
     layout = _LAYOUTS.get(key)
     if layout is None:
@@ -1748,13 +1939,16 @@ def _compartments(key: str, w: float, d: float, h: float) -> tuple[Box6, ...]:
 
 
 def interior_boards(category: str, extents: tuple[float, float, float]) -> list[Box6]:
-    """The free compartments of a hollow procedural container, bottom to top.
+    """The free compartments of a hollow procedural container, bottom to top (left to right
+    within a row of drawers).
 
     Each is an axis-aligned box ``(x0, x1, y0, y1, z_bottom, z_top)`` in the object frame (the
     frame of :func:`procedural_parts`: ``x in [-w/2, w/2]``, ``y in [-d/2, d/2]``, ``z in [0, h]``,
     front toward -Y): inside the side walls, from the inner face of the doors/drawer fronts (or the
     open front of a bookshelf) to the back panel, from the top of one board to the underside of the
-    next. An item whose box lies inside a compartment, resting on ``z_bottom``, touches no part.
+    next; in a chest of drawers (dresser), the inside of each drawer, over its bottom, up to the
+    top of its front. An item whose box lies inside a compartment, resting on ``z_bottom``,
+    touches no part.
     Front-opening containers (cabinet, wardrobe, dresser, tv stand, fridge, bookshelf and what the
     alias table draws with them) have one compartment per board; top-opening ones (garbage can,
     hamper, basket, box) have one, above the floor. Any other category gives ``[]``.

@@ -7,6 +7,11 @@ A glTF viewer therefore shows the scene upright; a reader that wants our Z-up fr
 either reads each child node's matrix relative to the root (it *is* the Z-up pose) or maps
 Y-up world points with ``(x, y, z) -> (x, -z, y)`` (:data:`Y_UP_TO_Z_UP`).
 
+Furniture that opens (``scenemosaic.assets.object_articulation``): the object's node holds what
+does not move, and each drawer, door and lid is a child node ``<id>/<part>`` whose matrix is the
+translation to the part's anchor (object frame) and whose mesh is the part in that frame, closed:
+a viewer that turns or shifts that node about its origin opens the part (``docs/articulation.md``).
+
 A house (:func:`export_house_glb`) has, under the same root, one node per room named by the
 room's id (identity matrix), holding ``<room id>/floor``, ``<room id>/<wall id>`` (openings cut,
 each shared wall once), ``<room id>/ceiling`` and a node per object of the room.
@@ -21,6 +26,7 @@ import structlog
 import trimesh
 from trimesh.visual.material import PBRMaterial
 
+from scenemosaic.assets import object_articulation, object_part_meshes
 from scenemosaic.exceptions import UsageError
 from scenemosaic.render import (
     CEILING_COLOR,
@@ -105,11 +111,29 @@ def _root() -> trimesh.Scene:
 
 def _add_objects(out: trimesh.Scene, scene: Scene, parent: str, base_dir: Path | None) -> None:
     for obj in scene.objects:
-        mesh = with_visual(object_local_mesh(obj, base_dir), obj.category)
+        parts = object_articulation(obj)
+        if not parts:
+            mesh = with_visual(object_local_mesh(obj, base_dir), obj.category)
+            out.add_geometry(
+                mesh, node_name=obj.id, geom_name=obj.id, parent_node_name=parent,
+                transform=obj.pose.matrix(with_scale=False),
+            )  # fmt: skip
+            continue
+        meshes = object_part_meshes(obj, base_dir)
         out.add_geometry(
-            mesh, node_name=obj.id, geom_name=obj.id, parent_node_name=parent,
-            transform=obj.pose.matrix(with_scale=False),
+            with_visual(meshes[None], obj.category), node_name=obj.id, geom_name=obj.id,
+            parent_node_name=parent, transform=obj.pose.matrix(with_scale=False),
         )  # fmt: skip
+        for part in parts:
+            name = f"{obj.id}/{part.name}"
+            at = np.eye(4)
+            at[:3, 3] = part.anchor
+            mesh = meshes[part.name].copy()
+            mesh.apply_translation(-np.asarray(part.anchor, dtype=np.float64))
+            out.add_geometry(
+                with_visual(mesh, obj.category), node_name=name, geom_name=name, parent_node_name=obj.id,
+                transform=at,
+            )  # fmt: skip
 
 
 def _add_room(

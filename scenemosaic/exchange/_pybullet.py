@@ -5,6 +5,10 @@ PyBullet turns URDF's ``floating`` joints into fixed ones, so ``scene.urdf`` loa
 reads instead: ``pybullet.loadSDF("scene.sdf")`` gives one body per model, each placed at its pose,
 the room and the held objects static. PyBullet ignores SDFormat's friction element, so
 :func:`load_pybullet` also sets each body's lateral friction to the coefficient the file names.
+Drawers, doors and lids are links on revolute and prismatic joints; PyBullet drives every such
+joint with a velocity motor toward speed 0 that holds it shut, so :func:`load_pybullet` gives
+that motor the joint's own dry friction as its force (PyBullet's way of modelling joint
+friction): the part stays closed under small knocks and opens to a pull.
 ``pybullet`` is imported only here (``pip install 'scenemosaic[pybullet]'``).
 """
 
@@ -49,7 +53,9 @@ def load_pybullet(folder: str | Path, *, client: int = 0) -> dict[str, int]:
     Returns ``{name: body id}``: one body per object, named by its id (a free body, or static
     when the scene holds it in place: ``sim.static``, hung from a wall or the ceiling) and the
     room (``room``; ``room_2`` should an object be called ``room``). Each body's lateral
-    friction is the object's ``sim.friction``. Gravity and the time step stay the client's::
+    friction is the object's ``sim.friction``. An object's drawers, doors and lids are the links
+    of its body, on joints named ``<id>/<part>``, their motors set to the joint's friction (see
+    the module docstring). Gravity and the time step stay the client's::
 
         import pybullet as p
         from scenemosaic.exchange import load_pybullet
@@ -78,4 +84,13 @@ def load_pybullet(folder: str | Path, *, client: int = 0) -> dict[str, int]:
         bodies[name] = body
         if name in frictions:
             pybullet.changeDynamics(body, -1, lateralFriction=frictions[name], physicsClientId=client)
+        for joint in range(pybullet.getNumJoints(body, physicsClientId=client)):
+            info = pybullet.getJointInfo(body, joint, physicsClientId=client)
+            if info[2] not in (pybullet.JOINT_REVOLUTE, pybullet.JOINT_PRISMATIC):
+                continue
+            if name in frictions:
+                pybullet.changeDynamics(body, joint, lateralFriction=frictions[name], physicsClientId=client)
+            pybullet.setJointMotorControl2(
+                body, joint, pybullet.VELOCITY_CONTROL, targetVelocity=0.0, force=info[7], physicsClientId=client
+            )
     return bodies

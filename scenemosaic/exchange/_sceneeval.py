@@ -12,6 +12,11 @@ Frames (the full statement is ``docs/exports.md``):
   column-major; for an upright pose ``R = Rz(yaw)``, so yaw 0 faces world -Y. SceneEval reads it
   with ``np.asarray(data).reshape(4, 4).T`` and applies it to the GLB's raw vertices.
 
+* An object of furniture that opens also has ``"parts"``: per drawer, door and lid its ``name``,
+  ``kind``, ``joint`` (``slide`` or ``hinge``), ``axis`` and ``anchor`` in the asset GLB's frame
+  (glTF, as its vertices) and ``limits`` (metres or radians; 0 is closed, as delivered;
+  ``docs/articulation.md``). SceneEval itself ignores the key.
+
 A whole house (:func:`export_house_sceneeval`) is one sceneState: the format's ``arch`` is a list
 of elements each naming its ``roomId`` (SceneEval builds one floor per ``roomId`` and every wall
 with its holes), so every room's floor, walls and ceiling go into the one ``arch`` and every
@@ -30,6 +35,7 @@ import numpy as np
 import structlog
 import trimesh
 
+from scenemosaic.assets import PartSpec, object_articulation
 from scenemosaic.exchange._glb import with_visual
 from scenemosaic.render import object_local_mesh
 from scenemosaic.scene import CEILING, FLOOR, FloatArray, House, Room, Scene, SceneObject, write_atomic
@@ -170,6 +176,19 @@ def _room_elements(room_id: str, room: Room) -> list[dict[str, Any]]:
     return elements
 
 
+def _part_record(part: PartSpec) -> dict[str, Any]:
+    """A movable part as the sceneState lists it: axis and anchor in the asset GLB's (glTF) frame."""
+    turn = LOCAL_TO_GLTF[:3, :3]
+    return {
+        "name": part.name,
+        "kind": part.kind,
+        "joint": part.joint,
+        "axis": [round(float(v), 9) + 0.0 for v in turn @ np.asarray(part.axis)],
+        "anchor": [round(float(v), 9) + 0.0 for v in turn @ np.asarray(part.anchor)],
+        "limits": [float(v) for v in part.limits],
+    }
+
+
 def _state(
     state_id: str, rooms: list[Scene], arch: dict[str, Any] | None, base_dir: Path | None
 ) -> tuple[dict[str, Any], dict[str, trimesh.Trimesh]]:
@@ -202,6 +221,9 @@ def _state(
                 "transform": {"rows": 4, "cols": 4, "data": _column_major(gltf_to_world(obj))},
                 "sceneeval": {"supportType": support_type(scene, obj)},
             })  # fmt: skip
+            parts = object_articulation(obj)
+            if parts:
+                objects[-1]["parts"] = [_part_record(part) for part in parts]
     body: dict[str, Any] = {
         "version": "scene@1.0.2",
         "id": state_id,

@@ -16,6 +16,13 @@ a box piece, the piece's hull as an OBJ otherwise). URDF itself has no friction,
 ``<contact><lateral_friction>`` inside the link and Gazebo's ``<gazebo reference=...>`` with
 ``<mu1>``/``<mu2>``; other loaders ignore both.
 
+Furniture that opens (``ObjectShape.articulation``: drawers, doors, lids) is more than one link:
+the object's link holds what does not move, and each part is a link ``<id>/<part>`` whose frame
+is the part's anchor (axes as the object's), on a ``prismatic`` (drawer) or ``revolute`` (door,
+lid) joint of the same name, with the part's ``<limit>`` and ``<dynamics damping friction>``;
+mass is shared as :func:`scenemosaic.physics.part_inertials` shares it. ``scene.sdf`` carries
+the same links and joints in each object's model. The parts stand closed.
+
 In ``scene.urdf`` a ``world`` link is the root; the room (:func:`scenemosaic.physics.room_slabs`,
 the slabs the MJCF export simulates) is a link on a fixed joint with one box per slab (the ceiling
 collides but has no visual, so viewers see into the room); each object
@@ -47,16 +54,18 @@ import numpy as np
 import structlog
 import trimesh
 
-from scenemosaic.assets import HullCache, object_mesh
+from scenemosaic.assets import HullCache, PartSpec, object_mesh, object_part_meshes
 from scenemosaic.physics import (
     ROOM_FRICTION,
     HullInput,
+    ObjectInertial,
     ObjectShape,
     RoomSlab,
     house_slabs,
     is_fixed,
     object_inertial,
     object_shape,
+    part_inertials,
     require_finite_poses,
     room_slabs,
 )
@@ -171,9 +180,11 @@ def _sdf_shape(
     mesh: str | None = None,
     box: tuple[Iterable[float], Iterable[float], float] | None = None,
     friction: float | None = None,
+    offset: FloatArray | None = None,
 ) -> ET.Element:
-    """A ``<visual>`` or ``<collision>``: a mesh file, or a box ``(centre, size, yaw)``; a collision
-    carries the friction coefficient in SDFormat's ``<surface><friction><ode>``."""
+    """A ``<visual>`` or ``<collision>``: a mesh file (moved by ``offset`` when given), or a box
+    ``(centre, size, yaw)``; a collision carries the friction coefficient in SDFormat's
+    ``<surface><friction><ode>``."""
     element = ET.SubElement(link, tag, name=name)
     geometry = ET.Element("geometry")
     if box is not None:
@@ -182,6 +193,8 @@ def _sdf_shape(
         ET.SubElement(ET.SubElement(geometry, "box"), "size").text = _vec(size)
     else:
         assert mesh is not None
+        if offset is not None:
+            _sdf_pose(element, offset)
         ET.SubElement(ET.SubElement(geometry, "mesh"), "uri").text = mesh
     element.append(geometry)
     if friction is not None:
@@ -209,23 +222,87 @@ def _sdf_model(world: ET.Element, name: str, *, static: bool) -> tuple[ET.Elemen
     return model, ET.Element("link", name=name)
 
 
+PART_JOINT_EFFORT = 100.0
+"""``<limit effort>`` of a part's joint (N or N m): what an actuator on it may exert, far above
+the few newtons that open a drawer, so no simulator holds a part shut by it."""
+PART_JOINT_VELOCITY = 5.0
+"""``<limit velocity>`` of a part's joint (m/s or rad/s)."""
+
+
+def _part_joint(robot: ET.Element, obj: SceneObject, part: PartSpec, parent: str) -> None:
+    """URDF's ``prismatic`` or ``revolute`` joint of a movable part (its child link ``<id>/<part>``)."""
+    name = f"{obj.id}/{part.name}"
+    joint = ET.SubElement(robot, "joint", name=name, type="prismatic" if part.joint == "slide" else "revolute")
+    _origin(joint, part.anchor)
+    ET.SubElement(joint, "parent", link=parent)
+    ET.SubElement(joint, "child", link=name)
+    ET.SubElement(joint, "axis", xyz=_vec(part.axis))
+    ET.SubElement(
+        joint,
+        "limit",
+        lower=_num(part.limits[0]),
+        upper=_num(part.limits[1]),
+        effort=_num(PART_JOINT_EFFORT),
+        velocity=_num(PART_JOINT_VELOCITY),
+    )
+    ET.SubElement(joint, "dynamics", damping=_num(part.damping), friction=_num(part.friction))
+
+
+def _sdf_part_joint(model: ET.Element, obj: SceneObject, part: PartSpec) -> None:
+    """SDFormat's ``revolute`` or ``prismatic`` joint of a movable part: at the child link's frame
+    (the part's anchor, axes as the model's), so its axis reads the same in every frame."""
+    name = f"{obj.id}/{part.name}"
+    joint = ET.SubElement(model, "joint", name=name, type="prismatic" if part.joint == "slide" else "revolute")
+    ET.SubElement(joint, "parent").text = obj.id
+    ET.SubElement(joint, "child").text = name
+    axis = ET.SubElement(joint, "axis")
+    ET.SubElement(axis, "xyz").text = _vec(part.axis)
+    limit = ET.SubElement(axis, "limit")
+    ET.SubElement(limit, "lower").text = _num(part.limits[0])
+    ET.SubElement(limit, "upper").text = _num(part.limits[1])
+    ET.SubElement(limit, "effort").text = _num(PART_JOINT_EFFORT)
+    ET.SubElement(limit, "velocity").text = _num(PART_JOINT_VELOCITY)
+    dynamics = ET.SubElement(axis, "dynamics")
+    ET.SubElement(dynamics, "damping").text = _num(part.damping)
+    ET.SubElement(dynamics, "friction").text = _num(part.friction)
+
+
+def _moved(point: FloatArray, part: PartSpec | None) -> FloatArray:
+    """A point of the object frame in the frame of ``part``'s link (its anchor; unchanged for the
+    object's own link, so a rigid object's files stay as they were)."""
+    return point if part is None else point - np.asarray(part.anchor, dtype=np.float64)
+
+
 class _ObjectFiles:
-    """The meshes of one object, written once and named from the per-object and the scene files."""
+    """The meshes of one object, written once and named from the per-object and the scene files.
+
+    An object with movable parts has one visual file per link (``<id>_visual.obj`` for what does
+    not move, ``<id>_visual_<part>.obj`` per part), each in the object frame, closed.
+    """
 
     def __init__(self, obj: SceneObject, shape: ObjectShape, base_dir: Path | None, mesh_dir: Path) -> None:
         self.obj = obj
         self.shape = shape
         self.visual: str | None = None
+        self.part_visuals: dict[str, str] = {}
         try:
-            visual = object_mesh(obj, base_dir)
+            if shape.articulation:
+                visuals = object_part_meshes(obj, base_dir)
+            else:
+                visuals = {None: object_mesh(obj, base_dir)}
         except Exception as exc:  # the visual is optional: the collision pieces still describe the object
             log.warning("urdf_visual_mesh_failed", object_id=obj.id, error=str(exc))
         else:
-            self.visual = f"{obj.id}_visual.obj"
-            _write_obj(
-                trimesh.Trimesh(vertices=visual.vertices, faces=visual.faces, process=False),
-                mesh_dir / self.visual,
-            )
+            for part, visual in visuals.items():
+                file_name = f"{obj.id}_visual.obj" if part is None else f"{obj.id}_visual_{part}.obj"
+                _write_obj(
+                    trimesh.Trimesh(vertices=visual.vertices, faces=visual.faces, process=False),
+                    mesh_dir / file_name,
+                )
+                if part is None:
+                    self.visual = file_name
+                else:
+                    self.part_visuals[part] = file_name
         self.hulls: list[str | None] = []
         for k, piece in enumerate(shape.pieces):
             if piece.box is not None:
@@ -235,55 +312,102 @@ class _ObjectFiles:
             _write_obj(piece.mesh(), mesh_dir / file_name)
             self.hulls.append(file_name)
 
-    def link(self, mesh_prefix: str) -> ET.Element:
-        """The object's ``<link>``, its mesh files named as ``<mesh_prefix><file>``."""
+    def _inertials(self) -> dict[str | None, ObjectInertial]:
+        if not self.shape.articulation:
+            return {None: object_inertial(self.obj, self.shape)}
+        return part_inertials(self.obj, self.shape)
+
+    def _indices(self, part: PartSpec | None) -> list[int]:
+        if part is not None:
+            return list(part.pieces)
+        moving = self.shape.moving_pieces()
+        return [k for k in range(len(self.shape.pieces)) if k not in moving]
+
+    def links(self, mesh_prefix: str) -> list[ET.Element]:
+        """The object's ``<link>`` elements, its mesh files named as ``<mesh_prefix><file>``: the
+        object's own, then one per movable part (its frame at the part's anchor)."""
+        inertials = self._inertials()
+        out = [self._link(self.obj.id, None, inertials[None], mesh_prefix)]
+        for part in self.shape.articulation:
+            out.append(self._link(f"{self.obj.id}/{part.name}", part, inertials[part.name], mesh_prefix))
+        return out
+
+    def _link(self, name: str, part: PartSpec | None, inertial: ObjectInertial, mesh_prefix: str) -> ET.Element:
         obj = self.obj
-        inertial = object_inertial(obj, self.shape)
-        link = ET.Element("link", name=obj.id)
+        offset = np.zeros(3) if part is None else -np.asarray(part.anchor, dtype=np.float64)
+        link = ET.Element("link", name=name)
         inertial_el = ET.SubElement(link, "inertial")
-        _origin(inertial_el, inertial.centre)
+        _origin(inertial_el, _moved(inertial.centre, part))
         ET.SubElement(inertial_el, "mass", value=_num(inertial.mass))
         ixx, iyy, izz = inertial.diagonal
         ET.SubElement(
             inertial_el, "inertia", ixx=_num(ixx), ixy="0", ixz="0", iyy=_num(iyy), iyz="0", izz=_num(izz)
         )
-        if self.visual is not None:
-            visual = ET.SubElement(link, "visual", name=f"{obj.id}_visual")
-            _origin(visual, (0.0, 0.0, 0.0))
-            ET.SubElement(ET.SubElement(visual, "geometry"), "mesh", filename=mesh_prefix + self.visual)
+        visual_file = self.visual if part is None else self.part_visuals.get(part.name)
+        if visual_file is not None:
+            visual = ET.SubElement(link, "visual", name=f"{obj.id}_visual" if part is None else f"{name}_visual")
+            _origin(visual, offset)
+            ET.SubElement(ET.SubElement(visual, "geometry"), "mesh", filename=mesh_prefix + visual_file)
             _material(visual, f"category_{obj.category}", category_color(obj.category))
-        for k, (piece, file_name) in enumerate(zip(self.shape.pieces, self.hulls, strict=True)):
-            name = f"{obj.id}_hull_{k}"
+        for k in self._indices(part):
+            piece, file_name = self.shape.pieces[k], self.hulls[k]
+            hull_name = f"{obj.id}_hull_{k}"
             if piece.box is not None:
                 centre, half = piece.box
-                _box_geometry(link, "collision", name, centre, 2.0 * half)
+                _box_geometry(link, "collision", hull_name, _moved(centre, part), 2.0 * half)
             else:
                 assert file_name is not None
-                collision = ET.SubElement(link, "collision", name=name)
-                _origin(collision, (0.0, 0.0, 0.0))
+                collision = ET.SubElement(link, "collision", name=hull_name)
+                _origin(collision, offset)
                 ET.SubElement(ET.SubElement(collision, "geometry"), "mesh", filename=mesh_prefix + file_name)
         _friction(link, obj.sim.friction)
         return link
 
+    def joints(self, robot: ET.Element) -> None:
+        """The joint of each movable part, appended to ``robot`` (after the links)."""
+        for part in self.shape.articulation:
+            _part_joint(robot, self.obj, part, self.obj.id)
+
     def sdf_model(self, world: ET.Element, mesh_prefix: str, *, movable: bool) -> None:
-        """The object as an SDFormat ``<model>`` placed at its pose (``<static>`` when held in place)."""
+        """The object as an SDFormat ``<model>`` placed at its pose (``<static>`` when held in place;
+        a held model's parts still move on their joints, PyBullet holding its base link only)."""
         obj = self.obj
+        inertials = self._inertials()
         model, link = _sdf_model(world, obj.id, static=not movable)
         _sdf_pose(model, obj.pose.position, rpy_from_matrix(quat_to_matrix(obj.pose.quaternion)))
-        inertial = object_inertial(obj, self.shape)
-        _sdf_inertial(link, inertial.centre, inertial.mass, inertial.diagonal)
-        if self.visual is not None:
-            visual = _sdf_shape(link, "visual", f"{obj.id}_visual", mesh=mesh_prefix + self.visual)
+        self._sdf_link(link, None, inertials[None], mesh_prefix)
+        model.append(link)
+        for part in self.shape.articulation:
+            name = f"{obj.id}/{part.name}"
+            part_link = ET.SubElement(model, "link", name=name)
+            _sdf_pose(part_link, part.anchor)
+            self._sdf_link(part_link, part, inertials[part.name], mesh_prefix)
+        for part in self.shape.articulation:
+            _sdf_part_joint(model, obj, part)
+
+    def _sdf_link(
+        self, link: ET.Element, part: PartSpec | None, inertial: ObjectInertial, mesh_prefix: str
+    ) -> None:
+        obj = self.obj
+        offset = None if part is None else -np.asarray(part.anchor, dtype=np.float64)
+        _sdf_inertial(link, _moved(inertial.centre, part), inertial.mass, inertial.diagonal)
+        visual_file = self.visual if part is None else self.part_visuals.get(part.name)
+        if visual_file is not None:
+            name = f"{obj.id}_visual" if part is None else f"{obj.id}/{part.name}_visual"
+            visual = _sdf_shape(link, "visual", name, mesh=mesh_prefix + visual_file, offset=offset)
             _sdf_material(visual, category_color(obj.category))
-        for k, (piece, file_name) in enumerate(zip(self.shape.pieces, self.hulls, strict=True)):
+        for k in self._indices(part):
+            piece, file_name = self.shape.pieces[k], self.hulls[k]
             name = f"{obj.id}_hull_{k}"
             if piece.box is not None:
                 centre, half = piece.box
-                _sdf_shape(link, "collision", name, box=(centre, 2.0 * half, 0.0), friction=obj.sim.friction)
+                box = (_moved(centre, part), 2.0 * half, 0.0)
+                _sdf_shape(link, "collision", name, box=box, friction=obj.sim.friction)
             else:
                 assert file_name is not None
-                _sdf_shape(link, "collision", name, mesh=mesh_prefix + file_name, friction=obj.sim.friction)
-        model.append(link)
+                _sdf_shape(
+                    link, "collision", name, mesh=mesh_prefix + file_name, friction=obj.sim.friction, offset=offset
+                )
 
 
 def _write_obj(mesh: trimesh.Trimesh, path: Path) -> None:
@@ -393,12 +517,14 @@ class _UrdfWriter:
             single = ET.Element("robot", name=obj.id)
             held = "movable (a free body)" if movable else "held in place: load it with a fixed base"
             _add_comment(single, f"scenemosaic object {obj.id} ({obj.category}), {held}")
-            single.append(files.link(f"{URDF_MESH_DIR}/"))
+            single.extend(files.links(f"{URDF_MESH_DIR}/"))
+            files.joints(single)
             _gazebo(single, obj.id, obj.sim.friction)
             _write_xml(single, self.object_dir / f"{obj.id}.urdf")
 
-            self.robot.append(files.link(f"{URDF_OBJECT_DIR}/{URDF_MESH_DIR}/"))
+            self.robot.extend(files.links(f"{URDF_OBJECT_DIR}/{URDF_MESH_DIR}/"))
             _joint(self.robot, f"{obj.id}_joint", "floating" if movable else "fixed", self.world, obj.id, obj)
+            files.joints(self.robot)
             _gazebo(self.robot, obj.id, obj.sim.friction)
             files.sdf_model(self.sdf_world, f"{URDF_OBJECT_DIR}/{URDF_MESH_DIR}/", movable=movable)
 

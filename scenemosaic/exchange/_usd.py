@@ -19,6 +19,18 @@ expressed with UsdPhysics:
 * ``/World/PhysicsMaterials/<name>`` — a ``Material`` with ``PhysicsMaterialAPI`` per object (its
   friction) and one for the room, bound with the ``physics`` purpose.
 
+Furniture that opens (``ObjectShape.articulation``): the object's prim and layer hold what does not
+move (its mass the share :func:`scenemosaic.physics.part_inertials` gives it); each drawer, door
+and lid is a rigid body of its own beside it, ``<parent>/<name>_<part>`` (``customData``
+``scenemosaic:partOf``, the object's id, and ``scenemosaic:part``), placed at the part's anchor with the object's
+orientation, referencing ``usd/<name>_<part>.usda`` (its visual and collision pieces in its own
+frame, closed), and joined to the object's prim by ``<parent>/<name>_<part>/joint``: a
+``PhysicsPrismaticJoint`` (limits in metres) or ``PhysicsRevoluteJoint`` (limits in degrees, as
+UsdPhysics has them) whose joint frames sit at the anchor on both bodies, turned so the joint's
+``X``/``Y``/``Z`` axis is the part's opening direction; its damping is a ``PhysicsDriveAPI``
+(``linear`` or ``angular``) of stiffness 0, and its dry friction, which core UsdPhysics cannot say,
+is kept in the joint's ``customData`` ``scenemosaic:friction``.
+
 Meshes are written in the object's local frame with its scale already applied (their bounds are
 the object's size), as in the GLB and MJCF exports, so no scale op is authored; the pose's scale is
 kept in the prim's ``customData`` for reference. Every asset path is relative, so the folder can be
@@ -40,11 +52,12 @@ import numpy as np
 import structlog
 import trimesh
 
-from scenemosaic.assets import HullCache, object_mesh
+from scenemosaic.assets import HullCache, PartSpec, object_mesh, object_part_meshes
 from scenemosaic.exceptions import MissingExtraError, UsageError
 from scenemosaic.physics import (
     ROOM_FRICTION,
     HullInput,
+    ObjectInertial,
     ObjectShape,
     RoomSlab,
     SimSettings,
@@ -52,6 +65,7 @@ from scenemosaic.physics import (
     is_fixed,
     object_inertial,
     object_shape,
+    part_inertials,
     require_finite_poses,
     room_slabs,
 )
@@ -176,25 +190,112 @@ class _Writer:
         )
 
 
-def _object_layer(w: _Writer, name: str, obj: SceneObject, shape: ObjectShape, base_dir: Path | None) -> Any:
-    """The geometry layer of one object: ``/<name>/visual`` and ``/<name>/collision/piece_<k>``."""
+def _object_layer(
+    w: _Writer,
+    name: str,
+    obj: SceneObject,
+    shape: ObjectShape,
+    base_dir: Path | None,
+    *,
+    part: PartSpec | None = None,
+) -> Any:
+    """The geometry layer of one object: ``/<name>/visual`` and ``/<name>/collision/piece_<k>``.
+
+    For an object with movable parts, what does not move; with ``part``, that part's visual and
+    pieces in its own frame (the object frame moved to the part's anchor). Pieces keep the
+    object's numbering ``k``.
+    """
     layer, stage = w.new_stage(name)
     root = f"/{name}"
     try:
-        visual = object_mesh(obj, base_dir)
+        if shape.articulation:
+            key = None if part is None else part.name
+            visual: trimesh.Trimesh | None = object_part_meshes(obj, base_dir).get(key)
+        else:
+            visual = object_mesh(obj, base_dir)
     except Exception as exc:  # the visual is optional: the collision pieces still describe the object
         log.warning("usd_visual_mesh_failed", object_id=obj.id, error=str(exc))
-    else:
+        visual = None
+    anchor = None if part is None else np.asarray(part.anchor, dtype=np.float64)
+    if visual is not None:
+        if anchor is not None:
+            visual = visual.copy()
+            visual.apply_translation(-anchor)
         mesh = w.mesh(stage, f"{root}/visual", visual)
         mesh.CreateDisplayColorPrimvar(w.UsdGeom.Tokens.constant).Set(
             [w.Gf.Vec3f(*_color(category_color(obj.category)))]
         )
     w.UsdGeom.Scope.Define(stage, f"{root}/collision")
+    moving = shape.moving_pieces()
     for k, piece in enumerate(shape.pieces):
-        mesh = w.mesh(stage, f"{root}/collision/piece_{k}", piece.mesh())
+        if (k in moving) != (part is not None) or (part is not None and k not in part.pieces):
+            continue
+        piece_mesh = piece.mesh()
+        if anchor is not None:
+            piece_mesh.apply_translation(-anchor)
+        mesh = w.mesh(stage, f"{root}/collision/piece_{k}", piece_mesh)
         mesh.CreatePurposeAttr(w.UsdGeom.Tokens.guide)  # renderers skip it; physics does not
         w.collider(mesh.GetPrim(), w.UsdPhysics.Tokens.convexHull)
     return layer
+
+
+def _axis_frame(axis: tuple[float, float, float]) -> tuple[str, tuple[float, float, float, float]]:
+    """UsdPhysics names a joint's axis ``X``, ``Y`` or ``Z`` of its joint frame: the token, and the
+    joint frame's rotation (w, x, y, z) that turns that axis onto ``axis`` (a half turn for a
+    negative one: about Z for X and Y, about X for Z)."""
+    k = int(np.argmax(np.abs(axis)))
+    token = "XYZ"[k]
+    if axis[k] > 0:
+        return token, (1.0, 0.0, 0.0, 0.0)
+    return token, (0.0, 0.0, 0.0, 1.0) if k < 2 else (0.0, 1.0, 0.0, 0.0)
+
+
+def _add_part(
+    w: _Writer,
+    stage: Any,
+    obj: SceneObject,
+    part: PartSpec,
+    object_path: str,
+    part_path: str,
+    material: Any,
+    mass: ObjectInertial,
+) -> None:
+    """A movable part's rigid body at ``part_path`` and its joint to the object's prim."""
+    xform = w.UsdGeom.Xform.Define(stage, part_path)
+    prim = xform.GetPrim()
+    anchor = obj.pose.matrix(with_scale=False) @ np.array([*part.anchor, 1.0])
+    xform.AddTranslateOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Vec3d(*map(float, anchor[:3])))
+    xform.AddOrientOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Quatd(*map(float, obj.pose.quaternion)))
+    prim.SetCustomDataByKey("scenemosaic:partOf", obj.id)  # not objectId: that names objects' own prims
+    prim.SetCustomDataByKey("scenemosaic:part", part.name)
+    prim.SetCustomDataByKey("scenemosaic:kind", part.kind)
+    w.UsdPhysics.RigidBodyAPI.Apply(prim)
+    api = w.UsdPhysics.MassAPI.Apply(prim)
+    api.CreateMassAttr(mass.mass)
+    api.CreateCenterOfMassAttr(w.Gf.Vec3f(*(mass.centre - np.asarray(part.anchor)).tolist()))
+    api.CreateDiagonalInertiaAttr(w.Gf.Vec3f(*mass.diagonal.tolist()))
+    api.CreatePrincipalAxesAttr(w.Gf.Quatf(1.0, 0.0, 0.0, 0.0))
+    w.bind_physics(prim, material)
+    slide = part.joint == "slide"
+    schema = w.UsdPhysics.PrismaticJoint if slide else w.UsdPhysics.RevoluteJoint
+    joint = schema.Define(stage, f"{part_path}/joint")
+    token, turn = _axis_frame(part.axis)
+    joint.CreateBody0Rel().SetTargets([object_path])
+    joint.CreateBody1Rel().SetTargets([part_path])
+    joint.CreateAxisAttr(token)
+    joint.CreateLocalPos0Attr(w.Gf.Vec3f(*map(float, part.anchor)))
+    joint.CreateLocalRot0Attr(w.Gf.Quatf(*turn))
+    joint.CreateLocalPos1Attr(w.Gf.Vec3f(0.0, 0.0, 0.0))
+    joint.CreateLocalRot1Attr(w.Gf.Quatf(*turn))
+    lower, upper = part.limits if slide else (np.degrees(part.limits[0]), np.degrees(part.limits[1]))
+    joint.CreateLowerLimitAttr(float(lower))
+    joint.CreateUpperLimitAttr(float(upper))
+    drive = w.UsdPhysics.DriveAPI.Apply(joint.GetPrim(), "linear" if slide else "angular")
+    drive.CreateTypeAttr("force")
+    drive.CreateStiffnessAttr(0.0)
+    drive.CreateTargetVelocityAttr(0.0)
+    drive.CreateDampingAttr(float(part.damping if slide else part.damping * np.pi / 180.0))  # per degree
+    joint.GetPrim().SetCustomDataByKey("scenemosaic:friction", float(part.friction))
 
 
 def _add_cube(w: _Writer, stage: Any, prim_path: str, slab: RoomSlab) -> None:
@@ -257,7 +358,7 @@ def _add_object(
     prim.SetCustomDataByKey("scenemosaic:movable", movable)
     prim.SetCustomDataByKey("scenemosaic:poseScale", w.Gf.Vec3d(*map(float, obj.pose.scale)))
     if movable:
-        inertial = object_inertial(obj, shape)
+        inertial = object_inertial(obj, shape) if not shape.articulation else part_inertials(obj, shape)[None]
         w.UsdPhysics.RigidBodyAPI.Apply(prim)
         mass = w.UsdPhysics.MassAPI.Apply(prim)
         mass.CreateMassAttr(inertial.mass)
@@ -307,6 +408,25 @@ class _Export:
             _add_object(w, self.stage, scene, obj, prim_path, name, shapes[obj.id])
             self.references.append((prim_path, f"./{relative}"))
             self.count += 1
+            self._parts(obj, shapes[obj.id], parent, name)
+
+    def _parts(self, obj: SceneObject, shape: ObjectShape, parent: str, name: str) -> None:
+        """Each movable part of ``obj``: its geometry layer, its body beside the object's, its joint."""
+        if not shape.articulation:
+            return
+        w = self.w
+        material = self.stage.GetPrimAtPath(f"/World/PhysicsMaterials/{name}")
+        masses = part_inertials(obj, shape)
+        for part in shape.articulation:
+            part_name = usd_prim_name(f"{name}_{part.name}", self.taken)
+            relative = f"{USD_GEOMETRY_DIR}/{part_name}.usda"
+            layer = _object_layer(w, part_name, obj, shape, self.base_dir, part=part)
+            w.save(layer, self.stage_path.parent / relative)
+            part_path = f"{parent}/{part_name}"
+            object_path = f"{parent}/{name}"
+            binding = w.UsdShade.Material(material)
+            _add_part(w, self.stage, obj, part, object_path, part_path, binding, masses[part.name])
+            self.references.append((part_path, f"./{relative}"))
 
     def save(self) -> Path:
         # The references go in once the stage is gone: composing them on the in-memory layer would

@@ -55,6 +55,7 @@ from scenemosaic.physics._world import (
     house_slabs,
     object_inertial,
     object_mass,
+    part_inertials,
     room_slabs,
 )
 from scenemosaic.scene import THIN_RATIO, is_thin
@@ -98,6 +99,7 @@ __all__ = [
     "object_inertial",
     "object_mass",
     "object_shape",
+    "part_inertials",
     "plan_units",
     "rehang_screens",
     "require_finite_poses",

@@ -24,7 +24,7 @@ import structlog
 import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
-from scenemosaic.assets import HullCache, object_hulls
+from scenemosaic.assets import HullCache, PartSpec, object_articulation, object_hulls
 from scenemosaic.scene import FloatArray, SceneObject
 
 __all__ = ["BASE_BAND_M", "HullPiece", "ObjectShape", "hull_mesh", "object_shape", "piece_from_vertices"]
@@ -64,6 +64,15 @@ class ObjectShape:
     pieces: tuple[HullPiece, ...]
     lower: FloatArray
     upper: FloatArray
+    articulation: tuple[PartSpec, ...] = ()
+    """The object's movable parts (:func:`scenemosaic.assets.object_articulation`), their
+    ``pieces`` indexing :attr:`pieces`; empty for a rigid object. Worlds built with
+    ``articulated=True`` give each part its own body on its joint; every other use (collision and
+    bounds checks, unit settling) sees the pieces as they stand, closed."""
+
+    def moving_pieces(self) -> set[int]:
+        """Indices of the pieces that belong to a movable part."""
+        return {i for part in self.articulation for i in part.pieces}
 
     @property
     def volume(self) -> float:
@@ -153,10 +162,16 @@ def object_shape(
     hulls: HullInput | None = None,
 ) -> ObjectShape:
     """The convex pieces of ``obj`` (local frame, scaled): ``hulls[obj.id]`` when given, else
-    :func:`scenemosaic.assets.object_hulls` (which uses ``cache`` for mesh assets)."""
+    :func:`scenemosaic.assets.object_hulls` (which uses ``cache`` for mesh assets), with the
+    object's movable parts (:func:`scenemosaic.assets.object_articulation`; dropped when the
+    given pieces are not as many as the asset's own, since nothing then says which move)."""
     raw: Sequence[Any] | None = hulls.get(obj.id) if hulls is not None else None
+    given = bool(raw)
     if not raw:
         raw = object_hulls(obj, base_dir, cache=cache)
     pieces = tuple(piece_from_vertices(getattr(r, "vertices", r)) for r in raw)
     allv = np.concatenate([p.vertices for p in pieces])
-    return ObjectShape(pieces=pieces, lower=allv.min(axis=0), upper=allv.max(axis=0))
+    parts = tuple(object_articulation(obj))
+    if parts and given and len(raw) != len(object_hulls(obj, base_dir, cache=cache)):
+        parts = ()  # pieces given that are not the asset's own: nothing says which of them move
+    return ObjectShape(pieces=pieces, lower=allv.min(axis=0), upper=allv.max(axis=0), articulation=parts)

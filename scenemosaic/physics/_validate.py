@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 import structlog
 
-from scenemosaic.assets import HullCache, object_mesh
+from scenemosaic.assets import HullCache, object_mesh, object_part_meshes
 from scenemosaic.physics._checks import (
     check_out_of_bounds,
     collision_report_for,
@@ -57,11 +57,12 @@ def scene_world(
     scene: Scene, shapes: Mapping[str, ObjectShape], sim: SimSettings | None = None
 ) -> WorldBuilder:
     """The whole scene as one MuJoCo world with gravity down: the room static, objects hung from
-    the ceiling or a wall and ``static`` ones welded, every other object on a free joint.
+    the ceiling or a wall and ``static`` ones welded, every other object on a free joint; the
+    drawers, doors and lids of furniture that opens each on its own joint, closed.
 
     Validation simulates this world and the MJCF export writes it (:func:`write_scene_mjcf`).
     """
-    builder = WorldBuilder(sim or SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
+    builder = WorldBuilder(sim or SimSettings(), gravity_dir=(0.0, 0.0, -1.0), articulated=True)
     builder.add_room(scene.room)
     _add_objects(builder, scene, shapes)
     return builder
@@ -83,8 +84,8 @@ def house_world(
     :func:`~scenemosaic.physics.house_slabs` (one floor, every room's walls cut around their
     openings with shared walls once, each room's ceiling over its own floor), and every object of
     every room placed as :func:`scene_world` places it in its own room (:func:`is_fixed` asked of
-    that room's scene)."""
-    builder = WorldBuilder(sim or SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
+    that room's scene), its movable parts on their joints."""
+    builder = WorldBuilder(sim or SimSettings(), gravity_dir=(0.0, 0.0, -1.0), articulated=True)
     builder.add_slabs(house_slabs(house))
     for scene in house.rooms:
         _add_objects(builder, scene, shapes)
@@ -98,14 +99,19 @@ def _write_world(
     out_dir: str | Path,
     name: str,
 ) -> Path:
-    """Add each object's visual mesh to ``builder`` and write its MJCF under ``out_dir``."""
+    """Add each object's visual mesh to ``builder`` (split by movable part for an object whose
+    parts have their own bodies) and write its MJCF under ``out_dir``."""
     for obj in objects:
         try:
-            mesh = object_mesh(obj, base_dir)
+            if builder.part_names(obj.id):
+                meshes = object_part_meshes(obj, base_dir)
+            else:
+                meshes = {None: object_mesh(obj, base_dir)}
         except Exception as exc:  # the visual is optional: the collision pieces still describe the object
             log.warning("mjcf_visual_mesh_failed", object_id=obj.id, error=str(exc))
             continue
-        builder.add_visual(obj, np.asarray(mesh.vertices), np.asarray(mesh.faces))
+        for part, mesh in meshes.items():
+            builder.add_visual(obj, np.asarray(mesh.vertices), np.asarray(mesh.faces), part=part)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     path = builder.write_mjcf(out, model_name=name)

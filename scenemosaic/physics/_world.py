@@ -10,7 +10,13 @@ body; dynamic objects get their own body. Two joint layouts:
 * ``"free"`` (validation and export): a free joint, nothing locked.
 
 Bodies of dynamic objects are placed at the object's origin (bottom centre of the footprint).
-Every object body is named by the object's id, its collision geoms ``<id>_hull_<k>``. The same
+Every object body is named by the object's id, its collision geoms ``<id>_hull_<k>``. A builder
+made with ``articulated=True`` (the whole-scene world of validation and the MJCF export) gives
+each movable part of an object (``ObjectShape.articulation``: a drawer, a door, a lid) its own
+child body ``<id>/<part>`` on a slide or hinge joint of the same name, with the part's limits,
+damping, dry friction and armature, closed; the part's pieces keep their geom names. A contact
+exclusion between the object's body and each part's (MuJoCo's parent filter alone would not hold
+for an object welded to the world) makes a part meet its carcass only through its joint. The same
 builder writes the MJCF export (:meth:`WorldBuilder.write_mjcf`), so the exported file is the
 model that was simulated, not a second rendering of it.
 """
@@ -53,6 +59,7 @@ __all__ = [
     "house_slabs",
     "object_inertial",
     "object_mass",
+    "part_inertials",
     "room_slabs",
 ]
 
@@ -106,14 +113,49 @@ class ObjectInertial:
 
 def object_inertial(obj: SceneObject, shape: ObjectShape) -> ObjectInertial:
     """:func:`object_mass` with the centre and box inertia of the object's collision bounds."""
-    mass = object_mass(obj, shape)
-    size = shape.upper - shape.lower
+    return _box_inertial(object_mass(obj, shape), np.stack([shape.lower, shape.upper]))
+
+
+MIN_PART_MASS_KG = 0.01
+"""Least mass of a movable part (or carcass) in a simulated model, kg."""
+
+
+def _box_inertial(mass: float, vertices: FloatArray) -> ObjectInertial:
+    """``mass`` as a solid box over the bounds of ``vertices``: centre and principal moments."""
+    lower, upper = vertices.min(axis=0), vertices.max(axis=0)
+    size = upper - lower
     moments = (
         mass
         / 12.0
         * np.array([size[1] ** 2 + size[2] ** 2, size[0] ** 2 + size[2] ** 2, size[0] ** 2 + size[1] ** 2])
     )
-    return ObjectInertial(mass=mass, centre=(shape.lower + shape.upper) / 2, moments=moments)
+    return ObjectInertial(mass=mass, centre=(lower + upper) / 2, moments=moments)
+
+
+def part_inertials(obj: SceneObject, shape: ObjectShape) -> dict[str | None, ObjectInertial]:
+    """Mass properties of an articulated object's fixed body (key ``None``: the pieces that do not
+    move) and of each movable part (key: the part's name), in the object's local frame.
+
+    The object's mass (:func:`object_mass`) is shared by the pieces' volumes (by their count when
+    they have none), each share at least :data:`MIN_PART_MASS_KG`; each centre and box inertia
+    are those of its pieces' bounds, as :func:`object_inertial` does for a whole object. The MJCF,
+    URDF and SDF exports give these to the bodies and links of an articulated object.
+    """
+    total = object_mass(obj, shape)
+    moving = shape.moving_pieces()
+    groups: dict[str | None, list[int]] = {None: [i for i in range(len(shape.pieces)) if i not in moving]}
+    for part in shape.articulation:
+        groups[part.name] = list(part.pieces)
+    volumes = np.array([p.volume for p in shape.pieces])
+    whole = float(volumes.sum())
+    out: dict[str | None, ObjectInertial] = {}
+    for name, indices in groups.items():
+        if not indices:
+            continue
+        share = float(volumes[indices].sum()) / whole if whole > 0 else len(indices) / len(shape.pieces)
+        vertices = np.concatenate([shape.pieces[i].vertices for i in indices])
+        out[name] = _box_inertial(max(total * share, MIN_PART_MASS_KG), vertices)
+    return out
 
 
 @dataclass(frozen=True)
@@ -285,13 +327,23 @@ class WorldBuilder:
     """Accumulates static and dynamic parts, then compiles one MuJoCo model."""
 
     def __init__(
-        self, settings: SimSettings, gravity_dir: Sequence[float] | FloatArray = (0.0, 0.0, -1.0)
+        self,
+        settings: SimSettings,
+        gravity_dir: Sequence[float] | FloatArray = (0.0, 0.0, -1.0),
+        *,
+        articulated: bool = False,
     ) -> None:
         self.settings = settings
+        self.articulated = articulated
+        """Whether objects with movable parts get a child body per part on its joint (else one
+        rigid body, the parts closed)."""
+        self._part_anchors: dict[str, dict[str, FloatArray]] = {}
+        self._posed: set[str] = set()
         self.spec = mujoco.MjSpec()
         self.spec.modelname = "scenemosaic_unit"
         # inertias are always explicit (object_mass + box inertia), never derived from geoms
         self.spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+        self.spec.compiler.degree = False  # hinge limits are radians (the written XML says so too)
         opt = self.spec.option
         opt.timestep = settings.timestep
         opt.solver = _SOLVERS[settings.solver]
@@ -324,10 +376,12 @@ class WorldBuilder:
         local_t: FloatArray,
         friction: float,
         rgba: Sequence[float] = (0.7, 0.7, 0.7, 1.0),
+        indices: Sequence[int] | None = None,
     ) -> None:
         names = self._geom_names.setdefault(object_id, [])
         quat = _quat_from_matrix(local_r)
-        for k, piece in enumerate(shape.pieces):
+        for k in range(len(shape.pieces)) if indices is None else indices:
+            piece = shape.pieces[k]
             name = f"{object_id}_hull_{k}"
             g = body.add_geom()
             g.name = name
@@ -381,25 +435,84 @@ class WorldBuilder:
             if slab.kind == "ceiling":
                 g.group = 4  # hidden in viewers by default: it would hide the scene from above
 
+    def _opens(self, shape: ObjectShape) -> bool:
+        return self.articulated and bool(shape.articulation)
+
+    def _add_parts(
+        self, body: mujoco.MjsBody, obj: SceneObject, shape: ObjectShape, rgba: Sequence[float]
+    ) -> None:
+        """Each movable part of ``obj`` as a child of ``body`` (whose frame is the object's): a body
+        at the part's anchor on its slide or hinge joint, holding the part's pieces."""
+        inertials = part_inertials(obj, shape)
+        anchors = self._part_anchors.setdefault(obj.id, {})
+        for part in shape.articulation:
+            anchor = np.asarray(part.anchor, dtype=np.float64)
+            anchors[part.name] = anchor
+            child = body.add_body()
+            child.name = f"{obj.id}/{part.name}"
+            child.pos = anchor.tolist()
+            inertial = inertials[part.name]
+            child.mass = inertial.mass
+            child.explicitinertial = True
+            child.ipos = (inertial.centre - anchor).tolist()
+            child.inertia = inertial.diagonal.tolist()
+            j = child.add_joint()
+            j.name = f"{obj.id}/{part.name}"
+            j.type = mujoco.mjtJoint.mjJNT_SLIDE if part.joint == "slide" else mujoco.mjtJoint.mjJNT_HINGE
+            j.axis = list(part.axis)
+            j.range = list(part.limits)
+            j.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+            j.damping = [part.damping, 0.0, 0.0]
+            j.frictionloss = part.friction
+            j.armature = part.armature
+            self._add_shape(
+                child, obj.id, shape, np.eye(3), -anchor, obj.sim.friction, rgba, indices=part.pieces
+            )
+            # MuJoCo never collides a body with its parent, unless the parent is welded to the world
+            # (a held object): then only an explicit exclusion keeps the part off its own carcass
+            exclude = self.spec.add_exclude()
+            exclude.bodyname1 = obj.id
+            exclude.bodyname2 = child.name
+
     def add_static(self, obj: SceneObject, shape: ObjectShape) -> None:
-        """An object that never moves, at its current pose: a body welded to the world (no joint)."""
+        """An object that never moves, at its current pose: a body welded to the world (no joint).
+        Its movable parts, in an ``articulated`` world, still open on their joints."""
         m = obj.pose.matrix(with_scale=False)
         body = self.spec.worldbody.add_body()
         body.name = obj.id
-        self._add_shape(body, obj.id, shape, m[:3, :3], m[:3, 3], obj.sim.friction, (0.5, 0.5, 0.6, 1))
+        rgba = (0.5, 0.5, 0.6, 1)
+        if not self._opens(shape):
+            self._add_shape(body, obj.id, shape, m[:3, :3], m[:3, 3], obj.sim.friction, rgba)
+            return
+        body.pos = m[:3, 3].tolist()
+        body.quat = list(obj.pose.quaternion)
+        moving = shape.moving_pieces()
+        fixed = [i for i in range(len(shape.pieces)) if i not in moving]
+        self._add_shape(body, obj.id, shape, np.eye(3), np.zeros(3), obj.sim.friction, rgba, indices=fixed)
+        self._add_parts(body, obj, shape, rgba)
+        self._posed.add(obj.id)
 
-    def add_visual(self, obj: SceneObject, vertices: FloatArray, faces: npt.NDArray[np.int64]) -> None:
+    def part_names(self, object_id: str) -> list[str]:
+        """The movable parts this builder gave ``object_id`` its own body for (``[]`` when rigid)."""
+        return list(self._part_anchors.get(object_id, {}))
+
+    def add_visual(
+        self, obj: SceneObject, vertices: FloatArray, faces: npt.NDArray[np.int64], *, part: str | None = None
+    ) -> None:
         """The object's visual mesh (local frame, already scaled) as a non-colliding, massless geom
-        in the object's category colour."""
-        name = f"{obj.id}_visual"
+        in the object's category colour. With ``part``, the mesh of that movable part (object
+        frame, closed) on the part's body, named ``<id>_visual_<part>``."""
+        name = f"{obj.id}_visual" if part is None else f"{obj.id}_visual_{part}"
         if obj.id not in self._geom_names:
             raise ValueError(f"add {obj.id!r} (static or dynamic) before its visual mesh")
+        if part is not None and part not in self._part_anchors.get(obj.id, {}):
+            raise ValueError(f"{obj.id!r} has no movable part {part!r} in this world")
         self.spec.add_mesh(
             name=name,
             uservert=np.asarray(vertices, dtype=np.float64).reshape(-1).tolist(),
             userface=np.asarray(faces, dtype=np.int64).reshape(-1).tolist(),
         )
-        body = self.spec.body(obj.id)
+        body = self.spec.body(obj.id if part is None else f"{obj.id}/{part}")
         m = obj.pose.matrix(with_scale=False)
         g = body.add_geom()
         g.name = name
@@ -411,7 +524,11 @@ class WorldBuilder:
         g.mass = 0.0
         red, green, blue = category_color(obj.category)  # the GLB, USD, URDF and plan colour
         g.rgba = [red / 255.0, green / 255.0, blue / 255.0, 1.0]
-        if obj.id not in self._dynamic_ids:  # static: a body at the origin, geoms in world coordinates
+        if part is not None:  # the part's body: the object's axes, its origin at the part's anchor
+            local_r, local_t = np.eye(3), -self._part_anchors[obj.id][part]
+        elif obj.id in self._posed:  # a body that carries the object's pose
+            local_r, local_t = np.eye(3), np.zeros(3)
+        elif obj.id not in self._dynamic_ids:  # static: a body at the origin, geoms in world coordinates
             local_r, local_t = m[:3, :3], m[:3, 3]
         elif self._aligned[obj.id]:  # tilt/slide: a world-aligned body at the object's origin
             local_r, local_t = m[:3, :3], np.zeros(3)
@@ -445,6 +562,17 @@ class WorldBuilder:
             body.iquat = _quat_from_matrix(r)
             body.inertia = inertial.diagonal.tolist()
             self._add_shape(body, obj.id, shape, r, np.zeros(3), obj.sim.friction)
+        elif self._opens(shape):
+            body.quat = list(obj.pose.quaternion)
+            fixed_part = part_inertials(obj, shape)[None]
+            body.mass = fixed_part.mass
+            body.ipos = fixed_part.centre.tolist()
+            body.inertia = fixed_part.diagonal.tolist()
+            moving = shape.moving_pieces()
+            fixed = [i for i in range(len(shape.pieces)) if i not in moving]
+            rgba = (0.7, 0.7, 0.7, 1.0)
+            self._add_shape(body, obj.id, shape, np.eye(3), np.zeros(3), obj.sim.friction, rgba, indices=fixed)
+            self._add_parts(body, obj, shape, rgba)
         else:
             body.quat = list(obj.pose.quaternion)
             body.ipos = inertial.centre.tolist()

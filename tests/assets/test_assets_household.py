@@ -194,9 +194,11 @@ def test_containers_are_hollow_with_boards_to_put_things_on(
             and p.bounds[1][1] >= y1 - 1e-9
         ]
         assert boards, (category, z0)
-    # stacked bottom to top
+    # listed bottom to top (left to right within a row of drawers), none sharing space with another
     for lower, upper in itertools.pairwise(compartments):
-        assert lower[5] <= upper[4]
+        assert lower[4] <= upper[4]
+    for a, b in itertools.combinations(compartments, 2):
+        assert a[5] <= b[4] or b[5] <= a[4] or a[1] <= b[0] or b[1] <= a[0], (a, b)
 
 
 @pytest.mark.parametrize(

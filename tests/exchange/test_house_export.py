@@ -23,6 +23,7 @@ import trimesh
 from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import unary_union
 
+from scenemosaic.assets import object_articulation
 from scenemosaic.exchange import (
     GLB_ROOT_NODE,
     HOUSE_INDEX_FILE,
@@ -146,7 +147,11 @@ def _assert_door_open(walls: dict[str, Box], door: Doorway) -> None:
 
 def test_house_mjcf_loads_in_plain_mujoco_and_stays_at_rest(house: House, mjcf: mujoco.MjModel) -> None:
     model = mjcf
-    assert {model.body(b).name for b in range(1, model.nbody)} == {o.id for o in house.objects}
+    roots = {model.body(b).name for b in range(1, model.nbody) if model.body_parentid[b] == 0}
+    assert roots == {o.id for o in house.objects}
+    # the other bodies are the drawers, doors and lids of furniture that opens (docs/articulation.md)
+    parts = {f"{o.id}/{p.name}" for o in house.objects for p in object_articulation(o)}
+    assert {model.body(b).name for b in range(1, model.nbody)} - roots == parts
     rooms_named = {model.geom(g).name.split("/")[0] for g in range(model.ngeom) if "/" in model.geom(g).name}
     assert rooms_named == set(ROOMS)
     data = mujoco.MjData(model)
@@ -238,10 +243,12 @@ def test_house_usd_has_a_rigid_body_per_object_under_its_room(
     for scene in house.rooms:
         room = stage.GetPrimAtPath(f"/World/{scene.id}")
         assert room.IsValid() and room.GetCustomDataByKey("scenemosaic:roomId") == scene.id
-        prims = {
-            p.GetCustomDataByKey("scenemosaic:objectId"): p for p in room.GetChild("Objects").GetChildren()
-        }
+        children = room.GetChild("Objects").GetChildren()
+        prims = {p.GetCustomDataByKey("scenemosaic:objectId"): p for p in children if p.GetCustomDataByKey("scenemosaic:objectId")}
         assert set(prims) == {o.id for o in scene.objects}
+        # beside them, a rigid body per drawer, door and lid of furniture that opens (docs/articulation.md)
+        parts = {(p.GetCustomDataByKey("scenemosaic:partOf"), p.GetCustomDataByKey("scenemosaic:part")) for p in children if p.GetCustomDataByKey("scenemosaic:part")}
+        assert parts == {(o.id, part.name) for o in scene.objects for part in object_articulation(o)}
         for obj in scene.objects:
             prim = prims[obj.id]
             rel = scene.support_of(obj.id)
@@ -306,7 +313,8 @@ def test_deliver_house_round_trips_and_writes_the_procthor_house_back(house: Hou
     index = json.loads((folder / HOUSE_INDEX_FILE).read_text())
     assert index["format"] == "scenemosaic-house" and index["version"] == 1 and index["rooms"] == list(ROOMS)
     assert all((folder / HOUSE_ROOMS_DIR / rid / "scene.json").is_file() for rid in ROOMS)
-    assert mujoco.MjModel.from_xml_path(str(folder / "scene.xml")).nbody == 1 + len(house.objects)
+    parts = sum(len(object_articulation(o)) for o in house.objects)
+    assert mujoco.MjModel.from_xml_path(str(folder / "scene.xml")).nbody == 1 + len(house.objects) + parts
 
     back = read_house(folder)
     assert back.id == house.id and back.room_ids == house.room_ids
@@ -353,4 +361,5 @@ def test_deliver_house_round_trips_and_writes_the_procthor_house_back(house: Hou
     # last, as it may skip: the URDF loads, a link per object, per room, the floor and the world
     yourdfpy = pytest.importorskip("yourdfpy")
     urdf = yourdfpy.URDF.load(str(folder / "scene.urdf"), build_scene_graph=False, load_meshes=False)
-    assert {o.id for o in house.objects} | set(ROOMS) | {"world", "floor"} == set(urdf.link_map)
+    parts = {f"{o.id}/{p.name}" for o in house.objects for p in object_articulation(o)}  # drawers, doors, lids
+    assert {o.id for o in house.objects} | parts | set(ROOMS) | {"world", "floor"} == set(urdf.link_map)

@@ -235,8 +235,11 @@ def test_sceneeval_export_of_a_structured_scene_matches_scene_glb(which: str, re
         m = np.asarray(o["transform"]["data"]).reshape(4, 4).T
         np.testing.assert_allclose(m[:3, :3].T @ m[:3, :3], np.eye(3), atol=1e-9)  # rigid
         ours = trimesh.transform_points(asset.vertices, m)
-        matrix, geom = glb.graph[o["id"]]
-        ref = trimesh.transform_points(glb.geometry[geom].vertices, Y_UP_TO_Z_UP @ matrix)
+        # the object's node and, for furniture that opens, its parts' nodes ``<id>/<part>`` (closed)
+        nodes = [o["id"], *(n for n in glb.graph.nodes_geometry if n.startswith(f"{o['id']}/"))]
+        ref = np.vstack([
+            trimesh.transform_points(glb.geometry[glb.graph[n][1]].vertices, Y_UP_TO_Z_UP @ glb.graph[n][0]) for n in nodes
+        ])  # fmt: skip
         np.testing.assert_allclose(ours.min(axis=0), ref.min(axis=0), atol=1e-3, err_msg=o["id"])
         np.testing.assert_allclose(ours.max(axis=0), ref.max(axis=0), atol=1e-3, err_msg=o["id"])
         assert cKDTree(ref).query(ours)[0].max() < 1e-3, o["id"]
