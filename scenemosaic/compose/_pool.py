@@ -111,6 +111,8 @@ class CandidatePool:
         self.shape = tuple(g.count for g in self.groups)
         self.n_objects = sum(len(g.ids) for g in self.groups)
         self.occupancy = list(occupancy) if occupancy is not None else None
+        self._within_all: dict[int, tuple[FloatArray, FloatArray]] = {}
+        self._cross_all: dict[tuple[int, int], tuple[FloatArray, FloatArray, FloatArray]] = {}
 
     @property
     def size(self) -> int:
@@ -134,15 +136,38 @@ class CandidatePool:
 
     # -- tables for one reference ---------------------------------------------------------------------
 
+    def _within(self, gi: int) -> tuple[FloatArray, FloatArray]:
+        """Group ``gi``'s relative positions (V, n, n, 3) and pairwise distances (V, n, n) in
+        every variant: the same for every reference, so computed once per pool."""
+        known = self._within_all.get(gi)
+        if known is None:
+            g = self.groups[gi]
+            rel_all = _rel_many(g.positions, g.rotations, g.positions)
+            d_all = np.linalg.norm(g.positions[:, None, :, :] - g.positions[:, :, None, :], axis=3)
+            known = self._within_all[gi] = (rel_all, d_all)
+        return known
+
+    def _cross(self, a: int, b: int) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Groups ``a`` and ``b``'s relative positions both ways ((Va, Vb, na, nb, 3) and
+        (Vb, Va, nb, na, 3)) and distances (Va, Vb, na, nb) in every pair of their variants: the
+        same for every reference, so computed once per pool (the bulk of a reference's tables)."""
+        known = self._cross_all.get((a, b))
+        if known is None:
+            ga, gb = self.groups[a], self.groups[b]
+            all_ab = _rel_cross(ga.positions, ga.rotations, gb.positions)
+            all_ba = _rel_cross(gb.positions, gb.rotations, ga.positions)
+            d_all = np.linalg.norm(gb.positions[None, :, None, :, :] - ga.positions[:, None, :, None, :], axis=4)
+            known = self._cross_all[(a, b)] = (all_ab, all_ba, d_all)
+        return known
+
     def _tables(self, ref: Sequence[int]) -> _Tables:
         g = self.groups
         within_pos, within_dist, rot = [], [], []
-        for gi, k in zip(g, ref, strict=True):
+        for index, (gi, k) in enumerate(zip(g, ref, strict=True)):
             rel_a = relative(gi.positions[k], gi.rotations[k], gi.positions[k])  # (n, n, 3)
-            rel_all = _rel_many(gi.positions, gi.rotations, gi.positions)  # (V, n, n, 3)
+            rel_all, d_all = self._within(index)  # (V, n, n, 3), (V, n, n)
             within_pos.append(((rel_all - rel_a[None]) ** 2).sum(axis=(1, 2, 3)))
             d_a = np.linalg.norm(gi.positions[k][None] - gi.positions[k][:, None], axis=2)
-            d_all = np.linalg.norm(gi.positions[:, None, :, :] - gi.positions[:, :, None, :], axis=3)
             within_dist.append(((d_all - d_a[None]) ** 2).sum(axis=(1, 2)))
             dots = np.clip(np.abs((gi.quaternions * gi.quaternions[k][None]).sum(axis=2)), 0.0, 1.0)
             rot.append((2.0 * np.arccos(dots)).sum(axis=1))
@@ -155,11 +180,9 @@ class CandidatePool:
                 # i in a, j in b, and i in b, j in a
                 ref_ab = relative(ga.positions[ka], ga.rotations[ka], gb.positions[kb])  # (na, nb, 3)
                 ref_ba = relative(gb.positions[kb], gb.rotations[kb], ga.positions[ka])  # (nb, na, 3)
-                all_ab = _rel_cross(ga.positions, ga.rotations, gb.positions)  # (Va, Vb, na, nb, 3)
-                all_ba = _rel_cross(gb.positions, gb.rotations, ga.positions)  # (Vb, Va, nb, na, 3)
+                all_ab, all_ba, d_all = self._cross(a, b)
                 pos = ((all_ab - ref_ab) ** 2).sum(axis=(2, 3, 4)) + ((all_ba - ref_ba) ** 2).sum(axis=(2, 3, 4)).T
                 d_ref = np.linalg.norm(gb.positions[kb][None, :, :] - ga.positions[ka][:, None, :], axis=2)
-                d_all = np.linalg.norm(gb.positions[None, :, None, :, :] - ga.positions[:, None, :, None, :], axis=4)
                 dist = 2.0 * ((d_all - d_ref) ** 2).sum(axis=(2, 3))
                 cross_pos[(a, b)], cross_dist[(a, b)] = pos, dist
         whole = self.arrangement(ref)
