@@ -429,8 +429,9 @@ class HouseFloor:
     """A house's walkable raster without its furniture (floors, passages, the seams between
     rooms), built once, and :meth:`walkable` for any arrangement of its rooms' objects: the same
     answer as :func:`house_walkable` of the house with those rooms. Each room scene's blocked cells
-    are kept while the scene is alive, so candidates that share a room's arrangement (a house's
-    composition tries many) rasterize it once."""
+    are kept, by the scene's identity, for as long as the floor lives, so candidates that share a
+    room's arrangement (a house's composition tries many) rasterize it once: a room scene changed
+    in place after it was asked about must be passed as a new scene (``model_copy``)."""
 
     def __init__(self, house: House, *, radius: float = ROBOT_RADIUS, cell: float = HOUSE_CELL_M) -> None:
         rooms = [s for s in house.rooms if s.room is not None]
