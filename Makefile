@@ -17,8 +17,8 @@ EDITABLE := --config-settings editable_mode=compat
 # and compileall the package's own (an editable install leaves it as source). Where Python may
 # not write bytecode (PYTHONDONTWRITEBYTECODE=1, common in containers; a read-only install) every
 # command would otherwise compile all it imports again, each time: 10-27 s a command instead of
-# about 1 s (benchmarks/cli.py). The cost is disk: the demo's environment is 438 MB instead of
-# 346 MB (--no-compile, as it was), and the install takes a little longer.
+# about 1 s (benchmarks/cli.py). The cost is disk (every dependency's bytecode beside its
+# sources) and a slightly longer install.
 $(BASE_STAMP): pyproject.toml
 	test -d $(VENV) || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e . $(EDITABLE)

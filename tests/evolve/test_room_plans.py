@@ -36,7 +36,8 @@ HOUSES = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor"
 ROOMS = [("procthor10k_train4_4room.json", "room|4"), ("procthor10k_train4_4room.json", "room|7"), ("procthor10k_train1_10room.json", "room|3"), ("procthor_6room.json", "room|6")]
 
 
-async def _floor(house: str, room: str, out: Path) -> tuple[Scene, UnitLayout, UnitContext]:
+async def _floor(house: str | Path, room: str, out: Path) -> tuple[Scene, UnitLayout, UnitContext]:
+    """A house room built to its floor unit (``house``: a file of ``HOUSES``, or any path)."""
     scene = (await agenerate(HOUSES / house, out, GenerateConfig(evolve=False, room=room))).scene
     assert isinstance(scene, Scene) and scene.structure is not None
     unit = next(u for u in scene.structure.units if u.anchor_id == "floor")
@@ -215,12 +216,7 @@ async def test_a_sofa_facing_a_wall_tv_keeps_facing_it_in_every_plan(tmp_path: P
     any other), and there are several such plans."""
     from scenemosaic.scene import points_at
 
-    house = HOUSES.parent / "schema_forms" / "cc_kitchen_living_schema_0_0_1.json"
-    scene = (await agenerate(house, tmp_path, GenerateConfig(evolve=False, room="room_3"))).scene
-    assert isinstance(scene, Scene) and scene.structure is not None
-    unit = next(u for u in scene.structure.units if u.anchor_id == "floor")
-    ctx = unit_context(scene, unit, unit_obstacles(scene, unit, scene.structure.units), {o.id for o in scene.objects if is_thin(o)})
-    layout = UnitLayout.from_scene(scene, unit, ctx.surface)
+    _, layout, ctx = await _floor(HOUSES.parent / "schema_forms" / "cc_kitchen_living_schema_0_0_1.json", "room_3", tmp_path)
     assert ctx.faces_outside, "the sofa faces the wall TV"
     plans = room_plans(layout, ctx, 5)
     assert len(plans) >= 3
@@ -236,12 +232,7 @@ async def test_a_piece_facing_a_pinned_stand_keeps_facing_it_in_every_plan(tmp_p
     """A held-out living room whose TV stand stays where it is (pinned by a clause across units)
     and faces an armchair: the armchair moves only where the stand still faces it (a plan that
     turned it away was refused later, leaving one plan of eight), and there are several plans."""
-    house = HOUSES.parent / "schema_forms" / "ai2thor_746_schema_0_0_1.json"
-    scene = (await agenerate(house, tmp_path, GenerateConfig(evolve=False, room="room_7"))).scene
-    assert isinstance(scene, Scene) and scene.structure is not None
-    unit = next(u for u in scene.structure.units if u.anchor_id == "floor")
-    ctx = unit_context(scene, unit, unit_obstacles(scene, unit, scene.structure.units), {o.id for o in scene.objects if is_thin(o)})
-    layout = UnitLayout.from_scene(scene, unit, ctx.surface)
+    _, layout, ctx = await _floor(HOUSES.parent / "schema_forms" / "ai2thor_746_schema_0_0_1.json", "room_7", tmp_path)
     fixed = fixed_children(layout, ctx)
     pairs = [(a, b) for a, b in sorted(ctx.keep_facing) if a in ctx.against_wall and (a in fixed) != (b in fixed)]
     assert pairs, "a pinned wall piece faces one that may move"

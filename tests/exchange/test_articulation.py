@@ -18,6 +18,7 @@ import numpy as np
 import pybullet
 import pytest
 import yourdfpy
+from simulator_checks import bullet_client
 
 from scenemosaic.assets import PartSpec, interior_boards, object_articulation
 from scenemosaic.exchange import export_mjcf, export_urdf, load_pybullet
@@ -240,12 +241,8 @@ def test_mujoco_an_item_in_a_drawer_comes_out_with_it_and_stays_inside(folder: P
 # ---------------------------------------------------------------------------------------------
 @pytest.fixture
 def bullet() -> Iterator[int]:
-    client = pybullet.connect(pybullet.DIRECT)
-    pybullet.setGravity(0, 0, -9.81, physicsClientId=client)
-    try:
+    with bullet_client() as client:
         yield client
-    finally:
-        pybullet.disconnect(client)
 
 
 def _link(body: int, name: str, client: int) -> int:
