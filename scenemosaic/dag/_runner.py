@@ -44,7 +44,7 @@ from scenemosaic.dag._policies import (
     NodePolicy,
     RetryPolicy,
 )
-from scenemosaic.dag._store import RunStore, StoredOutput, input_hash, output_hash
+from scenemosaic.dag._store import RunStore, StoredOutput, input_hash
 from scenemosaic.exceptions import (
     GraphChangedError,
     NodeFailedError,
@@ -371,15 +371,14 @@ class Runner:
         output = await self._attempt_all(node, inputs)
         if store is not None:
             try:
-                digest = output_hash(output)
+                stored = StoredOutput.of(output, tuple(self._added_by.get(name, ())))
             except Exception as exc:  # e.g. an output that cannot be pickled
                 _log.warning("node_output_not_storable", node=name, error=_describe(exc))
                 self._hashes[name] = "unstorable-" + uuid.uuid4().hex
             else:
-                self._hashes[name] = digest
+                self._hashes[name] = stored.output_hash
                 if key is not None:
-                    added = tuple(self._added_by.get(name, ()))
-                    store.put(name, key, StoredOutput(output, digest, added))
+                    store.put(name, key, stored)
         self.executed.append(name)
         self._emit(NodeFinished(node=name, duration_s=time.perf_counter() - start, cached=False))
         return output

@@ -25,7 +25,7 @@ import json
 import os
 import pickle
 import shutil
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 from urllib.parse import quote
@@ -60,6 +60,15 @@ class StoredOutput:
     """Hash of the encoded output (what dependents' input hashes are built from)."""
     added_nodes: tuple[str, ...] = ()
     """Nodes the node added at run time; such a node is re-run on resume to rebuild them."""
+    encoded: tuple[str, str, bytes] | None = field(default=None, compare=False, repr=False)
+    """:func:`encode_output` of ``output`` when already made (:meth:`of`), so a store writes it
+    without encoding the output a second time."""
+
+    @classmethod
+    def of(cls, output: Any, added_nodes: tuple[str, ...] = ()) -> StoredOutput:
+        """The record of ``output``: encoded once, for its hash and for the store."""
+        encoded = encode_output(output)
+        return cls(output, _hash_encoded(*encoded), added_nodes, encoded)
 
 
 def encode_output(value: Any) -> tuple[str, str, bytes]:
@@ -104,7 +113,10 @@ def decode_output(kind: str, type_path: str, payload: bytes) -> Any:
 
 def output_hash(value: Any) -> str:
     """Content hash of a node output."""
-    kind, type_path, payload = encode_output(value)
+    return _hash_encoded(*encode_output(value))
+
+
+def _hash_encoded(kind: str, type_path: str, payload: bytes) -> str:
     h = hashlib.sha256(f"{kind}\x00{type_path}\x00".encode())
     h.update(payload)
     return h.hexdigest()
@@ -231,19 +243,21 @@ class FileRunStore(RunStore):
             return None
 
     def put(self, node: str, input_hash: str, record: StoredOutput) -> None:
-        kind, type_path, payload = encode_output(record.output)
-        value: Any = base64.b64encode(payload).decode() if kind == "pickle" else json.loads(payload)
-        data = {
+        kind, type_path, payload = record.encoded or encode_output(record.output)
+        value = json.dumps(base64.b64encode(payload).decode()) if kind == "pickle" else payload.decode()
+        head = {
             "node": node,
             "input_hash": input_hash,
             "output_hash": record.output_hash,
             "added_nodes": list(record.added_nodes),
             "kind": kind,
             "type": type_path,
-            "value": value,
         }
-        # keys keep their order: a pydantic value's free-form dicts (metadata) must read back as they were
-        _write_atomic(self._record_path(node, input_hash), json.dumps(data, indent=1))
+        # the encoded value goes in as it is (it is JSON already; a run's state is megabytes, and
+        # parsing it to write it again cost more than making it); keys keep their order, so a
+        # pydantic value's free-form dicts (metadata) read back as they were
+        text = json.dumps(head, indent=1)
+        _write_atomic(self._record_path(node, input_hash), f'{text[:-2]},\n "value": {value}\n}}')
 
     def get_fingerprint(self) -> GraphFingerprint | None:
         try:

@@ -44,6 +44,7 @@ from scenemosaic.scene import (
     edge_axes,
     minimal_containing_shift,
     normalize_degrees,
+    outline_polygon,
     points_at,
     sat_overlap,
     traits,
@@ -184,7 +185,7 @@ def physical_check(layout: UnitLayout, ctx: UnitContext, shapes: Mapping[str, Ob
             if not rests_within(_resting_uv(layout, k, shapes[k], ctx), region)[1]:
                 oob.append(k)
             continue
-        poly = Polygon(layout.polygon(k))
+        poly = layout.outline(k)
         area = float(poly.area)
         inside = float(poly.intersection(region).area) / area if area > 1e-12 else 1.0
         if inside < OOB_MIN_INSIDE_FRACTION:
@@ -205,7 +206,7 @@ def _nearby_obstacles(layout: UnitLayout, ctx: UnitContext) -> list[SceneObject]
     """Obstacles whose (u, v) box comes within 0.5 m of any child: the rest cannot collide."""
     if not ctx.obstacles:
         return []
-    polys = [Polygon(layout.polygon(k)) for k in layout.ids]
+    polys = [layout.outline(k) for k in layout.ids]
     out = []
     for o, poly in obstacle_polygons(ctx):
         if any(poly.distance(p) < 0.5 for p in polys):
@@ -431,7 +432,7 @@ def _slots_free(layout: UnitLayout, ctx: UnitContext, table: str, seats: Sequenc
     trial = layout.copy()
     trial.set_rotation(seat, slot.rotation)
     trial.set_center(seat, slot.u, slot.v)
-    shape = Polygon(trial.polygon(seat))
+    shape = trial.outline(seat)
     if not Polygon(ctx.surface.region).buffer(1e-6).covers(shape):
         return False
     if any(shape.intersection(zone).area > 1e-4 for zone in ctx.keep_clear):
@@ -444,7 +445,7 @@ def _slots_free(layout: UnitLayout, ctx: UnitContext, table: str, seats: Sequenc
         klo, khi = layout.span(k)
         if klo >= hi - 1e-3 or khi <= lo + 1e-3:
             continue
-        if shape.intersection(Polygon(layout.polygon(k))).area > 1e-4:
+        if shape.intersection(layout.outline(k)).area > 1e-4:
             return False
     return not any(o.id != table and shape.intersection(p).area > 1e-4 for o, p in obstacle_polygons(ctx))
 
@@ -550,7 +551,7 @@ def seating_breaches(layout: UnitLayout, ctx: UnitContext, table: str, seats: Se
     for k in sorted(seats):
         square, on_side, side = _square_on_side(layout, table, k)
         counts[side] = counts.get(side, 0) + 1
-        gap = float(Polygon(layout.polygon(k)).distance(Polygon(layout.polygon(table))))
+        gap = float(layout.outline(k).distance(layout.outline(table)))
         if gap > SEAT_GAP_MAX:
             out.append(f"{k} stands {gap:.2f} m from {table}")
         elif side not in open_sides:
@@ -572,7 +573,7 @@ def _seat_target(layout: UnitLayout, ctx: UnitContext, seat: str, table: str) ->
     """Pull a far seat up to its table along the way to it (used only where the table has no
     slot plan: :func:`_legacy_seat`). ``None`` when no pull-up is clean."""
     d = table_direction(layout, seat, table)
-    gap = float(Polygon(layout.polygon(seat)).distance(Polygon(layout.polygon(table))))
+    gap = float(layout.outline(seat).distance(layout.outline(table)))
     if d is not None:
         for keep in (SEAT_GAP, 0.15, 0.25):
             moved = layout.polygon(seat) + d * (gap - keep)
@@ -586,7 +587,7 @@ def table_direction(layout: UnitLayout, seat: str, table: str) -> FloatArray | N
     """The way from a seat's centre to the nearest point of its table (to the table's centre
     when the seat stands under it)."""
     c = np.asarray(layout.center(seat))
-    poly = Polygon(layout.polygon(table))
+    poly = layout.outline(table)
     p = Point(c)
     if poly.contains(p):
         d = np.asarray(layout.center(table)) - c
@@ -599,7 +600,7 @@ def table_direction(layout: UnitLayout, seat: str, table: str) -> FloatArray | N
 
 def layout_faces(layout: UnitLayout, piece: str, target: str) -> bool:
     """Whether ``piece`` faces ``target`` in the layout (``scene.points_at``, the one definition)."""
-    return points_at(np.asarray(layout.center(piece)), _facing(layout.rotation(piece)), Polygon(layout.polygon(target)), np.asarray(layout.center(target)))
+    return points_at(np.asarray(layout.center(piece)), _facing(layout.rotation(piece)), layout.outline(target), np.asarray(layout.center(target)))
 
 
 def _slide_to_face(layout: UnitLayout, ctx: UnitContext, piece: str, faced: str) -> tuple[str, Target] | None:
@@ -652,7 +653,7 @@ def _faces_wall(layout: UnitLayout, ctx: UnitContext, oid: str) -> WallLine | No
 def _rank(ctx: UnitContext, oid: str, layout: UnitLayout) -> tuple[int, float]:
     """Who moves first in a collision: lower rank moves (free small things before wall pieces)."""
     big = 2 if oid in ctx.against_wall else (1 if oid in ctx.seat_table.values() else 0)
-    poly = Polygon(layout.polygon(oid))
+    poly = layout.outline(oid)
     return big, float(poly.area)
 
 
@@ -664,7 +665,7 @@ def _blocked(layout: UnitLayout, ctx: UnitContext, mover: str, poly: FloatArray,
     shape = Polygon(poly)
     if not region.buffer(1e-6).covers(shape):
         return True
-    here = Polygon(layout.polygon(mover))
+    here = layout.outline(mover)
     lo, hi = layout.span(mover)
     for k in layout.ids:
         if k in (mover, partner) or k in ctx.thin:
@@ -672,7 +673,7 @@ def _blocked(layout: UnitLayout, ctx: UnitContext, mover: str, poly: FloatArray,
         klo, khi = layout.span(k)
         if klo >= hi - 1e-3 or khi <= lo + 1e-3:
             continue
-        other = Polygon(layout.polygon(k))
+        other = layout.outline(k)
         if shape.intersection(other).area > 1e-4 and here.intersection(other).area <= 1e-4:
             return True
     for o, opoly in obstacle_polygons(ctx):
@@ -756,7 +757,7 @@ def front_strip(poly: FloatArray, center: FloatArray, rotation: float, depth: fl
     reach = float(((poly - c) @ f).max())
     half = float(np.ptp((poly - c) @ side)) / 2
     a = c + f * reach
-    return Polygon([a - side * half, a + side * half, a + side * half + f * depth, a - side * half + f * depth])
+    return outline_polygon(np.array([a - side * half, a + side * half, a + side * half + f * depth, a - side * half + f * depth]))
 
 
 def _front_zone(layout: UnitLayout, oid: str) -> Polygon:
@@ -775,7 +776,7 @@ def _clearance(layout: UnitLayout, ctx: UnitContext) -> list[Finding]:
         for j in layout.ids:
             if j in (k, *ctx.thin) or ctx.seat_table.get(j) == k or ctx.nightstand_bed.get(j) == k:
                 continue
-            poly = Polygon(layout.polygon(j))
+            poly = layout.outline(j)
             if poly.intersection(zone).area < 0.02 * max(float(zone.area), 1e-9):
                 continue
             f = _facing(layout.rotation(k))
@@ -822,7 +823,7 @@ def _still_seated(layout: UnitLayout, seat: str, table: str, shift: FloatArray) 
     trial = layout.copy()
     c = np.asarray(layout.center(seat)) + shift
     trial.set_center(seat, float(c[0]), float(c[1]))
-    if Polygon(trial.polygon(seat)).distance(Polygon(trial.polygon(table))) > SEAT_GAP_MAX:
+    if trial.outline(seat).distance(trial.outline(table)) > SEAT_GAP_MAX:
         return False
     square, on_side, side = _square_on_side(trial, table, seat)
     return square and on_side and side == _seat_side(layout, table, seat)
@@ -849,7 +850,7 @@ def _reopen(
     for k in sorted(masks):
         if k in ctx.pinned or k in ctx.nightstand_bed:
             continue
-        poly = Polygon(layout.polygon(k))
+        poly = layout.outline(k)
         if float(shapely.distance(poly, cells).min()) > reach:
             continue
         backed, wall = wall_status(layout, ctx, k) if k in ctx.against_wall else (False, None)
@@ -1032,7 +1033,7 @@ def _legacy_seat(layout: UnitLayout, ctx: UnitContext, seat: str, table: str) ->
     """A seat at a table with no slot plan (its seats do not all fit around it): pulled up along
     the way to the table and turned to face it within ``FACING_TABLE_DEG``."""
     out: list[Finding] = []
-    gap = float(Polygon(layout.polygon(seat)).distance(Polygon(layout.polygon(table))))
+    gap = float(layout.outline(seat).distance(layout.outline(table)))
     if gap > SEAT_GAP_MAX and seat not in ctx.pinned:
         target = _seat_target(layout, ctx, seat, table)
         out.append(
@@ -1077,7 +1078,7 @@ def _on_own_sides(layout: UnitLayout, ctx: UnitContext, table: str, seats: list[
     trial = layout.copy()
     for k in sorted(seats):
         square, on_side, side = _square_on_side(layout, table, k)
-        gap = float(Polygon(layout.polygon(k)).distance(Polygon(layout.polygon(table))))
+        gap = float(layout.outline(k).distance(layout.outline(table)))
         if square and on_side and gap <= SEAT_GAP_MAX:
             continue
         n, half, edge = sides[side]

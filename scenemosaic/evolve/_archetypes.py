@@ -235,7 +235,7 @@ class _Room:
         from shapely.ops import unary_union
 
         top = max(layout.span(k)[1] for k in members)
-        others = [Polygon(layout.polygon(k)) for k in layout.ids if k not in members and k not in ctx.thin]
+        others = [layout.outline(k) for k in layout.ids if k not in members and k not in ctx.thin]
         others += [poly for o, poly in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < top]
         self.blocked = unary_union([p.buffer(MOVE_MARGIN, join_style="mitre") for p in others]) if others else Polygon()
         self.region = _inner_region(ctx)
@@ -245,16 +245,16 @@ class _Room:
         self.members = members
 
     def placed(self, here: np.ndarray, to: np.ndarray, turn: float) -> tuple[Placement, UnitLayout] | None:
-        """The group turned by ``turn`` and carried from ``here`` to ``to``, with the layout it
-        makes, when every member lands on the surface clear of the rest."""
+        """The group turned by ``turn`` and carried from ``here`` to ``to``, with the layout of its
+        members where they land, when every member lands on the surface clear of the rest."""
         place: Placement = {}
         move_group(place, self.layout, self.members, here, to, turn)
-        moved = self.layout.copy()
+        moved = self.layout.copy(only={*self.members, *place})
         for k, (u, v, r) in place.items():
             moved.set_rotation(k, r)
             moved.set_center(k, u, v)
         for k in self.members:
-            shape = Polygon(moved.polygon(k))
+            shape = moved.outline(k)
             if not self.region.covers(shape) or self.blocked.intersects(shape):
                 return None
         return place, moved
@@ -374,7 +374,7 @@ def _wall_place(
                 place[k] = (tk.u, tk.v, tk.rotation)
                 moved.set_rotation(k, tk.rotation)
                 moved.set_center(k, tk.u, tk.v)
-        shapes = [Polygon(moved.polygon(k)) for k in members]
+        shapes = [moved.outline(k) for k in members]
         strip = front_strip(moved.polygon(piece), to, wall.facing)
         if all(region.covers(sh) and not blocked.intersects(sh) for sh in shapes) and region.covers(strip) and not blocked.intersects(strip):
             best = (key, place, [*shapes, strip])
@@ -398,10 +398,10 @@ def _rearranged(
     out = dict(first[0])
     taken = list(first[1])
     claimed = grown(taken)
-    hit = [k for k in wall_pieces if k != piece and any(claimed.intersects(Polygon(layout.polygon(m))) for m in _group(ctx, k))]
-    staying = [Polygon(layout.polygon(m)) for k in wall_pieces if k != piece and k not in hit for m in _group(ctx, k)]
+    hit = [k for k in wall_pieces if k != piece and any(claimed.intersects(layout.outline(m)) for m in _group(ctx, k))]
+    staying = [layout.outline(m) for k in wall_pieces if k != piece and k not in hit for m in _group(ctx, k)]
     walls = [own, *(w for w in ctx.walls if w.id not in (own.id, wall.id))]
-    for k in sorted(hit, key=lambda k: (-float(Polygon(layout.polygon(k)).area), k)):
+    for k in sorted(hit, key=lambda k: (-float(layout.outline(k).area), k)):
         blocked = grown([*fixed, *staying, *taken])
         spot = None
         for w in walls:
@@ -430,7 +430,7 @@ def _displaced(piece: str, wall_id: str, where: str = "middle") -> Callable[[Uni
             return current
         wall_pieces = sorted(ctx.against_wall - set(ctx.nightstand_bed) - set(ctx.pinned))
         grouped = {m for k in wall_pieces for m in _group(ctx, k)}
-        fixed = [Polygon(layout.polygon(k)) for k in layout.ids if k not in grouped and k not in ctx.thin]
+        fixed = [layout.outline(k) for k in layout.ids if k not in grouped and k not in ctx.thin]
         top = max(layout.span(m)[1] for m in grouped)
         fixed += [poly for o, poly in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < top]
 
@@ -455,7 +455,7 @@ def _displacements(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
             continue
         _, own = wall_status(layout, ctx, piece)
         cat = layout.object(piece).category
-        area = -float(Polygon(layout.polygon(piece)).area)
+        area = -float(layout.outline(piece).area)
         for wall in ctx.walls:
             if own is None:
                 continue
@@ -477,7 +477,7 @@ def _double_displacements(layout: UnitLayout, ctx: UnitContext) -> list[RuleArch
     an arrangement no single move reaches."""
     pieces = sorted(
         (k for k in ctx.against_wall - set(ctx.nightstand_bed) - set(ctx.pinned) if not any(m in ctx.pinned for m in _group(ctx, k))),
-        key=lambda k: (-float(Polygon(layout.polygon(k)).area), k),
+        key=lambda k: (-float(layout.outline(k).area), k),
     )[:2]
     if len(pieces) < 2:
         return []
@@ -557,7 +557,7 @@ def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
             if seat_slots(layout, ctx, table, seats):
                 seated.append(RuleArchetype(f"seated_{table}"[:40], f"seats spread around the {layout.object(table).category}", f"the seats of ({table}) spread evenly along its sides, long sides first, each facing it", _seated(table)))
     scattered = any(
-        Polygon(layout.polygon(s)).distance(Polygon(layout.polygon(t))) > SEAT_GAP_MAX for s, t in ctx.seat_table.items()
+        layout.outline(s).distance(layout.outline(t)) > SEAT_GAP_MAX for s, t in ctx.seat_table.items()
     )
     if scattered:  # the seats stand away from their table: gathering them is the first alternative
         out += seated
@@ -661,11 +661,11 @@ def _fits(layout: UnitLayout, ctx: UnitContext, placed: Placement, moved: set[st
         u, v, r = placed[k]
         trial.set_rotation(k, r)
         trial.set_center(k, u, v)
-        if not region.covers(Polygon(trial.polygon(k))):
+        if not region.covers(trial.outline(k)):
             return False
     solid = [k for k in trial.ids if k not in ctx.thin]
-    polys = {k: Polygon(trial.polygon(k)) for k in solid}
-    before = {k: Polygon(layout.polygon(k)) for k in solid}
+    polys = {k: trial.outline(k) for k in solid}
+    before = {k: layout.outline(k) for k in solid}
     for k in sorted(moved - ctx.thin):
         for j in solid:
             if j == k or (j in moved and j < k) or _stacked(trial, k, j):

@@ -43,6 +43,7 @@ from shapely import prepare
 from shapely.geometry import MultiPoint, Point, Polygon
 from shapely.ops import unary_union
 
+from scenemosaic._memo import Memo
 from scenemosaic.evolve._context import UnitContext, WallLine
 from scenemosaic.scene import (
     ROBOT_RADIUS,
@@ -171,7 +172,7 @@ def _groups(layout: UnitLayout, ctx: UnitContext, fixed: set[str], *, facing: bo
         join(a, b)
     solid = [k for k in layout.ids if k not in ctx.thin and k not in fixed]
     for rug in sorted(ctx.thin - fixed):  # a rug goes with what stands on it
-        area = Polygon(layout.polygon(rug))
+        area = layout.outline(rug)
         on = [k for k in solid if area.contains(Point(layout.center(k)))]
         for k in on:
             join(rug, k)
@@ -182,21 +183,21 @@ def _groups(layout: UnitLayout, ctx: UnitContext, fixed: set[str], *, facing: bo
     out = []
     for ms in members.values():
         walls = [k for k in ms if k in ctx.against_wall]
-        area = sum(Polygon(layout.polygon(k)).area for k in ms if k not in ctx.thin)
+        area = sum(layout.outline(k).area for k in ms if k not in ctx.thin)
         if walls:
             rank = {c: i for i, c in enumerate(_LEADS)}
             lead = min(
                 walls,
                 key=lambda k: (
                     _lead_rank(layout.object(k).category, rank),
-                    -Polygon(layout.polygon(k)).area,
+                    -layout.outline(k).area,
                     k,
                 ),
             )
         else:
             lead = max(
                 (k for k in ms if k not in ctx.thin),
-                key=lambda k: (Polygon(layout.polygon(k)).area, k),
+                key=lambda k: (layout.outline(k).area, k),
                 default=ms[0],
             )
         out.append(_Group(lead, sorted(ms), bool(walls), area))
@@ -249,7 +250,7 @@ class _Planner:
         # flush with its stand's): checked against the floor grown by RIDER_REACH_M
         self.loose_region = Polygon(ctx.surface.region).buffer(RIDER_REACH_M, join_style="mitre")
         prepare(self.loose_region)
-        fixed_polys = [Polygon(layout.polygon(k)) for k in self.fixed if k not in ctx.thin]
+        fixed_polys = [layout.outline(k) for k in self.fixed if k not in ctx.thin]
         from scenemosaic.evolve._analysis import obstacle_polygons
 
         others = [(float(o.aabb()[0][2]), p) for o, p in obstacle_polygons(ctx) if p.area > 0]
@@ -328,13 +329,13 @@ class _Planner:
         prepare(self.static)
 
     def _placed(self, g: _Group, place: Placement) -> tuple[list[Polygon], list[Polygon]] | None:
-        trial = self.layout.copy()
+        trial = self.layout.copy(only={*g.members, *place})
         for k, (u, v, r) in place.items():
             trial.set_rotation(k, r)
             trial.set_center(k, u, v)
         solid = []
         for k in g.members:
-            own = Polygon(trial.polygon(k))
+            own = trial.outline(k)
             shape = self._with_riders(k, trial) if self.ctx.riders.get(k) else own
             if not self.region.covers(own) or not self.loose_region.covers(shape):
                 return None
@@ -359,7 +360,7 @@ class _Planner:
         convex hull of both: a TV wider than its stand reaches past the stand's ends)."""
         riders = self.ctx.riders.get(k)
         if not riders:
-            return Polygon(trial.polygon(k))
+            return trial.outline(k)
         c0, r0 = np.asarray(self.source.center(k)), self.source.rotation(k)
         c1, r1 = np.asarray(trial.center(k)), trial.rotation(k)
         a = math.radians(-(r1 - r0))
@@ -560,30 +561,52 @@ def walk_check(
     """How a placement of a floor unit leaves the floor for a robot: the walkable share (largest
     piece over all, ``ROBOT_RADIUS`` erosion on a :data:`PLAN_CELL_M` raster, the other units' low
     pieces standing) and whether every door zone (and open passage) touches the largest piece."""
+    floor = _FLOOR_CHECKS.get(id(ctx), lambda: _FloorCheck.of(ctx))
     if obstacles is None:
-        from scenemosaic.evolve._analysis import obstacle_polygons
-
-        obstacles = [
-            p for o, p in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < WALK_MAX_HEIGHT and p.area > 0
-        ]
+        obstacles = floor.obstacles
     trial = layout.copy()
     for k, (u, v, r) in place.items():
         trial.set_rotation(k, r)
         trial.set_center(k, u, v)
     feet = [
-        Polygon(trial.polygon(k))
+        trial.outline(k)
         for k in trial.ids
         if k not in ctx.thin and trial.span(k)[0] < WALK_MAX_HEIGHT
     ]
-    raster = FloorRaster(np.asarray(ctx.surface.region, dtype=np.float64), cell=PLAN_CELL_M)
+    raster = floor.raster
     walk = raster.walkable(raster.blocked([*feet, *obstacles]), ROBOT_RADIUS)
     if not walk.total:
         return 0.0, False
     main = walk.labels == walk.main
-    doors = all(
-        bool((main & raster.mask(z.buffer(ROBOT_RADIUS))).any()) for z in [*ctx.keep_clear, *ctx.passages]
-    )
+    doors = all(bool((main & m).any()) for m in floor.door_masks)
     return walk.share, doors
+
+
+@dataclass(frozen=True)
+class _FloorCheck:
+    """What :func:`walk_check` needs of a unit's context, made once per context (it is fixed for
+    the whole evolution, and a room's archetypes are checked against it by the hundred)."""
+
+    ctx: UnitContext
+    raster: FloorRaster
+    door_masks: list[np.ndarray]
+    """The cells of each door zone and open passage, grown by ``ROBOT_RADIUS``."""
+    obstacles: list[Polygon]
+    """The other units' low pieces (below ``WALK_MAX_HEIGHT``)."""
+
+    @classmethod
+    def of(cls, ctx: UnitContext) -> _FloorCheck:
+        from scenemosaic.evolve._analysis import obstacle_polygons
+
+        raster = FloorRaster(np.asarray(ctx.surface.region, dtype=np.float64), cell=PLAN_CELL_M)
+        masks = [raster.mask(z.buffer(ROBOT_RADIUS)) for z in [*ctx.keep_clear, *ctx.passages]]
+        low = [p for o, p in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < WALK_MAX_HEIGHT and p.area > 0]
+        return cls(ctx, raster, masks, low)
+
+
+_FLOOR_CHECKS: Memo[int, _FloorCheck] = Memo(256)
+"""Per unit context, by identity: an entry holds its context, so no other context can have its
+id while the entry is kept."""
 
 
 def doors_kept(layout: UnitLayout, ctx: UnitContext, place: Placement) -> bool:
@@ -601,15 +624,20 @@ def doors_kept(layout: UnitLayout, ctx: UnitContext, place: Placement) -> bool:
     for k in trial.ids:
         if k in ctx.thin and ctx.floor:
             continue
-        now, before = Polygon(trial.polygon(k)), Polygon(layout.polygon(k))
+        now, before = trial.outline(k), layout.outline(k)
         for zone in ctx.keep_clear:
             if now.intersection(zone).area > 1e-3 and before.intersection(zone).area <= 1e-3:
                 return False
     if not ctx.in_house:
         return True  # a wall unit: its doors and windows are all it must keep
-    base_share, base_doors = walk_check(layout, ctx, base)
+    base_share, base_doors = _BASE_WALKS.get((id(ctx), tuple(sorted(base.items()))), lambda: (ctx, *walk_check(layout, ctx, base)))[1:]
     share, doors = walk_check(layout, ctx, place)
     return share >= min(WALK_MIN_SHARE, base_share - 0.005) and (doors or not base_doors)
+
+
+_BASE_WALKS: Memo[tuple[int, tuple[tuple[str, tuple[float, float, float]], ...]], tuple[UnitContext, float, bool]] = Memo(256)
+""":func:`walk_check` of a unit's base placement (its context, by identity, and every piece's
+place): each of a room's archetypes is compared with the same base."""
 
 
 def flush_positions(

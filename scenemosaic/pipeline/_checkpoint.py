@@ -24,7 +24,7 @@ from typing import Any
 import structlog
 from pydantic import BaseModel, ConfigDict
 
-from scenemosaic.dag import StoredOutput, output_hash
+from scenemosaic.dag import StoredOutput
 from scenemosaic.exceptions import UnsafePathError, UsageError
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record, deciding_settings
 from scenemosaic.pipeline._state import PipelineRun, StageRecord
@@ -139,7 +139,7 @@ def save_checkpoint(run: PipelineRun, digest: str | None) -> None:
     # the input as an absolute path: ``--resume OUT`` may be given from another working directory
     write_json(run.folder.run_record, {"input": str(run.input_path.absolute()), "input_sha256": digest, "config": record})
     state = checkpoint_state(run)
-    store.put(PIPELINE_NODE, _key(record, digest), StoredOutput(state, output_hash(state)))
+    store.put(PIPELINE_NODE, _key(record, digest), StoredOutput.of(state))
 
 
 def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:

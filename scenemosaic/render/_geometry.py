@@ -34,6 +34,7 @@ import shapely.affinity
 import structlog
 import trimesh
 
+from scenemosaic._memo import Memo
 from scenemosaic.assets import object_mesh
 from scenemosaic.exceptions import SceneValidationError
 from scenemosaic.scene import House, Room, SceneObject, Wall
@@ -409,7 +410,19 @@ def house_wall_pieces(house: House) -> dict[tuple[str, str], list[WallPiece]]:
       earlier one keeps nothing;
     * stands on no room's floor: where the slab reaches over another room's floor (at the small
       corners where three rooms meet) that part is cut away, through the wall's whole height.
+
+    The pieces depend only on the rooms' shells, which a house's variants share: they are worked
+    out once per process for each set of shells.
     """
+    key = tuple((scene.id, scene.room.model_dump_json() if scene.room is not None else "") for scene in house.rooms)
+    known = _HOUSE_WALL_PIECES.get(key, lambda: _house_wall_pieces(house))
+    return {k: list(v) for k, v in known.items()}
+
+
+_HOUSE_WALL_PIECES: Memo[tuple[tuple[str, str], ...], dict[tuple[str, str], list[WallPiece]]] = Memo(64)
+
+
+def _house_wall_pieces(house: House) -> dict[tuple[str, str], list[WallPiece]]:
     floors = shapely.union_all([shapely.Polygon(s.room.floor) for s in house.rooms if s.room is not None])
     kept: list[tuple[Wall, list[WallPanel]]] = []
     out: dict[tuple[str, str], list[WallPiece]] = {}

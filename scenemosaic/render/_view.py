@@ -365,11 +365,10 @@ def _draw_labels(
         half_w, half_h = (x1 - x0) / 2 + LABEL_GAP_PX, (y1 - y0) / 2 + LABEL_GAP_PX
         spots = _label_offsets(2 * half_h, max(width, height) / 3)
         spots += [(x - cx, y - cy) for y in np.arange(half_h, height, 2 * half_h) for x in np.arange(half_w, width, half_w)]
-        for dx, dy in spots:
+        free = _first_free_spot(spots, (cx, cy, half_w, half_h), placed, (width, height))
+        if free is not None:
+            dx, dy = spots[free]
             box = (cx + dx - half_w, cy + dy - half_h, cx + dx + half_w, cy + dy + half_h)
-            inside = box[0] >= 0 and box[1] >= 0 and box[2] <= width and box[3] <= height
-            if inside and not any(_overlap(box, other) for other in placed):
-                break
         else:  # pragma: no cover - a picture with no free spot left for a label
             dx = dy = 0.0
             box = (cx - half_w, cy - half_h, cx + half_w, cy + half_h)
@@ -384,8 +383,33 @@ def _draw_labels(
     return boxes
 
 
-def _overlap(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
-    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+def _first_free_spot(
+    spots: Sequence[tuple[float, float]],
+    label: tuple[float, float, float, float],
+    placed: Sequence[tuple[float, float, float, float]],
+    picture: tuple[int, int],
+) -> int | None:
+    """The index of the first of ``spots`` (offsets from the label's centre ``cx, cy``, its half
+    size ``half_w, half_h`` in ``label``) where the label's box lies inside the picture and
+    overlaps no box of ``placed``; ``None`` when none does. All spots are tried at once."""
+    cx, cy, half_w, half_h = label
+    offsets = np.asarray(spots, dtype=np.float64).reshape(-1, 2)
+    x0 = cx + offsets[:, 0] - half_w
+    y0 = cy + offsets[:, 1] - half_h
+    x1 = cx + offsets[:, 0] + half_w
+    y1 = cy + offsets[:, 1] + half_h
+    ok = (x0 >= 0) & (y0 >= 0) & (x1 <= picture[0]) & (y1 <= picture[1])
+    if placed:
+        taken = np.asarray(placed, dtype=np.float64)
+        overlaps = (
+            (x0[:, None] < taken[None, :, 2])
+            & (taken[None, :, 0] < x1[:, None])
+            & (y0[:, None] < taken[None, :, 3])
+            & (taken[None, :, 1] < y1[:, None])
+        )
+        ok &= ~overlaps.any(axis=1)
+    hits = np.flatnonzero(ok)
+    return int(hits[0]) if len(hits) else None
 
 
 def _gl_image(

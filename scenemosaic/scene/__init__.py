@@ -137,7 +137,13 @@ from scenemosaic.scene._nesting import (
     nested_pairs,
 )
 from scenemosaic.scene._packing import PACK_CLEARANCE_M, PackItem, PackResult, pack_surface
-from scenemosaic.scene._planar import convex_hull_2d, edge_axes, minimal_containing_shift, sat_overlap
+from scenemosaic.scene._planar import (
+    convex_hull_2d,
+    edge_axes,
+    minimal_containing_shift,
+    outline_polygon,
+    sat_overlap,
+)
 from scenemosaic.scene._room import (
     CEILING_LAMP_CATEGORIES,
     MIN_CEILING_HEIGHT,
@@ -312,6 +318,7 @@ __all__ = [
     "not_a_regular_file",
     "object_count_problem",
     "on_backing_wall",
+    "outline_polygon",
     "pack_surface",
     "points_at",
     "priors_problem",

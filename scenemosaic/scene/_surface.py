@@ -32,17 +32,18 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
+from shapely.geometry import Polygon
 
 from scenemosaic.exceptions import SceneValidationError
 from scenemosaic.scene._geometry import FloatArray, quat_from_matrix
 from scenemosaic.scene._ids import CEILING, FLOOR
 from scenemosaic.scene._model import LocalUnit, Pose, Scene, SceneObject
-from scenemosaic.scene._planar import convex_hull_2d
+from scenemosaic.scene._planar import convex_hull_2d, outline_polygon
 
 __all__ = [
     "GRID_STEP_M",
@@ -70,15 +71,6 @@ def normalize_degrees(angle: float) -> float:
     elif a > 180.0:
         a -= 360.0
     return 0.0 if a == 0.0 else a  # no -0.0
-
-
-def _rotation_about(axis: FloatArray, degrees: float) -> FloatArray:
-    """3x3 rotation by ``degrees`` counter-clockwise about the unit ``axis`` (Rodrigues)."""
-    a = math.radians(degrees)
-    x, y, z = (float(c) for c in axis)
-    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-    r: FloatArray = np.eye(3) + math.sin(a) * k + (1.0 - math.cos(a)) * (k @ k)
-    return r
 
 
 # -- the 2D state shown to agents -----------------------------------------------------------------
@@ -154,11 +146,29 @@ class UnitSurface:
     grid_u: FloatArray
     grid_v: FloatArray
 
-    @property
+    @functools.cached_property
     def normal(self) -> FloatArray:
-        """Unit vector toward the viewer (``u x v``): the projection axis."""
+        """Unit vector toward the viewer (``u x v``): the projection axis (worked out once; read-only)."""
         n: FloatArray = np.cross(self.u_axis, self.v_axis)
+        n.flags.writeable = False
         return n
+
+    @functools.cached_property
+    def _normal_basis(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """The identity, and the cross-product matrix of :attr:`normal` and its square: the terms
+        of a turn about the normal (:meth:`turn_about_normal`), which a planner asks for by the
+        ten thousand."""
+        x, y, z = (float(c) for c in self.normal)
+        k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+        return np.eye(3), k, k @ k
+
+    def turn_about_normal(self, degrees: float) -> FloatArray:
+        """3x3 rotation by ``degrees`` counter-clockwise about :attr:`normal` (Rodrigues' formula,
+        its terms worked out once per surface)."""
+        a = math.radians(degrees)
+        eye, k, kk = self._normal_basis
+        r: FloatArray = eye + math.sin(a) * k + (1.0 - math.cos(a)) * kk
+        return r
 
     def _cell(self, u: float, v: float) -> tuple[int, int]:
         i = int(np.clip(np.searchsorted(self.grid_u, u, side="right") - 1, 0, len(self.grid_u) - 2))
@@ -332,6 +342,13 @@ class _Placed:
     """Box centre's distance from the surface along the normal."""
     reference: FloatArray
     """The object-local axis whose projection defines the in-plane rotation."""
+    degrees: float | None = None
+    """The in-plane rotation (:meth:`UnitLayout.rotation`) once worked out; reset by a turn."""
+    corners_uv: FloatArray | None = None
+    """The box's corners projected on the surface about its centre, once worked out (read-only);
+    reset by a turn."""
+    outline: FloatArray | None = None
+    """The outline (:meth:`UnitLayout.polygon`) once worked out (read-only); reset by any move."""
 
 
 class UnitLayout:
@@ -378,11 +395,16 @@ class UnitLayout:
         """The children, in unit order."""
         return list(self._placed)
 
-    def copy(self) -> UnitLayout:
-        """An independent copy (moves on it leave this one alone)."""
+    def copy(self, only: Collection[str] | None = None) -> UnitLayout:
+        """An independent copy (moves on it leave this one alone); with ``only``, of those
+        children alone (a trial move of a few pieces need not copy the rest)."""
         return UnitLayout(
             self.surface,
-            {k: _Placed(p.obj, p.rotation.copy(), p.center_uv, p.height, p.reference) for k, p in self._placed.items()},
+            {
+                k: _Placed(p.obj, p.rotation.copy(), p.center_uv, p.height, p.reference, p.degrees, p.corners_uv, p.outline)
+                for k, p in self._placed.items()
+                if only is None or k in only
+            },
         )
 
     def object(self, object_id: str) -> SceneObject:
@@ -392,10 +414,12 @@ class UnitLayout:
     def rotation(self, object_id: str) -> float:
         """In-plane rotation in degrees (0 down, 90 left, 180 up, -90 right)."""
         p = self._placed[object_id]
-        w = p.rotation @ p.reference
-        a, b = float(w @ self.surface.u_axis), float(w @ self.surface.v_axis)
-        # clockwise angle from -v: facing (a, b) = (-sin r, -cos r)
-        return normalize_degrees(math.degrees(math.atan2(-a, -b)))
+        if p.degrees is None:
+            w = p.rotation @ p.reference
+            a, b = float(w @ self.surface.u_axis), float(w @ self.surface.v_axis)
+            # clockwise angle from -v: facing (a, b) = (-sin r, -cos r)
+            p.degrees = normalize_degrees(math.degrees(math.atan2(-a, -b)))
+        return p.degrees
 
     def center(self, object_id: str) -> tuple[float, float]:
         """Centre of the object's projected box on the surface."""
@@ -404,9 +428,18 @@ class UnitLayout:
     def polygon(self, object_id: str) -> FloatArray:
         """The object's projected box outline (convex, counter-clockwise), (k, 2) surface coordinates."""
         p = self._placed[object_id]
-        corners = _corners_at(p.obj, p.rotation, np.zeros(3))
-        uv = np.stack([corners @ self.surface.u_axis, corners @ self.surface.v_axis], axis=1)
-        return convex_hull_2d(uv + np.asarray(p.center_uv)[None, :])
+        if p.outline is None:  # a trial move of a few pieces asks again for the rest, unmoved
+            if p.corners_uv is None:
+                corners = _corners_at(p.obj, p.rotation, np.zeros(3))
+                p.corners_uv = np.stack([corners @ self.surface.u_axis, corners @ self.surface.v_axis], axis=1)
+                p.corners_uv.flags.writeable = False
+            p.outline = convex_hull_2d(p.corners_uv + np.asarray(p.center_uv)[None, :])
+            p.outline.flags.writeable = False
+        return p.outline.copy()
+
+    def outline(self, object_id: str) -> Polygon:
+        """:meth:`polygon` as a shapely polygon."""
+        return outline_polygon(self.polygon(object_id))
 
     def extent(self, object_id: str) -> tuple[float, float]:
         """Size of the projected box along u and v."""
@@ -426,6 +459,7 @@ class UnitLayout:
         if not (math.isfinite(u) and math.isfinite(v)):
             raise SceneValidationError(f"non-finite centre for {object_id!r}: ({u}, {v})", object_id=object_id)
         p.center_uv = (float(u), float(v))
+        p.outline = None
 
     def set_rotation(self, object_id: str, degrees: float) -> None:
         """Turn the object about the surface normal so its in-plane rotation becomes ``degrees``."""
@@ -433,7 +467,8 @@ class UnitLayout:
             raise SceneValidationError(f"non-finite rotation for {object_id!r}: {degrees}", object_id=object_id)
         turn = self.rotation(object_id) - normalize_degrees(degrees)  # counter-clockwise seen by the viewer
         p = self._placed[object_id]
-        p.rotation = _rotation_about(self.surface.normal, turn) @ p.rotation
+        p.rotation = self.surface.turn_about_normal(turn) @ p.rotation
+        p.degrees = p.corners_uv = p.outline = None
 
     def pose(self, object_id: str) -> Pose:
         """The object's world pose for its current 2D pose."""

@@ -34,7 +34,6 @@ from scenemosaic.scene._model import (
     LocalUnit,
     Pose,
     Scene,
-    SceneObject,
     SceneStructure,
 )
 
@@ -165,6 +164,12 @@ def descendants(scene: Scene, object_id: str) -> list[str]:
     return out
 
 
+_EYE4 = np.eye(4)
+_STILL = 1e-12 + 1e-5 * _EYE4
+"""How far a move's matrix may be from the identity and still be no move: ``np.allclose``'s
+test (``atol`` 1e-12 and its default ``rtol`` 1e-5 of the identity's entries)."""
+
+
 def rigid_moves(scene: Scene, poses: Mapping[str, Pose]) -> dict[str, Pose]:
     """World poses after moving each object of ``poses`` to its new world pose, carrying along
     rigidly everything resting on it (recursively). Descendants named in ``poses`` keep the pose
@@ -174,7 +179,7 @@ def rigid_moves(scene: Scene, poses: Mapping[str, Pose]) -> dict[str, Pose]:
     for oid, new in poses.items():
         old = scene.get(oid).pose
         delta = new.matrix(with_scale=False) @ np.linalg.inv(old.matrix(with_scale=False))
-        if np.allclose(delta, np.eye(4), atol=1e-12):
+        if bool((np.abs(delta - _EYE4) <= _STILL).all()):  # np.allclose(delta, eye, atol=1e-12), without its overhead
             continue
         for d in descendants(scene, oid):
             if d in poses:
@@ -217,11 +222,11 @@ def with_world_poses(scene: Scene, poses: Mapping[str, Pose]) -> Scene:
     """A NEW scene in which the objects of ``poses`` take those world poses, each carrying what
     rests on it (:func:`rigid_moves`). The input scene is not modified."""
     new_world = rigid_moves(scene, poses)
-    objects: list[SceneObject] = [
-        o.model_copy(update={"pose": new_world[o.id]}) if o.id in new_world else o.model_copy() for o in scene.objects
-    ]
     data = scene.model_dump()
-    data["objects"] = [o.model_dump() for o in objects]
+    for obj in data["objects"]:  # the new poses go into the copy's data: one dump, one validation
+        pose = new_world.get(obj["id"])
+        if pose is not None:
+            obj["pose"] = pose.model_dump()
     return Scene.model_validate(data)
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import itertools
 from pathlib import Path
 
+import numpy as np
 from PIL import Image, ImageDraw
 
 from scenemosaic.render import PixelMap, contact_sheet, render_topdown, topdown_view
@@ -58,3 +59,37 @@ def test_a_contact_sheet_keeps_the_plans_at_their_size(tmp_path: Path) -> None:
     with Image.open(sheet) as image, Image.open(plan) as tile:
         assert image.width == 2 * 640
         assert image.crop((0, image.height - 640, 640, image.height)).tobytes() == tile.convert("RGB").tobytes()
+
+
+def _first_free_by_loop(
+    spots: list[tuple[float, float]],
+    label: tuple[float, float, float, float],
+    placed: list[tuple[float, float, float, float]],
+    size: int,
+) -> int | None:
+    """The spot search as a plain loop over spots and placed boxes: what the vectorized search must match."""
+    cx, cy, hw, hh = label
+    for k, (dx, dy) in enumerate(spots):
+        box = (cx + dx - hw, cy + dy - hh, cx + dx + hw, cy + dy + hh)
+        inside = box[0] >= 0 and box[1] >= 0 and box[2] <= size and box[3] <= size
+        free = not any(box[0] < o[2] and o[0] < box[2] and box[1] < o[3] and o[1] < box[3] for o in placed)
+        if inside and free:
+            return k
+    return None
+
+
+def test_the_label_spot_search_picks_the_spot_a_plain_loop_picks() -> None:
+    """Issue 38: the spots are tried all at once; the first free one is the loop's, on boxes that
+    touch, overlap and run off the picture."""
+    from scenemosaic.render._view import _first_free_spot
+
+    rng = np.random.default_rng(7)
+    size = 200
+    for _ in range(300):
+        placed = [
+            (float(x), float(y), float(x + w), float(y + h))
+            for x, y, w, h in np.round(rng.uniform([0, 0, 5, 5], [size, size, 60, 30], size=(rng.integers(0, 12), 4)))
+        ]
+        label = (float(rng.uniform(0, size)), float(rng.uniform(0, size)), float(rng.uniform(4, 40)), float(rng.uniform(4, 15)))
+        spots = [(0.0, 0.0), *((float(a), float(b)) for a, b in np.round(rng.uniform(-120, 120, size=(40, 2))))]
+        assert _first_free_spot(spots, label, placed, (size, size)) == _first_free_by_loop(spots, label, placed, size)

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from shapely.geometry import MultiPoint, Point, Polygon
 
-from scenemosaic.scene import convex_hull_2d
+from scenemosaic.scene import convex_hull_2d, outline_polygon
 
 coords = st.floats(min_value=-50, max_value=50, allow_nan=False, allow_infinity=False, width=64)
 
@@ -35,3 +36,18 @@ def test_a_box_seen_from_above_gives_its_four_corners_once() -> None:
     assert hull.tolist() == [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]]
     assert convex_hull_2d(np.array([[1.0, 1.0], [1.0, 1.0]])).shape == (1, 2)
     assert convex_hull_2d(np.zeros((0, 2))).shape == (0, 2)
+
+
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(arrays(np.float64, st.tuples(st.integers(3, 12), st.just(2)), elements=st.floats(-50, 50, allow_nan=False)))
+def test_an_outline_polygon_is_the_shapely_polygon_of_its_points(points: np.ndarray) -> None:
+    """Issue 38: the planner's fast polygons are shapely's own, point for point."""
+    assert outline_polygon(points).wkb == Polygon(points).wkb
+    assert outline_polygon(points.astype(np.float32)).wkb == Polygon(points.astype(np.float32)).wkb
+
+
+def test_an_outline_of_too_few_points_fails_as_shapely_does() -> None:
+    with pytest.raises(ValueError):
+        Polygon(np.zeros((2, 2)))
+    with pytest.raises(ValueError):
+        outline_polygon(np.zeros((2, 2)))

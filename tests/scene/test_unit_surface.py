@@ -114,3 +114,34 @@ def test_the_2d_state_is_json_with_centre_size_box_and_rotation(scene: Scene) ->
     for o in state.objects:
         assert o.bbox.max_u - o.bbox.min_u == pytest.approx(o.size.u)
         assert (o.bbox.min_u + o.bbox.max_u) / 2 == pytest.approx(o.center.u)
+
+
+def _fresh_outline(layout: UnitLayout, oid: str) -> np.ndarray:
+    """The outline worked out from nothing kept: a copy whose kept outlines and rotations are dropped."""
+    trial = layout.copy(only={oid})
+    trial.set_center(oid, *trial.center(oid))
+    trial.set_rotation(oid, trial.rotation(oid))
+    return trial.polygon(oid)
+
+
+def test_kept_outlines_follow_every_move_and_copies_stay_apart(scene: Scene) -> None:
+    """Issue 38: a layout keeps each piece's outline and rotation until the piece moves; every
+    move (in any kind of unit) gives the outline worked out afresh, a copy moves on its own, and
+    what a caller does to a returned outline changes nothing kept."""
+    for anchor in _units(scene):
+        layout = UnitLayout.from_scene(scene, anchor)
+        for oid in layout.ids:
+            before = layout.polygon(oid)
+            trial = layout.copy()
+            u, v = trial.center(oid)
+            trial.set_center(oid, u + 0.1, v - 0.05)
+            assert np.allclose(trial.polygon(oid), before + np.array([0.1, -0.05]), atol=1e-9)
+            trial.set_rotation(oid, trial.rotation(oid) + 90.0)
+            assert normalize_degrees(trial.rotation(oid) - layout.rotation(oid) - 90.0) == pytest.approx(0.0, abs=1e-9)
+            assert np.array_equal(trial.polygon(oid), _fresh_outline(trial, oid))
+            assert np.array_equal(layout.polygon(oid), before)  # the original stays where it was
+            returned = layout.polygon(oid)
+            returned += 5.0
+            assert np.array_equal(layout.polygon(oid), before)
+    only = UnitLayout.from_scene(scene, "floor").copy(only={"bed"})
+    assert only.ids == ["bed"]
