@@ -232,6 +232,11 @@ def _lead_rank(category: str, rank: dict[str, int]) -> int:
     return len(rank)
 
 
+_BOUNDS_SLACK = 1e-8
+"""Metres past the region's bounds a piece's unrounded corners must reach before its outline (its
+points rounded to 1e-9) surely leaves the region."""
+
+
 class _Planner:
     """The static side of a room's plans: the region, what never moves, each group's valid places."""
 
@@ -246,6 +251,7 @@ class _Planner:
         # inset by the flush gap less a millimetre: a piece backed flush against a wall is inside
         self.region = Polygon(ctx.surface.region).buffer(-(WALL_FLUSH_GAP - 0.001), join_style="mitre")
         prepare(self.region)
+        self.region_bounds: tuple[float, float, float, float] = tuple(self.region.bounds)  # type: ignore[assignment]
         # what rests on a piece may reach a little past it, over the wall's skirting (a TV's back
         # flush with its stand's): checked against the floor grown by RIDER_REACH_M
         self.loose_region = Polygon(ctx.surface.region).buffer(RIDER_REACH_M, join_style="mitre")
@@ -333,6 +339,11 @@ class _Planner:
         for k, (u, v, r) in place.items():
             trial.set_rotation(k, r)
             trial.set_center(k, u, v)
+        x0, y0, x1, y1 = self.region_bounds
+        for k in g.members:  # a piece reaching past the region's bounds is not covered by it: no outline needed
+            u0, v0, u1, v1 = trial.reach(k)
+            if u0 < x0 - _BOUNDS_SLACK or v0 < y0 - _BOUNDS_SLACK or u1 > x1 + _BOUNDS_SLACK or v1 > y1 + _BOUNDS_SLACK:
+                return None
         solid = []
         for k in g.members:
             own = trial.outline(k)

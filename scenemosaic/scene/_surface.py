@@ -430,12 +430,24 @@ class UnitLayout:
         p = self._placed[object_id]
         if p.outline is None:  # a trial move of a few pieces asks again for the rest, unmoved
             if p.corners_uv is None:
-                corners = _corners_at(p.obj, p.rotation, np.zeros(3))
-                p.corners_uv = np.stack([corners @ self.surface.u_axis, corners @ self.surface.v_axis], axis=1)
-                p.corners_uv.flags.writeable = False
+                self.reach(object_id)  # works out the projected corners
+            assert p.corners_uv is not None
             p.outline = convex_hull_2d(p.corners_uv + np.asarray(p.center_uv)[None, :])
             p.outline.flags.writeable = False
         return p.outline.copy()
+
+    def reach(self, object_id: str) -> tuple[float, float, float, float]:
+        """The bounds ``(u_min, v_min, u_max, v_max)`` of the object's projected box corners,
+        unrounded (:meth:`polygon` rounds its points to 1e-9): a quick test of where a piece
+        reaches, without building its outline."""
+        p = self._placed[object_id]
+        if p.corners_uv is None:
+            corners = _corners_at(p.obj, p.rotation, np.zeros(3))
+            p.corners_uv = np.stack([corners @ self.surface.u_axis, corners @ self.surface.v_axis], axis=1)
+            p.corners_uv.flags.writeable = False
+        lo, hi = p.corners_uv.min(axis=0), p.corners_uv.max(axis=0)
+        u, v = p.center_uv
+        return float(lo[0] + u), float(lo[1] + v), float(hi[0] + u), float(hi[1] + v)
 
     def outline(self, object_id: str) -> Polygon:
         """:meth:`polygon` as a shapely polygon."""
