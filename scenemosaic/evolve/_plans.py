@@ -266,6 +266,9 @@ class _Planner:
         self.raster = FloorRaster(np.asarray(ctx.surface.region, dtype=np.float64), cell=PLAN_CELL_M)
         self.door_masks = [self.raster.mask(z.buffer(ROBOT_RADIUS)) for z in [*ctx.keep_clear, *ctx.passages]]
         self.need = WALK_MIN_SHARE
+        self.nearest: dict[tuple[str, int], tuple[int, float]] = {}
+        """Per group and option: how many places of the plans' history were measured, and the
+        distance to the nearest of them (:func:`_farthest`)."""
         self.others = others
         self.static = self.solid_static = Polygon()
         self.options = {g.lead: self._options(g) for g in self.groups}
@@ -690,6 +693,7 @@ def _plan(
     order = sorted(planner.groups, key=lambda g: (len(planner.options[g.lead]), -g.area, g.lead))
     jitter = {g.lead: rng.random(len(planner.options[g.lead])) * _JITTER_M for g in order}
     budget = [PLAN_EXPANSIONS]
+    scores: dict[tuple[str, int], float] = {}
 
     placed: Placement = {}
 
@@ -703,7 +707,9 @@ def _plan(
         for j, opt in enumerate(planner.options[g.lead]):
             if taken and any(blocked.intersects(s) for s in opt.shapes):
                 continue
-            score = min(float(np.linalg.norm(opt.centre - c)) for c in history[g.lead]) + float(jitter[g.lead][j])
+            score = scores.get((g.lead, j))
+            if score is None:  # the history and the jitter hold for the whole plan: scored once
+                score = scores[(g.lead, j)] = _farthest(planner, g.lead, j, opt, history[g.lead]) + float(jitter[g.lead][j])
             scored.append((-score, j, opt))
         scored.sort(key=lambda x: (x[0], x[1]))
         tried = scored[:PLAN_BRANCH]
@@ -737,6 +743,17 @@ def _plan(
     if not any(moved(g) for g in planner.groups if g.area >= PLAN_MIN_AREA_M2 or g is planner.groups[0]):
         return None  # only small pieces moved: no new arrangement of the room
     return place, chosen
+
+
+def _farthest(planner: _Planner, lead: str, j: int, opt: _Option, history: list[np.ndarray]) -> float:
+    """How far option ``j`` of ``lead``'s group stands from the nearest place the group took
+    before (``history``, which only grows from plan to plan): the distance to the entries seen
+    so far is kept on the planner and only the new ones are measured."""
+    seen, nearest = planner.nearest.get((lead, j), (0, math.inf))
+    for c in history[seen:]:
+        nearest = min(nearest, float(np.linalg.norm(opt.centre - c)))
+    planner.nearest[(lead, j)] = (len(history), nearest)
+    return nearest
 
 
 def _same_plan(planner: _Planner, a: Placement, b: Placement) -> bool:

@@ -39,6 +39,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from shapely.geometry import Polygon
 
+from scenemosaic._memo import Memo
 from scenemosaic.exceptions import SceneValidationError
 from scenemosaic.scene._geometry import FloatArray, quat_from_matrix
 from scenemosaic.scene._ids import CEILING, FLOOR
@@ -323,6 +324,19 @@ def _corners_at(obj: SceneObject, rotation: FloatArray, center: FloatArray) -> F
     return out
 
 
+def _projected_corners(obj: SceneObject, rotation: FloatArray, surface: UnitSurface) -> FloatArray:
+    """The corners of ``obj``'s box turned by ``rotation``, projected on ``surface`` about its centre (read-only)."""
+    corners = _corners_at(obj, rotation, np.zeros(3))
+    uv: FloatArray = np.stack([corners @ surface.u_axis, corners @ surface.v_axis], axis=1)
+    uv.flags.writeable = False
+    return uv
+
+
+_PROJECTED_CORNERS: Memo[tuple[tuple[float, ...], bytes, bytes, bytes], FloatArray] = Memo(1 << 16)
+"""Projected corners by box size, rotation and surface axes: a planner turns each piece to the
+same few rotations thousands of times."""
+
+
 @functools.lru_cache(maxsize=4096)
 def _box_corners(size: tuple[float, ...]) -> FloatArray:
     """The eight corners of a box of ``size`` centred at the origin (read-only: shared)."""
@@ -442,9 +456,9 @@ class UnitLayout:
         reaches, without building its outline."""
         p = self._placed[object_id]
         if p.corners_uv is None:
-            corners = _corners_at(p.obj, p.rotation, np.zeros(3))
-            p.corners_uv = np.stack([corners @ self.surface.u_axis, corners @ self.surface.v_axis], axis=1)
-            p.corners_uv.flags.writeable = False
+            surface = self.surface
+            key = (tuple(float(v) for v in p.obj.size), p.rotation.tobytes(), surface.u_axis.tobytes(), surface.v_axis.tobytes())
+            p.corners_uv = _PROJECTED_CORNERS.get(key, lambda: _projected_corners(p.obj, p.rotation, surface))
         lo, hi = p.corners_uv.min(axis=0), p.corners_uv.max(axis=0)
         u, v = p.center_uv
         return float(lo[0] + u), float(lo[1] + v), float(hi[0] + u), float(hi[1] + v)
