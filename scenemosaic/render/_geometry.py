@@ -90,10 +90,10 @@ class WallPiece(NamedTuple):
 def object_local_mesh(obj: SceneObject, base_dir: Path | None = None) -> trimesh.Trimesh:
     """The object's visual mesh in its local frame, scaled so its bounds equal ``obj.size``.
 
-    Origin at the bottom centre of the footprint, +Z up, front along local -Y; a copy of
-    :func:`scenemosaic.assets.object_mesh`, safe to transform.
+    Origin at the bottom centre of the footprint, +Z up, front along local -Y; what
+    :func:`scenemosaic.assets.object_mesh` gives (a fresh mesh: safe to transform).
     """
-    return object_mesh(obj, base_dir).copy()
+    return object_mesh(obj, base_dir)
 
 
 def object_world_mesh(obj: SceneObject, base_dir: Path | None = None) -> trimesh.Trimesh:
