@@ -28,6 +28,7 @@ from pydantic import Field, field_validator
 from shapely.geometry import Point, Polygon
 from shapely.ops import unary_union
 
+from scenemosaic._memo import Memo
 from scenemosaic.scene._geometry import FloatArray
 from scenemosaic.scene._limits import house_problem
 from scenemosaic.scene._model import Opening, Provenance, Scene, SceneObject, Wall, _Model, _plan_png
@@ -434,20 +435,8 @@ class HouseFloor:
     in place after it was asked about must be passed as a new scene (``model_copy``)."""
 
     def __init__(self, house: House, *, radius: float = ROBOT_RADIUS, cell: float = HOUSE_CELL_M) -> None:
-        rooms = [s for s in house.rooms if s.room is not None]
-        floors = [Polygon(s.room.floor) for s in rooms if s.room is not None]
-        passages = [d.passage(reach=cell) for d in house.doorways() if not d.leads_outside]
-        minx, miny, maxx, maxy = unary_union([*floors, *passages]).bounds
-        minx, miny = np.floor(minx / cell) * cell, np.floor(miny / cell) * cell
-        self.raster = FloorRaster(np.array([[minx, miny], [maxx, miny], [maxx, maxy], [minx, maxy]]), cell=cell)
-        owner = np.zeros(self.raster.shape, dtype=np.int64)  # 1 + the index of the room whose floor holds the cell
-        self.room_cells: dict[str, np.ndarray] = {}
-        for k, (s, poly) in enumerate(zip(rooms, floors, strict=True)):
-            cells = self.raster.mask(poly)
-            self.room_cells[s.id] = cells
-            owner[cells] = k + 1
-        through = self.raster.blocked(passages)
-        self.raster.inside = ((owner > 0) | through) & ~_seams(owner, through)
+        shells = tuple((s.id, s.room.model_dump_json() if s.room is not None else "") for s in house.rooms)
+        self.raster, self.room_cells = _HOUSE_RASTERS.get((shells, cell), lambda: _house_raster(house, cell))
         self.radius = radius
         self._blocked: dict[int, tuple[Scene, np.ndarray]] = {}
 
@@ -466,6 +455,32 @@ class HouseFloor:
         for room in rooms:
             blocked |= self._room_blocked(room)
         return HouseWalkable(self.raster.walkable(blocked, self.radius), self.raster, self.room_cells)
+
+
+def _house_raster(house: House, cell: float) -> tuple[FloorRaster, dict[str, np.ndarray]]:
+    """The raster of a house's floors and passages without furniture (the seams between rooms
+    closed), and each room's floor cells: what :class:`HouseFloor` starts from."""
+    rooms = [s for s in house.rooms if s.room is not None]
+    floors = [Polygon(s.room.floor) for s in rooms if s.room is not None]
+    passages = [d.passage(reach=cell) for d in house.doorways() if not d.leads_outside]
+    minx, miny, maxx, maxy = unary_union([*floors, *passages]).bounds
+    minx, miny = np.floor(minx / cell) * cell, np.floor(miny / cell) * cell
+    raster = FloorRaster(np.array([[minx, miny], [maxx, miny], [maxx, maxy], [minx, maxy]]), cell=cell)
+    owner = np.zeros(raster.shape, dtype=np.int64)  # 1 + the index of the room whose floor holds the cell
+    room_cells: dict[str, np.ndarray] = {}
+    for k, (s, poly) in enumerate(zip(rooms, floors, strict=True)):
+        cells = raster.mask(poly)
+        cells.flags.writeable = False
+        room_cells[s.id] = cells
+        owner[cells] = k + 1
+    through = raster.blocked(passages)
+    raster.inside = ((owner > 0) | through) & ~_seams(owner, through)
+    return raster, room_cells
+
+
+_HOUSE_RASTERS: Memo[tuple[tuple[tuple[str, str], ...], float], tuple[FloorRaster, dict[str, np.ndarray]]] = Memo(16)
+"""House rasters by the rooms' shells and the cell size: a house's variants (compose, validate,
+evaluate) share them. Shared: never modified."""
 
 
 def _seams(owner: np.ndarray, through: np.ndarray) -> np.ndarray:
