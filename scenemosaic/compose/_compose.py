@@ -193,15 +193,19 @@ class _Composer:
             ranges = [range(len(o.layout_ids)) if o is not None else range(1) for o in options]
             scenes: list[Scene] = []
             labels: list[dict[str, str]] = []
+            prefixes: dict[tuple[int, ...], Scene] = {(): scene}  # combinations share their first units' layouts
             for combo in itertools.product(*ranges):
                 s = scene
                 label: dict[str, str] = {}
-                for u, o, k in zip(members, options, combo, strict=True):
+                for i, (u, o, k) in enumerate(zip(members, options, combo, strict=True)):
                     if o is None:
                         continue
                     label[u.anchor_id] = o.layout_ids[k]
                     if k:  # the refined original is in place already
-                        s = with_unit_layout(s, u.anchor_id, o.poses[k])
+                        known = prefixes.get(combo[: i + 1])
+                        if known is None:
+                            known = prefixes[combo[: i + 1]] = with_unit_layout(s, u.anchor_id, o.poses[k])
+                        s = known
                 followed = follow_leaders(scene, s, led) if led else s
                 if followed is None:  # a lamp, rug or picture that cannot follow its group here
                     self.failed.add((g, len(scenes)))
