@@ -10,7 +10,8 @@ house folder (``out/house/base`` of ``scenemosaic generate``). Per house:
   fronts); ``articulated``: objects whose stand-in has parts;
 * ``pulls_passed`` / ``pulls_tried``: every part pulled at its handle in the house's own MuJoCo
   world (``write_house_mjcf``; 10 N for drawers and doors, 3 N plus its weight for a lid, 3 s), a
-  pass when a drawer slides 80 % of its depth or a door or lid turns 90 degrees and neither the
+  pass when a drawer slides 80 % of its depth or a door or lid turns 90 degrees (a laptop's lid,
+  built open, is pushed shut instead) and neither the
   object's bodies nor what it holds moves faster than 5 m/s (neighbours may block a door: such a
   failure is real; a house read as shipped has no supports yet, so a picture may fall off its
   wall meanwhile, which is not the pull's doing);
@@ -71,6 +72,8 @@ def _pull(model: mujoco.MjModel, obj: SceneObject, part: PartSpec, held: list[st
     axis = np.asarray(part.axis, dtype=np.float64)
     way = axis if part.joint == "slide" else np.cross(axis, handle)
     way /= np.linalg.norm(way)
+    if part.limits[1] <= 0.0:  # built open (a laptop's lid): pushed shut instead
+        way = -way
     force = PULL_N[part.kind]
     if part.kind == "lid":  # hold its weight too
         rotation = data.xmat[body].reshape(3, 3)
@@ -87,7 +90,7 @@ def _pull(model: mujoco.MjModel, obj: SceneObject, part: PartSpec, held: list[st
         speeds = np.linalg.norm(data.xipos[watched] - previous[watched], axis=1) / model.opt.timestep
         fastest = max(fastest, float(speeds.max()))
         previous = data.xipos.copy()
-    value = float(data.qpos[qpos])
+    value = abs(float(data.qpos[qpos]))
     opened = value >= 0.8 * part.depth if part.joint == "slide" else math.degrees(value) >= 90.0
     return opened and fastest < 5.0
 

@@ -18,13 +18,50 @@ bounds, seconds, the first warning's first 100 characters), then ONE JSON line o
 
 Target (issue 23): every room ``ok``, 0 collision pairs, 0 out of bounds.
 
+Then the two clutter modes of issue 40 (``--clutter``, ``docs/clutter.md``), each room generated
+with the rules model and seed 0:
+
+* ``fill`` — every shipped PhyScene room with ``--clutter fill`` (no variants): per room the
+  furniture and the small objects added, the rest check's stable share, the objects dropped, COL,
+  OOB and NAV (and NAV without clutter), the share of free bodies of the delivered ``scene.xml``
+  that move under 1 cm in 2 s of plain MuJoCo, the clutter stage's seconds and the run's;
+* ``vary`` — the shipped one-room ProcTHOR bedroom (``room|2``: small objects of its own) with
+  ``--clutter vary --variants 5``, and the PhyScene bedroom Bedroom-33922 with ``--clutter fill
+  --variants 5``: small objects moved, swapped, dropped, the stable share, the least share of small
+  objects on another receptacle over every pair of variants, the delivered MJCFs' resting share,
+  COL and OOB over the variants, seconds.
+
+The last JSON line then also holds ``fill`` and ``vary``: their per-room rows and the pooled
+``objects_added``, ``added_per_furniture_min``, ``stable_share``, ``mjcf_resting_share``,
+``seconds_per_room``. Target (issue 40): added at least 3 times the furniture, stable share and
+resting share at least 0.99, COL and OOB 0, and (``vary``) at least 0.3 of the small objects on
+another receptacle between any two variants.
+
+Then both modes on every shipped multi-room house (``house_fill``, ``house_vary``; the whole
+house in one run, ``docs/clutter.md``, *Houses*):
+
+* ``fill`` (no variants): the objects added, the rest check's stable share, the free bodies of
+  the delivered house ``scene.xml`` still (under 1 cm) after 2 s of plain MuJoCo, COL and OOB
+  summed over the rooms, the least room NAV, house NAV, blocked doors, the placements the priors
+  do not allow, and the density per receptacle against the priors': the median (and mean) over the
+  house's receptacles of the small objects each holds, beside the median (and mean) of their
+  types' typical densities (``median_held >= median_typical`` is the acceptance);
+* ``vary`` with ``--house-variants`` (5) variants: the same validity figures over the variants,
+  and per room with at least 5 small objects the least share of them on another receptacle over
+  every pair of whole-house variants (acceptance: at least 0.3 in every such room).
+
 Run: ``.venv/bin/python benchmarks/clutter.py`` (several minutes on 2 cores). ``--house NAME``
-(repeatable; a file stem) limits it to some houses, ``--keep DIR`` keeps every run's folder.
+(repeatable; a file stem) limits it to some houses, ``--keep DIR`` keeps every run's folder,
+``--no-houses`` skips every house (their rooms and the whole houses), ``--no-rooms`` the houses'
+rooms one at a time, ``--no-physcene`` the PhyScene and one-room clutter runs, ``--modes
+fill,vary`` picks the clutter modes (``none``: none), ``--house-variants N`` the whole houses'
+``vary`` variants.
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import sys
 import tempfile
@@ -32,13 +69,28 @@ import time
 from pathlib import Path
 from typing import Any
 
+import mujoco
+import numpy as np
 import structlog
 
 from scenemosaic import GenerateConfig, generate
-from scenemosaic.exchange import load_scenes
+from scenemosaic.clutter import ClutterPriors, clutter_ids, load_clutter_priors, receptacles, small_objects
+from scenemosaic.exchange import load_scene, load_scenes
+from scenemosaic.scene import House, Scene
 
 REPO = Path(__file__).resolve().parents[1]
 HOUSES = REPO / "data" / "houses" / "procthor"
+PHYSCENE = REPO / "data" / "layouts" / "physcene"
+VARY_RUNS: list[tuple[str, Path, dict[str, Any]]] = [
+    ("procthor_1room_bedroom", HOUSES / "procthor_1room_bedroom.json", {"room": "room|2", "clutter": "vary"}),
+    ("Bedroom-33922_bedroom", PHYSCENE / "Bedroom-33922_bedroom.json", {"clutter": "fill"}),
+]
+"""The ``vary`` runs: a room with small objects of its own, and a PhyScene room filled first."""
+VARY_VARIANTS = 5
+HOUSE_VARIANTS = 5
+"""Whole-house variants of the houses' ``vary`` runs (``--house-variants``)."""
+MIN_SMALL = 5
+"""A room's small objects from which the pairwise receptacle change is judged (issue 40)."""
 
 
 def houses(names: list[str] | None = None) -> list[Path]:
@@ -88,20 +140,283 @@ def run_room(house: Path, room_id: str, out: Path) -> dict[str, Any]:
     }
 
 
+def resting(xml: Path) -> tuple[int, int]:
+    """Free bodies of a delivered ``scene.xml`` that move under 1 cm in 2 s of plain MuJoCo, and all of them."""
+    model = mujoco.MjModel.from_xml_path(str(xml))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    free = [int(model.jnt_bodyid[j]) for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
+    start = {b: np.array(data.xpos[b]) for b in free}
+    mujoco.mj_step(model, data, nstep=round(2.0 / model.opt.timestep))
+    still = sum(1 for b in free if float(np.linalg.norm(data.xpos[b] - start[b])) < 0.01)
+    return still, len(free)
+
+
+def _clutter_detail(report: dict[str, Any]) -> dict[str, Any]:
+    for stage in report.get("stages") or []:
+        if stage.get("name") == "clutter":
+            return dict(stage.get("detail") or {})
+    return {}
+
+
+def run_fill(source: Path, out: Path) -> dict[str, Any]:
+    """One PhyScene room with ``--clutter fill`` (and once without, for its NAV)."""
+    generate(source, out / "keep", GenerateConfig(model="rules"))
+    t0 = time.perf_counter()
+    generate(source, out / "fill", GenerateConfig(model="rules", clutter="fill"))
+    seconds = time.perf_counter() - t0
+    report = json.loads((out / "fill" / "report.json").read_text(encoding="utf-8"))
+    kept = json.loads((out / "keep" / "report.json").read_text(encoding="utf-8"))
+    detail = _clutter_detail(report)
+    objects = len(json.loads((out / "fill" / "base" / "scene.json").read_text(encoding="utf-8"))["objects"])
+    still, free = resting(out / "fill" / "base" / "scene.xml")
+    base = report["metrics"]["base"]
+    return {
+        "room": source.stem, "furniture": objects - detail["added"], "added": detail["added"],
+        "added_per_furniture": round(detail["added"] / max(objects - detail["added"], 1), 2),
+        "dropped": detail["dropped"], "stable_share": detail["stable_share"], "mjcf_resting": still, "mjcf_free": free,
+        "COL": base["COL"], "OOB": base["OOB"], "NAV": base["NAV"], "NAV_keep": kept["metrics"]["base"]["NAV"],
+        "status": report["status"], "clutter_seconds": detail["seconds"], "seconds": round(seconds, 2),
+    }  # fmt: skip
+
+
+def run_vary(name: str, source: Path, settings: dict[str, Any], out: Path) -> dict[str, Any]:
+    """One room with ``--variants 5`` and the given clutter settings."""
+    t0 = time.perf_counter()
+    try:
+        generate(source, out, GenerateConfig(model="rules", variants=VARY_VARIANTS, **settings))
+    except Exception as exc:  # a benchmark records a failure and goes on
+        return {"room": name, "mode": settings["clutter"], "status": "failed", "error": f"{type(exc).__name__}: {exc}"[:200]}
+    seconds = time.perf_counter() - t0
+    report = json.loads((out / "report.json").read_text(encoding="utf-8"))
+    detail = _clutter_detail(report)
+    variants = sorted(p for p in out.glob("variant_*") if p.is_dir())
+    counts = [resting(v / "scene.xml") for v in variants]
+    scenes = [s for k, s in detail.get("scenes", {}).items() if k.startswith("variant_")]
+    rows = report["metrics"].get("variants") or []
+    return {
+        "room": name, "mode": settings["clutter"], "variants": len(variants),
+        "small_objects": detail.get("small_objects"), "added": detail["added"],
+        "moved": sum(s["moved"] for s in scenes), "swapped": sum(s["swapped"] for s in scenes),
+        "dropped": detail["dropped"], "stable_share": detail["stable_share"],
+        "min_receptacle_changed": detail["div_small"]["min_receptacle_changed"],
+        "clutter_distance": detail["div_small"]["clutter_distance"],
+        "mjcf_resting": sum(c[0] for c in counts), "mjcf_free": sum(c[1] for c in counts),
+        "COL_max": max((r["COL"] for r in rows), default=0.0), "OOB_max": max((r["OOB"] for r in rows), default=0.0),
+        "status": report["status"], "clutter_seconds": detail["seconds"], "seconds": round(seconds, 2),
+    }  # fmt: skip
+
+
+def multi_room(names: list[str] | None = None) -> list[Path]:
+    """The shipped houses with more than one room (a whole-house run)."""
+    return [p for p in houses(names) if len(load_scenes(p)) > 1]
+
+
+def _parent(scene: Scene, oid: str) -> str | None:
+    rel = scene.support_of(oid)
+    return rel.parent if rel is not None else None
+
+
+def density(scene: Scene, priors: ClutterPriors) -> list[tuple[float, int]]:
+    """Per receptacle ``fill`` considers: its type's typical density and the objects resting on or
+    in it (every object whose support relation names it: a pillow as well as a book, as
+    ProcTHOR's ``receptacles.json`` counts them)."""
+    held: dict[str, int] = {}
+    for obj in scene.objects:
+        parent = _parent(scene, obj.id)
+        if parent is not None:
+            held[parent] = held.get(parent, 0) + 1
+    return [(priors.typical[t], held.get(rid, 0)) for rid, t in receptacles(scene, priors)]
+
+
+def not_allowed(scene: Scene, priors: ClutterPriors, ids: list[str]) -> list[str]:
+    """The objects among ``ids`` on or in a receptacle type the priors never found their type on."""
+    out = []
+    for oid in ids:
+        parent = _parent(scene, oid)
+        t = priors.object_type(scene.get(oid).category)
+        r = priors.receptacle_type(scene.get(parent).category) if parent is not None else None
+        if t is None or r is None or not priors.allows(t, r):
+            out.append(oid)
+    return out
+
+
+def _house_clutter(report: dict[str, Any]) -> dict[str, Any]:
+    """The clutter stage figures summed over the rooms of a house run's report."""
+    added = dropped = 0
+    seconds = 0.0
+    stable: list[float] = []
+    moved = swapped = 0
+    for room in (report.get("rooms") or {}).values():
+        detail = _clutter_detail(room)
+        added += detail.get("added", 0)
+        dropped += detail.get("dropped", 0)
+        seconds += detail.get("seconds", 0.0)
+        stable.append(detail.get("stable_share", 1.0))
+        scenes = detail.get("scenes") or {}
+        moved += sum(v.get("moved", 0) for k, v in scenes.items() if k.startswith("variant_"))
+        swapped += sum(v.get("swapped", 0) for k, v in scenes.items() if k.startswith("variant_"))
+    return {"added": added, "dropped": dropped, "clutter_seconds": seconds, "stable_share": min(stable, default=1.0),
+            "moved": moved, "swapped": swapped}  # fmt: skip
+
+
+def run_house(house: Path, mode: str, out: Path, variants: int) -> dict[str, Any]:
+    """One whole house with ``--clutter mode`` (``vary``: with ``variants`` variants), read back
+    from its delivered files and report."""
+    priors = load_clutter_priors()
+    t0 = time.perf_counter()
+    try:
+        generate(house, out, GenerateConfig(model="rules", clutter=mode, variants=variants if mode == "vary" else 0))
+    except Exception as exc:  # a benchmark records a failure and goes on
+        return {"house": house.stem, "mode": mode, "status": "failed", "error": f"{type(exc).__name__}: {exc}"[:200]}
+    seconds = time.perf_counter() - t0
+    report = json.loads((out / "report.json").read_text(encoding="utf-8"))
+    base = load_scene(out)
+    assert isinstance(base, House)
+    folders = [out / "base"] if mode == "fill" else sorted(p for p in out.glob("variant_*") if p.is_dir())
+    delivered = [base] if mode == "fill" else [load_scene(out, variant=i) for i in range(1, len(folders) + 1)]
+    counts = [resting(f / "scene.xml") for f in folders]
+    rows = report["metrics"]["rooms"]
+    key = "base" if mode == "fill" else "variants"
+    room_rows = [r for rr in rows.values() for r in ([rr["base"]] if key == "base" else rr.get("variants") or [])]
+    house_rows = [report["metrics"]["house"]["base"]] if mode == "fill" else report["metrics"]["house"]["variants"]
+    bad = sum(len(not_allowed(s, priors, clutter_ids(s) if mode == "fill" else small_objects(s, priors)))
+              for h in delivered for s in h.rooms)  # fmt: skip
+    row: dict[str, Any] = {
+        "house": house.stem, "mode": mode, "rooms": len(base.rooms), "variants": len(folders) if mode == "vary" else 0,
+        **_house_clutter(report), "mjcf_resting": sum(c[0] for c in counts), "mjcf_free": sum(c[1] for c in counts),
+        "COL": sum(r["COL"] for r in room_rows), "OOB": sum(r["OOB"] for r in room_rows),
+        "NAV_min": min(r["NAV"] for r in room_rows),
+        "house_nav_min": min(h["house_nav"] for h in house_rows),
+        "doors_blocked": sum(len(h["door_blockers"]) if isinstance(h["door_blockers"], list) else h["door_blockers"] for h in house_rows),
+        "not_allowed": bad, "status": report["status"], "seconds": round(seconds, 2),
+        "seconds_per_room": round(seconds / len(base.rooms), 2),
+    }  # fmt: skip
+    if mode == "fill":
+        pairs = [d for s in base.rooms for d in density(s, priors)]
+        typical = [t for t, _ in pairs]
+        held = [h for _, h in pairs]
+        row.update({
+            "receptacles": len(pairs), "median_typical": round(float(np.median(typical)), 3) if pairs else None,
+            "median_held": float(np.median(held)) if pairs else None,
+            "mean_typical": round(float(np.mean(typical)), 3) if pairs else None,
+            "mean_held": round(float(np.mean(held)), 3) if pairs else None,
+            "at_typical_share": round(sum(h >= t for t, h in pairs) / len(pairs), 3) if pairs else None,
+        })  # fmt: skip
+    else:
+        row["rooms_judged"] = _pairwise_changes(delivered, priors)
+        row["receptacle_changed_min"] = min((r["object"] for r in row["rooms_judged"].values()), default=None)
+        row["surface_changed_min"] = min((r["surface"] for r in row["rooms_judged"].values()), default=None)
+    return row
+
+
+SURFACE_STEP_M = 0.05
+"""Heights of an object's resting place closer than this count as one surface (the top, a shelf)."""
+
+
+def _surface(scene: Scene, oid: str) -> tuple[str | None, str | None, int]:
+    """Where an object rests: its receptacle, on or in it, and the height of the surface (its
+    bottom, in steps of :data:`SURFACE_STEP_M`): a counter's top and each of its shelves or
+    drawer levels apart, as ProcTHOR counts a CounterTop and its Cabinets and Drawers apart."""
+    rel = scene.support_of(oid)
+    z = float(scene.get(oid).pose.position[2])
+    return (rel.parent if rel else None, rel.kind if rel else None, round(z / SURFACE_STEP_M))
+
+
+def _pairwise_changes(variants: list[House], priors: ClutterPriors) -> dict[str, dict[str, float]]:
+    """Per room with at least :data:`MIN_SMALL` small objects, the least share of them, over every
+    pair of whole-house variants, on another receptacle (``object``) and on another surface
+    (``surface``: another receptacle, or another level of the same one)."""
+    judged: dict[str, dict[str, float]] = {}
+    for k, room in enumerate(variants[0].rooms if variants else []):
+        scenes = [v.rooms[k] for v in variants]
+        shared = set(small_objects(scenes[0], priors)).intersection(*(small_objects(s, priors) for s in scenes[1:]))
+        if len(shared) < MIN_SMALL:
+            continue
+        pairs = list(itertools.combinations(scenes, 2))
+        judged[room.id] = {
+            "objects": len(shared),
+            "object": round(min(sum(_parent(a, o) != _parent(b, o) for o in shared) / len(shared) for a, b in pairs), 3),
+            "surface": round(min(sum(_surface(a, o) != _surface(b, o) for o in shared) / len(shared) for a, b in pairs), 3),
+        }  # fmt: skip
+    return judged
+
+
+def _pooled(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    failed = [r["room"] for r in rows if r["status"] == "failed"]
+    rows = [r for r in rows if r["status"] != "failed"]
+    free = sum(r["mjcf_free"] for r in rows)
+    checked = [r["stable_share"] for r in rows]
+    out: dict[str, Any] = {
+        "rooms": len(rows),
+        "objects_added": sum(r["added"] for r in rows),
+        "dropped": sum(r["dropped"] for r in rows),
+        "stable_share": round(min(checked), 4) if checked else None,
+        "mjcf_resting_share": round(sum(r["mjcf_resting"] for r in rows) / free, 4) if free else None,
+        "seconds_per_room": round(sum(r["seconds"] for r in rows) / max(len(rows), 1), 2),
+        "clutter_seconds_per_room": round(sum(r["clutter_seconds"] for r in rows) / max(len(rows), 1), 2),
+        "per_room": rows,
+        "failed": failed,
+    }
+    if rows and "added_per_furniture" in rows[0]:
+        out["added_per_furniture_min"] = min(r["added_per_furniture"] for r in rows)
+    if rows and "min_receptacle_changed" in rows[0]:
+        out["min_receptacle_changed"] = min(r["min_receptacle_changed"] for r in rows if r["min_receptacle_changed"] is not None)
+    return out
+
+
+def _pooled_houses(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    failed = [r["house"] for r in rows if r["status"] == "failed"]
+    rows = [r for r in rows if r["status"] != "failed"]
+    free = sum(r["mjcf_free"] for r in rows)
+    rooms = sum(r["rooms"] for r in rows)
+    out: dict[str, Any] = {
+        "houses": len(rows), "rooms": rooms, "objects_added": sum(r["added"] for r in rows),
+        "dropped": sum(r["dropped"] for r in rows), "stable_share": min((r["stable_share"] for r in rows), default=None),
+        "mjcf_resting_share": round(sum(r["mjcf_resting"] for r in rows) / free, 4) if free else None,
+        "COL": sum(r["COL"] for r in rows), "OOB": sum(r["OOB"] for r in rows),
+        "NAV_min": min((r["NAV_min"] for r in rows), default=None),
+        "house_nav_min": min((r["house_nav_min"] for r in rows), default=None),
+        "doors_blocked": sum(r["doors_blocked"] for r in rows), "not_allowed": sum(r["not_allowed"] for r in rows),
+        "seconds_per_room": round(sum(r["seconds"] for r in rows) / max(rooms, 1), 2),
+        "clutter_seconds_per_room": round(sum(r["clutter_seconds"] for r in rows) / max(rooms, 1), 2),
+        "per_house": rows, "failed": failed,
+    }  # fmt: skip
+    if rows and "median_held" in rows[0]:
+        out["density_at_median"] = sum(
+            r["median_held"] is not None and r["median_held"] >= r["median_typical"] for r in rows
+        )
+    if rows and "receptacle_changed_min" in rows[0]:
+        for key in ("receptacle_changed_min", "surface_changed_min"):
+            out[key] = min((r[key] for r in rows if r[key] is not None), default=None)
+        rooms_judged = [j for r in rows for j in r["rooms_judged"].values()]
+        out["rooms_judged"] = len(rooms_judged)
+        out["rooms_object_below_0.3"] = sum(j["object"] < 0.3 for j in rooms_judged)
+        out["rooms_surface_below_0.3"] = sum(j["surface"] < 0.3 for j in rooms_judged)
+    return out
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--house", action="append", help="only this house (file stem); repeatable")
     parser.add_argument("--keep", type=Path, help="keep every run's output folder here")
+    parser.add_argument("--no-houses", action="store_true", help="skip the house rooms")
+    parser.add_argument("--modes", default="fill,vary", help="clutter modes to measure: fill, vary, both, or none")
+    parser.add_argument("--no-rooms", action="store_true", help="skip the houses' rooms one at a time")
+    parser.add_argument("--no-physcene", action="store_true", help="skip the PhyScene and one-room clutter runs")
+    parser.add_argument("--house-variants", type=int, default=HOUSE_VARIANTS, help="whole-house vary variants")
     args = parser.parse_args(argv)
+    modes = {m.strip() for m in args.modes.split(",") if m.strip() and m.strip() != "none"}
     structlog.configure(wrapper_class=structlog.make_filtering_bound_logger(40))
 
     t_start = time.perf_counter()
     rows: list[dict[str, Any]] = []
     n_objects = 0
-    selected = houses(args.house)
+    selected = [] if args.no_houses else houses(args.house)
+    clutter: dict[str, Any] = {}
     with tempfile.TemporaryDirectory(prefix="scenemosaic-clutter-") as tmp:
         base = args.keep if args.keep is not None else Path(tmp)
-        for house in selected:
+        for house in [] if args.no_rooms else selected:
             for scene in load_scenes(house):
                 room_id = str(scene.metadata["procthor"]["room_id"])
                 n = len(scene.objects)
@@ -116,6 +431,28 @@ def main(argv: list[str] | None = None) -> None:
                     f"{row['seconds']:6.1f} s  {row['first_warning']}",
                     flush=True,
                 )
+        if "fill" in modes and not args.no_physcene:
+            fills = []
+            for source in sorted(PHYSCENE.glob("*.json")):
+                row = run_fill(source, base / "fill" / source.stem)
+                fills.append(row)
+                print(json.dumps({"fill": row}), flush=True)
+            clutter["fill"] = _pooled(fills)
+        if "vary" in modes and not args.no_physcene:
+            varies = []
+            for name, source, settings in VARY_RUNS:
+                row = run_vary(name, source, settings, base / "vary" / name)
+                varies.append(row)
+                print(json.dumps({"vary": row}), flush=True)
+            clutter["vary"] = _pooled(varies)
+        whole = multi_room(args.house) if not args.no_houses else []
+        for mode in [m for m in ("fill", "vary") if m in modes and whole]:
+            done = []
+            for house in whole:
+                row = run_house(house, mode, base / f"house_{mode}" / house.stem, args.house_variants)
+                done.append(row)
+                print(json.dumps({f"house_{mode}": row}), flush=True)
+            clutter[f"house_{mode}"] = _pooled_houses(done)
     seconds = time.perf_counter() - t_start
     figures = {
         "rooms": len(rows),
@@ -129,6 +466,7 @@ def main(argv: list[str] | None = None) -> None:
         "seconds_per_room": round(sum(r["seconds"] for r in rows) / max(len(rows), 1), 2),
         "seconds": round(seconds, 1),
         "houses": len(selected),
+        **clutter,
     }
     print(json.dumps(figures))
     sys.stdout.flush()

@@ -38,6 +38,7 @@ from scenemosaic.exceptions import SceneMosaicError
 if TYPE_CHECKING:  # the commands import these in their bodies: the CLI starts without them
     import asyncio
 
+    from scenemosaic.assets import OpenState
     from scenemosaic.batch import BatchSummary, JobRecord
     from scenemosaic.pipeline import GenerateConfig, GenerateResult
     from scenemosaic.scene import House, Scene
@@ -277,6 +278,8 @@ def _run_held(input_path: Path | None, out: Path, config: GenerateConfig, stop: 
         def on_stage(name: str, status: str) -> None:
             if status == "started" and name not in pipeline.STAGE_NAMES:  # a stage of a whole house: its own stages
                 progress.update(bar, total=len(pipeline.HOUSE_STAGE_NAMES))
+                if name not in pipeline.HOUSE_STAGE_NAMES:  # a room's optional stage (clutter): one more
+                    progress.update(bar, total=len(pipeline.STAGE_NAMES) + 1)
             if status == "started":
                 progress.update(bar, description=name)
             else:
@@ -872,6 +875,14 @@ RoomOpt = Annotated[
 ]
 
 
+class OpenStateChoice(StrEnum):
+    """The pose ``scenemosaic export --open-state`` delivers drawers, doors and lids in."""
+
+    closed = "closed"
+    open = "open"
+    random = "random"
+
+
 @app.command()
 def export(
     path: Annotated[Path, typer.Argument(metavar="SCENE", help="A scene folder or file, or a generate output folder (base/ and every variant_*/).")],
@@ -879,12 +890,20 @@ def export(
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder; a generate output folder gets one sub-folder per scene.")],
     room: RoomOpt = None,
     allow_partial: AllowPartialOpt = False,
+    open_state: Annotated[
+        OpenStateChoice | None,
+        typer.Option(
+            "--open-state",
+            help="Deliver drawers, doors and lids closed, open or at random (drawn from --seed); default: as the scene has them.",
+        ),
+    ] = None,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of --open-state random.")] = 0,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Write a saved scene (or every scene of a generate run) in another format: a house whole,
     as one world (--room: that room only)."""
     from scenemosaic.exchange import DELIVERED_FORMATS, writable_formats, write_scene
-    from scenemosaic.scene import RunFolder
+    from scenemosaic.scene import House, RunFolder
 
     writers = sorted({*writable_formats(), *writable_formats(house=True)})
     if fmt not in writers:
@@ -893,6 +912,14 @@ def export(
     single = not RunFolder.is_run(path)
     for name, folder in _scene_folders(path):
         scene, base_dir = _load_any(folder, room=room, allow_partial=allow_partial)
+        if open_state is not None:
+            from scenemosaic.assets import open_house, open_scene
+
+            state: OpenState = open_state.value
+            if isinstance(scene, House):
+                scene = open_house(scene, state, seed, base_dir)
+            else:
+                scene = open_scene(scene, state, seed, base_dir)
         target = out if single else out / name
         _writable_folder(target)
         destination = target / dict(DELIVERED_FORMATS).get(fmt, "")  # where generate puts it

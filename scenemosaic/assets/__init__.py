@@ -13,23 +13,32 @@ from scenemosaic.assets._articulation import (
     DOOR_OPEN_DEG,
     DRAWER_TRAVEL_FRACTION,
     LID_OPEN_DEG,
+    OPEN_STATES,
     TOILET_LID_OPEN_DEG,
     HingeSide,
     JointType,
+    OpenState,
     PartKind,
     PartSpec,
+    declared_part,
+    declared_tolerance,
+    opening,
     pieces_in_box,
+    with_pieces,
 )
 from scenemosaic.assets._canonical import CanonicalMesh, load_mesh, mesh_hash
-from scenemosaic.assets._files import MESH_SUFFIXES, referenced_files
+from scenemosaic.assets._files import MESH_SUFFIXES, PARTS_FILE_SUFFIX, referenced_files
 from scenemosaic.assets._hulls import CoacdParams, HullCache, default_cache_dir, shutdown_workers
 from scenemosaic.assets._objects import (
+    PART_TAG,
+    asset_fingerprint,
     default_hull_cache,
     object_articulation,
     object_hulls,
     object_mesh,
     object_part_meshes,
 )
+from scenemosaic.assets._opening import OPEN_STATE_KEY, open_house, open_scene, part_openings
 from scenemosaic.assets._procedural import (
     MAX_PARTS,
     SHELF_PITCH,
@@ -49,6 +58,10 @@ __all__ = [
     "LID_OPEN_DEG",
     "MAX_PARTS",
     "MESH_SUFFIXES",
+    "OPEN_STATES",
+    "OPEN_STATE_KEY",
+    "PARTS_FILE_SUFFIX",
+    "PART_TAG",
     "SHELF_PITCH",
     "TOILET_LID_OPEN_DEG",
     "Box6",
@@ -57,9 +70,13 @@ __all__ = [
     "HingeSide",
     "HullCache",
     "JointType",
+    "OpenState",
     "PartKind",
     "PartSpec",
+    "asset_fingerprint",
     "compartment_fits",
+    "declared_part",
+    "declared_tolerance",
     "default_cache_dir",
     "default_hull_cache",
     "interior_boards",
@@ -70,6 +87,10 @@ __all__ = [
     "object_hulls",
     "object_mesh",
     "object_part_meshes",
+    "open_house",
+    "open_scene",
+    "opening",
+    "part_openings",
     "pieces_in_box",
     "procedural_articulation",
     "procedural_key",
@@ -77,4 +98,5 @@ __all__ = [
     "procedural_parts",
     "referenced_files",
     "shutdown_workers",
+    "with_pieces",
 ]

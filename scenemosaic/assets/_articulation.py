@@ -17,28 +17,39 @@ URDF, SDF) turn each part into a child body on a hinge or slide joint.
 
 from __future__ import annotations
 
+import hashlib
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Literal
+from typing import Any, Literal, get_args
 
 import numpy as np
 import numpy.typing as npt
 
+from scenemosaic.exceptions import AssetError
+
 __all__ = [
     "DOOR_OPEN_DEG",
     "DRAWER_TRAVEL_FRACTION",
+    "DROP_DOOR_OPEN_DEG",
     "LID_OPEN_DEG",
+    "OPEN_STATES",
     "TOILET_LID_OPEN_DEG",
     "Box6",
     "HingeSide",
     "JointType",
+    "OpenState",
     "PartKind",
     "PartSpec",
+    "declared_part",
+    "declared_tolerance",
     "drawer",
+    "drop_door",
     "front_door",
     "lid",
+    "opening",
     "pieces_in_box",
+    "with_pieces",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -49,12 +60,20 @@ PartKind = Literal["drawer", "door", "lid"]
 JointType = Literal["slide", "hinge"]
 HingeSide = Literal["-x", "+x"]
 """The edge a front door hangs on: its left (-X, seen from the front) or its right (+X)."""
+OpenState = Literal["closed", "open", "random"]
+"""The pose parts are delivered in: ``closed`` (every joint at 0), ``open`` (every joint at its
+upper limit) or ``random`` (each joint somewhere in its range, drawn from the run seed)."""
+OPEN_STATES: tuple[OpenState, ...] = get_args(OpenState)
+"""Every :data:`OpenState`, ``closed`` first (the default)."""
 
 DRAWER_TRAVEL_FRACTION = 0.9
 """How far a drawer slides out, as a fraction of its depth (front face to back panel): it stays
 held by the last tenth, as on real runners."""
 DOOR_OPEN_DEG = 110.0
 """How far a door turns from closed, degrees: past a right angle, as a kitchen cabinet's does."""
+DROP_DOOR_OPEN_DEG = 90.0
+"""How far a drop-down door (an oven's, a dishwasher's) falls open, degrees: to level, where its
+stays hold it."""
 LID_OPEN_DEG = 100.0
 """How far a lid lifts from closed, degrees: just past upright, so it stays open on its own."""
 TOILET_LID_OPEN_DEG = 95.0
@@ -134,6 +153,10 @@ class PartSpec:
         out[:3, 3] = anchor - rotation @ anchor
         return out
 
+    def clamped(self, value: float) -> float:
+        """``value`` held within :attr:`limits` (a delivered pose never lies outside them)."""
+        return min(max(float(value), self.limits[0]), self.limits[1])
+
     def shifted(self, offset: int) -> PartSpec:
         """The same part with its piece indices moved by ``offset`` (pieces listed after others)."""
         return replace(self, pieces=tuple(i + offset for i in self.pieces), handle=self.handle + offset)
@@ -207,6 +230,34 @@ def front_door(
     )
 
 
+def drop_door(name: str, pieces: Sequence[int], handle: int, boxes: Sequence[Box6]) -> PartSpec:
+    """A door on the front (-Y) hinged along its bottom edge, falling open toward -Y to level.
+
+    The hinge line runs along X at the bottom of the leaf's front face (the door less its handle),
+    axis +X, so a positive angle tips the top of the door out and down. Turning about the front
+    edge keeps the leaf in front of the carcass all the way to level; the leaf's weight lies behind
+    the hinge line when shut, so it rests closed against its limit and falls open once pulled past
+    upright. Damping and friction are a side-hung door's, per metre of width.
+    """
+    box = _bounds(boxes)
+    leaf = _bounds([b for i, b in zip(pieces, boxes, strict=True) if i != handle] or list(boxes))
+    width = leaf[1] - leaf[0]
+    return PartSpec(
+        name=name,
+        kind="door",
+        joint="hinge",
+        axis=(1.0, 0.0, 0.0),
+        anchor=((leaf[0] + leaf[1]) / 2, leaf[2], leaf[4]),
+        limits=(0.0, math.radians(DROP_DOOR_OPEN_DEG)),
+        damping=DOOR_DAMPING_N_M_S_PER_RAD_M * width,
+        friction=DOOR_FRICTION_N_M_PER_M * width,
+        pieces=tuple(pieces),
+        handle=handle,
+        box=box,
+        handle_box=boxes[list(pieces).index(handle)],
+    )
+
+
 def lid(
     name: str,
     pieces: Sequence[int],
@@ -239,6 +290,104 @@ def lid(
     )
 
 
+def opening(part: PartSpec, state: OpenState, *, seed: int = 0, key: str = "") -> float:
+    """The joint value ``part`` is delivered at in ``state``: 0, its upper limit, or for ``random``
+    a value drawn uniformly within its limits from ``seed``, ``key`` (the object's id) and the
+    part's name. The draw hashes those three (SHA-256), so it is the same in every process and
+    does not depend on which other parts or objects a scene holds."""
+    lower, upper = part.limits
+    if state == "closed":
+        return 0.0
+    if state == "open":
+        return upper
+    digest = hashlib.sha256(f"{seed}\x00{key}\x00{part.name}".encode()).digest()
+    fraction = int.from_bytes(digest[:8], "big") / 2.0**64
+    return lower + fraction * (upper - lower)
+
+
+def _box6(value: Any, what: str) -> Box6:
+    if (
+        not isinstance(value, Sequence)
+        or len(value) != 6
+        or not all(isinstance(v, int | float) for v in value)
+    ):
+        raise AssetError(f"{what} must be six numbers [x0, x1, y0, y1, z0, z1], not {value!r}")
+    box = tuple(float(v) for v in value)
+    if not all(math.isfinite(v) for v in box) or box[0] >= box[1] or box[2] >= box[3] or box[4] >= box[5]:
+        raise AssetError(f"{what} must be finite and each lower bound below its upper one: {list(box)}")
+    return box  # type: ignore[return-value]
+
+
+def declared_part(record: Mapping[str, Any], scale: Sequence[float] = (1.0, 1.0, 1.0)) -> PartSpec:
+    """The :class:`PartSpec` a mesh asset declares for one part, its coordinates multiplied by
+    ``scale`` (the asset frame to the object's scaled frame), with no pieces yet: the simulator
+    exports pick the asset's convex pieces that lie in its box (:func:`pieces_in_box`).
+
+    ``record`` holds ``name``, ``kind`` (``drawer``, ``door`` or ``lid``), ``box`` (the part's
+    bounds closed, ``[x0, x1, y0, y1, z0, z1]`` in the asset's canonical frame: Z up, front -Y,
+    origin at the bottom centre of the footprint), optionally ``handle`` (the box a gripper takes;
+    default: the middle of the part's front face, or of a lid's front edge), for a door ``hinge``
+    (``-x``, ``+x`` or ``bottom``: a drop-down door; default ``-x``) and for a door or lid
+    ``open_deg``. The rules are those of the procedural furniture: :func:`drawer`,
+    :func:`front_door`, :func:`drop_door`, :func:`lid`. Raises
+    :class:`~scenemosaic.exceptions.AssetError` naming what is wrong with ``record``.
+    """
+    name = record.get("name")
+    if not isinstance(name, str) or not name or "/" in name:
+        raise AssetError(f"a part needs a name without '/', not {name!r}")
+    kind = record.get("kind")
+    if kind not in ("drawer", "door", "lid"):
+        raise AssetError(f"part {name!r}: kind must be drawer, door or lid, not {kind!r}")
+    sx, sy, sz = (float(v) for v in scale)
+    x0, x1, y0, y1, z0, z1 = _box6(record.get("box"), f"part {name!r}: box")
+    box = (x0 * sx, x1 * sx, y0 * sy, y1 * sy, z0 * sz, z1 * sz)
+    if record.get("handle") is not None:
+        h0, h1, h2, h3, h4, h5 = _box6(record["handle"], f"part {name!r}: handle")
+        grip = (h0 * sx, h1 * sx, h2 * sy, h3 * sy, h4 * sz, h5 * sz)
+    else:  # the middle of the front face (a lid: of its front edge, on top)
+        cx, cz, reach = (box[0] + box[1]) / 2, (box[4] + box[5]) / 2, 0.1 * (box[1] - box[0])
+        thin = min(0.02, 0.5 * (box[3] - box[2]))
+        if kind == "lid":
+            grip = (
+                cx - reach,
+                cx + reach,
+                box[2],
+                box[2] + thin,
+                box[5] - min(0.02, 0.5 * (box[5] - box[4])),
+                box[5],
+            )
+        else:
+            grip = (
+                cx - reach,
+                cx + reach,
+                box[2],
+                box[2] + thin,
+                cz - 0.1 * (box[5] - box[4]),
+                cz + 0.1 * (box[5] - box[4]),
+            )
+    boxes = [box, grip]
+    open_deg = record.get("open_deg")
+    if open_deg is not None and (not isinstance(open_deg, int | float) or not 0 < open_deg <= 180):
+        raise AssetError(f"part {name!r}: open_deg must be a number of degrees in (0, 180], not {open_deg!r}")
+    if kind == "drawer":
+        spec = drawer(name, (0, 1), 1, boxes)
+    elif kind == "lid":
+        spec = lid(name, (0, 1), 1, boxes, handle_box=grip, open_deg=float(open_deg or LID_OPEN_DEG))
+    else:
+        hinge = record.get("hinge", "-x")
+        if hinge not in ("-x", "+x", "bottom"):
+            raise AssetError(f"part {name!r}: hinge must be -x, +x or bottom, not {hinge!r}")
+        spec = (
+            drop_door(name, (0, 1), 1, boxes)
+            if hinge == "bottom"
+            else front_door(name, (0, 1), 1, boxes, hinge=hinge)
+        )
+        if open_deg is not None:
+            spec = replace(spec, limits=(0.0, math.radians(float(open_deg))))
+    # the helpers took the part's box and the handle's as two pieces: the asset's own come later
+    return replace(spec, pieces=(), handle=-1, handle_box=grip)
+
+
 def pieces_in_box(
     bounds: Sequence[tuple[Sequence[float], Sequence[float]]], box: Box6, tol: float = 1e-3
 ) -> tuple[int, ...]:
@@ -251,3 +400,42 @@ def pieces_in_box(
         for i, (lower, upper) in enumerate(bounds)
         if bool(np.all(np.asarray(lower) >= lo)) and bool(np.all(np.asarray(upper) <= hi))
     )
+
+
+def declared_tolerance(size: Iterable[float]) -> float:
+    """How far a convex piece (or a face) of a mesh asset may stand out of a declared part's box
+    and still belong to it, metres: 2 % of the object's largest side, at least 5 mm. CoACD's
+    pieces follow the surface only approximately."""
+    return max(0.005, 0.02 * max(float(v) for v in size))
+
+
+def with_pieces(
+    parts: Sequence[PartSpec],
+    bounds: Sequence[tuple[Sequence[float], Sequence[float]]],
+    tol: float,
+    owners: Sequence[str | None] | None = None,
+) -> list[PartSpec]:
+    """Declared parts (no ``pieces`` yet) given the object's convex pieces by their bounds: each
+    part takes the pieces ``owners`` names it the owner of (the decomposition made them from its
+    faces), else those inside its box (:func:`pieces_in_box`, grown by ``tol``) that no part
+    before it took; its handle is the one nearest the middle of its handle box. A part that gets
+    no piece is left out (the object stays rigid there); parts that have pieces are kept.
+    """
+    out: list[PartSpec] = []
+    taken: set[int] = set()
+    for part in parts:
+        if part.pieces:
+            out.append(part)
+            taken.update(part.pieces)
+            continue
+        if owners is not None and part.name in owners:
+            mine = tuple(i for i, owner in enumerate(owners) if owner == part.name)
+        else:
+            mine = tuple(i for i in pieces_in_box(bounds, part.box, tol) if i not in taken)
+        if not mine:
+            continue
+        centres = [(np.asarray(bounds[i][0]) + np.asarray(bounds[i][1])) / 2 for i in mine]
+        nearest = int(np.argmin([float(np.linalg.norm(c - part.handle_centre)) for c in centres]))
+        out.append(replace(part, pieces=mine, handle=mine[nearest]))
+        taken.update(mine)
+    return out

@@ -1,5 +1,7 @@
 """The files a mesh file names: glTF/GLB buffers and images, OBJ material libraries and their
-textures, a PLY texture. Each must lie inside the mesh file's own folder.
+textures, a PLY texture; and the declaration of its movable parts beside it
+(``<mesh stem>.parts.json``, ``docs/articulation.md``). Each must lie inside the mesh file's own
+folder.
 
 The same list serves two places: :func:`~scenemosaic.assets.load_source_mesh` checks it before
 trimesh reads anything, and ``save_scene`` copies it beside the mesh. Both therefore refuse the
@@ -17,10 +19,13 @@ from urllib.parse import unquote, urlsplit
 from scenemosaic.exceptions import AssetError, UnsafePathError
 from scenemosaic.scene import confined_path
 
-__all__ = ["MESH_SUFFIXES", "referenced_files"]
+__all__ = ["MESH_SUFFIXES", "PARTS_FILE_SUFFIX", "referenced_files"]
 
 MESH_SUFFIXES = frozenset({".glb", ".gltf", ".obj", ".ply", ".stl", ".off"})
 """Mesh file types read. Others (URDF, COLLADA, 3MF...) are refused: they can name files we do not check."""
+PARTS_FILE_SUFFIX = ".parts.json"
+"""The suffix, in place of the mesh's own, of the file beside a mesh asset declaring its drawers,
+doors and lids (``cabinet.glb`` -> ``cabinet.parts.json``)."""
 
 _GLB_MAGIC = b"glTF"
 _GLB_JSON_CHUNK = 0x4E4F534A  # "JSON", little-endian
@@ -73,6 +78,8 @@ def referenced_files(mesh: Path) -> list[tuple[str, Path]]:
         ply_texture = _ply_texture(mesh)
         if ply_texture:
             add(ply_texture)
+    if mesh.with_suffix(PARTS_FILE_SUFFIX).is_file():  # the parts it declares travel with it
+        add(mesh.with_suffix(PARTS_FILE_SUFFIX).name)
     return list(found.items())
 
 

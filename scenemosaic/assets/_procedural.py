@@ -19,8 +19,10 @@ from __future__ import annotations
 
 import functools
 import itertools
+import math
 import re
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
@@ -33,6 +35,7 @@ from scenemosaic.assets._articulation import (
     HingeSide,
     PartSpec,
     drawer,
+    drop_door,
     front_door,
     lid,
 )
@@ -269,25 +272,6 @@ def _split(lo: float, hi: float, n: int, gap: float) -> list[Interval]:
     gap = min(gap, 0.2 * (hi - lo) / max(n, 1))
     step = (hi - lo - gap * (n - 1)) / n
     return [(lo + i * (step + gap), lo + i * (step + gap) + step) for i in range(n)]
-
-
-def _drawer_fronts(
-    x: Interval, z: Interval, front: float, rows: int, cols: int, *, handle: float, thickness: float
-) -> Parts:
-    """Drawer fronts in a rows x cols grid on the plane ``y = front`` (toward -Y), with handles.
-
-    Fronts occupy ``y in [front + handle, front + handle + thickness]``; handles stick out to ``front``.
-    """
-    out: Parts = []
-    fy = (front + handle, front + handle + thickness)
-    for zr in _split(z[0], z[1], rows, 0.01):
-        for xr in _split(x[0], x[1], cols, 0.01):
-            out.append(_box(xr, fy, zr))
-            if handle > 0:
-                cx, cz = 0.5 * (xr[0] + xr[1]), 0.5 * (zr[0] + zr[1])
-                hw, hh = 0.2 * (xr[1] - xr[0]), 0.1 * (zr[1] - zr[0])
-                out.append(_box((cx - hw, cx + hw), (front, front + handle), (cz - hh, cz + hh)))
-    return out
 
 
 def _box6(mesh: trimesh.Trimesh) -> Box6:
@@ -533,6 +517,50 @@ def _doored_layout(w: float, d: float, h: float, *, cornice: float) -> Articulat
     return parts, compartments, specs
 
 
+def _counter_layout(w: float, d: float, h: float) -> Articulated:
+    """Kitchen counter: a row of drawers under the top (one over each pair of doors), a board
+    under them, and a cupboard below behind doors hung by the hinge-side rule; what is in the
+    counter is in its drawers or on the cupboard's floor."""
+    hx, hy = w / 2, d / 2
+    handle, door = _cap(d, 0.04, 0.025), _cap(d, 0.04, 0.025)
+    top, plinth, board = _cap(h, 0.05, 0.04), _cap(h, 0.05, 0.1), _cap(h, 0.03, 0.018)
+    split = h - top - min(0.2 * h, 0.18)
+    parts, compartments, body_z = _hollow_case(
+        w, d, h, plinth=plinth, top=top, front=handle + door, boards=[split - board / 2]
+    )
+    n_doors = _door_count(w)
+    specs: list[PartSpec] = []
+    door_z = (body_z[0] + 0.01 * h, split - 0.01 * h)
+    xrs = _split(-hx + 0.02 * w, hx - 0.02 * w, n_doors, 0.01)
+    for i, (xr, side) in enumerate(zip(xrs, _hinge_sides(n_doors), strict=True)):
+        edge = xr[1] - 0.1 * (xr[1] - xr[0]) if side == "-x" else xr[0] + 0.1 * (xr[1] - xr[0])
+        hw = 0.02 * (xr[1] - xr[0])
+        zc, zh = door_z[1] - 0.15 * (door_z[1] - door_z[0]), 0.08 * (door_z[1] - door_z[0])
+        pieces = [
+            _box(xr, (-hy + handle, -hy + handle + door), door_z),
+            _box((edge - hw, edge + hw), (-hy, -hy + handle), (zc - zh, zc + zh)),
+        ]
+        start = len(parts)
+        parts.extend(pieces)
+        specs.append(
+            front_door(f"door_{i}", (start, start + 1), start + 1, [_box6(p) for p in pieces], hinge=side)
+        )
+    wall, back = _cap(w, 0.04, 0.018), _cap(d, 0.04, 0.012)
+    insides, drawers = _drawers(
+        parts,
+        (-hx + 0.02 * w, hx - 0.02 * w),
+        (split + 0.01 * h, body_z[1] - 0.01 * h),
+        -hy,
+        hy - back - 0.005,
+        (-hx + wall, hx - wall),
+        1,
+        (n_doors + 1) // 2,
+        handle=handle,
+        thickness=door,
+    )
+    return parts, [*compartments[:-1], *insides], [*specs, *drawers]
+
+
 def _wardrobe_layout(w: float, d: float, h: float) -> Articulated:
     return _doored_layout(w, d, h, cornice=_cap(h, 0.04, 0.06))
 
@@ -612,8 +640,28 @@ def _coffee_table(w: float, d: float, h: float) -> Parts:
     return _low_table(w, d, h, drawer=False)
 
 
-def _side_table(w: float, d: float, h: float) -> Parts:
-    return _low_table(w, d, h, drawer=True)
+def _side_table(w: float, d: float, h: float) -> Articulated:
+    """Side table: a coffee table's top, legs and lower shelf, and a drawer under the top that
+    slides out of the front (-Y) between the front legs."""
+    parts = _low_table(w, d, h, drawer=False)
+    hx, hy = w / 2, d / 2
+    top = _cap(h, 0.08, 0.04)
+    inset_x, inset_y = 0.03 * w, 0.03 * d
+    leg_x = _cap(w, 0.08, 0.05)
+    inner = (-hx + inset_x + leg_x, hx - inset_x - leg_x)
+    _, specs = _drawers(
+        parts,
+        inner,
+        (h - top - 0.2 * h, h - top - 0.01 * h),
+        -hy,
+        hy - inset_y,
+        inner,
+        1,
+        1,
+        handle=inset_y,
+        thickness=_cap(d, 0.04, 0.02),
+    )
+    return parts, [], specs
 
 
 def _desk(w: float, d: float, h: float) -> Articulated:
@@ -657,8 +705,9 @@ def _desk(w: float, d: float, h: float) -> Articulated:
     return parts, [], specs
 
 
-def _dressing_table(w: float, d: float, h: float) -> Parts:
-    """A small table with a drawer and a mirror standing on it at the back (+Y)."""
+def _dressing_table(w: float, d: float, h: float) -> Articulated:
+    """A small table with a drawer under its top that slides out of the front (-Y), and a mirror
+    standing on it at the back (+Y)."""
     hx, hy = w / 2, d / 2
     table_h = 0.55 * h
     top = _cap(h, 0.03, 0.03)
@@ -670,16 +719,22 @@ def _dressing_table(w: float, d: float, h: float) -> Parts:
         _cap(w, 0.06, 0.04),
         _cap(d, 0.08, 0.04),
     )
-    parts.append(
-        _box(
-            (-hx + 0.15 * w, hx - 0.15 * w),
-            (-hy + 0.03 * d, hy - 0.1 * d),
-            (table_h - top - 0.12 * h, table_h - top),
-        )
-    )
     mirror_t = _cap(d, 0.08, 0.03)
     parts.append(_box((-hx + 0.1 * w, hx - 0.1 * w), (hy - mirror_t, hy), (table_h, h)))
-    return parts
+    inner = (-hx + 0.15 * w, hx - 0.15 * w)
+    _, specs = _drawers(
+        parts,
+        inner,
+        (table_h - top - 0.12 * h, table_h - top - 0.01 * h),
+        -hy,
+        hy - 0.1 * d,
+        inner,
+        1,
+        1,
+        handle=0.03 * d,
+        thickness=_cap(d, 0.04, 0.02),
+    )
+    return parts, [], specs
 
 
 def _chair(w: float, d: float, h: float) -> Parts:
@@ -823,24 +878,29 @@ def _bookshelf_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
     return parts, compartments
 
 
-def _tv_stand_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
-    """Low hollow cabinet with a row of drawer fronts at -Y (a shelf inside when it is tall enough)."""
+def _tv_stand_layout(w: float, d: float, h: float) -> Articulated:
+    """Low hollow cabinet with a row of drawers at -Y that slide out (one per ~0.6 m of width, at
+    most four); what is in the stand is in its drawers."""
     hx, hy = w / 2, d / 2
     handle, front = _cap(d, 0.04, 0.015), _cap(d, 0.04, 0.02)
-    parts, compartments, body_z = _hollow_case(
-        w, d, h, plinth=0.12 * h, top=_cap(h, 0.08, 0.03), front=handle + front
+    parts, _, body_z = _hollow_case(
+        w, d, h, plinth=0.12 * h, top=_cap(h, 0.08, 0.03), front=handle + front, boards=[]
     )
+    wall, back = _cap(w, 0.04, 0.018), _cap(d, 0.04, 0.012)
     cols = int(np.clip(round(w / 0.6), 1, 4))
-    parts += _drawer_fronts(
+    insides, specs = _drawers(
+        parts,
         (-hx + 0.03 * w, hx - 0.03 * w),
         (body_z[0] + 0.05 * h, body_z[1] - 0.05 * h),
         -hy,
+        hy - back - 0.005,
+        (-hx + wall, hx - wall),
         1,
         cols,
         handle=handle,
         thickness=front,
     )
-    return parts, compartments
+    return parts, insides, specs
 
 
 def _tv(w: float, d: float, h: float) -> Parts:
@@ -965,8 +1025,12 @@ def _vase(w: float, d: float, h: float) -> Parts:
     ]
 
 
-def _laptop(w: float, d: float, h: float) -> Parts:
-    """Open laptop: keyboard base toward -Y, screen lid hinged at the back, leaning back to +Y."""
+def _laptop(w: float, d: float, h: float) -> Articulated:
+    """Open laptop: keyboard base toward -Y, screen lid hinged at the back, leaning back to +Y.
+
+    Its box is the open laptop, so it is built open, as far as it opens: the lid's joint (about -X
+    through the back edge of the base, a positive angle leaning it back) runs from shut (a negative
+    angle, the lid on the keyboard) to 0 (as built), where the lid's weight holds it."""
     hx, hy = w / 2, d / 2
     base_t = _cap(h, 0.1, 0.02)
     lid_t = _cap(d, 0.05, 0.01)
@@ -985,7 +1049,15 @@ def _laptop(w: float, d: float, h: float) -> Parts:
     parts.append(
         _box(_centered(hx, 0.85), (-hy + 0.45 * d, hinge - 0.05 * d), (base_t, base_t + _cap(h, 0.02, 0.003)))
     )
-    return parts
+    # the lid turns about the back edge of the base; shut, it lies on the base (turned by the
+    # right angle plus its lean, less a little)
+    lean_deg = math.degrees(math.atan2(lean, h))
+    screen = _box6(parts[1])
+    grip = (*_frac((screen[0], screen[1]), 0.3, 0.7), screen[3] - lid_t, screen[3], 0.9 * h, h)
+    spec = lid("lid", (1,), 1, [screen], handle_box=grip)
+    shut = math.radians(90.0 + lean_deg - 2.0)
+    spec = replace(spec, anchor=(0.0, hinge - lid_t / 2, base_t / 2), limits=(-shut, 0.0))
+    return parts, [], [spec]
 
 
 def _printer(w: float, d: float, h: float) -> Parts:
@@ -1475,6 +1547,37 @@ def _washing_machine(w: float, d: float, h: float) -> Articulated:
     return parts, [], [front_door("door", (2, 3), 3, [_box6(p) for p in pieces], hinge="-x")]
 
 
+def _drop_door_appliance(w: float, d: float, h: float, *, door_top: float) -> Articulated:
+    """A body, a door over the front (-Y) up to ``door_top`` (a fraction of the height) hinged
+    along its bottom edge with a handle bar across its top, a control panel above it."""
+    hx, hy = w / 2, d / 2
+    door = _cap(d, 0.06, 0.04)
+    grip = 0.4 * door
+    door_x, door_z = (-hx + 0.02 * w, hx - 0.02 * w), (0.04 * h, door_top * h)
+    tall = door_z[1] - door_z[0]
+    parts = [
+        _box((-hx, hx), (-hy + door, hy), (0.0, h)),
+        _box(door_x, (-hy + 0.4 * door, -hy + door), (door_z[1] + 0.01 * h, 0.98 * h)),
+    ]
+    bar = (door_z[1] - 0.12 * tall, door_z[1] - 0.06 * tall)
+    pieces = [
+        _box(door_x, (-hy + grip, -hy + door), door_z),
+        _box((door_x[0] + 0.15 * w, door_x[1] - 0.15 * w), (-hy, -hy + grip), bar),
+    ]
+    parts.extend(pieces)
+    return parts, [], [drop_door("door", (2, 3), 3, [_box6(p) for p in pieces])]
+
+
+def _oven(w: float, d: float, h: float) -> Articulated:
+    """Oven, stove: a drop-down door over the lower three quarters of the front, controls above."""
+    return _drop_door_appliance(w, d, h, door_top=0.78)
+
+
+def _dishwasher(w: float, d: float, h: float) -> Articulated:
+    """Dishwasher: a drop-down door over nearly all of the front, a control strip above it."""
+    return _drop_door_appliance(w, d, h, door_top=0.9)
+
+
 def _toaster(w: float, d: float, h: float) -> Parts:
     """A rounded body and a lever on the +X side."""
     hx, hy = w / 2, d / 2
@@ -1582,12 +1685,19 @@ ArticulatedBuilder = Callable[[float, float, float], Articulated]
 _ARTICULATED: dict[str, ArticulatedBuilder] = {
     "box": _box_layout,
     "cabinet": _cabinet_layout,
+    "counter": _counter_layout,
     "desk": _desk,
+    "dishwasher": _dishwasher,
     "dresser": _dresser_layout,
+    "dressing_table": _dressing_table,
     "fridge": _fridge_layout,
+    "laptop": _laptop,
     "microwave": _microwave,
     "nightstand": _nightstand_layout,
+    "oven": _oven,
+    "side_table": _side_table,
     "toilet": _toilet,
+    "tv_stand": _tv_stand_layout,
     "wardrobe": _wardrobe_layout,
     "washing_machine": _washing_machine,
 }
@@ -1602,14 +1712,13 @@ def _layout_of(build: ArticulatedBuilder) -> Layout:
     return layout
 
 
-_CONTAINERS_THAT_OPEN = ("box", "cabinet", "dresser", "fridge", "wardrobe")
+_CONTAINERS_THAT_OPEN = ("box", "cabinet", "counter", "dresser", "fridge", "tv_stand", "wardrobe")
 """Articulated models that are also hollow containers (their compartments are ``interior_boards``)."""
 
 # Hollow containers: their builders also say where the free compartments are (``interior_boards``).
 _LAYOUTS: dict[str, Layout] = {
     "bookshelf": _bookshelf_layout,
     "garbage_can": _garbage_can_layout,
-    "tv_stand": _tv_stand_layout,
     **{key: _layout_of(_ARTICULATED[key]) for key in _CONTAINERS_THAT_OPEN},
 }
 
@@ -1639,7 +1748,6 @@ _BUILDERS: dict[str, Builder] = {
     "chair": _chair,
     "coffee_machine": _coffee_machine,
     "coffee_table": _coffee_table,
-    "dressing_table": _dressing_table,
     "dumbbell": _dumbbell,
     "faucet": _faucet,
     "floor_lamp": _floor_lamp,
@@ -1650,7 +1758,6 @@ _BUILDERS: dict[str, Builder] = {
     "key_chain": _key_chain,
     "knife": _knife,
     "l_shaped_sofa": _l_shaped_sofa,
-    "laptop": _laptop,
     "mug": _mug,
     "office_chair": _office_chair,
     "paddle": _paddle,
@@ -1666,7 +1773,6 @@ _BUILDERS: dict[str, Builder] = {
     "potato": _potato,
     "printer": _printer,
     "rug": _rug,
-    "side_table": _side_table,
     "sink": _sink,
     "sofa": _sofa,
     "spoon": _spoon,
@@ -1697,10 +1803,10 @@ _SYNONYMS: dict[str, tuple[str, ...]] = {
         "wine_cabinet",
         "children_cabinet",
         "sideboard",
-        "countertop",
         "kitchen_cabinet",
         "safe",
     ),
+    "counter": ("countertop", "kitchen_counter", "kitchen_island"),
     "dresser": ("drawer_chest", "chest_of_drawers"),
     "nightstand": ("nightstand_table",),
     "dressing_table": ("vanity", "makeup_table"),
@@ -1784,7 +1890,8 @@ _SYNONYMS: dict[str, tuple[str, ...]] = {
     ),
     "garbage_bag": ("trash_bag", "sack", "bag"),
     "fridge": ("refrigerator", "freezer"),
-    "microwave": ("oven", "stove", "range", "toaster_oven", "dishwasher"),
+    "microwave": ("toaster_oven",),
+    "oven": ("stove", "range", "cooker", "wall_oven"),
     "washing_machine": ("clothes_dryer", "dryer", "washer", "laundry_machine"),
     "coffee_machine": ("coffee_maker", "espresso_machine"),
     "kettle": ("watering_can", "teapot", "tea_kettle"),

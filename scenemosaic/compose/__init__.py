@@ -18,7 +18,14 @@ from scenemosaic.compose._compose import (
     compose_variants,
     kept_layouts,
 )
-from scenemosaic.compose._distance import WEIGHTS, Arrangement, distance_terms, novelty_distance
+from scenemosaic.compose._distance import (
+    CLUTTER_WEIGHT,
+    WEIGHTS,
+    Arrangement,
+    distance_terms,
+    novelty_distance,
+    novelty_with_clutter,
+)
 from scenemosaic.compose._pool import (
     ALPHA,
     CHUNK,
@@ -34,6 +41,7 @@ from scenemosaic.compose._transform import compose_transform, decompose_transfor
 __all__ = [
     "ALPHA",
     "CHUNK",
+    "CLUTTER_WEIGHT",
     "HOUSE_MAX_CANDIDATES",
     "MIN_NOVELTY",
     "OCCUPANCY_GRID",
@@ -52,5 +60,6 @@ __all__ = [
     "distance_terms",
     "kept_layouts",
     "novelty_distance",
+    "novelty_with_clutter",
     "select_diverse",
 ]

@@ -11,6 +11,7 @@ Furniture that opens (``scenemosaic.assets.object_articulation``): the object's 
 does not move, and each drawer, door and lid is a child node ``<id>/<part>`` whose matrix is the
 translation to the part's anchor (object frame) and whose mesh is the part in that frame, closed:
 a viewer that turns or shifts that node about its origin opens the part (``docs/articulation.md``).
+A part delivered open (``--open-state``) has that motion already in its node's matrix.
 
 A house (:func:`export_house_glb`) has, under the same root, one node per room named by the
 room's id (identity matrix), holding ``<room id>/floor``, ``<room id>/<wall id>`` (openings cut,
@@ -26,7 +27,7 @@ import structlog
 import trimesh
 from trimesh.visual.material import PBRMaterial
 
-from scenemosaic.assets import object_articulation, object_part_meshes
+from scenemosaic.assets import object_articulation, object_part_meshes, part_openings
 from scenemosaic.exceptions import UsageError
 from scenemosaic.render import (
     CEILING_COLOR,
@@ -110,8 +111,9 @@ def _root() -> trimesh.Scene:
 
 
 def _add_objects(out: trimesh.Scene, scene: Scene, parent: str, base_dir: Path | None) -> None:
+    openings = part_openings(scene)
     for obj in scene.objects:
-        parts = object_articulation(obj)
+        parts = object_articulation(obj, base_dir)
         if not parts:
             mesh = with_visual(object_local_mesh(obj, base_dir), obj.category)
             out.add_geometry(
@@ -128,6 +130,9 @@ def _add_objects(out: trimesh.Scene, scene: Scene, parent: str, base_dir: Path |
             name = f"{obj.id}/{part.name}"
             at = np.eye(4)
             at[:3, 3] = part.anchor
+            value = part.clamped(openings.get(obj.id, {}).get(part.name, 0.0))
+            if value != 0.0:  # delivered open: the node's matrix moves the part to its open pose
+                at = part.transform(value) @ at
             mesh = meshes[part.name].copy()
             mesh.apply_translation(-np.asarray(part.anchor, dtype=np.float64))
             out.add_geometry(

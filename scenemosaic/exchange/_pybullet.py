@@ -8,7 +8,8 @@ the room and the held objects static. PyBullet ignores SDFormat's friction eleme
 Drawers, doors and lids are links on revolute and prismatic joints; PyBullet drives every such
 joint with a velocity motor toward speed 0 that holds it shut, so :func:`load_pybullet` gives
 that motor the joint's own dry friction as its force (PyBullet's way of modelling joint
-friction): the part stays closed under small knocks and opens to a pull.
+friction): the part stays closed under small knocks and opens to a pull. A part delivered open
+(``--open-state``) is set to its joint's ``<initial_position>``, which ``loadSDF`` ignores.
 ``pybullet`` is imported only here (``pip install 'scenemosaic[pybullet]'``).
 """
 
@@ -47,6 +48,16 @@ def _frictions(path: Path) -> dict[str, float]:
     return frictions
 
 
+def _initial_positions(path: Path) -> dict[str, float]:
+    """Joint name -> ``<axis><initial_position>``, for the joints the file delivers away from 0."""
+    out: dict[str, float] = {}
+    for joint in ET.parse(path).getroot().iterfind("world/model/joint"):
+        value = joint.find("axis/initial_position")
+        if value is not None and value.text:
+            out[joint.attrib["name"]] = float(value.text)
+    return out
+
+
 def load_pybullet(folder: str | Path, *, client: int = 0) -> dict[str, int]:
     """Load a delivered scene (``folder/scene.sdf``, or that file's path) into a PyBullet client.
 
@@ -55,7 +66,8 @@ def load_pybullet(folder: str | Path, *, client: int = 0) -> dict[str, int]:
     room (``room``; ``room_2`` should an object be called ``room``). Each body's lateral
     friction is the object's ``sim.friction``. An object's drawers, doors and lids are the links
     of its body, on joints named ``<id>/<part>``, their motors set to the joint's friction (see
-    the module docstring). Gravity and the time step stay the client's::
+    the module docstring), each at the joint value the scene delivers it at. Gravity and the time
+    step stay the client's::
 
         import pybullet as p
         from scenemosaic.exchange import load_pybullet
@@ -78,6 +90,7 @@ def load_pybullet(folder: str | Path, *, client: int = 0) -> dict[str, int]:
         )
     pybullet = _import_pybullet()
     frictions = _frictions(path)
+    initial = _initial_positions(path)
     bodies: dict[str, int] = {}
     for body in pybullet.loadSDF(str(path), physicsClientId=client):
         name = pybullet.getBodyInfo(body, physicsClientId=client)[1].decode("utf-8")
@@ -93,4 +106,7 @@ def load_pybullet(folder: str | Path, *, client: int = 0) -> dict[str, int]:
             pybullet.setJointMotorControl2(
                 body, joint, pybullet.VELOCITY_CONTROL, targetVelocity=0.0, force=info[7], physicsClientId=client
             )
+            value = initial.get(info[1].decode("utf-8"))
+            if value is not None:
+                pybullet.resetJointState(body, joint, value, physicsClientId=client)
     return bodies

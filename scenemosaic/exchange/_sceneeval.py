@@ -14,7 +14,8 @@ Frames (the full statement is ``docs/exports.md``):
 
 * An object of furniture that opens also has ``"parts"``: per drawer, door and lid its ``name``,
   ``kind``, ``joint`` (``slide`` or ``hinge``), ``axis`` and ``anchor`` in the asset GLB's frame
-  (glTF, as its vertices) and ``limits`` (metres or radians; 0 is closed, as delivered;
+  (glTF, as its vertices) and ``limits`` (metres or radians; 0 is closed, as the asset GLB
+  is), and ``value``, the joint value it is delivered at, when that is not 0 (``--open-state``;
   ``docs/articulation.md``). SceneEval itself ignores the key.
 
 A whole house (:func:`export_house_sceneeval`) is one sceneState: the format's ``arch`` is a list
@@ -35,7 +36,7 @@ import numpy as np
 import structlog
 import trimesh
 
-from scenemosaic.assets import PartSpec, object_articulation
+from scenemosaic.assets import PartSpec, object_articulation, part_openings
 from scenemosaic.exchange._glb import with_visual
 from scenemosaic.render import object_local_mesh
 from scenemosaic.scene import CEILING, FLOOR, FloatArray, House, Room, Scene, SceneObject, write_atomic
@@ -176,10 +177,11 @@ def _room_elements(room_id: str, room: Room) -> list[dict[str, Any]]:
     return elements
 
 
-def _part_record(part: PartSpec) -> dict[str, Any]:
-    """A movable part as the sceneState lists it: axis and anchor in the asset GLB's (glTF) frame."""
+def _part_record(part: PartSpec, value: float = 0.0) -> dict[str, Any]:
+    """A movable part as the sceneState lists it: axis and anchor in the asset GLB's (glTF) frame;
+    ``value``, the joint value it is delivered at, only when it is not 0 (the asset is closed)."""
     turn = LOCAL_TO_GLTF[:3, :3]
-    return {
+    record: dict[str, Any] = {
         "name": part.name,
         "kind": part.kind,
         "joint": part.joint,
@@ -187,6 +189,9 @@ def _part_record(part: PartSpec) -> dict[str, Any]:
         "anchor": [round(float(v), 9) + 0.0 for v in turn @ np.asarray(part.anchor)],
         "limits": [float(v) for v in part.limits],
     }
+    if value != 0.0:
+        record["value"] = value
+    return record
 
 
 def _state(
@@ -200,6 +205,7 @@ def _state(
     by_key: dict[tuple[str, str], str] = {}
     objects: list[dict[str, Any]] = []
     for scene in rooms:
+        openings = part_openings(scene)
         for obj in scene.objects:
             local = object_local_mesh(obj, base_dir)
             gltf = local.copy()
@@ -221,9 +227,10 @@ def _state(
                 "transform": {"rows": 4, "cols": 4, "data": _column_major(gltf_to_world(obj))},
                 "sceneeval": {"supportType": support_type(scene, obj)},
             })  # fmt: skip
-            parts = object_articulation(obj)
+            parts = object_articulation(obj, base_dir)
             if parts:
-                objects[-1]["parts"] = [_part_record(part) for part in parts]
+                opened = openings.get(obj.id, {})
+                objects[-1]["parts"] = [_part_record(p, p.clamped(opened.get(p.name, 0.0))) for p in parts]
     body: dict[str, Any] = {
         "version": "scene@1.0.2",
         "id": state_id,

@@ -21,7 +21,9 @@ the object's link holds what does not move, and each part is a link ``<id>/<part
 is the part's anchor (axes as the object's), on a ``prismatic`` (drawer) or ``revolute`` (door,
 lid) joint of the same name, with the part's ``<limit>`` and ``<dynamics damping friction>``;
 mass is shared as :func:`scenemosaic.physics.part_inertials` shares it. ``scene.sdf`` carries
-the same links and joints in each object's model. The parts stand closed.
+the same links and joints in each object's model. The links stand closed (joint value 0); a part
+the scene delivers open (:func:`scenemosaic.assets.part_openings`) gets ``<initial_position>`` in
+``scene.sdf`` and a comment in the URDF, which has no place for it.
 
 In ``scene.urdf`` a ``world`` link is the root; the room (:func:`scenemosaic.physics.room_slabs`,
 the slabs the MJCF export simulates) is a link on a fixed joint with one box per slab (the ceiling
@@ -45,16 +47,20 @@ fixed to ``world``, and every object of every room; ``urdf/`` one file per objec
 
 from __future__ import annotations
 
+import hashlib
 import math
 import xml.etree.ElementTree as ET
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
+import numpy.typing as npt
 import structlog
 import trimesh
 
-from scenemosaic.assets import HullCache, PartSpec, object_mesh, object_part_meshes
+from scenemosaic._memo import Memo
+from scenemosaic.assets import HullCache, PartSpec, object_mesh, object_part_meshes, part_openings
 from scenemosaic.physics import (
     ROOM_FRICTION,
     HullInput,
@@ -222,6 +228,9 @@ def _sdf_model(world: ET.Element, name: str, *, static: bool) -> tuple[ET.Elemen
     return model, ET.Element("link", name=name)
 
 
+_CLOSED: Mapping[str, float] = MappingProxyType({})
+"""No part open: the openings of an object delivered closed."""
+
 PART_JOINT_EFFORT = 100.0
 """``<limit effort>`` of a part's joint (N or N m): what an actuator on it may exert, far above
 the few newtons that open a drawer, so no simulator holds a part shut by it."""
@@ -229,9 +238,13 @@ PART_JOINT_VELOCITY = 5.0
 """``<limit velocity>`` of a part's joint (m/s or rad/s)."""
 
 
-def _part_joint(robot: ET.Element, obj: SceneObject, part: PartSpec, parent: str) -> None:
-    """URDF's ``prismatic`` or ``revolute`` joint of a movable part (its child link ``<id>/<part>``)."""
+def _part_joint(robot: ET.Element, obj: SceneObject, part: PartSpec, parent: str, value: float = 0.0) -> None:
+    """URDF's ``prismatic`` or ``revolute`` joint of a movable part (its child link ``<id>/<part>``).
+    URDF has no initial joint position: a part delivered open (``value``) says so in a comment;
+    ``scene.sdf``'s ``<initial_position>`` and the sceneState carry the value."""
     name = f"{obj.id}/{part.name}"
+    if value != 0.0:
+        _add_comment(robot, f"{name} is delivered at {_num(value)} (scene.sdf initial_position)")
     joint = ET.SubElement(robot, "joint", name=name, type="prismatic" if part.joint == "slide" else "revolute")
     _origin(joint, part.anchor)
     ET.SubElement(joint, "parent", link=parent)
@@ -248,14 +261,17 @@ def _part_joint(robot: ET.Element, obj: SceneObject, part: PartSpec, parent: str
     ET.SubElement(joint, "dynamics", damping=_num(part.damping), friction=_num(part.friction))
 
 
-def _sdf_part_joint(model: ET.Element, obj: SceneObject, part: PartSpec) -> None:
+def _sdf_part_joint(model: ET.Element, obj: SceneObject, part: PartSpec, value: float = 0.0) -> None:
     """SDFormat's ``revolute`` or ``prismatic`` joint of a movable part: at the child link's frame
-    (the part's anchor, axes as the model's), so its axis reads the same in every frame."""
+    (the part's anchor, axes as the model's), so its axis reads the same in every frame. The link
+    is posed closed (joint value 0); a part delivered open (``value``) gets ``<initial_position>``."""
     name = f"{obj.id}/{part.name}"
     joint = ET.SubElement(model, "joint", name=name, type="prismatic" if part.joint == "slide" else "revolute")
     ET.SubElement(joint, "parent").text = obj.id
     ET.SubElement(joint, "child").text = name
     axis = ET.SubElement(joint, "axis")
+    if value != 0.0:
+        ET.SubElement(axis, "initial_position").text = _num(value)
     ET.SubElement(axis, "xyz").text = _vec(part.axis)
     limit = ET.SubElement(axis, "limit")
     ET.SubElement(limit, "lower").text = _num(part.limits[0])
@@ -363,14 +379,18 @@ class _ObjectFiles:
         _friction(link, obj.sim.friction)
         return link
 
-    def joints(self, robot: ET.Element) -> None:
-        """The joint of each movable part, appended to ``robot`` (after the links)."""
+    def joints(self, robot: ET.Element, openings: Mapping[str, float] = _CLOSED) -> None:
+        """The joint of each movable part, appended to ``robot`` (after the links); ``openings``:
+        part name -> the joint value it is delivered at (absent: closed)."""
         for part in self.shape.articulation:
-            _part_joint(robot, self.obj, part, self.obj.id)
+            _part_joint(robot, self.obj, part, self.obj.id, part.clamped(openings.get(part.name, 0.0)))
 
-    def sdf_model(self, world: ET.Element, mesh_prefix: str, *, movable: bool) -> None:
+    def sdf_model(
+        self, world: ET.Element, mesh_prefix: str, *, movable: bool, openings: Mapping[str, float] = _CLOSED
+    ) -> None:
         """The object as an SDFormat ``<model>`` placed at its pose (``<static>`` when held in place;
-        a held model's parts still move on their joints, PyBullet holding its base link only)."""
+        a held model's parts still move on their joints, PyBullet holding its base link only);
+        ``openings`` as for :meth:`joints`."""
         obj = self.obj
         inertials = self._inertials()
         model, link = _sdf_model(world, obj.id, static=not movable)
@@ -383,7 +403,7 @@ class _ObjectFiles:
             _sdf_pose(part_link, part.anchor)
             self._sdf_link(part_link, part, inertials[part.name], mesh_prefix)
         for part in self.shape.articulation:
-            _sdf_part_joint(model, obj, part)
+            _sdf_part_joint(model, obj, part, part.clamped(openings.get(part.name, 0.0)))
 
     def _sdf_link(
         self, link: ET.Element, part: PartSpec | None, inertial: ObjectInertial, mesh_prefix: str
@@ -412,10 +432,21 @@ class _ObjectFiles:
 
 def _write_obj(mesh: trimesh.Trimesh, path: Path) -> None:
     """Geometry only (no material file), so every file stands alone and equal meshes give equal bytes."""
-    plain = trimesh.Trimesh(vertices=mesh.vertices, faces=mesh.faces, process=False)
+    vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
+    faces = np.ascontiguousarray(mesh.faces, dtype=np.int64)
+    key = hashlib.sha1(vertices.tobytes() + b"|" + faces.tobytes()).hexdigest()
+    write_atomic(path, _OBJ_TEXTS.get(key, lambda: _obj_text(vertices, faces)))
+
+
+def _obj_text(vertices: FloatArray, faces: npt.NDArray[np.int64]) -> str:
+    plain = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
     text = plain.export(file_type="obj", include_normals=False, include_texture=False)
     assert isinstance(text, str)  # trimesh returns OBJ as text
-    write_atomic(path, text)
+    return text
+
+
+_OBJ_TEXTS: Memo[str, str] = Memo(8192)
+"""OBJ files by their vertices' and faces' hash: a house's variants share their furniture."""
 
 
 def _write_xml(robot: ET.Element, path: Path) -> None:
@@ -511,22 +542,24 @@ class _UrdfWriter:
 
     def objects(self, scene: Scene, shapes: dict[str, ObjectShape], base: Path | None) -> None:
         """Every object of ``scene``: its own ``urdf/<id>.urdf`` and its link and joint here."""
+        openings = part_openings(scene)
         for obj in scene.objects:
+            opened = openings.get(obj.id, _CLOSED)
             files = _ObjectFiles(obj, shapes[obj.id], base, self.mesh_dir)
             movable = not is_fixed(scene, obj)
             single = ET.Element("robot", name=obj.id)
             held = "movable (a free body)" if movable else "held in place: load it with a fixed base"
             _add_comment(single, f"scenemosaic object {obj.id} ({obj.category}), {held}")
             single.extend(files.links(f"{URDF_MESH_DIR}/"))
-            files.joints(single)
+            files.joints(single, opened)
             _gazebo(single, obj.id, obj.sim.friction)
             _write_xml(single, self.object_dir / f"{obj.id}.urdf")
 
             self.robot.extend(files.links(f"{URDF_OBJECT_DIR}/{URDF_MESH_DIR}/"))
             _joint(self.robot, f"{obj.id}_joint", "floating" if movable else "fixed", self.world, obj.id, obj)
-            files.joints(self.robot)
+            files.joints(self.robot, opened)
             _gazebo(self.robot, obj.id, obj.sim.friction)
-            files.sdf_model(self.sdf_world, f"{URDF_OBJECT_DIR}/{URDF_MESH_DIR}/", movable=movable)
+            files.sdf_model(self.sdf_world, f"{URDF_OBJECT_DIR}/{URDF_MESH_DIR}/", movable=movable, openings=opened)
 
     def save(self, count: int) -> Path:
         path = self.out / URDF_SCENE_FILE

@@ -24,7 +24,9 @@ move (its mass the share :func:`scenemosaic.physics.part_inertials` gives it); e
 and lid is a rigid body of its own beside it, ``<parent>/<name>_<part>`` (``customData``
 ``scenemosaic:partOf``, the object's id, and ``scenemosaic:part``), placed at the part's anchor with the object's
 orientation, referencing ``usd/<name>_<part>.usda`` (its visual and collision pieces in its own
-frame, closed), and joined to the object's prim by ``<parent>/<name>_<part>/joint``: a
+frame, closed; the prim itself stands where the scene delivers the part,
+:func:`scenemosaic.assets.part_openings`), and joined to the object's prim by
+``<parent>/<name>_<part>/joint``: a
 ``PhysicsPrismaticJoint`` (limits in metres) or ``PhysicsRevoluteJoint`` (limits in degrees, as
 UsdPhysics has them) whose joint frames sit at the anchor on both bodies, turned so the joint's
 ``X``/``Y``/``Z`` axis is the part's opening direction; its damping is a ``PhysicsDriveAPI``
@@ -45,6 +47,7 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -52,7 +55,15 @@ import numpy as np
 import structlog
 import trimesh
 
-from scenemosaic.assets import HullCache, PartSpec, object_mesh, object_part_meshes
+from scenemosaic._memo import Memo
+from scenemosaic.assets import (
+    HullCache,
+    PartSpec,
+    asset_fingerprint,
+    object_mesh,
+    object_part_meshes,
+    part_openings,
+)
 from scenemosaic.exceptions import MissingExtraError, UsageError
 from scenemosaic.physics import (
     ROOM_FRICTION,
@@ -70,7 +81,7 @@ from scenemosaic.physics import (
     room_slabs,
 )
 from scenemosaic.render import CEILING_COLOR, FLOOR_COLOR, RGB, WALL_COLOR, category_color
-from scenemosaic.scene import House, Scene, SceneObject
+from scenemosaic.scene import House, Scene, SceneObject, quat_from_matrix, write_atomic
 
 __all__ = [
     "USD_GEOMETRY_DIR",
@@ -154,6 +165,14 @@ class _Writer:
         if opened is not None:
             opened.Reload()
 
+    def save_text(self, text: str, path: Path) -> None:
+        """Write a layer exported as ``text`` to ``path``, as :meth:`save` writes it."""
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(path, text)
+        opened = self.Sdf.Layer.Find(str(path))
+        if opened is not None:
+            opened.Reload()
+
     def mesh(self, stage: Any, prim_path: str, mesh: trimesh.Trimesh) -> Any:
         """A triangle ``Mesh`` prim (no subdivision) with its points, faces and extent."""
         usd_mesh = self.UsdGeom.Mesh.Define(stage, prim_path)
@@ -188,6 +207,31 @@ class _Writer:
         self.UsdShade.MaterialBindingAPI.Apply(prim).Bind(
             material, self.UsdShade.Tokens.fallbackStrength, "physics"
         )
+
+
+def _layer_text(
+    w: _Writer,
+    name: str,
+    obj: SceneObject,
+    shape: ObjectShape,
+    base_dir: Path | None,
+    *,
+    part: PartSpec | None = None,
+) -> str:
+    """:func:`_object_layer` as ``.usda`` text, made once per process for each name, asset
+    (:func:`~scenemosaic.assets.asset_fingerprint`: the visual and the parts), category (the
+    colour) and set of collision pieces: a house's variants share their furniture's layers."""
+    key = (
+        name,
+        asset_fingerprint(obj, base_dir),
+        obj.category,
+        None if part is None else part.name,
+        tuple(piece.key for piece in shape.pieces),
+    )
+    return _LAYER_TEXTS.get(key, lambda: str(_object_layer(w, name, obj, shape, base_dir, part=part).ExportToString()))
+
+
+_LAYER_TEXTS: Memo[tuple[str, str, str, str | None, tuple[str, ...]], str] = Memo(4096)
 
 
 def _object_layer(
@@ -259,13 +303,18 @@ def _add_part(
     part_path: str,
     material: Any,
     mass: ObjectInertial,
+    value: float = 0.0,
 ) -> None:
-    """A movable part's rigid body at ``part_path`` and its joint to the object's prim."""
+    """A movable part's rigid body at ``part_path`` and its joint to the object's prim. A part
+    delivered open (joint ``value``) has its body at the open pose: UsdPhysics reads a joint's
+    position from where its two bodies stand, so the joint frames stay those of the closed part."""
     xform = w.UsdGeom.Xform.Define(stage, part_path)
     prim = xform.GetPrim()
-    anchor = obj.pose.matrix(with_scale=False) @ np.array([*part.anchor, 1.0])
+    pose = obj.pose.matrix(with_scale=False) @ part.transform(value)
+    anchor = pose @ np.array([*part.anchor, 1.0])
     xform.AddTranslateOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Vec3d(*map(float, anchor[:3])))
-    xform.AddOrientOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Quatd(*map(float, obj.pose.quaternion)))
+    orient = obj.pose.quaternion if value == 0.0 else quat_from_matrix(pose[:3, :3])
+    xform.AddOrientOp(w.UsdGeom.XformOp.PrecisionDouble).Set(w.Gf.Quatd(*map(float, orient)))
     prim.SetCustomDataByKey("scenemosaic:partOf", obj.id)  # not objectId: that names objects' own prims
     prim.SetCustomDataByKey("scenemosaic:part", part.name)
     prim.SetCustomDataByKey("scenemosaic:kind", part.kind)
@@ -398,20 +447,24 @@ class _Export:
         """Every object of ``scene`` under ``parent`` (an ``Xform``), with its geometry layer."""
         w = self.w
         w.UsdGeom.Xform.Define(self.stage, parent)
+        openings = part_openings(scene)
         for obj in scene.objects:
             name = usd_prim_name(obj.id, self.taken)
             relative = f"{USD_GEOMETRY_DIR}/{name}.usda"
-            w.save(
-                _object_layer(w, name, obj, shapes[obj.id], self.base_dir), self.stage_path.parent / relative
+            w.save_text(
+                _layer_text(w, name, obj, shapes[obj.id], self.base_dir), self.stage_path.parent / relative
             )
             prim_path = f"{parent}/{name}"
             _add_object(w, self.stage, scene, obj, prim_path, name, shapes[obj.id])
             self.references.append((prim_path, f"./{relative}"))
             self.count += 1
-            self._parts(obj, shapes[obj.id], parent, name)
+            self._parts(obj, shapes[obj.id], parent, name, openings.get(obj.id, {}))
 
-    def _parts(self, obj: SceneObject, shape: ObjectShape, parent: str, name: str) -> None:
-        """Each movable part of ``obj``: its geometry layer, its body beside the object's, its joint."""
+    def _parts(
+        self, obj: SceneObject, shape: ObjectShape, parent: str, name: str, openings: Mapping[str, float]
+    ) -> None:
+        """Each movable part of ``obj``: its geometry layer, its body beside the object's, its joint;
+        ``openings``: part name -> the joint value it is delivered at (absent: closed)."""
         if not shape.articulation:
             return
         w = self.w
@@ -420,12 +473,13 @@ class _Export:
         for part in shape.articulation:
             part_name = usd_prim_name(f"{name}_{part.name}", self.taken)
             relative = f"{USD_GEOMETRY_DIR}/{part_name}.usda"
-            layer = _object_layer(w, part_name, obj, shape, self.base_dir, part=part)
-            w.save(layer, self.stage_path.parent / relative)
+            layer = _layer_text(w, part_name, obj, shape, self.base_dir, part=part)
+            w.save_text(layer, self.stage_path.parent / relative)
             part_path = f"{parent}/{part_name}"
             object_path = f"{parent}/{name}"
             binding = w.UsdShade.Material(material)
-            _add_part(w, self.stage, obj, part, object_path, part_path, binding, masses[part.name])
+            value = part.clamped(openings.get(part.name, 0.0))
+            _add_part(w, self.stage, obj, part, object_path, part_path, binding, masses[part.name], value)
             self.references.append((part_path, f"./{relative}"))
 
     def save(self) -> Path:

@@ -13,18 +13,28 @@ world builder can use MuJoCo's box primitive (much cheaper contacts than a mesh)
 from __future__ import annotations
 
 import hashlib
-import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import structlog
 import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
-from scenemosaic.assets import HullCache, PartSpec, object_articulation, object_hulls
+from scenemosaic._memo import Memo
+from scenemosaic.assets import (
+    PART_TAG,
+    HullCache,
+    PartSpec,
+    asset_fingerprint,
+    declared_tolerance,
+    object_articulation,
+    object_hulls,
+    with_pieces,
+)
 from scenemosaic.scene import FloatArray, SceneObject
 
 __all__ = ["BASE_BAND_M", "HullPiece", "ObjectShape", "hull_mesh", "object_shape", "piece_from_vertices"]
@@ -96,25 +106,47 @@ def hull_mesh(vertices: Any) -> trimesh.Trimesh:
     vertex-only collision mesh (MuJoCo for mesh geoms, a "convexHull" approximation in USD)."""
     points = np.ascontiguousarray(vertices, dtype=np.float64).reshape(-1, 3)
     key = hashlib.sha1(points.tobytes()).hexdigest()
-    with _HULL_MESH_LOCK:
-        known = _HULL_MESHES.get(key)
-    if known is None:
-        known = trimesh.Trimesh(vertices=points).convex_hull
-        with _HULL_MESH_LOCK:
-            if len(_HULL_MESHES) >= _HULL_MESH_MAX:
-                _HULL_MESHES.pop(next(iter(_HULL_MESHES)))
-            _HULL_MESHES[key] = known
-    return known.copy()
+    hull_vertices, faces = _HULL_MESHES.get(key, lambda: _hull_arrays(points))
+    return trimesh.Trimesh(vertices=hull_vertices.copy(), faces=faces.copy(), process=False)
 
 
-_HULL_MESHES: dict[str, trimesh.Trimesh] = {}
-"""Hull meshes by their points' hash: the exporters ask again for every variant of a scene."""
-_HULL_MESH_LOCK = threading.Lock()
-_HULL_MESH_MAX = 4096
+def _hull_arrays(points: FloatArray) -> tuple[FloatArray, npt.NDArray[np.int64]]:
+    """The hull's vertices (the input points it keeps, in their order) and its triangles wound
+    outward (each turned to face away from the area-weighted centre of the triangles), zero-area
+    triangles of a triangulated facet left out: what ``trimesh``'s ``convex_hull`` gives for
+    distinct points, without building and repairing a mesh. Repeated points, or a set that qhull
+    cannot take as it is, go through ``trimesh``."""
+    try:
+        if len(np.unique(np.round(points, _MERGE_DIGITS), axis=0)) != len(points):
+            raise ValueError("repeated points")  # trimesh would merge them first
+        hull = ConvexHull(points, qhull_options="QbB Pp Qt")
+    except (QhullError, ValueError):
+        mesh = trimesh.Trimesh(vertices=points).convex_hull
+        return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+    kept = np.sort(hull.vertices)
+    index = np.zeros(len(points), dtype=np.int64)
+    index[kept] = np.arange(len(kept))
+    faces = index[hull.simplices]
+    hull_vertices = points[kept]
+    corners = hull_vertices[faces]
+    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    area = np.linalg.norm(cross, axis=1)
+    solid = area > 0
+    faces, cross, area, corners = faces[solid], cross[solid], area[solid], corners[solid]
+    centres = corners.mean(axis=1)
+    centroid = np.average(centres, weights=area, axis=0)
+    inward = np.einsum("ij,ij->i", cross, centres - centroid) < 0
+    faces[inward] = faces[inward][:, ::-1]
+    return hull_vertices, faces
 
 
-_CACHE: dict[str, HullPiece] = {}
-_CACHE_LOCK = threading.Lock()
+_MERGE_DIGITS = 8
+"""Points equal to this many decimals are one point to ``trimesh`` (its merge tolerance, 1e-8 m)."""
+_HULL_MESHES: Memo[str, tuple[FloatArray, npt.NDArray[np.int64]]] = Memo(8192)
+"""Hull meshes (vertices, triangles) by their points' hash: the exporters ask again for every
+variant of a scene."""
+_PIECES: Memo[str, HullPiece] = Memo(1 << 16)
+"""Convex pieces by their raw vertices' hash."""
 
 
 def _as_box(v: FloatArray) -> tuple[FloatArray, FloatArray] | None:
@@ -134,10 +166,10 @@ def piece_from_vertices(vertices: Any) -> HullPiece:
     """Reduce raw vertices to a cached convex piece (hull vertices, volume, box detection)."""
     v = np.ascontiguousarray(np.asarray(vertices, dtype=np.float64).reshape(-1, 3))
     key = hashlib.sha1(v.tobytes()).hexdigest()[:16]
-    with _CACHE_LOCK:
-        hit = _CACHE.get(key)
-    if hit is not None:
-        return hit
+    return _PIECES.get(key, lambda: _reduce(v, key))
+
+
+def _reduce(v: FloatArray, key: str) -> HullPiece:
     try:
         hull = ConvexHull(v)
         hv = v[hull.vertices]
@@ -148,10 +180,7 @@ def piece_from_vertices(vertices: Any) -> HullPiece:
     box = _as_box(hv)
     if box is not None:
         volume = float(np.prod(2 * box[1]))
-    piece = HullPiece(key=key, vertices=hv, volume=volume, box=box)
-    with _CACHE_LOCK:
-        _CACHE[key] = piece
-    return piece
+    return HullPiece(key=key, vertices=hv, volume=volume, box=box)
 
 
 def object_shape(
@@ -166,12 +195,45 @@ def object_shape(
     object's movable parts (:func:`scenemosaic.assets.object_articulation`; dropped when the
     given pieces are not as many as the asset's own, since nothing then says which move)."""
     raw: Sequence[Any] | None = hulls.get(obj.id) if hulls is not None else None
-    given = bool(raw)
     if not raw:
-        raw = object_hulls(obj, base_dir, cache=cache)
+        key = (asset_fingerprint(obj, base_dir), "" if cache is None else str(cache.root))
+        return _SHAPES.get(key, lambda: _own_shape(obj, base_dir, cache))
     pieces = tuple(piece_from_vertices(getattr(r, "vertices", r)) for r in raw)
     allv = np.concatenate([p.vertices for p in pieces])
-    parts = tuple(object_articulation(obj))
-    if parts and given and len(raw) != len(object_hulls(obj, base_dir, cache=cache)):
+    parts = _parts(obj, base_dir, pieces)
+    if parts and len(raw) != len(object_shape(obj, base_dir, cache=cache).pieces):
         parts = ()  # pieces given that are not the asset's own: nothing says which of them move
     return ObjectShape(pieces=pieces, lower=allv.min(axis=0), upper=allv.max(axis=0), articulation=parts)
+
+
+def _parts(
+    obj: SceneObject,
+    base_dir: str | Path | None,
+    pieces: tuple[HullPiece, ...],
+    owners: Sequence[str | None] | None = None,
+) -> tuple[PartSpec, ...]:
+    """The object's movable parts; those a mesh asset declares given their pieces: the ones
+    ``owners`` (each piece's part, from the decomposition) names, else the ones in their boxes."""
+    parts = object_articulation(obj, base_dir)
+    if any(not part.pieces for part in parts):
+        bounds = [(p.vertices.min(axis=0), p.vertices.max(axis=0)) for p in pieces]
+        found = with_pieces(parts, bounds, declared_tolerance(obj.size), owners)
+        for part in {p.name for p in parts} - {p.name for p in found}:
+            log.warning("declared_part_without_pieces", object_id=obj.id, part=part)
+        parts = found
+    return tuple(parts)
+
+
+def _own_shape(obj: SceneObject, base_dir: str | Path | None, cache: HullCache | None) -> ObjectShape:
+    """The object's shape from its asset's own pieces (:func:`scenemosaic.assets.object_hulls`)."""
+    raw = object_hulls(obj, base_dir, cache=cache)
+    pieces = tuple(piece_from_vertices(r.vertices) for r in raw)
+    allv = np.concatenate([p.vertices for p in pieces])
+    parts = _parts(obj, base_dir, pieces, [r.metadata.get(PART_TAG) for r in raw])
+    return ObjectShape(pieces=pieces, lower=allv.min(axis=0), upper=allv.max(axis=0), articulation=parts)
+
+
+_SHAPES: Memo[tuple[str, str], ObjectShape] = Memo(4096)
+"""Shapes from the assets' own pieces by (:func:`~scenemosaic.assets.asset_fingerprint`, hull
+cache folder): every variant of a house, every stage and every export asks again for the same
+furniture. An :class:`ObjectShape` is frozen and its arrays are shared: never modify them."""

@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 import structlog
 
-from scenemosaic.assets import HullCache, object_mesh, object_part_meshes
+from scenemosaic.assets import HullCache, object_mesh, object_part_meshes, part_openings
 from scenemosaic.physics._checks import (
     check_out_of_bounds,
     collision_report_for,
@@ -58,7 +58,8 @@ def scene_world(
 ) -> WorldBuilder:
     """The whole scene as one MuJoCo world with gravity down: the room static, objects hung from
     the ceiling or a wall and ``static`` ones welded, every other object on a free joint; the
-    drawers, doors and lids of furniture that opens each on its own joint, closed.
+    drawers, doors and lids of furniture that opens each on its own joint, where the scene's
+    metadata delivers them (closed unless ``--open-state`` says otherwise).
 
     Validation simulates this world and the MJCF export writes it (:func:`write_scene_mjcf`).
     """
@@ -69,7 +70,9 @@ def scene_world(
 
 
 def _add_objects(builder: WorldBuilder, scene: Scene, shapes: Mapping[str, ObjectShape]) -> None:
-    """Every object of ``scene``: welded when :func:`is_fixed`, else on a free joint."""
+    """Every object of ``scene``: welded when :func:`is_fixed`, else on a free joint; its parts
+    at the pose the scene's metadata delivers them in (:func:`~scenemosaic.assets.part_openings`)."""
+    builder.openings.update(part_openings(scene))
     for o in scene.objects:
         if is_fixed(scene, o):
             builder.add_static(o, shapes[o.id])

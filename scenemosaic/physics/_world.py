@@ -14,7 +14,9 @@ Every object body is named by the object's id, its collision geoms ``<id>_hull_<
 made with ``articulated=True`` (the whole-scene world of validation and the MJCF export) gives
 each movable part of an object (``ObjectShape.articulation``: a drawer, a door, a lid) its own
 child body ``<id>/<part>`` on a slide or hinge joint of the same name, with the part's limits,
-damping, dry friction and armature, closed; the part's pieces keep their geom names. A contact
+damping, dry friction and armature, at the joint value :attr:`WorldBuilder.openings` gives it
+(closed by default; an open part's joint ``ref`` is that value, so the model loads there); the
+part's pieces keep their geom names. A contact
 exclusion between the object's body and each part's (MuJoCo's parent filter alone would not hold
 for an object welded to the world) makes a part meet its carcass only through its joint. The same
 builder writes the MJCF export (:meth:`WorldBuilder.write_mjcf`), so the exported file is the
@@ -23,6 +25,8 @@ model that was simulated, not a second rendering of it.
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
@@ -36,6 +40,7 @@ import numpy.typing as npt
 import shapely
 import trimesh
 
+from scenemosaic._memo import Memo
 from scenemosaic.physics._hulls import ObjectShape, hull_mesh
 from scenemosaic.physics._settings import DEFAULT_DENSITY_KG_M3, ROOM_FRICTION, SimSettings
 from scenemosaic.render import (
@@ -323,6 +328,24 @@ class BuiltWorld:
     object_geoms: dict[str, list[int]] = field(default_factory=dict)
 
 
+
+def _obj_text(vertex_text: str, faces_text: str | None) -> str:
+    """A mesh of the compiled spec as OBJ text: a collision piece (no faces) as its convex hull,
+    the solid MuJoCo makes of it; a visual mesh as it is."""
+    verts = np.array(vertex_text.split(), dtype=np.float64).reshape(-1, 3)
+    if faces_text is None:
+        tm = hull_mesh(verts)
+    else:
+        faces = np.array(faces_text.split(), dtype=np.int64).reshape(-1, 3)
+        tm = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
+    text = tm.export(file_type="obj")
+    assert isinstance(text, str)  # trimesh writes OBJ as text
+    return text
+
+
+_OBJ_TEXTS: Memo[str, str] = Memo(8192)
+"""OBJ files of written worlds by their spec text's hash: a house's variants share their furniture."""
+
 class WorldBuilder:
     """Accumulates static and dynamic parts, then compiles one MuJoCo model."""
 
@@ -337,6 +360,9 @@ class WorldBuilder:
         self.articulated = articulated
         """Whether objects with movable parts get a child body per part on its joint (else one
         rigid body, the parts closed)."""
+        self.openings: dict[str, dict[str, float]] = {}
+        """Object id -> part name -> the joint value the part is placed at
+        (:func:`scenemosaic.assets.part_openings`; a part not listed is closed)."""
         self._part_anchors: dict[str, dict[str, FloatArray]] = {}
         self._posed: set[str] = set()
         self.spec = mujoco.MjSpec()
@@ -445,12 +471,18 @@ class WorldBuilder:
         at the part's anchor on its slide or hinge joint, holding the part's pieces."""
         inertials = part_inertials(obj, shape)
         anchors = self._part_anchors.setdefault(obj.id, {})
+        openings = self.openings.get(obj.id, {})
         for part in shape.articulation:
             anchor = np.asarray(part.anchor, dtype=np.float64)
             anchors[part.name] = anchor
             child = body.add_body()
             child.name = f"{obj.id}/{part.name}"
             child.pos = anchor.tolist()
+            value = part.clamped(openings.get(part.name, 0.0))
+            if value != 0.0:  # delivered open: the body at its open pose, the joint reading that value there
+                motion = part.transform(value)
+                child.pos = (motion[:3, :3] @ anchor + motion[:3, 3]).tolist()
+                child.quat = _quat_from_matrix(motion[:3, :3])
             inertial = inertials[part.name]
             child.mass = inertial.mass
             child.explicitinertial = True
@@ -461,6 +493,8 @@ class WorldBuilder:
             j.type = mujoco.mjtJoint.mjJNT_SLIDE if part.joint == "slide" else mujoco.mjtJoint.mjJNT_HINGE
             j.axis = list(part.axis)
             j.range = list(part.limits)
+            if value != 0.0:
+                j.ref = value  # qpos0: the model loads open, its range still 0 (closed) to open
             j.limited = mujoco.mjtLimited.mjLIMITED_TRUE
             j.damping = [part.damping, 0.0, 0.0]
             j.frictionloss = part.friction
@@ -622,16 +656,10 @@ class WorldBuilder:
         compiler.set("meshdir", MJCF_MESH_DIR)
         for mesh in root.iter("mesh"):
             name = mesh.attrib["name"]
-            verts = np.array(mesh.attrib.pop("vertex").split(), dtype=np.float64).reshape(-1, 3)
+            vertex_text = mesh.attrib.pop("vertex")
             faces_text = mesh.attrib.pop("face", None)
-            if faces_text is None:
-                tm = hull_mesh(verts)
-            else:
-                faces = np.array(faces_text.split(), dtype=np.int64).reshape(-1, 3)
-                tm = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
-            obj_text = tm.export(file_type="obj")
-            assert isinstance(obj_text, str)  # trimesh writes OBJ as text
-            write_atomic(mesh_dir / f"{name}.obj", obj_text)
+            key = hashlib.sha1(f"{vertex_text}|{faces_text}".encode()).hexdigest()
+            write_atomic(mesh_dir / f"{name}.obj", _OBJ_TEXTS.get(key, functools.partial(_obj_text, vertex_text, faces_text)))
             mesh.set("file", f"{name}.obj")
         ET.indent(root)
         path = out_dir / "scene.xml"

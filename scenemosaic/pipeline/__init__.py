@@ -31,6 +31,7 @@ from scenemosaic.pipeline._state import PipelineRun, RunSetup, Stage, StageCallb
 
 if TYPE_CHECKING:
     from scenemosaic.pipeline._checkpoint import checkpoint_config
+    from scenemosaic.pipeline._clutter import room_stages
     from scenemosaic.pipeline._demo import demo_scene
     from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, HOUSE_STAGES
     from scenemosaic.pipeline._report import RunReport
@@ -49,6 +50,7 @@ _LAZY = {
     "demo_scene": "_demo",
     "generate": "_run",
     "run_sync": "_run",
+    "room_stages": "_clutter",
 }
 """Names whose modules import the stages' backends (MuJoCo, CoACD): loaded on first use, so the
 settings (and the CLI's ``--help``) stay light."""
@@ -86,6 +88,7 @@ __all__ = [
     "config_record",
     "demo_scene",
     "generate",
+    "room_stages",
     "run_sync",
     "setting_options",
     "settings_doc",

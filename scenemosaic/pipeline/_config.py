@@ -324,6 +324,26 @@ class GenerateConfig(BaseModel):
     layout_rules: Annotated[LayoutRules, Setting("evolution", no_flag=_OBJECTS, no_manifest=_OBJECTS)] = ()
     """Plugin rules of the evolve stage's critic (:data:`~scenemosaic.evolve.LayoutRule`): each
     sees every layout of every unit, and its findings join the built-in ones (``docs/plugins.md``)."""
+    clutter: Annotated[Literal["keep", "vary", "fill"], Setting("evolution", decides=True, flag="--clutter")] = "keep"
+    """What becomes of a room's small objects (a book, a mug, a plate): ``keep``, ``vary`` or
+    ``fill`` (``docs/clutter.md``). ``keep`` (default): the input's, as the evolution left them;
+    the run and its files are those of a run without this setting. ``vary``: in every variant
+    they move between the receptacles their type may use, their counts per receptacle change
+    within the source's range and some become another asset of their type and size; needs
+    variants. ``fill``: receptacles emptier than the ProcTHOR priors' typical density first get
+    objects drawn from the priors for their type and the room's kind, in the base and every
+    variant, which then also vary. Every object added or moved is packed, settled in MuJoCo with
+    its unit, and kept only when it rests."""
+    clutter_density: Annotated[
+        Number, Field(gt=0, le=40), Setting("evolution", decides=True, flag="--clutter-density")
+    ] = 10.0
+    """Small objects per square metre of receptacle surface (a top, a shelf, a drawer) that
+    ``fill`` places. The default, 10, lays sixteen things on a 1.6 square metre dining table and
+    two or three on a nightstand or a shelf board: about three small objects per piece of
+    furniture in the shipped rooms. The packing stops earlier on a surface with no free place
+    left; a receptacle type that holds fewer than three objects in the priors (a chair) is filled
+    to its share of this, and none takes more than four times its typical count (at least six).
+    Only ``fill`` reads it."""
 
     # -- limits ------------------------------------------------------------------------------
     request_timeout_s: Annotated[
@@ -359,6 +379,12 @@ class GenerateConfig(BaseModel):
     # -- run ---------------------------------------------------------------------------------
     seed: Annotated[int, Setting("run", decides=True, flag="--seed")] = 0
     """Run seed. Every random choice derives from it, so equal inputs give identical files."""
+    open_state: Annotated[Literal["closed", "open", "random"], Setting("run", decides=True, flag="--open-state")] = "closed"
+    """The pose drawers, doors and lids are delivered in: ``closed``, ``open`` or ``random`` (drawn
+    from ``seed``). ``closed`` (default) writes the files of furniture that does not know it opens;
+    ``open`` puts each part at its upper joint limit, ``random`` somewhere in its range. Every export
+    places the parts so and what stands in a drawer comes out with it; the joints' limits stay 0
+    (closed) to open, and validation simulates the scene closed (``docs/articulation.md``)."""
     stabilize: Annotated[bool, Setting("run", decides=True, flag="--stabilize")] = True
     """Run the physics stabilization (default on); off skips evolve too."""
     strict: Annotated[bool, Setting("run", flag="--strict")] = False
@@ -414,6 +440,8 @@ class GenerateConfig(BaseModel):
             problems.append((None, "variants come from the evolve stage: drop --no-evolve (\"evolve\": false), or ask for 0 variants"))
         if config.prompt is not None and not config.prompt.strip():
             problems.append(("prompt", "the text prompt is empty"))
+        if config.clutter == "vary" and config.variants == 0:
+            problems.append(("clutter", "vary changes the variants' small objects: ask for variants (--variants N)"))
         if problems:
             raise SettingsError(problems)
         return config

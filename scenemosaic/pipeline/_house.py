@@ -5,7 +5,8 @@ A multi-room house input (an AI2-THOR / ProcTHOR house file without ``room``) ru
 usage, checkpoint, interruption) over the same :class:`PipelineRun`, whose ``house`` holds it:
 
 1. **rooms** — each room is a run of its own over :data:`HOUSE_ROOM_STAGES` (import → assets →
-   structure → stabilize → doors → evolve → compose) in ``OUT/rooms/<room>/``, started from the
+   structure → stabilize → doors → evolve → compose, then ``clutter`` when ``--clutter`` is not
+   ``keep``: ``pipeline._clutter.house_room_stages``) in ``OUT/rooms/<room>/``, started from the
    room's scene as the house import gave it (in memory) and with its own checkpoint, so a stopped
    house resumes room by room. Rooms are independent until the house-level checks, so they run
    concurrently: in ``room_workers`` processes (:mod:`scenemosaic.pipeline._house_worker`, each
@@ -13,7 +14,8 @@ usage, checkpoint, interruption) over the same :class:`PipelineRun`, whose ``hou
    work), else as tasks of this process sharing the run's one model stack (waiting on a server).
 2. **compose** — whole-house variants from one candidate pool over every room's unit variants
    (``compose.compose_house``: a candidate is valid when every room is, its doors clear and its
-   floor as connected as the base's);
+   floor as connected as the base's); with clutter, a room shown in the same arrangement by two
+   houses gets its small objects varied anew (``pipeline._clutter.vary_house_repeats``);
 3. **validate** — the delivered whole-house world (``physics.validate_house``: every room's checks,
    and the house's MuJoCo world settled once) and the house checks (door clearance, reachability
    from room to room, nothing across a wall);
@@ -42,7 +44,7 @@ from typing import TYPE_CHECKING, Any
 import structlog
 
 from scenemosaic._processes import STOP_GRACE_S, JobEnd, WorkerJob, run_jobs
-from scenemosaic.assets import HullCache
+from scenemosaic.assets import HullCache, open_house
 from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
 from scenemosaic.exceptions import OutputSpaceError, SceneMosaicError
@@ -56,10 +58,10 @@ from scenemosaic.pipeline._checkpoint import (
     load_checkpoint,
     save_checkpoint,
 )
+from scenemosaic.pipeline._clutter import house_room_stages, vary_house_repeats
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record
 from scenemosaic.pipeline._driver import run_stages
 from scenemosaic.pipeline._stages import (
-    HOUSE_ROOM_STAGES,
     judge_scenes,
     note_import_warnings,
     note_shortfall,
@@ -98,8 +100,10 @@ def is_house_input(input_path: Path, config: GenerateConfig) -> bool:
 async def _run_room(
     room: Scene, input_path: Path, root: Path, config: GenerateConfig, base_dir: Path, model: RunModel | None
 ) -> RoomOutcome:
-    """One room of the house through :data:`HOUSE_ROOM_STAGES` in ``OUT/rooms/<room>/``, from its
-    scene as given; ``model`` is the house run's model stack (``None``: the room opens its own)."""
+    """One room of the house through :data:`HOUSE_ROOM_STAGES` (and the clutter stage after
+    ``compose`` when ``clutter`` is not ``keep``: ``pipeline._clutter.house_room_stages``) in
+    ``OUT/rooms/<room>/``, from its scene as given; ``model`` is the house run's model stack
+    (``None``: the room opens its own)."""
     t0 = time.perf_counter()
     folder = RunFolder(root).room(room.id)
     config = config.model_copy(update={"room": room.id})
@@ -111,7 +115,7 @@ async def _run_room(
     if not config.resume:
         await asyncio.to_thread(save_checkpoint, run, digest)
     try:
-        failure = await run_stages(run, finished, digest, None, HOUSE_ROOM_STAGES)
+        failure = await run_stages(run, finished, digest, None, house_room_stages(config))
     finally:
         if model is None and run.model is not None:
             await run.model.aclose()
@@ -295,13 +299,21 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
 
     compose = functools.partial(compose_house, house.rooms, room_variants, m=m, seed=run.config.seed, accept=reachable)
     variants, report = await asyncio.to_thread(compose)
+    repeats = await vary_house_repeats(run, house.rooms, variants, report.picked)  # --clutter: no room's clutter shown twice
+    varied: dict[str, list[str]] = repeats.get("varied", {})
     rec.detail.update(report.summary())
+    if varied:
+        rec.detail["clutter_varied_anew"] = varied
+    if repeats.get("dropped"):
+        rec.detail["clutter_dropped"] = repeats["dropped"]
+        run.notes.append(f"clutter: small object(s) dropped at house compose (why: report.json, stage compose): {repeats['dropped']}")
     rec.detail["room_variants"] = {s.id: len(v) for s, v in zip(house.rooms, room_variants, strict=True)}
     checked = []
     run.house_variants, run.variant_checks = [], []
     for i, rooms in enumerate(variants, start=1):
         for s in rooms:
-            s.provenance.notes.append(f"house variant {i}: this room as {report.picked[i - 1][s.id]}")
+            anew = " (its small objects varied anew)" if s.id in varied.get(f"variant_{i}", ()) else ""
+            s.provenance.notes.append(f"house variant {i}: this room as {report.picked[i - 1][s.id]}{anew}")
         variant = house.with_rooms(rooms)
         name = run.folder.variant(i).name
         cols = oob = 0
@@ -367,6 +379,7 @@ async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     """``base/`` and every ``variant_<i>/`` as whole houses, and the contact sheet of their plans."""
     houses = [(run.folder.base, run.need_house()), *((run.folder.variant(i), v) for i, v in enumerate(run.house_variants, start=1))]
+    houses = [(folder, open_house(h, run.config.open_state, run.config.seed, run.base_dir)) for folder, h in houses]  # --open-state
     workers = _in_processes(run.config, len(houses))
     rec.detail["files"] = await _deliver(run, houses, workers)
     if run.house_variants:

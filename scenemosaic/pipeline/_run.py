@@ -39,6 +39,7 @@ from scenemosaic.pipeline._checkpoint import (
     save_checkpoint,
     write_json,
 )
+from scenemosaic.pipeline._clutter import room_stages
 from scenemosaic.pipeline._config import INPUT_SIZE_LIMITS_MB, GenerateConfig, check_config
 from scenemosaic.pipeline._driver import run_stages
 from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, HOUSE_STAGES, is_house_input
@@ -208,7 +209,7 @@ async def _agenerate_locked(
         await asyncio.to_thread(save_checkpoint, run, digest)
     started = time.perf_counter()
     try:  # the run's one model stack, opened by the first stage that asks, closed here
-        failure = await run_stages(run, finished, digest, on_stage, HOUSE_STAGES if house else STAGES)
+        failure = await run_stages(run, finished, digest, on_stage, HOUSE_STAGES if house else room_stages(config, STAGES))
     finally:
         if run.model is not None:
             await run.model.aclose()
@@ -312,7 +313,7 @@ def stage_progress(then: StageCallback | None = None) -> Iterator[StageCallback]
 
         def callback(name: str, status: str) -> None:
             if status == "started" and name not in STAGE_NAMES:  # a stage of a whole house: its own stages
-                bar.update(task, total=len(HOUSE_STAGE_NAMES))
+                bar.update(task, total=len(HOUSE_STAGE_NAMES) if name in HOUSE_STAGE_NAMES else len(STAGES) + 1)
             if status == "started":
                 bar.update(task, description=f"generate: {name}")
             elif status in ("done", "reused", "failed"):
@@ -329,8 +330,8 @@ def _stage_lines(then: StageCallback | None) -> StageCallback:
     state = {"done": 0, "total": len(STAGES)}
 
     def callback(name: str, status: str) -> None:
-        if status == "started" and name not in STAGE_NAMES:  # a stage of a whole house
-            state["total"] = len(HOUSE_STAGE_NAMES)
+        if status == "started" and name not in STAGE_NAMES:  # a stage of a whole house (or a room's clutter)
+            state["total"] = len(HOUSE_STAGE_NAMES) if name in HOUSE_STAGE_NAMES else len(STAGES) + 1
         if status in ("done", "reused", "failed", "skipped"):
             state["done"] += 1
             elapsed = time.perf_counter() - started

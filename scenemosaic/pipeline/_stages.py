@@ -19,7 +19,7 @@ from typing import Any
 import structlog
 
 from scenemosaic.agents import AgentLog
-from scenemosaic.assets import object_hulls
+from scenemosaic.assets import object_hulls, open_scene
 from scenemosaic.compose import compose_variants, kept_layouts
 from scenemosaic.evolve import EvolutionReport, evolve_scene
 from scenemosaic.exceptions import UsageError
@@ -473,10 +473,12 @@ async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
 
 def deliver_run(run: PipelineRun) -> list[str]:
     """Write the base scene to ``base/`` and every variant to ``variant_<i>/`` in the delivered
-    layout, then the contact sheet; returns the base folder's files."""
-    files = deliver_scene(run.need_scene(), run.folder.base, run.base_dir, hull_cache=run.cache())
+    layout, their parts in the run's ``open_state``, then the contact sheet; returns the base
+    folder's files."""
+    state, seed = run.config.open_state, run.config.seed
+    files = deliver_scene(open_scene(run.need_scene(), state, seed, run.base_dir), run.folder.base, run.base_dir, hull_cache=run.cache())
     for i, variant in enumerate(run.variants, start=1):
-        deliver_scene(variant, run.folder.variant(i), run.base_dir, hull_cache=run.cache())
+        deliver_scene(open_scene(variant, state, seed, run.base_dir), run.folder.variant(i), run.base_dir, hull_cache=run.cache())
     if run.variants:
         folders = [run.folder.base, *(run.folder.variant(i) for i in range(1, len(run.variants) + 1))]
         contact_sheet([(f.name, f / RunFolder.TOPDOWN) for f in folders], run.folder.contact_sheet)

@@ -13,6 +13,7 @@ from scenemosaic.structure._attributes import (
     AttributesAgent,
     AttributesOutput,
     ObjectAttributes,
+    attribute_row,
 )
 from scenemosaic.structure._constraints import (
     FUNCTIONAL_PAIRS,
@@ -72,6 +73,7 @@ __all__ = [
     "WallItem",
     "WallOutput",
     "WallSpec",
+    "attribute_row",
     "plan_structuring",
     "select_agents",
     "structure_scene",

@@ -206,7 +206,7 @@ def test_bookshelf_compartments_are_open_and_can_hold_books() -> None:
         ("TV", "television"),
         ("couch", "sofa"),
         ("three_seat_sofa", "sofa"),
-        ("counter_top", "cabinet"),
+        ("counter_top", "counter"),
         ("TVStand", "tv_stand"),
         ("DeskLamp", "table_lamp"),
         ("ShelvingUnit", "bookshelf"),

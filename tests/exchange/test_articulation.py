@@ -37,6 +37,11 @@ OPENING = {
     "toilet": ((0.54, 0.86, 0.95), 135.0, False),
     "box": ((0.38, 0.33, 0.34), 60.0, False),
     "safe": ((0.3, 0.33, 0.3), -120.0, False),
+    "tv_stand": ((1.24, 0.52, 0.59), 45.0, False),
+    "side_table": ((0.56, 0.5, 0.6), -60.0, False),
+    "dressing_table": ((0.86, 0.61, 1.26), 0.0, False),
+    "oven": ((0.76, 0.66, 0.92), 180.0, True),
+    "dishwasher": ((0.6, 0.6, 0.85), 20.0, False),
 }
 PULL_N = {"drawer": 10.0, "door": 10.0, "lid": 3.0}
 """How hard the test pulls each kind of part at its handle, newtons, over what holds up the part's
@@ -87,7 +92,7 @@ def scene() -> Scene:
     mug, _ = _in_drawer(objects[0])
     relations = [Relation(kind="attach", child=o.id, parent="floor") for o in objects]
     relations.append(Relation(kind="contain", child=mug.id, parent="dresser"))
-    return Scene(id="opening", room=Room.rectangle(0, 0, 14.5, 11.0), objects=[*objects, mug], relations=relations)
+    return Scene(id="opening", room=Room.rectangle(0, 0, 14.5, 15.0), objects=[*objects, mug], relations=relations)
 
 
 @pytest.fixture(scope="module")
@@ -104,11 +109,19 @@ def _parts(scene: Scene) -> list[tuple[SceneObject, PartSpec]]:
 
 def test_every_category_that_opens_has_its_parts(scene: Scene) -> None:
     kinds = {o.id: {p.kind for p in object_articulation(o)} for o in scene.objects}
-    assert kinds["dresser"] == kinds["nightstand"] == kinds["desk"] == {"drawer"}
-    for door in ("counter_top", "wardrobe", "fridge", "microwave", "washing_machine", "safe"):
+    for chest in ("dresser", "nightstand", "desk", "tv_stand", "side_table", "dressing_table"):
+        assert kinds[chest] == {"drawer"}, chest
+    for door in ("wardrobe", "fridge", "microwave", "washing_machine", "safe", "oven", "dishwasher"):
         assert kinds[door] == {"door"}, door
+    assert kinds["counter_top"] == {"door", "drawer"}  # drawers under the top, a cupboard below
     assert kinds["toilet"] == kinds["box"] == {"lid"}
     assert kinds[ITEM] == set()
+    # an oven's and a dishwasher's door drops down: hinged along its bottom edge, about +X
+    for appliance in ("oven", "dishwasher"):
+        (door,) = object_articulation(scene.get(appliance))
+        assert door.axis == (1.0, 0.0, 0.0) and door.anchor[2] == pytest.approx(door.box[4])
+        assert door.anchor[1] == pytest.approx(door.box[2], abs=0.03)  # on the front
+        assert math.degrees(door.limits[1]) == pytest.approx(90.0)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -271,7 +284,9 @@ def _bullet_pull(body: int, joint: int, part: PartSpec, client: int, seconds: fl
     return float(pybullet.getJointState(body, joint, physicsClientId=client)[0]), fastest
 
 
-@pytest.mark.parametrize(("object_id", "part_name"), [("dresser", "drawer_0"), ("fridge", "door_fridge"), ("wardrobe", "door_1")])
+@pytest.mark.parametrize(
+    ("object_id", "part_name"), [("dresser", "drawer_0"), ("fridge", "door_fridge"), ("wardrobe", "door_1"), ("oven", "door"), ("tv_stand", "drawer_1")]
+)
 def test_pybullet_load_pybullet_keeps_the_joints_and_a_pull_opens_them(
     folder: Path, scene: Scene, bullet: int, object_id: str, part_name: str
 ) -> None:
@@ -398,3 +413,41 @@ def test_scene_state_lists_the_parts(scene: Scene, tmp_path: Path) -> None:
         for record, part in zip(listed[obj.id], parts, strict=True):
             assert record["joint"] == part.joint and record["limits"] == pytest.approx(part.limits)
             assert np.allclose(LOCAL_TO_GLTF[:3, :3].T @ np.asarray(record["axis"]), part.axis)
+
+
+# ---------------------------------------------------------------------------------------------
+# A laptop: built open, its lid shuts
+# ---------------------------------------------------------------------------------------------
+def test_mujoco_a_laptop_rests_open_and_its_lid_shuts_when_pushed(tmp_path: Path) -> None:
+    laptop = SceneObject(
+        id="laptop",
+        category="laptop",
+        asset=AssetRef(kind="procedural", extents=(0.36, 0.3, 0.31)),
+        pose=Pose.from_yaw((1.0, 1.0, 0.0), math.radians(25.0)),
+    )
+    (part,) = object_articulation(laptop)
+    assert part.kind == "lid" and part.limits[1] == 0.0 and math.degrees(-part.limits[0]) > 90.0
+    scene = Scene(id="desk", room=Room.rectangle(0, 0, 2.0, 2.0), objects=[laptop], relations=[Relation(kind="attach", child="laptop", parent="floor")])
+    model = mujoco.MjModel.from_xml_path(str(export_mjcf(scene, tmp_path)))
+    qpos = model.jnt_qposadr[model.joint("laptop/lid").id]
+    # with nothing pushed the lid stays as built, against its upper limit
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    start = data.xpos.copy()
+    mujoco.mj_step(model, data, nstep=round(REST_S / model.opt.timestep))
+    assert float(np.linalg.norm(data.xpos - start, axis=1).max()) < REST_M and abs(data.qpos[qpos]) < math.radians(0.5)
+    # pushed at the top of the screen toward the keyboard, it shuts (a turn of more than a right angle)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    body = model.body("laptop/lid").id
+    handle, way = _handle_motion(part)
+    fastest, previous = 0.0, data.xipos.copy()
+    for _ in range(round(3.0 / model.opt.timestep)):
+        rotation = data.xmat[body].reshape(3, 3)
+        data.qfrc_applied[:] = 0.0
+        mujoco.mj_applyFT(model, data, -rotation @ way * PULL_N["lid"], np.zeros(3), data.xpos[body] + rotation @ handle, body, data.qfrc_applied)
+        mujoco.mj_step(model, data)
+        fastest = max(fastest, float(np.linalg.norm(data.xipos - previous, axis=1).max()) / model.opt.timestep)
+        previous = data.xipos.copy()
+    value = float(data.qpos[qpos])
+    assert -value >= math.radians(HINGE_OPEN_DEG) and value >= part.limits[0] - 0.02 and fastest < MAX_SPEED, (math.degrees(value), fastest)

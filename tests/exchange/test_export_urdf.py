@@ -18,6 +18,7 @@ import pytest
 import yourdfpy  # the [urdf] extra is part of the dev install
 from export_reference import STATIC_ID, ReferenceRoom, hull_geoms
 
+from scenemosaic.assets import object_articulation
 from scenemosaic.exchange import export_urdf, write_scene
 from scenemosaic.scene import Scene
 
@@ -61,7 +62,8 @@ def test_every_file_loads_with_the_mjcf_mass_and_hulls(living: Exported) -> None
             np.testing.assert_allclose(link.inertial.origin[:3, 3], body.ipos, rtol=1e-5, atol=1e-6)
         assert np.all(np.linalg.eigvalsh(link.inertial.inertia) > 0), obj.id
         assert len(link.collisions) == hull_geoms(model, obj.id) >= 1, obj.id
-        assert len(urdf.scene.geometry) == 1  # the visual mesh was found and loaded
+        # the visual mesh was found and loaded: one per link (a TV stand's drawers have their own)
+        assert len(urdf.scene.geometry) == 1 + len(object_articulation(obj)), obj.id
 
 
 def test_scene_joints_reproduce_the_poses(living: Exported) -> None:
@@ -107,8 +109,9 @@ def test_the_folder_moves(living: Exported, tmp_path: Path) -> None:
     urdf = _load(moved / "scene.urdf")
     room = living.scene.room
     assert room is not None
-    # one visual per object, plus the floor and the walls (the ceiling has no visual)
-    assert len(urdf.scene.geometry) == len(living.scene.objects) + 1 + len(room.walls)
+    # one visual per object and per drawer, door or lid, plus the floor and the walls (the ceiling has none)
+    parts = sum(len(object_articulation(o)) for o in living.scene.objects)
+    assert len(urdf.scene.geometry) == len(living.scene.objects) + parts + 1 + len(room.walls)
 
 
 def test_writing_twice_gives_identical_bytes(living: Exported, tmp_path: Path) -> None:

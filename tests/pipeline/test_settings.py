@@ -28,8 +28,8 @@ DOCS = Path(__file__).resolve().parents[2] / "docs" / "settings.md"
 RECORD_KEYS = {
     "format", "model", "seed", "room", "stabilize", "solver_fallback", "fallback", "vision", "request_timeout_s", "deadline_s",
     "variants", "evolve", "evolve_rounds", "save_views", "segmenter", "reconstructor", "hfov_deg", "camera_height_m",
-    "prompt", "image_model", "image_size",
-    "asset_dir", "cache_dir", "priors_dir", "detections", "allow_orphans",
+    "prompt", "image_model", "image_size", "clutter", "clutter_density",
+    "asset_dir", "cache_dir", "priors_dir", "detections", "allow_orphans", "open_state",
 }  # fmt: skip
 
 
