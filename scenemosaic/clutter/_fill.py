@@ -46,7 +46,6 @@ from scenemosaic.scene import (
     AssetRef,
     PackItem,
     Pose,
-    Relation,
     Scene,
     SceneObject,
     SimAttributes,
@@ -381,14 +380,7 @@ def fill_scene(
                 oid = unique_id(f"{id_prefix}{asset.category}", taken_ids)
                 obj = new_clutter_object(asset, oid, surface, *spot)
                 out.objects.append(obj)
-                out.relations.append(
-                    Relation(
-                        kind="attach" if surface.placement == "on" else "contain",
-                        child=oid,
-                        parent=receptacle,
-                        source="clutter",
-                    )
-                )
+                out.relations.append(surface.support_relation(oid))
                 shapes[oid] = object_shape(obj, base_dir, cache=hull_cache)
                 record["objects"][oid] = {
                     "asset_id": asset.asset_id,

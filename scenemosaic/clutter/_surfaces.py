@@ -20,7 +20,7 @@ from shapely.ops import unary_union
 
 from scenemosaic.assets import interior_boards
 from scenemosaic.physics import ObjectShape
-from scenemosaic.scene import Scene, SceneObject, convex_hull_2d
+from scenemosaic.scene import Relation, Scene, SceneObject, convex_hull_2d
 
 __all__ = ["MAX_TOP_HEIGHT_M", "MIN_SURFACE_M2", "Surface", "receptacle_surfaces"]
 
@@ -51,6 +51,10 @@ class Surface:
     headroom: float
     yaw: float
     compartment: int | None = None
+
+    def support_relation(self, child: str) -> Relation:
+        """The relation that puts ``child`` here: ``attach`` on a top, ``contain`` in a compartment."""
+        return Relation(kind="attach" if self.placement == "on" else "contain", child=child, parent=self.receptacle, source="clutter")
 
     @property
     def key(self) -> str:

@@ -53,7 +53,6 @@ from scenemosaic.physics import ObjectShape, object_shape
 from scenemosaic.scene import (
     AssetRef,
     Pose,
-    Relation,
     Scene,
     SimAttributes,
     build_structure,
@@ -125,14 +124,7 @@ def _relocate(
         for r in scene.relations
         if not (r.child == oid and (r.is_support or (old is not None and r.parent == old.parent)))
     ]
-    scene.relations.append(
-        Relation(
-            kind="attach" if surface.placement == "on" else "contain",
-            child=oid,
-            parent=receptacle,
-            source="clutter",
-        )
-    )
+    scene.relations.append(surface.support_relation(oid))
 
 
 def _with_asset(scene: Scene, oid: str, asset: ClutterAsset) -> None:
