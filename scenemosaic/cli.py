@@ -767,6 +767,21 @@ def _scene_folders(path: Path) -> list[tuple[str, Path]]:
     return [(path.stem if path.is_file() else path.name, path)]
 
 
+def _run_seed(folder: Path) -> int:
+    """The seed of the generate run ``folder`` is (or is a scene folder of): its ``report.json``'s
+    ``config.seed``; 0 outside a run or when the report does not say."""
+    from scenemosaic.scene import RunFolder
+
+    for root in (folder, folder.parent):
+        if RunFolder.is_run(root) and RunFolder(root).report.is_file():
+            try:
+                seed = json.loads(RunFolder(root).report.read_text(encoding="utf-8")).get("config", {}).get("seed")
+            except (OSError, ValueError, AttributeError):
+                return 0
+            return seed if isinstance(seed, int) and not isinstance(seed, bool) else 0
+    return 0
+
+
 def _load_any(
     path: Path, variant: str | None = None, room: str | None = None, allow_partial: bool = False
 ) -> tuple[Scene | House, Path]:
@@ -894,10 +909,13 @@ def export(
         OpenStateChoice | None,
         typer.Option(
             "--open-state",
-            help="Deliver drawers, doors and lids closed, open or at random (drawn from --seed); default: as the scene has them.",
+            help="Deliver drawers, doors and lids closed, open or at random (drawn from --seed); default: as the scene has them (the rooms' doors open unless closed).",
         ),
     ] = None,
-    seed: Annotated[int, typer.Option("--seed", help="Seed of --open-state random.")] = 0,
+    seed: Annotated[
+        int | None,
+        typer.Option("--seed", help="Seed of --open-state random; default: the generate run's seed (0 for a scene outside a run)."),
+    ] = None,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Write a saved scene (or every scene of a generate run) in another format: a house whole,
@@ -916,10 +934,11 @@ def export(
             from scenemosaic.assets import open_house, open_scene
 
             state: OpenState = open_state.value
+            drawn = seed if seed is not None else _run_seed(folder)
             if isinstance(scene, House):
-                scene = open_house(scene, state, seed, base_dir)
+                scene = open_house(scene, state, drawn, base_dir)
             else:
-                scene = open_scene(scene, state, seed, base_dir)
+                scene = open_scene(scene, state, drawn, base_dir)
         target = out if single else out / name
         _writable_folder(target)
         destination = target / dict(DELIVERED_FORMATS).get(fmt, "")  # where generate puts it

@@ -14,6 +14,7 @@ from scenemosaic.assets._articulation import (
     DRAWER_TRAVEL_FRACTION,
     LID_OPEN_DEG,
     OPEN_STATES,
+    ROOM_DOOR_OPEN_DEG,
     TOILET_LID_OPEN_DEG,
     HingeSide,
     JointType,
@@ -41,6 +42,10 @@ from scenemosaic.assets._objects import (
 from scenemosaic.assets._opening import OPEN_STATE_KEY, open_house, open_scene, part_openings
 from scenemosaic.assets._procedural import (
     MAX_PARTS,
+    ROOM_DOOR_CATEGORIES,
+    ROOM_DOOR_HANDLE_PROUD_M,
+    ROOM_DOOR_JAMB_M,
+    ROOM_DOOR_LEAF_M,
     SHELF_PITCH,
     Box6,
     compartment_fits,
@@ -51,10 +56,20 @@ from scenemosaic.assets._procedural import (
     procedural_mesh,
     procedural_parts,
 )
+from scenemosaic.assets._room_doors import (
+    FIT_CLEARANCE_M,
+    FIT_STEP_DEG,
+    ROOM_DOOR_KG_PER_M2,
+    RoomDoor,
+    room_door_leaves,
+    with_room_doors,
+)
 
 __all__ = [
     "DOOR_OPEN_DEG",
     "DRAWER_TRAVEL_FRACTION",
+    "FIT_CLEARANCE_M",
+    "FIT_STEP_DEG",
     "LID_OPEN_DEG",
     "MAX_PARTS",
     "MESH_SUFFIXES",
@@ -62,6 +77,12 @@ __all__ = [
     "OPEN_STATE_KEY",
     "PARTS_FILE_SUFFIX",
     "PART_TAG",
+    "ROOM_DOOR_CATEGORIES",
+    "ROOM_DOOR_HANDLE_PROUD_M",
+    "ROOM_DOOR_JAMB_M",
+    "ROOM_DOOR_KG_PER_M2",
+    "ROOM_DOOR_LEAF_M",
+    "ROOM_DOOR_OPEN_DEG",
     "SHELF_PITCH",
     "TOILET_LID_OPEN_DEG",
     "Box6",
@@ -73,6 +94,7 @@ __all__ = [
     "OpenState",
     "PartKind",
     "PartSpec",
+    "RoomDoor",
     "asset_fingerprint",
     "compartment_fits",
     "declared_part",
@@ -97,6 +119,8 @@ __all__ = [
     "procedural_mesh",
     "procedural_parts",
     "referenced_files",
+    "room_door_leaves",
     "shutdown_workers",
     "with_pieces",
+    "with_room_doors",
 ]

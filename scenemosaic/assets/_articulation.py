@@ -34,6 +34,7 @@ __all__ = [
     "DROP_DOOR_OPEN_DEG",
     "LID_OPEN_DEG",
     "OPEN_STATES",
+    "ROOM_DOOR_OPEN_DEG",
     "TOILET_LID_OPEN_DEG",
     "Box6",
     "HingeSide",
@@ -78,6 +79,9 @@ LID_OPEN_DEG = 100.0
 """How far a lid lifts from closed, degrees: just past upright, so it stays open on its own."""
 TOILET_LID_OPEN_DEG = 95.0
 """How far a toilet's lid lifts, degrees: it leans back a little, toward the cistern."""
+ROOM_DOOR_OPEN_DEG = 100.0
+"""How far a room's door (a leaf hung on a doorway) turns from shut, degrees: just past square to
+the wall, so the open leaf stands beside the passage, not in it."""
 
 DRAWER_DAMPING_N_S_PER_M = 10.0
 """Viscous damping of a drawer's slide, N s/m (the grease of its runners)."""
@@ -200,9 +204,16 @@ def drawer(name: str, pieces: Sequence[int], handle: int, boxes: Sequence[Box6])
 
 
 def front_door(
-    name: str, pieces: Sequence[int], handle: int, boxes: Sequence[Box6], *, hinge: HingeSide
+    name: str,
+    pieces: Sequence[int],
+    handle: int,
+    boxes: Sequence[Box6],
+    *,
+    hinge: HingeSide,
+    open_deg: float = DOOR_OPEN_DEG,
 ) -> PartSpec:
-    """A door on the front (-Y) turning outward about a vertical line on its ``hinge`` side.
+    """A door on the front (-Y) turning outward about a vertical line on its ``hinge`` side, up
+    to ``open_deg`` degrees (a room's door: :data:`ROOM_DOOR_OPEN_DEG`).
 
     The hinge line runs up the front face of the leaf (the door less its handle) at its edge on
     that side. Turning about the front edge keeps the whole door on its own side of the hinge line
@@ -220,7 +231,7 @@ def front_door(
         joint="hinge",
         axis=(0.0, 0.0, -1.0 if hinge == "-x" else 1.0),
         anchor=(x, leaf[2], leaf[4]),
-        limits=(0.0, math.radians(DOOR_OPEN_DEG)),
+        limits=(0.0, math.radians(open_deg)),
         damping=DOOR_DAMPING_N_M_S_PER_RAD_M * width,
         friction=DOOR_FRICTION_N_M_PER_M * width,
         pieces=tuple(pieces),

@@ -9,8 +9,10 @@ Every export reads the values from there (:func:`part_openings`), so they agree 
 and with ``scene.json``; a part not listed is closed, and a value is held within the part's
 limits. What stands in a drawer (an object whose base lies in the drawer's box) is moved with
 the drawer when the state is applied (:func:`open_scene`), so ``scene.json`` holds it where it
-is delivered. A closed scene carries no such key: its files are those of a scene that never
-heard of open states.
+is delivered. A scene in the default pose (furniture closed, the rooms' doors open) carries no
+such key, nor does a closed one without doors: its files are those of a scene that never heard of
+open states; ``closed`` in a room with doors is recorded, for it shuts the doors too
+(``with_room_doors``).
 """
 
 from __future__ import annotations
@@ -79,20 +81,37 @@ def _moved_contents(
     return out
 
 
-def open_scene(scene: Scene, state: OpenState, seed: int = 0, base_dir: str | Path | None = None) -> Scene:
+def _hangs_doors(scene: Scene) -> bool:
+    """Whether a door leaf hangs in one of the room's walls (``docs/articulation.md``)."""
+    return scene.room is not None and any(op.leaf_count > 0 for w in scene.room.walls for op in w.openings)
+
+
+def _recorded(state: OpenState | None, scene: Scene) -> bool:
+    """Whether ``state`` is written down: ``open`` and ``random`` always, ``closed`` where the
+    room's doors hang in it (they are delivered open unless told), the default (``None``) never."""
+    return state is not None and (state != "closed" or _hangs_doors(scene))
+
+
+def open_scene(
+    scene: Scene, state: OpenState | None, seed: int = 0, base_dir: str | Path | None = None
+) -> Scene:
     """``scene`` with its parts in ``state`` (``random`` drawn from ``seed``, see
-    :func:`~scenemosaic.assets.opening`): the metadata key :data:`OPEN_STATE_KEY` set (dropped
-    for ``closed``) and what stands in each drawer moved with it, from the pose the scene held
-    before. ``base_dir`` resolves mesh assets' relative uris (their declared parts). A scene that
-    is closed and stays closed is returned as it is (the same object)."""
-    if state not in OPEN_STATES:
+    :func:`~scenemosaic.assets.opening`): the metadata key :data:`OPEN_STATE_KEY` set and what
+    stands in each drawer moved with it, from the pose the scene held before. ``None`` is the
+    default pose: the furniture closed and the key dropped, so the room's doors are delivered open
+    (``with_room_doors``); ``closed`` closes those too, so it records the key in a room with doors
+    and drops it elsewhere. ``base_dir`` resolves mesh assets' relative uris (their declared
+    parts). A scene that is closed and stays so, its key unchanged, is returned as it is (the same
+    object)."""
+    if state is not None and state not in OPEN_STATES:
         raise ValueError(f"open state must be one of {', '.join(OPEN_STATES)}, not {state!r}")
+    furniture: OpenState = state if state is not None else "closed"
     before = part_openings(scene)
     objects = list(scene.objects)
     values: dict[str, dict[str, float]] = {}
     for holder in scene.objects:
         for part in object_articulation(holder, base_dir):
-            value = part.clamped(opening(part, state, seed=seed, key=holder.id))
+            value = part.clamped(opening(part, furniture, seed=seed, key=holder.id))
             old = part.clamped(before.get(holder.id, {}).get(part.name, 0.0))
             if value != 0.0:
                 values.setdefault(holder.id, {})[part.name] = value
@@ -100,26 +119,28 @@ def open_scene(scene: Scene, state: OpenState, seed: int = 0, base_dir: str | Pa
                 moved = _moved_contents(objects, holder, part, old, value)
                 objects = [moved.get(o.id, o) for o in objects]
     metadata = {k: v for k, v in scene.metadata.items() if k != OPEN_STATE_KEY}
-    if state != "closed":
+    if _recorded(state, scene):
         metadata[OPEN_STATE_KEY] = {"state": state, "seed": seed, "parts": values}
-    if state == "closed" and OPEN_STATE_KEY not in scene.metadata:
+    if furniture == "closed" and metadata.get(OPEN_STATE_KEY) == scene.metadata.get(OPEN_STATE_KEY):
         return scene
     return scene.model_copy(update={"objects": objects, "metadata": metadata})
 
 
-def open_house(house: House, state: OpenState, seed: int = 0, base_dir: str | Path | None = None) -> House:
+def open_house(
+    house: House, state: OpenState | None, seed: int = 0, base_dir: str | Path | None = None
+) -> House:
     """:func:`open_scene` of every room of ``house``, the house's own metadata recording the
-    state too (its ``parts`` every room's together)."""
+    state too (its ``parts`` every room's together) when a room records it."""
     rooms = [open_scene(room, state, seed, base_dir) for room in house.rooms]
     metadata: dict[str, Any] = {k: v for k, v in house.metadata.items() if k != OPEN_STATE_KEY}
-    if state != "closed":
+    if any(_recorded(state, room) for room in house.rooms):
         parts: dict[str, dict[str, float]] = {}
         for room in rooms:
             parts.update(part_openings(room))
         metadata[OPEN_STATE_KEY] = {"state": state, "seed": seed, "parts": parts}
     if (
-        state == "closed"
-        and OPEN_STATE_KEY not in house.metadata
+        (state is None or state == "closed")
+        and metadata.get(OPEN_STATE_KEY) == house.metadata.get(OPEN_STATE_KEY)
         and all(r is o for r, o in zip(rooms, house.rooms, strict=True))
     ):
         return house

@@ -30,6 +30,7 @@ import structlog
 import trimesh
 
 from scenemosaic.assets._articulation import (
+    ROOM_DOOR_OPEN_DEG,
     TOILET_LID_OPEN_DEG,
     Box6,
     HingeSide,
@@ -44,6 +45,10 @@ from scenemosaic.scene import normalize_category
 
 __all__ = [
     "MAX_PARTS",
+    "ROOM_DOOR_CATEGORIES",
+    "ROOM_DOOR_HANDLE_PROUD_M",
+    "ROOM_DOOR_JAMB_M",
+    "ROOM_DOOR_LEAF_M",
     "SHELF_PITCH",
     "Box6",
     "interior_boards",
@@ -351,6 +356,82 @@ def _hinge_sides(n: int) -> list[HingeSide]:
 # --------------------------------------------------------------------------------------------
 # builders: (w, d, h) -> convex parts filling [-w/2, w/2] x [-d/2, d/2] x [0, h], front -Y
 # --------------------------------------------------------------------------------------------
+ROOM_DOOR_LEAF_M = 0.04
+"""Thickness of a room door's leaf, metres (a hollow-core interior door)."""
+ROOM_DOOR_JAMB_M = 0.02
+"""Width of each jamb of a room door's frame, metres: the jambs line the hole's sides (never in the
+wall itself), the leaf hangs between them."""
+ROOM_DOOR_HANDLE_PROUD_M = 0.06
+"""How far a room door's lever handle stands proud of each face of the leaf, metres."""
+ROOM_DOOR_CATEGORIES: dict[tuple[HingeSide, ...], str] = {
+    ("-x",): "room_door",
+    ("+x",): "room_door_right",
+    ("-x", "+x"): "room_double_door",
+}
+"""The procedural model of a room's door by the jambs its leaves hang on, seen from the side they
+swing to: one leaf on its left (-X) jamb, one on its right (+X), a pair meeting in the middle."""
+_ROOM_DOOR_GAP_M = 0.005  # between a leaf's free edge and its jamb (or the other leaf)
+_ROOM_DOOR_FLOOR_GAP_M = 0.015  # under the leaf: it clears a rug
+
+
+def _room_door(w: float, d: float, h: float, *, hinges: tuple[HingeSide, ...]) -> Articulated:
+    """A room's door: the two jambs of its frame (what does not move) and one leaf per hinge side
+    between them, closed in the plane of the frame; a lever handle on each face of a leaf near its
+    free edge, the one on the front (-Y, the side it swings to) the handle a gripper takes. Each
+    leaf turns about the front edge on its jamb (:func:`front_door`, up to
+    :data:`ROOM_DOOR_OPEN_DEG`). ``w`` is the hole's width, ``d`` the leaf's thickness plus both
+    handles."""
+    hx = w / 2
+    jamb = min(ROOM_DOOR_JAMB_M, 0.05 * w)
+    proud = d * ROOM_DOOR_HANDLE_PROUD_M / (ROOM_DOOR_LEAF_M + 2 * ROOM_DOOR_HANDLE_PROUD_M)
+    t = d - 2 * proud
+    x0, x1 = -hx + jamb, hx - jamb
+    parts: Parts = [_box((-hx, x0), (-t / 2, t / 2), (0.0, h)), _box((x1, hx), (-t / 2, t / 2), (0.0, h))]
+    gap = min(_ROOM_DOOR_GAP_M, 0.01 * (x1 - x0))
+    if len(hinges) == 1:
+        spans = [(x0, x1 - gap) if hinges[0] == "-x" else (x0 + gap, x1)]
+    else:
+        mid = 0.5 * (x0 + x1)
+        spans = [(x0, mid - gap / 2), (mid + gap / 2, x1)]
+    z = (min(_ROOM_DOOR_FLOOR_GAP_M, 0.01 * h), h - min(_ROOM_DOOR_GAP_M, 0.005 * h))
+    zc, zh = min(1.0, 0.5 * h), min(0.015, 0.01 * h)
+    specs: list[PartSpec] = []
+    for i, (xr, side) in enumerate(zip(spans, hinges, strict=True)):
+        free = xr[1] if side == "-x" else xr[0]
+        inward = -1.0 if side == "-x" else 1.0  # from the free edge toward the hinge
+        length = min(0.12, 0.3 * (xr[1] - xr[0]))
+        a = free + inward * min(0.05, 0.1 * (xr[1] - xr[0]))
+        hxr = (min(a, a + inward * length), max(a, a + inward * length))
+        pieces = [
+            _box(xr, (-t / 2, t / 2), z),
+            _box(hxr, (-d / 2, -t / 2), (zc - zh, zc + zh)),
+            _box(hxr, (t / 2, d / 2), (zc - zh, zc + zh)),
+        ]
+        start = len(parts)
+        parts.extend(pieces)
+        boxes = [_box6(p) for p in pieces]
+        name = "leaf" if len(hinges) == 1 else f"leaf_{i}"
+        specs.append(
+            front_door(name, range(start, start + 3), start + 1, boxes, hinge=side, open_deg=ROOM_DOOR_OPEN_DEG)
+        )
+    return parts, [], specs
+
+
+def _room_door_left(w: float, d: float, h: float) -> Articulated:
+    """A room's door hung on its left (-X) jamb, seen from the side it swings to."""
+    return _room_door(w, d, h, hinges=("-x",))
+
+
+def _room_door_right(w: float, d: float, h: float) -> Articulated:
+    """A room's door hung on its right (+X) jamb, seen from the side it swings to."""
+    return _room_door(w, d, h, hinges=("+x",))
+
+
+def _room_double_door(w: float, d: float, h: float) -> Articulated:
+    """A room's double door: two leaves, one on each jamb, meeting in the middle."""
+    return _room_door(w, d, h, hinges=("-x", "+x"))
+
+
 def _bed(w: float, d: float, h: float) -> Parts:
     hx, hy = w / 2, d / 2
     head_t = _cap(d, 0.06, 0.08)
@@ -1695,6 +1776,9 @@ _ARTICULATED: dict[str, ArticulatedBuilder] = {
     "microwave": _microwave,
     "nightstand": _nightstand_layout,
     "oven": _oven,
+    ROOM_DOOR_CATEGORIES[("-x",)]: _room_door_left,
+    ROOM_DOOR_CATEGORIES[("+x",)]: _room_door_right,
+    ROOM_DOOR_CATEGORIES[("-x", "+x")]: _room_double_door,
     "side_table": _side_table,
     "toilet": _toilet,
     "tv_stand": _tv_stand_layout,

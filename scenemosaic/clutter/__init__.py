@@ -39,6 +39,7 @@ from scenemosaic.clutter._vary import (
     SWAP_SIZE_RATIO,
     carry_clutter,
     clutter_distance,
+    resting_place,
     small_objects,
     vary_scene,
 )
@@ -73,6 +74,7 @@ __all__ = [
     "receptacles",
     "remove_objects",
     "rest_check",
+    "resting_place",
     "room_kind",
     "small_objects",
     "thor_category",

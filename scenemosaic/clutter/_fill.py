@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 import time
 import zlib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -43,6 +43,7 @@ from scenemosaic.clutter._surfaces import Surface, receptacle_surfaces
 from scenemosaic.physics import ObjectShape, SettleSettings, SimSettings, UnitPlan, object_shape, settle_unit
 from scenemosaic.scene import (
     CEILING,
+    CLUTTER_METADATA,
     AssetRef,
     PackItem,
     Pose,
@@ -65,8 +66,6 @@ __all__ = [
 
 log = structlog.get_logger(__name__)
 
-CLUTTER_METADATA = "clutter"
-"""The key of ``Scene.metadata`` under which a clutter run records what it added or moved."""
 DEFAULT_DENSITY = 10.0
 """Default number of small objects per square metre of receptacle surface after ``fill`` (a laid
 dining table of 1.6 square metres: sixteen)."""
@@ -460,14 +459,18 @@ def _off_surface(
 def _keep_resting(
     scene: Scene,
     report: ClutterReport,
-    surfaces_of: Mapping[str, Surface],
+    surfaces_of: dict[str, Surface],
     shapes: dict[str, ObjectShape],
     priors: ClutterPriors,
     seed: int,
     base_dir: str | Path | None,
     hull_cache: HullCache | None,
+    back: Mapping[str, Surface] | None = None,
+    moved: Callable[[str, Surface], None] | None = None,
 ) -> None:
-    """The rest check; what fails it is placed once more elsewhere on its surface, then dropped."""
+    """The rest check; what fails it is placed once more elsewhere on its surface (first on its
+    surface in ``back`` when it has one there, a varied object's own place; ``moved`` is told when
+    it goes there), then dropped."""
     candidates = [oid for oids in report.added.values() for oid in oids]
     if not candidates:
         return
@@ -478,19 +481,27 @@ def _keep_resting(
         by_receptacle: dict[str, list[str]] = {}
         again: dict[str, list[np.ndarray]] = {}  # footprints of the objects placed again, per surface
         for oid in sorted(failed):
-            surface = surfaces_of[oid]
             obj = scene.get(oid)
-            taken = _occupied(scene, surface, skip=failed) + again.setdefault(surface.key, [])
             rng = np.random.default_rng(_seed(seed, "retry", oid))
             asset = _asset_of(scene, oid, priors)
             if asset is None:
                 continue
-            spot = place_on_surface(scene, surface, asset, rng, taken)
+            spot = None
+            home = (back or {}).get(oid)
+            for surface in [home, surfaces_of[oid]] if home is not None else [surfaces_of[oid]]:
+                taken = _occupied(scene, surface, skip=failed) + again.setdefault(surface.key, [])
+                spot = place_on_surface(scene, surface, asset, rng, taken)
+                if spot is not None:
+                    break
             if spot is None:
                 continue
             again[surface.key].append(taken[-1])
             (x, y), yaw = spot
-            obj.pose = Pose.from_yaw((x, y, surface.height + DROP_GAP_M), yaw)
+            obj.pose = Pose.from_yaw((x, y, surface.height + DROP_GAP_M), yaw, obj.pose.scale)
+            if surface.key != surfaces_of[oid].key:
+                surfaces_of[oid] = surface
+                if moved is not None:
+                    moved(oid, surface)
             by_receptacle.setdefault(surface.receptacle, []).append(oid)
         for receptacle, ids in by_receptacle.items():
             _settle(scene, receptacle, ids, shapes, _seed(seed, "resettle", receptacle))

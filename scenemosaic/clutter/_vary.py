@@ -10,6 +10,11 @@ nothing, not fixed.
 * each moves, with probability :data:`MOVE_SHARE`, to another receptacle of the room whose type
   ProcTHOR found its type on (``receptacles.json``), drawn with the priors' weights; else it stays
   on its own receptacle, at a new place;
+* given the scenes of the same room already delivered (``shown``: the base and earlier variants),
+  the places are planned instead, object by object, so that the new scene differs from each of them
+  in the receptacle, then the surface (:func:`resting_place`), of as many small objects as it
+  can: an object goes where it most raises the least of those counts, ties drawn with the priors'
+  weights; see ``docs/clutter.md``;
 * no receptacle takes more than the most the source holds on one receptacle (at least one): the
   counts per receptacle change within the source's range, and the total stays;
 * with probability :data:`SWAP_SHARE` its asset is swapped for another database asset of the same
@@ -26,7 +31,7 @@ their small objects, the term that joins the novelty distance when clutter varie
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +40,7 @@ import structlog
 from scenemosaic.assets import HullCache
 from scenemosaic.clutter._fill import (
     CLUTTER_METADATA,
+    DROP_GAP_M,
     ClutterReport,
     _asset_of,
     _keep_resting,
@@ -65,6 +71,7 @@ __all__ = [
     "SWAP_SIZE_RATIO",
     "carry_clutter",
     "clutter_distance",
+    "resting_place",
     "small_objects",
     "vary_scene",
 ]
@@ -77,6 +84,9 @@ SWAP_SHARE = 0.25
 """Chance that a small object's asset is swapped for a similar one of its type."""
 SWAP_SIZE_RATIO = 0.25
 """A swap keeps every side of the box within this share of the old one (similar size)."""
+PLAN_TRIES = 6
+"""A planned pass (``shown`` given) tries an object's best this many surfaces, then its own
+receptacle's, then the rest."""
 CLUTTER_SPAN_M = 0.3
 """In :func:`clutter_distance`, a move on the same receptacle this long (metres) counts as much
 as a move to another receptacle."""
@@ -101,6 +111,36 @@ def small_objects(scene: Scene, priors: ClutterPriors) -> list[str]:
     return out
 
 
+SURFACE_STEP_M = 0.05
+"""Resting heights closer than this count as one level of a receptacle (:func:`resting_place`)."""
+
+
+def resting_place(scene: Scene, oid: str) -> tuple[str | None, str | None, int]:
+    """Where an object rests: its receptacle, on or in it (the support relation's kind) and the
+    level (its bottom's height in steps of :data:`SURFACE_STEP_M`): a counter's top and each of its
+    shelves or drawer levels apart, as ProcTHOR counts a ``CounterTop`` and its ``Cabinet`` and
+    ``Drawer`` receptacles apart. Two scenes place an object on another receptacle when this
+    differs."""
+    rel = scene.support_of(oid)
+    z = float(scene.get(oid).pose.position[2])
+    return (rel.parent if rel else None, rel.kind if rel else None, round(z / SURFACE_STEP_M))
+
+
+def _place_of(surface: Surface) -> tuple[str, str, int]:
+    """:func:`resting_place` of an object put on ``surface`` (as :func:`_relocate` puts it)."""
+    kind = surface.support_relation("_").kind
+    return (surface.receptacle, kind, round((surface.height + DROP_GAP_M) / SURFACE_STEP_M))
+
+
+def _surface_of(scene: Scene, oid: str, found: Sequence[Surface]) -> Surface | None:
+    """Which of ``found`` (its receptacle's surfaces) ``oid`` rests on: the one of its relation's
+    kind whose height is nearest its bottom (``None`` when there is none)."""
+    rel = scene.support_of(oid)
+    z = float(scene.get(oid).pose.position[2])
+    fits = [sf for sf in found if rel is not None and sf.support_relation(oid).kind == rel.kind]
+    return min(fits, key=lambda sf: abs(sf.height - z)) if fits else None
+
+
 def _swap(asset: ClutterAsset, priors: ClutterPriors, rng: np.random.Generator) -> ClutterAsset | None:
     similar = [
         a
@@ -117,7 +157,13 @@ def _relocate(
     """Put ``oid`` on ``surface`` of ``receptacle``: its pose and its support relation (other
     relations naming it as a child of its old receptacle go)."""
     obj = scene.get(oid)
-    obj.pose = Pose.from_yaw((xy[0], xy[1], surface.height + 0.002), yaw, obj.pose.scale)
+    obj.pose = Pose.from_yaw((xy[0], xy[1], surface.height + DROP_GAP_M), yaw, obj.pose.scale)
+    _rehome(scene, oid, surface)
+
+
+def _rehome(scene: Scene, oid: str, surface: Surface) -> None:
+    """Make ``surface`` the support of ``oid`` (other relations naming it as a child of its old
+    receptacle go)."""
     old = scene.support_of(oid)
     scene.relations = [
         r
@@ -145,8 +191,11 @@ def vary_scene(
     seed: int,
     base_dir: str | Path | None = None,
     hull_cache: HullCache | None = None,
+    shown: Sequence[Scene] = (),
 ) -> tuple[Scene, ClutterReport]:
-    """A copy of ``scene`` with its small objects moved, recounted and swapped (module docstring)."""
+    """A copy of ``scene`` with its small objects moved, recounted and swapped (module docstring);
+    with ``shown`` (other scenes of the same room), planned to differ from each of them in where
+    as many small objects rest as it can."""
     t0 = time.perf_counter()
     out = scene.model_copy(deep=True)
     report = ClutterReport(mode="vary")
@@ -172,9 +221,16 @@ def vary_scene(
     record = out.metadata.setdefault(CLUTTER_METADATA, {"objects": {}})
     record.setdefault("objects", {})
     placed: dict[str, Surface] = {}
-    # largest first (as the packing orders a surface), ties in a seeded order
+    # largest first (as the packing orders a surface), ties in a seeded order; a planned pass
+    # first places the objects with the fewest receptacles their type may use (the most
+    # constrained, before the others fill those receptacles)
     shuffled = [small[i] for i in rng.permutation(len(small))]
-    order = sorted(shuffled, key=lambda oid: -float(np.prod(out.get(oid).size[:2])))
+
+    def choices(oid: str) -> int:
+        t = priors.object_type(out.get(oid).category)
+        return sum(1 for rt in receptacles.values() if t is not None and priors.allows(t, rt)) if shown else 0
+
+    order = sorted(shuffled, key=lambda oid: (choices(oid), -float(np.prod(out.get(oid).size[:2]))))
     # places held for the objects still to come back to their own receptacle: newcomers never
     # push a receptacle past the most the source holds on one
     pending = dict.fromkeys(receptacles, 0)
@@ -184,6 +240,9 @@ def vary_scene(
     def has_room(r: str) -> bool:
         return load.get(r, 0) + pending.get(r, 0) < most
 
+    # where each small object rests in the scene given: a moved one that does not rest goes back
+    resting_on = {oid: _surface_of(out, oid, surfaces.get(home[oid], ())) for oid in small}
+    plan = _Plan(shown, small) if shown else None
     for oid in order:
         pending[home[oid]] -= 1
         asset = _asset_of(out, oid, priors)
@@ -191,28 +250,36 @@ def vary_scene(
             continue
         swapped = _swap(asset, priors, rng) if rng.random() < SWAP_SHARE else None
         use = swapped or asset
-        targets = [home[oid]]
-        if rng.random() < MOVE_SHARE:
-            allowed = [
-                (r, priors.held[t].get(use.object_type, 0.0))
-                for r, t in sorted(receptacles.items())
-                if r != home[oid] and priors.allows(use.object_type, t) and has_room(r)
+        allowed = [
+            (r, priors.held[t].get(use.object_type, 0.0))
+            for r, t in sorted(receptacles.items())
+            if r != home[oid] and priors.allows(use.object_type, t) and has_room(r)
+        ]
+        if plan is not None:
+            at_home = priors.held.get(receptacles.get(home[oid], ""), {}).get(use.object_type, 0.0)
+            options = [(sf, w) for r, w in [(home[oid], at_home), *allowed] for sf in surfaces.get(r, ())]
+            ranked = plan.order(oid, options, rng)
+            # the best few, then its own receptacle's surfaces, then the others
+            later = ranked[PLAN_TRIES:]
+            tries: Iterable[Surface] = [
+                *ranked[:PLAN_TRIES],
+                *(sf for sf in later if sf.receptacle == home[oid]),
+                *(sf for sf in later if sf.receptacle != home[oid]),
             ]
-            if allowed:
+        else:
+            targets = [home[oid]]
+            if rng.random() < MOVE_SHARE and allowed:
                 weights = np.array([w for _, w in allowed])
-                pick = allowed[int(rng.choice(len(allowed), p=weights / weights.sum()))][0]
-                targets = [pick, home[oid]]
+                targets = [allowed[int(rng.choice(len(allowed), p=weights / weights.sum()))][0], home[oid]]
+            # drawn lazily, as each receptacle's surfaces are reached
+            tries = (surfaces[r][int(k)] for r in targets if r in surfaces for k in rng.permutation(len(surfaces[r])))
         spot = None
-        for r in targets:
-            if r not in surfaces or (r != home[oid] and not has_room(r)):
-                continue
-            for k in rng.permutation(len(surfaces[r])):
-                surface = surfaces[r][int(k)]
-                spot = place_on_surface(out, surface, use, rng, taken[surface.key])
-                if spot is not None:
-                    break
+        for surface in tries:
+            spot = place_on_surface(out, surface, use, rng, taken[surface.key])
             if spot is not None:
                 break
+        if plan is not None and spot is not None:
+            plan.placed(oid, surface)
         if spot is None:  # no free place, not even on its own receptacle: it goes (reported)
             gone.add(oid)
             report.dropped[oid] = "no free place on a receptacle its type may use"
@@ -236,7 +303,17 @@ def vary_scene(
     remove_objects(out, gone)
     for r in sorted(report.added):
         _settle(out, r, report.added[r], shapes, _seed(seed, "vary-settle", r))
-    _keep_resting(out, report, placed, shapes, priors, seed, base_dir, hull_cache)
+
+    def back_home(oid: str, surface: Surface) -> None:  # a moved object that did not rest, put back
+        _rehome(out, oid, surface)
+        record["objects"][oid].update(receptacle=surface.receptacle, placement=surface.placement)
+        if oid in report.moved and surface.receptacle == home[oid]:
+            report.moved.remove(oid)
+
+    back = {
+        oid: mine for oid, there in placed.items() if (mine := resting_on.get(oid)) is not None and mine.key != there.key
+    }
+    _keep_resting(out, report, placed, shapes, priors, seed, base_dir, hull_cache, back=back, moved=back_home)
     report.added = {}  # nothing was added: the objects moved
     record["mode"] = "vary"
     if out.structure is not None:
@@ -252,6 +329,49 @@ def vary_scene(
         dropped=len(report.dropped),
     )
     return out, report
+
+
+class _Plan:
+    """Where a ``vary`` pass puts each small object so that the new scene differs from every scene
+    already ``shown`` in where as many of them rest as it can.
+
+    Two counts per shown scene ``u``: the objects placed so far on another receptacle than in ``u``
+    (``differ[0, u]``), and those on another surface (``differ[1, u]``: another receptacle or
+    another level of the same one, :func:`resting_place`). An object's surfaces are tried best
+    first: the one that raises the sorted receptacle counts most (lexicographically, the least
+    count first: a greedy max-min), then the sorted surface counts, then a draw weighted by the
+    priors (how often ProcTHOR found the type on the receptacle's type)."""
+
+    def __init__(self, shown: Sequence[Scene], small: Sequence[str]) -> None:
+        ids = [{o.id for o in s.objects} for s in shown]
+        self.before: dict[str, list[tuple[str | None, str | None, int] | None]] = {
+            oid: [resting_place(s, oid) if oid in present else None for s, present in zip(shown, ids, strict=True)]
+            for oid in small
+        }
+        self.differ = np.zeros((2, len(shown)), dtype=int)
+
+    def _gains(self, oid: str, surface: Surface) -> np.ndarray:
+        here = _place_of(surface)
+        before = self.before[oid]
+        return np.array(
+            [[b is not None and b[0] != here[0] for b in before], [b is not None and b != here for b in before]],
+            dtype=int,
+        )
+
+    def order(self, oid: str, options: Sequence[tuple[Surface, float]], rng: np.random.Generator) -> list[Surface]:
+        """``options`` (surface, priors' weight) best first (class docstring)."""
+        keyed = []
+        for k, (surface, weight) in enumerate(options):
+            after = np.sort(self.differ + self._gains(oid, surface), axis=1)
+            # a draw weighted by the priors: the largest of u ** (1 / w) comes first
+            draw = float(rng.random()) ** (1.0 / max(weight, 1e-6))
+            keyed.append((tuple(after[0]), tuple(after[1]), draw, -k))
+        ranked = sorted(range(len(options)), key=lambda k: keyed[k], reverse=True)
+        return [options[k][0] for k in ranked]
+
+    def placed(self, oid: str, surface: Surface) -> None:
+        """Count ``oid`` put on ``surface``."""
+        self.differ += self._gains(oid, surface)
 
 
 def carry_clutter(

@@ -116,6 +116,7 @@ register_format(
         read=lambda data, path, o: [_module("_sceneeval_read").import_sceneeval(data, path, asset_dir=o.asset_dir)],
         write=_write_sceneeval,
         write_house=_house_writer("_sceneeval", "export_house_sceneeval"),
+        room_doors=True,
     )
 )
 register_format(  # before procthor: a Holodeck room also has rooms + objects
@@ -165,6 +166,7 @@ register_format(
         "one GLB with a node per object (Y-up, as glTF)",
         write=_write_glb,
         write_house=_house_writer("_glb", "export_house_glb"),
+        room_doors=True,
     )
 )
 register_format(
@@ -173,6 +175,7 @@ register_format(
         "MuJoCo scene.xml + mjcf/ meshes",
         write=_write_mjcf,
         write_house=_house_writer("_mjcf", "export_house_mjcf"),
+        room_doors=True,
         uses_hulls=True,
     )
 )
@@ -182,6 +185,7 @@ register_format(
         "ASCII USD scene.usda with UsdPhysics + usd/ per-object geometry (needs scenemosaic[usd])",
         write=_write_usd,
         write_house=_house_writer("_usd", "export_house_usd"),
+        room_doors=True,
         uses_hulls=True,
     )
 )
@@ -191,6 +195,7 @@ register_format(
         "URDF scene.urdf + urdf/<id>.urdf per object + urdf/meshes/",
         write=_write_urdf,
         write_house=_house_writer("_urdf", "export_house_urdf"),
+        room_doors=True,
         uses_hulls=True,
     )
 )

@@ -19,9 +19,9 @@ from typing import Any
 
 import structlog
 
-from scenemosaic.assets import HullCache
+from scenemosaic.assets import HullCache, with_room_doors
 from scenemosaic.exchange._native import read_house, read_scene, save_house
-from scenemosaic.exchange._registry import write_scene
+from scenemosaic.exchange._registry import FORMATS, write_scene
 from scenemosaic.scene import House, RunFolder, Scene, write_atomic
 
 __all__ = [
@@ -121,10 +121,13 @@ def export_house_folder(folder: Path, *, hull_cache: HullCache | None = None) ->
 def _write_delivered(saved: Scene | House, folder: Path, procthor: bool, hull_cache: HullCache | None) -> None:
     """Every format of :data:`DELIVERED_FORMATS` whose extra is installed, through
     :func:`write_scene` (a house through each format's house writer), from the native copy saved
-    in ``folder``; and ``house.json`` when ``procthor`` (the AI2-THOR house it came from)."""
+    in ``folder``; and ``house.json`` when ``procthor`` (the AI2-THOR house it came from). The rooms'
+    doors are hung once (``assets.with_room_doors``) for every simulator format."""
+    hung = with_room_doors(saved)
     for fmt, destination in DELIVERED_FORMATS:
         if _available(fmt):
-            write_scene(saved, fmt, folder / destination if destination else folder, folder, hull_cache=hull_cache)
+            scene = hung if FORMATS[fmt].room_doors else saved
+            write_scene(scene, fmt, folder / destination if destination else folder, folder, hull_cache=hull_cache)
     if procthor:  # back into the house it came from
         write_scene(saved, "procthor", folder, folder)
 

@@ -41,6 +41,7 @@ from shapely.ops import unary_union
 from scenemosaic.exceptions import ImportFormatError, UsageError
 from scenemosaic.exchange._common import FieldReader, read_json
 from scenemosaic.scene import (
+    CLUTTER_METADATA,
     PROCTHOR_PRIORS_DIR,
     AssetRef,
     FloatArray,
@@ -614,6 +615,7 @@ def _add_opening(
         r.fail(f"{f}.wall0", f"wall {wall_key!r} has zero length")
     centre = np.asarray(wall.start) + d / length * (0.5 * (x0 + x1))
     kind: Literal["door", "window"] = "door" if key == "doors" else "window"
+    leaves = _door_leaves(item.get("assetId")) if kind == "door" else None
     rooms = dict.fromkeys(src for src in (item.get("room0"), item.get("room1")) if isinstance(src, str))
     for src in rooms:
         build = by_source.get(src)
@@ -626,8 +628,22 @@ def _add_opening(
         along = float(np.dot(centre - np.asarray(target.start), target.direction))
         target.openings = [
             *target.openings,
-            Opening(kind=kind, center=along, width=width, bottom=max(0.0, y0), height=height),
+            Opening(kind=kind, center=along, width=width, bottom=max(0.0, y0), height=height, leaves=leaves),
         ]
+
+
+def _door_leaves(asset_id: Any) -> int | None:
+    """How many leaves an AI2-THOR door asset hangs in its hole: a ``Doorframe_*`` none (a frame
+    without a door), a ``Doorway_Double_*`` two, another ``Doorway_*`` one; ``None`` for an asset
+    id that says nothing (a door then gets one leaf)."""
+    if not isinstance(asset_id, str):
+        return None
+    name = asset_id.lower()
+    if name.startswith("doorframe"):
+        return 0
+    if name.startswith("doorway"):
+        return 2 if "double" in name else 1
+    return None
 
 
 def _hole(r: FieldReader, item: Mapping[str, Any], f: str) -> tuple[float, float, float, float]:
@@ -776,11 +792,32 @@ def _unity_pose(obj: SceneObject) -> tuple[dict[str, float], dict[str, float]]:
     )
 
 
+def _clutter_items(scene: Scene, raw_ids: Mapping[str, str]) -> list[tuple[str | None, dict[str, Any]]]:
+    """The objects a clutter pass drew from the asset database into ``scene`` (``docs/clutter.md``)
+    as house-file items, each with the file's id of the receptacle it rests on (``None`` when that
+    is no object of the file): a child of the receptacle there, as ProcTHOR lists the small
+    objects on a receptacle."""
+    record = (scene.metadata.get(CLUTTER_METADATA) or {}).get("objects") or {}
+    known = {o.id for o in scene.objects}
+    out: list[tuple[str | None, dict[str, Any]]] = []
+    for oid, entry in sorted(record.items()):
+        if oid in raw_ids or oid not in known or not isinstance(entry, dict) or not entry.get("asset_id"):
+            continue  # the file's own objects are moved in place; what left the scene is not written
+        obj = scene.get(oid)
+        position, rotation = _unity_pose(obj)
+        support = scene.support_of(oid)
+        holder = raw_ids.get(support.parent) if support is not None else None
+        item = {"assetId": str(entry["asset_id"]), "id": oid, "kinematic": False, "position": position, "rotation": rotation}
+        out.append((holder, item))
+    return out
+
+
 def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) -> Path:
     """Write ``folder/house.json``: the house file the ``scenes`` (rooms of one house) came from,
     with every object of theirs at its scene's pose; everything else as the house had it."""
     sources: set[str] = set()
     placed: dict[str, SceneObject] = {}
+    added: list[tuple[str | None, dict[str, Any]]] = []  # (the receptacle's id in the file, item)
     rooms: list[str] = []
     for scene in scenes:
         meta = scene.metadata.get("procthor")
@@ -792,9 +829,9 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
             )
         sources.add(source)
         known = {o.id for o in scene.objects}
-        placed.update(
-            {str(raw): scene.get(oid) for oid, raw in (meta.get("source_ids") or {}).items() if oid in known}
-        )
+        raw_ids = {oid: str(raw) for oid, raw in (meta.get("source_ids") or {}).items()}
+        placed.update({raw: scene.get(oid) for oid, raw in raw_ids.items() if oid in known})
+        added.extend(_clutter_items(scene, raw_ids))
         rooms.append(str(meta.get("room_id")))
     if len(sources) != 1:
         raise UsageError(
@@ -807,12 +844,14 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
             "the house the scene came from has no objects list", path=str(path), field="objects"
         )
     moved = 0
+    by_id: dict[str, dict[str, Any]] = {}
 
     def visit(items: list[Any]) -> None:
         nonlocal moved
         for item in items:
             if not isinstance(item, dict):
                 continue
+            by_id[str(item.get("id"))] = item
             obj = placed.get(str(item.get("id")))
             if obj is not None:
                 item["position"], item["rotation"] = _unity_pose(obj)
@@ -822,10 +861,17 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
                 visit(children)
 
     visit(house["objects"])
+    for holder, item in added:
+        parent = by_id.get(holder) if holder is not None else None
+        if parent is None:
+            house["objects"].append(item)
+            continue
+        item.setdefault("layer", parent.get("layer"))
+        parent.setdefault("children", []).append(item)
     out = Path(folder) / HOUSE_FILE
     out.parent.mkdir(parents=True, exist_ok=True)
     write_atomic(out, json.dumps(house, indent=1, ensure_ascii=False) + "\n")
-    log.info("procthor_exported", path=str(out), rooms=rooms, objects=moved, source=str(path))
+    log.info("procthor_exported", path=str(out), rooms=rooms, objects=moved, added=len(added), source=str(path))
     return out
 
 
@@ -836,7 +882,8 @@ def export_procthor(scene: Scene, folder: str | os.PathLike[str], base_dir: Path
 
     Only a scene imported from a house can be written back as one (it names the house file and
     maps its objects to the house's ids); others raise :class:`~scenemosaic.exceptions.UsageError`.
-    Objects the house does not know (none are added by the pipeline) are left out.
+    Small objects a clutter pass drew from the asset database (``--clutter fill``) are added, each
+    a child of the receptacle it rests on; other objects the house does not know are left out.
     """
     return _write_back([scene], folder, f"scene {scene.id!r}")
 

@@ -97,6 +97,10 @@ class SceneFormat:
     """A folder holding a file of this name is this format (``scene.json``, ``poses.json``)."""
     takes_room: bool = False
     """Whether ``ReadOptions.room`` may replace the room this format recovers."""
+    room_doors: bool = False
+    """Whether the writers get the rooms' doors hung on their doorways (the simulator formats:
+    :func:`~scenemosaic.assets.with_room_doors` adds each door as an object held in place whose
+    leaves are parts on hinges, ``docs/articulation.md``)."""
 
 
 FORMATS: dict[str, SceneFormat] = {}
@@ -302,7 +306,8 @@ def write_scene(
     the relative mesh uris of what is written (the folder it was read from).
 
     ``hull_cache`` is the CoACD cache the formats that carry collision hulls read (default: the
-    user's default cache).
+    user's default cache). A simulator format (``SceneFormat.room_doors``) gets the rooms' doors
+    hung on their doorways (:func:`~scenemosaic.assets.with_room_doors`).
 
     If the writer fails, what it created is removed: a ``destination`` (or a folder above it) that
     did not exist is gone again, and in a folder that did exist, the entries the writer added are.
@@ -311,6 +316,10 @@ def write_scene(
     base = Path(base_dir) if base_dir is not None else None
     target = Path(destination)
     options: dict[str, Any] = {"hull_cache": hull_cache} if fmt.uses_hulls and hull_cache is not None else {}
+    if fmt.room_doors:
+        from scenemosaic.assets import with_room_doors  # here: registering loads no backend
+
+        scene = with_room_doors(scene)
     if isinstance(scene, House):
         house_writer = fmt.write_house
         if house_writer is None:

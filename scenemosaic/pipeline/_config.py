@@ -379,12 +379,15 @@ class GenerateConfig(BaseModel):
     # -- run ---------------------------------------------------------------------------------
     seed: Annotated[int, Setting("run", decides=True, flag="--seed")] = 0
     """Run seed. Every random choice derives from it, so equal inputs give identical files."""
-    open_state: Annotated[Literal["closed", "open", "random"], Setting("run", decides=True, flag="--open-state")] = "closed"
+    open_state: Annotated[
+        Literal["closed", "open", "random"] | None, Setting("run", decides=True, flag="--open-state")
+    ] = None
     """The pose drawers, doors and lids are delivered in: ``closed``, ``open`` or ``random`` (drawn
-    from ``seed``). ``closed`` (default) writes the files of furniture that does not know it opens;
-    ``open`` puts each part at its upper joint limit, ``random`` somewhere in its range. Every export
-    places the parts so and what stands in a drawer comes out with it; the joints' limits stay 0
-    (closed) to open, and validation simulates the scene closed (``docs/articulation.md``)."""
+    from ``seed``). Unset (default), the furniture is closed and the rooms' doors stand open (the
+    doorways passable); ``closed`` shuts the rooms' doors too; ``open`` puts each part at its upper
+    joint limit (a room's door as far as it swings clear), ``random`` somewhere in its range. Every
+    export places the parts so and what stands in a drawer comes out with it; the joints' limits
+    stay 0 (closed) to open, and validation simulates the scene closed (``docs/articulation.md``)."""
     stabilize: Annotated[bool, Setting("run", decides=True, flag="--stabilize")] = True
     """Run the physics stabilization (default on); off skips evolve too."""
     strict: Annotated[bool, Setting("run", flag="--strict")] = False

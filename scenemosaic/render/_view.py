@@ -13,6 +13,7 @@ its front) are the same call with another :class:`OrthoView` and the unit's obje
 
 from __future__ import annotations
 
+import functools
 import io
 import math
 import re
@@ -331,8 +332,10 @@ def object_label(obj: SceneObject) -> str:
     return f"{obj.category.replace('_', ' ')} {obj.id}"
 
 
-def _label_offsets(step: float, reach: float) -> list[tuple[float, float]]:
-    """Where a label may go around its object's centre, nearest first: rings of 16 directions."""
+@functools.lru_cache(maxsize=64)
+def _label_offsets(step: float, reach: float) -> FloatArray:
+    """Where a label may go around its object's centre, nearest first: rings of 16 directions
+    (``(N, 2)``; made once per label height and picture size)."""
     offsets = [(0.0, 0.0)]
     radius = step
     while radius <= reach:
@@ -340,7 +343,9 @@ def _label_offsets(step: float, reach: float) -> list[tuple[float, float]]:
             (radius * math.cos(k * math.pi / 8), radius * math.sin(k * math.pi / 8)) for k in range(16)
         ]
         radius += step
-    return offsets
+    out = np.asarray(offsets, dtype=np.float64)
+    out.setflags(write=False)
+    return out
 
 
 def _draw_labels(
@@ -363,11 +368,13 @@ def _draw_labels(
         cx, cy = float(centre[0]), float(centre[1])
         x0, y0, x1, y1 = draw.textbbox((cx, cy), text, font=font, anchor="mm", stroke_width=2)
         half_w, half_h = (x1 - x0) / 2 + LABEL_GAP_PX, (y1 - y0) / 2 + LABEL_GAP_PX
-        spots = _label_offsets(2 * half_h, max(width, height) / 3)
-        spots += [(x - cx, y - cy) for y in np.arange(half_h, height, 2 * half_h) for x in np.arange(half_w, width, half_w)]
+        # around the centre, then anywhere on a grid over the picture (rows top down)
+        gx, gy = np.meshgrid(np.arange(half_w, width, half_w) - cx, np.arange(half_h, height, 2 * half_h) - cy)
+        grid = np.stack([gx.ravel(), gy.ravel()], axis=-1)
+        spots = np.concatenate([_label_offsets(2 * half_h, max(width, height) / 3), grid])
         free = _first_free_spot(spots, (cx, cy, half_w, half_h), placed, (width, height))
         if free is not None:
-            dx, dy = spots[free]
+            dx, dy = (float(v) for v in spots[free])
             box = (cx + dx - half_w, cy + dy - half_h, cx + dx + half_w, cy + dy + half_h)
         else:  # pragma: no cover - a picture with no free spot left for a label
             dx = dy = 0.0
@@ -384,7 +391,7 @@ def _draw_labels(
 
 
 def _first_free_spot(
-    spots: Sequence[tuple[float, float]],
+    spots: Sequence[tuple[float, float]] | FloatArray,
     label: tuple[float, float, float, float],
     placed: Sequence[tuple[float, float, float, float]],
     picture: tuple[int, int],

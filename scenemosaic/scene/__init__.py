@@ -111,6 +111,7 @@ from scenemosaic.scene._limits import (
     size_problem,
 )
 from scenemosaic.scene._model import (
+    CLUTTER_METADATA,
     QUAT_NORM_TOLERANCE,
     AssetRef,
     ConstraintClause,
@@ -194,6 +195,7 @@ from scenemosaic.scene._walkable import (
 __all__ = [
     "CEILING",
     "CEILING_LAMP_CATEGORIES",
+    "CLUTTER_METADATA",
     "COACD_MAX_FACES",
     "CONCAVE_FOOTPRINTS",
     "DOOR_CLEARANCE_DEPTH_M",

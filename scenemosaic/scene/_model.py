@@ -312,6 +312,25 @@ class Opening(_Model):
     width: float = Field(gt=0)
     bottom: float = Field(default=0.0, ge=0, description="Sill height above the floor, metres.")
     height: float = Field(gt=0)
+    leaves: int | None = Field(
+        default=None,
+        ge=0,
+        le=2,
+        exclude_if=lambda v: v is None,
+        description=(
+            "A door's hinged leaves: 0 for a frame without a door (AI2-THOR's Doorframe), 1, or 2 "
+            "(a double door); None (the default, left out of scene.json): not said, a door gets "
+            "one. The simulator exports hang them on the doorway (docs/articulation.md)."
+        ),
+    )
+
+    @property
+    def leaf_count(self) -> int:
+        """How many hinged leaves hang in it: :attr:`leaves` for a door (one when unsaid), none
+        for a window or an open stretch of wall."""
+        if self.kind != "door":
+            return 0
+        return 1 if self.leaves is None else self.leaves
 
 
 class Wall(_Model):
@@ -504,6 +523,12 @@ class Provenance(_Model):
     importer: str | None = None
     steps: list[str] = Field(default_factory=list, description="Pipeline stages applied, in order.")
     notes: list[str] = Field(default_factory=list, description="Repairs and fallbacks worth knowing about.")
+
+
+CLUTTER_METADATA = "clutter"
+"""The key of ``Scene.metadata`` under which a clutter pass records the small objects it added or
+moved (``docs/clutter.md``): ``{"mode": ..., "objects": {id: {"asset_id", "receptacle",
+"placement"}}}``."""
 
 
 class Scene(_Model):

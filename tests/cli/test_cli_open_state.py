@@ -110,3 +110,22 @@ def test_generate_delivers_the_open_state_drawn_from_the_run_seed(saved: Path, t
             assert joints[f"{obj.id}/{part.name}"] == pytest.approx(value, abs=1e-5)
     report = json.loads((out / "report.json").read_text())
     assert report["config"]["open_state"] == "random"
+
+
+def test_export_of_a_run_draws_random_from_the_run_seed(saved: Path, tmp_path: Path) -> None:
+    """``export RUN --open-state random`` without ``--seed`` draws from the seed the run was made
+    with (its report's config), as ``generate --open-state random --seed N`` would."""
+    run = tmp_path / "run"
+    made = runner.invoke(app, ["generate", str(saved / "scene.json"), "--out", str(run), "--no-evolve", "--seed", "7"])
+    assert made.exit_code == 0, made.output
+    done = runner.invoke(app, ["export", str(run), "-f", "mjcf", "-o", str(tmp_path / "x"), "--open-state", "random"])
+    assert done.exit_code == 0, done.output
+    joints = _qpos0(tmp_path / "x" / "base" / "scene.xml")
+    delivered = read_scene(run / "base")
+    drawn = {
+        f"{o.id}/{p.name}": opening(p, "random", seed=7, key=o.id) for o in delivered.objects for p in object_articulation(o)
+    }
+    assert drawn and joints == pytest.approx(drawn, abs=1e-5)
+    assert drawn != {
+        f"{o.id}/{p.name}": opening(p, "random", seed=0, key=o.id) for o in delivered.objects for p in object_articulation(o)
+    }

@@ -47,3 +47,33 @@ def test_a_generated_room_round_trips_through_its_house(tmp_path: Path) -> None:
 def test_a_scene_from_elsewhere_is_not_written_as_a_house(tmp_path: Path) -> None:
     with pytest.raises(UsageError, match="not imported from an AI2-THOR/ProcTHOR house"):
         export_procthor(demo_scene(), tmp_path)
+
+
+def test_objects_fill_adds_go_into_the_house_file(tmp_path: Path) -> None:
+    """``--clutter fill`` draws objects from the asset database; the written-back house lists each,
+    a child of the receptacle it rests on, and reads back at the delivered pose."""
+    result = generate(HOUSE, tmp_path / "out", GenerateConfig(room="room_6", clutter="fill"))
+    scene = read_scene(result.base_dir)
+    added = scene.metadata["clutter"]["objects"]
+    assert len(added) >= 5
+    raw = json.loads((result.base_dir / "house.json").read_text(encoding="utf-8"))
+    source_ids = scene.metadata["procthor"]["source_ids"]
+    children: dict[str, str] = {}
+
+    def walk(items: list[dict[str, object]]) -> None:
+        for item in items:
+            kids = item.get("children") or []
+            assert isinstance(kids, list)
+            children.update({str(c["id"]): str(item["id"]) for c in kids})
+            walk(kids)
+
+    walk(raw["objects"])
+    for oid, entry in added.items():
+        assert children.get(oid) == source_ids[entry["receptacle"]], oid  # under its receptacle
+    back = {s.id: s for s in load_scenes(result.base_dir / "house.json")}["room_6"]
+    for oid, entry in added.items():
+        obj = back.get(oid)
+        assert entry["asset_id"] in obj.description
+        dp, dq = _same_pose(obj, scene.get(oid))
+        assert dp < 2e-6 and dq < 1e-6, (oid, dp, dq)
+    assert len(back.objects) == len(scene.objects)

@@ -23,7 +23,7 @@ import trimesh
 from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import unary_union
 
-from scenemosaic.assets import object_articulation
+from scenemosaic.assets import object_articulation, with_room_doors
 from scenemosaic.exchange import (
     GLB_ROOT_NODE,
     HOUSE_INDEX_FILE,
@@ -313,8 +313,9 @@ def test_deliver_house_round_trips_and_writes_the_procthor_house_back(house: Hou
     index = json.loads((folder / HOUSE_INDEX_FILE).read_text())
     assert index["format"] == "scenemosaic-house" and index["version"] == 1 and index["rooms"] == list(ROOMS)
     assert all((folder / HOUSE_ROOMS_DIR / rid / "scene.json").is_file() for rid in ROOMS)
-    parts = sum(len(object_articulation(o)) for o in house.objects)
-    assert mujoco.MjModel.from_xml_path(str(folder / "scene.xml")).nbody == 1 + len(house.objects) + parts
+    hung = with_room_doors(house)  # the simulator files also hold the rooms' doors, each leaf a part
+    parts = sum(len(object_articulation(o)) for o in hung.objects)
+    assert mujoco.MjModel.from_xml_path(str(folder / "scene.xml")).nbody == 1 + len(hung.objects) + parts
 
     back = read_house(folder)
     assert back.id == house.id and back.room_ids == house.room_ids
@@ -361,5 +362,6 @@ def test_deliver_house_round_trips_and_writes_the_procthor_house_back(house: Hou
     # last, as it may skip: the URDF loads, a link per object, per room, the floor and the world
     yourdfpy = pytest.importorskip("yourdfpy")
     urdf = yourdfpy.URDF.load(str(folder / "scene.urdf"), build_scene_graph=False, load_meshes=False)
-    parts = {f"{o.id}/{p.name}" for o in house.objects for p in object_articulation(o)}  # drawers, doors, lids
-    assert {o.id for o in house.objects} | parts | set(ROOMS) | {"world", "floor"} == set(urdf.link_map)
+    # drawers, doors, lids, and the rooms' doors with their leaves
+    parts = {f"{o.id}/{p.name}" for o in hung.objects for p in object_articulation(o)}
+    assert {o.id for o in hung.objects} | parts | set(ROOMS) | {"world", "floor"} == set(urdf.link_map)
