@@ -60,7 +60,14 @@ import structlog
 import trimesh
 
 from scenemosaic._memo import Memo
-from scenemosaic.assets import HullCache, PartSpec, object_mesh, object_part_meshes, part_openings
+from scenemosaic.assets import (
+    HullCache,
+    PartSpec,
+    asset_fingerprint,
+    object_mesh,
+    object_part_meshes,
+    part_openings,
+)
 from scenemosaic.physics import (
     ROOM_FRICTION,
     HullInput,
@@ -302,19 +309,13 @@ class _ObjectFiles:
         self.visual: str | None = None
         self.part_visuals: dict[str, str] = {}
         try:
-            if shape.articulation:
-                visuals = object_part_meshes(obj, base_dir)
-            else:
-                visuals = {None: object_mesh(obj, base_dir)}
+            texts = _visual_texts(obj, shape, base_dir)
         except Exception as exc:  # the visual is optional: the collision pieces still describe the object
             log.warning("urdf_visual_mesh_failed", object_id=obj.id, error=str(exc))
         else:
-            for part, visual in visuals.items():
+            for part, text in texts:
                 file_name = f"{obj.id}_visual.obj" if part is None else f"{obj.id}_visual_{part}.obj"
-                _write_obj(
-                    trimesh.Trimesh(vertices=visual.vertices, faces=visual.faces, process=False),
-                    mesh_dir / file_name,
-                )
+                write_atomic(mesh_dir / file_name, text)
                 if part is None:
                     self.visual = file_name
                 else:
@@ -432,10 +433,34 @@ class _ObjectFiles:
 
 def _write_obj(mesh: trimesh.Trimesh, path: Path) -> None:
     """Geometry only (no material file), so every file stands alone and equal meshes give equal bytes."""
+    write_atomic(path, _mesh_text(mesh))
+
+
+def _mesh_text(mesh: trimesh.Trimesh) -> str:
+    """The OBJ text :func:`_write_obj` writes for ``mesh``."""
     vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
     faces = np.ascontiguousarray(mesh.faces, dtype=np.int64)
     key = hashlib.sha1(vertices.tobytes() + b"|" + faces.tobytes()).hexdigest()
-    write_atomic(path, _OBJ_TEXTS.get(key, lambda: _obj_text(vertices, faces)))
+    return _OBJ_TEXTS.get(key, lambda: _obj_text(vertices, faces))
+
+
+def _visual_texts(obj: SceneObject, shape: ObjectShape, base_dir: Path | None) -> tuple[tuple[str | None, str], ...]:
+    """The OBJ texts of ``obj``'s visual meshes, ``(part name or None for what does not move,
+    text)``: split by its movable parts when it has some. Made once per process for each asset
+    (:func:`~scenemosaic.assets.asset_fingerprint`): a house's variants share their furniture."""
+
+    def make() -> tuple[tuple[str | None, str], ...]:
+        visuals = object_part_meshes(obj, base_dir) if shape.articulation else {None: object_mesh(obj, base_dir)}
+        return tuple(
+            (part, _mesh_text(trimesh.Trimesh(vertices=v.vertices, faces=v.faces, process=False)))
+            for part, v in visuals.items()
+        )
+
+    return _VISUAL_TEXTS.get((asset_fingerprint(obj, base_dir), bool(shape.articulation)), make)
+
+
+_VISUAL_TEXTS: Memo[tuple[str, bool], tuple[tuple[str | None, str], ...]] = Memo(4096)
+"""Visual OBJ texts by asset fingerprint (:func:`_visual_texts`)."""
 
 
 def _obj_text(vertices: FloatArray, faces: npt.NDArray[np.int64]) -> str:

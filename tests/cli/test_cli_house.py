@@ -18,6 +18,7 @@ from PIL import Image
 from simulator_checks import REST_M, mujoco_drift, pybullet_drift, read_back, usd_object_prims
 from typer.testing import CliRunner
 
+from scenemosaic.assets import with_room_doors
 from scenemosaic.cli import app
 from scenemosaic.exchange import load_scene, read_house, writable_formats
 from scenemosaic.physics import is_fixed
@@ -134,8 +135,10 @@ def test_the_delivered_house_usd_has_a_rigid_body_per_movable_object(houses: dic
 
     stage = Usd.Stage.Open(str(run_dir / "base" / "scene.usda"))
     prims = usd_object_prims(stage)
-    house = houses["base"]
+    house = with_room_doors(houses["base"])  # the doors hung on the doorways: held in place
+    assert isinstance(house, House)
     assert set(prims) == {o.id for o in house.objects}
+    assert any(o.category.startswith("room_") and o.id.startswith("room_door") for o in house.objects)
     for room in house.rooms:
         for obj in room.objects:
             prim = prims[obj.id]
