@@ -1524,7 +1524,7 @@ def _plunger(w: float, d: float, h: float) -> Parts:
 
 
 def _garbage_can_layout(w: float, d: float, h: float) -> tuple[Parts, list[Box6]]:
-    """Open-top bin (garbage can, hamper, basket): a floor and four walls, hollow."""
+    """Open-top bin (garbage can, basket): a floor and four walls, hollow."""
     parts, inside = _tub(
         _frame(w, d, h)[0],
         _frame(w, d, h)[1],
@@ -1923,7 +1923,8 @@ _SYNONYMS: dict[str, tuple[str, ...]] = {
     "vase": ("flower_vase",),
     "painting": ("picture", "picture_frame", "poster", "mirror", "wall_art", "artwork", "photo_frame"),
     "pillow": ("cushion", "throw_pillow"),
-    "box": ("cardboard_box", "storage_box", "crate", "tissue_box", "aluminum_foil", "shoe_box"),
+    # a laundry hamper has a lid (AI2-THOR's opens): a closed box hinged at its back edge
+    "box": ("cardboard_box", "storage_box", "crate", "tissue_box", "aluminum_foil", "shoe_box", "laundry_hamper", "hamper"),
     # household objects (AI2-THOR / ProcTHOR object types and common names)
     "fruit": ("apple", "tomato", "orange", "lemon", "lime", "peach", "pear", "plum", "pomegranate", "mango"),
     "potato": ("lettuce", "bread", "egg", "onion", "cabbage", "loaf", "soap_bar", "vegetable", "avocado"),
@@ -1962,8 +1963,6 @@ _SYNONYMS: dict[str, tuple[str, ...]] = {
     "paper_towel_roll": ("paper_towel", "kitchen_roll"),
     "plunger": ("broom", "mop", "scrub_brush", "toilet_brush"),
     "garbage_can": (
-        "laundry_hamper",
-        "hamper",
         "basket",
         "storage_bin",
         "bin",
