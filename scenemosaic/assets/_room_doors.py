@@ -19,8 +19,9 @@ The rules (``docs/articulation.md``):
 * **Which way.** The candidates, in this order: into the room that owns the door (a single
   room; in a house, the doorway's first room in the house's order), hung on its left jamb (seen
   from that room), then on its right one; then the same into the room on the other side. The
-  first whose leaf, turned to its limit, stays on its room's floor and clear of the furniture is
-  taken; when none is, the one that turns furthest clear (in steps of :data:`FIT_STEP_DEG`).
+  first whose leaf swings to its limit staying on its room's floor and clear of the furniture all
+  the way (checked every :data:`FIT_STEP_DEG`) is taken; when none does, the one that swings
+  furthest clear.
 * **How far.** The leaf is delivered at that angle (its *open* pose: open by default, so the
   doorway stays passable), shut under ``--open-state closed``, a drawn fraction of it under
   ``random``; a value set in the scene's ``open_state`` record wins. The joint's range stays
@@ -65,8 +66,8 @@ ROOM_DOOR_KG_PER_M2 = 12.0
 """Mass of a room door per square metre of its hole, kg/m^2 (a hollow-core interior door: about
 20 kg for 0.8 x 2 m); the leaves take nearly all of it, the jambs the rest."""
 FIT_STEP_DEG = 5.0
-"""The step, degrees, in which a leaf that cannot turn to its limit clear of the furniture is
-turned back until it is."""
+"""The step, degrees, in which a leaf's swing from shut is checked clear of the furniture (it
+opens as far as the first step that is not)."""
 FIT_TOLERANCE_M = 0.01
 """How far, metres, a leaf's outline may reach past its room's floor (into the wall it hangs on,
 or the one beside it) and still count as clear."""
@@ -194,8 +195,9 @@ def _obstacles(room: Scene, door: SceneObject) -> list[Polygon]:
 
 
 def _clear_angle(side: _Side, door: SceneObject, parts: Sequence[PartSpec]) -> float:
-    """The largest angle (radians, a multiple of :data:`FIT_STEP_DEG` up to the limit) at which
-    every leaf of ``door`` stays on its room's floor and clear of the room's objects."""
+    """The largest angle (radians, a multiple of :data:`FIT_STEP_DEG`, or the limit) to which
+    every leaf of ``door`` swings from shut staying on its room's floor and clear of the room's
+    objects at every step on the way (so a robot can shut it again)."""
     room = side.room.room
     floor: BaseGeometry = Polygon(room.floor) if room is not None else Polygon()
     closed = Polygon([tuple(p) for p in door.footprint()])
@@ -203,13 +205,15 @@ def _clear_angle(side: _Side, door: SceneObject, parts: Sequence[PartSpec]) -> f
     obstacles = _obstacles(side.room, door)
     limit = min(p.limits[1] for p in parts)
     steps = math.floor(math.degrees(limit) / FIT_STEP_DEG - 1e-9)
-    for angle in [limit, *(math.radians(FIT_STEP_DEG * k) for k in range(steps, -1, -1))]:
+    reached = 0.0
+    for angle in [*(math.radians(FIT_STEP_DEG * k) for k in range(1, steps + 1)), limit]:
         outlines = [_outline(door, p, angle) for p in parts]
-        if all(allowed.contains(o) for o in outlines) and not any(
+        if not all(allowed.contains(o) for o in outlines) or any(
             o.distance(b) < FIT_CLEARANCE_M for o in outlines for b in obstacles
         ):
-            return angle
-    return 0.0
+            break
+        reached = angle
+    return reached
 
 
 def _fitted(hole: _Hole, object_id: str) -> tuple[_Side, SceneObject, float]:
