@@ -20,8 +20,9 @@ nothing, not fixed.
 * with probability :data:`SWAP_SHARE` its asset is swapped for another database asset of the same
   type whose every side is within :data:`SWAP_SIZE_RATIO` of its own;
 * it is placed with the fill's placement (``scene.pack_surface`` on the receptacle's surfaces,
-  settled as a unit, the rest check); one that finds no place goes back where it was, and one that
-  then does not rest is dropped (reported).
+  settled as a unit, the rest check); one that finds no place goes back where it was; one moved
+  that does not rest is placed again on its own surface first, then on the new one, and one that
+  still does not rest is dropped (reported).
 
 :func:`carry_clutter` carries a base scene's added objects onto a variant whose furniture moved,
 each rigidly with its receptacle. :func:`clutter_distance` says how differently two scenes place
