@@ -38,20 +38,20 @@ def _import_pybullet() -> Any:
     return pybullet
 
 
-def _frictions(path: Path) -> dict[str, float]:
+def _frictions(root: ET.Element) -> dict[str, float]:
     """Model name -> the friction coefficient of its first collision (``<surface><friction><ode><mu>``)."""
     frictions: dict[str, float] = {}
-    for model in ET.parse(path).getroot().iterfind("world/model"):
+    for model in root.iterfind("world/model"):
         mu = model.find("link/collision/surface/friction/ode/mu")
         if mu is not None and mu.text:
             frictions[model.attrib["name"]] = float(mu.text)
     return frictions
 
 
-def _initial_positions(path: Path) -> dict[str, float]:
+def _initial_positions(root: ET.Element) -> dict[str, float]:
     """Joint name -> ``<axis><initial_position>``, for the joints the file delivers away from 0."""
     out: dict[str, float] = {}
-    for joint in ET.parse(path).getroot().iterfind("world/model/joint"):
+    for joint in root.iterfind("world/model/joint"):
         value = joint.find("axis/initial_position")
         if value is not None and value.text:
             out[joint.attrib["name"]] = float(value.text)
@@ -89,8 +89,9 @@ def load_pybullet(folder: str | Path, *, client: int = 0) -> dict[str, int]:
             f"no {SDF_SCENE_FILE} at {path}: write it with `scenemosaic export RUN --format urdf --out DIR`"
         )
     pybullet = _import_pybullet()
-    frictions = _frictions(path)
-    initial = _initial_positions(path)
+    sdf = ET.parse(path).getroot()  # read once: frictions and delivered joint values
+    frictions = _frictions(sdf)
+    initial = _initial_positions(sdf)
     bodies: dict[str, int] = {}
     for body in pybullet.loadSDF(str(path), physicsClientId=client):
         name = pybullet.getBodyInfo(body, physicsClientId=client)[1].decode("utf-8")
