@@ -35,6 +35,7 @@ __all__ = [
     "JobEnd",
     "Orphan",
     "WorkerJob",
+    "WorkerPool",
     "kill_group",
     "run_jobs",
     "watch_parent",
@@ -257,10 +258,81 @@ def run_jobs(
     of one job lives on in the next). A job past its ``limit_s`` gets SIGTERM, and its worker's
     process group SIGKILL :data:`STOP_GRACE_S` later; a worker that dies fails its job only (the
     next job gets a new worker). When this call stops (an exception, ``stop`` set), every worker
-    still running is stopped the same way before it returns or raises.
+    still running is stopped the same way before it returns or raises; when it ends, every worker
+    leaves (:class:`WorkerPool` keeps them for the next call instead).
     """
-    queue = deque(jobs)
     running: list[_Worker] = []
+    try:
+        _serve(deque(jobs), running, module, args or [], workers, reuse, on_start, on_end, stop, orphan)
+    finally:
+        _stop_all(running, reuse)
+
+
+class WorkerPool:
+    """Reused worker processes that outlive one batch of jobs: a house run's room workers go on to
+    deliver its houses, with the package imported and their in-process memos (meshes, hulls,
+    exported texts) already warm. :meth:`run` is :func:`run_jobs` with ``reuse`` over the workers
+    left idle by the previous call; :meth:`close` makes them leave (call it once the run is over).
+    One call of :meth:`run` at a time."""
+
+    def __init__(self, module: str, *, args: list[str] | None = None, orphan: Orphan = "stop") -> None:
+        self.module, self.args, self.orphan = module, list(args or []), orphan
+        self._running: list[_Worker] = []
+        self._lock = threading.Lock()
+
+    @property
+    def size(self) -> int:
+        """Worker processes held now."""
+        return len(self._running)
+
+    def run(
+        self,
+        jobs: list[WorkerJob],
+        *,
+        workers: int,
+        on_start: Callable[[WorkerJob], None] | None = None,
+        on_end: Callable[[WorkerJob, JobEnd], None],
+        stop: threading.Event | None = None,
+    ) -> None:
+        """Run ``jobs`` as :func:`run_jobs` does (``reuse``), at most ``workers`` at once; the
+        workers idle at the end stay for the next call. A call that stops (an exception, ``stop``
+        set) stops every worker of the pool, as :func:`run_jobs` would."""
+        with self._lock:
+            try:
+                stopped = _serve(deque(jobs), self._running, self.module, self.args, workers, True, on_start, on_end, stop, self.orphan)
+            except BaseException:
+                self._close()
+                raise
+            if stopped:
+                self._close()
+
+    def close(self) -> None:
+        """Every worker leaves (idle ones at the end of their stdin; any still busy are stopped)."""
+        with self._lock:
+            self._close()
+
+    def _close(self) -> None:
+        try:
+            _stop_all(self._running, True)
+        finally:
+            self._running.clear()
+
+
+def _serve(
+    queue: deque[WorkerJob],
+    running: list[_Worker],
+    module: str,
+    args: list[str],
+    workers: int,
+    reuse: bool,
+    on_start: Callable[[WorkerJob], None] | None,
+    on_end: Callable[[WorkerJob, JobEnd], None],
+    stop: threading.Event | None,
+    orphan: Orphan,
+) -> bool:
+    """The loop of :func:`run_jobs` over the workers ``running`` (those it starts are added):
+    returns when every job has ended (``False``) or ``stop`` is set (``True``), leaving the
+    workers to the caller."""
     wake_r, wake_w = os.pipe()
     os.set_blocking(wake_r, False)
     waker: threading.Thread | None = None
@@ -275,20 +347,20 @@ def run_jobs(
     try:
         while True:
             if stop is not None and stop.is_set():
-                return
+                return True
             while queue:
                 idle = next((w for w in running if reuse and w.job is None and w.kill_at is None and not w.closed), None)
                 if idle is None and len(running) >= workers:
                     break
                 job = queue.popleft()
-                worker = idle or _spawn(module, args or [], job.log_path, orphan)
+                worker = idle or _spawn(module, args, job.log_path, orphan)
                 if idle is None:
                     running.append(worker)
                 if on_start is not None:
                     on_start(job)
                 _send(worker, job, reuse)
             if not queue and not any(w.busy or not reuse for w in running):
-                return
+                return False
             now = time.monotonic()
             wakes = [t for t in (w.next_check(now) for w in running) if t is not None]
             wait([*(w.pipe for w in running if not w.closed), wake_r], timeout=max(0.0, min(wakes) - now) if wakes else None)
@@ -296,7 +368,6 @@ def run_jobs(
             for worker in list(running):
                 _tend(worker, now, reuse, running, on_end)
     finally:
-        _stop_all(running, reuse)
         if stop is not None and waker is not None:
             stop.set()  # lets the waker leave; it is gone before its pipe is closed
             waker.join()

@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Any
 
 import structlog
 
-from scenemosaic._processes import STOP_GRACE_S, JobEnd, WorkerJob, run_jobs
+from scenemosaic._processes import STOP_GRACE_S, JobEnd, WorkerJob, WorkerPool
 from scenemosaic.assets import HullCache, open_house
 from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
@@ -133,7 +133,7 @@ async def _run_room(
 def room_worker(reply_fd: int) -> None:
     """A worker process's loop (``python -m scenemosaic.pipeline._house_worker``): one job a line
     on stdin (JSON), one reply a line on the pipe ``reply_fd`` when it ends (the package's worker
-    pool, ``scenemosaic._processes.run_jobs``). ``{"kind": "room", ...}`` runs a room (its scene,
+    pool, ``scenemosaic._processes.WorkerPool``). ``{"kind": "room", ...}`` runs a room (its scene,
     the run's input, output folder, base folder and settings) and replies with its
     :class:`RoomOutcome`; ``{"kind": "deliver", ...}`` delivers a whole house
     (``exchange.deliver_house``) and replies with ``{"files"}`` or ``{"error"}``."""
@@ -164,10 +164,11 @@ async def _work(job: dict[str, Any]) -> dict[str, Any]:
         return {"error": f"{type(exc).__name__}: {exc}"}
 
 
-async def _in_workers(jobs: Sequence[tuple[str, dict[str, Any]]], count: int) -> dict[str, dict[str, Any]]:
-    """Run every job (``(name, job)``) in ``count`` worker processes of the package's one pool
-    (``scenemosaic._processes.run_jobs``, reused from job to job); their replies by name. A
-    worker that dies fails the stage; a cancel stops every worker at once."""
+async def _in_workers(run: PipelineRun, jobs: Sequence[tuple[str, dict[str, Any]]], count: int) -> dict[str, dict[str, Any]]:
+    """Run every job (``(name, job)``) in ``count`` worker processes of the run's pool
+    (:attr:`PipelineRun.workers`, a ``scenemosaic._processes.WorkerPool`` started on first use and
+    kept from stage to stage: the rooms' workers, warm, deliver the houses); their replies by name.
+    A worker that dies fails the stage; a cancel stops every worker at once."""
     replies: dict[str, dict[str, Any]] = {}
     failures: list[str] = []
 
@@ -177,10 +178,11 @@ async def _in_workers(jobs: Sequence[tuple[str, dict[str, Any]]], count: int) ->
         else:
             replies[job.name] = json.loads(end.reply)
 
+    if run.workers is None:
+        run.workers = WorkerPool(WORKER_MODULE, orphan="kill")
     stop = threading.Event()
     pool = functools.partial(
-        run_jobs, [WorkerJob(name, json.dumps(job).encode()) for name, job in jobs], module=WORKER_MODULE,
-        workers=count, reuse=True, on_end=ended, stop=stop, orphan="kill",
+        run.workers.run, [WorkerJob(name, json.dumps(job).encode()) for name, job in jobs], workers=count, on_end=ended, stop=stop
     )  # fmt: skip
     running = asyncio.ensure_future(asyncio.to_thread(pool))
     try:
@@ -226,7 +228,7 @@ async def _stage_rooms(run: PipelineRun, rec: StageRecord) -> None:
             "kind": "room", "input": str(run.input_path), "root": str(run.folder.root), "base_dir": str(run.base_dir),
             "config": config_record(run.config), "resume": run.config.resume, "restart_stale": run.config.restart_stale,
         }  # fmt: skip
-        replies = await _in_workers([(f"room {s.id!r}", {**common, "room": s.model_dump(mode="json")}) for s in rooms], workers)
+        replies = await _in_workers(run, [(f"room {s.id!r}", {**common, "room": s.model_dump(mode="json")}) for s in rooms], workers)
         by_id = {s.id: RoomOutcome.model_validate(replies[f"room {s.id!r}"]) for s in rooms}
     else:
         model = await run.asking(rec)  # the run's one model stack, shared by the rooms
@@ -400,7 +402,7 @@ async def _deliver(run: PipelineRun, houses: list[tuple[Path, House]], workers: 
         return written[0]
     common = {"kind": "deliver", "base_dir": str(run.base_dir), "config": config_record(run.config)}
     jobs = [(str(folder), {**common, "house": house.model_dump(mode="json"), "folder": str(folder)}) for folder, house in houses]
-    replies = await _in_workers(jobs, workers)
+    replies = await _in_workers(run, jobs, workers)
     failed = [f"{name}: {r['error']}" for name, r in replies.items() if "error" in r]
     if failed:
         raise SceneMosaicError("house export failed: " + "; ".join(failed))

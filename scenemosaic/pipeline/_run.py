@@ -213,6 +213,8 @@ async def _agenerate_locked(
     finally:
         if run.model is not None:
             await run.model.aclose()
+        if run.workers is not None:  # gone before a partial result is written into their folders
+            await asyncio.to_thread(run.workers.close)
     if failure is not None:
         await _keep_partial_results(run, failure, time.perf_counter() - started)
         raise failure

@@ -13,6 +13,7 @@ from scenemosaic.pipeline._config import GenerateConfig
 from scenemosaic.scene import House, Pose, RunFolder, Scene
 
 if TYPE_CHECKING:
+    from scenemosaic._processes import WorkerPool
     from scenemosaic.agents import AgentLog, AgentPolicy, FallbackRecord
     from scenemosaic.assets import HullCache
     from scenemosaic.dag import FileRunStore
@@ -116,6 +117,9 @@ class PipelineRun:
     """The run's CoACD hull cache, opened on first use and shared by the stages."""
     started: float = field(default_factory=time.monotonic)
     """``time.monotonic()`` when the run began: the run deadline counts from here."""
+    workers: WorkerPool | None = None
+    """A house run's worker processes (``pipeline/_house.py``), started by the first stage that
+    needs them and kept for the next (the rooms' workers deliver the houses); closed when the run ends."""
 
     @property
     def input_path(self) -> Path:

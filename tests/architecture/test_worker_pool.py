@@ -1,15 +1,17 @@
-"""The package's one worker pool (``scenemosaic._processes.run_jobs``), which a batch's jobs and a
-house's rooms both go through: reuse, fresh workers, a worker that dies, time-outs, a stop."""
+"""The package's one worker pool (``scenemosaic._processes.run_jobs``, and ``WorkerPool``, its
+workers kept from call to call), which a batch's jobs and a house's rooms both go through: reuse,
+fresh workers, a worker that dies, time-outs, a stop, workers that outlive a call."""
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from pathlib import Path
 
 import pytest
 
-from scenemosaic._processes import STOP_GRACE_S, JobEnd, WorkerJob, run_jobs
+from scenemosaic._processes import STOP_GRACE_S, JobEnd, WorkerJob, WorkerPool, run_jobs
 
 TESTS = Path(__file__).resolve().parents[1]
 
@@ -75,3 +77,53 @@ def test_a_stop_ends_the_pool_and_its_workers() -> None:
     ends = _run([WorkerJob("long", b"sleep 60"), WorkerJob("never", b"x")], workers=1, reuse=True, stop=stop)
     assert time.monotonic() - started < 5
     assert "never" not in ends
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def _pool_run(pool: WorkerPool, jobs: list[WorkerJob], **kwargs: object) -> dict[str, JobEnd]:
+    ends: dict[str, JobEnd] = {}
+    pool.run(jobs, on_end=lambda job, end: ends.__setitem__(job.name, end), **kwargs)  # type: ignore[arg-type]
+    return ends
+
+
+def test_a_pool_keeps_its_workers_for_the_next_call_until_closed() -> None:
+    pool = WorkerPool("process_echo_worker")
+    try:
+        first = _pool_run(pool, [WorkerJob(f"a{i}", b"sleep 0.2") for i in range(2)], workers=2)
+        pids = {_pid(e) for e in first.values()}
+        assert len(pids) == 2 and pool.size == 2
+        second = _pool_run(pool, [WorkerJob(f"b{i}", f"job {i}".encode()) for i in range(4)], workers=2)
+        assert {_pid(e) for e in second.values()} <= pids  # no new start-up: the same processes
+        assert all(
+            e.reply is not None and e.reply.endswith(f"job {n[1:]}".encode()) for n, e in second.items()
+        )
+    finally:
+        pool.close()
+    assert pool.size == 0
+    deadline = time.monotonic() + 5
+    while any(_alive(p) for p in pids) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(_alive(p) for p in pids)
+
+
+def test_a_stopped_call_ends_the_pools_workers() -> None:
+    pool = WorkerPool("process_echo_worker")
+    try:
+        warm = _pool_run(pool, [WorkerJob("warm", b"x")], workers=1)
+        stop = threading.Event()
+        threading.Timer(0.5, stop.set).start()
+        ends = _pool_run(
+            pool, [WorkerJob("long", b"sleep 60"), WorkerJob("never", b"x")], workers=1, stop=stop
+        )
+        assert "never" not in ends and pool.size == 0
+        after = _pool_run(pool, [WorkerJob("fresh", b"y")], workers=1)  # the next call starts anew
+        assert _pid(after["fresh"]) != _pid(warm["warm"])
+    finally:
+        pool.close()
