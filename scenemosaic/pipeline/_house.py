@@ -33,6 +33,7 @@ import errno
 import functools
 import json
 import os
+import shutil
 import sys
 import threading
 import time
@@ -284,10 +285,13 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     """Whole-house variants: one pool over every room's own valid variants (``compose_house``);
     a house is valid when every room stays reachable from every other."""
     house, m = run.need_house(), run.config.variants
+    if run.config.clutter == "keep":  # nothing here changes the base: it is delivered meanwhile
+        await _deliver_ahead(run, {RunFolder.BASE})
     room_variants = [_room_variants(run, s.id) for s in house.rooms]
     if m <= 0 or not any(room_variants):
         rec.status = "skipped"
         rec.detail["reason"] = "no variants asked for" if m <= 0 else "no room has a variant"
+        await _deliver_ahead(run, {RunFolder.BASE})
         return
     unplanned = [s.id for s in house.rooms if furniture(s) and not _planned(run, s.id)]
     if unplanned:  # said, not hidden: their variants differ in smaller pieces only
@@ -332,6 +336,8 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
         run.house_variants.append(variant)
     rec.detail["variants"] = checked
     note_shortfall(run, rec, len(variants), report.pool_size)
+    # every house is final now: delivered while validate and evaluate run here
+    await _deliver_ahead(run, {RunFolder.BASE, *(run.folder.variant(i).name for i in range(1, len(variants) + 1))})
 
 
 async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
@@ -378,12 +384,48 @@ async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
     rec.detail["house"] = run.metrics["house"]
 
 
-async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
-    """``base/`` and every ``variant_<i>/`` as whole houses, and the contact sheet of their plans."""
+def _houses(run: PipelineRun) -> list[tuple[Path, House]]:
+    """The houses the export delivers, by folder (``base/``, ``variant_<i>/``), each as delivered
+    (``--open-state``: ``assets.open_house``)."""
     houses = [(run.folder.base, run.need_house()), *((run.folder.variant(i), v) for i, v in enumerate(run.house_variants, start=1))]
-    houses = [(folder, open_house(h, run.config.open_state, run.config.seed, run.base_dir)) for folder, h in houses]  # --open-state
-    workers = _in_processes(run.config, len(houses))
-    rec.detail["files"] = await _deliver(run, houses, workers)
+    return [(folder, open_house(h, run.config.open_state, run.config.seed, run.base_dir)) for folder, h in houses]
+
+
+async def _deliver_ahead(run: PipelineRun, names: set[str]) -> None:
+    """Start delivering the houses of the folders ``names`` (``base``, ``variant_<i>``) into
+    :attr:`RunFolder.staged` in the run's worker processes, in the background: the next stages
+    (compose, validate, evaluate, one core) run meanwhile, and the export stage waits for them
+    and moves them into place. The houses must be final: nothing later changes them. Without
+    worker processes (a model that is not ``rules``, one worker) nothing is started."""
+    chosen = [(folder, house) for folder, house in _houses(run) if folder.name in names and folder.name not in run.deliveries]
+    workers = min(_in_processes(run.config, len(run.need_house().rooms)), len(chosen))
+    if not workers:
+        return
+    staged = [(run.folder.staged / folder.name, house) for folder, house in chosen]
+    for folder, _ in staged:  # a stopped run's leftovers
+        if folder.exists():
+            await asyncio.to_thread(shutil.rmtree, folder)
+    future = asyncio.ensure_future(_deliver(run, staged, workers))
+    for folder, _ in chosen:
+        run.deliveries[folder.name] = future
+
+
+async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
+    """``base/`` and every ``variant_<i>/`` as whole houses, and the contact sheet of their plans.
+    Houses delivered ahead (:func:`_deliver_ahead`) are waited for and moved into place."""
+    houses = _houses(run)
+    ahead = {folder.name: run.deliveries[folder.name] for folder, _ in houses if folder.name in run.deliveries}
+    files: dict[str, list[str]] = {}
+    for future in {id(f): f for f in ahead.values()}.values():
+        for staged, written in (await future).items():
+            final = run.folder.root / Path(staged).name
+            await asyncio.to_thread(_put_in_place, Path(staged), final)
+            files[str(final)] = written
+    rest = [(folder, house) for folder, house in houses if folder.name not in ahead]
+    files.update(await _deliver(run, rest, _in_processes(run.config, len(rest))))
+    rec.detail["files"] = files[str(run.folder.base)]
+    if ahead:
+        rec.detail["delivered_ahead"] = sorted(ahead)
     if run.house_variants:
         folders = [folder for folder, _ in houses]
         await asyncio.to_thread(contact_sheet, [(f.name, f / RunFolder.TOPDOWN) for f in folders], run.folder.contact_sheet)
@@ -394,19 +436,30 @@ async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
         rec.detail["contact_sheet"] = RunFolder.CONTACT_SHEET
 
 
-async def _deliver(run: PipelineRun, houses: list[tuple[Path, House]], workers: int) -> list[str]:
-    """Deliver every house to its folder (in ``workers`` processes when above 0); the first's files."""
+def _put_in_place(staged: Path, final: Path) -> None:
+    """Move a house delivered ahead from the staging folder to its place (what was there goes)."""
+    if final.is_symlink() or final.is_file():
+        final.unlink()
+    elif final.exists():
+        shutil.rmtree(final)
+    os.replace(staged, final)
+
+
+async def _deliver(run: PipelineRun, houses: list[tuple[Path, House]], workers: int) -> dict[str, list[str]]:
+    """Deliver every house to its folder (in ``workers`` processes when above 0); the files of
+    each, by folder."""
+    if not houses:
+        return {}
     if not workers:
         cache = run.cache()
-        written = [await asyncio.to_thread(deliver_house, h, folder, run.base_dir, hull_cache=cache) for folder, h in houses]
-        return written[0]
+        return {str(folder): await asyncio.to_thread(deliver_house, h, folder, run.base_dir, hull_cache=cache) for folder, h in houses}
     common = {"kind": "deliver", "base_dir": str(run.base_dir), "config": config_record(run.config)}
     jobs = [(str(folder), {**common, "house": house.model_dump(mode="json"), "folder": str(folder)}) for folder, house in houses]
     replies = await _in_workers(run, jobs, workers)
     failed = [f"{name}: {r['error']}" for name, r in replies.items() if "error" in r]
     if failed:
         raise SceneMosaicError("house export failed: " + "; ".join(failed))
-    return list(replies[str(houses[0][0])]["files"])
+    return {name: list(r["files"]) for name, r in replies.items()}
 
 
 HOUSE_STAGES: tuple[Stage, ...] = (

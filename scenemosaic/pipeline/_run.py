@@ -213,8 +213,11 @@ async def _agenerate_locked(
     finally:
         if run.model is not None:
             await run.model.aclose()
+        await _stop_deliveries(run)
         if run.workers is not None:  # gone before a partial result is written into their folders
             await asyncio.to_thread(run.workers.close)
+        if run.folder.staged.exists():  # what was delivered ahead is in place, or not wanted
+            await asyncio.to_thread(shutil.rmtree, run.folder.staged, True)
     if failure is not None:
         await _keep_partial_results(run, failure, time.perf_counter() - started)
         raise failure
@@ -225,6 +228,17 @@ async def _agenerate_locked(
     made = run.result
     assert made is not None
     return GenerateResult(scene=made, out_dir=folder.root, report=report.to_json())
+
+
+async def _stop_deliveries(run: PipelineRun) -> None:
+    """Deliveries started ahead of the export stage that it did not wait for (the run failed or
+    was stopped before it) are stopped; a finished run's are done already."""
+    pending = set(run.deliveries.values())
+    run.deliveries.clear()
+    for future in pending:
+        future.cancel()
+    if pending:
+        await asyncio.gather(*pending, return_exceptions=True)
 
 
 async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapsed: float) -> None:

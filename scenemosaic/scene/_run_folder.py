@@ -68,6 +68,9 @@ class RunFolder:
     """The run's resumable state."""
     RUN_RECORD = "run.json"
     """In the checkpoint folder: the input and settings of the run (what ``--resume`` reads)."""
+    STAGED = "staged"
+    """In the checkpoint folder: houses a house run delivered ahead of its export stage, which
+    moves them into place (``staged/base``, ``staged/variant_<i>``)."""
     SCENE_FILE = "scene.json"
     """The native scene file in ``base/`` and every ``variant_<i>/``."""
     HOUSE_FILE = "house_scene.json"
@@ -165,6 +168,11 @@ class RunFolder:
     def checkpoint(self) -> Path:
         """``.checkpoint/``."""
         return self.root / self.CHECKPOINT
+
+    @property
+    def staged(self) -> Path:
+        """``.checkpoint/staged/``: deliveries made ahead of the export stage (:data:`STAGED`)."""
+        return self.checkpoint / self.STAGED
 
     @property
     def run_record(self) -> Path:

@@ -1,8 +1,10 @@
 """A whole-house run on the shipped two-room house (39 objects): what it returns, how its output
-reads back, the command line, resuming, and that the number of room processes changes nothing."""
+reads back, the command line, resuming, that the number of room processes changes nothing, and
+the houses delivered ahead of the export stage (in place when the run ends, gone when it fails)."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 from pathlib import Path
@@ -19,6 +21,12 @@ TWO_ROOMS = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor"
 VARIANTS = 2
 
 runner = CliRunner()
+
+
+def _delivered(out: Path) -> dict[str, str]:
+    """A digest of every delivered file (``base/``, ``variant_<i>/``, the contact sheet), by path."""
+    paths = [p for p in out.rglob("*") if p.is_file() and p.relative_to(out).parts[0] not in ("rooms", ".checkpoint", "report.json")]
+    return {str(p.relative_to(out)): hashlib.sha256(p.read_bytes()).hexdigest() for p in paths}
 
 
 def _room_files(out: Path) -> dict[str, bytes]:
@@ -84,6 +92,43 @@ def test_one_room_process_gives_the_same_rooms_as_two(two_room_run: GenerateResu
     two = next(s for s in two_room_run.report["stages"] if s["name"] == "rooms")
     assert two["detail"]["processes"], "the shared run was meant to use worker processes"
     assert _room_files(tmp_path / "one") == _room_files(two_room_run.out_dir)
+    # the houses delivered ahead in the workers are those one process delivers at its export
+    export = next(s for s in result.report["stages"] if s["name"] == "export")
+    assert "delivered_ahead" not in export["detail"]
+    delivered = _delivered(tmp_path / "one")
+    assert len(delivered) > 100 and delivered == _delivered(two_room_run.out_dir)
+
+
+def test_houses_delivered_ahead_are_moved_into_place(two_room_run: GenerateResult) -> None:
+    export = next(s for s in two_room_run.report["stages"] if s["name"] == "export")
+    folders = ["base", *(f"variant_{i}" for i in range(1, VARIANTS + 1))]
+    assert export["detail"]["delivered_ahead"] == folders
+    for folder in folders:
+        assert (two_room_run.out_dir / folder / "house_scene.json").is_file()
+        assert not (two_room_run.out_dir / folder / "partial.json").exists()
+    assert not (two_room_run.out_dir / ".checkpoint" / "staged").exists()
+
+
+def test_a_run_failing_after_the_houses_went_ahead_keeps_only_its_partial_base(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """evaluate fails while the houses are being delivered ahead: they are stopped and dropped,
+    and the folder holds what any failed run keeps (the base's native files, marked partial)."""
+    import scenemosaic.pipeline._house as house_stages
+
+    def broken(*args: object, **kwargs: object) -> None:
+        raise RuntimeError("evaluation broke")
+
+    monkeypatch.setattr(house_stages, "evaluate_house", broken)
+    out = tmp_path / "failed"
+    with pytest.raises(RuntimeError, match="evaluation broke"):
+        generate(TWO_ROOMS, out, GenerateConfig(variants=1, room_workers=2))
+    report = json.loads((out / "report.json").read_text(encoding="utf-8"))
+    assert report["status"] == "failed" and report["failed_stage"] == "evaluate"
+    assert (out / "base" / "partial.json").is_file() and (out / "base" / "house_scene.json").is_file()
+    assert not (out / "base" / "scene.xml").exists()  # no simulator file of a house not delivered
+    assert not (out / "variant_1").exists()
+    assert not (out / ".checkpoint" / "staged").exists()
 
 
 @pytest.mark.house  # another whole-house run: make test-houses
