@@ -28,15 +28,17 @@ Diversity over selected variants (the method's evaluation):
 
 from __future__ import annotations
 
+import functools
 import itertools
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 from shapely import contains_xy, prepare
-from shapely.geometry import Polygon
+from shapely.geometry import Polygon, box
 
-from scenemosaic.assets import HullCache
+from scenemosaic._memo import Memo
+from scenemosaic.assets import HullCache, asset_fingerprint
 from scenemosaic.compose import Arrangement, novelty_distance
 from scenemosaic.metrics._plausibility import plausibility
 from scenemosaic.physics import check_collisions, is_thin
@@ -54,6 +56,7 @@ from scenemosaic.scene import (
     House,
     Relation,
     Scene,
+    SceneObject,
     convex_hull_2d,
     functional_holds,
     functional_relations,
@@ -125,13 +128,18 @@ def oob(scene: Scene, base_dir: str | Path | None = None, *, seed: int = 0) -> f
     """OOB: the fraction of objects with under 99 % of 1000 surface samples over the floor polygon."""
     if scene.room is None or not scene.objects:
         return 0.0
-    edge = Polygon(scene.room.floor).buffer(OOB_EDGE_M)
-    prepare(edge)  # asked of every sample of every object
-    out = 0
-    for k, obj in enumerate(scene.objects):
+    floor = tuple(tuple(p) for p in scene.room.floor)
+    edge: list[Polygon] = []  # made when an object is not known yet
+
+    def outside(k: int, obj: SceneObject) -> bool:
+        if not edge:
+            edge.append(Polygon(floor).buffer(OOB_EDGE_M))
+            prepare(edge[0])  # asked of every sample of every object
         mesh = object_world_mesh(obj, Path(base_dir) if base_dir is not None else None)
         if len(mesh.faces) == 0 or mesh.area <= 0:
             pts = obj.corners()
+        elif edge[0].contains_properly(box(*mesh.bounds[0, :2], *mesh.bounds[1, :2])):
+            return False  # every sample lies in the mesh's bounds, inside the floor: all 1000 would be in
         else:
             rng = np.random.default_rng(seed + k)
             weights = mesh.area_faces / mesh.area_faces.sum()
@@ -141,10 +149,21 @@ def oob(scene: Scene, base_dir: str | Path | None = None, *, seed: int = 0) -> f
             flip = (a + b) > 1
             a, b = np.where(flip, 1 - a, a), np.where(flip, 1 - b, b)
             pts = tri[:, 0] + a * (tri[:, 1] - tri[:, 0]) + b * (tri[:, 2] - tri[:, 0])
-        inside = contains_xy(edge, pts[:, 0], pts[:, 1])
-        if float(inside.mean()) < OOB_INSIDE:
-            out += 1
+        inside = contains_xy(edge[0], pts[:, 0], pts[:, 1])
+        return float(inside.mean()) < OOB_INSIDE
+
+    out = 0
+    for k, obj in enumerate(scene.objects):
+        p = obj.pose
+        key = (seed + k, asset_fingerprint(obj, base_dir), p.position, p.quaternion, p.scale, floor)
+        out += _OUTSIDE.get(key, functools.partial(outside, k, obj))
     return out / len(scene.objects)
+
+
+_OUTSIDE: Memo[tuple[object, ...], bool] = Memo(1 << 14)
+"""Whether an object is out of bounds (:func:`oob`), by what decides it: its sample seed, asset,
+pose and the floor. A house's variants leave many objects where they were (fixtures, pictures,
+whole rooms), and each is judged once."""
 
 
 def _footprints(scene: Scene, below: float | None) -> list[np.ndarray]:
@@ -171,8 +190,13 @@ def nav(scene: Scene) -> float:
     ``scene.Walkable.share`` on the floor's raster)."""
     if scene.room is None:
         return 1.0
-    raster = FloorRaster(np.asarray(scene.room.floor, dtype=np.float64))
+    floor = tuple(tuple(p) for p in scene.room.floor)
+    raster = _NAV_RASTERS.get(floor, lambda: FloorRaster(np.asarray(floor, dtype=np.float64)))
     return raster.walkable(raster.blocked(_footprints(scene, NAV_MAX_HEIGHT)), NAV_ROBOT_RADIUS).share
+
+
+_NAV_RASTERS: Memo[tuple[tuple[float, ...], ...], FloorRaster] = Memo(256)
+"""NAV's raster by floor (never modified): a room's base and variants share their floor."""
 
 
 def div_iou(scenes: Sequence[Scene], grid: int = DIV_GRID) -> float | None:

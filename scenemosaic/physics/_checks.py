@@ -4,11 +4,13 @@ from __future__ import annotations
 
 from collections.abc import Collection, Mapping
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
 from shapely.geometry import Polygon
 
+from scenemosaic._memo import Memo
 from scenemosaic.assets import HullCache
 from scenemosaic.exceptions import PhysicsError
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
@@ -146,7 +148,18 @@ def check_collisions(
     """
     require_finite_poses(scene, "check collisions")
     shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
-    return collision_report_for(scene, shapes, tolerance_m=tolerance_m)
+    if hulls is not None:  # pieces given for this call: nothing to share
+        return collision_report_for(scene, shapes, tolerance_m=tolerance_m)
+    # the shapes come from object_shape's memo (frozen, shared): the entry holds them, so their ids stay theirs
+    key = (tolerance_m, tuple((o.id, id(shapes[o.id]), is_thin(o), o.pose.position, o.pose.quaternion) for o in scene.objects))
+    report, _ = _REPORTS.get(key, lambda: (collision_report_for(scene, shapes, tolerance_m=tolerance_m), tuple(shapes.values())))
+    return report.model_copy(deep=True)
+
+
+_REPORTS: Memo[tuple[Any, ...], tuple[CollisionReport, tuple[ObjectShape, ...]]] = Memo(512)
+"""Collision reports by what decides them (each object's id, shape, thinness and pose, the
+tolerance), with the shapes they were measured on: a house run checks each variant's rooms at
+compose and again for its metrics."""
 
 
 def _footprint(obj: SceneObject) -> Polygon:

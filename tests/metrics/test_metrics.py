@@ -31,6 +31,18 @@ def test_oob_counts_objects_with_samples_off_the_floor() -> None:
     assert oob(scene) == pytest.approx(1 / 3)  # "edge" reaches 3.99 < 4.0: in
 
 
+def test_oob_of_a_box_slid_across_the_floor_edge_turns_once_and_is_asked_again_the_same() -> None:
+    """A 1 m box slid in 1 cm steps past the wall x = 4: in while it stays inside (its bounds
+    judged at once), out from where over 1 % of its surface samples cross, and a scene asked
+    again (a house's variants share objects) gets the answer it got."""
+    answers = [oob(_scene([_box("slid", (3.40 + 0.01 * i, 2.0), (1, 1, 1))])) for i in range(21)]
+    assert set(answers) == {0.0, 1.0}
+    first_out = answers.index(1.0)
+    assert all(a == 0.0 for a in answers[:first_out]) and all(a == 1.0 for a in answers[first_out:])
+    assert 3.40 + 0.01 * first_out > 3.5  # reaching past x = 4.0 at all is not enough on its own: 1 % must cross
+    assert [oob(_scene([_box("slid", (3.40 + 0.01 * i, 2.0), (1, 1, 1))])) for i in range(21)] == answers
+
+
 def test_oob_lets_a_back_flush_on_the_wall_be_in_and_one_through_it_out() -> None:
     # a flat TV 4 cm deep hung on the wall x = 4: its back face lies on the wall's plane
     flush = _box("flush", (3.98 + 5e-5, 2.0), (0.04, 1.0, 0.6), z=1.0, category="television")

@@ -46,6 +46,23 @@ def test_collision_depth_and_tolerance(overlap: float, counted: bool) -> None:
     assert pair.depth_m == pytest.approx(overlap, abs=1e-4)
 
 
+def test_a_scene_checked_again_gets_the_same_report_and_a_moved_one_its_own() -> None:
+    """Reports are kept by what decides them (a house's variants are checked at compose and again
+    for their metrics): asking again answers the same, a caller's edits stay its own, and a move
+    is a new question."""
+    a = _box("a", (1.0, 1.0, 1.0), (1.0, 1.0, 0.0))
+    b = _box("b", (1.0, 1.0, 1.0), (1.97, 1.0, 0.0))
+    first = check_collisions(_scene([a, b], {}))
+    assert first.count == 1
+    first.pairs.clear()  # the caller's copy
+    again = check_collisions(_scene([a, b], {}))
+    assert again.count == 1 and again.pairs[0].depth_m == pytest.approx(0.03, abs=1e-4)
+    apart = check_collisions(_scene([a, b.model_copy(update={"pose": Pose.from_yaw((2.2, 1.0, 0.0), 0.0)})], {}))
+    assert apart.count == 0 and not apart.shallow
+    looser = check_collisions(_scene([a, b], {}), tolerance_m=0.05)
+    assert looser.count == 0 and len(looser.shallow) == 1
+
+
 def test_thin_objects_are_not_counted() -> None:
     rug = _box("rug", (2.0, 1.5, 0.01), (2.0, 2.0, 0.0))
     table = _box("table", (1.0, 1.0, 0.7), (2.0, 2.0, -0.005))
