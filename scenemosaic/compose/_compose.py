@@ -182,6 +182,8 @@ class _Composer:
         self.own_cache: dict[tuple[int, int], bool] = {}
         self.pair_cache: dict[tuple[int, int, int, int], bool] = {}
         self.verdicts: dict[tuple[int, ...], bool | Veto] = {}
+        self.built: dict[tuple[tuple[str, int], ...], Scene] = {}
+        """Scenes :meth:`build` made, by the unit layouts applied to the base in order (never modified)."""
         units = list((scene.structure or build_structure(scene)).units)
         groups = _groups(scene, units)
         self.followers, owner = _followers(scene, groups)
@@ -288,13 +290,19 @@ class _Composer:
         """The candidate's scene and the layout it takes for each unit."""
         s = self.scene
         picked: dict[str, str] = {}
+        applied: tuple[tuple[str, int], ...] = ()
         for g, k in enumerate(choice):
             picked.update(self.group_labels[g][k])
             for uid, lid in self.group_labels[g][k].items():
                 o = self.layouts[uid]
                 idx = o.layout_ids.index(lid)
                 if idx:
-                    s = with_unit_layout(s, uid, o.poses[idx])
+                    # candidates share their first units' layouts: each such prefix is built once
+                    applied += ((uid, idx),)
+                    known = self.built.get(applied)
+                    if known is None:
+                        known = self.built[applied] = with_unit_layout(s, uid, o.poses[idx])
+                    s = known
         if self.followers and s is not self.scene:
             s = follow_leaders(self.scene, s, self.followers) or s  # a failed follow was vetoed before
         return (s.model_copy(deep=True) if s is self.scene else s), picked  # never the base itself
