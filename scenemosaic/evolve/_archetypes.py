@@ -546,6 +546,16 @@ def _plans(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
 
 
 def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
+    """Every rule pattern for ``layout``, preferred first; worked out once per layout of the unit
+    (the archetype agent lists them, then each variant's node instantiates one)."""
+    key = ("candidates", tuple((k, layout.center(k), layout.rotation(k)) for k in layout.ids))
+    known = ctx.plan_cache.get(key)
+    if known is None:
+        known = ctx.plan_cache[key] = _all_candidates(layout, ctx)
+    return list(known)
+
+
+def _all_candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     kind = ctx.unit.anchor_kind
     out: list[RuleArchetype] = []
     if ctx.in_house:

@@ -137,7 +137,8 @@ class UnitContext:
     obstacle_polygons: list[tuple[SceneObject, Any]] | None = field(default=None, repr=False)
     """The obstacles' outlines on the surface (shapely polygons), computed on first use."""
     plan_cache: dict[Any, Any] = field(default_factory=dict, repr=False)
-    """Room plans already computed for a layout of this unit (``evolve/_plans.py``)."""
+    """What was worked out for a layout of this unit, by layout: its room plans
+    (``evolve/_plans.py``) and its rule patterns (``evolve/_archetypes.py``)."""
 
     @property
     def frozen_rotation(self) -> bool:
