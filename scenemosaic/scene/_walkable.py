@@ -53,6 +53,12 @@ def is_thin(obj: SceneObject) -> bool:
     return sz < THIN_RATIO * max(sx, sy)
 
 
+_ERODE_BY_DISTANCE_FROM = 4
+"""Disk radii (cells) above which :meth:`FloorRaster.walkable` erodes through the distance
+transform: a disk's erosion costs its area per cell (16 ms for a 256-cell floor and a 10-cell
+robot), the distance transform a few passes (3 ms); below, the disk is the cheaper."""
+
+
 @dataclass(frozen=True)
 class Walkable:
     """The eroded free cells of a floor raster, split into connected pieces."""
@@ -129,9 +135,14 @@ class FloorRaster:
 
         free = self.inside & ~blocked
         r = max(1, round(radius / self.cell))
-        yy, xx = np.mgrid[-r : r + 1, -r : r + 1]
-        disk = (xx**2 + yy**2) <= r * r
-        free = ndimage.binary_erosion(free, structure=disk, border_value=0)
+        if r > _ERODE_BY_DISTANCE_FROM:
+            # the same cells as eroding by the disk (no blocked cell, nor one past the border, within r):
+            # the exact distance to the nearest such cell, the cells beyond it by a one-cell ring
+            free = ndimage.distance_transform_edt(np.pad(free, 1))[1:-1, 1:-1] > r
+        else:
+            yy, xx = np.mgrid[-r : r + 1, -r : r + 1]
+            disk = (xx**2 + yy**2) <= r * r
+            free = ndimage.binary_erosion(free, structure=disk, border_value=0)
         labels, n = ndimage.label(free)
         sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:] if n else np.zeros(0, dtype=np.int64)
         return Walkable(free, labels, sizes)

@@ -46,3 +46,23 @@ def test_a_mask_only_marks_cells_inside_its_polygon() -> None:
     assert not raster.mask(_box(10.0, 10.0, 11.0, 11.0)).any()
     with pytest.raises(ValueError, match="no extent"):
         FloorRaster(np.zeros((4, 2)))
+
+
+@pytest.mark.parametrize("radius_cells", [1, 3, 4, 5, 7, 10, 13])
+def test_the_free_floor_is_the_disk_erosion_whatever_the_radius(radius_cells: int) -> None:
+    """Large robots are eroded through the distance transform, small ones by the disk: the cells
+    kept are those of eroding by the disk, border included, on cluttered floors of any shape."""
+    from scipy import ndimage
+
+    rng = np.random.default_rng(radius_cells)
+    l_shape = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 1.2], [1.5, 1.2], [1.5, 3.0], [0.0, 3.0]])
+    for floor in (FLOOR, l_shape):
+        raster = FloorRaster(floor)
+        radius = radius_cells * raster.cell
+        for _ in range(3):
+            blocked = rng.random(raster.shape) < 0.004
+            got = raster.walkable(blocked, radius).free
+            yy, xx = np.mgrid[-radius_cells : radius_cells + 1, -radius_cells : radius_cells + 1]
+            disk = xx**2 + yy**2 <= radius_cells**2
+            want = ndimage.binary_erosion(raster.inside & ~blocked, structure=disk, border_value=0)
+            assert got.any() and np.array_equal(got, want)
