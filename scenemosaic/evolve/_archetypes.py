@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -555,11 +555,21 @@ def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     return list(known)
 
 
+def _head(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
+    """What :func:`_candidates` begins with: the room plans of a room of a house (else nothing)."""
+    return _plans(layout, ctx) if ctx.in_house else []
+
+
+def _in_order(layout: UnitLayout, ctx: UnitContext) -> Iterator[RuleArchetype]:
+    """:func:`_candidates` one by one, the rest worked out only when the room plans are not enough."""
+    head = _head(layout, ctx)
+    yield from head
+    yield from _candidates(layout, ctx)[len(head) :]
+
+
 def _all_candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     kind = ctx.unit.anchor_kind
-    out: list[RuleArchetype] = []
-    if ctx.in_house:
-        out += _plans(layout, ctx)
+    out: list[RuleArchetype] = _head(layout, ctx)
     seated: list[RuleArchetype] = []
     if kind == "floor":
         for table in sorted(set(ctx.seat_table.values())):
@@ -786,7 +796,11 @@ def rule_archetypes(layout: UnitLayout, ctx: UnitContext, limit: int | None = No
     base = _current(layout)
     seen = [_seated_all(layout, ctx, base)]
     kept: list[tuple[RuleArchetype, Placement]] = []
-    for cand in _candidates(layout, ctx):
+    plans_kept = 0
+    for cand in _in_order(layout, ctx):
+        plan = cand.layout_id.startswith("plan_")
+        if not plan and limit is not None and plans_kept >= limit:
+            break  # the room plans come first and fill the limit: what follows would not be offered
         placed = _pinned(cand.place(layout, ctx), ctx, layout)
         if cand.layout_id.startswith("swapped_"):
             moved = {k for k in placed if math.dist(placed[k][:2], base[k][:2]) > 1e-6}
@@ -799,6 +813,7 @@ def rule_archetypes(layout: UnitLayout, ctx: UnitContext, limit: int | None = No
         if not _plausible(layout, ctx, placed) or not doors_kept(layout, ctx, placed):
             continue
         kept.append((cand, placed))
+        plans_kept += plan
     plans = [c for c, _ in kept if c.layout_id.startswith("plan_")]
     if plans:  # a room of a house: its plans first, then the patterns that differ most
         rest = [(c, p) for c, p in kept if not c.layout_id.startswith("plan_")]
@@ -828,6 +843,9 @@ def instantiate(layout: UnitLayout, ctx: UnitContext, archetype: object) -> tupl
     """
     layout_id = str(getattr(archetype, "layout_id", ""))
     words = f"{layout_id} {getattr(archetype, 'layout_style_name', '')}".lower()
+    chosen = next((c for c in _head(layout, ctx) if c.layout_id == layout_id), None)  # a room plan: nothing more to work out
+    if chosen is not None:
+        return _pinned(chosen.place(layout, ctx), ctx, layout), _clip(f"rule pattern {chosen.layout_id}: {chosen.reasoning}", 300)
     cands = _candidates(layout, ctx)
     by_id = {c.layout_id: c for c in cands}
     chosen = by_id.get(layout_id)
