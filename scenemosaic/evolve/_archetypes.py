@@ -55,6 +55,7 @@ from scenemosaic.evolve._analysis import (
 )
 from scenemosaic.evolve._context import UnitContext, WallLine
 from scenemosaic.evolve._plans import (
+    MAX_PLANS,
     Placement,
     doors_kept,
     fixed_children,
@@ -530,19 +531,19 @@ def _plan_place(place: Placement) -> Callable[[UnitLayout, UnitContext], Placeme
     return placed
 
 
-def _plans(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
-    """The room plans of a floor unit with doors (``evolve/_plans.py``), as archetypes."""
-    out = []
-    for k, place in enumerate(room_plans(layout, ctx)):
-        moved = plan_summary(layout, place)
-        out.append(
-            RuleArchetype(
-                f"plan_{k + 1}", f"room plan {k + 1}",
-                f"the furniture regrouped ({moved} moved, each group whole), doors clear and reachable, fixtures in place",
-                _plan_place(place),
-            )
+def _plans(layout: UnitLayout, ctx: UnitContext) -> Iterator[RuleArchetype]:
+    """The room plans of a floor unit with doors (``evolve/_plans.py``), as archetypes, each
+    worked out when it is asked for."""
+    for k in range(MAX_PLANS):
+        found = room_plans(layout, ctx, k + 1)
+        if len(found) <= k:
+            return
+        moved = plan_summary(layout, found[k])
+        yield RuleArchetype(
+            f"plan_{k + 1}", f"room plan {k + 1}",
+            f"the furniture regrouped ({moved} moved, each group whole), doors clear and reachable, fixtures in place",
+            _plan_place(found[k]),
         )  # fmt: skip
-    return out
 
 
 def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
@@ -555,21 +556,26 @@ def _candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     return list(known)
 
 
-def _head(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
-    """What :func:`_candidates` begins with: the room plans of a room of a house (else nothing)."""
-    return _plans(layout, ctx) if ctx.in_house else []
+def _head(layout: UnitLayout, ctx: UnitContext) -> Iterator[RuleArchetype]:
+    """What :func:`_candidates` begins with: the room plans of a room of a house (else nothing),
+    each found when it is asked for."""
+    if ctx.in_house:
+        yield from _plans(layout, ctx)
 
 
 def _in_order(layout: UnitLayout, ctx: UnitContext) -> Iterator[RuleArchetype]:
-    """:func:`_candidates` one by one, the rest worked out only when the room plans are not enough."""
-    head = _head(layout, ctx)
-    yield from head
-    yield from _candidates(layout, ctx)[len(head) :]
+    """:func:`_candidates` one by one, worked out as they are asked for: each room plan, then the
+    rest (a caller that stops once the plans are enough finds no more of them)."""
+    count = 0
+    for cand in _head(layout, ctx):
+        count += 1
+        yield cand
+    yield from _candidates(layout, ctx)[count:]
 
 
 def _all_candidates(layout: UnitLayout, ctx: UnitContext) -> list[RuleArchetype]:
     kind = ctx.unit.anchor_kind
-    out: list[RuleArchetype] = _head(layout, ctx)
+    out: list[RuleArchetype] = list(_head(layout, ctx))
     seated: list[RuleArchetype] = []
     if kind == "floor":
         for table in sorted(set(ctx.seat_table.values())):
@@ -798,9 +804,9 @@ def rule_archetypes(layout: UnitLayout, ctx: UnitContext, limit: int | None = No
     kept: list[tuple[RuleArchetype, Placement]] = []
     plans_kept = 0
     for cand in _in_order(layout, ctx):
-        plan = cand.layout_id.startswith("plan_")
-        if not plan and limit is not None and plans_kept >= limit:
+        if limit is not None and plans_kept >= limit:
             break  # the room plans come first and fill the limit: what follows would not be offered
+        plan = cand.layout_id.startswith("plan_")
         placed = _pinned(cand.place(layout, ctx), ctx, layout)
         if cand.layout_id.startswith("swapped_"):
             moved = {k for k in placed if math.dist(placed[k][:2], base[k][:2]) > 1e-6}

@@ -36,6 +36,7 @@ on the unit's context, so the archetype agent and the instantiation compute them
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -771,50 +772,80 @@ def _same_plan(planner: _Planner, a: Placement, b: Placement) -> bool:
 
 def room_plans(layout: UnitLayout, ctx: UnitContext, limit: int = MAX_PLANS) -> list[Placement]:
     """Up to ``limit`` room plans of a floor unit with doors (module docstring), most different
-    first; none for other units or when nothing can move."""
-    key = (
-        limit,
-        tuple(
-            (k, round(layout.center(k)[0], 4), round(layout.center(k)[1], 4), round(layout.rotation(k), 2))
-            for k in layout.ids
-        ),
+    first; none for other units or when nothing can move. The plans come one after another (each
+    steered away from those before it), so a search is kept per layout and goes on when more are
+    asked for: the first ``k`` plans are the same whatever the limit."""
+    key = tuple(
+        (k, round(layout.center(k)[0], 4), round(layout.center(k)[1], 4), round(layout.rotation(k), 2)) for k in layout.ids
     )
-    cached = ctx.plan_cache.get(key)
-    if cached is not None:
-        return list(cached)
-    plans: list[Placement] = []
-    if ctx.in_house and limit > 0:
-        planner = _Planner(layout, ctx)
-        if planner.groups and any(planner.options.values()):
-            base_share, _ = planner.walkable({k: (*layout.center(k), layout.rotation(k)) for k in layout.ids})
-            need = min(WALK_MIN_SHARE, base_share - 0.005)
-            planner.need = need
-            history = {g.lead: [np.asarray(layout.center(g.lead))] for g in planner.groups}
-            rng = np.random.default_rng(PLAN_SEED)
-            fails = repeats = 0
-            while len(plans) < limit and fails < PLAN_TRIES:
-                found = _plan(planner, rng, history)
-                if found is None:
-                    fails += 1
-                    continue
-                place, chosen = found
-                share, doors = planner.walkable(place)
-                if share < need or not doors:
-                    fails += 1
-                    for lead, opt in chosen.items():  # steer the next attempt elsewhere
-                        history[lead].append(opt.centre)
-                    continue
-                if any(_same_plan(planner, place, other) for other in plans):
-                    fails += 1  # the furniture where an earlier plan put it: steer elsewhere
-                    repeats += 1
-                    if repeats >= PLAN_REPEATS:
-                        break  # the room holds no other arrangement the search can find
-                else:
-                    plans.append(place)
-                for lead, opt in chosen.items():
-                    history[lead].append(opt.centre)
-    ctx.plan_cache[key] = list(plans)
-    return plans
+    search: _PlanSearch | None = ctx.plan_cache.get(key)
+    if search is None:
+        search = ctx.plan_cache.setdefault(key, _PlanSearch(layout, ctx))
+    assert search is not None
+    return search.first(limit)
+
+
+class _PlanSearch:
+    """One layout's room plans, found as they are asked for (:func:`room_plans`)."""
+
+    def __init__(self, layout: UnitLayout, ctx: UnitContext) -> None:
+        self.layout, self.ctx = layout, ctx
+        self.plans: list[Placement] = []
+        self.done = not ctx.in_house
+        self.planner: _Planner | None = None
+        self.need = WALK_MIN_SHARE
+        self.history: dict[str, list[np.ndarray]] = {}
+        self.rng = np.random.default_rng(PLAN_SEED)
+        self.fails = self.repeats = 0
+        self.lock = threading.Lock()  # a unit's variant nodes ask from their own threads
+
+    def first(self, n: int) -> list[Placement]:
+        """The first ``n`` plans (fewer when the search ends before)."""
+        with self.lock:
+            if n > 0 and self.planner is None and not self.done:
+                self._start()
+            while not self.done and len(self.plans) < n:
+                self._step()
+            return list(self.plans[:n])
+
+    def _start(self) -> None:
+        layout = self.layout
+        planner = self.planner = _Planner(layout, self.ctx)
+        if not planner.groups or not any(planner.options.values()):
+            self.done = True
+            return
+        base_share, _ = planner.walkable({k: (*layout.center(k), layout.rotation(k)) for k in layout.ids})
+        self.need = planner.need = min(WALK_MIN_SHARE, base_share - 0.005)
+        self.history = {g.lead: [np.asarray(layout.center(g.lead))] for g in planner.groups}
+
+    def _step(self) -> None:
+        """One attempt at the next plan."""
+        planner, history = self.planner, self.history
+        assert planner is not None
+        if self.fails >= PLAN_TRIES:
+            self.done = True
+            return
+        found = _plan(planner, self.rng, history)
+        if found is None:
+            self.fails += 1
+            return
+        place, chosen = found
+        share, doors = planner.walkable(place)
+        if share < self.need or not doors:
+            self.fails += 1
+            for lead, opt in chosen.items():  # steer the next attempt elsewhere
+                history[lead].append(opt.centre)
+            return
+        if any(_same_plan(planner, place, other) for other in self.plans):
+            self.fails += 1  # the furniture where an earlier plan put it: steer elsewhere
+            self.repeats += 1
+            if self.repeats >= PLAN_REPEATS:
+                self.done = True  # the room holds no other arrangement the search can find
+                return
+        else:
+            self.plans.append(place)
+        for lead, opt in chosen.items():
+            history[lead].append(opt.centre)
 
 
 def plan_summary(layout: UnitLayout, place: Placement) -> str:

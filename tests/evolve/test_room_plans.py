@@ -19,6 +19,7 @@ from scenemosaic import GenerateConfig, agenerate
 from scenemosaic.evolve import UnitContext, rule_archetypes, unit_context, unit_obstacles
 from scenemosaic.evolve._analysis import layout_faces
 from scenemosaic.evolve._plans import (
+    MAX_PLANS,
     PLAN_MIN_AREA_M2,
     PLAN_MIN_MOVE_M,
     RIDER_REACH_M,
@@ -246,3 +247,19 @@ async def test_a_piece_facing_a_pinned_stand_keeps_facing_it_in_every_plan(tmp_p
             trial.set_rotation(k, r)
             trial.set_center(k, u, v)
         assert all(layout_faces(trial, a, b) for a, b in pairs)
+
+
+@pytest.mark.house  # a house room built to its floor unit twice: make test-houses
+async def test_plans_asked_a_few_at_a_time_are_those_of_one_search(tmp_path: Path) -> None:
+    """The search goes on where it stopped when more plans are asked for (the archetypes ask for
+    one more until the limit is filled): the first k plans do not hang on the limit."""
+    scene, layout, ctx = await _floor("procthor10k_train4_4room.json", "room|4", tmp_path / "a")
+    assert scene.structure is not None
+    unit = next(u for u in scene.structure.units if u.anchor_id == "floor")
+    whole = room_plans(layout, ctx, MAX_PLANS)
+    assert len(whole) >= 4
+    fresh = unit_context(scene, unit, unit_obstacles(scene, unit, scene.structure.units), {o.id for o in scene.objects if is_thin(o)})
+    stepwise = [room_plans(layout, fresh, k) for k in (1, 2, 4, MAX_PLANS)]
+    assert [len(p) for p in stepwise[:3]] == [1, 2, 4]
+    assert all(p == whole[: len(p)] for p in stepwise) and stepwise[-1] == whole
+    assert len(fresh.plan_cache) == 1  # one search, resumed: not one per limit
