@@ -24,7 +24,10 @@ time goes, for the five-variant run: ``house_variants5_cpu_s`` (user + system se
 process and every worker it waited for), ``stage_seconds`` (the house stages' wall seconds),
 ``room_stage_seconds`` (per room stage, summed over the rooms, and ``room_stage_max_s``, the
 slowest room's) and the goals of a house in seconds: ``goal_wall_s`` (30), ``goal_cpu_s`` (60),
-``goal_room_compose_s`` (2, every room) and ``goal_export_s`` (5), each with ``..._met``.
+``goal_room_compose_s`` (2, every room) and ``goal_export_s`` (5: the ``export`` stage's wall
+seconds), each with ``..._met``. The houses are delivered ahead of the export stage, while compose,
+validate and evaluate run (``docs/houses.md``): ``export_deliveries_s`` is the whole span, from the
+first delivery begun to the end of the export stage.
 
 Run: ``.venv/bin/python benchmarks/house.py [--house FILE] [--keep DIR]`` (about 3.5 minutes on two cores).
 """
@@ -139,6 +142,7 @@ def main() -> None:
         "goal_cpu_met": five_cpu <= GOAL_CPU_S,
         "goal_room_compose_s": GOAL_ROOM_COMPOSE_S,
         "goal_room_compose_met": room_max.get("compose", 0.0) <= GOAL_ROOM_COMPOSE_S,
+        "export_deliveries_s": _stage(five, "export")["detail"].get("deliveries_s"),
         "goal_export_s": GOAL_EXPORT_S,
         "goal_export_met": stage_s.get("export", 0.0) <= GOAL_EXPORT_S,
         "status": {"base": base["status"], "variants5": five["status"], "1w": one["status"], "2w": two["status"]},

@@ -408,6 +408,8 @@ async def _deliver_ahead(run: PipelineRun, names: set[str]) -> None:
     future = asyncio.ensure_future(_deliver(run, staged, workers))
     for folder, _ in chosen:
         run.deliveries[folder.name] = future
+    if run.deliveries_started is None:
+        run.deliveries_started = time.perf_counter()
 
 
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
@@ -424,8 +426,10 @@ async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     rest = [(folder, house) for folder, house in houses if folder.name not in ahead]
     files.update(await _deliver(run, rest, _in_processes(run.config, len(rest))))
     rec.detail["files"] = files[str(run.folder.base)]
-    if ahead:
+    if ahead and run.deliveries_started is not None:
         rec.detail["delivered_ahead"] = sorted(ahead)
+        # how long the houses took to deliver, from the first one begun: mostly while other stages ran
+        rec.detail["deliveries_s"] = round(time.perf_counter() - run.deliveries_started, 3)
     if run.house_variants:
         folders = [folder for folder, _ in houses]
         await asyncio.to_thread(contact_sheet, [(f.name, f / RunFolder.TOPDOWN) for f in folders], run.folder.contact_sheet)

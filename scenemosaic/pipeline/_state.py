@@ -125,6 +125,8 @@ class PipelineRun:
     """A house run's deliveries started ahead of its export stage (``pipeline/_house.py``), by the
     delivered folder's name (``base``, ``variant_<i>``): each future gives the files of every
     folder it delivers (into :attr:`RunFolder.staged`); the export stage waits for them."""
+    deliveries_started: float | None = None
+    """``time.perf_counter()`` when the first of :attr:`deliveries` began."""
 
     @property
     def input_path(self) -> Path:

@@ -103,6 +103,7 @@ def test_houses_delivered_ahead_are_moved_into_place(two_room_run: GenerateResul
     export = next(s for s in two_room_run.report["stages"] if s["name"] == "export")
     folders = ["base", *(f"variant_{i}" for i in range(1, VARIANTS + 1))]
     assert export["detail"]["delivered_ahead"] == folders
+    assert export["detail"]["deliveries_s"] > 0
     for folder in folders:
         assert (two_room_run.out_dir / folder / "house_scene.json").is_file()
         assert not (two_room_run.out_dir / folder / "partial.json").exists()
