@@ -3,7 +3,8 @@ procedural furniture library.
 
 The canonical asset frame is the object's local frame: Z up, metres, origin at the bottom
 centre of the footprint, front along -Y (``docs/assets.md``). This layer imports only
-:mod:`scenemosaic.scene` and :mod:`scenemosaic.exceptions`.
+:mod:`scenemosaic.scene` and :mod:`scenemosaic.exceptions` (and the in-process memo,
+:mod:`scenemosaic._memo`).
 
 Every file a mesh names (buffers, textures, materials) must lie in the mesh's folder
 (:func:`referenced_files`); meshes above ``MAX_MESH_FACES`` faces are refused.
@@ -37,6 +38,8 @@ from scenemosaic.assets._objects import (
     object_articulation,
     object_hulls,
     object_mesh,
+    object_mesh_arrays,
+    object_part_arrays,
     object_part_meshes,
 )
 from scenemosaic.assets._opening import OPEN_STATE_KEY, open_house, open_scene, part_openings
@@ -108,6 +111,8 @@ __all__ = [
     "object_articulation",
     "object_hulls",
     "object_mesh",
+    "object_mesh_arrays",
+    "object_part_arrays",
     "object_part_meshes",
     "open_house",
     "open_scene",

@@ -16,6 +16,7 @@ import numpy.typing as npt
 import structlog
 import trimesh
 
+from scenemosaic._memo import Memo
 from scenemosaic.assets._articulation import PartSpec, declared_part
 from scenemosaic.assets._canonical import load_mesh, load_source_mesh, mesh_hash
 from scenemosaic.assets._files import PARTS_FILE_SUFFIX
@@ -31,6 +32,8 @@ __all__ = [
     "object_articulation",
     "object_hulls",
     "object_mesh",
+    "object_mesh_arrays",
+    "object_part_arrays",
     "object_part_meshes",
 ]
 
@@ -332,6 +335,38 @@ def object_part_meshes(
         assert isinstance(mesh, trimesh.Trimesh)
         out[name] = mesh
     return out
+
+
+MeshArrays = tuple[FloatArray, npt.NDArray[np.int64]]
+"""A mesh as its vertices ``(V, 3)`` and triangles ``(F, 3)``, read-only (shared)."""
+
+_MESH_ARRAYS: Memo[str, MeshArrays] = Memo(4096)
+_PART_ARRAYS: Memo[str, dict[str | None, MeshArrays]] = Memo(4096)
+
+
+def _frozen(mesh: trimesh.Trimesh) -> MeshArrays:
+    vertices = np.array(mesh.vertices, dtype=np.float64)
+    faces = np.array(mesh.faces, dtype=np.int64)
+    vertices.setflags(write=False)
+    faces.setflags(write=False)
+    return vertices, faces
+
+
+def object_mesh_arrays(obj: SceneObject, base_dir: str | Path | None = None) -> MeshArrays:
+    """The vertices and faces of :func:`object_mesh` (the same numbers), read-only: made once per
+    process for each :func:`asset_fingerprint`, so the exports that only read a mesh share one
+    copy of it across a house's objects and variants instead of a fresh mesh each."""
+    return _MESH_ARRAYS.get(asset_fingerprint(obj, base_dir), lambda: _frozen(object_mesh(obj, base_dir)))
+
+
+def object_part_arrays(obj: SceneObject, base_dir: str | Path | None = None) -> dict[str | None, MeshArrays]:
+    """:func:`object_part_meshes` as read-only vertices and faces (a new dict of shared arrays),
+    made once per process for each :func:`asset_fingerprint` as :func:`object_mesh_arrays` is."""
+
+    def make() -> dict[str | None, MeshArrays]:
+        return {name: _frozen(mesh) for name, mesh in object_part_meshes(obj, base_dir).items()}
+
+    return dict(_PART_ARRAYS.get(asset_fingerprint(obj, base_dir), make))
 
 
 FACE_TOLERANCE_M = 1e-3

@@ -36,10 +36,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import shapely
 import structlog
 from shapely.geometry import MultiPoint, Polygon
 from shapely.geometry.base import BaseGeometry
 
+from scenemosaic._memo import Memo
 from scenemosaic.assets._articulation import HingeSide, PartSpec, opening
 from scenemosaic.assets._opening import OPEN_STATE_KEY, part_openings
 from scenemosaic.assets._procedural import (
@@ -49,7 +51,17 @@ from scenemosaic.assets._procedural import (
     procedural_articulation,
     procedural_parts,
 )
-from scenemosaic.scene import AssetRef, House, Opening, Pose, Scene, SceneObject, SimAttributes, Wall
+from scenemosaic.scene import (
+    AssetRef,
+    FloatArray,
+    House,
+    Opening,
+    Pose,
+    Scene,
+    SceneObject,
+    SimAttributes,
+    Wall,
+)
 
 __all__ = [
     "FIT_CLEARANCE_M",
@@ -170,13 +182,31 @@ def _door_object(hole: _Hole, side: _Side, hinges: tuple[HingeSide, ...], object
     )
 
 
+_PART_POINTS: Memo[tuple[str, tuple[float, float, float], tuple[int, ...]], FloatArray] = Memo(1024)
+"""A part's piece vertices, object frame, homogeneous ``(N, 4)``, by (category, extents, piece
+indices): a leaf's outline is taken at every step of its swing, for every candidate jamb and
+every house, and building the pieces is what cost the most."""
+
+
+def _part_points(category: str, extents: tuple[float, float, float], pieces: tuple[int, ...]) -> FloatArray:
+    """The vertices of the pieces ``pieces`` of the procedural model, object frame, with a 1
+    appended to each (read-only, shared)."""
+
+    def make() -> FloatArray:
+        built = procedural_parts(category, extents)
+        local = np.concatenate([np.asarray(built[i].vertices, dtype=np.float64) for i in pieces])
+        out = np.hstack([local, np.ones((len(local), 1))])
+        out.setflags(write=False)
+        return out
+
+    return _PART_POINTS.get((category, extents, pieces), make)
+
+
 def _outline(obj: SceneObject, part: PartSpec, value: float) -> Polygon:
     """The outline seen from above (world XY) of the leaf and its handles at joint value ``value``."""
-    pieces = procedural_parts(obj.category, obj.asset.extents)
-    local = np.concatenate([np.asarray(pieces[i].vertices, dtype=np.float64) for i in part.pieces])
-    points = np.hstack([local, np.ones((len(local), 1))])
+    points = _part_points(obj.category, obj.asset.extents, part.pieces)
     world = (obj.pose.matrix() @ part.transform(value) @ points.T).T[:, :2]
-    hull = MultiPoint([tuple(p) for p in world]).convex_hull
+    hull = MultiPoint(world).convex_hull
     return hull if isinstance(hull, Polygon) else Polygon()
 
 
@@ -202,14 +232,15 @@ def _clear_angle(side: _Side, door: SceneObject, parts: Sequence[PartSpec]) -> f
     floor: BaseGeometry = Polygon(room.floor) if room is not None else Polygon()
     closed = Polygon([tuple(p) for p in door.footprint()])
     allowed = floor.union(closed).buffer(FIT_TOLERANCE_M)
-    obstacles = _obstacles(side.room, door)
+    shapely.prepare(allowed)  # asked once per leaf and step: the same answers, sooner
+    obstacles = np.array(_obstacles(side.room, door), dtype=object)
     limit = min(p.limits[1] for p in parts)
     steps = math.floor(math.degrees(limit) / FIT_STEP_DEG - 1e-9)
     reached = 0.0
     for angle in [*(math.radians(FIT_STEP_DEG * k) for k in range(1, steps + 1)), limit]:
         outlines = [_outline(door, p, angle) for p in parts]
         if not all(allowed.contains(o) for o in outlines) or any(
-            o.distance(b) < FIT_CLEARANCE_M for o in outlines for b in obstacles
+            bool((shapely.distance(o, obstacles) < FIT_CLEARANCE_M).any()) for o in outlines
         ):
             break
         reached = angle

@@ -20,14 +20,24 @@ each shared wall once), ``<room id>/ceiling`` and a node per object of the room.
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 import structlog
 import trimesh
 from trimesh.visual.material import PBRMaterial
 
-from scenemosaic.assets import object_articulation, object_part_meshes, part_openings
+from scenemosaic._memo import Memo
+from scenemosaic.assets import (
+    object_articulation,
+    object_mesh_arrays,
+    object_part_arrays,
+    object_part_meshes,
+    part_openings,
+)
 from scenemosaic.exceptions import UsageError
 from scenemosaic.render import (
     CEILING_COLOR,
@@ -39,12 +49,13 @@ from scenemosaic.render import (
     ceiling_mesh,
     floor_mesh,
     house_wall_pieces,
+    moved_arrays,
     object_local_mesh,
     wall_ends,
     wall_mesh,
     wall_pieces,
 )
-from scenemosaic.scene import House, Room, Scene, write_atomic
+from scenemosaic.scene import FloatArray, House, Room, Scene, SceneObject, write_atomic
 
 __all__ = [
     "GLB_ROOT_NODE",
@@ -88,11 +99,43 @@ def _material(color: RGB, *, alpha: float = 1.0, name: str) -> PBRMaterial:
 
 def paint_mesh(mesh: trimesh.Trimesh, color: RGB, *, name: str, alpha: float = 1.0) -> trimesh.Trimesh:
     """(Package-internal.) A copy of ``mesh`` carrying one PBR material (its own texture visuals are dropped)."""
-    out = trimesh.Trimesh(vertices=mesh.vertices.copy(), faces=mesh.faces.copy(), process=False)
+    return _painted(mesh.vertices, mesh.faces, color, name=name, alpha=alpha)
+
+
+def _painted(
+    vertices: FloatArray, faces: npt.NDArray[np.int64], color: RGB, *, name: str, alpha: float = 1.0
+) -> trimesh.Trimesh:
+    """:func:`paint_mesh` of the mesh of ``vertices`` and ``faces`` (copied): all it reads of a mesh."""
+    out = trimesh.Trimesh(vertices=vertices.copy(), faces=faces.copy(), process=False)
     out.visual = trimesh.visual.TextureVisuals(  # type: ignore[no-untyped-call]
         material=_material(color, alpha=alpha, name=name)
     )
     return out
+
+
+def _untextured(obj: SceneObject) -> bool:
+    """Whether ``obj``'s meshes never carry a texture (:func:`with_visual` paints them): procedural
+    furniture and boxes. Their GLB meshes are painted straight from the shared arrays."""
+    return obj.asset.kind in ("procedural", "box")
+
+
+_ROOM_ARRAYS: Memo[tuple[str, ...], tuple[FloatArray, npt.NDArray[np.int64]]] = Memo(1024)
+"""A room's floor, wall and ceiling meshes as read-only arrays, by what they are made of (the
+room, and a wall's pieces): a house's variants share their rooms, and building each wall's
+boxes again was a good part of a house's GLB."""
+
+
+def _room_arrays(
+    key: tuple[str, ...], make: Callable[[], trimesh.Trimesh]
+) -> tuple[FloatArray, npt.NDArray[np.int64]]:
+    def frozen() -> tuple[FloatArray, npt.NDArray[np.int64]]:
+        mesh = make()
+        vertices, faces = np.array(mesh.vertices, dtype=np.float64), np.array(mesh.faces, dtype=np.int64)
+        vertices.setflags(write=False)
+        faces.setflags(write=False)
+        return vertices, faces
+
+    return _ROOM_ARRAYS.get(key, frozen)
 
 
 def with_visual(mesh: trimesh.Trimesh, category: str) -> trimesh.Trimesh:
@@ -114,16 +157,26 @@ def _add_objects(out: trimesh.Scene, scene: Scene, parent: str, base_dir: Path |
     openings = part_openings(scene)
     for obj in scene.objects:
         parts = object_articulation(obj, base_dir)
+        plain = _untextured(obj)  # painted from the arrays every export shares, the same mesh
+        color = category_color(obj.category)
         if not parts:
-            mesh = with_visual(object_local_mesh(obj, base_dir), obj.category)
+            if plain:
+                mesh = _painted(*object_mesh_arrays(obj, base_dir), color, name=obj.category)
+            else:
+                mesh = with_visual(object_local_mesh(obj, base_dir), obj.category)
             out.add_geometry(
                 mesh, node_name=obj.id, geom_name=obj.id, parent_node_name=parent,
                 transform=obj.pose.matrix(with_scale=False),
             )  # fmt: skip
             continue
-        meshes = object_part_meshes(obj, base_dir)
+        if plain:
+            arrays = object_part_arrays(obj, base_dir)
+            body = _painted(*arrays[None], color, name=obj.category)
+        else:
+            meshes = object_part_meshes(obj, base_dir)
+            body = with_visual(meshes[None], obj.category)
         out.add_geometry(
-            with_visual(meshes[None], obj.category), node_name=obj.id, geom_name=obj.id,
+            body, node_name=obj.id, geom_name=obj.id,
             parent_node_name=parent, transform=obj.pose.matrix(with_scale=False),
         )  # fmt: skip
         for part in parts:
@@ -133,10 +186,16 @@ def _add_objects(out: trimesh.Scene, scene: Scene, parent: str, base_dir: Path |
             value = part.clamped(openings.get(obj.id, {}).get(part.name, 0.0))
             if value != 0.0:  # delivered open: the node's matrix moves the part to its open pose
                 at = part.transform(value) @ at
-            mesh = meshes[part.name].copy()
-            mesh.apply_translation(-np.asarray(part.anchor, dtype=np.float64))
+            shift = np.eye(4)  # what Trimesh.apply_translation(-anchor) applies
+            shift[:3, 3] = -np.asarray(part.anchor, dtype=np.float64)
+            if plain:
+                mesh = _painted(*moved_arrays(*arrays[part.name], shift), color, name=obj.category)
+            else:
+                mesh = meshes[part.name].copy()
+                mesh.apply_transform(shift)
+                mesh = with_visual(mesh, obj.category)
             out.add_geometry(
-                with_visual(mesh, obj.category), node_name=name, geom_name=name, parent_node_name=obj.id,
+                mesh, node_name=name, geom_name=name, parent_node_name=obj.id,
                 transform=at,
             )  # fmt: skip
 
@@ -146,17 +205,19 @@ def _add_room(
 ) -> None:
     """Floor, walls (each of its ``pieces``; a wall with none is left out) and ceiling, named
     ``<prefix><part>``, under ``parent``."""
-    room_meshes: list[tuple[str, trimesh.Trimesh]] = [
-        ("floor", paint_mesh(floor_mesh(room), FLOOR_COLOR, name="floor"))
-    ]
+    shell = room.model_dump_json()
+    floor = _room_arrays(("floor", shell), lambda: floor_mesh(room))
+    room_meshes: list[tuple[str, trimesh.Trimesh]] = [("floor", _painted(*floor, FLOOR_COLOR, name="floor"))]
     for w in room.walls:
         if pieces[w.id]:
-            room_meshes.append((w.id, paint_mesh(wall_mesh(w, pieces[w.id]), WALL_COLOR, name="wall")))
+            mine = pieces[w.id]
+            key = ("wall", shell, w.id, repr([tuple(p) for p in mine]))
+            wall = _room_arrays(key, functools.partial(wall_mesh, w, mine))
+            room_meshes.append((w.id, _painted(*wall, WALL_COLOR, name="wall")))
         else:
             log.debug("glb_wall_left_out", wall=w.id)  # wholly open, or kept by a neighbour
-    room_meshes.append(
-        ("ceiling", paint_mesh(ceiling_mesh(room), CEILING_COLOR, name="ceiling", alpha=CEILING_ALPHA))
-    )
+    ceiling = _room_arrays(("ceiling", shell), lambda: ceiling_mesh(room))
+    room_meshes.append(("ceiling", _painted(*ceiling, CEILING_COLOR, name="ceiling", alpha=CEILING_ALPHA)))
     for name, mesh in room_meshes:
         node = prefix + name
         out.add_geometry(mesh, node_name=node, geom_name=node, parent_node_name=parent)

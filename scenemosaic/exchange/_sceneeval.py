@@ -26,6 +26,7 @@ object of every room into ``object``.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import re
@@ -36,7 +37,8 @@ import numpy as np
 import structlog
 import trimesh
 
-from scenemosaic.assets import PartSpec, object_articulation, part_openings
+from scenemosaic._memo import Memo
+from scenemosaic.assets import PartSpec, asset_fingerprint, object_articulation, part_openings
 from scenemosaic.exchange._glb import with_visual
 from scenemosaic.render import object_local_mesh
 from scenemosaic.scene import CEILING, FLOOR, FloatArray, House, Room, Scene, SceneObject, write_atomic
@@ -194,10 +196,38 @@ def _part_record(part: PartSpec, value: float = 0.0) -> dict[str, Any]:
     return record
 
 
+def _gltf_mesh(obj: SceneObject, base_dir: Path | None) -> tuple[trimesh.Trimesh, str]:
+    """``obj``'s local mesh in the glTF asset frame, and its baked-mesh digest."""
+    gltf = object_local_mesh(obj, base_dir).copy()
+    gltf.apply_transform(LOCAL_TO_GLTF)
+    return gltf, _mesh_digest(gltf)
+
+
+_GLTF_MESHES: Memo[str, tuple[trimesh.Trimesh, str]] = Memo(4096)
+""":func:`_gltf_mesh` by asset fingerprint (what it is a function of; a house's variants share
+their furniture). Shared: only read (painting copies it)."""
+
+_ASSET_GLBS: Memo[tuple[str, str], bytes] = Memo(4096)
+"""An asset GLB painted in its category's colour, by (asset fingerprint, category): the bytes
+depend on nothing else, and exporting them was most of a house's sceneState export."""
+
+GlbKeys = dict[str, tuple[str, str]]
+"""assetId -> the key of :data:`_ASSET_GLBS` its GLB is kept under (painted assets only)."""
+
+
 def _state(
     state_id: str, rooms: list[Scene], arch: dict[str, Any] | None, base_dir: Path | None
 ) -> tuple[dict[str, Any], dict[str, trimesh.Trimesh]]:
     """The sceneState of the objects of ``rooms`` (in order, indexed across all of them) with ``arch``."""
+    state, assets, _ = _keyed_state(state_id, rooms, arch, base_dir)
+    return state, assets
+
+
+def _keyed_state(
+    state_id: str, rooms: list[Scene], arch: dict[str, Any] | None, base_dir: Path | None
+) -> tuple[dict[str, Any], dict[str, trimesh.Trimesh], GlbKeys]:
+    """:func:`_state`, with the keys of the painted assets' GLBs."""
+    glb_keys: GlbKeys = {}
     n = sum(len(scene.objects) for scene in rooms)
     longest_prefix = len(f"idx{max(n - 1, 0)}_{MODEL_ID_PREFIX}".encode())
     budget = MAX_OBJECT_NAME_BYTES - longest_prefix
@@ -207,17 +237,20 @@ def _state(
     for scene in rooms:
         openings = part_openings(scene)
         for obj in scene.objects:
-            local = object_local_mesh(obj, base_dir)
-            gltf = local.copy()
-            gltf.apply_transform(LOCAL_TO_GLTF)
-            key = (obj.category, _mesh_digest(gltf))
+            fingerprint = asset_fingerprint(obj, base_dir)
+            gltf, digest = _GLTF_MESHES.get(fingerprint, functools.partial(_gltf_mesh, obj, base_dir))
+            key = (obj.category, digest)
             asset_id = by_key.get(key)
             if asset_id is None:
                 asset_id = _asset_id(obj.category, key[1], budget)
                 if asset_id in assets:  # a category slug collision; the full digest keeps ids distinct
                     asset_id = _asset_id(f"{obj.category}_{key[1][ASSET_HASH_CHARS:]}", key[1], budget)
-                gltf = with_visual(gltf, obj.category)
-                assets[asset_id] = gltf
+                painted = with_visual(gltf, obj.category)
+                if painted is gltf:  # its own texture: a mesh of its own, as it always had
+                    painted = _gltf_mesh(obj, base_dir)[0]
+                else:  # painted in the category colour: its GLB is the same for every such object
+                    glb_keys[asset_id] = (fingerprint, obj.category)
+                assets[asset_id] = painted
                 by_key[key] = asset_id
             objects.append({
                 "id": obj.id,
@@ -243,7 +276,7 @@ def _state(
     else:
         log.warning("sceneeval_without_room", scene=state_id)
     body["object"] = objects
-    return {"format": "sceneState", "scene": body}, assets
+    return {"format": "sceneState", "scene": body}, assets, glb_keys
 
 
 def sceneeval_state(
@@ -271,12 +304,23 @@ def house_sceneeval_state(
     house); each object's ``supportType`` comes from its own room. Assets are shared as in
     :func:`sceneeval_state`.
     """
+    state, assets, _ = _house_state(house, base_dir)
+    return state, assets
+
+
+def _house_state(
+    house: House, base_dir: Path | None
+) -> tuple[dict[str, Any], dict[str, trimesh.Trimesh], GlbKeys]:
     rooms = [(scene.id, scene.room) for scene in house.rooms if scene.room is not None]
-    return _state(house.id, list(house.rooms), _arch_of(house.id, rooms), base_dir)
+    return _keyed_state(house.id, list(house.rooms), _arch_of(house.id, rooms), base_dir)
 
 
 def _write(
-    out_dir: str | Path, state: dict[str, Any], assets: dict[str, trimesh.Trimesh], count: int
+    out_dir: str | Path,
+    state: dict[str, Any],
+    assets: dict[str, trimesh.Trimesh],
+    count: int,
+    glb_keys: GlbKeys | None = None,
 ) -> Path:
     out_dir = Path(out_dir)
     asset_dir = out_dir / "assets"
@@ -284,7 +328,9 @@ def _write(
     categories = {o["modelId"][len(MODEL_ID_PREFIX) :]: o["category"] for o in state["scene"]["object"]}
     metadata: dict[str, dict[str, Any]] = {}
     for asset_id, mesh in sorted(assets.items()):
-        data = cast(bytes, mesh.export(file_type="glb"))
+        key = (glb_keys or {}).get(asset_id)
+        export = functools.partial(_glb_bytes, mesh)
+        data = export() if key is None else _ASSET_GLBS.get(key, export)
         write_atomic(asset_dir / f"{asset_id}.glb", data)
         ext = [float(e) for e in mesh.extents]
         # glTF extents are (x, y up, z front); report them as our (x width, y depth, z height)
@@ -295,6 +341,10 @@ def _write(
     return path
 
 
+def _glb_bytes(mesh: trimesh.Trimesh) -> bytes:
+    return cast(bytes, mesh.export(file_type="glb"))
+
+
 def export_sceneeval(scene: Scene, out_dir: str | Path, base_dir: Path | None = None) -> Path:
     """Write ``out_dir/scene_base.json`` and ``out_dir/assets/<assetId>.glb``; return the JSON path.
 
@@ -302,12 +352,13 @@ def export_sceneeval(scene: Scene, out_dir: str | Path, base_dir: Path | None = 
     an asset source for SceneEval can read for descriptions. A scene without a room gets no
     ``arch`` (SceneEval then builds its simple rectangular room around the objects).
     """
-    state, assets = sceneeval_state(scene, base_dir)
-    return _write(out_dir, state, assets, len(scene.objects))
+    arch = _arch(scene.room) if scene.room is not None else None
+    state, assets, glb_keys = _keyed_state(scene.id, [scene], arch, base_dir)
+    return _write(out_dir, state, assets, len(scene.objects), glb_keys)
 
 
 def export_house_sceneeval(house: House, out_dir: str | Path, base_dir: Path | None = None) -> Path:
     """Write a whole house as one sceneState (:func:`house_sceneeval_state`): ``out_dir/scene_base.json``
     and ``out_dir/assets/`` as :func:`export_sceneeval` writes them; return the JSON path."""
-    state, assets = house_sceneeval_state(house, base_dir)
-    return _write(out_dir, state, assets, len(house.objects))
+    state, assets, glb_keys = _house_state(house, base_dir)
+    return _write(out_dir, state, assets, len(house.objects), glb_keys)

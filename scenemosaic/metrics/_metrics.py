@@ -42,7 +42,7 @@ from scenemosaic.assets import HullCache, asset_fingerprint
 from scenemosaic.compose import Arrangement, novelty_distance
 from scenemosaic.metrics._plausibility import plausibility
 from scenemosaic.physics import check_collisions, is_thin
-from scenemosaic.render import object_world_mesh
+from scenemosaic.render import object_world_arrays, object_world_mesh
 from scenemosaic.scene import (
     CEILING,
     FLOOR,
@@ -135,11 +135,16 @@ def oob(scene: Scene, base_dir: str | Path | None = None, *, seed: int = 0) -> f
         if not edge:
             edge.append(Polygon(floor).buffer(OOB_EDGE_M))
             prepare(edge[0])  # asked of every sample of every object
-        mesh = object_world_mesh(obj, Path(base_dir) if base_dir is not None else None)
+        folder = Path(base_dir) if base_dir is not None else None
+        vertices, _ = object_world_arrays(obj, folder)
+        corners = obj.corners()
+        if len(vertices) and all(
+            edge[0].contains_properly(box(*p.min(axis=0)[:2], *p.max(axis=0)[:2])) for p in (vertices, corners)
+        ):  # every sample lies within the mesh's bounds (or its box's, for a mesh without area): all in
+            return False
+        mesh = object_world_mesh(obj, folder)
         if len(mesh.faces) == 0 or mesh.area <= 0:
-            pts = obj.corners()
-        elif edge[0].contains_properly(box(*mesh.bounds[0, :2], *mesh.bounds[1, :2])):
-            return False  # every sample lies in the mesh's bounds, inside the floor: all 1000 would be in
+            pts = corners
         else:
             rng = np.random.default_rng(seed + k)
             weights = mesh.area_faces / mesh.area_faces.sum()

@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 import structlog
 
-from scenemosaic.assets import HullCache, object_mesh, object_part_meshes, part_openings
+from scenemosaic.assets import HullCache, object_mesh_arrays, object_part_arrays, part_openings
 from scenemosaic.physics._checks import (
     check_out_of_bounds,
     collision_report_for,
@@ -105,16 +105,16 @@ def _write_world(
     """Add each object's visual mesh to ``builder`` (split by movable part for an object whose
     parts have their own bodies) and write its MJCF under ``out_dir``."""
     for obj in objects:
-        try:
+        try:  # the meshes as arrays made once per asset (a house's variants share their furniture)
             if builder.part_names(obj.id):
-                meshes = object_part_meshes(obj, base_dir)
+                meshes = object_part_arrays(obj, base_dir)
             else:
-                meshes = {None: object_mesh(obj, base_dir)}
+                meshes = {None: object_mesh_arrays(obj, base_dir)}
         except Exception as exc:  # the visual is optional: the collision pieces still describe the object
             log.warning("mjcf_visual_mesh_failed", object_id=obj.id, error=str(exc))
             continue
-        for part, mesh in meshes.items():
-            builder.add_visual(obj, np.asarray(mesh.vertices), np.asarray(mesh.faces), part=part)
+        for part, (vertices, faces) in meshes.items():
+            builder.add_visual(obj, vertices, faces, part=part)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     path = builder.write_mjcf(out, model_name=name)

@@ -646,7 +646,9 @@ class WorldBuilder:
         light.pos = [0.0, 0.0, 5.0]
         light.dir = [0.0, 0.0, -1.0]
         light.type = mujoco.mjtLightType.mjLIGHT_DIRECTIONAL
-        self.spec.compile()
+        # to_xml compiles what it needs itself and gives the same text for a spec compiled or
+        # not (the visual geoms' frames come from their meshes either way): compiling first only
+        # cost time
         root = ET.fromstring(self.spec.to_xml())
         mesh_dir = out_dir / MJCF_MESH_DIR
         mesh_dir.mkdir(parents=True, exist_ok=True)

@@ -29,15 +29,16 @@ from pathlib import Path
 from typing import NamedTuple, cast
 
 import numpy as np
+import numpy.typing as npt
 import shapely
 import shapely.affinity
 import structlog
 import trimesh
 
 from scenemosaic._memo import Memo
-from scenemosaic.assets import object_mesh
+from scenemosaic.assets import object_mesh, object_mesh_arrays
 from scenemosaic.exceptions import SceneValidationError
-from scenemosaic.scene import House, Room, SceneObject, Wall
+from scenemosaic.scene import FloatArray, House, Room, SceneObject, Wall
 
 __all__ = [
     "CEILING_THICKNESS",
@@ -48,7 +49,9 @@ __all__ = [
     "ceiling_mesh",
     "floor_mesh",
     "house_wall_pieces",
+    "moved_arrays",
     "object_local_mesh",
+    "object_world_arrays",
     "object_world_mesh",
     "polygon_rectangles",
     "subtract_panels",
@@ -101,6 +104,36 @@ def object_world_mesh(obj: SceneObject, base_dir: Path | None = None) -> trimesh
     mesh = object_local_mesh(obj, base_dir)
     mesh.apply_transform(obj.pose.matrix(with_scale=False))
     return mesh
+
+
+def object_world_arrays(
+    obj: SceneObject, base_dir: Path | None = None
+) -> tuple[FloatArray, npt.NDArray[np.int64]]:
+    """The vertices and faces of :func:`object_world_mesh`, the same numbers, without making a
+    mesh: the shared local arrays (:func:`~scenemosaic.assets.object_mesh_arrays`) moved by
+    :func:`moved_arrays`. May return the shared read-only arrays themselves."""
+    vertices, faces = object_mesh_arrays(obj, base_dir)
+    return moved_arrays(vertices, faces, obj.pose.matrix(with_scale=False))
+
+
+def moved_arrays(
+    vertices: FloatArray, faces: npt.NDArray[np.int64], matrix: FloatArray
+) -> tuple[FloatArray, npt.NDArray[np.int64]]:
+    """A mesh's vertices and faces as ``Trimesh.apply_transform(matrix)`` leaves them, the same
+    numbers (trimesh's own tests and point transform; the faces turned when ``matrix`` mirrors),
+    without a mesh to copy and transform. Returns the given arrays themselves for the identity."""
+    matrix = np.asanyarray(matrix, order="C", dtype=np.float64)
+    if trimesh.util.allclose(matrix, _IDENTITY4, 1e-8):
+        return vertices, faces
+    moved = trimesh.transformations.transform_points(vertices, matrix=matrix)
+    rotates = not trimesh.util.allclose(matrix[:3, :3], _IDENTITY3, atol=1e-6)
+    if rotates and trimesh.transformations.flips_winding(matrix):  # type: ignore[no-untyped-call]
+        faces = np.ascontiguousarray(np.fliplr(faces))
+    return moved, faces
+
+
+_IDENTITY3 = np.eye(3, dtype=np.float64)
+_IDENTITY4 = np.eye(4, dtype=np.float64)
 
 
 def _prism(polygon: list[tuple[float, float]], z0: float, z1: float) -> trimesh.Trimesh:

@@ -17,17 +17,24 @@ import functools
 import io
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import structlog
 from PIL import Image, ImageDraw, ImageFont
 
+from scenemosaic._memo import Memo
 from scenemosaic.exceptions import SceneValidationError
-from scenemosaic.render._geometry import WallPiece, object_world_mesh, wall_ends, wall_pieces
+from scenemosaic.render._geometry import (
+    WallPiece,
+    object_world_arrays,
+    object_world_mesh,
+    wall_ends,
+    wall_pieces,
+)
 from scenemosaic.render._palette import (
     BACKGROUND,
     DOOR_COLOR,
@@ -38,9 +45,12 @@ from scenemosaic.render._palette import (
     WALL_COLOR,
     WINDOW_COLOR,
     category_color,
-    shade,
+    shades,
 )
 from scenemosaic.scene import FloatArray, Scene, SceneObject, Wall
+
+if TYPE_CHECKING:
+    from PIL._imaging import ImagingCore
 
 __all__ = ["GRID_STEPS_M", "LABEL_GAP_PX", "OrthoView", "PixelMap", "object_label", "render_view"]
 
@@ -158,15 +168,94 @@ class PixelMap:
         return self.to_px(self.view.project(np.asarray(points, dtype=np.float64).reshape(-1, 3)))
 
 
+_TEXT_PIXELS: Memo[tuple[Hashable, ...], Any] = Memo(2048)
+"""What the label font measured (a text's box) and drew (a text's mask and offset), by font size,
+text and every argument that shapes them, the mask's subpixel start included: a picture's labels,
+its grid's tick labels and a house's room names come again in every picture of a run, and
+FreeType drawing them again dominated the cost of a plan."""
+
+
+class _KeptFont(ImageFont.FreeTypeFont):
+    """Pillow's default font at one size, keeping each box it measured and each mask it drew in
+    :data:`_TEXT_PIXELS` (the same face: the same pixels, only made once)."""
+
+    def __init__(self, font: ImageFont.FreeTypeFont) -> None:
+        # the loaded face itself, not a second load of it: the same glyphs, the same metrics
+        self.__dict__.update(font.__dict__)
+
+    def _key(self, *parts: Any) -> tuple[Hashable, ...] | None:
+        key = (self.size, self.layout_engine, *parts)
+        try:
+            hash(key)
+        except TypeError:  # e.g. a features list: not kept
+            return None
+        return key
+
+    def getbbox(
+        self,
+        text: str | bytes | bytearray,
+        mode: str = "",
+        direction: str | None = None,
+        features: list[str] | None = None,
+        language: str | None = None,
+        stroke_width: float = 0,
+        anchor: str | None = None,
+    ) -> tuple[float, float, float, float]:
+        """:meth:`PIL.ImageFont.FreeTypeFont.getbbox`, made once per text and arguments."""
+
+        def make() -> tuple[float, float, float, float]:
+            return super(_KeptFont, self).getbbox(
+                text, mode, direction, features, language, stroke_width, anchor
+            )
+
+        plain = bytes(text) if isinstance(text, bytearray) else text
+        key = self._key("bbox", plain, mode, direction, features, language, stroke_width, anchor)
+        out: tuple[float, float, float, float] = make() if key is None else _TEXT_PIXELS.get(key, make)
+        return out
+
+    def getmask2(
+        self,
+        text: str | bytes,
+        mode: str = "",
+        direction: str | None = None,
+        features: list[str] | None = None,
+        language: str | None = None,
+        stroke_width: float = 0,
+        anchor: str | None = None,
+        ink: int = 0,
+        start: tuple[float, float] | None = None,
+        *args: Any,
+        **kwargs: Any,
+    ) -> tuple[ImagingCore, tuple[int, int]]:
+        """:meth:`PIL.ImageFont.FreeTypeFont.getmask2`, made once per text and arguments (the
+        mask is only read when drawn; a colour mask, which the caller edits, is never kept)."""
+
+        def make() -> tuple[ImagingCore, tuple[int, int]]:
+            return super(_KeptFont, self).getmask2(
+                text, mode, direction, features, language, stroke_width, anchor, ink, start, *args, **kwargs
+            )
+
+        key = None
+        if mode != "RGBA" and not args:
+            options = (mode, direction, features, language, stroke_width, anchor, ink, start)
+            key = self._key("mask", text, *options, tuple(sorted(kwargs.items())))
+        out: tuple[ImagingCore, tuple[int, int]] = make() if key is None else _TEXT_PIXELS.get(key, make)
+        return out
+
+
+@functools.lru_cache(maxsize=32)
 def _font(size: int) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
+    """The label font at ``size`` pixels (one per size for the process: loading it is not free)."""
     try:
-        return ImageFont.load_default(size=size)
+        font = ImageFont.load_default(size=size)
     except (OSError, ValueError, ImportError):  # Pillow without FreeType: the fixed bitmap font
         return ImageFont.load_default()
+    return _KeptFont(font) if isinstance(font, ImageFont.FreeTypeFont) else font
 
 
-def _poly(points: FloatArray) -> list[tuple[float, float]]:
-    return [(float(x), float(y)) for x, y in points]
+def _poly(points: FloatArray) -> list[float]:
+    # a flat list of Python floats: what Pillow reads fastest, the same coordinates as pairs
+    return np.asarray(points, dtype=np.float64).reshape(-1).tolist()  # type: ignore[no-any-return]
 
 
 def _hull_2d(points: FloatArray) -> FloatArray:
@@ -268,8 +357,8 @@ def _object_triangles(
     """Every drawable triangle: pixel coordinates (T, 3, 2), sort keys (T, 3) and colours."""
     px_all, keys_all, colors = [], [], []
     for oi, obj in enumerate(objects):
-        mesh = object_world_mesh(obj, base_dir)
-        tris = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]  # (F, 3, 3)
+        vertices, faces = object_world_arrays(obj, base_dir)  # object_world_mesh's, without the mesh
+        tris = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]  # (F, 3, 3)
         if len(tris) == 0:
             continue
         ab = view.project(tris.reshape(-1, 3)).reshape(-1, 3, 2)
@@ -278,9 +367,7 @@ def _object_triangles(
         if not keep.any():
             continue
         depth = view.depth(tris[keep].mean(axis=1))
-        base = category_color(obj.category)
-        shades = view.shade_fraction(depth)
-        colors += [shade(base, float(t)) for t in shades]
+        colors += shades(category_color(obj.category), view.shade_fraction(depth))
         px_all.append(pm.to_px(ab[keep].reshape(-1, 2)).reshape(-1, 3, 2))
         idx = np.flatnonzero(keep).astype(np.float64)
         keys_all.append(np.stack([depth, np.full(len(idx), float(oi)), idx], axis=-1))
@@ -398,25 +485,32 @@ def _first_free_spot(
 ) -> int | None:
     """The index of the first of ``spots`` (offsets from the label's centre ``cx, cy``, its half
     size ``half_w, half_h`` in ``label``) where the label's box lies inside the picture and
-    overlaps no box of ``placed``; ``None`` when none does. All spots are tried at once."""
+    overlaps no box of ``placed``; ``None`` when none does. The spots are tried in batches, each
+    at once, a small one first (the nearest spots are free most of the time) and larger ones after."""
     cx, cy, half_w, half_h = label
     offsets = np.asarray(spots, dtype=np.float64).reshape(-1, 2)
-    x0 = cx + offsets[:, 0] - half_w
-    y0 = cy + offsets[:, 1] - half_h
-    x1 = cx + offsets[:, 0] + half_w
-    y1 = cy + offsets[:, 1] + half_h
-    ok = (x0 >= 0) & (y0 >= 0) & (x1 <= picture[0]) & (y1 <= picture[1])
-    if placed:
-        taken = np.asarray(placed, dtype=np.float64)
-        overlaps = (
-            (x0[:, None] < taken[None, :, 2])
-            & (taken[None, :, 0] < x1[:, None])
-            & (y0[:, None] < taken[None, :, 3])
-            & (taken[None, :, 1] < y1[:, None])
-        )
-        ok &= ~overlaps.any(axis=1)
-    hits = np.flatnonzero(ok)
-    return int(hits[0]) if len(hits) else None
+    taken = np.asarray(placed, dtype=np.float64).reshape(-1, 4)
+    start, batch = 0, 64
+    while start < len(offsets):
+        part = offsets[start : start + batch]
+        x0 = cx + part[:, 0] - half_w
+        y0 = cy + part[:, 1] - half_h
+        x1 = cx + part[:, 0] + half_w
+        y1 = cy + part[:, 1] + half_h
+        ok = (x0 >= 0) & (y0 >= 0) & (x1 <= picture[0]) & (y1 <= picture[1])
+        if len(taken):
+            overlaps = (
+                (x0[:, None] < taken[None, :, 2])
+                & (taken[None, :, 0] < x1[:, None])
+                & (y0[:, None] < taken[None, :, 3])
+                & (taken[None, :, 1] < y1[:, None])
+            )
+            ok &= ~overlaps.any(axis=1)
+        hits = np.flatnonzero(ok)
+        if len(hits):
+            return start + int(hits[0])
+        start, batch = start + batch, batch * 4
+    return None
 
 
 def _gl_image(
@@ -546,8 +640,9 @@ def _paint(
             _draw_plan_walls(draw, walls, pm)
         px, keys, colors = _object_triangles(objects, view, pm, base_dir)
         order = np.lexsort((keys[:, 2], keys[:, 1], keys[:, 0])) if len(keys) else np.zeros(0, dtype=np.int64)
-        for i in order:
-            draw.polygon(_poly(px[i]), fill=colors[i])
+        corners = px.reshape(len(px), 6).tolist()  # each triangle's flat (x, y) list, as _poly makes it
+        for i in order.tolist():
+            draw.polygon(corners[i], fill=colors[i])
         n_tri = len(order)
     log.debug("view_rendered", objects=len(objects), triangles=n_tri, size_px=size_px, gl=gl is not None)
     return image, draw, pm, font
