@@ -84,24 +84,20 @@ def collision_report_for(
     if len(solid) < 2:
         return report
     # per-geom world AABBs from the hull vertices, for a cheap broad phase
-    boxes: dict[str, list[tuple[FloatArray, FloatArray]]] = {}
-    obj_box: dict[str, tuple[FloatArray, FloatArray]] = {}
+    boxes: dict[str, tuple[FloatArray, FloatArray]] = {}
     for o in solid:
         mat = o.pose.matrix(with_scale=False)
         verts = shapes[o.id].world_vertices(mat)
-        boxes[o.id] = [(v.min(axis=0), v.max(axis=0)) for v in verts]
-        allv = np.concatenate(verts)
-        obj_box[o.id] = (allv.min(axis=0), allv.max(axis=0))
+        boxes[o.id] = (np.stack([v.min(axis=0) for v in verts]), np.stack([v.max(axis=0) for v in verts]))
     reach = tolerance_m + 0.002
-    near: list[tuple[SceneObject, SceneObject]] = []
-    for i, a in enumerate(solid):
-        alo, ahi = obj_box[a.id]
-        for b in solid[i + 1 :]:
-            if across is not None and (a.id in across) == (b.id in across):
-                continue
-            blo, bhi = obj_box[b.id]
-            if not (np.any(alo > bhi + reach) or np.any(blo > ahi + reach)):
-                near.append((a, b))
+    lo = np.stack([boxes[o.id][0].min(axis=0) for o in solid])
+    hi = np.stack([boxes[o.id][1].max(axis=0) for o in solid])
+    # every pair's boxes at once (the same comparisons a pair-by-pair loop makes), in (i, j > i) order
+    close = ~((lo[:, None, :] > hi[None, :, :] + reach).any(axis=2) | (lo[None, :, :] > hi[:, None, :] + reach).any(axis=2))
+    if across is not None:
+        side = np.array([o.id in across for o in solid])
+        close &= side[:, None] != side[None, :]
+    near = [(solid[i], solid[j]) for i, j in zip(*np.nonzero(np.triu(close, k=1)), strict=True)]
     if not near:
         return report
     builder = WorldBuilder(SimSettings(), gravity_dir=(0.0, 0.0, -1.0))
@@ -115,15 +111,14 @@ def collision_report_for(
     for a, b in near:
         deepest: float | None = None
         contacts = 0
-        for ga, (galo, gahi) in zip(geoms[a.id], boxes[a.id], strict=True):
-            for gb, (gblo, gbhi) in zip(geoms[b.id], boxes[b.id], strict=True):
-                if np.any(galo > gbhi + reach) or np.any(gblo > gahi + reach):
-                    continue
-                dist = float(mujoco.mj_geomDistance(m, d, ga, gb, reach, None))
-                if dist < 0:
-                    contacts += 1
-                if dist < reach and (deepest is None or -dist > deepest):
-                    deepest = -dist
+        (alo, ahi), (blo, bhi) = boxes[a.id], boxes[b.id]
+        apart = (alo[:, None, :] > bhi[None, :, :] + reach).any(axis=2) | (blo[None, :, :] > ahi[:, None, :] + reach).any(axis=2)
+        for ia, ib in zip(*np.nonzero(~apart), strict=True):
+            dist = float(mujoco.mj_geomDistance(m, d, geoms[a.id][ia], geoms[b.id][ib], reach, None))
+            if dist < 0:
+                contacts += 1
+            if dist < reach and (deepest is None or -dist > deepest):
+                deepest = -dist
         if deepest is None or deepest < 0:
             continue
         pair = CollisionPair(a=a.id, b=b.id, depth_m=round(deepest, 6), contacts=contacts)
