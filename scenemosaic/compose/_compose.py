@@ -47,6 +47,7 @@ from scenemosaic.scene import (
     LocalUnit,
     Pose,
     Scene,
+    SceneObject,
     build_structure,
     convex_hull_2d,
     descendants,
@@ -230,15 +231,27 @@ class _Composer:
         an ``OCCUPANCY_GRID`` raster of the floor): the footprint term of the selection."""
         if self.raster is None:
             return None
+        raster = self.raster
+        # a group's variants combine its units' layouts: a piece takes the same pose in many of
+        # them, and its cells are worked out once per pose
+        cells: dict[tuple[object, ...], np.ndarray] = {}
+
+        def footprint(o: SceneObject) -> np.ndarray:
+            key = (o.id, o.pose.position, o.pose.quaternion, o.pose.scale)
+            known = cells.get(key)
+            if known is None:
+                known = cells[key] = raster.mask(convex_hull_2d(o.corners()[:, :2]))
+            return known
+
         out = []
         for g, scenes in enumerate(self.group_scenes):
             rows = []
             for s in scenes:
-                mask = np.zeros(self.raster.shape, dtype=bool)
+                mask = np.zeros(raster.shape, dtype=bool)
                 for oid in self.groups[g].ids:
                     o = s.get(oid)
                     if not is_thin(o):
-                        mask |= self.raster.mask(convex_hull_2d(o.corners()[:, :2]))
+                        mask |= footprint(o)
                 rows.append(np.packbits(mask.ravel()))
             out.append(np.stack(rows))
         return out
