@@ -258,7 +258,7 @@ class _Composer:
 
     def _clean(self, objs: list[Any], split: set[str] | None) -> bool:
         self.report.checks += 1
-        world = Scene.model_construct(objects=objs)
+        world = Scene.of_objects(objs)
         return not collision_report_for(world, self.shapes, across=split).pairs
 
     def _group_objects(self, g: int, k: int) -> list[Any]:

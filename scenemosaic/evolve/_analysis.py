@@ -173,7 +173,7 @@ def physical_check(layout: UnitLayout, ctx: UnitContext, shapes: Mapping[str, Ob
     the fixed obstacles around them, and children less than 99 % inside the anchor surface."""
     kids = [_posed(layout, k) for k in layout.ids]
     near = _nearby_obstacles(layout, ctx)
-    world = Scene.model_construct(objects=kids + near)
+    world = Scene.of_objects(kids + near)
     report = collision_report_for(world, shapes)
     own = set(layout.ids)
     pairs = tuple(p for p in report.pairs if p.a in own or p.b in own)

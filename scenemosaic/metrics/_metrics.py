@@ -253,7 +253,7 @@ def house_diversity(houses: Sequence[House]) -> dict[str, float | int | None]:
     for a, b in itertools.combinations(maps, 2):
         ious.append(mask_iou(a, b))
     ids = [o.id for o in houses[0].objects]
-    arrs = [Arrangement.of(Scene.model_construct(objects=h.objects), ids) for h in houses]
+    arrs = [Arrangement.of(Scene.of_objects(h.objects), ids) for h in houses]
     n = float(np.mean([novelty_distance(a, b) for a, b in itertools.combinations(arrs, 2)]))
     return {"Div-IoU": round(float(np.mean(ious)), 4), "Div-N": round(n, 4), "pairs": len(ious)}
 

@@ -27,6 +27,7 @@ import ast
 import keyword
 import math
 import re
+import threading
 from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass
 
@@ -119,6 +120,13 @@ def _aliased(text: str, ids: Sequence[str]) -> tuple[str, dict[str, str]]:
     return text, aliases
 
 
+_PARSE_LOCK = threading.Lock()
+"""One ``ast.parse`` at a time in the process: CPython 3.11 keeps the depth of the tree it is
+turning into Python objects in one counter per interpreter, and two threads parsing at once (a
+unit's variants evolve in threads) can fail with ``SystemError: AST constructor recursion depth
+mismatch``."""
+
+
 def parse_assignment(text: str, ids: Sequence[str]) -> Assignment:
     """Parse and check one assignment against the unit's object ids (no evaluation yet)."""
     if len(text) > MAX_EXPRESSION_CHARS:
@@ -144,7 +152,8 @@ def parse_assignment(text: str, ids: Sequence[str]) -> Assignment:
         raise ExpressionError(f"unknown object {target!r} (this unit has: {', '.join(ids)})")
     field = f"center.{m.group(3)}" if m.group(3) else "rotation_degrees"
     try:
-        tree = ast.parse(rhs_a, mode="eval")
+        with _PARSE_LOCK:
+            tree = ast.parse(rhs_a, mode="eval")
     except (SyntaxError, ValueError, MemoryError, RecursionError) as exc:
         raise ExpressionError(f"not an arithmetic expression ({type(exc).__name__}): {_GRAMMAR}") from None
     aliases = {**lhs_alias, **rhs_alias}

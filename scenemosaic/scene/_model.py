@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal, cast
 
 import numpy as np
 import structlog
@@ -674,3 +674,17 @@ class Scene(_Model):
     def from_json(cls, text: str | bytes) -> Scene:
         """Parse and validate a scene from JSON text."""
         return cls.model_validate_json(text)
+
+    @classmethod
+    def of_objects(cls, objects: list[SceneObject]) -> Scene:
+        """A scene of only ``objects``, unchecked (``model_construct``): the world a check of a
+        few pieces builds. Its other fields get their defaults here, each factory called as is:
+        pydantic fills a constructed model's defaults by first reading each factory's signature,
+        which parses text with ``ast``, and two threads parsing at once can fail on CPython 3.11
+        (``SystemError: AST constructor recursion depth mismatch``; a unit's variants evolve in threads)."""
+        defaults = {
+            name: cast(Callable[[], Any], field.default_factory)()
+            for name, field in cls.model_fields.items()
+            if field.default_factory is not None and name != "objects"
+        }
+        return cls.model_construct(objects=objects, **defaults)

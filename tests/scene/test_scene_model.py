@@ -135,3 +135,22 @@ def test_room_is_counter_clockwise_with_inward_normals() -> None:
 def test_published_schema_is_current() -> None:
     published = json.loads((REPO / "docs" / "scene.schema.json").read_text())
     assert published == Scene.model_json_schema(), "run: scenemosaic schema --out docs/scene.schema.json"
+
+
+def test_a_scene_of_objects_fills_its_defaults_without_parsing_any_text(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``Scene.of_objects`` is what ``model_construct(objects=...)`` gives, without pydantic reading
+    its default factories' signatures: that parses text with ``ast``, which two threads doing at
+    once can break on CPython 3.11 (seen once as a failed evolve node in the test suite)."""
+    import ast
+
+    box = SceneObject(id="a", category="box", asset=AssetRef(kind="box", extents=(1.0, 1.0, 1.0)), pose=Pose.from_yaw((0.0, 0.0, 0.0), 0.0))
+    parsed: list[object] = []
+    real = ast.parse
+    monkeypatch.setattr(ast, "parse", lambda *a, **k: parsed.append(a) or real(*a, **k))
+    made = Scene.of_objects([box])
+    assert not parsed
+    assert made == Scene.model_construct(objects=[box]) and parsed  # the pydantic way parses
+    assert made.objects == [box] and made.relations == [] and made.metadata == {}
+    other = Scene.of_objects([box])
+    made.relations.append(Relation(kind="attach", child="a", parent="floor"))
+    assert other.relations == []  # each gets its own defaults
