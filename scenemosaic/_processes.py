@@ -33,6 +33,7 @@ from typing import Literal
 __all__ = [
     "STOP_GRACE_S",
     "JobEnd",
+    "JobQueue",
     "Orphan",
     "WorkerJob",
     "WorkerPool",
@@ -124,6 +125,63 @@ class WorkerJob:
     """Seconds the job may run; then its worker is stopped (SIGTERM, then its group killed)."""
     log_path: Path | None = None
     """Where the worker's stdout and stderr go (appended); ``None``: this process's own."""
+    slot: int | None = None
+    """The worker that must run it, by its place among the call's workers (``0`` .. ``workers - 1``,
+    in the order they were started; a larger number wraps around): jobs of one slot run one after
+    another in the same reused process, whose in-process memos suit them. ``None``: any worker."""
+
+
+class JobQueue:
+    """The jobs of one :meth:`WorkerPool.run` call that may grow while it runs: :meth:`put` more
+    jobs (from any thread), then :meth:`close`; the call returns once the queue is closed and every
+    job in it has ended. A plain list of jobs is a queue closed from the start."""
+
+    def __init__(self, jobs: list[WorkerJob] | None = None, *, closed: bool = False) -> None:
+        self._jobs: deque[WorkerJob] = deque(jobs or [])
+        self._lock = threading.Lock()
+        self._closed = closed
+        self._wake: Callable[[], None] | None = None
+
+    def put(self, jobs: list[WorkerJob]) -> None:
+        """Add ``jobs`` at the end (after :meth:`close`: an error)."""
+        with self._lock:
+            if self._closed:
+                raise RuntimeError("no job can join a closed queue")
+            self._jobs.extend(jobs)
+            wake = self._wake
+        if wake is not None:
+            wake()
+
+    def close(self) -> None:
+        """No more jobs: the call serving the queue ends with the last of them."""
+        with self._lock:
+            self._closed = True
+            wake = self._wake
+        if wake is not None:
+            wake()
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called."""
+        with self._lock:
+            return self._closed
+
+    def _take(self, ready: Callable[[WorkerJob], bool]) -> WorkerJob | None:
+        """The first job ``ready`` accepts, taken out of the queue; ``None``: none."""
+        with self._lock:
+            for k, job in enumerate(self._jobs):
+                if ready(job):
+                    del self._jobs[k]
+                    return job
+        return None
+
+    def _done(self) -> bool:
+        with self._lock:
+            return self._closed and not self._jobs
+
+    def _serve_with(self, wake: Callable[[], None] | None) -> None:
+        with self._lock:
+            self._wake = wake
 
 
 @dataclass(frozen=True)
@@ -263,7 +321,7 @@ def run_jobs(
     """
     running: list[_Worker] = []
     try:
-        _serve(deque(jobs), running, module, args or [], workers, reuse, on_start, on_end, stop, orphan)
+        _serve(JobQueue(jobs, closed=True), running, module, args or [], workers, reuse, on_start, on_end, stop, orphan)
     finally:
         _stop_all(running, reuse)
 
@@ -287,7 +345,7 @@ class WorkerPool:
 
     def run(
         self,
-        jobs: list[WorkerJob],
+        jobs: list[WorkerJob] | JobQueue,
         *,
         workers: int,
         on_start: Callable[[WorkerJob], None] | None = None,
@@ -295,11 +353,13 @@ class WorkerPool:
         stop: threading.Event | None = None,
     ) -> None:
         """Run ``jobs`` as :func:`run_jobs` does (``reuse``), at most ``workers`` at once; the
-        workers idle at the end stay for the next call. A call that stops (an exception, ``stop``
-        set) stops every worker of the pool, as :func:`run_jobs` would."""
+        workers idle at the end stay for the next call. ``jobs`` may be a :class:`JobQueue` that
+        grows while the call runs (it returns once the queue is closed and emptied). A call that
+        stops (an exception, ``stop`` set) stops every worker of the pool, as :func:`run_jobs` would."""
+        queue = jobs if isinstance(jobs, JobQueue) else JobQueue(jobs, closed=True)
         with self._lock:
             try:
-                stopped = _serve(deque(jobs), self._running, self.module, self.args, workers, True, on_start, on_end, stop, self.orphan)
+                stopped = _serve(queue, self._running, self.module, self.args, workers, True, on_start, on_end, stop, self.orphan)
             except BaseException:
                 self._close()
                 raise
@@ -319,7 +379,7 @@ class WorkerPool:
 
 
 def _serve(
-    queue: deque[WorkerJob],
+    queue: JobQueue,
     running: list[_Worker],
     module: str,
     args: list[str],
@@ -331,35 +391,57 @@ def _serve(
     orphan: Orphan,
 ) -> bool:
     """The loop of :func:`run_jobs` over the workers ``running`` (those it starts are added):
-    returns when every job has ended (``False``) or ``stop`` is set (``True``), leaving the
-    workers to the caller."""
+    returns when the queue is closed and every job in it has ended (``False``) or ``stop`` is set
+    (``True``), leaving the workers to the caller. A job with a :attr:`WorkerJob.slot` waits for
+    that worker; the others take the first idle one."""
     wake_r, wake_w = os.pipe()
     os.set_blocking(wake_r, False)
+    os.set_blocking(wake_w, False)  # a full pipe already says "look again"
+    wake_lock, ended = threading.Lock(), [False]
+
+    def wake() -> None:
+        with wake_lock, contextlib.suppress(OSError):
+            if not ended[0]:  # never into a closed pipe, whose number may be another file's by now
+                os.write(wake_w, b"x")
+
     waker: threading.Thread | None = None
     if stop is not None:
         def _wake() -> None:
             stop.wait()
-            with contextlib.suppress(OSError):
-                os.write(wake_w, b"x")
+            wake()
 
         waker = threading.Thread(target=_wake, name="pool-stop", daemon=True)
         waker.start()
+    queue._serve_with(wake)
     try:
         while True:
+            with contextlib.suppress(BlockingIOError):
+                os.read(wake_r, 4096)  # whatever woke the loop (a job put, the queue closed, a stop) is looked at below
             if stop is not None and stop.is_set():
                 return True
-            while queue:
-                idle = next((w for w in running if reuse and w.job is None and w.kill_at is None and not w.closed), None)
-                if idle is None and len(running) >= workers:
+            while True:
+                idle = [k for k, w in enumerate(running) if reuse and w.job is None and w.kill_at is None and not w.closed]
+                room = len(running) < workers
+
+                def ready(job: WorkerJob, idle: list[int] = idle, room: bool = room) -> bool:
+                    if job.slot is None:
+                        return bool(idle) or room
+                    slot = job.slot % workers
+                    return slot in idle or (slot >= len(running) and room)
+
+                job = queue._take(ready)
+                if job is None:
                     break
-                job = queue.popleft()
-                worker = idle or _spawn(module, args, job.log_path, orphan)
-                if idle is None:
-                    running.append(worker)
+                slot = None if job.slot is None else job.slot % workers
+                if slot is None:
+                    slot = idle[0] if idle else len(running)
+                while len(running) <= slot:  # the slots before it are started too: each keeps its place
+                    running.append(_spawn(module, args, job.log_path, orphan))
+                worker = running[slot]
                 if on_start is not None:
                     on_start(job)
                 _send(worker, job, reuse)
-            if not queue and not any(w.busy or not reuse for w in running):
+            if queue._done() and not any(w.busy or not reuse for w in running):
                 return False
             now = time.monotonic()
             wakes = [t for t in (w.next_check(now) for w in running) if t is not None]
@@ -368,11 +450,14 @@ def _serve(
             for worker in list(running):
                 _tend(worker, now, reuse, running, on_end)
     finally:
+        queue._serve_with(None)
         if stop is not None and waker is not None:
             stop.set()  # lets the waker leave; it is gone before its pipe is closed
             waker.join()
-        os.close(wake_r)
-        os.close(wake_w)
+        with wake_lock:
+            ended[0] = True
+            os.close(wake_r)
+            os.close(wake_w)
 
 
 def _tend(worker: _Worker, now: float, reuse: bool, running: list[_Worker], on_end: Callable[[WorkerJob, JobEnd], None]) -> None:

@@ -37,11 +37,13 @@ from scenemosaic.exchange import _builtin  # noqa: F401 - registers the built-in
 if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
     from scenemosaic.exchange._deliver import (
         DELIVERED_FORMATS,
+        DELIVERY_PARTS,
         HOUSE_INDEX_FILE,
         HOUSE_ROOMS_DIR,
         OPTIONAL_FORMATS,
         deliver_house,
         deliver_scene,
+        delivered_files,
         export_house_folder,
         formats_left_out,
         save_partial,
@@ -97,6 +99,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
 
 __all__ = [
     "DELIVERED_FORMATS",
+    "DELIVERY_PARTS",
     "FORMATS",
     "GLB_ROOT_NODE",
     "HOUSE_FILE",
@@ -119,6 +122,7 @@ __all__ = [
     "build_house_glb_scene",
     "deliver_house",
     "deliver_scene",
+    "delivered_files",
     "detect_format",
     "export_glb",
     "export_house_folder",
@@ -158,11 +162,13 @@ __all__ = [
 
 _EXPORTS: dict[str, str] = {
     "DELIVERED_FORMATS": "_deliver",
+    "DELIVERY_PARTS": "_deliver",
     "HOUSE_INDEX_FILE": "_deliver",
     "HOUSE_ROOMS_DIR": "_deliver",
     "OPTIONAL_FORMATS": "_deliver",
     "deliver_house": "_deliver",
     "deliver_scene": "_deliver",
+    "delivered_files": "_deliver",
     "export_house_folder": "_deliver",
     "formats_left_out": "_deliver",
     "save_partial": "_deliver",

@@ -14,23 +14,27 @@ from __future__ import annotations
 
 import importlib.util
 import json
+from collections.abc import Collection
 from pathlib import Path
 from typing import Any
 
 import structlog
 
 from scenemosaic.assets import HullCache, with_room_doors
+from scenemosaic.exceptions import UsageError
 from scenemosaic.exchange._native import read_house, read_scene, save_house
 from scenemosaic.exchange._registry import FORMATS, write_scene
 from scenemosaic.scene import House, RunFolder, Scene, write_atomic
 
 __all__ = [
     "DELIVERED_FORMATS",
+    "DELIVERY_PARTS",
     "HOUSE_INDEX_FILE",
     "HOUSE_ROOMS_DIR",
     "OPTIONAL_FORMATS",
     "deliver_house",
     "deliver_scene",
+    "delivered_files",
     "export_house_folder",
     "formats_left_out",
     "save_partial",
@@ -54,6 +58,11 @@ DELIVERED_FORMATS: tuple[tuple[str, str], ...] = (
 """Formats written beside ``scene.json`` (a house: ``house_scene.json``) in every delivered folder,
 with their destination in it (``write_scene``'s destination; empty: the folder itself); plus
 ``procthor`` (``house.json``) for a room or a house taken from an AI2-THOR / ProcTHOR house."""
+
+DELIVERY_PARTS: tuple[str, ...] = (*(fmt for fmt, _ in DELIVERED_FORMATS), "procthor", "topdown")
+"""The pieces of a delivered house that :func:`export_house_folder` can write apart, each into
+files of its own: the formats of :data:`DELIVERED_FORMATS`, ``procthor`` (``house.json``, for a
+house taken from an AI2-THOR house) and ``topdown`` (the plan, ``topdown.png``)."""
 
 OPTIONAL_FORMATS: dict[str, str] = {"usd": "pip install 'scenemosaic[usd]'"}
 """Delivered formats that need an extra: without it they are left out (the run's report says so,
@@ -87,7 +96,9 @@ def deliver_scene(scene: Scene, folder: Path, base_dir: Path | None, *, hull_cac
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir() and p.name != "assets")]
 
 
-def deliver_house(house: House, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> list[str]:
+def deliver_house(
+    house: House, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None, parts: Collection[str] | None = None
+) -> list[str]:
     """Write a whole house in the delivered layout; returns the files written (relative to ``folder``).
 
     ``house_scene.json`` and ``rooms/<room id>/scene.json`` (+ ``assets/``) through the native
@@ -97,38 +108,66 @@ def deliver_house(house: House, folder: Path, base_dir: Path | None, *, hull_cac
     plan as ``topdown.png``; and, for a house imported from one AI2-THOR / ProcTHOR house file,
     that file as ``house.json`` with every room's objects at their new poses.
     ``base_dir`` resolves the input's relative mesh uris; ``hull_cache`` is the CoACD cache the
-    formats with collision hulls read. :func:`~scenemosaic.exchange.read_house` reads the folder back.
+    formats with collision hulls read; ``parts`` writes only those of :data:`DELIVERY_PARTS` after the
+    native house (``()``: the native house alone; see :func:`export_house_folder`).
+    :func:`~scenemosaic.exchange.read_house` reads the folder back.
     """
     folder.mkdir(parents=True, exist_ok=True)
     (folder / RunFolder.PARTIAL).unlink(missing_ok=True)  # delivered now: no longer what a stopped run kept
     write_scene(house, "native", folder, base_dir)
-    return export_house_folder(folder, hull_cache=hull_cache)
+    if parts is not None and not parts:
+        return delivered_files(folder)
+    return export_house_folder(folder, hull_cache=hull_cache, parts=parts)
 
 
-def export_house_folder(folder: Path, *, hull_cache: HullCache | None = None) -> list[str]:
+def export_house_folder(
+    folder: Path, *, hull_cache: HullCache | None = None, parts: Collection[str] | None = None
+) -> list[str]:
     """Write every house-wide format beside the native house saved in ``folder`` (the second half
-    of :func:`deliver_house`; a house run does it in its worker processes); returns the files."""
+    of :func:`deliver_house`); returns the files (:func:`delivered_files`).
+
+    ``parts`` (names of :data:`DELIVERY_PARTS`; ``None``: all of them) writes only those pieces:
+    they share no file, so a house run writes a house's pieces in its two worker processes at once,
+    each process keeping the same pieces (and the memos they warm) from house to house.
+
+    Raises:
+        UsageError: a name in ``parts`` is none of :data:`DELIVERY_PARTS`.
+    """
     from scenemosaic.render import render_house_plan
 
+    chosen = set(DELIVERY_PARTS) if parts is None else set(parts)
+    unknown = sorted(chosen - set(DELIVERY_PARTS))
+    if unknown:
+        raise UsageError(f"no such delivery part: {', '.join(unknown)} (the parts: {', '.join(DELIVERY_PARTS)})")
     saved = read_house(folder)
-    _write_delivered(saved, folder, all(s.provenance.source_format == "procthor" for s in saved.rooms), hull_cache)
-    write_atomic(folder / RunFolder.TOPDOWN, render_house_plan(saved, base_dir=folder))
-    log.info("house_delivered", folder=str(folder), rooms=len(saved.rooms), objects=len(saved.objects))
+    _write_delivered(saved, folder, all(s.provenance.source_format == "procthor" for s in saved.rooms), hull_cache, chosen)
+    if "topdown" in chosen:
+        write_atomic(folder / RunFolder.TOPDOWN, render_house_plan(saved, base_dir=folder))
+    log.info("house_delivered", folder=str(folder), rooms=len(saved.rooms), objects=len(saved.objects), parts=sorted(chosen))
+    return delivered_files(folder)
+
+
+def delivered_files(folder: Path) -> list[str]:
+    """What a delivered house folder holds, as :func:`deliver_house` returns it: the files at its
+    top (sorted), then its folders as ``name/`` (sorted)."""
     top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir())]
 
 
-def _write_delivered(saved: Scene | House, folder: Path, procthor: bool, hull_cache: HullCache | None) -> None:
+def _write_delivered(
+    saved: Scene | House, folder: Path, procthor: bool, hull_cache: HullCache | None, parts: Collection[str] | None = None
+) -> None:
     """Every format of :data:`DELIVERED_FORMATS` whose extra is installed, through
     :func:`write_scene` (a house through each format's house writer), from the native copy saved
-    in ``folder``; and ``house.json`` when ``procthor`` (the AI2-THOR house it came from). The rooms'
-    doors are hung once (``assets.with_room_doors``) for every simulator format."""
-    hung = with_room_doors(saved)
-    for fmt, destination in DELIVERED_FORMATS:
-        if _available(fmt):
-            scene = hung if FORMATS[fmt].room_doors else saved
-            write_scene(scene, fmt, folder / destination if destination else folder, folder, hull_cache=hull_cache)
-    if procthor:  # back into the house it came from
+    in ``folder``; and ``house.json`` when ``procthor`` (the AI2-THOR house it came from); only
+    those named in ``parts`` when given. The rooms' doors are hung once
+    (``assets.with_room_doors``) for every simulator format."""
+    formats = [(fmt, dest) for fmt, dest in DELIVERED_FORMATS if (parts is None or fmt in parts) and _available(fmt)]
+    hung = with_room_doors(saved) if any(FORMATS[fmt].room_doors for fmt, _ in formats) else saved
+    for fmt, destination in formats:
+        scene = hung if FORMATS[fmt].room_doors else saved
+        write_scene(scene, fmt, folder / destination if destination else folder, folder, hull_cache=hull_cache)
+    if procthor and (parts is None or "procthor" in parts):  # back into the house it came from
         write_scene(saved, "procthor", folder, folder)
 
 

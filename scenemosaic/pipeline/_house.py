@@ -38,18 +38,25 @@ import sys
 import threading
 import time
 import traceback
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import structlog
 
-from scenemosaic._processes import STOP_GRACE_S, JobEnd, WorkerJob, WorkerPool
+from scenemosaic._processes import STOP_GRACE_S, JobEnd, JobQueue, WorkerJob, WorkerPool
 from scenemosaic.assets import HullCache, open_house
 from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
 from scenemosaic.exceptions import OutputSpaceError, SceneMosaicError
-from scenemosaic.exchange import deliver_house, formats_left_out, load_house
+from scenemosaic.exchange import (
+    DELIVERY_PARTS,
+    deliver_house,
+    delivered_files,
+    export_house_folder,
+    formats_left_out,
+    load_house,
+)
 from scenemosaic.metrics import evaluate_house, furniture, house_checks
 from scenemosaic.physics import check_collisions, check_out_of_bounds, validate_house
 from scenemosaic.pipeline._checkpoint import (
@@ -136,8 +143,9 @@ def room_worker(reply_fd: int) -> None:
     on stdin (JSON), one reply a line on the pipe ``reply_fd`` when it ends (the package's worker
     pool, ``scenemosaic._processes.WorkerPool``). ``{"kind": "room", ...}`` runs a room (its scene,
     the run's input, output folder, base folder and settings) and replies with its
-    :class:`RoomOutcome`; ``{"kind": "deliver", ...}`` delivers a whole house
-    (``exchange.deliver_house``) and replies with ``{"files"}`` or ``{"error"}``."""
+    :class:`RoomOutcome`; ``{"kind": "export", ...}`` writes some parts of a house whose native
+    files are saved in a folder (``exchange.export_house_folder``) and replies with ``{"files"}``
+    or ``{"error"}``."""
     with os.fdopen(reply_fd, "wb") as replies:
         for line in sys.stdin.buffer:
             if line.strip():
@@ -155,20 +163,26 @@ async def _work(job: dict[str, Any]) -> dict[str, Any]:
         except Exception as exc:  # reported to the parent, which fails the stage
             outcome = RoomOutcome(room_id=room.id, error=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
         return outcome.model_dump(mode="json")
-    house = House.model_validate(job["house"])
-    deliver = functools.partial(
-        deliver_house, house, Path(job["folder"]), Path(job["base_dir"]), hull_cache=HullCache(config.hull_cache_dir)
+    export = functools.partial(
+        export_house_folder, Path(job["folder"]), hull_cache=HullCache(config.hull_cache_dir), parts=job["parts"]
     )  # fmt: skip
     try:
-        return {"files": await asyncio.to_thread(deliver)}
+        return {"files": await asyncio.to_thread(export)}
     except Exception as exc:  # reported to the parent, which fails the stage
         return {"error": f"{type(exc).__name__}: {exc}"}
 
 
-async def _in_workers(run: PipelineRun, jobs: Sequence[tuple[str, dict[str, Any]]], count: int) -> dict[str, dict[str, Any]]:
-    """Run every job (``(name, job)``) in ``count`` worker processes of the run's pool
-    (:attr:`PipelineRun.workers`, a ``scenemosaic._processes.WorkerPool`` started on first use and
-    kept from stage to stage: the rooms' workers, warm, deliver the houses); their replies by name.
+async def _in_workers(
+    run: PipelineRun,
+    jobs: Sequence[tuple[str, dict[str, Any]]] | JobQueue,
+    count: int,
+    on_reply: Callable[[str, dict[str, Any]], None] | None = None,
+) -> dict[str, dict[str, Any]]:
+    """Run every job (``(name, job)``, or the :class:`JobQueue` of a call that takes jobs while it
+    runs) in ``count`` worker processes of the run's pool (:attr:`PipelineRun.workers`, a
+    ``scenemosaic._processes.WorkerPool`` started on first use and kept from stage to stage: the
+    rooms' workers, warm, deliver the houses); their replies by name, each also given to
+    ``on_reply`` (in the pool's thread) as it comes (a job whose worker died: ``{"error"}``).
     A worker that dies fails the stage; a cancel stops every worker at once."""
     replies: dict[str, dict[str, Any]] = {}
     failures: list[str] = []
@@ -176,15 +190,17 @@ async def _in_workers(run: PipelineRun, jobs: Sequence[tuple[str, dict[str, Any]
     def ended(job: WorkerJob, end: JobEnd) -> None:
         if end.reply is None:
             failures.append(f"{job.name}: {end.failure()}")
+            reply = {"error": end.failure()}
         else:
-            replies[job.name] = json.loads(end.reply)
+            reply = replies[job.name] = json.loads(end.reply)
+        if on_reply is not None:
+            on_reply(job.name, reply)
 
     if run.workers is None:
         run.workers = WorkerPool(WORKER_MODULE, orphan="kill")
     stop = threading.Event()
-    pool = functools.partial(
-        run.workers.run, [WorkerJob(name, json.dumps(job).encode()) for name, job in jobs], workers=count, on_end=ended, stop=stop
-    )  # fmt: skip
+    queue = jobs if isinstance(jobs, JobQueue) else JobQueue([WorkerJob(name, json.dumps(job).encode()) for name, job in jobs], closed=True)
+    pool = functools.partial(run.workers.run, queue, workers=count, on_end=ended, stop=stop)
     running = asyncio.ensure_future(asyncio.to_thread(pool))
     try:
         await asyncio.shield(running)
@@ -391,45 +407,122 @@ def _houses(run: PipelineRun) -> list[tuple[Path, House]]:
     return [(folder, open_house(h, run.config.open_state, run.config.seed, run.base_dir)) for folder, h in houses]
 
 
+_LANES: tuple[tuple[str, ...], ...] = (("mjcf", "usd", "glb"), tuple(p for p in DELIVERY_PARTS if p not in ("mjcf", "usd", "glb")))
+"""A house's delivery in two halves of about equal work once the workers are warm
+(``exchange.DELIVERY_PARTS``; measured on the 10-room house, about 1.1 CPU-s each), each written
+by one worker process from house to house (the job's slot): every worker builds the in-process
+memos of its own formats only (USD layers, MuJoCo hull meshes, GLB buffers; URDF links, plan
+labels), once, instead of both building all of them."""
+
+
+class HouseDeliveries:
+    """The houses of a run delivered ahead of its export stage, into :attr:`RunFolder.staged`:
+    one call of the run's worker pool that takes each house as it becomes final (:meth:`add`:
+    its native files written here, its two halves (:data:`_LANES`) queued for the workers),
+    and that the export stage closes (:meth:`finish`) once every house is in it."""
+
+    def __init__(self, run: PipelineRun, workers: int) -> None:
+        self.run, self.started = run, time.perf_counter()
+        self.queue = JobQueue()
+        self.houses: dict[str, asyncio.Future[list[str]]] = {}
+        """By delivered folder name (``base``, ``variant_<i>``): the files of the house once
+        both its halves are written."""
+        self._loop = asyncio.get_running_loop()
+        self._left: dict[str, set[int]] = {}
+        self._common = {"kind": "export", "config": config_record(run.config)}
+        self.call = asyncio.ensure_future(_in_workers(run, self.queue, workers, self._replied))
+        self.call.add_done_callback(self._call_ended)
+
+    async def add(self, folder: Path, house: House) -> None:
+        """Write ``house``'s native files into the staging folder of ``folder`` (what a stopped run
+        left there goes first) and queue its halves."""
+        staged = self.run.folder.staged / folder.name
+        if staged.exists():  # a stopped run's leftovers
+            await asyncio.to_thread(shutil.rmtree, staged)
+        await asyncio.to_thread(functools.partial(deliver_house, house, staged, self.run.base_dir, parts=()))
+        self.houses[folder.name] = self._loop.create_future()
+        self._left[folder.name] = set(range(len(_LANES)))
+        place = len(self.houses) - 1
+        self.queue.put([
+            WorkerJob(f"{folder.name}#{k}", json.dumps({**self._common, "folder": str(staged), "parts": list(parts)}).encode(),
+                      slot=place * len(_LANES) + k)
+            for k, parts in enumerate(_LANES)
+        ])  # fmt: skip
+
+    def _replied(self, job: str, reply: dict[str, Any]) -> None:
+        self._loop.call_soon_threadsafe(self._settle, job, reply)
+
+    def _settle(self, job: str, reply: dict[str, Any]) -> None:
+        name, _, lane = job.rpartition("#")
+        future = self.houses.get(name)
+        if future is None or future.done():
+            return
+        if "error" in reply:
+            future.set_exception(SceneMosaicError(f"house export failed: {name}: {reply['error']}"))
+            return
+        left = self._left[name]
+        left.discard(int(lane))
+        if not left:
+            future.set_result(delivered_files(self.run.folder.staged / name))
+
+    def _call_ended(self, call: asyncio.Future[Any]) -> None:
+        failure = None if call.cancelled() else call.exception()
+        for future in self.houses.values():
+            if not future.done():
+                future.set_exception(failure or SceneMosaicError("house export stopped before every house was written"))
+
+    async def finish(self) -> dict[str, list[str]]:
+        """No more houses: wait for every one; their files by folder name."""
+        self.queue.close()
+        files = {name: await future for name, future in self.houses.items()}
+        await self.call
+        return files
+
+    async def stop(self) -> None:
+        """Stop the workers' deliveries (the run failed or was stopped before its export stage)."""
+        self.queue.close()
+        self.call.cancel()
+        await asyncio.gather(self.call, *self.houses.values(), return_exceptions=True)
+
+
 async def _deliver_ahead(run: PipelineRun, names: set[str]) -> None:
     """Start delivering the houses of the folders ``names`` (``base``, ``variant_<i>``) into
-    :attr:`RunFolder.staged` in the run's worker processes, in the background: the next stages
-    (compose, validate, evaluate, one core) run meanwhile, and the export stage waits for them
-    and moves them into place. The houses must be final: nothing later changes them. Without
-    worker processes (a model that is not ``rules``, one worker) nothing is started."""
-    chosen = [(folder, house) for folder, house in _houses(run) if folder.name in names and folder.name not in run.deliveries]
-    workers = min(_in_processes(run.config, len(run.need_house().rooms)), len(chosen))
+    :attr:`RunFolder.staged` in the run's worker processes, in the background
+    (:class:`HouseDeliveries`): the next stages (compose, validate, evaluate, one core) run
+    meanwhile, and the export stage waits for them and moves them into place. The houses must be
+    final: nothing later changes them. Without worker processes (a model that is not ``rules``,
+    one worker) nothing is started."""
+    workers = _in_processes(run.config, len(run.need_house().rooms))
     if not workers:
         return
-    staged = [(run.folder.staged / folder.name, house) for folder, house in chosen]
-    for folder, _ in staged:  # a stopped run's leftovers
-        if folder.exists():
-            await asyncio.to_thread(shutil.rmtree, folder)
-    future = asyncio.ensure_future(_deliver(run, staged, workers))
-    for folder, _ in chosen:
-        run.deliveries[folder.name] = future
-    if run.deliveries_started is None:
-        run.deliveries_started = time.perf_counter()
+    if run.deliveries is None:
+        run.deliveries = HouseDeliveries(run, workers)
+    for folder, house in _houses(run):
+        if folder.name in names and folder.name not in run.deliveries.houses:
+            await run.deliveries.add(folder, house)
 
 
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     """``base/`` and every ``variant_<i>/`` as whole houses, and the contact sheet of their plans.
-    Houses delivered ahead (:func:`_deliver_ahead`) are waited for and moved into place."""
+    Houses delivered ahead (:func:`_deliver_ahead`) are waited for and moved into place; any not
+    started yet join them first."""
     houses = _houses(run)
-    ahead = {folder.name: run.deliveries[folder.name] for folder, _ in houses if folder.name in run.deliveries}
+    await _deliver_ahead(run, {folder.name for folder, _ in houses})
     files: dict[str, list[str]] = {}
-    for future in {id(f): f for f in ahead.values()}.values():
-        for staged, written in (await future).items():
-            final = run.folder.root / Path(staged).name
-            await asyncio.to_thread(_put_in_place, Path(staged), final)
+    ahead = run.deliveries
+    if ahead is not None:
+        for name, written in (await ahead.finish()).items():
+            final = run.folder.root / name
+            await asyncio.to_thread(_put_in_place, run.folder.staged / name, final)
             files[str(final)] = written
-    rest = [(folder, house) for folder, house in houses if folder.name not in ahead]
-    files.update(await _deliver(run, rest, _in_processes(run.config, len(rest))))
-    rec.detail["files"] = files[str(run.folder.base)]
-    if ahead and run.deliveries_started is not None:
-        rec.detail["delivered_ahead"] = sorted(ahead)
+        rec.detail["delivered_ahead"] = sorted(ahead.houses)
         # how long the houses took to deliver, from the first one begun: mostly while other stages ran
-        rec.detail["deliveries_s"] = round(time.perf_counter() - run.deliveries_started, 3)
+        rec.detail["deliveries_s"] = round(time.perf_counter() - ahead.started, 3)
+    cache = run.cache()
+    for folder, house in houses:
+        if str(folder) not in files:
+            files[str(folder)] = await asyncio.to_thread(functools.partial(deliver_house, house, folder, run.base_dir, hull_cache=cache))
+    rec.detail["files"] = files[str(run.folder.base)]
     if run.house_variants:
         folders = [folder for folder, _ in houses]
         await asyncio.to_thread(contact_sheet, [(f.name, f / RunFolder.TOPDOWN) for f in folders], run.folder.contact_sheet)
@@ -447,23 +540,6 @@ def _put_in_place(staged: Path, final: Path) -> None:
     elif final.exists():
         shutil.rmtree(final)
     os.replace(staged, final)
-
-
-async def _deliver(run: PipelineRun, houses: list[tuple[Path, House]], workers: int) -> dict[str, list[str]]:
-    """Deliver every house to its folder (in ``workers`` processes when above 0); the files of
-    each, by folder."""
-    if not houses:
-        return {}
-    if not workers:
-        cache = run.cache()
-        return {str(folder): await asyncio.to_thread(deliver_house, h, folder, run.base_dir, hull_cache=cache) for folder, h in houses}
-    common = {"kind": "deliver", "base_dir": str(run.base_dir), "config": config_record(run.config)}
-    jobs = [(str(folder), {**common, "house": house.model_dump(mode="json"), "folder": str(folder)}) for folder, house in houses]
-    replies = await _in_workers(run, jobs, workers)
-    failed = [f"{name}: {r['error']}" for name, r in replies.items() if "error" in r]
-    if failed:
-        raise SceneMosaicError("house export failed: " + "; ".join(failed))
-    return {name: list(r["files"]) for name, r in replies.items()}
 
 
 HOUSE_STAGES: tuple[Stage, ...] = (

@@ -233,12 +233,9 @@ async def _agenerate_locked(
 async def _stop_deliveries(run: PipelineRun) -> None:
     """Deliveries started ahead of the export stage that it did not wait for (the run failed or
     was stopped before it) are stopped; a finished run's are done already."""
-    pending = set(run.deliveries.values())
-    run.deliveries.clear()
-    for future in pending:
-        future.cancel()
-    if pending:
-        await asyncio.gather(*pending, return_exceptions=True)
+    if run.deliveries is not None:
+        deliveries, run.deliveries = run.deliveries, None
+        await deliveries.stop()
 
 
 async def _keep_partial_results(run: PipelineRun, failure: BaseException, elapsed: float) -> None:

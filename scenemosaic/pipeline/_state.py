@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import asyncio
 import time
 from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass, field
@@ -21,6 +20,7 @@ if TYPE_CHECKING:
     from scenemosaic.models import RunModel
     from scenemosaic.physics import ObjectShape
     from scenemosaic.pipeline._checkpoint import RoomOutcome
+    from scenemosaic.pipeline._house import HouseDeliveries
 
 __all__ = [
     "PipelineRun",
@@ -121,12 +121,9 @@ class PipelineRun:
     workers: WorkerPool | None = None
     """A house run's worker processes (``pipeline/_house.py``), started by the first stage that
     needs them and kept for the next (the rooms' workers deliver the houses); closed when the run ends."""
-    deliveries: dict[str, asyncio.Future[dict[str, list[str]]]] = field(default_factory=dict)
-    """A house run's deliveries started ahead of its export stage (``pipeline/_house.py``), by the
-    delivered folder's name (``base``, ``variant_<i>``): each future gives the files of every
-    folder it delivers (into :attr:`RunFolder.staged`); the export stage waits for them."""
-    deliveries_started: float | None = None
-    """``time.perf_counter()`` when the first of :attr:`deliveries` began."""
+    deliveries: HouseDeliveries | None = None
+    """A house run's deliveries started ahead of its export stage (``pipeline/_house.py``, into
+    :attr:`RunFolder.staged`), in its worker processes; the export stage waits for them."""
 
     @property
     def input_path(self) -> Path:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from scenemosaic._processes import STOP_GRACE_S, JobEnd, WorkerJob, WorkerPool, run_jobs
+from scenemosaic._processes import STOP_GRACE_S, JobEnd, JobQueue, WorkerJob, WorkerPool, run_jobs
 
 TESTS = Path(__file__).resolve().parents[1]
 
@@ -125,5 +125,69 @@ def test_a_stopped_call_ends_the_pools_workers() -> None:
         assert "never" not in ends and pool.size == 0
         after = _pool_run(pool, [WorkerJob("fresh", b"y")], workers=1)  # the next call starts anew
         assert _pid(after["fresh"]) != _pid(warm["warm"])
+    finally:
+        pool.close()
+
+
+def test_jobs_of_a_slot_run_in_that_worker_whatever_else_is_idle() -> None:
+    pool = WorkerPool("process_echo_worker")
+    try:
+        # slot 0's first job is slow: its next jobs wait for it rather than take the idle worker
+        jobs = [WorkerJob("a0", b"sleep 0.5", slot=0), *(WorkerJob(f"a{i}", b"x", slot=0) for i in (1, 2))]
+        jobs += [WorkerJob(f"b{i}", b"y", slot=1) for i in range(3)]
+        ends = _pool_run(pool, jobs, workers=2)
+        assert len({_pid(ends[f"a{i}"]) for i in range(3)}) == 1
+        assert len({_pid(ends[f"b{i}"]) for i in range(3)}) == 1
+        assert _pid(ends["a0"]) != _pid(ends["b0"])
+        again = _pool_run(pool, [WorkerJob("b", b"z", slot=1), WorkerJob("a", b"z", slot=0)], workers=2)
+        assert _pid(again["a"]) == _pid(ends["a0"]) and _pid(again["b"]) == _pid(ends["b0"])  # kept their places
+    finally:
+        pool.close()
+
+
+def test_a_slot_past_the_first_starts_the_workers_before_it() -> None:
+    pool = WorkerPool("process_echo_worker")
+    try:
+        first = _pool_run(pool, [WorkerJob("late", b"x", slot=1)], workers=2)
+        assert pool.size == 2
+        then = _pool_run(pool, [WorkerJob("late", b"x", slot=1), WorkerJob("wrapped", b"x", slot=3)], workers=2)
+        assert _pid(then["late"]) == _pid(first["late"]) == _pid(then["wrapped"])
+    finally:
+        pool.close()
+
+
+def test_a_queue_takes_jobs_while_its_call_runs_and_ends_when_closed() -> None:
+    pool = WorkerPool("process_echo_worker")
+    queue = JobQueue([WorkerJob("first", b"sleep 0.2")])
+    ends: dict[str, JobEnd] = {}
+    call = threading.Thread(target=pool.run, args=(queue,), kwargs={"workers": 2, "on_end": lambda j, e: ends.__setitem__(j.name, e)})
+    try:
+        call.start()
+        time.sleep(0.6)
+        assert "first" in ends and call.is_alive()  # its jobs are done, but the queue is open: it waits
+        queue.put([WorkerJob("later", b"later", slot=1), WorkerJob("last", b"last")])
+        time.sleep(0.3)
+        assert call.is_alive()
+        queue.close()
+        call.join(10)
+        assert not call.is_alive()
+        assert ends["later"].reply is not None and ends["later"].reply.endswith(b"later")
+        assert ends["last"].reply is not None
+        with pytest.raises(RuntimeError, match="closed"):
+            queue.put([WorkerJob("too late", b"x")])
+    finally:
+        queue.close()
+        call.join(10)
+        pool.close()
+
+
+def test_a_stop_ends_a_call_whose_queue_is_still_open() -> None:
+    pool = WorkerPool("process_echo_worker")
+    stop = threading.Event()
+    threading.Timer(0.5, stop.set).start()
+    started = time.monotonic()
+    try:
+        _pool_run(pool, JobQueue([WorkerJob("quick", b"x")]), workers=1, stop=stop)  # type: ignore[arg-type]
+        assert time.monotonic() - started < 5 and pool.size == 0
     finally:
         pool.close()

@@ -24,11 +24,15 @@ from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import unary_union
 
 from scenemosaic.assets import object_articulation, with_room_doors
+from scenemosaic.exceptions import UsageError
 from scenemosaic.exchange import (
+    DELIVERY_PARTS,
     GLB_ROOT_NODE,
     HOUSE_INDEX_FILE,
     HOUSE_ROOMS_DIR,
     deliver_house,
+    delivered_files,
+    export_house_folder,
     export_house_glb,
     export_house_sceneeval,
     export_house_usd,
@@ -365,3 +369,24 @@ def test_deliver_house_round_trips_and_writes_the_procthor_house_back(house: Hou
     # drawers, doors, lids, and the rooms' doors with their leaves
     parts = {f"{o.id}/{p.name}" for o in hung.objects for p in object_articulation(o)}
     assert {o.id for o in hung.objects} | parts | set(ROOMS) | {"world", "floor"} == set(urdf.link_map)
+
+
+def _tree(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_a_house_delivered_in_two_halves_is_the_house_delivered_at_once(house: House, tmp_path: Path) -> None:
+    """What a house run does in its two worker processes: the native house first, then two
+    disjoint sets of parts, each written on its own; together they make the same files."""
+    whole = tmp_path / "whole"
+    written = deliver_house(house, whole, None)
+    halves = tmp_path / "halves"
+    assert deliver_house(house, halves, None, parts=()) == [HOUSE_INDEX_FILE, f"{HOUSE_ROOMS_DIR}/"]
+    assert not (halves / "scene.xml").exists() and not (halves / "topdown.png").exists()
+    first, second = ("mjcf", "usd", "glb"), tuple(p for p in DELIVERY_PARTS if p not in ("mjcf", "usd", "glb"))
+    export_house_folder(halves, parts=second)
+    assert (halves / "topdown.png").is_file() and not (halves / "scene.xml").exists()
+    assert export_house_folder(halves, parts=first) == written == delivered_files(whole)
+    assert _tree(halves) == _tree(whole)
+    with pytest.raises(UsageError, match="no such delivery part: svg"):
+        export_house_folder(halves, parts=["mjcf", "svg"])

@@ -13,6 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 from scenemosaic.cli import app
+from scenemosaic.exceptions import SceneMosaicError
 from scenemosaic.exchange import load_scene
 from scenemosaic.pipeline import GenerateConfig, GenerateResult, generate
 from scenemosaic.scene import House, Scene
@@ -128,6 +129,24 @@ def test_a_run_failing_after_the_houses_went_ahead_keeps_only_its_partial_base(
     assert report["status"] == "failed" and report["failed_stage"] == "evaluate"
     assert (out / "base" / "partial.json").is_file() and (out / "base" / "house_scene.json").is_file()
     assert not (out / "base" / "scene.xml").exists()  # no simulator file of a house not delivered
+    assert not (out / "variant_1").exists()
+    assert not (out / ".checkpoint" / "staged").exists()
+
+
+def test_a_house_half_failing_in_its_worker_fails_the_export_and_keeps_the_partial_base(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """One half of each house's delivery names a part no exporter knows: the worker's error ends
+    the run at its export stage, said with the house and the part, and nothing half written stays."""
+    import scenemosaic.pipeline._house as house_stages
+
+    monkeypatch.setattr(house_stages, "_LANES", (("mjcf", "usd", "glb"), ("urdf", "no_such_part")))
+    out = tmp_path / "failed"
+    with pytest.raises(SceneMosaicError, match=r"house export failed: base: .*no such delivery part: no_such_part"):
+        generate(TWO_ROOMS, out, GenerateConfig(variants=1, room_workers=2))
+    report = json.loads((out / "report.json").read_text(encoding="utf-8"))
+    assert report["status"] == "failed" and report["failed_stage"] == "export"
+    assert (out / "base" / "partial.json").is_file() and not (out / "base" / "scene.xml").exists()
     assert not (out / "variant_1").exists()
     assert not (out / ".checkpoint" / "staged").exists()
 
