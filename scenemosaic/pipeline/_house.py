@@ -38,7 +38,7 @@ import sys
 import threading
 import time
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import AsyncIterator, Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -76,7 +76,7 @@ from scenemosaic.pipeline._stages import (
     validation_warnings,
 )
 from scenemosaic.pipeline._state import PipelineRun, RunSetup, Stage, StageRecord
-from scenemosaic.render import contact_sheet
+from scenemosaic.render import ContactSheet
 from scenemosaic.scene import House, HouseFloor, RunFolder, Scene
 
 if TYPE_CHECKING:
@@ -407,9 +407,11 @@ def _houses(run: PipelineRun) -> list[tuple[Path, House]]:
     return [(folder, open_house(h, run.config.open_state, run.config.seed, run.base_dir)) for folder, h in houses]
 
 
-_LANES: tuple[tuple[str, ...], ...] = (("mjcf", "usd", "glb"), tuple(p for p in DELIVERY_PARTS if p not in ("mjcf", "usd", "glb")))
+_FIRST_LANE = ("mjcf", "usd", "glb", "sceneeval")
+_LANES: tuple[tuple[str, ...], ...] = (_FIRST_LANE, tuple(p for p in DELIVERY_PARTS if p not in _FIRST_LANE))
 """A house's delivery in two halves of about equal work once the workers are warm
-(``exchange.DELIVERY_PARTS``; measured on the 10-room house, about 1.1 CPU-s each), each written
+(``exchange.DELIVERY_PARTS``; on the 10-room house the plan with its labels, URDF and the
+ProcTHOR file take as long as MJCF, USD, GLB and sceneState together), each written
 by one worker process from house to house (the job's slot): every worker builds the in-process
 memos of its own formats only (USD layers, MuJoCo hull meshes, GLB buffers; URDF links, plan
 labels), once, instead of both building all of them."""
@@ -419,7 +421,7 @@ class HouseDeliveries:
     """The houses of a run delivered ahead of its export stage, into :attr:`RunFolder.staged`:
     one call of the run's worker pool that takes each house as it becomes final (:meth:`add`:
     its native files written here, its two halves (:data:`_LANES`) queued for the workers),
-    and that the export stage closes (:meth:`finish`) once every house is in it."""
+    and that the export stage closes (:meth:`landed`) once every house is in it."""
 
     def __init__(self, run: PipelineRun, workers: int) -> None:
         self.run, self.started = run, time.perf_counter()
@@ -471,12 +473,13 @@ class HouseDeliveries:
             if not future.done():
                 future.set_exception(failure or SceneMosaicError("house export stopped before every house was written"))
 
-    async def finish(self) -> dict[str, list[str]]:
-        """No more houses: wait for every one; their files by folder name."""
+    async def landed(self) -> AsyncIterator[tuple[str, list[str]]]:
+        """No more houses: each one, as ``(folder name, files)``, once written, in the order they
+        were added; then the pool call's end (a worker that died fails it)."""
         self.queue.close()
-        files = {name: await future for name, future in self.houses.items()}
+        for name, future in self.houses.items():
+            yield name, await future
         await self.call
-        return files
 
     async def stop(self) -> None:
         """Stop the workers' deliveries (the run failed or was stopped before its export stage)."""
@@ -509,23 +512,27 @@ async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     houses = _houses(run)
     await _deliver_ahead(run, {folder.name for folder, _ in houses})
     files: dict[str, list[str]] = {}
+    sheet = ContactSheet(len(houses)) if run.house_variants else None  # each plan placed as its house lands
     ahead = run.deliveries
     if ahead is not None:
-        for name, written in (await ahead.finish()).items():
+        async for name, written in ahead.landed():
             final = run.folder.root / name
             await asyncio.to_thread(_put_in_place, run.folder.staged / name, final)
             files[str(final)] = written
+            if sheet is not None:
+                await asyncio.to_thread(sheet.add, name, final / RunFolder.TOPDOWN)
         rec.detail["delivered_ahead"] = sorted(ahead.houses)
         # how long the houses took to deliver, from the first one begun: mostly while other stages ran
         rec.detail["deliveries_s"] = round(time.perf_counter() - ahead.started, 3)
-    cache = run.cache()
-    for folder, house in houses:
-        if str(folder) not in files:
+    else:
+        cache = run.cache()
+        for folder, house in houses:
             files[str(folder)] = await asyncio.to_thread(functools.partial(deliver_house, house, folder, run.base_dir, hull_cache=cache))
+            if sheet is not None:
+                await asyncio.to_thread(sheet.add, folder.name, folder / RunFolder.TOPDOWN)
     rec.detail["files"] = files[str(run.folder.base)]
-    if run.house_variants:
-        folders = [folder for folder, _ in houses]
-        await asyncio.to_thread(contact_sheet, [(f.name, f / RunFolder.TOPDOWN) for f in folders], run.folder.contact_sheet)
+    if sheet is not None:
+        await asyncio.to_thread(sheet.save, run.folder.contact_sheet)
     missing = formats_left_out()
     if missing:
         rec.detail["formats_left_out"] = missing

@@ -2,7 +2,8 @@
 
 * :func:`render_topdown` — the floor plan of a whole scene (``base/topdown.png``);
   :func:`render_house_plan` — the plan of a whole house, each room named.
-* :func:`contact_sheet` — several pictures in one labelled grid (a run's base and variants).
+* :func:`contact_sheet` — several pictures in one labelled grid (a run's base and variants);
+  :class:`ContactSheet` builds one a tile at a time.
 * :func:`render_view` with an :class:`OrthoView` — any orthographic view of any subset of
   objects; the seam for per-unit views (wall units seen along their normal, containers from
   their front).
@@ -31,7 +32,7 @@ from scenemosaic.render._geometry import (
     wall_pieces,
 )
 from scenemosaic.render._palette import CEILING_COLOR, FLOOR_COLOR, RGB, WALL_COLOR, category_color, shade
-from scenemosaic.render._sheet import contact_sheet
+from scenemosaic.render._sheet import ContactSheet, contact_sheet
 from scenemosaic.render._topdown import (
     house_view,
     plan_png,
@@ -53,6 +54,7 @@ __all__ = [
     "RGB",
     "SHARED_WALL_TOLERANCE_M",
     "WALL_COLOR",
+    "ContactSheet",
     "OrthoView",
     "PixelMap",
     "WallPanel",

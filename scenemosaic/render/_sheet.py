@@ -5,10 +5,11 @@ from __future__ import annotations
 import io
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from scenemosaic.scene import write_atomic
 
-__all__ = ["contact_sheet"]
+__all__ = ["ContactSheet", "contact_sheet"]
 
 LABEL_PX = 40
 """Height of the label strip above each tile, in pixels."""
@@ -26,28 +27,62 @@ def contact_sheet(
     the plans read at 100 % as in each ``topdown.png``; a smaller ``tile_px`` shrinks them with
     the picture.
     """
-    from PIL import Image, ImageDraw, ImageFont
+    sheet = ContactSheet(len(tiles), tile_px=tile_px, columns=columns)
+    for label, path in tiles:
+        sheet.add(label, path)
+    return sheet.save(target)
 
-    cols = min(columns, len(tiles))
-    rows = (len(tiles) + cols - 1) // cols
-    if tile_px is None:
-        with Image.open(tiles[0][1]) as first:
-            tile_px = max(first.size)
-    sheet = Image.new("RGB", (cols * tile_px, rows * (tile_px + LABEL_PX)), (255, 255, 255))
-    draw = ImageDraw.Draw(sheet)
-    try:
-        font: ImageFont.FreeTypeFont | ImageFont.ImageFont = ImageFont.load_default(size=TITLE_FONT_PX)
-    except (OSError, ValueError, ImportError):
-        font = ImageFont.load_default()
-    for i, (label, path) in enumerate(tiles):
-        x, y = (i % cols) * tile_px, (i // cols) * (tile_px + LABEL_PX)
+
+class ContactSheet:
+    """A contact sheet of ``count`` tiles built a tile at a time (:func:`contact_sheet` in pieces):
+    each tile is read and placed as soon as its picture exists (a house run's plans, as each house
+    is delivered), and only the encoding is left for :meth:`save`."""
+
+    def __init__(self, count: int, *, tile_px: int | None = None, columns: int = 3) -> None:
+        if count < 1:
+            raise ValueError("a contact sheet needs at least one tile")
+        self.count, self.tile_px = count, tile_px
+        self.cols = min(columns, count)
+        self.rows = (count + self.cols - 1) // self.cols
+        self._sheet: Any = None
+        self._draw: Any = None
+        self._font: Any = None
+        self._next = 0
+
+    def add(self, label: str, path: Path) -> None:
+        """Place the picture at ``path`` as the next tile, under ``label`` (the first one sets the
+        tile size when none was given)."""
+        from PIL import Image, ImageDraw, ImageFont
+
+        if self._next >= self.count:
+            raise ValueError(f"the contact sheet holds {self.count} tile(s) only")
         with Image.open(path) as view:
+            if self._sheet is None:
+                if self.tile_px is None:
+                    self.tile_px = max(view.size)
+                side = self.tile_px
+                self._sheet = Image.new("RGB", (self.cols * side, self.rows * (side + LABEL_PX)), (255, 255, 255))
+                self._draw = ImageDraw.Draw(self._sheet)
+                try:
+                    self._font = ImageFont.load_default(size=TITLE_FONT_PX)
+                except (OSError, ValueError, ImportError):
+                    self._font = ImageFont.load_default()
+            px = self.tile_px
+            assert px is not None
+            i = self._next
+            x, y = (i % self.cols) * px, (i // self.cols) * (px + LABEL_PX)
             tile = view.convert("RGB")
-            if tile.size != (tile_px, tile_px):
-                tile = tile.resize((tile_px, tile_px))
-            sheet.paste(tile, (x, y + LABEL_PX))
-        draw.text((x + 10, y + 6), label, fill=(25, 25, 30), font=font)
-    buf = io.BytesIO()
-    sheet.save(buf, format="PNG")
-    write_atomic(target, buf.getvalue())
-    return target
+            if tile.size != (px, px):
+                tile = tile.resize((px, px))
+            self._sheet.paste(tile, (x, y + LABEL_PX))
+        self._draw.text((x + 10, y + 6), label, fill=(25, 25, 30), font=self._font)
+        self._next += 1
+
+    def save(self, target: Path) -> Path:
+        """Write the sheet to ``target`` (PNG) once every tile is in; returns ``target``."""
+        if self._next != self.count:
+            raise ValueError(f"the contact sheet has {self._next} of its {self.count} tile(s)")
+        buf = io.BytesIO()
+        self._sheet.save(buf, format="PNG")
+        write_atomic(target, buf.getvalue())
+        return target

@@ -8,9 +8,10 @@ import itertools
 from pathlib import Path
 
 import numpy as np
+import pytest
 from PIL import Image, ImageDraw
 
-from scenemosaic.render import PixelMap, contact_sheet, render_topdown, topdown_view
+from scenemosaic.render import ContactSheet, PixelMap, contact_sheet, render_topdown, topdown_view
 from scenemosaic.render._view import _draw_labels, _font, object_label
 from scenemosaic.scene import AssetRef, Pose, Room, Scene, SceneObject
 
@@ -59,6 +60,25 @@ def test_a_contact_sheet_keeps_the_plans_at_their_size(tmp_path: Path) -> None:
     with Image.open(sheet) as image, Image.open(plan) as tile:
         assert image.width == 2 * 640
         assert image.crop((0, image.height - 640, 640, image.height)).tobytes() == tile.convert("RGB").tobytes()
+
+
+def test_a_sheet_built_a_tile_at_a_time_is_the_sheet_made_at_once(tmp_path: Path) -> None:
+    plans = []
+    for k, size in enumerate((320, 320, 320, 240)):
+        plans.append(tmp_path / f"plan_{k}.png")
+        plans[-1].write_bytes(render_topdown(_crowded(), size_px=size))
+    tiles = [(f"v{k}", p) for k, p in enumerate(plans)]  # the last one smaller: resized to the first's size
+    whole = contact_sheet(tiles, tmp_path / "whole.png")
+    sheet = ContactSheet(len(tiles))
+    for label, path in tiles:
+        sheet.add(label, path)
+    with pytest.raises(ValueError, match="4 tile"):
+        sheet.add("one too many", plans[0])
+    assert sheet.save(tmp_path / "pieces.png").read_bytes() == whole.read_bytes()
+    short = ContactSheet(2)
+    short.add("only", plans[0])
+    with pytest.raises(ValueError, match="1 of its 2"):
+        short.save(tmp_path / "short.png")
 
 
 def _first_free_by_loop(
