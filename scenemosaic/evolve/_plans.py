@@ -272,6 +272,11 @@ class _Planner:
         distance to the nearest of them (:func:`_farthest`)."""
         self.others = others
         self.static = self.solid_static = Polygon()
+        self._turned: dict[tuple[tuple[str, float], ...], UnitLayout] = {}
+        """Trial layouts of a few pieces turned as an option turns them, by ``(piece, rotation)``:
+        the thousands of places tried for a group share a handful of turns (:meth:`_placed`)."""
+        self._riders: dict[tuple[str, float], list[np.ndarray]] = {}
+        """What rests on a piece, turned with it, about its centre, by ``(piece, rotation)``."""
         self.options = {g.lead: self._options(g) for g in self.groups}
         self.facing: list[tuple[str, str]] = [
             (a, b)
@@ -338,10 +343,21 @@ class _Planner:
         self.static = unary_union(parts) if parts else Polygon()
         prepare(self.static)
 
+    def _turned_trial(self, place: Placement) -> UnitLayout:
+        """A layout of the pieces of ``place`` turned to their rotations there (worked out once per
+        set of rotations: a turn costs a matrix product and the projected corners); the caller
+        sets their centres. Kept and reused: good until the next call."""
+        key = tuple((k, r) for k, (_, _, r) in place.items())
+        trial = self._turned.get(key)
+        if trial is None:
+            trial = self._turned[key] = self.layout.copy(only=set(place))
+            for k, (_, _, r) in place.items():
+                trial.set_rotation(k, r)
+        return trial
+
     def _placed(self, g: _Group, place: Placement) -> tuple[list[Polygon], list[Polygon]] | None:
-        trial = self.layout.copy(only={*g.members, *place})
-        for k, (u, v, r) in place.items():
-            trial.set_rotation(k, r)
+        trial = self._turned_trial(place)
+        for k, (u, v, _) in place.items():
             trial.set_center(k, u, v)
         x0, y0, x1, y1 = self.region_bounds
         for k in g.members:  # a piece reaching past the region's bounds is not covered by it: no outline needed
@@ -376,11 +392,14 @@ class _Planner:
         riders = self.ctx.riders.get(k)
         if not riders:
             return trial.outline(k)
-        c0, r0 = np.asarray(self.source.center(k)), self.source.rotation(k)
         c1, r1 = np.asarray(trial.center(k)), trial.rotation(k)
-        a = math.radians(-(r1 - r0))
-        rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
-        pts = [np.asarray(trial.polygon(k))] + [c1 + (np.asarray(p)[:, :2] - c0) @ rot.T for p in riders]
+        turned = self._riders.get((k, r1))
+        if turned is None:
+            c0, r0 = np.asarray(self.source.center(k)), self.source.rotation(k)
+            a = math.radians(-(r1 - r0))
+            rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+            turned = self._riders[(k, r1)] = [(np.asarray(p)[:, :2] - c0) @ rot.T for p in riders]
+        pts = [np.asarray(trial.polygon(k))] + [c1 + t for t in turned]
         return MultiPoint(np.vstack(pts)).convex_hull
 
     def _option(
