@@ -21,7 +21,8 @@ usage, checkpoint, interruption) over the same :class:`PipelineRun`, whose ``hou
    from room to room, nothing across a wall);
 4. **evaluate** — each room's metrics and the house's (``metrics.evaluate_house``);
 5. **export** — ``base/`` and each ``variant_<i>/`` as whole houses (``exchange.deliver_house``),
-   and the contact sheet.
+   and the contact sheet; with worker processes the houses are delivered ahead, each in two
+   halves written at once (:class:`HouseDeliveries`), and this stage moves them into place.
 
 ``docs/houses.md`` describes the model, the checks and their constants.
 """

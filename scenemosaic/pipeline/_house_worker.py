@@ -1,8 +1,8 @@
 """Entry point of a house run's worker process: ``python -m scenemosaic.pipeline._house_worker REPLY_FD PARENT_PID``.
 
 Started by the package's worker pool (``scenemosaic._processes.run_jobs``), it runs one job per
-line of its stdin (``pipeline/_house.py``: :func:`room_worker`: a room, or the delivery of a whole
-house) and writes each reply as one line to the pipe ``REPLY_FD``, so a house uses several cores
+line of its stdin (``pipeline/_house.py``: :func:`room_worker`: a room, or one half of a house's
+delivery) and writes each reply as one line to the pipe ``REPLY_FD``, so a house uses several cores
 without ``multiprocessing`` re-importing the caller's ``__main__``. When the house run
 ``PARENT_PID`` is gone (even killed), the worker and what it started are killed at once
 (``orphan="kill"``: it writes into the house's folder, whose lock died with the run;
