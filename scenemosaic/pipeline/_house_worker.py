@@ -30,7 +30,11 @@ def main(argv: list[str]) -> int:
 
     configure_logging("warning")
     room_worker(reply_fd)
-    return 0
+    # its stdin ended: every job is answered and its files written. The run waits for its workers
+    # to leave, and tearing down an interpreter full of meshes and memos costs up to a second
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
 
 
 if __name__ == "__main__":
