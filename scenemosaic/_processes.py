@@ -160,12 +160,6 @@ class JobQueue:
         if wake is not None:
             wake()
 
-    @property
-    def closed(self) -> bool:
-        """Whether :meth:`close` was called."""
-        with self._lock:
-            return self._closed
-
     def _take(self, ready: Callable[[WorkerJob], bool]) -> WorkerJob | None:
         """The first job ``ready`` accepts, taken out of the queue; ``None``: none."""
         with self._lock:

@@ -489,19 +489,19 @@ class HouseDeliveries:
         await asyncio.gather(self.call, *self.houses.values(), return_exceptions=True)
 
 
-async def _deliver_ahead(run: PipelineRun, names: set[str]) -> None:
+async def _deliver_ahead(run: PipelineRun, names: set[str], houses: list[tuple[Path, House]] | None = None) -> None:
     """Start delivering the houses of the folders ``names`` (``base``, ``variant_<i>``) into
     :attr:`RunFolder.staged` in the run's worker processes, in the background
     (:class:`HouseDeliveries`): the next stages (compose, validate, evaluate, one core) run
     meanwhile, and the export stage waits for them and moves them into place. The houses must be
     final: nothing later changes them. Without worker processes (a model that is not ``rules``,
-    one worker) nothing is started."""
+    one worker) nothing is started. ``houses``: :func:`_houses`, when the caller has them."""
     workers = _in_processes(run.config, len(run.need_house().rooms))
     if not workers:
         return
     if run.deliveries is None:
         run.deliveries = HouseDeliveries(run, workers)
-    for folder, house in _houses(run):
+    for folder, house in _houses(run) if houses is None else houses:
         if folder.name in names and folder.name not in run.deliveries.houses:
             await run.deliveries.add(folder, house)
 
@@ -511,7 +511,7 @@ async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     Houses delivered ahead (:func:`_deliver_ahead`) are waited for and moved into place; any not
     started yet join them first."""
     houses = _houses(run)
-    await _deliver_ahead(run, {folder.name for folder, _ in houses})
+    await _deliver_ahead(run, {folder.name for folder, _ in houses}, houses)
     files: dict[str, list[str]] = {}
     sheet = ContactSheet(len(houses)) if run.house_variants else None  # each plan placed as its house lands
     ahead = run.deliveries
