@@ -170,7 +170,8 @@ class PixelMap:
 
 _TEXT_PIXELS: Memo[tuple[Hashable, ...], Any] = Memo(2048)
 """What the label font measured (a text's box) and drew (a text's mask and offset), by font size,
-text and every argument that shapes them, the mask's subpixel start included: a picture's labels,
+text and every argument that shapes them, the mask's subpixel start included (object labels are
+drawn at whole pixels, so their start is always zero): a picture's labels,
 its grid's tick labels and a house's room names come again in every picture of a run, and
 FreeType drawing them again dominated the cost of a plan."""
 
@@ -473,7 +474,10 @@ def _draw_labels(
             end = (min(max(cx, box[0]), box[2]), min(max(cy, box[1]), box[3]))  # the box's nearest point
             draw.line([(cx, cy), end], fill=LEADER_COLOR, width=1)
             draw.ellipse((cx - 2, cy - 2, cx + 2, cy + 2), fill=LEADER_COLOR)
-        draw.text((lx, ly), text, fill=INK_COLOR, font=font, anchor="mm", stroke_width=2, stroke_fill=BACKGROUND)
+        # at a whole pixel: crisp text, and the same text drawn anywhere is the same mask (drawn
+        # once, :data:`_TEXT_PIXELS`); the box's gap covers the half pixel the label may move
+        at = (round(lx), round(ly))
+        draw.text(at, text, fill=INK_COLOR, font=font, anchor="mm", stroke_width=2, stroke_fill=BACKGROUND)
     return boxes
 
 
