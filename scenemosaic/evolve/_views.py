@@ -16,7 +16,7 @@ from typing import Literal
 import numpy as np
 from PIL import Image, ImageDraw
 
-from scenemosaic.render import OrthoView, PixelMap, render_view
+from scenemosaic.render import OrthoView, PixelMap, png_bytes, render_view
 from scenemosaic.scene import Scene, UnitLayout, rigid_moves
 
 __all__ = ["VIEW_MARGIN_M", "VIEW_PX", "scene_with", "unit_view", "unit_view_png"]
@@ -74,6 +74,4 @@ def unit_view_png(
     region = np.asarray(layout.surface.region, dtype=np.float64)
     pts = [(float(x), float(y)) for x, y in pm.to_px(region)]
     draw.line([*pts, pts[0]], fill=(200, 40, 40), width=3)
-    buf = io.BytesIO()
-    image.save(buf, format="PNG")
-    return buf.getvalue()
+    return png_bytes(image)

@@ -41,7 +41,7 @@ from scenemosaic.render._topdown import (
     room_label,
     topdown_view,
 )
-from scenemosaic.render._view import OrthoView, PixelMap, render_view
+from scenemosaic.render._view import PNG_COMPRESS_LEVEL, OrthoView, PixelMap, png_bytes, render_view
 from scenemosaic.scene import register_plan_renderer
 
 register_plan_renderer(plan_png)  # Scene._repr_png_ and House._repr_png_: a notebook shows a plan
@@ -51,6 +51,7 @@ __all__ = [
     "CEILING_THICKNESS",
     "FLOOR_COLOR",
     "FLOOR_THICKNESS",
+    "PNG_COMPRESS_LEVEL",
     "RGB",
     "SHARED_WALL_TOLERANCE_M",
     "WALL_COLOR",
@@ -70,6 +71,7 @@ __all__ = [
     "object_world_arrays",
     "object_world_mesh",
     "plan_png",
+    "png_bytes",
     "polygon_rectangles",
     "render_house_plan",
     "render_topdown",

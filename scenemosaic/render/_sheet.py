@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import io
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from scenemosaic.render._view import png_bytes
 from scenemosaic.scene import write_atomic
 
 __all__ = ["ContactSheet", "contact_sheet"]
@@ -82,7 +82,5 @@ class ContactSheet:
         """Write the sheet to ``target`` (PNG) once every tile is in; returns ``target``."""
         if self._next != self.count:
             raise ValueError(f"the contact sheet has {self._next} of its {self.count} tile(s)")
-        buf = io.BytesIO()
-        self._sheet.save(buf, format="PNG")
-        write_atomic(target, buf.getvalue())
+        write_atomic(target, png_bytes(self._sheet))
         return target

