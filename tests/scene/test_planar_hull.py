@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from shapely.geometry import MultiPoint, Point, Polygon
 
-from scenemosaic.scene import convex_hull_2d, outline_polygon
+from scenemosaic.scene import convex_hull_2d, edge_axes, outline_polygon
 
 coords = st.floats(min_value=-50, max_value=50, allow_nan=False, allow_infinity=False, width=64)
 
@@ -51,3 +51,20 @@ def test_an_outline_of_too_few_points_fails_as_shapely_does() -> None:
         Polygon(np.zeros((2, 2)))
     with pytest.raises(ValueError):
         outline_polygon(np.zeros((2, 2)))
+
+
+@settings(max_examples=300, deadline=None)
+@given(arrays(np.float64, st.tuples(st.integers(1, 16), st.just(2)), elements=coords))
+def test_edge_axes_are_the_unit_outward_normals_of_the_hulls_edges(points: np.ndarray) -> None:
+    hull = convex_hull_2d(points)
+    axes = edge_axes(hull)
+    # the plain formula over arrays, bit for bit: a settle's separating axes may not move
+    edges = np.roll(hull, -1, axis=0) - hull
+    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+    lengths = np.linalg.norm(normals, axis=1)
+    expected = normals[lengths > 1e-12] / lengths[lengths > 1e-12, None]
+    assert axes.shape == expected.shape and axes.tobytes() == expected.tobytes()
+    if len(hull) >= 3:  # unit length, and outward: every corner lies behind each edge's normal
+        assert np.allclose(np.linalg.norm(axes, axis=1), 1.0)
+        for corner, axis in zip(hull, axes, strict=True):
+            assert np.all((hull - corner) @ axis <= 1e-9 * max(1.0, float(np.abs(hull).max())))
