@@ -8,7 +8,8 @@ folder:
    (``.scenemosaic-cache``, CoACD decompositions), so that no timed run pays for decompositions
    another timed run then reuses;
 2. the base only (``variants=0``) and then five variants, both with the default number of room
-   processes (one per core, at most one per room);
+   processes (one per core, at most one per room); as every later run in a process, each takes
+   the workers the run before it kept (``docs/houses.md``), so none pays their start-up;
 3. five variants with ``room_workers=1`` and with ``room_workers=2``: the ratio of the two runs'
    ``rooms`` stage wall times is the speed-up of running rooms concurrently.
 
@@ -21,7 +22,7 @@ five-variant run's report), ``critical_path_s`` (the slowest room) and ``sum_of_
 ``goal_speedup_met``, ``status`` (each run's report status) and ``cpus`` (``os.cpu_count()``: two
 processes cannot beat two cores, and other work on the machine lowers the speed-up). Where the
 time goes, for the five-variant run: ``house_variants5_cpu_s`` (user + system seconds of this
-process and every worker it waited for), ``stage_seconds`` (the house stages' wall seconds),
+process and of its workers over the run, those kept for the next run included), ``stage_seconds`` (the house stages' wall seconds),
 ``room_stage_seconds`` (per room stage, summed over the rooms, and ``room_stage_max_s``, the
 slowest room's) and the goals of a house in seconds: ``goal_wall_s`` (30), ``goal_cpu_s`` (60),
 ``goal_room_compose_s`` (2, every room) and ``goal_export_s`` (5: the ``export`` stage's wall
@@ -57,10 +58,31 @@ GOAL_ROOM_COMPOSE_S = 2.0
 GOAL_EXPORT_S = 5.0
 
 
+def _live_children_cpu_s() -> float:
+    """User + system CPU seconds so far of this process's children still running (and of what
+    they waited for): the house workers a run keeps for the next one are never waited for while
+    this process lives, so ``RUSAGE_CHILDREN`` misses them (Linux ``/proc``; 0 elsewhere)."""
+    tick = os.sysconf("SC_CLK_TCK")
+    total = 0.0
+    for task in Path("/proc/self/task").glob("*"):
+        try:
+            children = (task / "children").read_text().split()
+        except OSError:
+            continue
+        for pid in children:
+            try:
+                fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:  # gone meanwhile: waited for, so in RUSAGE_CHILDREN
+                continue
+            total += sum(int(v) for v in fields[11:15]) / tick  # utime, stime, cutime, cstime
+    return total
+
+
 def _cpu_s() -> float:
-    """User + system CPU seconds of this process and of the children it has waited for."""
+    """User + system CPU seconds of this process, of the children it has waited for and of those
+    still running: the difference over a run is the run's, whichever workers it used."""
     own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime + _live_children_cpu_s()
 
 
 def _run(house: Path, out: Path, label: str, **settings: Any) -> tuple[dict[str, Any], float]:

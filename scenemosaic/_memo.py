@@ -3,16 +3,18 @@
 Collision shapes, hull meshes and exported mesh files are pure functions of a content key (a hash
 of the vertices, an asset's fingerprint); a house run asks for the same ones in every stage and
 every variant. :class:`Memo` keeps them for the life of the process, dropping the oldest entry
-when it holds ``limit`` of them. What it hands out is shared: callers never modify it.
+when it holds ``limit`` of them, or until :func:`forget_memos` (a house run's worker, kept for the
+next run, forgets what this one derived). What it hands out is shared: callers never modify it.
 """
 
 from __future__ import annotations
 
 import threading
+import weakref
 from collections.abc import Callable, Hashable
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
-__all__ = ["Memo"]
+__all__ = ["Memo", "forget_memos"]
 
 K = TypeVar("K", bound=Hashable)
 V = TypeVar("V")
@@ -29,6 +31,7 @@ class Memo(Generic[K, V]):
         """Most values held; the oldest goes first."""
         self._values: dict[K, V] = {}
         self._lock = threading.Lock()
+        _MEMOS.add(self)
 
     def get(self, key: K, make: Callable[[], V]) -> V:
         """The value kept for ``key``, made by ``make()`` (outside the lock) when missing."""
@@ -52,3 +55,16 @@ class Memo(Generic[K, V]):
         """Forget every value."""
         with self._lock:
             self._values.clear()
+
+
+_MEMOS: weakref.WeakSet[Memo[Any, Any]] = weakref.WeakSet()
+"""Every memo of the process (weakly: a memo of a finished object goes with it)."""
+
+
+def forget_memos() -> int:
+    """Empty every :class:`Memo` of this process; returns how many values were dropped."""
+    dropped = 0
+    for memo in list(_MEMOS):
+        dropped += len(memo)
+        memo.clear()
+    return dropped

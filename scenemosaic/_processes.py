@@ -15,8 +15,10 @@ even while the worker's Python is busy in native code or still loading; everywhe
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import os
+import queue
 import signal
 import subprocess
 import sys
@@ -28,7 +30,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from multiprocessing.connection import wait
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 __all__ = [
     "STOP_GRACE_S",
@@ -64,7 +66,7 @@ sys.argv = sys.argv[2:]
 runpy.run_module(module, run_name="__main__", alter_sys=True)
 """
 """What a worker runs first (``python -c``): the signal the kernel sends it when the thread that
-started it ends (the pool's: it outlives every worker it starts), then ``python -m module``."""
+started it ends (:class:`_Spawner`'s, which lives as long as this process), then ``python -m module``."""
 
 
 def worker_environment() -> dict[str, str]:
@@ -232,16 +234,57 @@ class _Worker:
         return None
 
 
+class _Spawner:
+    """The one thread every worker is started from. The kernel's orphan signal
+    (``PR_SET_PDEATHSIG``) comes when the *thread* that started a worker ends, not its process: a
+    worker started by a run's short-lived thread (an ``asyncio.to_thread`` of its event loop)
+    would be killed when that loop closes. This thread is a daemon that lives as long as the
+    process, so a worker lives until it is told to leave or this process dies (and then at once)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._jobs: queue.SimpleQueue[tuple[Callable[[], Any], concurrent.futures.Future[Any]]] = queue.SimpleQueue()
+        self._thread: threading.Thread | None = None
+        self._pid = 0
+
+    def run(self, make: Callable[[], Any]) -> Any:
+        """``make()`` called in the spawner thread; its result (or its exception) here."""
+        with self._lock:
+            if self._thread is None or self._pid != os.getpid() or not self._thread.is_alive():
+                self._jobs, self._pid = queue.SimpleQueue(), os.getpid()  # a forked child has no such thread
+                self._thread = threading.Thread(target=self._serve, args=(self._jobs,), name="worker-spawner", daemon=True)
+                self._thread.start()
+            jobs = self._jobs
+        done: concurrent.futures.Future[Any] = concurrent.futures.Future()
+        jobs.put((make, done))
+        return done.result()
+
+    @staticmethod
+    def _serve(jobs: queue.SimpleQueue[tuple[Callable[[], Any], concurrent.futures.Future[Any]]]) -> None:
+        while True:
+            make, done = jobs.get()
+            if done.set_running_or_notify_cancel():
+                try:
+                    done.set_result(make())
+                except BaseException as exc:  # handed to the caller, who raises it
+                    done.set_exception(exc)
+
+
+_SPAWNER = _Spawner()
+
+
 def _spawn(module: str, args: list[str], log_path: Path | None, orphan: Orphan) -> _Worker:
     read_end, write_end = os.pipe()
     try:
         out = open(log_path, "ab") if log_path is not None else None  # noqa: SIM115 - handed to the child, closed below
         try:
             boot = [sys.executable, "-c", _BOOTSTRAP, str(int(_ORPHAN_SIGNALS[orphan]))]
-            process = subprocess.Popen(
-                [*boot, module, str(write_end), str(os.getpid()), *args],
-                stdin=subprocess.PIPE, stdout=out, stderr=out, pass_fds=(write_end,), env=worker_environment(),
-                start_new_session=True,  # its own process group: one signal reaches its helpers too
+            process: subprocess.Popen[bytes] = _SPAWNER.run(
+                lambda: subprocess.Popen(
+                    [*boot, module, str(write_end), str(os.getpid()), *args],
+                    stdin=subprocess.PIPE, stdout=out, stderr=out, pass_fds=(write_end,), env=worker_environment(),
+                    start_new_session=True,  # its own process group: one signal reaches its helpers too
+                )
             )  # fmt: skip
         finally:
             if out is not None:
@@ -300,9 +343,9 @@ def run_jobs(
     orphan: Orphan = "stop",
 ) -> None:
     """Run ``jobs`` in worker processes (``python -m module REPLY_FD PARENT_PID *args``), at most
-    ``workers`` at once, in order; ``on_start`` and ``on_end`` are called in this thread, which
-    outlives every worker (``orphan`` says what a worker does should this process die: see the
-    module docstring; the worker module calls :func:`watch_parent` with the same).
+    ``workers`` at once, in order; ``on_start`` and ``on_end`` are called in this thread
+    (``orphan`` says what a worker does should this process die: see the module docstring; the
+    worker module calls :func:`watch_parent` with the same).
 
     A worker reads one job a line on stdin and writes one reply a line to the pipe ``REPLY_FD``.
     With ``reuse`` a worker takes the next job when it replied (a house's rooms: one start-up per
@@ -336,6 +379,14 @@ class WorkerPool:
     def size(self) -> int:
         """Worker processes held now."""
         return len(self._running)
+
+    def ready(self) -> bool:
+        """Whether the pool holds workers and every one is alive and waiting for a job (none
+        busy, stopping, leaving or gone): a pool that may be kept for later."""
+        with self._lock:
+            return bool(self._running) and all(
+                w.job is None and w.kill_at is None and not w.closed and w.process.poll() is None for w in self._running
+            )
 
     def run(
         self,
@@ -414,7 +465,10 @@ def _serve(
             if stop is not None and stop.is_set():
                 return True
             while True:
-                idle = [k for k, w in enumerate(running) if reuse and w.job is None and w.kill_at is None and not w.closed]
+                # at most ``workers`` at once: a pool kept from a larger call uses its first ones only
+                idle = [
+                    k for k, w in enumerate(running[:workers]) if reuse and w.job is None and w.kill_at is None and not w.closed
+                ]
                 room = len(running) < workers
 
                 def ready(job: WorkerJob, idle: list[int] = idle, room: bool = room) -> bool:

@@ -30,8 +30,10 @@ usage, checkpoint, interruption) over the same :class:`PipelineRun`, whose ``hou
 from __future__ import annotations
 
 import asyncio
+import atexit
 import errno
 import functools
+import gc
 import json
 import os
 import shutil
@@ -45,7 +47,8 @@ from typing import TYPE_CHECKING, Any
 
 import structlog
 
-from scenemosaic._processes import STOP_GRACE_S, JobEnd, JobQueue, WorkerJob, WorkerPool
+from scenemosaic._memo import forget_memos
+from scenemosaic._processes import STOP_GRACE_S, JobEnd, JobQueue, WorkerJob, WorkerPool, worker_environment
 from scenemosaic.assets import HullCache, open_house
 from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
@@ -156,6 +159,10 @@ def room_worker(reply_fd: int) -> None:
 
 async def _work(job: dict[str, Any]) -> dict[str, Any]:
     """One job of a worker process (see :func:`room_worker`); its reply."""
+    if job["kind"] == "forget":  # the run is over and this worker is kept for the next one
+        dropped = forget_memos()
+        gc.collect()
+        return {"forgotten": dropped}
     config = config_from_record(job["config"], resume=bool(job.get("resume")), restart_stale=bool(job.get("restart_stale")))
     if job["kind"] == "room":
         room = Scene.model_validate(job["room"])
@@ -198,7 +205,7 @@ async def _in_workers(
             on_reply(job.name, reply)
 
     if run.workers is None:
-        run.workers = WorkerPool(WORKER_MODULE, orphan="kill")
+        run.workers = _take_workers()
     stop = threading.Event()
     queue = jobs if isinstance(jobs, JobQueue) else JobQueue([WorkerJob(name, json.dumps(job).encode()) for name, job in jobs], closed=True)
     pool = functools.partial(run.workers.run, queue, workers=count, on_end=ended, stop=stop)
@@ -212,6 +219,65 @@ async def _in_workers(
     if failures:
         raise SceneMosaicError("worker process(es) stopped: " + "; ".join(failures))
     return replies
+
+
+_KEPT: tuple[WorkerPool, tuple[object, ...]] | None = None
+"""The workers of the last house run that ended well, idle, with what they were started in (the
+working folder and environment): the next run in this process takes them instead of starting
+its own, so its rooms begin without the seconds each worker spends importing the package."""
+_KEPT_LOCK = threading.Lock()
+
+
+def _workers_key() -> tuple[object, ...]:
+    """What a worker keeps from when it started and a later run must share to take it."""
+    return os.getcwd(), tuple(sorted(worker_environment().items()))
+
+
+def _take_workers() -> WorkerPool:
+    """The kept workers (:data:`_KEPT`) when they were started as this run would start them and
+    are all still alive and idle, else a new pool (the kept one, if any, is closed)."""
+    global _KEPT
+    with _KEPT_LOCK:
+        kept, _KEPT = _KEPT, None
+    if kept is not None:
+        pool, key = kept
+        if key == _workers_key() and pool.ready():
+            return pool
+        pool.close()
+    return WorkerPool(WORKER_MODULE, orphan="kill")
+
+
+def release_workers(pool: WorkerPool, *, keep: bool) -> None:
+    """The end of a house run's workers: with ``keep`` (the run ended well) and every worker idle
+    and alive, each forgets what the run derived (its memos: a pool kept holds the package's
+    imports only) and the pool is kept for the next run in this process (:data:`_KEPT`, one at a
+    time: any other is closed); else, or when a worker fails to forget, the workers leave."""
+    global _KEPT
+    if keep and pool.ready():
+        failed: list[str] = []
+        forget = [WorkerJob(f"forget#{k}", b'{"kind": "forget"}', limit_s=STOP_GRACE_S, slot=k) for k in range(pool.size)]
+        try:
+            pool.run(forget, workers=pool.size, on_end=lambda job, end: failed.extend([] if end.reply else [job.name]))
+        except Exception:  # a pool that cannot forget is not kept (run() has closed it)
+            failed.append("forget")
+        if not failed and pool.ready():
+            with _KEPT_LOCK:
+                previous, _KEPT = _KEPT, (pool, _workers_key())
+            if previous is not None:
+                previous[0].close()
+            return
+    pool.close()
+
+
+def _close_kept() -> None:
+    global _KEPT
+    with _KEPT_LOCK:
+        kept, _KEPT = _KEPT, None
+    if kept is not None:
+        kept[0].close()
+
+
+atexit.register(_close_kept)
 
 
 def _in_processes(config: GenerateConfig, rooms: int) -> int:

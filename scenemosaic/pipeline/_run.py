@@ -20,6 +20,7 @@ import asyncio
 import concurrent.futures
 import contextlib
 import fcntl
+import functools
 import shutil
 import sys
 import time
@@ -42,7 +43,7 @@ from scenemosaic.pipeline._checkpoint import (
 from scenemosaic.pipeline._clutter import room_stages
 from scenemosaic.pipeline._config import INPUT_SIZE_LIMITS_MB, GenerateConfig, check_config
 from scenemosaic.pipeline._driver import run_stages
-from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, HOUSE_STAGES, is_house_input
+from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, HOUSE_STAGES, is_house_input, release_workers
 from scenemosaic.pipeline._report import RunReport, run_report
 from scenemosaic.pipeline._result import GenerateResult
 from scenemosaic.pipeline._stages import STAGE_NAMES, STAGES, is_image_input
@@ -208,14 +209,17 @@ async def _agenerate_locked(
     if not config.resume:  # resumable from the first moment, even if stopped during the import
         await asyncio.to_thread(save_checkpoint, run, digest)
     started = time.perf_counter()
+    failure: BaseException | None = None
+    ended_well = False
     try:  # the run's one model stack, opened by the first stage that asks, closed here
         failure = await run_stages(run, finished, digest, on_stage, HOUSE_STAGES if house else room_stages(config, STAGES))
+        ended_well = failure is None
     finally:
         if run.model is not None:
             await run.model.aclose()
         await _stop_deliveries(run)
-        if run.workers is not None:  # gone before a partial result is written into their folders
-            await asyncio.to_thread(run.workers.close)
+        if run.workers is not None:  # gone (or idle, kept) before a partial result is written into their folders
+            await asyncio.to_thread(functools.partial(release_workers, run.workers, keep=ended_well))
         if run.folder.staged.exists():  # what was delivered ahead is in place, or not wanted
             await asyncio.to_thread(shutil.rmtree, run.folder.staged, True)
     if failure is not None:

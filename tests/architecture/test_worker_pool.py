@@ -191,3 +191,34 @@ def test_a_stop_ends_a_call_whose_queue_is_still_open() -> None:
         assert time.monotonic() - started < 5 and pool.size == 0
     finally:
         pool.close()
+
+
+def test_a_worker_outlives_the_thread_that_started_it() -> None:
+    # the kernel's orphan signal follows the thread that started a worker: a house run starts its
+    # workers from a short-lived thread of its event loop, and keeps them for the next run
+    pool = WorkerPool("process_echo_worker")
+    try:
+        first: dict[str, JobEnd] = {}
+        starter = threading.Thread(target=lambda: first.update(_pool_run(pool, [WorkerJob("a", b"x")], workers=1)))
+        starter.start()
+        starter.join()
+        time.sleep(0.3)  # the signal, had it come, is delivered by now
+        pid = _pid(first["a"])
+        assert pool.ready()  # alive (not a zombie killed by the signal) and idle
+        again = _pool_run(pool, [WorkerJob("b", b"y")], workers=1)
+        assert _pid(again["b"]) == pid
+    finally:
+        pool.close()
+
+
+def test_a_call_with_fewer_workers_than_the_pool_holds_runs_that_many_at_once() -> None:
+    pool = WorkerPool("process_echo_worker")
+    try:
+        warm = _pool_run(pool, [WorkerJob(f"w{i}", b"sleep 0.2") for i in range(2)], workers=2)
+        assert pool.size == 2 and len({_pid(e) for e in warm.values()}) == 2
+        one = _pool_run(pool, [WorkerJob(f"j{i}", b"sleep 0.1") for i in range(3)], workers=1)
+        assert len({_pid(e) for e in one.values()}) == 1  # one at a time, in the pool's first worker
+        assert pool.size == 2 and pool.ready()
+    finally:
+        pool.close()
+    assert not pool.ready()

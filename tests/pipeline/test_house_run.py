@@ -131,6 +131,7 @@ def test_a_run_failing_after_the_houses_went_ahead_keeps_only_its_partial_base(
     assert not (out / "base" / "scene.xml").exists()  # no simulator file of a house not delivered
     assert not (out / "variant_1").exists()
     assert not (out / ".checkpoint" / "staged").exists()
+    assert house_stages._KEPT is None  # a failed run's workers leave
 
 
 def test_a_house_half_failing_in_its_worker_fails_the_export_and_keeps_the_partial_base(
@@ -149,6 +150,39 @@ def test_a_house_half_failing_in_its_worker_fails_the_export_and_keeps_the_parti
     assert (out / "base" / "partial.json").is_file() and not (out / "base" / "scene.xml").exists()
     assert not (out / "variant_1").exists()
     assert not (out / ".checkpoint" / "staged").exists()
+
+
+def test_a_house_run_keeps_its_idle_workers_for_the_next_run_in_the_process(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The next run takes them (no start-up) and gives the same files; they hold no memo between
+    runs; a run started in another environment starts its own."""
+    import scenemosaic.pipeline._house as house_stages
+    from scenemosaic._processes import JobEnd, WorkerJob
+
+    def kept_pids() -> list[int]:
+        assert house_stages._KEPT is not None
+        pool = house_stages._KEPT[0]
+        assert pool.ready()
+        return [w.process.pid for w in pool._running]
+
+    config = GenerateConfig(variants=0, room_workers=2)
+    generate(TWO_ROOMS, tmp_path / "first", config)
+    first = kept_pids()
+    assert len(first) == 2
+    generate(TWO_ROOMS, tmp_path / "second", config)
+    assert kept_pids() == first  # the same processes ran the second run and wait again
+    assert _delivered(tmp_path / "first") == _delivered(tmp_path / "second")
+    assert _room_files(tmp_path / "first") == _room_files(tmp_path / "second")
+    replies: dict[str, JobEnd] = {}
+    forget = [WorkerJob(f"forget#{k}", b'{"kind": "forget"}', slot=k) for k in range(2)]
+    house_stages._KEPT[0].run(forget, workers=2, on_end=lambda job, end: replies.__setitem__(job.name, end))  # type: ignore[index]
+    assert [json.loads(replies[f"forget#{k}"].reply or b"{}") for k in range(2)] == [{"forgotten": 0}] * 2
+
+    monkeypatch.setenv("SCENEMOSAIC_TEST_OTHER_ENVIRONMENT", "1")  # what a worker would not see
+    generate(TWO_ROOMS, tmp_path / "third", config)
+    third = kept_pids()
+    assert not set(third) & set(first)
 
 
 @pytest.mark.house  # another whole-house run: make test-houses
