@@ -229,8 +229,9 @@ _KEPT_LOCK = threading.Lock()
 
 
 def _workers_key() -> tuple[object, ...]:
-    """What a worker keeps from when it started and a later run must share to take it."""
-    return os.getcwd(), tuple(sorted(worker_environment().items()))
+    """What a worker keeps from when it started and a later run must share to take it (and the
+    process: a forked child's kept workers are not its own)."""
+    return os.getpid(), os.getcwd(), tuple(sorted(worker_environment().items()))
 
 
 def _take_workers() -> WorkerPool:
