@@ -102,12 +102,14 @@ Quat = tuple[float, float, float, float]
 
 
 def _check_finite(values: tuple[float, ...], what: str) -> None:
-    if not all(math.isfinite(v) for v in values):
+    if not all(map(math.isfinite, values)):
         raise ValueError(f"{what} must be finite, got {list(values)}")
 
 
 def _finite_or(values: tuple[float, ...], neutral: float) -> tuple[float, ...]:
     """``values`` with every non-finite entry replaced by ``neutral`` (for range-only checks)."""
+    if all(map(math.isfinite, values)):  # nearly always: the values themselves
+        return values
     return tuple(v if math.isfinite(v) else neutral for v in values)
 
 
@@ -153,15 +155,15 @@ class Pose(BaseModel):
     @classmethod
     def _unit_quaternion(cls, v: Quat) -> Quat:
         _check_finite(v, "quaternion")
-        norm = math.sqrt(sum(c * c for c in v))
+        w, x, y, z = v
+        norm = math.sqrt(w * w + x * x + y * y + z * z)  # summed in this order, as sum() would
         if norm < 1e-9:
             raise ValueError("quaternion has zero norm")
         if abs(norm - 1.0) > QUAT_NORM_TOLERANCE:
             log.warning("quaternion_normalized", norm=norm, quaternion=list(v))
-        q = tuple(c / norm for c in v)
-        if q[0] < 0:  # canonical sign: w >= 0, so equal rotations serialize equally
-            q = tuple(-c for c in q)
-        return (q[0], q[1], q[2], q[3])
+        if w / norm < 0:  # canonical sign: w >= 0, so equal rotations serialize equally
+            return (-(w / norm), -(x / norm), -(y / norm), -(z / norm))
+        return (w / norm, x / norm, y / norm, z / norm)
 
     @classmethod
     def from_yaw(cls, position: Vec3, yaw: float, scale: Vec3 = (1.0, 1.0, 1.0)) -> Pose:
@@ -262,12 +264,14 @@ class SceneObject(_Model):
         # measures motions with poses of bodies that flew away), an object is what a scene holds.
         # Only the range is checked here: finiteness is Pose's and AssetRef's own rule, and a NaN
         # smuggled past them (model_copy) is for physics' require_finite_poses to name.
-        problem = coordinate_problem(_finite_or(self.pose.position, 0.0))
+        pose = self.pose
+        problem = coordinate_problem(_finite_or(pose.position, 0.0))
         field = "pose.position"
         if problem is None:
-            problem, field = scale_problem(_finite_or(self.pose.scale, 1.0)), "pose.scale"
-        if problem is None:
-            size = _finite_or(tuple(float(v) for v in self.size), 1.0)
+            problem, field = scale_problem(_finite_or(pose.scale, 1.0)), "pose.scale"
+        if problem is None:  # :attr:`size`, in plain floats (the same products)
+            (ex, ey, ez), (sx, sy, sz) = self.asset.extents, pose.scale
+            size = _finite_or((float(ex) * float(sx), float(ey) * float(sy), float(ez) * float(sz)), 1.0)
             problem, field = size_problem(size), "asset.extents * pose.scale"
         if problem is not None:
             raise ValueError(f"object {self.id!r}: {field}: {problem}")
