@@ -14,6 +14,7 @@ from shapely import affinity
 from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points
 
+from scenemosaic._memo import Memo
 from scenemosaic.scene._geometry import FloatArray
 
 __all__ = ["convex_hull_2d", "edge_axes", "minimal_containing_shift", "outline_polygon", "sat_overlap"]
@@ -108,6 +109,24 @@ def sat_overlap(a: FloatArray, b: FloatArray, axes: FloatArray | None = None) ->
     return float(need[k]), axis
 
 
+_INSET_REGIONS: Memo[tuple[bytes, float], Polygon] = Memo(256)
+"""Regions shrunk by an inset, by the region's WKB and the inset: a settle asks for the same
+anchor's region for every child on every sweep."""
+
+
+def _inset(region: Polygon, inset: float) -> Polygon:
+    """``region`` shrunk by ``inset`` (mitred), prepared for the containment tests (shared: never
+    modified)."""
+
+    def make() -> Polygon:
+        inner = region.buffer(-inset, join_style="mitre") if inset > 0 else region
+        if not inner.is_empty:
+            shapely.prepare(inner)
+        return inner
+
+    return _INSET_REGIONS.get((region.wkb, float(inset)), make)
+
+
 def minimal_containing_shift(
     footprint: FloatArray, region: Polygon, inset: float = 0.002
 ) -> FloatArray | None:
@@ -117,7 +136,7 @@ def minimal_containing_shift(
     corner; its point nearest the origin is the minimal move. ``None`` when no shift fits (the
     object is larger than its support).
     """
-    inner = region.buffer(-inset, join_style="mitre") if inset > 0 else region
+    inner = _inset(region, inset)
     if inner.is_empty:
         return None
     if shapely.contains(inner, Polygon(footprint)):
