@@ -223,8 +223,9 @@ async def _in_workers(
 
 _KEPT: tuple[WorkerPool, tuple[object, ...]] | None = None
 """The workers of the last house run that ended well, idle, with what they were started in (the
-working folder and environment): the next run in this process takes them instead of starting
-its own, so its rooms begin without the seconds each worker spends importing the package."""
+process, its working folder and environment, :func:`_workers_key`): the next run in this process
+takes them instead of starting its own, so its rooms begin without the seconds each worker spends
+importing the package. They hold that import only (a few hundred MB each) until then."""
 _KEPT_LOCK = threading.Lock()
 
 
