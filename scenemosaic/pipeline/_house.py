@@ -204,8 +204,8 @@ async def _in_workers(
         if on_reply is not None:
             on_reply(job.name, reply)
 
-    if run.workers is None:
-        run.workers = _take_workers()
+    if run.workers is None:  # in a thread: closing kept workers that do not fit waits for them
+        run.workers = await asyncio.to_thread(_take_workers)
     stop = threading.Event()
     queue = jobs if isinstance(jobs, JobQueue) else JobQueue([WorkerJob(name, json.dumps(job).encode()) for name, job in jobs], closed=True)
     pool = functools.partial(run.workers.run, queue, workers=count, on_end=ended, stop=stop)

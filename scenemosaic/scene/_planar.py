@@ -116,10 +116,12 @@ anchor's region for every child on every sweep."""
 
 def _inset(region: Polygon, inset: float) -> Polygon:
     """``region`` shrunk by ``inset`` (mitred), prepared for the containment tests (shared: never
-    modified)."""
+    modified); ``region`` itself when ``inset`` is not positive."""
+    if inset <= 0:
+        return region
 
     def make() -> Polygon:
-        inner = region.buffer(-inset, join_style="mitre") if inset > 0 else region
+        inner = region.buffer(-inset, join_style="mitre")
         if not inner.is_empty:
             shapely.prepare(inner)
         return inner
