@@ -115,18 +115,16 @@ anchor's region for every child on every sweep."""
 
 
 def _inset(region: Polygon, inset: float) -> Polygon:
-    """``region`` shrunk by ``inset`` (mitred), prepared for the containment tests (shared: never
-    modified); ``region`` itself when ``inset`` is not positive."""
+    """``region`` shrunk by ``inset`` (mitred; shared: never modified); ``region`` itself when
+    ``inset`` is not positive.
+
+    The shared region is never *prepared*: GEOS builds a prepared geometry's indexes lazily, on
+    its first queries, and shapely runs those queries without the GIL, so two threads asking the
+    same prepared region at once (the settles of one unit's variants) corrupt the heap and crash
+    the process (GEOS issue 825; ``tests/scene/test_planar_hull.py`` runs it in threads)."""
     if inset <= 0:
         return region
-
-    def make() -> Polygon:
-        inner = region.buffer(-inset, join_style="mitre")
-        if not inner.is_empty:
-            shapely.prepare(inner)
-        return inner
-
-    return _INSET_REGIONS.get((region.wkb, float(inset)), make)
+    return _INSET_REGIONS.get((region.wkb, float(inset)), lambda: region.buffer(-inset, join_style="mitre"))
 
 
 def minimal_containing_shift(

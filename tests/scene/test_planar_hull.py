@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
+import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -68,3 +72,56 @@ def test_edge_axes_are_the_unit_outward_normals_of_the_hulls_edges(points: np.nd
         assert np.allclose(np.linalg.norm(axes, axis=1), 1.0)
         for corner, axis in zip(hull, axes, strict=True):
             assert np.all((hull - corner) @ axis <= 1e-9 * max(1.0, float(np.abs(hull).max())))
+
+
+_SHARED_REGION_IN_THREADS = """
+import threading
+import numpy as np
+from shapely.geometry import Polygon
+from scenemosaic.scene import minimal_containing_shift
+
+angles = np.linspace(0.0, 2.0 * np.pi, 300, endpoint=False)
+regions = [
+    Polygon(np.c_[np.cos(angles) * (2 + 0.3 * np.sin(5 * angles + k)), np.sin(angles) * (2 + 0.3 * np.cos(3 * angles + k))])
+    for k in range(1500)
+]
+square = np.array([[-0.2, -0.2], [0.2, -0.2], [0.2, 0.2], [-0.2, 0.2]])
+start = threading.Barrier(6)
+shifts = [[] for _ in range(6)]
+
+def settle(i):
+    for k, region in enumerate(regions):
+        if k % 20 == 0:
+            start.wait()  # every thread asks for the same regions at the same moment
+        shifts[i].append(minimal_containing_shift(square * (1 + 4 * (k % 3)), region))
+
+threads = [threading.Thread(target=settle, args=(i,)) for i in range(6)]
+for t in threads:
+    t.start()
+for t in threads:
+    t.join()
+assert all(len(s) == len(regions) for s in shifts)
+for s in shifts[1:]:
+    assert all((a is None and b is None) or np.array_equal(a, b) for a, b in zip(s, shifts[0]))
+print("same shifts in every thread")
+"""
+
+
+def test_containing_shifts_asked_from_many_threads_at_once_agree_and_do_not_crash() -> None:
+    """A unit's variants settle in threads of one process and ask for the same anchor's region:
+    the region shrunk once and shared must stay safe to query from all of them at once (a shared
+    *prepared* GEOS geometry is not: its lazily built index corrupted the heap, a worker died of
+    SIGSEGV). Run in a child process so that a crash fails this test, not the test run."""
+    done = subprocess.run([sys.executable, "-c", _SHARED_REGION_IN_THREADS], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, (done.returncode, done.stderr[-2000:])
+    assert "same shifts in every thread" in done.stdout
+
+
+def test_a_shrunk_region_shared_between_calls_is_not_prepared() -> None:
+    from scenemosaic.scene._planar import _inset
+
+    region = Polygon([(0, 0), (4, 0), (4, 3), (0, 3)])
+    inner = _inset(region, 0.002)
+    assert inner is _inset(Polygon(region.exterior.coords), 0.002)  # made once, shared
+    assert not shapely.is_prepared(inner)
+    assert inner.bounds == pytest.approx((0.002, 0.002, 3.998, 2.998))
