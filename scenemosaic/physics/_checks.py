@@ -37,6 +37,7 @@ __all__ = [
     "require_finite_poses",
     "resting_footprint",
     "rests_within",
+    "shared_collision_report",
     "support_polygon",
 ]
 
@@ -145,7 +146,17 @@ def check_collisions(
     shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
     if hulls is not None:  # pieces given for this call: nothing to share
         return collision_report_for(scene, shapes, tolerance_m=tolerance_m)
-    # the shapes come from object_shape's memo (frozen, shared): the entry holds them, so their ids stay theirs
+    return shared_collision_report(scene, shapes, tolerance_m=tolerance_m)
+
+
+def shared_collision_report(
+    scene: Scene, shapes: Mapping[str, ObjectShape], *, tolerance_m: float = COLLISION_TOLERANCE_M
+) -> CollisionReport:
+    """:func:`collision_report_for` of ``scene`` measured once per set of poses, shapes and
+    tolerance (a copy of it each call). ``shapes`` must come from :func:`object_shape` without
+    ``hulls`` (its memo's frozen, shared shapes: the memo entry holds them, so their ids stay
+    theirs and name them): a house run checks each variant's rooms at compose and again for its
+    metrics, and a run's validation measures the base's rooms that its metrics measure again."""
     key = (tolerance_m, tuple((o.id, id(shapes[o.id]), is_thin(o), o.pose.position, o.pose.quaternion) for o in scene.objects))
     report, _ = _REPORTS.get(key, lambda: (collision_report_for(scene, shapes, tolerance_m=tolerance_m), tuple(shapes.values())))
     return report.model_copy(deep=True)
@@ -153,8 +164,7 @@ def check_collisions(
 
 _REPORTS: Memo[tuple[Any, ...], tuple[CollisionReport, tuple[ObjectShape, ...]]] = Memo(512)
 """Collision reports by what decides them (each object's id, shape, thinness and pose, the
-tolerance), with the shapes they were measured on: a house run checks each variant's rooms at
-compose and again for its metrics."""
+tolerance), with the shapes they were measured on (:func:`shared_collision_report`)."""
 
 
 def _footprint(obj: SceneObject) -> Polygon:

@@ -17,6 +17,7 @@ from scenemosaic.physics._checks import (
     collision_report_for,
     nested_furniture,
     require_finite_poses,
+    shared_collision_report,
 )
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import ObjectMotion, ValidationReport
@@ -230,11 +231,13 @@ def support_gaps(scene: Scene, shapes: Mapping[str, ObjectShape]) -> dict[str, f
     return gaps
 
 
-def _static_report(scene: Scene, shapes: Mapping[str, ObjectShape]) -> ValidationReport:
+def _static_report(scene: Scene, shapes: Mapping[str, ObjectShape], *, shared: bool) -> ValidationReport:
     """What one scene's poses say before anything moves: collisions, out of bounds, support gaps,
-    nested furniture."""
+    nested furniture. ``shared``: the shapes are :func:`object_shape`'s own (no ``hulls`` given),
+    so the collisions are measured once for these poses (``shared_collision_report``: a run's
+    metrics ask for the same report)."""
     return ValidationReport(
-        collisions=collision_report_for(scene, shapes),
+        collisions=shared_collision_report(scene, shapes) if shared else collision_report_for(scene, shapes),
         out_of_bounds=check_out_of_bounds(scene, shapes=shapes),
         support_gaps_m=support_gaps(scene, shapes) if scene.objects else {},
         nested=nested_furniture(scene),
@@ -313,7 +316,7 @@ def validate_scene(
     """
     require_finite_poses(scene, "validate the scene")
     shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
-    static = _static_report(scene, shapes)
+    static = _static_report(scene, shapes, shared=hulls is None)
     settled = _settle_world(scene_world(scene, shapes, sim), {o.id: o for o in scene.objects})
     return _with_motion(static, scene, settled)
 
@@ -334,6 +337,6 @@ def validate_house(
     shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in house.objects}
     settled = _settle_world(house_world(house, shapes, sim), {o.id: o for o in house.objects})
     return {
-        scene.id: _with_motion(_static_report(scene, {o.id: shapes[o.id] for o in scene.objects}), scene, settled)
+        scene.id: _with_motion(_static_report(scene, {o.id: shapes[o.id] for o in scene.objects}, shared=hulls is None), scene, settled)
         for scene in house.rooms
     }

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from scenemosaic.physics import (
@@ -62,6 +63,33 @@ def test_a_scene_checked_again_gets_the_same_report_and_a_moved_one_its_own() ->
     looser = check_collisions(_scene([a, b], {}), tolerance_m=0.05)
     assert looser.count == 0 and len(looser.shallow) == 1
 
+
+def test_the_metrics_check_of_a_validated_scene_reuses_the_validations_measure(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A run validates its scene and then measures COL on the same poses: the collisions are
+    measured once, and each caller gets a copy of its own; hull pieces given for one call are
+    measured for that call only."""
+    import scenemosaic.physics._checks as checks
+
+    measured: list[int] = []
+    measure = checks.collision_report_for
+
+    def counting(*args: object, **kwargs: object) -> object:
+        measured.append(1)
+        return measure(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(checks, "collision_report_for", counting)
+    a = _box("a", (1.0, 1.0, 1.0), (1.0, 1.0, 0.0))
+    b = _box("b", (1.0, 1.0, 1.0), (1.9613, 1.0, 0.0))  # a pose no other test asks about
+    scene = _scene([a, b], {})
+    validated = validate_scene(scene)
+    assert validated.collisions.count == 1 and len(measured) == 1
+    validated.collisions.pairs.clear()  # the validation's copy
+    col = check_collisions(scene)
+    assert len(measured) == 1, "measured again"
+    assert col.count == 1 and col.pairs[0].depth_m == pytest.approx(1.0 - 0.9613, abs=1e-4)
+    cube = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (0.0, 1.0)])
+    check_collisions(scene, hulls={"a": [cube], "b": [cube]})
+    assert len(measured) == 2  # given pieces: nothing shared
 
 def test_thin_objects_are_not_counted() -> None:
     rug = _box("rug", (2.0, 1.5, 0.01), (2.0, 2.0, 0.0))
