@@ -269,19 +269,21 @@ class SceneObject(_Model):
         field = "pose.position"
         if problem is None:
             problem, field = scale_problem(_finite_or(pose.scale, 1.0)), "pose.scale"
-        if problem is None:  # :attr:`size`, in plain floats (the same products)
-            (ex, ey, ez), (sx, sy, sz) = self.asset.extents, pose.scale
-            size = _finite_or((float(ex) * float(sx), float(ey) * float(sy), float(ez) * float(sz)), 1.0)
-            problem, field = size_problem(size), "asset.extents * pose.scale"
+        if problem is None:
+            problem, field = size_problem(_finite_or(self._size(), 1.0)), "asset.extents * pose.scale"
         if problem is not None:
             raise ValueError(f"object {self.id!r}: {field}: {problem}")
         return self
 
+    def _size(self) -> tuple[float, float, float]:
+        """:attr:`size` in plain floats (the validator's, without arrays)."""
+        (ex, ey, ez), (sx, sy, sz) = self.asset.extents, self.pose.scale
+        return float(ex) * float(sx), float(ey) * float(sy), float(ez) * float(sz)
+
     @property
     def size(self) -> FloatArray:
         """Size in the object's own frame: asset extents times pose scale (metres)."""
-        size: FloatArray = np.asarray(self.asset.extents, dtype=np.float64) * np.asarray(self.pose.scale)
-        return size
+        return np.array(self._size(), dtype=np.float64)
 
     def corners(self) -> FloatArray:
         """World coordinates of the 8 corners of the object's oriented bounding box, shape (8, 3)."""
