@@ -125,6 +125,36 @@ def test_validate_house_settles_the_delivered_world(tmp_path: Path) -> None:
     assert target.id not in fell_before and fell - fell_before == {target.id}
 
 
+def test_a_validated_houses_rooms_are_not_measured_again_for_their_metrics(monkeypatch: pytest.MonkeyPatch) -> None:
+    """As for a room: ``validate_house`` measures each room's collisions once, and the metrics'
+    check of the same rooms (``check_collisions``) gets that report, not a new measure."""
+    import scenemosaic.physics._checks as checks
+    from scenemosaic.physics import check_collisions
+
+    measured: list[str] = []
+    measure = checks.collision_report_for
+
+    def counting(scene: object, *args: object, **kwargs: object) -> object:
+        measured.append(scene.id)  # type: ignore[attr-defined]
+        return measure(scene, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(checks, "collision_report_for", counting)
+    house = load_house(TWO_ROOMS)
+    # poses no other test asks about: every object 1.7 mm higher
+    house = house.with_rooms([
+        room.model_copy(update={"objects": [
+            o.model_copy(update={"pose": o.pose.model_copy(update={"position": (*o.pose.position[:2], o.pose.position[2] + 0.0017)})})
+            for o in room.objects
+        ]})
+        for room in house.rooms
+    ])  # fmt: skip
+    reports = validate_house(house, TWO_ROOMS.parent)
+    assert sorted(measured) == sorted(house.room_ids)
+    for room in house.rooms:
+        assert check_collisions(room, TWO_ROOMS.parent) == reports[room.id].collisions
+    assert sorted(measured) == sorted(house.room_ids), "measured again"
+
+
 @pytest.mark.house
 def test_a_house_run_is_the_rooms_driver_with_house_stages(tmp_path: Path) -> None:
     """One driver: the house's stages are recorded, checkpointed and reported like a room's; the
