@@ -37,10 +37,13 @@ __all__ = [
     "JobEnd",
     "JobQueue",
     "Orphan",
+    "WorkerError",
+    "WorkerExecutor",
     "WorkerJob",
     "WorkerPool",
     "kill_group",
     "run_jobs",
+    "serve_lines",
     "watch_parent",
     "worker_environment",
 ]
@@ -567,3 +570,118 @@ def _stop_all(running: list[_Worker], reuse: bool) -> None:
         if worker.process.stdin is not None:
             with contextlib.suppress(OSError):
                 worker.process.stdin.close()
+
+
+# -- one job at a time, from any thread ------------------------------------------------------------
+
+
+class WorkerError(RuntimeError):
+    """A job handed to a :class:`WorkerExecutor` got no reply: its worker died, timed out or the
+    executor was closed first."""
+
+
+class WorkerExecutor:
+    """Reused worker processes (``python -m module``) served by a thread of their own: any thread
+    :meth:`submit` s one job's payload and gets a future of its reply. The processes start on the
+    first job, at most ``workers`` of them, and stay until :meth:`close` (they leave at once, SIGKILL
+    by the kernel, should this process die: ``orphan``). The executor owns its processes and
+    thread: nothing of it is global, and a closed one refuses new jobs.
+
+    This is how the package hands CPU-bound native work (CoACD) to other cores without
+    ``multiprocessing``, whose ``spawn`` children import the caller's ``__main__`` again.
+    """
+
+    def __init__(self, module: str, *, workers: int, orphan: Orphan = "kill", args: list[str] | None = None) -> None:
+        self.module, self.workers = module, max(1, workers)
+        self._pool = WorkerPool(module, args=args, orphan=orphan)
+        self._lock = threading.Lock()
+        self._queue: JobQueue | None = None
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._futures: dict[str, concurrent.futures.Future[bytes]] = {}
+        self._count = 0
+        self._closed = False
+
+    @property
+    def started(self) -> bool:
+        """Whether its serving thread (and so, maybe, its processes) is running."""
+        with self._lock:
+            return self._thread is not None and self._thread.is_alive()
+
+    def submit(self, payload: bytes, *, limit_s: float | None = None) -> concurrent.futures.Future[bytes]:
+        """Hand ``payload`` (one line) to the next idle worker; the future gets its reply line, or a
+        :class:`WorkerError` naming why there is none."""
+        future: concurrent.futures.Future[bytes] = concurrent.futures.Future()
+        future.set_running_or_notify_cancel()  # a job sent to a process is not taken back
+        with self._lock:
+            if self._closed:
+                raise WorkerError(f"the {self.module} workers are closed")
+            if self._thread is None or not self._thread.is_alive():
+                self._queue = JobQueue()
+                self._thread = threading.Thread(
+                    target=self._serve, args=(self._queue,), name=f"workers:{self.module}", daemon=True
+                )  # fmt: skip
+                self._thread.start()
+            self._count += 1
+            name = f"job-{self._count}"
+            self._futures[name] = future
+            queue = self._queue
+        assert queue is not None
+        queue.put([WorkerJob(name, payload, limit_s=limit_s)])
+        return future
+
+    def _serve(self, queue: JobQueue) -> None:
+        problem = "the workers were closed before it ended"
+        try:
+            self._pool.run(queue, workers=self.workers, on_end=self._ended, stop=self._stop)
+        except BaseException as exc:  # the pool broke: every job still waiting hears why
+            problem = f"the worker pool failed: {type(exc).__name__}: {exc}"
+        finally:
+            self._pool.close()
+            with self._lock:
+                left, self._futures = self._futures, {}
+            for future in left.values():
+                if not future.done():
+                    future.set_exception(WorkerError(problem))
+
+    def _ended(self, job: WorkerJob, end: JobEnd) -> None:
+        with self._lock:
+            future = self._futures.pop(job.name, None)
+        if future is None or future.done():
+            return
+        if end.reply is None:
+            future.set_exception(WorkerError(end.failure()))
+        else:
+            future.set_result(end.reply)
+
+    def close(self, *, cancel: bool = False) -> None:
+        """No more jobs; the processes leave once the jobs already handed over are done, or at once
+        with ``cancel`` (those jobs then fail). Returns when they are gone; safe to call twice."""
+        with self._lock:
+            self._closed = True
+            queue, thread = self._queue, self._thread
+        if cancel:
+            self._stop.set()
+        if queue is not None:
+            queue.close()
+        if thread is not None and thread is not threading.current_thread():
+            thread.join()
+
+
+def serve_lines(argv: list[str], handle: Callable[[bytes], bytes], *, orphan: Orphan = "kill") -> None:
+    """The loop of a worker module's ``main`` (``python -m module REPLY_FD PARENT_PID``, as
+    :class:`WorkerPool` starts it): watch the parent, then answer each line of stdin with
+    ``handle(line)`` (one line, no newline in it) on the reply pipe until stdin ends; then leave
+    at once, without tearing the interpreter down."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the group: the parent stops its workers
+    reply_fd, parent_pid = int(argv[1]), int(argv[2])
+    os.set_inheritable(reply_fd, False)
+    watch_parent(parent_pid, orphan)
+    with os.fdopen(reply_fd, "wb") as replies:
+        for line in sys.stdin.buffer:
+            if line.strip():
+                replies.write(handle(line).rstrip(b"\n") + b"\n")
+                replies.flush()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)

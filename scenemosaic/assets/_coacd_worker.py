@@ -1,20 +1,31 @@
-"""The code that runs inside a CoACD worker process.
+"""The code that runs inside a CoACD worker process: ``python -m scenemosaic.assets._coacd_worker REPLY_FD PARENT_PID``.
 
-Kept apart from the cache so the worker imports only numpy, coacd and fast-simplification.
-Everything here is a plain function of arrays, so it pickles across the process boundary.
+The hull cache (``assets/_hulls.py``) hands each decomposition to a worker of the package's own
+(``scenemosaic._processes.WorkerExecutor``): a fresh interpreter that runs this module, never the
+caller's ``__main__`` (a user's script without an ``if __name__ == "__main__":`` guard runs once),
+and that dies with the process that started it. One job a line on stdin, one reply a line:
+:func:`encode_job` / :func:`decode_job` and :func:`encode_reply` / :func:`decode_reply` carry the
+arrays (``npz``, base64) and the CoACD options.
 """
 
 from __future__ import annotations
 
+import base64
 import contextlib
+import io
+import json
 import os
+import sys
 from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["decompose"]
+__all__ = ["MODULE", "decode_job", "decode_reply", "decompose", "encode_job", "encode_reply"]
+
+MODULE = "scenemosaic.assets._coacd_worker"
+"""The module a CoACD worker process runs (``python -m``)."""
 
 RawPiece = tuple[npt.NDArray[np.float64], npt.NDArray[np.int64]]
 
@@ -82,3 +93,67 @@ def decompose(
             seed=int(options["seed"]),
         )
     return [(np.asarray(pv, dtype=np.float64), np.asarray(pf, dtype=np.int64)) for pv, pf in result]
+
+
+def _pack(arrays: dict[str, npt.NDArray[np.generic]]) -> str:
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)  # type: ignore[arg-type]
+    return base64.b64encode(buffer.getvalue()).decode("ascii")
+
+
+def _unpack(text: str) -> dict[str, npt.NDArray[np.generic]]:
+    with np.load(io.BytesIO(base64.b64decode(text)), allow_pickle=False) as data:
+        return {name: data[name] for name in data.files}
+
+
+def encode_job(vertices: npt.NDArray[np.float64], faces: npt.NDArray[np.int64], options: dict[str, Any]) -> bytes:
+    """One decomposition as the line a worker reads."""
+    mesh = _pack({"vertices": np.asarray(vertices, dtype=np.float64), "faces": np.asarray(faces, dtype=np.int64)})
+    return json.dumps({"mesh": mesh, "options": options}).encode()
+
+
+def decode_job(line: bytes) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], dict[str, Any]]:
+    """The arrays and options of a job line (:func:`encode_job`)."""
+    job = json.loads(line)
+    arrays = _unpack(job["mesh"])
+    return np.asarray(arrays["vertices"], np.float64), np.asarray(arrays["faces"], np.int64), dict(job["options"])
+
+
+def encode_reply(pieces: list[RawPiece] | None = None, error: str | None = None) -> bytes:
+    """A worker's reply line: the pieces, or why there are none."""
+    if error is not None:
+        return json.dumps({"error": error}).encode()
+    arrays: dict[str, npt.NDArray[np.generic]] = {}
+    for i, (v, f) in enumerate(pieces or []):
+        arrays[f"v{i}"], arrays[f"f{i}"] = v, f
+    return json.dumps({"pieces": len(pieces or []), "arrays": _pack(arrays)}).encode()
+
+
+def decode_reply(line: bytes) -> list[RawPiece]:
+    """The pieces of a reply line (:func:`encode_reply`); ``RuntimeError`` with the worker's error."""
+    reply = json.loads(line)
+    if "error" in reply:
+        raise RuntimeError(str(reply["error"]))
+    arrays = _unpack(reply["arrays"])
+    return [
+        (np.asarray(arrays[f"v{i}"], np.float64), np.asarray(arrays[f"f{i}"], np.int64)) for i in range(int(reply["pieces"]))
+    ]
+
+
+def _answer(line: bytes) -> bytes:
+    try:
+        return encode_reply(decompose(*decode_job(line)))
+    except Exception as exc:  # the parent falls back to the convex hull and says why
+        return encode_reply(error=f"{type(exc).__name__}: {exc}")
+
+
+def main(argv: list[str]) -> int:
+    """The worker's loop (see the module docstring)."""
+    from scenemosaic._processes import serve_lines
+
+    serve_lines(argv, _answer, orphan="kill")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))

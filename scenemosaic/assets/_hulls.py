@@ -30,13 +30,12 @@ import contextlib
 import hashlib
 import io
 import json
-import multiprocessing
 import os
 import sys
 import threading
+import weakref
 import zipfile
-from concurrent.futures import Future, ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
+from concurrent.futures import Future
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -46,8 +45,9 @@ import numpy.typing as npt
 import structlog
 import trimesh
 
+from scenemosaic._processes import WorkerError, WorkerExecutor
 from scenemosaic.assets._canonical import mesh_hash
-from scenemosaic.assets._coacd_worker import RawPiece, decompose
+from scenemosaic.assets._coacd_worker import MODULE, RawPiece, decode_reply, encode_job
 from scenemosaic.exceptions import AssetError
 from scenemosaic.scene import COACD_MAX_FACES, MAX_HULL_VERTICES, MAX_MESH_FACES, write_atomic
 
@@ -145,12 +145,8 @@ class CoacdParams:
 
 
 # --------------------------------------------------------------------------------------------
-# worker pool: one per process, shared by every HullCache, created on first use
+# worker processes: each cache's own, started on its first miss
 # --------------------------------------------------------------------------------------------
-_pool_lock = threading.Lock()
-_pool_instance: ProcessPoolExecutor | None = None
-
-
 def _worker_count() -> int:
     env = os.environ.get("SCENEMOSAIC_COACD_WORKERS")
     if env and env.isdigit() and int(env) > 0:
@@ -158,36 +154,16 @@ def _worker_count() -> int:
     return max(1, min(4, (os.cpu_count() or 2) // 2))
 
 
-def _pool() -> ProcessPoolExecutor:
-    global _pool_instance
-    with _pool_lock:
-        if _pool_instance is None:
-            # spawn, not fork: forking a process that runs threads (event loop helpers, logging) can deadlock
-            _pool_instance = ProcessPoolExecutor(
-                max_workers=_worker_count(), mp_context=multiprocessing.get_context("spawn")
-            )
-        return _pool_instance
-
-
-def _drop_pool(broken: ProcessPoolExecutor | None = None, *, wait: bool = False) -> None:
-    global _pool_instance
-    with _pool_lock:
-        pool = _pool_instance
-        if pool is None or (broken is not None and pool is not broken):
-            return
-        _pool_instance = None
-    pool.shutdown(wait=wait, cancel_futures=True)
+_open_caches: weakref.WeakSet[HullCache] = weakref.WeakSet()
 
 
 def shutdown_workers(*, wait: bool = False) -> None:
-    """Stop the CoACD worker processes (they start again on the next decomposition).
-
-    Pending jobs are cancelled. ``wait=True`` blocks until the workers have exited (and a running
-    job has finished): a process started by ``multiprocessing`` must do that before it returns,
-    since it exits without the interpreter's own shutdown of executors and would otherwise leave
-    its workers waiting for a stop message that never comes.
-    """
-    _drop_pool(wait=wait)
+    """Stop the CoACD worker processes of every hull cache of this process, cancelling their jobs
+    (a cache starts new ones on its next miss). For a process about to leave at once (the CLI on
+    a signal); a run closes its own cache's workers itself (:meth:`HullCache.close`)."""
+    del wait  # the workers are gone when this returns
+    for cache in list(_open_caches):
+        cache.close(cancel=True)
 
 
 # --------------------------------------------------------------------------------------------
@@ -396,6 +372,9 @@ class HullCache:
         disk_hits: Requests answered from a cache file (including one another process wrote
             while this one waited for its lock).
         fallbacks: Decompositions that fell back to the single convex hull.
+        failures: Why CoACD failed, by cache key: each mesh whose decomposition fell back to the
+            convex hull because CoACD could not run or gave nothing (not stored, so asked again
+            later; :meth:`take_failures` hands each mesh over once).
     """
 
     def __init__(self, root: Path | None = None) -> None:
@@ -403,8 +382,61 @@ class HullCache:
         self.computations = 0
         self.disk_hits = 0
         self.fallbacks = 0
+        self.failures: dict[str, str] = {}
+        self._failures_taken: set[str] = set()
         self._lock = threading.Lock()
         self._inflight: dict[str, Future[list[RawPiece]]] = {}
+        self._workers: WorkerExecutor | None = None
+        self._finalizer: weakref.finalize[Any, HullCache] | None = None
+        _open_caches.add(self)
+
+    # -- worker processes ----------------------------------------------------------------------
+    def _submit(self, vertices: FloatArray, faces: npt.NDArray[np.int64], options: dict[str, Any]) -> Future[list[RawPiece]]:
+        """Hand one decomposition to this cache's CoACD workers (started on the first miss)."""
+        with self._lock:
+            if self._workers is None:
+                self._workers = WorkerExecutor(MODULE, workers=_worker_count(), orphan="kill")
+                # a cache dropped without close() still lets its processes go
+                self._finalizer = weakref.finalize(self, self._workers.close, cancel=True)
+            workers = self._workers
+        reply = workers.submit(encode_job(vertices, faces, options))
+        pieces: Future[list[RawPiece]] = Future()
+        pieces.set_running_or_notify_cancel()
+
+        def decoded(done: Future[bytes]) -> None:
+            try:
+                pieces.set_result(decode_reply(done.result()))
+            except BaseException as exc:
+                pieces.set_exception(exc)
+
+        reply.add_done_callback(decoded)
+        return pieces
+
+    def take_failures(self) -> list[str]:
+        """Why CoACD failed, for each mesh not handed over by an earlier call: a run turns them
+        into warnings (a mesh that fails again in a later stage is not counted twice)."""
+        with self._lock:
+            new = [k for k in self.failures if k not in self._failures_taken]
+            self._failures_taken.update(new)
+            return [self.failures[k] for k in new]
+
+    def close(self, *, cancel: bool = False) -> None:
+        """Let this cache's CoACD worker processes go (when their jobs are done, or at once with
+        ``cancel``: those jobs then end as a convex-hull fallback). The cache stays usable: a later
+        miss starts new workers. A run closes its cache when it ends."""
+        with self._lock:
+            workers, self._workers = self._workers, None
+            finalizer, self._finalizer = self._finalizer, None
+        if finalizer is not None:
+            finalizer.detach()
+        if workers is not None:
+            workers.close(cancel=cancel)
+
+    def __enter__(self) -> HullCache:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
     # -- keys and files ------------------------------------------------------------------------
     def key(self, mesh: trimesh.Trimesh, params: CoacdParams = CoacdParams()) -> str:
@@ -494,12 +526,9 @@ class HullCache:
             file_lock.release()
             self._settle(key, outer, error=exc)
             return outer
-        pool: ProcessPoolExecutor | None = None
         try:
-            pool = _pool()
-            work = pool.submit(decompose, np.asarray(geometry.vertices), np.asarray(geometry.faces), options)
-        except (BrokenProcessPool, RuntimeError) as exc:
-            _drop_pool(pool)
+            work = self._submit(np.asarray(geometry.vertices), np.asarray(geometry.faces), options)
+        except (WorkerError, OSError) as exc:  # no worker could start: the convex hull, said below
             self._finish(key, geometry, params, None, outer, file_lock, error=exc)
             return outer
         except BaseException as exc:
@@ -539,7 +568,7 @@ class HullCache:
         try:
             pieces: list[RawPiece] = []
             if done is not None and done.cancelled():
-                error = RuntimeError("the CoACD job was cancelled (worker pool shut down)")
+                error = RuntimeError("the CoACD job was cancelled (its workers were closed)")
             elif done is not None:
                 error = done.exception()
                 if error is None:
@@ -558,10 +587,9 @@ class HullCache:
                 self._write(key, pieces, meta)
                 log.info("coacd_done", key=key[:16], pieces=len(pieces))
             else:
-                if isinstance(error, BrokenProcessPool):
-                    _drop_pool()
                 with self._lock:
                     self.fallbacks += 1
+                    self.failures.setdefault(key, f"{type(error).__name__}: {error}")
                 log.warning(
                     "coacd_failed_using_convex_hull",
                     key=key[:16],

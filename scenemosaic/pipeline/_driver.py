@@ -89,6 +89,7 @@ async def run_stages(
             if on_stage:
                 on_stage(name, "failed")
             return exc
+        run.note_hull_failures()
         rec.seconds = time.perf_counter() - t0
         if rec.status == "pending":
             rec.status = "done"

@@ -126,11 +126,14 @@ async def _run_room(
     finished = await asyncio.to_thread(load_checkpoint, run, digest) if config.resume else set()
     if not config.resume:
         await asyncio.to_thread(save_checkpoint, run, digest)
+    failure: BaseException | None = None
     try:
         failure = await run_stages(run, finished, digest, None, house_room_stages(config))
     finally:
         if model is None and run.model is not None:
             await run.model.aclose()
+        if run.hull_cache is not None:  # the room's CoACD processes leave with it
+            await asyncio.to_thread(functools.partial(run.hull_cache.close, cancel=failure is not None))
     if isinstance(failure, asyncio.CancelledError):
         raise failure
     error = None if failure is None else f"{type(failure).__name__}: {failure}"
@@ -171,13 +174,12 @@ async def _work(job: dict[str, Any]) -> dict[str, Any]:
         except Exception as exc:  # reported to the parent, which fails the stage
             outcome = RoomOutcome(room_id=room.id, error=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
         return outcome.model_dump(mode="json")
-    export = functools.partial(
-        export_house_folder, Path(job["folder"]), hull_cache=HullCache(config.hull_cache_dir), parts=job["parts"]
-    )  # fmt: skip
-    try:
-        return {"files": await asyncio.to_thread(export)}
-    except Exception as exc:  # reported to the parent, which fails the stage
-        return {"error": f"{type(exc).__name__}: {exc}"}
+    with HullCache(config.hull_cache_dir) as cache:
+        export = functools.partial(export_house_folder, Path(job["folder"]), hull_cache=cache, parts=job["parts"])
+        try:
+            return {"files": await asyncio.to_thread(export)}
+        except Exception as exc:  # reported to the parent, which fails the stage
+            return {"error": f"{type(exc).__name__}: {exc}"}
 
 
 async def _in_workers(

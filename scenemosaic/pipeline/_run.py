@@ -217,6 +217,8 @@ async def _agenerate_locked(
     finally:
         if run.model is not None:
             await run.model.aclose()
+        if run.hull_cache is not None:  # its CoACD processes leave with the run (cancelled when it failed)
+            await asyncio.to_thread(functools.partial(run.hull_cache.close, cancel=not ended_well))
         await _stop_deliveries(run)
         if run.workers is not None:  # gone (or idle, kept) before a partial result is written into their folders
             await asyncio.to_thread(functools.partial(release_workers, run.workers, keep=ended_well))

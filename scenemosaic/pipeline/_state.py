@@ -231,6 +231,18 @@ class PipelineRun:
         cache = self.cache()
         return {o.id: object_shape(o, self.base_dir, cache=cache) for o in scene.objects}
 
+    def note_hull_failures(self) -> None:
+        """Record the CoACD decompositions of the run's hull cache that failed since the last call
+        (one warning, naming how many and why: their collision shapes are single convex hulls)."""
+        if self.hull_cache is None:
+            return
+        failures = self.hull_cache.take_failures()
+        if failures:
+            reasons = "; ".join(dict.fromkeys(failures))
+            self.warnings.append(
+                f"CoACD failed on {len(failures)} mesh(es), whose collision shapes are single convex hulls: {reasons[:300]}"
+            )
+
     def note_fallbacks(self, fallbacks: list[FallbackRecord], where: str = "", width: int = 160) -> None:
         """Record agents answered by their rule solvers (each a warning: the run is ``degraded``)."""
         self.fallbacks.extend(fallbacks)

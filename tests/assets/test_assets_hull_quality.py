@@ -14,7 +14,7 @@ import pytest
 import trimesh
 from structlog.testing import capture_logs
 
-from scenemosaic.assets import CoacdParams, HullCache, _hulls, object_hulls, shutdown_workers
+from scenemosaic.assets import CoacdParams, HullCache, object_hulls, shutdown_workers
 from scenemosaic.assets._coacd_worker import RawPiece
 from scenemosaic.assets._hulls import MAX_PIECES, MIN_COVERAGE
 from scenemosaic.assets._objects import _canonical
@@ -56,8 +56,7 @@ def _fake_coacd(
         calls.append(options)
         return pieces
 
-    monkeypatch.setattr(_hulls, "_pool", lambda: executor)
-    monkeypatch.setattr(_hulls, "decompose", decompose)
+    monkeypatch.setattr(HullCache, "_submit", lambda _c, v, f, o: executor.submit(decompose, v, f, o))
     return calls
 
 

@@ -16,7 +16,7 @@ import trimesh
 from scipy.spatial import ConvexHull
 from structlog.testing import capture_logs
 
-from scenemosaic.assets import CoacdParams, HullCache, _hulls, default_cache_dir, shutdown_workers
+from scenemosaic.assets import CoacdParams, HullCache, default_cache_dir, shutdown_workers
 from scenemosaic.assets._objects import _canonical
 from scenemosaic.exceptions import AssetError
 from scenemosaic.scene import Scene
@@ -233,8 +233,7 @@ def test_coacd_failure_falls_back_to_the_convex_hull(
     ring: trimesh.Trimesh, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     with ThreadPoolExecutor(max_workers=1) as executor:
-        monkeypatch.setattr(_hulls, "_pool", lambda: executor)
-        monkeypatch.setattr(_hulls, "decompose", _always_fails)
+        monkeypatch.setattr(HullCache, "_submit", lambda _c, v, f, o: executor.submit(_always_fails, v, f, o))
         cache = HullCache(tmp_path)
         with capture_logs() as logs:
             pieces = cache.get(ring, FAST)

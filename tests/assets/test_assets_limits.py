@@ -97,8 +97,7 @@ def test_coacd_input_is_decimated_to_the_documented_target(
         return [(np.asarray(hull.vertices), np.asarray(hull.faces))]
 
     with ThreadPoolExecutor(max_workers=1) as executor:
-        monkeypatch.setattr(_hulls, "_pool", lambda: executor)
-        monkeypatch.setattr(_hulls, "decompose", decompose)
+        monkeypatch.setattr(HullCache, "_submit", lambda _c, v, f, o: executor.submit(decompose, v, f, o))
         HullCache(tmp_path).get(sphere, CoacdParams(simplify_faces=asked))
     assert [c["simplify_faces"] for c in calls] == [sent]
 
@@ -138,8 +137,7 @@ def test_a_failed_decomposition_gives_a_capped_hull(
         raise RuntimeError("simulated CoACD crash")
 
     with ThreadPoolExecutor(max_workers=1) as executor:
-        monkeypatch.setattr(_hulls, "_pool", lambda: executor)
-        monkeypatch.setattr(_hulls, "decompose", fail)
+        monkeypatch.setattr(HullCache, "_submit", lambda _c, v, f, o: executor.submit(fail, v, f, o))
         cache = HullCache(tmp_path)
         (piece,) = cache.get(sphere, PARAMS)
     assert cache.fallbacks == 1 and len(piece.vertices) <= MAX_HULL_VERTICES
@@ -158,8 +156,7 @@ def test_cache_files_get_the_ordinary_mode(
     old = os.umask(0o022)
     try:
         with ThreadPoolExecutor(max_workers=1) as executor:
-            monkeypatch.setattr(_hulls, "_pool", lambda: executor)
-            monkeypatch.setattr(_hulls, "decompose", decompose)
+            monkeypatch.setattr(HullCache, "_submit", lambda _c, v, f, o: executor.submit(decompose, v, f, o))
             cache = HullCache(tmp_path)
             cache.get(box, PARAMS)
     finally:
