@@ -6,7 +6,7 @@ model) is generated into a fresh folder, and every delivered file is hashed (SHA
 meshes, hulls, MJCF/URDF/USD/SDF/GLB/SceneEval exports and pictures, that is everything but
 ``report.json`` (it holds timings), the checkpoint and the run lock. ``--save FILE`` writes the
 digests; ``--compare FILE`` runs the same cases and lists each file whose bytes differ, or that is
-new or gone. ``--room-workers N`` runs the houses with N room processes (the output must not
+new or gone (both: compare, then save the new digests). ``--room-workers N`` runs the houses with N room processes (the output must not
 depend on it).
 
 Figures (last line, one JSON object): ``cases``, ``files``, ``seconds`` and, with ``--compare``,
@@ -79,19 +79,20 @@ def run_cases(quick: bool, room_workers: int | None, cache: Path) -> dict[str, d
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    mode = parser.add_mutually_exclusive_group(required=True)
-    mode.add_argument("--save", type=Path, help="write the digests to this JSON file")
-    mode.add_argument("--compare", type=Path, help="compare with the digests saved in this JSON file")
+    parser.add_argument("--save", type=Path, help="write the digests to this JSON file")
+    parser.add_argument("--compare", type=Path, help="compare with the digests saved in this JSON file")
     parser.add_argument("--quick", action="store_true", help="one room and one house only")
     parser.add_argument("--room-workers", type=int, default=None, help="room processes of a house run")
     parser.add_argument("--cache", type=Path, default=Path(".scenemosaic-cache"), help="the hull cache folder")
     args = parser.parse_args()
+    if args.save is None and args.compare is None:
+        parser.error("give --save FILE, --compare FILE or both")
     start = time.perf_counter()
     results = run_cases(args.quick, args.room_workers, args.cache)
     figures: dict[str, object] = {"cases": len(results), "files": sum(len(d) for d in results.values())}
     if args.save is not None:
         args.save.write_text(json.dumps(results, indent=1, sort_keys=True))
-    else:
+    if args.compare is not None:
         before: dict[str, dict[str, str]] = json.loads(args.compare.read_text())
         differing, missing, extra = [], [], []
         for case, now in results.items():
