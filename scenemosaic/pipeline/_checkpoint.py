@@ -22,17 +22,14 @@ from pathlib import Path
 from typing import Any
 
 import structlog
-from pydantic import BaseModel, ConfigDict
 
 from scenemosaic.dag import StoredOutput
 from scenemosaic.exceptions import UnsafePathError, UsageError
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record, deciding_settings
-from scenemosaic.pipeline._state import PipelineRun, StageRecord
-from scenemosaic.scene import House, Pose, RunFolder, Scene, confined_path, write_atomic
+from scenemosaic.pipeline._state import PipelineRun, RunCheckpoint, StageRecord
+from scenemosaic.scene import RunFolder, confined_path, write_atomic
 
 __all__ = [
-    "RoomOutcome",
-    "RunCheckpoint",
     "checkpoint_config",
     "checkpoint_state",
     "input_digest",
@@ -48,39 +45,6 @@ PIPELINE_NODE = "pipeline"
 """The run store node that holds the pipeline's state."""
 
 
-class RunCheckpoint(BaseModel):
-    """A run's state after its last finished stage."""
-
-    model_config = ConfigDict(arbitrary_types_allowed=False)
-
-    scene: Scene | None = None
-    records: list[dict[str, Any]] = []
-    layouts: dict[str, tuple[list[str], list[dict[str, Pose]]]] | None = None
-    dropped_layouts: list[str] = []
-    variants: list[Scene] = []
-    validation: dict[str, Any] | None = None
-    metrics: dict[str, Any] | None = None
-    warnings: list[str] = []
-    notes: list[str] = []
-    fallbacks: list[dict[str, str]] = []
-    house: House | None = None
-    rooms: dict[str, RoomOutcome] = {}
-    house_variants: list[House] = []
-    variant_checks: list[dict[str, Any]] = []
-
-
-class RoomOutcome(BaseModel):
-    """What one room's run of a house left for the house: its state, or why it has none (sent
-    back over the pipe from a worker process, kept in the house's checkpoint)."""
-
-    room_id: str
-    state: RunCheckpoint | None = None
-    error: str | None = None
-    error_type: str | None = None
-    seconds: float = 0.0
-
-
-RunCheckpoint.model_rebuild()
 
 
 def input_digest(path: Path, config: GenerateConfig) -> str | None:

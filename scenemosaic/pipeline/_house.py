@@ -64,7 +64,6 @@ from scenemosaic.exchange import (
 from scenemosaic.metrics import evaluate_house, furniture, house_checks
 from scenemosaic.physics import check_collisions, check_out_of_bounds, validate_house
 from scenemosaic.pipeline._checkpoint import (
-    RoomOutcome,
     checkpoint_state,
     input_digest,
     load_checkpoint,
@@ -79,7 +78,7 @@ from scenemosaic.pipeline._stages import (
     note_shortfall,
     validation_warnings,
 )
-from scenemosaic.pipeline._state import PipelineRun, RunSetup, Stage, StageRecord
+from scenemosaic.pipeline._state import PipelineRun, RoomOutcome, RunSetup, Stage, StageRecord
 from scenemosaic.render import ContactSheet
 from scenemosaic.scene import House, HouseFloor, RunFolder, Scene
 
@@ -571,9 +570,19 @@ async def _deliver_ahead(run: PipelineRun, names: set[str], houses: list[tuple[P
         return
     if run.deliveries is None:
         run.deliveries = HouseDeliveries(run, workers)
+    deliveries = _house_deliveries(run)
+    assert deliveries is not None
     for folder, house in _houses(run) if houses is None else houses:
-        if folder.name in names and folder.name not in run.deliveries.houses:
-            await run.deliveries.add(folder, house)
+        if folder.name in names and folder.name not in deliveries.houses:
+            await deliveries.add(folder, house)
+
+
+def _house_deliveries(run: PipelineRun) -> HouseDeliveries | None:
+    """The run's deliveries ahead, as the house stages started them (``None``: none started)."""
+    ahead = run.deliveries
+    if ahead is not None and not isinstance(ahead, HouseDeliveries):
+        raise TypeError(f"a house run's deliveries ahead are HouseDeliveries, not {type(ahead).__name__}")
+    return ahead
 
 
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
@@ -584,7 +593,7 @@ async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     await _deliver_ahead(run, {folder.name for folder, _ in houses}, houses)
     files: dict[str, list[str]] = {}
     sheet = ContactSheet(len(houses)) if run.house_variants else None  # each plan placed as its house lands
-    ahead = run.deliveries
+    ahead = _house_deliveries(run)
     if ahead is not None:
         async for name, written in ahead.landed():
             final = run.folder.root / name

@@ -6,7 +6,9 @@ import time
 from collections.abc import Awaitable, Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
+
+from pydantic import BaseModel, ConfigDict
 
 from scenemosaic.exceptions import StageOrderError
 from scenemosaic.pipeline._config import GenerateConfig
@@ -19,11 +21,12 @@ if TYPE_CHECKING:
     from scenemosaic.dag import FileRunStore
     from scenemosaic.models import RunModel
     from scenemosaic.physics import ObjectShape
-    from scenemosaic.pipeline._checkpoint import RoomOutcome
-    from scenemosaic.pipeline._house import HouseDeliveries
 
 __all__ = [
+    "DeliveriesAhead",
     "PipelineRun",
+    "RoomOutcome",
+    "RunCheckpoint",
     "RunSetup",
     "Stage",
     "StageCallback",
@@ -39,6 +42,50 @@ StageCallback = Callable[[str, str], None]
 UnitLayoutRecord = tuple[tuple[str, ...], tuple[Mapping[str, Pose], ...]]
 """One unit's kept layouts for composition: their ids (the refined original first) and their
 anchor-frame poses."""
+
+
+class RunCheckpoint(BaseModel):
+    """A run's state after its last finished stage: what the checkpoint keeps of a :class:`PipelineRun`
+    (``pipeline/_checkpoint.py`` saves and loads it)."""
+
+    model_config = ConfigDict(arbitrary_types_allowed=False)
+
+    scene: Scene | None = None
+    records: list[dict[str, Any]] = []
+    layouts: dict[str, tuple[list[str], list[dict[str, Pose]]]] | None = None
+    dropped_layouts: list[str] = []
+    variants: list[Scene] = []
+    validation: dict[str, Any] | None = None
+    metrics: dict[str, Any] | None = None
+    warnings: list[str] = []
+    notes: list[str] = []
+    fallbacks: list[dict[str, str]] = []
+    house: House | None = None
+    rooms: dict[str, RoomOutcome] = {}
+    house_variants: list[House] = []
+    variant_checks: list[dict[str, Any]] = []
+
+
+class RoomOutcome(BaseModel):
+    """What one room's run of a house left for the house: its state, or why it has none (sent
+    back over the pipe from a worker process, kept in the house's checkpoint)."""
+
+    room_id: str
+    state: RunCheckpoint | None = None
+    error: str | None = None
+    error_type: str | None = None
+    seconds: float = 0.0
+
+
+RunCheckpoint.model_rebuild()
+
+
+class DeliveriesAhead(Protocol):
+    """Deliveries a run started before its export stage (a house run's, ``pipeline/_house.py``):
+    the driver stops those the export stage did not wait for."""
+
+    async def stop(self) -> None:
+        """Stop every delivery still running and drop what it wrote."""
 
 
 @dataclass
@@ -121,7 +168,7 @@ class PipelineRun:
     workers: WorkerPool | None = None
     """A house run's worker processes (``pipeline/_house.py``), started by the first stage that
     needs them and kept for the next (the rooms' workers deliver the houses); closed when the run ends."""
-    deliveries: HouseDeliveries | None = None
+    deliveries: DeliveriesAhead | None = None
     """A house run's deliveries started ahead of its export stage (``pipeline/_house.py``, into
     :attr:`RunFolder.staged`), in its worker processes; the export stage waits for them."""
 
