@@ -920,7 +920,7 @@ def export(
 ) -> None:
     """Write a saved scene (or every scene of a generate run) in another format: a house whole,
     as one world (--room: that room only)."""
-    from scenemosaic.exchange import DELIVERED_FORMATS, writable_formats, write_scene
+    from scenemosaic.exchange import delivered_formats, writable_formats, write_scene
     from scenemosaic.scene import House, RunFolder
 
     writers = sorted({*writable_formats(), *writable_formats(house=True)})
@@ -941,7 +941,7 @@ def export(
                 scene = open_scene(scene, state, drawn, base_dir)
         target = out if single else out / name
         _writable_folder(target)
-        destination = target / dict(DELIVERED_FORMATS).get(fmt, "")  # where generate puts it
+        destination = target / dict(delivered_formats()).get(fmt, "")  # where generate puts it
         try:
             written = write_scene(scene, fmt, destination, base_dir)
         except SceneMosaicError as exc:

@@ -15,7 +15,7 @@ import numpy as np
 import pybullet
 import trimesh
 
-from scenemosaic.exchange import DELIVERED_FORMATS, load_pybullet, load_scene
+from scenemosaic.exchange import delivered_formats, load_pybullet, load_scene
 from scenemosaic.scene import House
 
 STEPS = 500
@@ -26,7 +26,7 @@ REST_M = 0.01
 
 def destination(folder: Path, fmt: str) -> Path:
     """Where ``generate`` (and ``scenemosaic export``) puts format ``fmt`` in a delivered folder."""
-    sub = dict(DELIVERED_FORMATS).get(fmt, "")
+    sub = dict(delivered_formats()).get(fmt, "")
     return folder / sub if sub else folder
 
 

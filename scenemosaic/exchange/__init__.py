@@ -13,9 +13,9 @@ scenes into files a simulator or an evaluator loads. A format is one module plus
   and URDF (:func:`export_urdf`, with ``scene.sdf`` beside it for PyBullet: :func:`load_pybullet`);
   a room taken from an AI2-THOR house back into that house
   (:func:`export_procthor`);
-* houses: each export has a whole-house counterpart (:func:`export_house_glb`, ...,
-  :func:`export_procthor_house`), registered beside it, so :func:`write_scene` takes a
-  :class:`~scenemosaic.scene.House` too; :func:`deliver_house` writes a house's delivered folder.
+* houses: every export takes a whole :class:`~scenemosaic.scene.House` as readily as a room's
+  scene (one world: one MuJoCo model, one USD stage, one GLB, the AI2-THOR file written back), and
+  so does :func:`write_scene`; :func:`deliver_house` writes a house's delivered folder.
 
 Every malformed input raises :class:`~scenemosaic.exceptions.ImportFormatError` naming the
 file and the field, values beyond the scene limits included. A reader only opens files inside
@@ -36,14 +36,13 @@ from scenemosaic.exchange import _builtin  # noqa: F401 - registers the built-in
 
 if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
     from scenemosaic.exchange._deliver import (
-        DELIVERED_FORMATS,
-        DELIVERY_PARTS,
         HOUSE_INDEX_FILE,
         HOUSE_ROOMS_DIR,
-        OPTIONAL_FORMATS,
         deliver_house,
         deliver_scene,
         delivered_files,
+        delivered_formats,
+        delivery_parts,
         export_house_folder,
         formats_left_out,
         save_partial,
@@ -55,16 +54,14 @@ if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
         build_glb_scene,
         build_house_glb_scene,
         export_glb,
-        export_house_glb,
     )
-    from scenemosaic.exchange._mjcf import export_house_mjcf, export_mjcf
+    from scenemosaic.exchange._mjcf import export_mjcf
     from scenemosaic.exchange._native import read_house, read_scene, save_house, save_scene
     from scenemosaic.exchange._procthor import (
         HOUSE_FILE,
         SHARED_WALL_THICKNESS_M,
         AssetDatabase,
         export_procthor,
-        export_procthor_house,
         load_asset_database,
     )
     from scenemosaic.exchange._pybullet import PYBULLET_INSTALL_HINT, load_pybullet
@@ -75,9 +72,12 @@ if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
         SceneFormat,
         detect_format,
         get_format,
+        house_formats,
+        is_house_source,
         load_house,
         load_scene,
         load_scenes,
+        plugin_formats,
         register_format,
         writable_formats,
         write_scene,
@@ -87,19 +87,16 @@ if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
         LOCAL_TO_GLTF,
         MODEL_ID_PREFIX,
         SupportType,
-        export_house_sceneeval,
         export_sceneeval,
         gltf_to_world,
         house_sceneeval_state,
         sceneeval_state,
         support_type,
     )
-    from scenemosaic.exchange._urdf import SDF_SCENE_FILE, export_house_urdf, export_urdf
-    from scenemosaic.exchange._usd import export_house_usd, export_usd
+    from scenemosaic.exchange._urdf import SDF_SCENE_FILE, export_urdf
+    from scenemosaic.exchange._usd import export_usd
 
 __all__ = [
-    "DELIVERED_FORMATS",
-    "DELIVERY_PARTS",
     "FORMATS",
     "GLB_ROOT_NODE",
     "HOUSE_FILE",
@@ -107,7 +104,6 @@ __all__ = [
     "HOUSE_ROOMS_DIR",
     "LOCAL_TO_GLTF",
     "MODEL_ID_PREFIX",
-    "OPTIONAL_FORMATS",
     "PYBULLET_INSTALL_HINT",
     "SDF_SCENE_FILE",
     "SHARED_WALL_THICKNESS_M",
@@ -123,29 +119,28 @@ __all__ = [
     "deliver_house",
     "deliver_scene",
     "delivered_files",
+    "delivered_formats",
+    "delivery_parts",
     "detect_format",
     "export_glb",
     "export_house_folder",
-    "export_house_glb",
-    "export_house_mjcf",
-    "export_house_sceneeval",
-    "export_house_urdf",
-    "export_house_usd",
     "export_mjcf",
     "export_procthor",
-    "export_procthor_house",
     "export_sceneeval",
     "export_urdf",
     "export_usd",
     "formats_left_out",
     "get_format",
     "gltf_to_world",
+    "house_formats",
     "house_sceneeval_state",
+    "is_house_source",
     "load_asset_database",
     "load_house",
     "load_pybullet",
     "load_scene",
     "load_scenes",
+    "plugin_formats",
     "read_house",
     "read_scene",
     "read_sdf_sim",
@@ -161,14 +156,13 @@ __all__ = [
 ]
 
 _EXPORTS: dict[str, str] = {
-    "DELIVERED_FORMATS": "_deliver",
-    "DELIVERY_PARTS": "_deliver",
     "HOUSE_INDEX_FILE": "_deliver",
     "HOUSE_ROOMS_DIR": "_deliver",
-    "OPTIONAL_FORMATS": "_deliver",
     "deliver_house": "_deliver",
     "deliver_scene": "_deliver",
     "delivered_files": "_deliver",
+    "delivered_formats": "_deliver",
+    "delivery_parts": "_deliver",
     "export_house_folder": "_deliver",
     "formats_left_out": "_deliver",
     "save_partial": "_deliver",
@@ -178,8 +172,6 @@ _EXPORTS: dict[str, str] = {
     "build_glb_scene": "_glb",
     "build_house_glb_scene": "_glb",
     "export_glb": "_glb",
-    "export_house_glb": "_glb",
-    "export_house_mjcf": "_mjcf",
     "export_mjcf": "_mjcf",
     "read_house": "_native",
     "read_scene": "_native",
@@ -189,7 +181,6 @@ _EXPORTS: dict[str, str] = {
     "SHARED_WALL_THICKNESS_M": "_procthor",
     "AssetDatabase": "_procthor",
     "export_procthor": "_procthor",
-    "export_procthor_house": "_procthor",
     "load_asset_database": "_procthor",
     "PYBULLET_INSTALL_HINT": "_pybullet",
     "load_pybullet": "_pybullet",
@@ -199,9 +190,12 @@ _EXPORTS: dict[str, str] = {
     "SceneFormat": "_registry",
     "detect_format": "_registry",
     "get_format": "_registry",
+    "house_formats": "_registry",
+    "is_house_source": "_registry",
     "load_house": "_registry",
     "load_scene": "_registry",
     "load_scenes": "_registry",
+    "plugin_formats": "_registry",
     "register_format": "_registry",
     "writable_formats": "_registry",
     "write_scene": "_registry",
@@ -210,16 +204,13 @@ _EXPORTS: dict[str, str] = {
     "LOCAL_TO_GLTF": "_sceneeval",
     "MODEL_ID_PREFIX": "_sceneeval",
     "SupportType": "_sceneeval",
-    "export_house_sceneeval": "_sceneeval",
     "export_sceneeval": "_sceneeval",
     "gltf_to_world": "_sceneeval",
     "house_sceneeval_state": "_sceneeval",
     "sceneeval_state": "_sceneeval",
     "support_type": "_sceneeval",
     "SDF_SCENE_FILE": "_urdf",
-    "export_house_urdf": "_urdf",
     "export_urdf": "_urdf",
-    "export_house_usd": "_usd",
     "export_usd": "_usd",
 }
 """The module of each public name, imported when the name is first used."""

@@ -12,6 +12,7 @@ loads none of them either.
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 from pathlib import Path
 from types import ModuleType
@@ -19,7 +20,8 @@ from typing import TYPE_CHECKING, Any
 
 from scenemosaic.exchange._common import POSES_FILE
 from scenemosaic.exchange._native import SCENE_FILE, save_house, save_scene, scene_from_data
-from scenemosaic.exchange._registry import HouseWriter, ReadOptions, SceneFormat, register_format
+from scenemosaic.exchange._registry import ReadOptions, SceneFormat
+from scenemosaic.exchange._registry import register_format as _register
 from scenemosaic.scene import House, Provenance, Scene
 
 if TYPE_CHECKING:
@@ -30,19 +32,13 @@ __all__ = ["NATIVE_IMPORTER"]
 NATIVE_IMPORTER = "scenemosaic.exchange.native"
 
 
+def _builtin_format(fmt: SceneFormat) -> None:
+    _register(dataclasses.replace(fmt, builtin=True))
+
+
 def _module(name: str) -> ModuleType:
     """The format module ``scenemosaic.exchange.<name>``, imported on first use."""
     return importlib.import_module(f"scenemosaic.exchange.{name}")
-
-
-def _house_writer(module: str, name: str) -> HouseWriter:
-    """The house writer ``name`` of the format module ``module``, imported when it first writes."""
-
-    def write(house: House, destination: Path, base_dir: Path | None, **options: Any) -> Path:
-        written: Path = getattr(_module(module), name)(house, destination, base_dir, **options)
-        return written
-
-    return write
 
 
 def _looks_native(data: Any) -> bool:
@@ -61,45 +57,43 @@ def _read_native(data: Any, path: Path, options: ReadOptions) -> list[Scene]:
     return [scene]
 
 
-def _write_native(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
+def _write_native(scene: Scene | House, folder: Path, base_dir: Path | None) -> Path:
+    if isinstance(scene, House):
+        return save_house(scene, folder, base_dir=base_dir)
     return save_scene(scene, folder, base_dir=base_dir)
 
 
-def _write_native_house(house: House, folder: Path, base_dir: Path | None) -> Path:
-    return save_house(house, folder, base_dir=base_dir)
-
-
-def _write_glb(scene: Scene, path: Path, base_dir: Path | None) -> Path:
+def _write_glb(scene: Scene | House, path: Path, base_dir: Path | None) -> Path:
     from scenemosaic.exchange._glb import export_glb
 
     return export_glb(scene, path, base_dir=base_dir)
 
 
-def _write_sceneeval(scene: Scene, folder: Path, base_dir: Path | None) -> Path:
+def _write_sceneeval(scene: Scene | House, folder: Path, base_dir: Path | None) -> Path:
     from scenemosaic.exchange._sceneeval import export_sceneeval
 
     return export_sceneeval(scene, folder, base_dir=base_dir)
 
 
-def _write_mjcf(scene: Scene, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
+def _write_mjcf(scene: Scene | House, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
     from scenemosaic.exchange._mjcf import export_mjcf
 
     return export_mjcf(scene, folder, base_dir=base_dir, hull_cache=hull_cache)
 
 
-def _write_usd(scene: Scene, destination: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
+def _write_usd(scene: Scene | House, destination: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
     from scenemosaic.exchange._usd import export_usd
 
     return export_usd(scene, destination, base_dir=base_dir, hull_cache=hull_cache)
 
 
-def _write_urdf(scene: Scene, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
+def _write_urdf(scene: Scene | House, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> Path:
     from scenemosaic.exchange._urdf import export_urdf
 
     return export_urdf(scene, folder, base_dir=base_dir, hull_cache=hull_cache)
 
 
-register_format(
+_builtin_format(
     SceneFormat(
         "front3d",
         "3D-FRONT / ATISS / PhyScene layout with a ThreedFront key",
@@ -108,18 +102,19 @@ register_format(
         takes_room=True,
     )
 )
-register_format(
+_builtin_format(
     SceneFormat(
         "sceneeval",
         "SceneEval sceneState (SceneEval, SceneSmith, LayoutVLM) with assets/<assetId>.glb meshes",
         detect=lambda data: _module("_sceneeval_read").looks_like_sceneeval(data),
         read=lambda data, path, o: [_module("_sceneeval_read").import_sceneeval(data, path, asset_dir=o.asset_dir)],
         write=_write_sceneeval,
-        write_house=_house_writer("_sceneeval", "export_house_sceneeval"),
+        writes_houses=True,
         room_doors=True,
+        delivered="sceneeval",
     )
 )
-register_format(  # before procthor: a Holodeck room also has rooms + objects
+_builtin_format(  # before procthor: a Holodeck room also has rooms + objects
     SceneFormat(
         "holodeck",
         "Holodeck single-room output (flat object list, parents named in the ids)",
@@ -127,7 +122,7 @@ register_format(  # before procthor: a Holodeck room also has rooms + objects
         read=lambda data, path, o: [_module("_holodeck").import_holodeck(data, path, asset_database=o.asset_database)],
     )
 )
-register_format(
+_builtin_format(
     SceneFormat(
         "procthor",
         "AI2-THOR / ProcTHOR / Holodeck house with rooms and objects (written back: house.json, for a room or a house taken from one)",
@@ -136,10 +131,12 @@ register_format(
             data, path, asset_database=o.asset_database, allow_orphans=o.allow_orphans
         ),
         write=lambda scene, folder, base_dir: _module("_procthor").export_procthor(scene, folder, base_dir),
-        write_house=_house_writer("_procthor", "export_procthor_house"),
+        writes_houses=True,
+        holds_houses=True,
+        written_back=True,
     )
 )
-register_format(
+_builtin_format(
     SceneFormat(
         "sam3d",
         f"image-to-3D object set: {POSES_FILE} with a mesh per object",
@@ -149,53 +146,58 @@ register_format(
         takes_room=True,
     )
 )
-register_format(
+_builtin_format(
     SceneFormat(
         "native",
         f"a scenemosaic {SCENE_FILE} (or a folder holding one)",
         detect=_looks_native,
         read=_read_native,
         write=_write_native,
-        write_house=_write_native_house,
+        writes_houses=True,
         folder_file=SCENE_FILE,
     )
 )
-register_format(
+_builtin_format(
     SceneFormat(
         "glb",
         "one GLB with a node per object (Y-up, as glTF)",
         write=_write_glb,
-        write_house=_house_writer("_glb", "export_house_glb"),
+        writes_houses=True,
         room_doors=True,
+        delivered="scene.glb",
     )
 )
-register_format(
+_builtin_format(
     SceneFormat(
         "mjcf",
         "MuJoCo scene.xml + mjcf/ meshes",
         write=_write_mjcf,
-        write_house=_house_writer("_mjcf", "export_house_mjcf"),
+        writes_houses=True,
         room_doors=True,
         uses_hulls=True,
+        delivered="",
     )
 )
-register_format(
+_builtin_format(
     SceneFormat(
         "usd",
         "ASCII USD scene.usda with UsdPhysics + usd/ per-object geometry (needs scenemosaic[usd])",
         write=_write_usd,
-        write_house=_house_writer("_usd", "export_house_usd"),
+        writes_houses=True,
         room_doors=True,
         uses_hulls=True,
+        delivered="",
+        extra=("pxr", "pip install 'scenemosaic[usd]'"),
     )
 )
-register_format(
+_builtin_format(
     SceneFormat(
         "urdf",
         "URDF scene.urdf + urdf/<id>.urdf per object + urdf/meshes/",
         write=_write_urdf,
-        write_house=_house_writer("_urdf", "export_house_urdf"),
+        writes_houses=True,
         room_doors=True,
         uses_hulls=True,
+        delivered="",
     )
 )

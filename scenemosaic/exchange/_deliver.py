@@ -1,7 +1,7 @@
 """Delivering a scene: the folder layout every delivered scene has (``base/``, ``variant_<i>/``).
 
 :func:`deliver_scene` writes ``scene.json`` (+ ``assets/``) through the native writer, then every
-format of :data:`DELIVERED_FORMATS` from that saved copy (whose mesh uris the native writer
+format of :func:`delivered_formats` from that saved copy (whose mesh uris the native writer
 rewrote), the house file of a room taken from an AI2-THOR house, and the top-down picture.
 
 :func:`deliver_house` does the same for a whole house: ``house_scene.json`` and
@@ -27,14 +27,13 @@ from scenemosaic.exchange._registry import FORMATS, write_scene
 from scenemosaic.scene import House, RunFolder, Scene, write_atomic
 
 __all__ = [
-    "DELIVERED_FORMATS",
-    "DELIVERY_PARTS",
     "HOUSE_INDEX_FILE",
     "HOUSE_ROOMS_DIR",
-    "OPTIONAL_FORMATS",
     "deliver_house",
     "deliver_scene",
     "delivered_files",
+    "delivered_formats",
+    "delivery_parts",
     "export_house_folder",
     "formats_left_out",
     "save_partial",
@@ -48,37 +47,36 @@ HOUSE_INDEX_FILE = RunFolder.HOUSE_FILE
 HOUSE_ROOMS_DIR = RunFolder.ROOMS
 """The folder of a delivered house holding one native scene folder per room, ``rooms/<room id>/``."""
 
-DELIVERED_FORMATS: tuple[tuple[str, str], ...] = (
-    ("glb", "scene.glb"),
-    ("sceneeval", "sceneeval"),
-    ("mjcf", ""),
-    ("urdf", ""),
-    ("usd", ""),
-)
-"""Formats written beside ``scene.json`` (a house: ``house_scene.json``) in every delivered folder,
-with their destination in it (``write_scene``'s destination; empty: the folder itself); plus
-``procthor`` (``house.json``) for a room or a house taken from an AI2-THOR / ProcTHOR house."""
+def delivered_formats() -> tuple[tuple[str, str], ...]:
+    """The formats written beside ``scene.json`` (a house: ``house_scene.json``) in every delivered
+    folder, with their destination in it (``write_scene``'s destination; empty: the folder itself),
+    in registration order: every registered format with a ``delivered`` destination
+    (``SceneFormat.delivered``). A format read from is also written back when it says so
+    (``SceneFormat.written_back``: ProcTHOR's ``house.json``)."""
+    return tuple((name, fmt.delivered) for name, fmt in FORMATS.items() if fmt.delivered is not None)
 
-DELIVERY_PARTS: tuple[str, ...] = (*(fmt for fmt, _ in DELIVERED_FORMATS), "procthor", "topdown")
-"""The pieces of a delivered house that :func:`export_house_folder` can write apart, each into
-files of its own: the formats of :data:`DELIVERED_FORMATS`, ``procthor`` (``house.json``, for a
-house taken from an AI2-THOR house) and ``topdown`` (the plan, ``topdown.png``)."""
 
-OPTIONAL_FORMATS: dict[str, str] = {"usd": "pip install 'scenemosaic[usd]'"}
-"""Delivered formats that need an extra: without it they are left out (the run's report says so,
-with the command that installs it)."""
-
-_EXTRA_MODULE = {"usd": "pxr"}
+def delivery_parts() -> tuple[str, ...]:
+    """The pieces of a delivered house that :func:`export_house_folder` can write apart, each into
+    files of its own: the formats of :func:`delivered_formats`, those written back to their
+    source (``procthor``: ``house.json``, for a house taken from an AI2-THOR house) and
+    ``topdown`` (the plan, ``topdown.png``)."""
+    back = tuple(name for name, fmt in FORMATS.items() if fmt.written_back)
+    return (*(name for name, _ in delivered_formats()), *back, "topdown")
 
 
 def _available(fmt: str) -> bool:
-    module = _EXTRA_MODULE.get(fmt)
-    return module is None or importlib.util.find_spec(module) is not None
+    extra = FORMATS[fmt].extra
+    return extra is None or importlib.util.find_spec(extra[0]) is not None
 
 
 def formats_left_out() -> dict[str, str]:
     """The delivered formats whose extra is not installed, with the ``pip install`` to run."""
-    return {fmt: hint for fmt, hint in OPTIONAL_FORMATS.items() if not _available(fmt)}
+    return {
+        name: FORMATS[name].extra[1]  # type: ignore[index]  # _available is true without an extra
+        for name, _ in delivered_formats()
+        if not _available(name)
+    }
 
 
 def deliver_scene(scene: Scene, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> list[str]:
@@ -90,7 +88,7 @@ def deliver_scene(scene: Scene, folder: Path, base_dir: Path | None, *, hull_cac
     (folder / RunFolder.PARTIAL).unlink(missing_ok=True)  # delivered now: no longer what a stopped run kept
     write_scene(scene, "native", folder, base_dir)
     saved = read_scene(folder)
-    _write_delivered(saved, folder, saved.provenance.source_format == "procthor", hull_cache)
+    _write_delivered(saved, folder, _written_back(saved.provenance.source_format), hull_cache)
     write_atomic(folder / RunFolder.TOPDOWN, render_topdown(saved, base_dir=folder))
     top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir() and p.name != "assets")]
@@ -103,12 +101,12 @@ def deliver_house(
 
     ``house_scene.json`` and ``rooms/<room id>/scene.json`` (+ ``assets/``) through the native
     writer, then, from that saved copy, the whole house in every format of
-    :data:`DELIVERED_FORMATS` (those whose extra is installed): ``scene.glb``, ``sceneeval/``,
+    :func:`delivered_formats` (those whose extra is installed): ``scene.glb``, ``sceneeval/``,
     ``scene.xml`` + ``mjcf/``, ``scene.urdf`` + ``urdf/``, ``scene.usda`` + ``usd/``; the house
     plan as ``topdown.png``; and, for a house imported from one AI2-THOR / ProcTHOR house file,
     that file as ``house.json`` with every room's objects at their new poses.
     ``base_dir`` resolves the input's relative mesh uris; ``hull_cache`` is the CoACD cache the
-    formats with collision hulls read; ``parts`` writes only those of :data:`DELIVERY_PARTS` after the
+    formats with collision hulls read; ``parts`` writes only those of :func:`delivery_parts` after the
     native house (``()``: the native house alone; see :func:`export_house_folder`).
     :func:`~scenemosaic.exchange.read_house` reads the folder back.
     """
@@ -126,21 +124,24 @@ def export_house_folder(
     """Write every house-wide format beside the native house saved in ``folder`` (the second half
     of :func:`deliver_house`); returns the files (:func:`delivered_files`).
 
-    ``parts`` (names of :data:`DELIVERY_PARTS`; ``None``: all of them) writes only those pieces:
+    ``parts`` (names of :func:`delivery_parts`; ``None``: all of them) writes only those pieces:
     they share no file, so a house run writes a house's pieces in its two worker processes at once,
     each process keeping the same pieces (and the memos they warm) from house to house.
 
     Raises:
-        UsageError: a name in ``parts`` is none of :data:`DELIVERY_PARTS`.
+        UsageError: a name in ``parts`` is none of :func:`delivery_parts`.
     """
     from scenemosaic.render import render_house_plan
 
-    chosen = set(DELIVERY_PARTS) if parts is None else set(parts)
-    unknown = sorted(chosen - set(DELIVERY_PARTS))
+    every = delivery_parts()
+    chosen = set(every) if parts is None else set(parts)
+    unknown = sorted(chosen - set(every))
     if unknown:
-        raise UsageError(f"no such delivery part: {', '.join(unknown)} (the parts: {', '.join(DELIVERY_PARTS)})")
+        raise UsageError(f"no such delivery part: {', '.join(unknown)} (the parts: {', '.join(every)})")
     saved = read_house(folder)
-    _write_delivered(saved, folder, all(s.provenance.source_format == "procthor" for s in saved.rooms), hull_cache, chosen)
+    sources = {s.provenance.source_format for s in saved.rooms}
+    back = _written_back(sources.pop()) if len(sources) == 1 else None
+    _write_delivered(saved, folder, back, hull_cache, chosen)
     if "topdown" in chosen:
         write_atomic(folder / RunFolder.TOPDOWN, render_house_plan(saved, base_dir=folder))
     log.info("house_delivered", folder=str(folder), rooms=len(saved.rooms), objects=len(saved.objects), parts=sorted(chosen))
@@ -154,21 +155,27 @@ def delivered_files(folder: Path) -> list[str]:
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir())]
 
 
+def _written_back(source_format: str | None) -> str | None:
+    """The source format a delivered scene is written back in (``SceneFormat.written_back``), if any."""
+    fmt = FORMATS.get(source_format or "")
+    return fmt.name if fmt is not None and fmt.written_back else None
+
+
 def _write_delivered(
-    saved: Scene | House, folder: Path, procthor: bool, hull_cache: HullCache | None, parts: Collection[str] | None = None
+    saved: Scene | House, folder: Path, back: str | None, hull_cache: HullCache | None, parts: Collection[str] | None = None
 ) -> None:
-    """Every format of :data:`DELIVERED_FORMATS` whose extra is installed, through
+    """Every format of :func:`delivered_formats` whose extra is installed, through
     :func:`write_scene` (a house through each format's house writer), from the native copy saved
-    in ``folder``; and ``house.json`` when ``procthor`` (the AI2-THOR house it came from); only
-    those named in ``parts`` when given. The rooms' doors are hung once
-    (``assets.with_room_doors``) for every simulator format."""
-    formats = [(fmt, dest) for fmt, dest in DELIVERED_FORMATS if (parts is None or fmt in parts) and _available(fmt)]
+    in ``folder``; and the source format ``back`` the scene came from, when it is written back
+    (the AI2-THOR house file); only those named in ``parts`` when given. The rooms' doors are hung
+    once (``assets.with_room_doors``) for every simulator format."""
+    formats = [(fmt, dest) for fmt, dest in delivered_formats() if (parts is None or fmt in parts) and _available(fmt)]
     hung = with_room_doors(saved) if any(FORMATS[fmt].room_doors for fmt, _ in formats) else saved
     for fmt, destination in formats:
         scene = hung if FORMATS[fmt].room_doors else saved
         write_scene(scene, fmt, folder / destination if destination else folder, folder, hull_cache=hull_cache)
-    if procthor and (parts is None or "procthor" in parts):  # back into the house it came from
-        write_scene(saved, "procthor", folder, folder)
+    if back is not None and (parts is None or back in parts):  # back into the file it came from
+        write_scene(saved, back, folder, folder)
 
 
 def save_partial(scene: Scene | House, folder: Path, base_dir: Path | None, marker: dict[str, Any]) -> list[str]:

@@ -13,7 +13,7 @@ translation to the part's anchor (object frame) and whose mesh is the part in th
 a viewer that turns or shifts that node about its origin opens the part (``docs/articulation.md``).
 A part delivered open (``--open-state``) has that motion already in its node's matrix.
 
-A house (:func:`export_house_glb`) has, under the same root, one node per room named by the
+A house (:func:`export_glb` of a house) has, under the same root, one node per room named by the
 room's id (identity matrix), holding ``<room id>/floor``, ``<room id>/<wall id>`` (openings cut,
 each shared wall once), ``<room id>/ceiling`` and a node per object of the room.
 """
@@ -65,7 +65,6 @@ __all__ = [
     "build_glb_scene",
     "build_house_glb_scene",
     "export_glb",
-    "export_house_glb",
 ]
 
 log = structlog.get_logger(__name__)
@@ -237,7 +236,7 @@ def build_glb_scene(scene: Scene, base_dir: Path | None = None) -> trimesh.Scene
 
 
 def build_house_glb_scene(house: House, base_dir: Path | None = None) -> trimesh.Scene:
-    """The trimesh scene :func:`export_house_glb` writes: under the root node, a node per room
+    """The trimesh scene :func:`export_glb` of a house writes: under the root node, a node per room
     (its id) holding the room's floor, walls and ceiling (``<room id>/<part>``) and its objects."""
     objects = {o.id for o in house.objects}
     clash = sorted(objects & set(house.room_ids))
@@ -256,7 +255,7 @@ def build_house_glb_scene(house: House, base_dir: Path | None = None) -> trimesh
     return out
 
 
-def export_glb(scene: Scene, path: str | Path, base_dir: Path | None = None) -> Path:
+def export_glb(scene: Scene | House, path: str | Path, base_dir: Path | None = None) -> Path:
     """Write the scene as a binary glTF file and return its path.
 
     One node per object, named by the object's id, whose matrix is the object's rigid pose
@@ -265,6 +264,8 @@ def export_glb(scene: Scene, path: str | Path, base_dir: Path | None = None) -> 
     :data:`GLB_ROOT_NODE` that turns our Z-up world into glTF's Y-up. ``base_dir`` is the
     scene folder that relative mesh paths resolve against. Equal scenes give identical bytes.
     """
+    if isinstance(scene, House):  # a whole house: every room in one world
+        return _export_house_glb(scene, path, base_dir)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     data: bytes = build_glb_scene(scene, base_dir).export(file_type="glb")  # type: ignore[no-untyped-call]
@@ -273,7 +274,7 @@ def export_glb(scene: Scene, path: str | Path, base_dir: Path | None = None) -> 
     return path
 
 
-def export_house_glb(house: House, path: str | Path, base_dir: Path | None = None) -> Path:
+def _export_house_glb(house: House, path: str | Path, base_dir: Path | None = None) -> Path:
     """Write a whole house as one binary glTF file and return its path.
 
     Under the Z-up root node (:data:`GLB_ROOT_NODE`), one node per room, named by the room's id,

@@ -7,7 +7,7 @@ ones, welded to the world. Collision geometry is the objects' convex pieces (gro
 visual mesh, when the assets layer can provide one, is a non-colliding geom in group 2, in the
 object's category colour (``render.category_color``, as in the GLB, USD, URDF and plans). Paths
 are relative, so the folder can be moved. Frames: Z up, metres, object front along local -Y
-(see docs/conventions.md). :func:`export_house_mjcf` writes a whole house as one such world.
+(see docs/conventions.md). :func:`export_mjcf` of a house writes a whole house as one such world.
 """
 
 from __future__ import annotations
@@ -18,11 +18,11 @@ from scenemosaic.assets import HullCache
 from scenemosaic.physics import HullInput, SimSettings, write_house_mjcf, write_scene_mjcf
 from scenemosaic.scene import House, Scene
 
-__all__ = ["export_house_mjcf", "export_mjcf"]
+__all__ = ["export_mjcf"]
 
 
 def export_mjcf(
-    scene: Scene,
+    scene: Scene | House,
     out_dir: str | Path,
     base_dir: str | Path | None = None,
     *,
@@ -35,10 +35,12 @@ def export_mjcf(
     Raises :class:`~scenemosaic.exceptions.PhysicsError` naming any object whose pose is not
     finite, before anything is written (MuJoCo cannot load a ``nan`` position).
     """
+    if isinstance(scene, House):  # a whole house: every room in one world
+        return _export_house_mjcf(scene, out_dir, base_dir, hull_cache=hull_cache, hulls=hulls, settings=settings)
     return write_scene_mjcf(scene, out_dir, base_dir, hull_cache=hull_cache, hulls=hulls, sim=settings)
 
 
-def export_house_mjcf(
+def _export_house_mjcf(
     house: House,
     out_dir: str | Path,
     base_dir: str | Path | None = None,

@@ -72,7 +72,6 @@ __all__ = [
     "SHARED_WALL_THICKNESS_M",
     "AssetDatabase",
     "export_procthor",
-    "export_procthor_house",
     "import_procthor",
     "load_asset_database",
     "looks_like_procthor",
@@ -875,7 +874,7 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
     return out
 
 
-def export_procthor(scene: Scene, folder: str | os.PathLike[str], base_dir: Path | None = None) -> Path:
+def export_procthor(scene: Scene | House, folder: str | os.PathLike[str], base_dir: Path | None = None) -> Path:
     """Write ``folder/house.json``: the AI2-THOR / ProcTHOR / Holodeck house the scene was imported
     from, with every object of this room (top-level or a child) at the scene's pose; the other
     rooms, walls, doors, windows and every other field as the house had them. Returns its path.
@@ -885,10 +884,12 @@ def export_procthor(scene: Scene, folder: str | os.PathLike[str], base_dir: Path
     Small objects a clutter pass drew from the asset database (``--clutter fill``) are added, each
     a child of the receptacle it rests on; other objects the house does not know are left out.
     """
+    if isinstance(scene, House):  # a whole house: every room in one world
+        return _export_procthor_house(scene, folder, base_dir)
     return _write_back([scene], folder, f"scene {scene.id!r}")
 
 
-def export_procthor_house(house: House, folder: str | os.PathLike[str], base_dir: Path | None = None) -> Path:
+def _export_procthor_house(house: House, folder: str | os.PathLike[str], base_dir: Path | None = None) -> Path:
     """Write ``folder/house.json``: the AI2-THOR / ProcTHOR / Holodeck house ``house`` was imported
     from, with every object of every one of its rooms at its new pose (as :func:`export_procthor`
     writes one room); rooms of the file the house does not hold, walls, doors, windows and every

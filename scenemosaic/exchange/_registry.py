@@ -5,8 +5,8 @@ content test and a reader (for inputs), a writer (for outputs), or both. ``load_
 the reader by name or by content (:func:`detect_format`); the pipeline writes every delivered
 format through :func:`write_scene`. Detection tries the registered readers in registration order
 (more specific formats first), so a plugin format registered later never shadows a built-in one.
-A format that can write a whole :class:`~scenemosaic.scene.House` as one world names a house
-writer beside its room writer; :func:`write_scene` picks the one that fits what it is given.
+A format that can write a whole :class:`~scenemosaic.scene.House` as one world says so
+(``writes_houses``): its one writer takes a room's scene or a house, as :func:`write_scene` does.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import structlog
 
-from scenemosaic.exceptions import ImportFormatError, UsageError
+from scenemosaic.exceptions import ImportFormatError, SceneMosaicError, UsageError
 from scenemosaic.exchange._common import read_json
 from scenemosaic.exchange._native import check_not_partial, read_house
 from scenemosaic.scene import House, Provenance, Room, RunFolder, Scene, safe_name
@@ -36,9 +36,12 @@ __all__ = [
     "SceneFormat",
     "detect_format",
     "get_format",
+    "house_formats",
+    "is_house_source",
     "load_house",
     "load_scene",
     "load_scenes",
+    "plugin_formats",
     "register_format",
     "writable_formats",
     "write_scene",
@@ -67,10 +70,9 @@ class ReadOptions:
 
 Reader = Callable[[Any, Path, ReadOptions], list[Scene]]
 """``read(parsed_json, path, options)`` -> the scenes the file holds."""
-Writer = Callable[[Scene, Path, "Path | None"], Path]
-"""``write(scene, destination, base_dir)`` -> the main file written; ``base_dir`` resolves relative mesh uris."""
-HouseWriter = Callable[[House, Path, "Path | None"], Path]
-"""``write(house, destination, base_dir)`` -> the main file written, for a whole house in one world."""
+Writer = Callable[["Scene | House", Path, "Path | None"], Path]
+"""``write(scene, destination, base_dir)`` -> the main file written; ``base_dir`` resolves relative
+mesh uris. A format that ``writes_houses`` is also handed a whole :class:`~scenemosaic.scene.House`."""
 
 
 @dataclass(frozen=True)
@@ -90,9 +92,9 @@ class SceneFormat:
     uses_hulls: bool = False
     """Whether the writers take ``hull_cache=`` (the formats that carry collision hulls: the
     caller's CoACD cache is then the one they read, not the default)."""
-    write_house: HouseWriter | None = None
-    """Writer of a whole :class:`~scenemosaic.scene.House` (every room in one file or world, at the
-    same destination as ``write``); ``None`` when the format writes one room at a time."""
+    writes_houses: bool = False
+    """Whether ``write`` also takes a whole :class:`~scenemosaic.scene.House` (every room in one
+    file or world, at the same destination); ``False``: the format writes one room at a time."""
     folder_file: str | None = None
     """A folder holding a file of this name is this format (``scene.json``, ``poses.json``)."""
     takes_room: bool = False
@@ -101,6 +103,23 @@ class SceneFormat:
     """Whether the writers get the rooms' doors hung on their doorways (the simulator formats:
     :func:`~scenemosaic.assets.with_room_doors` adds each door as an object held in place whose
     leaves are parts on hinges, ``docs/articulation.md``)."""
+    holds_houses: bool = False
+    """Whether one file of this format may hold a whole house (rooms sharing walls and doors in one
+    world frame): such a file with more than one room is run as a house (:func:`is_house_source`)."""
+    delivered: str | None = None
+    """Where every delivered folder (``base/``, ``variant_<i>/``) holds this format: the
+    destination :func:`write_scene` is given, relative to the folder (``""``: the folder itself);
+    ``None``: written on request only (``scenemosaic export``)."""
+    written_back: bool = False
+    """Whether a scene or house read from this format is also written back in it in every delivered
+    folder, at its new poses (ProcTHOR's ``house.json``)."""
+    extra: tuple[str, str] | None = None
+    """``(module, install command)`` when the writer needs an optional dependency: without the
+    module, delivery leaves the format out and says which ``pip install`` adds it."""
+    builtin: bool = False
+    """One of the formats the package registers itself (``exchange/_builtin.py``), known in every
+    process of a run; a plugin format is registered in the user's process only, so a run that has
+    one keeps its house's rooms and deliveries in that process."""
 
 
 FORMATS: dict[str, SceneFormat] = {}
@@ -113,7 +132,7 @@ def register_format(fmt: SceneFormat, *, replace: bool = False) -> SceneFormat:
         raise UsageError(f"invalid format name {fmt.name!r}")
     if fmt.name in FORMATS and not replace:
         raise UsageError(f"format {fmt.name!r} is already registered; pass replace=True to swap it")
-    if fmt.read is None and fmt.write is None and fmt.write_house is None:
+    if fmt.read is None and fmt.write is None:
         raise UsageError(f"format {fmt.name!r} has neither a reader nor a writer")
     FORMATS[fmt.name] = fmt
     return fmt
@@ -247,13 +266,35 @@ def load_scene(
     )
 
 
-HOUSE_FORMATS = frozenset({"procthor"})
-"""Formats whose files hold a whole house (rooms sharing walls and doors in one world frame)."""
+def plugin_formats() -> list[str]:
+    """The registered formats that are not built in (``SceneFormat.builtin``), in registration order."""
+    return [name for name, fmt in FORMATS.items() if not fmt.builtin]
+
+
+def house_formats() -> frozenset[str]:
+    """The registered formats one file of which may hold a whole house (``holds_houses``)."""
+    return frozenset(name for name, fmt in FORMATS.items() if fmt.holds_houses)
 
 
 def _one_house(scenes: list[Scene]) -> bool:
     sources = {(s.provenance.source_format, s.provenance.source_path) for s in scenes}
-    return len(sources) == 1 and next(iter(sources))[0] in HOUSE_FORMATS
+    return len(sources) == 1 and next(iter(sources))[0] in house_formats()
+
+
+def is_house_source(path: str | os.PathLike[str], format: ImportFormat | str = "auto", *, allow_orphans: bool = False) -> bool:
+    """Whether ``path`` is one file of a format that holds houses (``holds_houses``) holding more
+    than one room: an input a run works on as a whole house. A file that cannot be read as one is
+    no house (the one-scene import then says what is wrong with it)."""
+    p = Path(path)
+    if not p.is_file():
+        return False
+    try:
+        name = detect_format(p) if format == "auto" else format
+        if name not in house_formats():
+            return False
+        return len(load_house(p, name, allow_orphans=allow_orphans).rooms) > 1
+    except SceneMosaicError:
+        return False
 
 
 def load_house(
@@ -320,13 +361,9 @@ def write_scene(
         from scenemosaic.assets import with_room_doors  # here: registering loads no backend
 
         scene = with_room_doors(scene)
-    if isinstance(scene, House):
-        house_writer = fmt.write_house
-        if house_writer is None:
-            raise UsageError(f"format {format!r} cannot write a whole house; {_writers_note(house=True)}")
-        with _removed_on_error(target):
-            return house_writer(scene, target, base, **options)
     writer = fmt.write
+    if isinstance(scene, House) and (writer is None or not fmt.writes_houses):
+        raise UsageError(f"format {format!r} cannot write a whole house; {_writers_note(house=True)}")
     if writer is None:
         raise UsageError(f"format {format!r} cannot write a single scene; {_writers_note(house=False)}")
     with _removed_on_error(target):
@@ -335,7 +372,7 @@ def write_scene(
 
 def writable_formats(*, house: bool = False) -> list[str]:
     """The registered formats that can write a scene (``house=True``: a whole house), in registration order."""
-    return [name for name, f in FORMATS.items() if (f.write_house if house else f.write) is not None]
+    return [name for name, f in FORMATS.items() if f.write is not None and (f.writes_houses or not house)]
 
 
 # -- internals ------------------------------------------------------------------------------------

@@ -18,7 +18,7 @@ Frames (the full statement is ``docs/exports.md``):
   is), and ``value``, the joint value it is delivered at, when that is not 0 (``--open-state``;
   ``docs/articulation.md``). SceneEval itself ignores the key.
 
-A whole house (:func:`export_house_sceneeval`) is one sceneState: the format's ``arch`` is a list
+A whole house (:func:`export_sceneeval` of a house) is one sceneState: the format's ``arch`` is a list
 of elements each naming its ``roomId`` (SceneEval builds one floor per ``roomId`` and every wall
 with its holes), so every room's floor, walls and ceiling go into the one ``arch`` and every
 object of every room into ``object``.
@@ -48,7 +48,6 @@ __all__ = [
     "MAX_OBJECT_NAME_BYTES",
     "MODEL_ID_PREFIX",
     "SupportType",
-    "export_house_sceneeval",
     "export_sceneeval",
     "gltf_to_world",
     "house_sceneeval_state",
@@ -345,19 +344,21 @@ def _glb_bytes(mesh: trimesh.Trimesh) -> bytes:
     return cast(bytes, mesh.export(file_type="glb"))
 
 
-def export_sceneeval(scene: Scene, out_dir: str | Path, base_dir: Path | None = None) -> Path:
+def export_sceneeval(scene: Scene | House, out_dir: str | Path, base_dir: Path | None = None) -> Path:
     """Write ``out_dir/scene_base.json`` and ``out_dir/assets/<assetId>.glb``; return the JSON path.
 
     Also writes ``out_dir/assets/metadata.json`` (assetId -> category and size in metres), which
     an asset source for SceneEval can read for descriptions. A scene without a room gets no
     ``arch`` (SceneEval then builds its simple rectangular room around the objects).
     """
+    if isinstance(scene, House):  # a whole house: every room in one world
+        return _export_house_sceneeval(scene, out_dir, base_dir)
     arch = _arch(scene.room) if scene.room is not None else None
     state, assets, glb_keys = _keyed_state(scene.id, [scene], arch, base_dir)
     return _write(out_dir, state, assets, len(scene.objects), glb_keys)
 
 
-def export_house_sceneeval(house: House, out_dir: str | Path, base_dir: Path | None = None) -> Path:
+def _export_house_sceneeval(house: House, out_dir: str | Path, base_dir: Path | None = None) -> Path:
     """Write a whole house as one sceneState (:func:`house_sceneeval_state`): ``out_dir/scene_base.json``
     and ``out_dir/assets/`` as :func:`export_sceneeval` writes them; return the JSON path."""
     state, assets, glb_keys = _house_state(house, base_dir)

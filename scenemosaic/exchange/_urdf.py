@@ -39,7 +39,7 @@ naming the same mesh files under ``urdf/meshes/``. It is the file for simulators
 honour URDF's ``floating`` joint (PyBullet turns it into a fixed joint, Drake leaves the body at
 the origin): ``pybullet.loadSDF("scene.sdf")`` gives one free body per movable object in one call.
 
-:func:`export_house_urdf` writes a whole house the same way: ``scene.urdf`` holds a ``floor`` link
+:func:`export_urdf` of a house writes a whole house the same way: ``scene.urdf`` holds a ``floor`` link
 (the house's one floor slab), one link per room named by its id (its walls cut around their
 openings, each shared wall once, and its ceiling: :func:`scenemosaic.physics.house_slabs`), all
 fixed to ``world``, and every object of every room; ``urdf/`` one file per object, as for a room.
@@ -90,7 +90,6 @@ __all__ = [
     "URDF_MESH_DIR",
     "URDF_OBJECT_DIR",
     "URDF_SCENE_FILE",
-    "export_house_urdf",
     "export_urdf",
     "rpy_from_matrix",
 ]
@@ -595,7 +594,7 @@ class _UrdfWriter:
 
 
 def export_urdf(
-    scene: Scene,
+    scene: Scene | House,
     folder: str | Path,
     base_dir: str | Path | None = None,
     *,
@@ -612,6 +611,8 @@ def export_urdf(
     Raises:
         PhysicsError: an object's pose is not finite (nothing is written).
     """
+    if isinstance(scene, House):  # a whole house: every room in one world
+        return _export_house_urdf(scene, folder, base_dir, hull_cache=hull_cache, hulls=hulls)
     require_finite_poses(scene, "export URDF")
     base = Path(base_dir) if base_dir is not None else None
     shapes = {o.id: object_shape(o, base, cache=hull_cache, hulls=hulls) for o in scene.objects}
@@ -621,7 +622,7 @@ def export_urdf(
     return writer.save(len(scene.objects))
 
 
-def export_house_urdf(
+def _export_house_urdf(
     house: House,
     folder: str | Path,
     base_dir: str | Path | None = None,

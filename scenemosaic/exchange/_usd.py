@@ -38,7 +38,7 @@ the object's size), as in the GLB and MJCF exports, so no scale op is authored; 
 kept in the prim's ``customData`` for reference. Every asset path is relative, so the folder can be
 moved. ``pxr`` (``pip install 'scenemosaic[usd]'``) is imported only when writing.
 
-:func:`export_house_usd` writes a whole house the same way on one stage: ``/World/floor`` (the
+:func:`export_usd` of a house writes a whole house the same way on one stage: ``/World/floor`` (the
 house's one floor slab), then per room ``/World/<room>`` holding ``Room/`` (its walls, shared
 walls once, and its ceiling, :func:`scenemosaic.physics.house_slabs`) and ``Objects/``.
 """
@@ -87,7 +87,6 @@ __all__ = [
     "USD_GEOMETRY_DIR",
     "USD_INSTALL_HINT",
     "USD_SCENE_FILE",
-    "export_house_usd",
     "export_usd",
     "usd_prim_name",
 ]
@@ -494,7 +493,7 @@ class _Export:
 
 
 def export_usd(
-    scene: Scene,
+    scene: Scene | House,
     path_or_folder: str | Path,
     base_dir: str | Path | None = None,
     *,
@@ -512,6 +511,8 @@ def export_usd(
         MissingExtraError: ``pxr`` is not installed (``pip install 'scenemosaic[usd]'``).
         PhysicsError: an object's pose is not finite (nothing is written).
     """
+    if isinstance(scene, House):  # a whole house: every room in one world
+        return _export_house_usd(scene, path_or_folder, base_dir, hull_cache=hull_cache, hulls=hulls)
     w = _Writer()  # first, so a missing extra fails before any work
     require_finite_poses(scene, "export USD")
     base = Path(base_dir) if base_dir is not None else None
@@ -522,7 +523,7 @@ def export_usd(
     return export.save()
 
 
-def export_house_usd(
+def _export_house_usd(
     house: House,
     path_or_folder: str | Path,
     base_dir: str | Path | None = None,

@@ -54,12 +54,14 @@ from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
 from scenemosaic.exceptions import OutputSpaceError, SceneMosaicError
 from scenemosaic.exchange import (
-    DELIVERY_PARTS,
     deliver_house,
     delivered_files,
+    delivery_parts,
     export_house_folder,
     formats_left_out,
+    is_house_source,
     load_house,
+    plugin_formats,
 )
 from scenemosaic.metrics import evaluate_house, furniture, house_checks
 from scenemosaic.physics import check_collisions, check_out_of_bounds, validate_house
@@ -94,15 +96,12 @@ WORKER_MODULE = "scenemosaic.pipeline._house_worker"
 
 
 def is_house_input(input_path: Path, config: GenerateConfig) -> bool:
-    """Whether a run's input is a whole multi-room house (and no ``room`` picks one of its rooms)."""
-    if config.room is not None or config.prompt is not None or config.format not in ("auto", "procthor"):
+    """Whether a run's input is a whole multi-room house (``exchange.is_house_source``: a file of a
+    format registered as holding houses, with more than one room), and no ``room`` picks one of
+    its rooms."""
+    if config.room is not None or config.prompt is not None:
         return False
-    if not (input_path.is_file() and input_path.suffix.lower() == ".json"):
-        return False
-    try:
-        return len(load_house(input_path, config.format, allow_orphans=config.allow_orphans).rooms) > 1
-    except SceneMosaicError:
-        return False  # not a house, or a broken one: the one-scene import says what is wrong
+    return is_house_source(input_path, config.format, allow_orphans=config.allow_orphans)
 
 
 # -- one room ---------------------------------------------------------------------------------------
@@ -286,7 +285,8 @@ atexit.register(_close_kept)
 def _in_processes(config: GenerateConfig, rooms: int) -> int:
     """How many worker processes the rooms get (0: run them in this process)."""
     workers = config.room_workers or min(os.cpu_count() or 1, rooms)
-    portable = config.model == "rules" and config.agents is None and not config.layout_rules
+    # what a worker process cannot know: a model stack, plugin agents, rules or formats of the user's process
+    portable = config.model == "rules" and config.agents is None and not config.layout_rules and not plugin_formats()
     return min(workers, rooms) if workers > 1 and portable and rooms > 1 else 0
 
 
@@ -478,19 +478,25 @@ def _houses(run: PipelineRun) -> list[tuple[Path, House]]:
 
 
 _FIRST_LANE = ("mjcf", "usd", "glb", "sceneeval")
-_LANES: tuple[tuple[str, ...], ...] = (_FIRST_LANE, tuple(p for p in DELIVERY_PARTS if p not in _FIRST_LANE))
-"""A house's delivery in two halves of about equal work once the workers are warm
-(``exchange.DELIVERY_PARTS``; on the 10-room house the plan with its labels, URDF and the
+"""The delivery parts of a house's first half; every other part (``exchange.delivery_parts()``,
+a registered plugin format's too) goes in the second (:func:`_lanes`)."""
+
+
+def _lanes() -> tuple[tuple[str, ...], ...]:
+    """A house's delivery in two halves of about equal work once the workers are warm
+(``exchange.delivery_parts()``; on the 10-room house the plan with its labels, URDF and the
 ProcTHOR file take as long as MJCF, USD, GLB and sceneState together), each written
 by one worker process from house to house (the job's slot): every worker builds the in-process
 memos of its own formats only (USD layers, MuJoCo hull meshes, GLB buffers; URDF links, plan
 labels), once, instead of both building all of them."""
+    parts = delivery_parts()
+    return (tuple(p for p in _FIRST_LANE if p in parts), tuple(p for p in parts if p not in _FIRST_LANE))
 
 
 class HouseDeliveries:
     """The houses of a run delivered ahead of its export stage, into :attr:`RunFolder.staged`:
     one call of the run's worker pool that takes each house as it becomes final (:meth:`add`:
-    its native files written here, its two halves (:data:`_LANES`) queued for the workers),
+    its native files written here, its two halves (:func:`_lanes`) queued for the workers),
     and that the export stage closes (:meth:`landed`) once every house is in it."""
 
     def __init__(self, run: PipelineRun, workers: int) -> None:
@@ -513,12 +519,12 @@ class HouseDeliveries:
             await asyncio.to_thread(shutil.rmtree, staged)
         await asyncio.to_thread(functools.partial(deliver_house, house, staged, self.run.base_dir, parts=()))
         self.houses[folder.name] = self._loop.create_future()
-        self._left[folder.name] = set(range(len(_LANES)))
+        self._left[folder.name] = set(range(len(_lanes())))
         place = len(self.houses) - 1
         self.queue.put([
             WorkerJob(f"{folder.name}#{k}", json.dumps({**self._common, "folder": str(staged), "parts": list(parts)}).encode(),
-                      slot=place * len(_LANES) + k)
-            for k, parts in enumerate(_LANES)
+                      slot=place * len(_lanes()) + k)
+            for k, parts in enumerate(_lanes())
         ])  # fmt: skip
 
     def _replied(self, job: str, reply: dict[str, Any]) -> None:

@@ -26,16 +26,16 @@ from shapely.ops import unary_union
 from scenemosaic.assets import object_articulation, with_room_doors
 from scenemosaic.exceptions import UsageError
 from scenemosaic.exchange import (
-    DELIVERY_PARTS,
     GLB_ROOT_NODE,
     HOUSE_INDEX_FILE,
     HOUSE_ROOMS_DIR,
     deliver_house,
     delivered_files,
+    delivery_parts,
+    export_glb,
     export_house_folder,
-    export_house_glb,
-    export_house_sceneeval,
-    export_house_usd,
+    export_sceneeval,
+    export_usd,
     formats_left_out,
     load_scenes,
     read_house,
@@ -242,7 +242,7 @@ def test_house_usd_has_a_rigid_body_per_object_under_its_room(
     pytest.importorskip("pxr")
     from pxr import Usd, UsdGeom, UsdPhysics
 
-    stage = Usd.Stage.Open(str(export_house_usd(house, tmp_path)))
+    stage = Usd.Stage.Open(str(export_usd(house, tmp_path)))
     assert UsdGeom.GetStageUpAxis(stage) == "Z"
     for scene in house.rooms:
         room = stage.GetPrimAtPath(f"/World/{scene.id}")
@@ -275,7 +275,7 @@ def test_house_usd_has_a_rigid_body_per_object_under_its_room(
 
 
 def test_house_glb_has_a_node_per_object_under_its_room(house: House, tmp_path: Path) -> None:
-    glb = trimesh.load(export_house_glb(house, tmp_path / "scene.glb"))
+    glb = trimesh.load(export_glb(house, tmp_path / "scene.glb"))
     parents = glb.graph.transforms.parents
     for scene in house.rooms:
         assert parents[scene.id] == GLB_ROOT_NODE
@@ -288,7 +288,7 @@ def test_house_glb_has_a_node_per_object_under_its_room(house: House, tmp_path: 
 
 
 def test_house_sceneeval_holds_every_room_and_object(house: House, tmp_path: Path) -> None:
-    state = json.loads(export_house_sceneeval(house, tmp_path).read_text())["scene"]
+    state = json.loads(export_sceneeval(house, tmp_path).read_text())["scene"]
     elements = state["arch"]["elements"]
     assert sorted(e["roomId"] for e in elements if e["type"] == "Floor") == sorted(ROOMS)
     door_holes = [h for e in elements if e["type"] == "Wall" for h in e["holes"] if h["type"] == "Door"]
@@ -383,7 +383,7 @@ def test_a_house_delivered_in_two_halves_is_the_house_delivered_at_once(house: H
     halves = tmp_path / "halves"
     assert deliver_house(house, halves, None, parts=()) == [HOUSE_INDEX_FILE, f"{HOUSE_ROOMS_DIR}/"]
     assert not (halves / "scene.xml").exists() and not (halves / "topdown.png").exists()
-    first, second = ("mjcf", "usd", "glb"), tuple(p for p in DELIVERY_PARTS if p not in ("mjcf", "usd", "glb"))
+    first, second = ("mjcf", "usd", "glb"), tuple(p for p in delivery_parts() if p not in ("mjcf", "usd", "glb"))
     export_house_folder(halves, parts=second)
     assert (halves / "topdown.png").is_file() and not (halves / "scene.xml").exists()
     assert export_house_folder(halves, parts=first) == written == delivered_files(whole)

@@ -16,11 +16,10 @@ import scenemosaic as sm
 from scenemosaic.assets import room_door_leaves
 from scenemosaic.exceptions import MissingExtraError, UsageError
 from scenemosaic.exchange import (
-    DELIVERED_FORMATS,
     FORMATS,
-    OPTIONAL_FORMATS,
     SceneFormat,
     deliver_house,
+    delivered_formats,
     formats_left_out,
     writable_formats,
 )
@@ -39,7 +38,7 @@ def house() -> House:
 
 def test_every_delivered_format_writes_a_house() -> None:
     assert set(writable_formats(house=True)) == set(HOUSE_FORMATS)
-    assert {fmt for fmt, _ in DELIVERED_FORMATS} <= set(HOUSE_FORMATS)
+    assert {fmt for fmt, _ in delivered_formats()} <= set(HOUSE_FORMATS)
 
 
 @pytest.mark.parametrize("fmt", HOUSE_FORMATS)
@@ -66,7 +65,7 @@ def test_write_scene_gives_the_delivered_bytes(house: House, tmp_path: Path) -> 
     deliver_house(house, delivered, HOUSE_FILE.parent)
     saved = sm.load_scene(delivered)
     assert isinstance(saved, House)
-    for fmt, _ in DELIVERED_FORMATS:
+    for fmt, _ in delivered_formats():
         if fmt in formats_left_out():
             continue
         main = sm.write_scene(saved, fmt, destination(tmp_path / fmt, fmt), delivered)
@@ -74,15 +73,15 @@ def test_write_scene_gives_the_delivered_bytes(house: House, tmp_path: Path) -> 
 
 
 def _failing(fmt: str) -> SceneFormat:
-    """Format ``fmt`` whose house writer writes everything, then fails."""
-    real = FORMATS[fmt].write_house
-    assert real is not None
+    """Format ``fmt`` whose writer writes everything, then fails."""
+    real = FORMATS[fmt].write
+    assert real is not None and FORMATS[fmt].writes_houses
 
     def write(house: House, dest: Path, base_dir: Path | None) -> Path:
         real(house, dest, base_dir)
         raise RuntimeError("the disk went away")
 
-    return dataclasses.replace(FORMATS[fmt], write_house=write)
+    return dataclasses.replace(FORMATS[fmt], write=write)
 
 
 @pytest.mark.parametrize("fmt", HOUSE_FORMATS)
@@ -108,7 +107,7 @@ def test_a_missing_extra_names_its_pip_install_and_writes_nothing(
     monkeypatch.setitem(sys.modules, "pxr", None)
     with pytest.raises(MissingExtraError) as failed:
         sm.write_scene(house, "usd", tmp_path / "usd")
-    assert OPTIONAL_FORMATS["usd"] in str(failed.value)
+    assert FORMATS["usd"].extra is not None and FORMATS["usd"].extra[1] in str(failed.value)
     assert not (tmp_path / "usd").exists()
 
 
