@@ -18,7 +18,7 @@ its wardrobes stands 0.55 m into the floor). Per house:
   object's bodies nor what it holds moves faster than 5 m/s (neighbours may block a door: such a
   failure is real; a house read as shipped has no supports yet, so a picture may fall off its
   wall meanwhile, which is not the pull's doing);
-* ``seconds_added``: validation time of the house (``validate_house``) with the parts on their
+* ``seconds_added``: validation time of the house (``validate_scene``) with the parts on their
   joints less the same run with every object rigid;
 * ``room_doors`` / ``room_door_leaves``: the rooms' doors the simulator exports hang on the
   doorways (``with_room_doors``, counted apart from the furniture above) and their leaves;
@@ -46,7 +46,7 @@ import structlog
 from scenemosaic import GenerateConfig, generate
 from scenemosaic.assets import PartSpec, object_articulation, room_door_leaves, with_room_doors
 from scenemosaic.exchange import load_scene, load_scenes
-from scenemosaic.physics import validate_house, write_house_mjcf
+from scenemosaic.physics import validate_scene, write_house_mjcf
 from scenemosaic.scene import House, SceneObject, thor_type
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -142,14 +142,14 @@ def _can_open() -> set[str]:
 
 
 def _validation_seconds(house: House, base_dir: Path | None, *, articulated: bool) -> float:
-    """``validate_house``'s time, with the parts on their joints or (``articulated=False``) every
+    """``validate_scene``'s time, with the parts on their joints or (``articulated=False``) every
     object rigid, as before parts had joints."""
     start = time.perf_counter()
     if articulated:
-        validate_house(house, base_dir)
+        validate_scene(house, base_dir)
     else:
         with mock.patch("scenemosaic.physics._hulls.object_articulation", return_value=[]):
-            validate_house(house, base_dir)
+            validate_scene(house, base_dir)
     return time.perf_counter() - start
 
 

@@ -6,7 +6,8 @@ model) is generated into a fresh folder, and every delivered file is hashed (SHA
 meshes, hulls, MJCF/URDF/USD/SDF/GLB/SceneEval exports and pictures, that is everything but
 ``report.json`` (it holds timings), the checkpoint and the run lock. ``--save FILE`` writes the
 digests; ``--compare FILE`` runs the same cases and lists each file whose bytes differ, or that is
-new or gone (both: compare, then save the new digests). ``--room-workers N`` runs the houses with N room processes (the output must not
+new or gone (both: compare, then save the new digests). ``--keep DIR`` keeps the outputs (to read
+a difference, not only count it). ``--room-workers N`` runs the houses with N room processes (the output must not
 depend on it).
 
 Figures (last line, one JSON object): ``cases``, ``files``, ``seconds`` and, with ``--compare``,
@@ -58,14 +59,15 @@ def digests(folder: Path) -> dict[str, str]:
     return out
 
 
-def run_cases(quick: bool, room_workers: int | None, cache: Path) -> dict[str, dict[str, str]]:
+def run_cases(quick: bool, room_workers: int | None, cache: Path, keep: Path | None = None) -> dict[str, dict[str, str]]:
     rooms, houses = (ROOMS[:1], HOUSES[2:3]) if quick else (ROOMS, HOUSES)
     results: dict[str, dict[str, str]] = {}
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as scratch:
+        tmp = keep if keep is not None else Path(scratch)
         for source in [*rooms, *houses]:
             for clutter in CLUTTER:
                 name = f"{source.stem}/{clutter}"
-                out = Path(tmp) / source.stem / clutter
+                out = tmp / source.stem / clutter
                 config = GenerateConfig(
                     model="rules", seed=0, variants=2, clutter=clutter, cache_dir=cache,
                     **({"room_workers": room_workers} if room_workers and source in houses else {}),
@@ -84,11 +86,12 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="one room and one house only")
     parser.add_argument("--room-workers", type=int, default=None, help="room processes of a house run")
     parser.add_argument("--cache", type=Path, default=Path(".scenemosaic-cache"), help="the hull cache folder")
+    parser.add_argument("--keep", type=Path, default=None, help="keep every run's output under this folder")
     args = parser.parse_args()
     if args.save is None and args.compare is None:
         parser.error("give --save FILE, --compare FILE or both")
     start = time.perf_counter()
-    results = run_cases(args.quick, args.room_workers, args.cache)
+    results = run_cases(args.quick, args.room_workers, args.cache, args.keep)
     figures: dict[str, object] = {"cases": len(results), "files": sum(len(d) for d in results.values())}
     if args.save is not None:
         args.save.write_text(json.dumps(results, indent=1, sort_keys=True))

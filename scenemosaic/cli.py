@@ -573,7 +573,7 @@ def inspect(
 
 def _print_house(house: House, as_json: bool) -> None:
     rooms: list[dict[str, Any]] = [
-        {"id": r.id, "type": (r.metadata.get("procthor") or {}).get("room_type"), "objects": len(r.objects)} for r in house.rooms
+        {"id": r.id, "type": r.provenance.room_type, "objects": len(r.objects)} for r in house.rooms
     ]
     doors: list[dict[str, Any]] = [{"id": d.id, "kind": d.kind, "rooms": list(d.rooms), "width_m": round(d.width, 3)} for d in house.doorways()]
     if as_json:
@@ -604,15 +604,15 @@ def evaluate(
     doors, objects across walls, RelKeep, house diversity; docs/houses.md); --room gives one
     room's metrics over the base and the variants.
     """
+    from scenemosaic.metrics import evaluate
     from scenemosaic.metrics import evaluate as evaluate_scenes
-    from scenemosaic.metrics import evaluate_house
     from scenemosaic.scene import House, Scene
 
     (_, base, folder), *rest = _load_scenes(path, room, allow_partial)
     dirs = [f for _, _, f in rest]
     result: dict[str, Any]
     if isinstance(base, House):
-        result = evaluate_house(base, _all_of(House, rest), base_dir=folder, variant_dirs=dirs)
+        result = evaluate(base, _all_of(House, rest), base_dir=folder, variant_dirs=dirs)
     else:
         result = evaluate_scenes(base, _all_of(Scene, rest), base_dir=folder, variant_dirs=dirs)
     _out.print_json(json.dumps(result))
@@ -1040,7 +1040,7 @@ def edit(
     --allow-invalid; --settle lets physics settle the edited scene first. In a house, --room names
     the room to edit; the whole house is written, that room changed.
     """
-    from scenemosaic.exchange import deliver_house, deliver_scene
+    from scenemosaic.exchange import deliver_scene
     from scenemosaic.scene import House
 
     loaded, base_dir = _load_any(path, variant, allow_partial=allow_partial)
@@ -1072,7 +1072,7 @@ def edit(
             raise typer.Exit(code=EXIT_BAD_INPUT)
         _writable_folder(out)
         if edited_house is not None:
-            files = deliver_house(edited_house, out, base_dir)
+            files = deliver_scene(edited_house, out, base_dir)
         else:
             files = deliver_scene(edited, out, base_dir)
     except SceneMosaicError as exc:

@@ -238,8 +238,8 @@ def place_on_surface(
 def _asset_of(scene: Scene, oid: str, priors: ClutterPriors) -> ClutterAsset | None:
     record = ((scene.metadata.get(CLUTTER_METADATA) or {}).get("objects") or {}).get(oid) or {}
     asset = priors.by_id.get(str(record.get("asset_id")))
-    if asset is None:  # a source object: its ProcTHOR asset, else a stand-in of its type and size
-        source = ((scene.metadata.get("procthor") or {}).get("asset_ids") or {}).get(oid)
+    if asset is None:  # a source object: its asset in the database (a ProcTHOR one), else a stand-in of its type and size
+        source = scene.provenance.asset_ids.get(oid)
         asset = priors.by_id.get(str(source))
     if asset is None:
         obj = scene.get(oid)

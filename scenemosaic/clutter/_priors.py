@@ -70,12 +70,12 @@ def thor_category(object_type: str) -> str:
 
 
 def room_kind(scene: Scene) -> str | None:
-    """The kind of room ``scene`` is (a key of :data:`ROOM_TYPE_FLAGS`), from a ProcTHOR room type,
+    """The kind of room ``scene`` is (a key of :data:`ROOM_TYPE_FLAGS`), from the room type its source gives (ProcTHOR, Holodeck),
     else from the words of its id or source file; ``None`` when nothing says (every type allowed)."""
-    procthor = (scene.metadata.get("procthor") or {}).get("room_type")
+    source_kind = scene.provenance.room_type
     words = " ".join(
         str(w).lower()
-        for w in (procthor, scene.id, scene.room.id if scene.room else None, scene.provenance.source_path)
+        for w in (source_kind, scene.id, scene.room.id if scene.room else None, scene.provenance.source_path)
         if w
     )
     for key, kind in (

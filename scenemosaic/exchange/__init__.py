@@ -15,7 +15,7 @@ scenes into files a simulator or an evaluator loads. A format is one module plus
   (:func:`export_procthor`);
 * houses: every export takes a whole :class:`~scenemosaic.scene.House` as readily as a room's
   scene (one world: one MuJoCo model, one USD stage, one GLB, the AI2-THOR file written back), and
-  so does :func:`write_scene`; :func:`deliver_house` writes a house's delivered folder.
+  so does :func:`write_scene`; :func:`deliver_scene` writes a house's delivered folder.
 
 Every malformed input raises :class:`~scenemosaic.exceptions.ImportFormatError` naming the
 file and the field, values beyond the scene limits included. A reader only opens files inside
@@ -38,7 +38,6 @@ if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
     from scenemosaic.exchange._deliver import (
         HOUSE_INDEX_FILE,
         HOUSE_ROOMS_DIR,
-        deliver_house,
         deliver_scene,
         delivered_files,
         delivered_formats,
@@ -116,7 +115,6 @@ __all__ = [
     "SupportType",
     "build_glb_scene",
     "build_house_glb_scene",
-    "deliver_house",
     "deliver_scene",
     "delivered_files",
     "delivered_formats",
@@ -158,7 +156,6 @@ __all__ = [
 _EXPORTS: dict[str, str] = {
     "HOUSE_INDEX_FILE": "_deliver",
     "HOUSE_ROOMS_DIR": "_deliver",
-    "deliver_house": "_deliver",
     "deliver_scene": "_deliver",
     "delivered_files": "_deliver",
     "delivered_formats": "_deliver",

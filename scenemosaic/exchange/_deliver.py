@@ -4,7 +4,7 @@
 format of :func:`delivered_formats` from that saved copy (whose mesh uris the native writer
 rewrote), the house file of a room taken from an AI2-THOR house, and the top-down picture.
 
-:func:`deliver_house` does the same for a whole house: ``house_scene.json`` and
+Given a whole house it does the same: ``house_scene.json`` and
 ``rooms/<room id>/`` (:func:`~scenemosaic.exchange.save_house`), then every format written for the
 whole house at once (one MuJoCo world, one USD stage, ...), the house plan as ``topdown.png``, and
 the AI2-THOR house file with every room's objects moved.
@@ -29,7 +29,6 @@ from scenemosaic.scene import House, RunFolder, Scene, write_atomic
 __all__ = [
     "HOUSE_INDEX_FILE",
     "HOUSE_ROOMS_DIR",
-    "deliver_house",
     "deliver_scene",
     "delivered_files",
     "delivered_formats",
@@ -79,50 +78,66 @@ def formats_left_out() -> dict[str, str]:
     }
 
 
-def deliver_scene(scene: Scene, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None) -> list[str]:
-    """Write one scene in the delivered layout; returns the files written (relative to ``folder``).
-    ``hull_cache`` is the CoACD cache the formats with collision hulls read (the run's)."""
-    from scenemosaic.render import render_topdown
+def deliver_scene(
+    scene: Scene | House,
+    folder: Path,
+    base_dir: Path | None,
+    *,
+    hull_cache: HullCache | None = None,
+    parts: Collection[str] | None = None,
+) -> list[str]:
+    """Write a scene, or a whole house, in the delivered layout; returns the files written
+    (relative to ``folder``: its files, then its folders as ``name/``).
 
+    A room's scene: ``scene.json`` (+ ``assets/``) through the native writer, then, from that saved
+    copy, every format of :func:`delivered_formats` (those whose extra is installed), the house
+    file of a room taken from an AI2-THOR house (a format ``written_back``) and the top-down
+    picture. A whole :class:`~scenemosaic.scene.House`: ``house_scene.json`` and
+    ``rooms/<room id>/scene.json`` (+ ``assets/``), then the whole house in every delivered format
+    at once (one MuJoCo world, one USD stage, one GLB, one sceneState), the house plan as
+    ``topdown.png`` and, for a house imported from one AI2-THOR / ProcTHOR file, that file with
+    every room's objects at their new poses; :func:`~scenemosaic.exchange.read_house` reads it back.
+
+    ``base_dir`` resolves the input's relative mesh uris; ``hull_cache`` is the CoACD cache the
+    formats with collision hulls read (the run's); ``parts`` writes only those of
+    :func:`delivery_parts` after the native files (``()``: the native files alone).
+
+    Raises:
+        UsageError: a name in ``parts`` is none of :func:`delivery_parts`.
+    """
     folder.mkdir(parents=True, exist_ok=True)
     (folder / RunFolder.PARTIAL).unlink(missing_ok=True)  # delivered now: no longer what a stopped run kept
+    if isinstance(scene, House):
+        write_scene(scene, "native", folder, base_dir)
+        if parts is not None and not parts:
+            return delivered_files(folder)
+        return export_house_folder(folder, hull_cache=hull_cache, parts=parts)
+    chosen = _chosen_parts(parts)
     write_scene(scene, "native", folder, base_dir)
     saved = read_scene(folder)
-    _write_delivered(saved, folder, _written_back(saved.provenance.source_format), hull_cache)
-    write_atomic(folder / RunFolder.TOPDOWN, render_topdown(saved, base_dir=folder))
+    _write_delivered(saved, folder, _written_back(saved.provenance.source_format), hull_cache, chosen)
+    if "topdown" in chosen:
+        from scenemosaic.render import render_topdown
+
+        write_atomic(folder / RunFolder.TOPDOWN, render_topdown(saved, base_dir=folder))
     top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir() and p.name != "assets")]
 
 
-def deliver_house(
-    house: House, folder: Path, base_dir: Path | None, *, hull_cache: HullCache | None = None, parts: Collection[str] | None = None
-) -> list[str]:
-    """Write a whole house in the delivered layout; returns the files written (relative to ``folder``).
-
-    ``house_scene.json`` and ``rooms/<room id>/scene.json`` (+ ``assets/``) through the native
-    writer, then, from that saved copy, the whole house in every format of
-    :func:`delivered_formats` (those whose extra is installed): ``scene.glb``, ``sceneeval/``,
-    ``scene.xml`` + ``mjcf/``, ``scene.urdf`` + ``urdf/``, ``scene.usda`` + ``usd/``; the house
-    plan as ``topdown.png``; and, for a house imported from one AI2-THOR / ProcTHOR house file,
-    that file as ``house.json`` with every room's objects at their new poses.
-    ``base_dir`` resolves the input's relative mesh uris; ``hull_cache`` is the CoACD cache the
-    formats with collision hulls read; ``parts`` writes only those of :func:`delivery_parts` after the
-    native house (``()``: the native house alone; see :func:`export_house_folder`).
-    :func:`~scenemosaic.exchange.read_house` reads the folder back.
-    """
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / RunFolder.PARTIAL).unlink(missing_ok=True)  # delivered now: no longer what a stopped run kept
-    write_scene(house, "native", folder, base_dir)
-    if parts is not None and not parts:
-        return delivered_files(folder)
-    return export_house_folder(folder, hull_cache=hull_cache, parts=parts)
+def _chosen_parts(parts: Collection[str] | None) -> set[str]:
+    every = delivery_parts()
+    chosen = set(every) if parts is None else set(parts)
+    unknown = sorted(chosen - set(every))
+    if unknown:
+        raise UsageError(f"no such delivery part: {', '.join(unknown)} (the parts: {', '.join(every)})")
+    return chosen
 
 
 def export_house_folder(
     folder: Path, *, hull_cache: HullCache | None = None, parts: Collection[str] | None = None
 ) -> list[str]:
     """Write every house-wide format beside the native house saved in ``folder`` (the second half
-    of :func:`deliver_house`); returns the files (:func:`delivered_files`).
+    of :func:`deliver_scene` of a house); returns the files (:func:`delivered_files`).
 
     ``parts`` (names of :func:`delivery_parts`; ``None``: all of them) writes only those pieces:
     they share no file, so a house run writes a house's pieces in its two worker processes at once,
@@ -133,11 +148,7 @@ def export_house_folder(
     """
     from scenemosaic.render import render_house_plan
 
-    every = delivery_parts()
-    chosen = set(every) if parts is None else set(parts)
-    unknown = sorted(chosen - set(every))
-    if unknown:
-        raise UsageError(f"no such delivery part: {', '.join(unknown)} (the parts: {', '.join(every)})")
+    chosen = _chosen_parts(parts)
     saved = read_house(folder)
     sources = {s.provenance.source_format for s in saved.rooms}
     back = _written_back(sources.pop()) if len(sources) == 1 else None
@@ -149,7 +160,7 @@ def export_house_folder(
 
 
 def delivered_files(folder: Path) -> list[str]:
-    """What a delivered house folder holds, as :func:`deliver_house` returns it: the files at its
+    """What a delivered house folder holds, as :func:`deliver_scene` returns it for a house: the files at its
     top (sorted), then its folders as ``name/`` (sorted)."""
     top = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if p.is_file())
     return [*top, *sorted(f"{p.name}/" for p in folder.iterdir() if p.is_dir())]

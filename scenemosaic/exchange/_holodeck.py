@@ -173,18 +173,16 @@ def import_holodeck(data: Any, path: Path, *, asset_database: Any = None) -> Sce
         relations=build.relations,
         metadata={
             "holodeck": {
-                "room_id": build.source_id,
-                "room_type": build.room_type,
                 "query": query if isinstance(query, str) else None,
-                "asset_ids": asset_ids,
-                "source_ids": {oid: raw for raw, oid in oid_of.items()},
                 "placement": placements,
                 "size_source": size_sources,
-                "asset_database": db.source,
             }
         },
         provenance=Provenance(
-            source_format="holodeck", source_path=path.as_posix(), importer=IMPORTER, notes=build.notes
+            source_format="holodeck", source_path=path.as_posix(), importer=IMPORTER, notes=build.notes,
+            room_type=build.room_type, source_room_id=None if build.source_id is None else str(build.source_id),
+            asset_ids={oid: str(a) for oid, a in asset_ids.items()},
+            source_ids={oid: str(raw) for raw, oid in oid_of.items()}, asset_database=db.source,
         ),
     )
 

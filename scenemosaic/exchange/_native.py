@@ -160,6 +160,7 @@ def scene_from_data(data: Any, *, source: str, roots: Sequence[str | os.PathLike
         raise ImportFormatError(
             f"expected a JSON object at the top level, got {type(data).__name__}", path=source
         )
+    data = _typed_source_facts(data)
     try:
         scene = Scene.model_validate(data)
     except ValidationError as exc:
@@ -188,6 +189,39 @@ def _check_mesh_files(scene: Scene, source: Path, roots: list[Path]) -> None:
 
 
 # -- helpers --------------------------------------------------------------------------------------
+
+
+_SOURCE_FACTS = {"room_id": "source_room_id", "room_type": "room_type", "source_ids": "source_ids",
+                 "asset_ids": "asset_ids", "asset_database": "asset_database", "import_warnings": "import_warnings"}  # fmt: skip
+"""Where a scene file written before the readers filled the typed source facts
+(``Provenance.room_type``...) kept them: ``metadata["procthor"]`` / ``metadata["holodeck"]``."""
+
+
+def _typed_source_facts(data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` with an older file's source facts moved from its format's metadata into the typed
+    provenance fields (a run delivered before, read back or resumed from); a current file as it is."""
+    metadata = data.get("metadata")
+    if not isinstance(metadata, dict) or not any(isinstance(metadata.get(k), dict) for k in ("procthor", "holodeck")):
+        return data
+    provenance = dict(data.get("provenance") or {})
+    metadata = dict(metadata)
+    for key in ("procthor", "holodeck"):
+        old = metadata.get(key)
+        if not isinstance(old, dict):
+            continue
+        rest = {k: v for k, v in old.items() if k not in _SOURCE_FACTS}
+        for name, field in _SOURCE_FACTS.items():
+            value = old.get(name)
+            if value is None or provenance.get(field) not in (None, {}, []):
+                continue
+            if field in ("source_ids", "asset_ids") and isinstance(value, dict):
+                value = {str(k): str(v) for k, v in value.items()}
+            provenance[field] = str(value) if field == "source_room_id" else value
+        if rest:
+            metadata[key] = rest
+        else:
+            del metadata[key]
+    return {**data, "metadata": metadata, "provenance": provenance}
 
 
 def _scene_validation_error(exc: ValidationError, data: dict[str, Any], source: str) -> SceneValidationError:

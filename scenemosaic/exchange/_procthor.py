@@ -221,7 +221,7 @@ def import_procthor(
     ``"exterior"``), raises :class:`~scenemosaic.exceptions.ImportFormatError` naming them all.
     With ``allow_orphans`` the import goes on instead: orphans go to the nearest room, such a door
     or window is cut into the rooms it names that the house holds, and every room's
-    ``metadata["procthor"]["import_warnings"]`` says what was done (a run reports it, ``degraded``).
+    ``provenance.import_warnings`` says what was done (a run reports it, ``degraded``).
     """
     db = load_asset_database(asset_database)
     r = FieldReader(path)
@@ -289,27 +289,21 @@ def import_procthor(
     scenes = []
     for i, b in enumerate(builds):
         r.check(object_count_problem(len(b.objects)), "objects", what=f"room {b.source_id!r} (rooms[{i}])")
-        meta: dict[str, Any] = {
-            "room_id": b.source_id,
-            "room_type": b.room_type,
-            "asset_ids": b.asset_ids,
-            "source_ids": b.source_ids,
-            "asset_database": db.source,
-        }
-        if warnings:  # the house's, on every room: whichever is worked on, the house it came from is incomplete
-            meta["import_warnings"] = list(warnings)
         scenes.append(
             Scene(
                 id=b.room.id,
                 room=b.room,
                 objects=b.objects,
                 relations=b.relations,
-                metadata={"procthor": meta},
                 provenance=Provenance(
-                    source_format="procthor", source_path=path.as_posix(), importer=IMPORTER, notes=b.notes
+                    source_format="procthor", source_path=path.as_posix(), importer=IMPORTER, notes=b.notes,
+                    room_type=b.room_type, source_room_id=str(b.source_id), asset_ids=dict(b.asset_ids),
+                    source_ids={oid: str(raw) for oid, raw in b.source_ids.items()}, asset_database=db.source,
+                    # the house's, on every room: whichever is worked on, the house it came from is incomplete
+                    import_warnings=list(warnings),
                 ),
             )
-        )
+        )  # fmt: skip
     log.debug(
         "procthor_imported", path=str(path), rooms=len(scenes), objects=sum(len(s.objects) for s in scenes)
     )
@@ -819,19 +813,19 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
     added: list[tuple[str | None, dict[str, Any]]] = []  # (the receptacle's id in the file, item)
     rooms: list[str] = []
     for scene in scenes:
-        meta = scene.metadata.get("procthor")
-        source = scene.provenance.source_path
-        if scene.provenance.source_format != "procthor" or not isinstance(meta, dict) or not source:
+        origin = scene.provenance
+        source = origin.source_path
+        if origin.source_format != "procthor" or origin.source_room_id is None or not source:
             raise UsageError(
                 f"scene {scene.id!r} was not imported from an AI2-THOR/ProcTHOR house "
                 f"(source format {scene.provenance.source_format!r}); only such a scene can be written back as one"
             )
         sources.add(source)
         known = {o.id for o in scene.objects}
-        raw_ids = {oid: str(raw) for oid, raw in (meta.get("source_ids") or {}).items()}
+        raw_ids = dict(origin.source_ids)
         placed.update({raw: scene.get(oid) for oid, raw in raw_ids.items() if oid in known})
         added.extend(_clutter_items(scene, raw_ids))
-        rooms.append(str(meta.get("room_id")))
+        rooms.append(origin.source_room_id)
     if len(sources) != 1:
         raise UsageError(
             f"the {what} comes from several house files ({', '.join(sorted(sources))}); write one at a time"

@@ -428,8 +428,8 @@ def _select_room(scenes: list[Scene], room: str, path: Path) -> list[Scene]:
         return {scene.id} | ({scene.room.id} if scene.room is not None else set())
 
     def source(scene: Scene) -> set[str]:
-        value = scene.metadata.get("procthor", {}).get("room_id")
-        return {value} if isinstance(value, str) else set()
+        value = scene.provenance.source_room_id
+        return {value} if value is not None else set()
 
     def names(scene: Scene) -> set[str]:
         return ours(scene) | source(scene)

@@ -197,13 +197,14 @@ def import_sceneeval(data: Any, path: Path, *, asset_dir: Path | None = None) ->
         metadata={
             "sceneeval": {
                 "model_ids": {p.oid: p.model_id for p in parsed},
-                "source_ids": {p.oid: p.source_id for p in parsed if p.source_id is not None},
                 "support_types": {p.oid: p.support_type for p in parsed if p.support_type is not None},
                 "asset_dir": str(asset_dir) if asset_dir is not None else None,
             }
         },
         provenance=Provenance(
-            source_format="sceneeval", source_path=path.as_posix(), importer=IMPORTER, notes=notes
+            source_format="sceneeval", source_path=path.as_posix(), importer=IMPORTER, notes=notes,
+            source_ids={p.oid: str(p.source_id) for p in parsed if p.source_id is not None},
+            asset_ids={p.oid: str(p.model_id) for p in parsed if p.model_id is not None},
         ),
     )
 

@@ -1,18 +1,18 @@
 """The field's scene metrics: COL, OOB and NAV (SceneEval's physical metrics), and the diversity of
 selected variants (Div-IoU, Div-N, RelKeep). Each is a documented function; :func:`evaluate`
 gathers them for a base scene and its variants (``scenemosaic evaluate`` prints it as JSON);
-:func:`evaluate_house` for a whole house and its variants, room by room and house-wide
+:func:`evaluate` takes a whole house and its variants as readily, room by room and house-wide
 (:func:`house_checks`: door clearance, reachability, walls).
 :func:`judge_scene` asks a vision model for the semantic POS and ROT scores (never faked: not
 measured without one).
 """
 
+from scenemosaic.metrics._evaluate import evaluate
 from scenemosaic.metrics._house import (
     FURNITURE_M2,
     HOUSE_BASE_FIGURES,
     MOVED_M,
     TURNED_DEG,
-    evaluate_house,
     furniture,
     house_checks,
     moved_furniture,
@@ -31,7 +31,6 @@ from scenemosaic.metrics._metrics import (
     col,
     div_iou,
     div_n,
-    evaluate,
     house_diversity,
     house_occupancy,
     nav,
@@ -78,7 +77,6 @@ __all__ = [
     "div_iou",
     "div_n",
     "evaluate",
-    "evaluate_house",
     "furniture",
     "house_checks",
     "house_diversity",

@@ -1,8 +1,8 @@
 """A whole house's figures: the house-wide checks (:func:`house_checks`) and every metric of a base
-house and its variants (:func:`evaluate_house`), room by room and for the house.
+house and its variants (:func:`~scenemosaic.metrics.evaluate` of a house), room by room and for the house.
 
 The pipeline's house run reports exactly these (``report.json`` ``validation`` and
-``metrics``), and ``scenemosaic evaluate`` prints :func:`evaluate_house` for a house run, so the
+``metrics``), and ``scenemosaic evaluate`` prints :func:`~scenemosaic.metrics.evaluate` of a house for a house run, so the
 report and the command agree. The checks and their constants: ``docs/houses.md``.
 """
 
@@ -16,7 +16,7 @@ from typing import Any
 from shapely.geometry import Polygon
 
 from scenemosaic.assets import HullCache
-from scenemosaic.metrics._metrics import evaluate, house_diversity, relkeep
+from scenemosaic.metrics._metrics import evaluate_scenes, house_diversity, relkeep
 from scenemosaic.physics import is_thin
 from scenemosaic.scene import (
     FLOOR,
@@ -30,10 +30,10 @@ from scenemosaic.scene import (
     yaw_from_quat,
 )
 
-__all__ = ["FURNITURE_M2", "HOUSE_BASE_FIGURES", "MOVED_M", "TURNED_DEG", "evaluate_house", "furniture", "house_checks", "moved_furniture"]
+__all__ = ["FURNITURE_M2", "HOUSE_BASE_FIGURES", "MOVED_M", "TURNED_DEG", "furniture", "house_checks", "moved_furniture"]
 
 HOUSE_BASE_FIGURES = ("house_nav", "unreachable_rooms", "door_blockers", "wall_crossings")
-"""The keys of :func:`house_checks` that :func:`evaluate_house` reports for the base house."""
+"""The keys of :func:`house_checks` that :func:`~scenemosaic.metrics.evaluate` of a house reports for the base house."""
 
 
 def house_checks(house: House) -> dict[str, Any]:
@@ -58,7 +58,7 @@ def house_checks(house: House) -> dict[str, Any]:
     }
 
 
-def evaluate_house(
+def _evaluate_house(
     base: House,
     variants: Sequence[House] = (),
     *,
@@ -90,7 +90,7 @@ def evaluate_house(
     dirs = list(variant_dirs) or [None] * len(variants)
     rooms: dict[str, Any] = {}
     for k, scene in enumerate(base.rooms):
-        rooms[scene.id] = evaluate(
+        rooms[scene.id] = evaluate_scenes(
             scene, [v.rooms[k] for v in variants], base_dir=base_dir, variant_dirs=dirs, hull_cache=hull_cache
         )
     base_figures = base_checks if base_checks is not None else house_checks(base)

@@ -76,7 +76,7 @@ __all__ = [
     "col",
     "div_iou",
     "div_n",
-    "evaluate",
+    "evaluate_scenes",
     "house_diversity",
     "house_occupancy",
     "nav",
@@ -342,9 +342,10 @@ def scene_metrics(scene: Scene, base_dir: str | Path | None = None, *, hull_cach
     }
 
 
-def evaluate(base: Scene, variants: Sequence[Scene] = (), *, base_dir: str | Path | None = None,
+def evaluate_scenes(base: Scene, variants: Sequence[Scene] = (), *, base_dir: str | Path | None = None,
              variant_dirs: Sequence[str | Path | None] = (), hull_cache: HullCache | None = None) -> dict[str, object]:
-    """Every metric of a base scene and its variants, JSON-ready.
+    """Every metric of a base scene and its variants, JSON-ready (:func:`~scenemosaic.metrics.evaluate`
+    of a room's scene).
 
     The semantic judge (POS, ROT) needs a vision model and is reported as not measured here.
     """

@@ -6,6 +6,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import overload
 
 import mujoco
 import numpy as np
@@ -42,7 +43,6 @@ __all__ = [
     "motion_between",
     "scene_world",
     "support_gaps",
-    "validate_house",
     "validate_scene",
     "write_house_mjcf",
     "write_scene_mjcf",
@@ -297,23 +297,41 @@ def _with_motion(static: ValidationReport, scene: Scene, settled: _Settled) -> V
     )
 
 
+@overload
 def validate_scene(
-    scene: Scene,
+    scene: Scene, base_dir: str | Path | None = None, *, hull_cache: HullCache | None = None,
+    hulls: HullInput | None = None, sim: SimSettings | None = None,
+) -> ValidationReport: ...
+
+
+@overload
+def validate_scene(
+    scene: House, base_dir: str | Path | None = None, *, hull_cache: HullCache | None = None,
+    hulls: HullInput | None = None, sim: SimSettings | None = None,
+) -> dict[str, ValidationReport]: ...
+
+
+def validate_scene(
+    scene: Scene | House,
     base_dir: str | Path | None = None,
     *,
     hull_cache: HullCache | None = None,
     hulls: HullInput | None = None,
     sim: SimSettings | None = None,
-) -> ValidationReport:
-    """Check a composed scene as a whole.
+) -> ValidationReport | dict[str, ValidationReport]:
+    """Check a composed scene, or a whole house, as it is delivered.
 
     Counts residual collisions (above ``COLLISION_TOLERANCE_M``) and out-of-bounds objects on the
     given poses, measures each object's gap to its support, then simulates every unit together
     with gravity down (ceiling and wall objects and ``static`` ones held fixed, the rest on free
     joints) and reports displacement, objects that tipped (tilt above ``TIPPED_TILT_DEG``) and
-    objects that fell (dropped more than ``FELL_DROP_M``). Raises
+    objects that fell (dropped more than ``FELL_DROP_M``). A :class:`~scenemosaic.scene.House` is
+    checked room by room on its poses and settled once as the whole world ``scene.xml`` holds
+    (:func:`house_world`); its result is each room's report by room id. Raises
     :class:`~scenemosaic.exceptions.PhysicsError` naming any object with a non-finite pose.
     """
+    if isinstance(scene, House):
+        return _validate_house(scene, base_dir, hull_cache=hull_cache, hulls=hulls, sim=sim)
     require_finite_poses(scene, "validate the scene")
     shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
     static = _static_report(scene, shapes, shared=hulls is None)
@@ -321,17 +339,15 @@ def validate_scene(
     return _with_motion(static, scene, settled)
 
 
-def validate_house(
+def _validate_house(
     house: House,
-    base_dir: str | Path | None = None,
+    base_dir: str | Path | None,
     *,
-    hull_cache: HullCache | None = None,
-    hulls: HullInput | None = None,
-    sim: SimSettings | None = None,
+    hull_cache: HullCache | None,
+    hulls: HullInput | None,
+    sim: SimSettings | None,
 ) -> dict[str, ValidationReport]:
-    """Check a whole house as it is delivered: per room, the checks of :func:`validate_scene` on
-    its poses, and how its objects moved when the whole house (:func:`house_world`, the world
-    ``scene.xml`` holds) settled under gravity once. Returns each room's report by room id."""
+    """:func:`validate_scene` of a whole house: each room's report by room id."""
     for scene in house.rooms:
         require_finite_poses(scene, "validate the house")
     shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in house.objects}

@@ -16,11 +16,11 @@ usage, checkpoint, interruption) over the same :class:`PipelineRun`, whose ``hou
    (``compose.compose_house``: a candidate is valid when every room is, its doors clear and its
    floor as connected as the base's); with clutter, a room shown in the same arrangement by two
    houses gets its small objects varied anew (``pipeline._clutter.vary_house_repeats``);
-3. **validate** — the delivered whole-house world (``physics.validate_house``: every room's checks,
+3. **validate** — the delivered whole-house world (``physics.validate_scene``: every room's checks,
    and the house's MuJoCo world settled once) and the house checks (door clearance, reachability
    from room to room, nothing across a wall);
-4. **evaluate** — each room's metrics and the house's (``metrics.evaluate_house``);
-5. **export** — ``base/`` and each ``variant_<i>/`` as whole houses (``exchange.deliver_house``),
+4. **evaluate** — each room's metrics and the house's (``metrics.evaluate``);
+5. **export** — ``base/`` and each ``variant_<i>/`` as whole houses (``exchange.deliver_scene``),
    and the contact sheet; with worker processes the houses are delivered ahead, each in two
    halves written at once (:class:`HouseDeliveries`), and this stage moves them into place.
 
@@ -54,7 +54,7 @@ from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
 from scenemosaic.exceptions import OutputSpaceError, SceneMosaicError
 from scenemosaic.exchange import (
-    deliver_house,
+    deliver_scene,
     delivered_files,
     delivery_parts,
     export_house_folder,
@@ -63,8 +63,8 @@ from scenemosaic.exchange import (
     load_house,
     plugin_formats,
 )
-from scenemosaic.metrics import evaluate_house, furniture, house_checks
-from scenemosaic.physics import check_collisions, check_out_of_bounds, validate_house
+from scenemosaic.metrics import evaluate, furniture, house_checks
+from scenemosaic.physics import ValidationReport, check_collisions, check_out_of_bounds, validate_scene
 from scenemosaic.pipeline._checkpoint import (
     checkpoint_state,
     input_digest,
@@ -430,7 +430,12 @@ async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
     """The delivered whole-house world, settled once in MuJoCo, with every room's checks; then
     the house-wide checks."""
     house = run.need_house()
-    reports = await asyncio.to_thread(functools.partial(validate_house, house, run.base_dir, hull_cache=run.cache()))
+    cache = run.cache()
+
+    def validate() -> dict[str, ValidationReport]:
+        return validate_scene(house, run.base_dir, hull_cache=cache)
+
+    reports = await asyncio.to_thread(validate)
     per_room: dict[str, Any] = {}
     for rid, report in reports.items():
         per_room[rid] = report.model_dump(mode="json")
@@ -455,7 +460,7 @@ async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
     """Each room's metrics (base and variants) and the house's: NAV, reachability, diversity, RelKeep."""
     house = run.need_house()
     measure = functools.partial(
-        evaluate_house, house, run.house_variants, base_dir=run.base_dir,
+        evaluate, house, run.house_variants, base_dir=run.base_dir,
         variant_dirs=[run.base_dir] * len(run.house_variants), hull_cache=run.cache(),
         base_checks=run.validation, variant_checks=run.variant_checks,
     )  # fmt: skip
@@ -517,7 +522,7 @@ class HouseDeliveries:
         staged = self.run.folder.staged / folder.name
         if staged.exists():  # a stopped run's leftovers
             await asyncio.to_thread(shutil.rmtree, staged)
-        await asyncio.to_thread(functools.partial(deliver_house, house, staged, self.run.base_dir, parts=()))
+        await asyncio.to_thread(functools.partial(deliver_scene, house, staged, self.run.base_dir, parts=()))
         self.houses[folder.name] = self._loop.create_future()
         self._left[folder.name] = set(range(len(_lanes())))
         place = len(self.houses) - 1
@@ -613,7 +618,7 @@ async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
     else:
         cache = run.cache()
         for folder, house in houses:
-            files[str(folder)] = await asyncio.to_thread(functools.partial(deliver_house, house, folder, run.base_dir, hull_cache=cache))
+            files[str(folder)] = await asyncio.to_thread(functools.partial(deliver_scene, house, folder, run.base_dir, hull_cache=cache))
             if sheet is not None:
                 await asyncio.to_thread(sheet.add, folder.name, folder / RunFolder.TOPDOWN)
     rec.detail["files"] = files[str(run.folder.base)]

@@ -151,7 +151,7 @@ def _rooms(run: PipelineRun) -> dict[str, RoomReport]:
         outcome = run.rooms.get(s.id)
         state = outcome.state if outcome else None
         out[s.id] = RoomReport(
-            room_type=(s.metadata.get("procthor") or {}).get("room_type"),
+            room_type=s.provenance.room_type,
             objects=len(s.objects),
             seconds=round(outcome.seconds, 3) if outcome else None,
             error=outcome.error if outcome else None,

@@ -125,11 +125,11 @@ def _read_one(path: Path, format: str, *, room: str | None, asset_dir: Path | No
 
 def note_import_warnings(run: PipelineRun, scenes: Sequence[Scene]) -> None:
     """Put what the import let through only because it was told to (a house's orphans, read with
-    ``allow_orphans``: ``metadata["procthor"]["import_warnings"]``) first among the run's warnings,
+    ``allow_orphans``: ``provenance.import_warnings``) first among the run's warnings,
     so the run ends ``degraded`` with that reason first (the importer has said it on the console)."""
     found: dict[str, None] = {}
     for scene in scenes:
-        for text in (scene.metadata.get("procthor") or {}).get("import_warnings") or []:
+        for text in scene.provenance.import_warnings:
             found[str(text)] = None
     fresh = [f"input: {w}" for w in found if f"input: {w}" not in run.warnings]
     if fresh:

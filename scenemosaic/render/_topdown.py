@@ -119,9 +119,9 @@ _WORD_START = re.compile(r"(?<=[a-z0-9])(?=[A-Z])")
 
 
 def room_label(scene: Scene) -> str:
-    """How a house plan names a room: its AI2-THOR room type, words split
+    """How a house plan names a room: the room type its source gives, words split
     (``LivingRoom`` -> ``Living Room``), with its id, as ``Living Room (room_9)``; else its id."""
-    kind = (scene.metadata.get("procthor") or {}).get("room_type")
+    kind = scene.provenance.room_type
     if isinstance(kind, str) and kind.strip():
         return f"{_WORD_START.sub(' ', kind.strip())} ({scene.id})"
     return scene.id

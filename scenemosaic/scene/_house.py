@@ -114,7 +114,7 @@ class House(_Model):
         """The scene of one room, by its id (or, for an imported house, its source id such as
         ProcTHOR's ``room|4``); raises ``KeyError`` naming the rooms."""
         for s in self.rooms:
-            source = (s.metadata.get("procthor") or {}).get("room_id")
+            source = s.provenance.source_room_id
             if room_id in (s.id, source, s.room.id if s.room else None):
                 return s
         raise KeyError(f"no room {room_id!r}; the house has {', '.join(self.room_ids)}")

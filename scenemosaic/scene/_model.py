@@ -529,14 +529,42 @@ class SceneStructure(_Model):
     units: list[LocalUnit] = Field(default_factory=list)
 
 
+def _unset(value: object) -> bool:
+    return value is None or value == {} or value == []
+
+
 class Provenance(_Model):
-    """Where a scene came from and what has been done to it."""
+    """Where a scene came from and what has been done to it.
+
+    The source facts below are filled by every reader that knows them (ProcTHOR, Holodeck,
+    SceneEval...), so no layer above the readers looks into a format's own ``metadata``; those
+    a source does not give are left out of the JSON."""
 
     source_format: str | None = None
     source_path: str | None = None
     importer: str | None = None
     steps: list[str] = Field(default_factory=list, description="Pipeline stages applied, in order.")
     notes: list[str] = Field(default_factory=list, description="Repairs and fallbacks worth knowing about.")
+    room_type: str | None = Field(
+        default=None, exclude_if=_unset, description="The room's kind as the source names it (ProcTHOR's 'LivingRoom')."
+    )
+    source_room_id: str | None = Field(
+        default=None, exclude_if=_unset, description="The room's id in the source file (ProcTHOR's 'room|4')."
+    )
+    source_ids: dict[str, str] = Field(
+        default_factory=dict, exclude_if=_unset, description="Each object's id in the source file, by object id."
+    )
+    asset_ids: dict[str, str] = Field(
+        default_factory=dict, exclude_if=_unset, description="Each object's asset id in the source's database, by object id."
+    )
+    asset_database: str | None = Field(
+        default=None, exclude_if=_unset, description="The asset database the source's asset ids were read against."
+    )
+    import_warnings: list[str] = Field(
+        default_factory=list,
+        exclude_if=_unset,
+        description="What the reader accepted only because it was asked to (allow_orphans); a run reports it, degraded.",
+    )
 
 
 CLUTTER_METADATA = "clutter"

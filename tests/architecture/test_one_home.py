@@ -28,3 +28,20 @@ def test_every_prompt_lives_once_in_the_package() -> None:
     ]
     assert not copies, "prompt copies outside their one home:\n" + "\n".join(copies)
     assert not (ROOT / "prompts").exists()  # no second, unread prompt folder at the top
+
+
+def test_no_layer_above_the_readers_looks_into_a_formats_metadata() -> None:
+    """A source's facts (room type, source ids, asset ids, import warnings) are typed
+    ``Provenance`` fields; only ``exchange/`` (the readers, and the reading of older files) knows
+    where a format keeps them in ``metadata``."""
+    import re
+
+    pattern = re.compile(r"metadata(\.get\(|\[)\s*['\"](procthor|holodeck|front3d|sceneeval|sam3d)['\"]")
+    offences = [
+        f"{p.relative_to(ROOT)}:{n}: {line.strip()}"
+        for p in sorted((ROOT / "scenemosaic").rglob("*.py"))
+        if "exchange" not in p.relative_to(ROOT / "scenemosaic").parts
+        for n, line in enumerate(p.read_text(encoding="utf-8").splitlines(), start=1)
+        if pattern.search(line)
+    ]
+    assert not offences, "format metadata read outside exchange/:\n" + "\n".join(offences)

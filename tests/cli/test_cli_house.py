@@ -93,7 +93,7 @@ def test_export_writes_every_scene_as_a_whole_house(run_dir: Path, houses: dict[
         names = read_back(fmt, tmp_path / name)
         house = houses[name]
         if fmt == "procthor":
-            assert names == {str(s.metadata["procthor"]["room_id"]) for s in house.rooms}
+            assert names == {s.provenance.source_room_id for s in house.rooms}
         else:
             assert {o.id for o in house.objects} <= names, name
 

@@ -9,7 +9,7 @@ import pytest
 import trimesh
 
 from scenemosaic.assets import HullCache
-from scenemosaic.exchange import deliver_house, deliver_scene
+from scenemosaic.exchange import deliver_scene
 from scenemosaic.scene import AssetRef, House, Pose, Room, Scene, SceneObject
 
 
@@ -49,6 +49,6 @@ def test_a_delivered_scene_reads_the_hull_cache_it_is_given(no_default_cache: Pa
 def test_a_delivered_house_reads_the_hull_cache_it_is_given(no_default_cache: Path) -> None:
     rooms = [_mesh_room(no_default_cache / "in", "room_a", 0.0), _mesh_room(no_default_cache / "in", "room_b", 3.0)]
     cache = HullCache(no_default_cache / "cache")
-    files = deliver_house(House(id="two", rooms=rooms), no_default_cache / "out", no_default_cache / "in", hull_cache=cache)
+    files = deliver_scene(House(id="two", rooms=rooms), no_default_cache / "out", no_default_cache / "in", hull_cache=cache)
     assert "scene.xml" in files
     assert any((no_default_cache / "cache").rglob("*"))

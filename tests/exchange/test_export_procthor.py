@@ -57,7 +57,7 @@ def test_objects_fill_adds_go_into_the_house_file(tmp_path: Path) -> None:
     added = scene.metadata["clutter"]["objects"]
     assert len(added) >= 5
     raw = json.loads((result.base_dir / "house.json").read_text(encoding="utf-8"))
-    source_ids = scene.metadata["procthor"]["source_ids"]
+    source_ids = scene.provenance.source_ids
     children: dict[str, str] = {}
 
     def walk(items: list[dict[str, object]]) -> None:

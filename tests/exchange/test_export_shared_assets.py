@@ -12,7 +12,7 @@ import gc
 from pathlib import Path
 
 from scenemosaic._memo import Memo
-from scenemosaic.exchange import deliver_house, load_house
+from scenemosaic.exchange import deliver_scene, load_house
 from scenemosaic.scene import House, Pose
 
 HOUSE_JSON = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor" / "procthor_4room.json"
@@ -52,10 +52,10 @@ def test_a_variant_delivered_after_another_equals_it_delivered_fresh(tmp_path: P
     house = load_house(HOUSE_JSON)
     variant = _moved(house, 0.05)
     assert _forget_everything() >= 5  # shapes, hull meshes, pieces, OBJ texts, layers, wall pieces
-    deliver_house(house, tmp_path / "base", HOUSE_JSON.parent)
-    deliver_house(variant, tmp_path / "after", HOUSE_JSON.parent)
+    deliver_scene(house, tmp_path / "base", HOUSE_JSON.parent)
+    deliver_scene(variant, tmp_path / "after", HOUSE_JSON.parent)
     _forget_everything()
-    deliver_house(variant, tmp_path / "fresh", HOUSE_JSON.parent)
+    deliver_scene(variant, tmp_path / "fresh", HOUSE_JSON.parent)
     after, fresh = _files(tmp_path / "after"), _files(tmp_path / "fresh")
     assert sorted(after) == sorted(fresh)
     assert [name for name in after if after[name] != fresh[name]] == []

@@ -29,7 +29,7 @@ from scenemosaic.exchange import (
     GLB_ROOT_NODE,
     HOUSE_INDEX_FILE,
     HOUSE_ROOMS_DIR,
-    deliver_house,
+    deliver_scene,
     delivered_files,
     delivery_parts,
     export_glb,
@@ -308,7 +308,7 @@ def _unity_centre(
 
 def test_deliver_house_round_trips_and_writes_the_procthor_house_back(house: House, tmp_path: Path) -> None:
     folder = tmp_path / "base"
-    written = deliver_house(house, folder, None)
+    written = deliver_scene(house, folder, None)
     expected = {HOUSE_INDEX_FILE, "scene.xml", "scene.urdf", "scene.glb", "topdown.png", "house.json"}
     expected |= {f"{HOUSE_ROOMS_DIR}/", "mjcf/", "urdf/", "sceneeval/"}
     if "usd" not in formats_left_out():
@@ -344,7 +344,7 @@ def test_deliver_house_round_trips_and_writes_the_procthor_house_back(house: Hou
     assert set(old) == set(new)
     ours = {}
     for scene in house.rooms:
-        for oid, raw in scene.metadata["procthor"]["source_ids"].items():
+        for oid, raw in scene.provenance.source_ids.items():
             if any(o.id == oid for o in scene.objects):
                 ours[str(raw)] = scene.get(oid)
     assert len(ours) == len(house.objects)
@@ -379,9 +379,9 @@ def test_a_house_delivered_in_two_halves_is_the_house_delivered_at_once(house: H
     """What a house run does in its two worker processes: the native house first, then two
     disjoint sets of parts, each written on its own; together they make the same files."""
     whole = tmp_path / "whole"
-    written = deliver_house(house, whole, None)
+    written = deliver_scene(house, whole, None)
     halves = tmp_path / "halves"
-    assert deliver_house(house, halves, None, parts=()) == [HOUSE_INDEX_FILE, f"{HOUSE_ROOMS_DIR}/"]
+    assert deliver_scene(house, halves, None, parts=()) == [HOUSE_INDEX_FILE, f"{HOUSE_ROOMS_DIR}/"]
     assert not (halves / "scene.xml").exists() and not (halves / "topdown.png").exists()
     first, second = ("mjcf", "usd", "glb"), tuple(p for p in delivery_parts() if p not in ("mjcf", "usd", "glb"))
     export_house_folder(halves, parts=second)

@@ -38,7 +38,7 @@ def scene(raw: dict[str, Any], holodeck_path: Path) -> Scene:
 
 
 def _source_ids(scene: Scene) -> dict[str, str]:
-    ids: dict[str, str] = scene.metadata["holodeck"]["source_ids"]
+    ids: dict[str, str] = scene.provenance.source_ids
     return ids
 
 
@@ -66,9 +66,9 @@ def test_every_object_is_imported(raw: dict[str, Any], scene: Scene) -> None:
     assert len(scene.objects) == len(raw["objects"]) == 33
     assert sorted(_source_ids(scene).values()) == sorted(o["id"] for o in raw["objects"])
     assert scene.provenance.source_format == "holodeck"
-    meta = scene.metadata["holodeck"]
-    assert meta["room_type"] == raw["rooms"][0]["roomType"]
-    assert {meta["asset_ids"][oid] for oid in meta["asset_ids"]} == {o["assetId"] for o in raw["objects"]}
+    source = scene.provenance  # the source's facts, typed
+    assert source.room_type == raw["rooms"][0]["roomType"]
+    assert set(source.asset_ids.values()) == {o["assetId"] for o in raw["objects"]}
     for obj in scene.objects:
         assert obj.asset.kind == "procedural"
         pose = obj.pose

@@ -169,7 +169,7 @@ def test_sam3d_ids_kept_verbatim_win_over_sanitized_lookalikes(
 def test_procthor_ids_keep_their_readable_form(procthor_house: Path, procthor_db: Path) -> None:
     scenes = load_scenes(procthor_house, asset_database=procthor_db)
     ids = [o.id for s in scenes for o in s.objects]
-    sources = [raw for s in scenes for raw in s.metadata["procthor"]["source_ids"].values()]
+    sources = [raw for s in scenes for raw in s.provenance.source_ids.values()]
     assert ids and all("|" not in i for i in ids)
     assert all(sanitize_id(raw) == raw.replace("|", "_") for raw in sources)
     assert [s.room.id for s in scenes if s.room is not None] == [s.id for s in scenes]

@@ -41,7 +41,7 @@ def test_no_shipped_house_has_an_orphan(path: Path) -> None:
     """Every shipped house imports without ``allow_orphans``, and none needed the tolerance's
     nearest-room rule either: no top-level object's centre lies outside every floor."""
     scenes = load_scenes(path)
-    assert not any("import_warnings" in s.metadata["procthor"] for s in scenes)
+    assert not any(s.provenance.import_warnings for s in scenes)
     assert not any("outside every floor polygon" in n for s in scenes for n in s.provenance.notes)
 
 
@@ -63,10 +63,10 @@ def test_allowed_orphans_go_to_the_nearest_room_and_every_room_says_so(tmp_path:
     path = _without_bathroom(tmp_path)
     house = load_house(path, allow_orphans=True)
     kitchen = house.room("room|6")
-    ids = {kitchen.metadata["procthor"]["source_ids"].get(o.id) for o in kitchen.objects}
+    ids = {kitchen.provenance.source_ids.get(o.id) for o in kitchen.objects}
     assert {"5|0", "5|1|0", "5|2", "5|4"} <= ids
     for room in house.rooms:
-        warnings = room.metadata["procthor"]["import_warnings"]
+        warnings = room.provenance.import_warnings
         assert warnings[0].startswith("4 object(s) lie outside every room") and "each put in the nearest room" in warnings[0]
         assert "'room|5'" in warnings[1]
     notes = [n for n in kitchen.provenance.notes if "outside every floor polygon" in n and "(allow_orphans)" in n]
@@ -92,7 +92,7 @@ def test_the_outside_is_no_missing_room(tmp_path: Path) -> None:
     exterior = next(d for d in raw["doors"] if d["room0"] == d["room1"])
     exterior["room0"] = "exterior"
     scenes = load_scenes(_write(tmp_path, raw))
-    assert not any("import_warnings" in s.metadata["procthor"] for s in scenes)
+    assert not any(s.provenance.import_warnings for s in scenes)
 
 
 def test_an_object_a_few_centimetres_out_goes_to_its_room(tmp_path: Path) -> None:
@@ -111,5 +111,5 @@ def test_an_object_a_few_centimetres_out_goes_to_its_room(tmp_path: Path) -> Non
                 load_scenes(path)
             continue
         scenes = load_scenes(path)
-        owner = next(s for s in scenes if source_id in s.metadata["procthor"]["source_ids"].values())
+        owner = next(s for s in scenes if source_id in s.provenance.source_ids.values())
         assert any("lies outside every floor polygon; assigned to the nearest room" in n for n in owner.provenance.notes)

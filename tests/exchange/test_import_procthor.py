@@ -39,7 +39,7 @@ def test_one_scene_per_room(procthor_house: Path, house: list[Scene]) -> None:
     raw = json.loads(procthor_house.read_text())
     assert detect_format(procthor_house) == "procthor"
     assert [s.id for s in house] == ["room_2", "room_3"]
-    assert [s.metadata["procthor"]["room_type"] for s in house] == ["Bedroom", "LivingRoom"]
+    assert [s.provenance.room_type for s in house] == ["Bedroom", "LivingRoom"]
     everything = _flatten(raw["objects"])
     assert sum(len(s.objects) for s in house) == len(everything) == 12
     for scene in house:
@@ -181,3 +181,27 @@ def test_each_window_and_door_is_cut_once_per_room_it_opens_onto() -> None:
                     if opening.kind != "opening":  # an `empty` wall: no door, no window
                         got[opening.kind] += 1
         assert got == expected, path.name
+
+
+def test_the_source_facts_are_typed_and_a_file_from_before_still_reads(house: list[Scene], tmp_path: Path) -> None:
+    """Room type, source ids and asset ids are ``Provenance`` fields every reader fills (nothing
+    above the readers looks into ``metadata``); a scene file that kept them in
+    ``metadata["procthor"]`` (written before) reads back with them typed, and writes back."""
+    import json
+
+    from scenemosaic.exchange import read_scene, save_scene
+
+    room = house[0]
+    assert room.metadata == {} and room.provenance.room_type == "Bedroom"
+    assert room.provenance.source_room_id is not None
+    assert set(room.provenance.source_ids) <= {o.id for o in room.objects} and room.provenance.source_ids
+    assert room.provenance.asset_ids and room.provenance.asset_database
+    folder = save_scene(room, tmp_path / "now").parent
+    data = json.loads((folder / "scene.json").read_text())
+    old = dict(data["provenance"])
+    moved = {k: old.pop(v) for k, v in (("room_id", "source_room_id"), ("room_type", "room_type"), ("source_ids", "source_ids"),
+                                       ("asset_ids", "asset_ids"), ("asset_database", "asset_database"))}
+    data["provenance"], data["metadata"] = old, {"procthor": moved}
+    (folder / "scene.json").write_text(json.dumps(data))
+    again = read_scene(folder)
+    assert again.provenance == room.provenance and again.metadata == {}

@@ -66,7 +66,7 @@ def _openings(scenes: list[Scene]) -> list[tuple[str, str, np.ndarray, float, fl
             for o in wall.openings:
                 if o.kind != "opening":
                     centre = np.asarray(wall.start) + wall.direction * o.center
-                    out.append((scene.metadata["procthor"]["room_id"], o.kind, centre, o.width, o.bottom, o.height, wall.id))
+                    out.append((scene.provenance.source_room_id, o.kind, centre, o.width, o.bottom, o.height, wall.id))
     return out
 
 
@@ -74,7 +74,7 @@ def _openings(scenes: list[Scene]) -> list[tuple[str, str, np.ndarray, float, fl
 def test_every_door_and_window_lands_on_its_wall_at_its_place_and_size(path: Path) -> None:
     raw = json.loads(path.read_text(encoding="utf-8"))
     scenes = load_scenes(path)
-    assert [s.metadata["procthor"]["room_id"] for s in scenes] == [r["id"] for r in raw["rooms"]]
+    assert [s.provenance.source_room_id for s in scenes] == [r["id"] for r in raw["rooms"]]
     got = _openings(scenes)
     expected = _expected(raw)
     assert len(got) == len(expected) and expected
@@ -84,7 +84,7 @@ def test_every_door_and_window_lands_on_its_wall_at_its_place_and_size(path: Pat
         _, _, at, w, s, h, wall_id = match[0]
         assert (w, s, h) == pytest.approx((width, sill, height), abs=1e-9)
         # on the room's wall along the source wall, not merely near it: the centre lies on that wall's line
-        scene = next(sc for sc in scenes if sc.metadata["procthor"]["room_id"] == room)
+        scene = next(sc for sc in scenes if sc.provenance.source_room_id == room)
         assert scene.room is not None
         wall = next(wl for wl in scene.room.walls if wl.id == wall_id)
         assert abs(float(np.dot(centre - np.asarray(wall.start), wall.outward_normal))) <= REACH
@@ -161,13 +161,13 @@ def test_the_published_ai2thor_house_of_the_first_form_keeps_its_rooms_and_objec
         return sum(1 + count(i.get("children") or []) for i in items)
 
     scenes = load_scenes(AI2THOR_0_0_1)
-    assert [s.metadata["procthor"]["room_type"] for s in scenes] == ["Bedroom", "Bathroom", "Kitchen", "LivingRoom"]
+    assert [s.provenance.room_type for s in scenes] == ["Bedroom", "Bathroom", "Kitchen", "LivingRoom"]
     assert sum(len(s.objects) for s in scenes) == count(raw["objects"]) == 64
     assert all(math.isclose(s.room.ceiling_height, 2.9859275340171396) for s in scenes)  # type: ignore[union-attr]
 
 
 def test_an_empty_wall_of_the_first_form_opens_the_rooms_onto_each_other() -> None:
-    kitchen, living = (s for s in load_scenes(AI2THOR_OPEN_PLAN) if s.metadata["procthor"]["room_type"] in ("Kitchen", "LivingRoom"))
+    kitchen, living = (s for s in load_scenes(AI2THOR_OPEN_PLAN) if s.provenance.room_type in ("Kitchen", "LivingRoom"))
     for scene in (kitchen, living):
         assert scene.room is not None
         (opening,) = [o for w in scene.room.walls for o in w.openings if o.kind == "opening"]

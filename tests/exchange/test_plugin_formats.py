@@ -18,7 +18,6 @@ from scenemosaic.exchange import (
     FORMATS,
     ReadOptions,
     SceneFormat,
-    deliver_house,
     deliver_scene,
     delivered_formats,
     delivery_parts,
@@ -75,7 +74,7 @@ def test_a_registered_export_format_is_delivered_with_every_scene(positions_form
     files = deliver_scene(room, tmp_path / "room", ROOM.parent)
     assert "positions.txt" in files
     house = load_house(TWO_ROOMS)
-    files = deliver_house(house, tmp_path / "house", TWO_ROOMS.parent)
+    files = deliver_scene(house, tmp_path / "house", TWO_ROOMS.parent)
     assert "positions.txt" in files
     assert len((tmp_path / "house" / "positions.txt").read_text().splitlines()) == len(house.objects)
 

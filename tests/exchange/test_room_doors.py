@@ -285,14 +285,14 @@ def test_a_delivered_room_keeps_its_doorway_free_and_its_files_hang_the_door(tmp
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.house
 def test_a_delivered_house_hangs_its_doors_and_its_navigation_is_unchanged(tmp_path: Path) -> None:
-    from scenemosaic.exchange import deliver_house, load_house, read_house
+    from scenemosaic.exchange import deliver_scene, load_house, read_house
     from scenemosaic.metrics import house_checks
 
     source = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor" / "procthor_4room.json"
     house = load_house(source)
     doors = room_door_leaves(house)
     assert len(doors) == sum(1 for d in house.doorways() if d.kind == "door")
-    deliver_house(house, tmp_path, source.parent)
+    deliver_scene(house, tmp_path, source.parent)
     saved = read_house(tmp_path)
     assert not any(o.category.startswith("room_") for o in saved.objects)
     assert house_checks(saved) == house_checks(house)  # nav, door blockers, reach: as without leaves

@@ -18,7 +18,7 @@ from scenemosaic.exceptions import MissingExtraError, UsageError
 from scenemosaic.exchange import (
     FORMATS,
     SceneFormat,
-    deliver_house,
+    deliver_scene,
     delivered_formats,
     formats_left_out,
     writable_formats,
@@ -49,7 +49,7 @@ def test_write_scene_writes_the_whole_house(house: House, fmt: str, tmp_path: Pa
     names = read_back(fmt, folder)
     ids = {o.id for o in house.objects}
     if fmt == "procthor":  # the AI2-THOR house file, every room of it
-        assert names == {str(s.metadata["procthor"]["room_id"]) for s in house.rooms}
+        assert names == {s.provenance.source_room_id for s in house.rooms}
         return
     assert ids <= names, sorted(ids - names)[:5]
     static = {"world", "floor", "room", *house.room_ids}  # the house's own bodies, links and nodes
@@ -62,7 +62,7 @@ def test_write_scene_writes_the_whole_house(house: House, fmt: str, tmp_path: Pa
 def test_write_scene_gives_the_delivered_bytes(house: House, tmp_path: Path) -> None:
     """One writer per format: a house written format by format equals the delivered folder."""
     delivered = tmp_path / "delivered"
-    deliver_house(house, delivered, HOUSE_FILE.parent)
+    deliver_scene(house, delivered, HOUSE_FILE.parent)
     saved = sm.load_scene(delivered)
     assert isinstance(saved, House)
     for fmt, _ in delivered_formats():

@@ -121,7 +121,7 @@ def test_a_run_failing_after_the_houses_went_ahead_keeps_only_its_partial_base(
     def broken(*args: object, **kwargs: object) -> None:
         raise RuntimeError("evaluation broke")
 
-    monkeypatch.setattr(house_stages, "evaluate_house", broken)
+    monkeypatch.setattr(house_stages, "evaluate", broken)
     out = tmp_path / "failed"
     with pytest.raises(RuntimeError, match="evaluation broke"):
         generate(TWO_ROOMS, out, GenerateConfig(variants=1, room_workers=2))
@@ -141,7 +141,7 @@ def test_a_house_half_failing_in_its_worker_fails_the_export_and_keeps_the_parti
     the run at its export stage, said with the house and the part, and nothing half written stays."""
     import scenemosaic.pipeline._house as house_stages
 
-    monkeypatch.setattr(house_stages, "_LANES", (("mjcf", "usd", "glb"), ("urdf", "no_such_part")))
+    monkeypatch.setattr(house_stages, "_lanes", lambda: (("mjcf", "usd", "glb"), ("urdf", "no_such_part")))
     out = tmp_path / "failed"
     with pytest.raises(SceneMosaicError, match=r"house export failed: base: .*no such delivery part: no_such_part"):
         generate(TWO_ROOMS, out, GenerateConfig(variants=1, room_workers=2))
@@ -203,7 +203,7 @@ def test_cli_room_option_still_runs_one_room(tmp_path: Path) -> None:
     assert not (out / "base" / "house_scene.json").exists()
     scene = load_scene(out)
     assert isinstance(scene, Scene) and not isinstance(scene, House)
-    assert (scene.metadata.get("procthor") or {}).get("room_id") == "room|2"
+    assert scene.provenance.source_room_id == "room|2"
     report = json.loads((out / "report.json").read_text(encoding="utf-8"))
     assert "house" not in report
 

@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 from scenemosaic.cli import app
 from scenemosaic.exchange import load_house
-from scenemosaic.physics import validate_house
+from scenemosaic.physics import validate_scene
 from scenemosaic.pipeline import GenerateConfig, PipelineRun, RunSetup, StageRecord, generate
 from scenemosaic.pipeline._report import RunReport
 from scenemosaic.pipeline._stages import note_shortfall
@@ -116,8 +116,8 @@ def test_validate_house_settles_the_delivered_world(tmp_path: Path) -> None:
     )  # fmt: skip
     moved_room = room.model_copy(update={"objects": [lifted if o.id == target.id else o for o in room.objects]})
     moved = house.with_rooms([moved_room, *house.rooms[1:]])
-    reports = validate_house(moved, TWO_ROOMS.parent)
-    still = validate_house(house, TWO_ROOMS.parent)
+    reports = validate_scene(moved, TWO_ROOMS.parent)
+    still = validate_scene(house, TWO_ROOMS.parent)
     assert set(reports) == set(still) == set(house.room_ids)
     assert reports[room.id].simulated_s > 0
     fell = {oid for r in reports.values() for oid in r.fell}
@@ -126,7 +126,7 @@ def test_validate_house_settles_the_delivered_world(tmp_path: Path) -> None:
 
 
 def test_a_validated_houses_rooms_are_not_measured_again_for_their_metrics(monkeypatch: pytest.MonkeyPatch) -> None:
-    """As for a room: ``validate_house`` measures each room's collisions once, and the metrics'
+    """As for a room: ``validate_scene`` measures each room's collisions once, and the metrics'
     check of the same rooms (``check_collisions``) gets that report, not a new measure."""
     import scenemosaic.physics._checks as checks
     from scenemosaic.physics import check_collisions
@@ -148,7 +148,7 @@ def test_a_validated_houses_rooms_are_not_measured_again_for_their_metrics(monke
         ]})
         for room in house.rooms
     ])  # fmt: skip
-    reports = validate_house(house, TWO_ROOMS.parent)
+    reports = validate_scene(house, TWO_ROOMS.parent)
     assert sorted(measured) == sorted(house.room_ids)
     for room in house.rooms:
         assert check_collisions(room, TWO_ROOMS.parent) == reports[room.id].collisions

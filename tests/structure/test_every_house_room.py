@@ -13,7 +13,7 @@ from scenemosaic.pipeline import GenerateConfig, generate
 
 HOUSES = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor"
 ROOMS = [
-    pytest.param(house, str(scene.metadata["procthor"]["room_id"]), id=f"{house.stem}-{scene.metadata['procthor']['room_id']}")
+    pytest.param(house, scene.provenance.source_room_id, id=f"{house.stem}-{scene.provenance.source_room_id}")
     for house in sorted(HOUSES.glob("procthor*.json"))
     for scene in load_scenes(house)
 ]
