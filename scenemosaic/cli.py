@@ -272,14 +272,15 @@ def _run_held(input_path: Path | None, out: Path, config: GenerateConfig, stop: 
         console=_err,
         transient=False,
     ) as progress:
-        bar = progress.add_task("starting", total=len(pipeline.STAGE_NAMES))
+        bar = progress.add_task("starting", total=None)
         stop.on_stop = lambda name: progress.update(bar, description=f"stopping ({name}): writing the report")
+        planned: list[str] = []
 
         def on_stage(name: str, status: str) -> None:
-            if status == "started" and name not in pipeline.STAGE_NAMES:  # a stage of a whole house: its own stages
-                progress.update(bar, total=len(pipeline.HOUSE_STAGE_NAMES))
-                if name not in pipeline.HOUSE_STAGE_NAMES:  # a room's optional stage (clutter): one more
-                    progress.update(bar, total=len(pipeline.STAGE_NAMES) + 1)
+            if status == "planned":  # the run's plan, announced before its first stage
+                planned.append(name)
+                progress.update(bar, total=len(planned))
+                return
             if status == "started":
                 progress.update(bar, description=name)
             else:

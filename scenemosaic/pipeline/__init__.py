@@ -1,9 +1,10 @@
 """The ``generate`` pipeline: an explicit list of stages over one run.
 
 :data:`STAGES` lists the stages in order — ``import``, ``assets``, ``structure``, ``stabilize``,
-``evolve``, ``doors``, ``compose``, ``validate``, ``evaluate``, ``export`` — each a :class:`Stage` (a name
+``doors``, ``evolve``, ``compose``, ``validate``, ``evaluate``, ``export`` — each a :class:`Stage` (a name
 and an async function over a :class:`PipelineRun`, which carries each stage's result to the
-next in memory). The run's settings are one :class:`GenerateConfig`; its output folder is an
+next in memory); :func:`plan` says which stages a run goes through (a room's, with the clutter
+stage when asked for, or a whole house's :data:`HOUSE_STAGES`), in one place. The run's settings are one :class:`GenerateConfig`; its output folder is an
 ``exchange.RunFolder``; its model stack is opened once (``models.open_run_model``). A failing or
 stopped stage never loses earlier work: the last good scene is delivered to ``base/``,
 ``report.json`` records which stage stopped and why, and a stopped run continues with
@@ -31,9 +32,9 @@ from scenemosaic.pipeline._state import PipelineRun, RunSetup, Stage, StageCallb
 
 if TYPE_CHECKING:
     from scenemosaic.pipeline._checkpoint import checkpoint_config
-    from scenemosaic.pipeline._clutter import room_stages
     from scenemosaic.pipeline._demo import demo_scene
     from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, HOUSE_STAGES
+    from scenemosaic.pipeline._plan import Plan, plan
     from scenemosaic.pipeline._report import RunReport
     from scenemosaic.pipeline._run import REPORT_FILE, agenerate, generate, run_sync
     from scenemosaic.pipeline._stages import STAGE_NAMES, STAGES
@@ -50,7 +51,8 @@ _LAZY = {
     "demo_scene": "_demo",
     "generate": "_run",
     "run_sync": "_run",
-    "room_stages": "_clutter",
+    "Plan": "_plan",
+    "plan": "_plan",
 }
 """Names whose modules import the stages' backends (MuJoCo, CoACD): loaded on first use, so the
 settings (and the CLI's ``--help``) stay light."""
@@ -75,6 +77,7 @@ __all__ = [
     "GenerateConfig",
     "GenerateResult",
     "PipelineRun",
+    "Plan",
     "RunReport",
     "RunSetup",
     "Setting",
@@ -88,7 +91,7 @@ __all__ = [
     "config_record",
     "demo_scene",
     "generate",
-    "room_stages",
+    "plan",
     "run_sync",
     "setting_options",
     "settings_doc",

@@ -2,7 +2,7 @@
 every variant (``--clutter fill|vary``, ``docs/clutter.md``).
 
 It runs after ``compose`` and before ``validate``, and only when the run's ``clutter`` is not
-``keep``: :func:`room_stages` gives :data:`~scenemosaic.pipeline.STAGES` itself for ``keep``, so a
+``keep``: the run's plan (``pipeline/_plan.py``) is :data:`~scenemosaic.pipeline.STAGES` itself for ``keep``, so a
 run that keeps its clutter runs, records and writes exactly what it did before the setting
 existed.
 
@@ -42,7 +42,6 @@ from scenemosaic.clutter import (
     vary_scene,
 )
 from scenemosaic.compose import novelty_with_clutter
-from scenemosaic.pipeline._config import GenerateConfig
 from scenemosaic.pipeline._state import PipelineRun, Stage, StageRecord
 from scenemosaic.scene import Scene
 
@@ -50,8 +49,6 @@ __all__ = [
     "CANDIDATES",
     "CLUTTER_STAGE",
     "clutter_scenes",
-    "house_room_stages",
-    "room_stages",
     "vary_house_repeats",
     "vary_repeated_rooms",
 ]
@@ -267,7 +264,7 @@ def _diversity(variants: list[Scene], priors: ClutterPriors) -> dict[str, float 
 
 async def _stage_clutter(run: PipelineRun, rec: StageRecord) -> None:
     cfg = run.config
-    if cfg.clutter == "keep":  # pragma: no cover - room_stages leaves the stage out
+    if cfg.clutter == "keep":  # pragma: no cover - the plan leaves the stage out
         rec.status = "skipped"
         return
     scene = run.need_scene()
@@ -287,26 +284,3 @@ async def _stage_clutter(run: PipelineRun, rec: StageRecord) -> None:
 
 CLUTTER_STAGE = Stage("clutter", _stage_clutter)
 """The clutter stage (module docstring)."""
-
-
-def room_stages(config: GenerateConfig, stages: tuple[Stage, ...] | None = None) -> tuple[Stage, ...]:
-    """The stages a room's run goes through: ``stages`` (default
-    :data:`~scenemosaic.pipeline.STAGES`; the driver passes the ones it holds), with the clutter
-    stage after ``compose`` when the run's ``clutter`` is not ``keep``."""
-    from scenemosaic.pipeline._stages import STAGES
-
-    base = STAGES if stages is None else stages
-    if config.clutter == "keep":
-        return base
-    at = [s.name for s in base].index("compose") + 1
-    return (*base[:at], CLUTTER_STAGE, *base[at:])
-
-
-def house_room_stages(config: GenerateConfig) -> tuple[Stage, ...]:
-    """The stages each room of a whole-house run goes through (``pipeline/_house.py``):
-    ``pipeline._stages.HOUSE_ROOM_STAGES`` itself for ``keep``, else with the clutter stage after
-    their last, ``compose``. The house's own compose then picks among each room's base and
-    variants as they left this stage, so every house variant carries its rooms' clutter."""
-    from scenemosaic.pipeline._stages import HOUSE_ROOM_STAGES
-
-    return HOUSE_ROOM_STAGES if config.clutter == "keep" else (*HOUSE_ROOM_STAGES, CLUTTER_STAGE)

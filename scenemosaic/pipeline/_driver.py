@@ -13,7 +13,6 @@ import structlog
 from scenemosaic._logging import flush_logs
 from scenemosaic.exceptions import ModelEndpointError, NodeFailedError, OutputSpaceError
 from scenemosaic.pipeline._checkpoint import save_checkpoint
-from scenemosaic.pipeline._stages import STAGES
 from scenemosaic.pipeline._state import PipelineRun, Stage, StageCallback, StageRecord
 
 __all__ = ["as_interruption", "run_stages"]
@@ -51,9 +50,10 @@ async def run_stages(
     finished: set[str],
     digest: str | None,
     on_stage: StageCallback | None,
-    stages: Sequence[Stage] = STAGES,
+    stages: Sequence[Stage],
 ) -> BaseException | None:
-    """Run every stage not finished before; returns the failure that stopped the run, if any."""
+    """Run every stage of ``stages`` (the run's plan, ``pipeline/_plan.py``) not finished before;
+    returns the failure that stopped the run, if any."""
     for stage in stages:
         name = stage.name
         if name in finished and name != "export":

@@ -4,9 +4,9 @@ A multi-room house input (an AI2-THOR / ProcTHOR house file without ``room``) ru
 :data:`HOUSE_STAGES` through the same driver as a room (``pipeline/_driver.py``: records,
 usage, checkpoint, interruption) over the same :class:`PipelineRun`, whose ``house`` holds it:
 
-1. **rooms** — each room is a run of its own over :data:`HOUSE_ROOM_STAGES` (import → assets →
-   structure → stabilize → doors → evolve → compose, then ``clutter`` when ``--clutter`` is not
-   ``keep``: ``pipeline._clutter.house_room_stages``) in ``OUT/rooms/<room>/``, started from the
+1. **rooms** — each room is a run of its own over the room stages of the run's plan
+   (``pipeline/_plan.py``: import → assets → structure → stabilize → doors → evolve → compose,
+   then ``clutter`` when ``--clutter`` is not ``keep``) in ``OUT/rooms/<room>/``, started from the
    room's scene as the house import gave it (in memory) and with its own checkpoint, so a stopped
    house resumes room by room. Rooms are independent until the house-level checks, so they run
    concurrently: in ``room_workers`` processes (:mod:`scenemosaic.pipeline._house_worker`, each
@@ -71,7 +71,7 @@ from scenemosaic.pipeline._checkpoint import (
     load_checkpoint,
     save_checkpoint,
 )
-from scenemosaic.pipeline._clutter import house_room_stages, vary_house_repeats
+from scenemosaic.pipeline._clutter import vary_house_repeats
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record
 from scenemosaic.pipeline._driver import run_stages
 from scenemosaic.pipeline._stages import (
@@ -108,11 +108,16 @@ def is_house_input(input_path: Path, config: GenerateConfig) -> bool:
 
 
 async def _run_room(
-    room: Scene, input_path: Path, root: Path, config: GenerateConfig, base_dir: Path, model: RunModel | None
+    room: Scene,
+    input_path: Path,
+    root: Path,
+    config: GenerateConfig,
+    base_dir: Path,
+    model: RunModel | None,
+    stages: tuple[Stage, ...],
 ) -> RoomOutcome:
-    """One room of the house through :data:`HOUSE_ROOM_STAGES` (and the clutter stage after
-    ``compose`` when ``clutter`` is not ``keep``: ``pipeline._clutter.house_room_stages``) in
-    ``OUT/rooms/<room>/``, from its scene as given; ``model`` is the house run's model stack
+    """One room of the house through ``stages`` (the plan's room stages: ``pipeline/_plan.py``)
+    in ``OUT/rooms/<room>/``, from its scene as given; ``model`` is the house run's model stack
     (``None``: the room opens its own)."""
     t0 = time.perf_counter()
     folder = RunFolder(root).room(room.id)
@@ -126,7 +131,7 @@ async def _run_room(
         await asyncio.to_thread(save_checkpoint, run, digest)
     failure: BaseException | None = None
     try:
-        failure = await run_stages(run, finished, digest, None, house_room_stages(config))
+        failure = await run_stages(run, finished, digest, None, stages)
     finally:
         if model is None and run.model is not None:
             await run.model.aclose()
@@ -143,22 +148,27 @@ async def _run_room(
     )  # fmt: skip
 
 
-def room_worker(reply_fd: int) -> None:
+RoomStages = Callable[[GenerateConfig], tuple[Stage, ...]]
+"""What gives a house's room its stages, from the run's settings (``pipeline._plan.room_plan``)."""
+
+
+def room_worker(reply_fd: int, room_stages: RoomStages) -> None:
     """A worker process's loop (``python -m scenemosaic.pipeline._house_worker``): one job a line
     on stdin (JSON), one reply a line on the pipe ``reply_fd`` when it ends (the package's worker
     pool, ``scenemosaic._processes.WorkerPool``). ``{"kind": "room", ...}`` runs a room (its scene,
     the run's input, output folder, base folder and settings) and replies with its
     :class:`RoomOutcome`; ``{"kind": "export", ...}`` writes some parts of a house whose native
     files are saved in a folder (``exchange.export_house_folder``) and replies with ``{"files"}``
-    or ``{"error"}``."""
+    or ``{"error"}``. ``room_stages`` gives a room its stages (the worker's entry point passes the
+    plan's: a lower layer does not import the plan)."""
     with os.fdopen(reply_fd, "wb") as replies:
         for line in sys.stdin.buffer:
             if line.strip():
-                replies.write(json.dumps(asyncio.run(_work(json.loads(line)))).encode() + b"\n")
+                replies.write(json.dumps(asyncio.run(_work(json.loads(line), room_stages))).encode() + b"\n")
                 replies.flush()
 
 
-async def _work(job: dict[str, Any]) -> dict[str, Any]:
+async def _work(job: dict[str, Any], room_stages: RoomStages) -> dict[str, Any]:
     """One job of a worker process (see :func:`room_worker`); its reply."""
     if job["kind"] == "forget":  # the run is over and this worker is kept for the next one
         dropped = forget_memos()
@@ -168,7 +178,9 @@ async def _work(job: dict[str, Any]) -> dict[str, Any]:
     if job["kind"] == "room":
         room = Scene.model_validate(job["room"])
         try:
-            outcome = await _run_room(room, Path(job["input"]), Path(job["root"]), config, Path(job["base_dir"]), None)
+            outcome = await _run_room(
+                room, Path(job["input"]), Path(job["root"]), config, Path(job["base_dir"]), None, room_stages(config)
+            )
         except Exception as exc:  # reported to the parent, which fails the stage
             outcome = RoomOutcome(room_id=room.id, error=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
         return outcome.model_dump(mode="json")
@@ -304,7 +316,8 @@ async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
 
 
 async def _stage_rooms(run: PipelineRun, rec: StageRecord) -> None:
-    """Every room through :data:`HOUSE_ROOM_STAGES`, concurrently (largest rooms first)."""
+    """Every room through the plan's room stages (``RunSetup.room_stages``), concurrently (largest
+    rooms first)."""
     house = run.need_house()
     rooms = sorted(house.rooms, key=lambda s: -len(s.objects))
     workers = _in_processes(run.config, len(rooms))
@@ -319,7 +332,8 @@ async def _stage_rooms(run: PipelineRun, rec: StageRecord) -> None:
         by_id = {s.id: RoomOutcome.model_validate(replies[f"room {s.id!r}"]) for s in rooms}
     else:
         model = await run.asking(rec)  # the run's one model stack, shared by the rooms
-        tasks = [_run_room(s, run.input_path, run.folder.root, run.config, run.base_dir, model) for s in rooms]
+        stages = run.setup.room_stages
+        tasks = [_run_room(s, run.input_path, run.folder.root, run.config, run.base_dir, model, stages) for s in rooms]
         by_id = {o.room_id: o for o in await asyncio.gather(*tasks)}
     run.rooms = {rid: by_id[rid] for rid in house.room_ids}
     done: list[Scene] = []
@@ -648,7 +662,7 @@ HOUSE_STAGES: tuple[Stage, ...] = (
     Stage("evaluate", _stage_evaluate),
     Stage("export", _stage_export),
 )
-"""The stages of a house run, in order (``rooms`` runs :data:`HOUSE_ROOM_STAGES` in every room)."""
+"""The stages of a house run, in order (``rooms`` runs the plan's room stages in every room)."""
 
 HOUSE_STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in HOUSE_STAGES)
 """The names of :data:`HOUSE_STAGES`, in order."""

@@ -27,9 +27,10 @@ def main(argv: list[str]) -> int:
     watch_parent(parent_pid, "kill")  # before the pipeline's imports: they take seconds
     from scenemosaic._logging import configure_logging
     from scenemosaic.pipeline._house import room_worker
+    from scenemosaic.pipeline._plan import room_plan
 
     configure_logging("warning")
-    room_worker(reply_fd)
+    room_worker(reply_fd, lambda config: room_plan(config, in_house=True))
     # its stdin ended: every job is answered and its files written. The run waits for its workers
     # to leave, and tearing down an interpreter full of meshes and memos costs up to a second
     sys.stdout.flush()

@@ -40,13 +40,13 @@ from scenemosaic.pipeline._checkpoint import (
     save_checkpoint,
     write_json,
 )
-from scenemosaic.pipeline._clutter import room_stages
 from scenemosaic.pipeline._config import INPUT_SIZE_LIMITS_MB, GenerateConfig, check_config
 from scenemosaic.pipeline._driver import run_stages
-from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, HOUSE_STAGES, is_house_input, release_workers
+from scenemosaic.pipeline._house import release_workers
+from scenemosaic.pipeline._plan import plan
 from scenemosaic.pipeline._report import RunReport, run_report
 from scenemosaic.pipeline._result import GenerateResult
-from scenemosaic.pipeline._stages import STAGE_NAMES, STAGES, is_image_input
+from scenemosaic.pipeline._stages import STAGES, is_image_input
 from scenemosaic.pipeline._state import PipelineRun, RunSetup, StageCallback
 from scenemosaic.scene import RunFolder, not_a_regular_file
 
@@ -199,10 +199,14 @@ async def _agenerate_locked(
     input_path: Path, folder: RunFolder, config: GenerateConfig, on_stage: StageCallback | None
 ) -> GenerateResult:
     base_dir = await asyncio.to_thread(_prepare_folders, input_path, folder, config)
-    house = await asyncio.to_thread(is_house_input, input_path, config)  # every room at once (docs/houses.md)
+    planned = await asyncio.to_thread(plan, input_path, config)  # a house: every room at once (docs/houses.md)
     if is_image_input(input_path, config.format):  # a photograph's meshes are written beside what perception saw
         base_dir = folder.perception
-    run = PipelineRun(RunSetup(input_path=input_path, folder=folder, config=config, base_dir=base_dir))
+    setup = RunSetup(input_path=input_path, folder=folder, config=config, base_dir=base_dir, room_stages=planned.room_stages)
+    run = PipelineRun(setup)
+    if on_stage is not None:  # the progress displays count the plan, announced before the first stage
+        for name in planned.names:
+            on_stage(name, "planned")
     run.store = FileRunStore(folder.checkpoint)
     digest = await asyncio.to_thread(input_digest, input_path, config)
     finished = await asyncio.to_thread(load_checkpoint, run, digest) if config.resume else set()
@@ -212,7 +216,7 @@ async def _agenerate_locked(
     failure: BaseException | None = None
     ended_well = False
     try:  # the run's one model stack, opened by the first stage that asks, closed here
-        failure = await run_stages(run, finished, digest, on_stage, HOUSE_STAGES if house else room_stages(config, STAGES))
+        failure = await run_stages(run, finished, digest, on_stage, planned.stages)
         ended_well = failure is None
     finally:
         if run.model is not None:
@@ -329,11 +333,13 @@ def stage_progress(then: StageCallback | None = None) -> Iterator[StageCallback]
         console=console,
     ) as bar:
         task = bar.add_task("generate", total=len(STAGES))
+        planned: list[str] = []
 
         def callback(name: str, status: str) -> None:
-            if status == "started" and name not in STAGE_NAMES:  # a stage of a whole house: its own stages
-                bar.update(task, total=len(HOUSE_STAGE_NAMES) if name in HOUSE_STAGE_NAMES else len(STAGES) + 1)
-            if status == "started":
+            if status == "planned":  # the run's plan, announced stage by stage before the first
+                planned.append(name)
+                bar.update(task, total=len(planned))
+            elif status == "started":
                 bar.update(task, description=f"generate: {name}")
             elif status in ("done", "reused", "failed"):
                 bar.advance(task)
@@ -346,11 +352,11 @@ def stage_progress(then: StageCallback | None = None) -> Iterator[StageCallback]
 def _stage_lines(then: StageCallback | None) -> StageCallback:
     """The widget-free progress: a line per finished stage (see :func:`stage_progress`)."""
     started = time.perf_counter()
-    state = {"done": 0, "total": len(STAGES)}
+    state = {"done": 0, "total": 0}
 
     def callback(name: str, status: str) -> None:
-        if status == "started" and name not in STAGE_NAMES:  # a stage of a whole house (or a room's clutter)
-            state["total"] = len(HOUSE_STAGE_NAMES) if name in HOUSE_STAGE_NAMES else len(STAGES) + 1
+        if status == "planned":  # the run's plan, announced stage by stage before the first
+            state["total"] += 1
         if status in ("done", "reused", "failed", "skipped"):
             state["done"] += 1
             elapsed = time.perf_counter() - started

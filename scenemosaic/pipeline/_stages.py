@@ -57,7 +57,6 @@ from scenemosaic.structure import structure_scene
 log = structlog.get_logger(__name__)
 
 __all__ = [
-    "HOUSE_ROOM_STAGES",
     "NAV_SLACK",
     "STAGES",
     "STAGE_NAMES",
@@ -497,12 +496,9 @@ STAGES: tuple[Stage, ...] = (
     Stage("evaluate", _stage_evaluate),
     Stage("export", _stage_export),
 )
-"""The stages ``generate`` runs, in order."""
+"""A room's stages, in order (the run's plan, ``pipeline/_plan.py``, adds the clutter stage after
+compose when asked for, and gives a house's rooms those up to compose)."""
 
 STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in STAGES)
 """The names of :data:`STAGES`, in order."""
 
-HOUSE_ROOM_STAGES: tuple[Stage, ...] = STAGES[: STAGE_NAMES.index("compose") + 1]
-"""What each room of a house runs on its own (``pipeline/_house.py``): :data:`STAGES` up to its
-own variants (compose); the house composes whole-house variants from those, and checks and
-delivers the house."""

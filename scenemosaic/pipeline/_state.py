@@ -37,7 +37,9 @@ __all__ = [
 ]
 
 StageCallback = Callable[[str, str], None]
-"""Called as ``callback(stage_name, status)`` with status ``"started"``, ``"done"``, ``"reused"`` or ``"failed"``."""
+"""Called as ``callback(stage_name, status)``: first ``"planned"`` for every stage of the run's plan,
+in order (before any stage starts: a progress display's total), then ``"started"``, ``"done"``,
+``"reused"`` or ``"failed"`` as each runs."""
 
 UnitLayoutRecord = tuple[tuple[str, ...], tuple[Mapping[str, Pose], ...]]
 """One unit's kept layouts for composition: their ids (the refined original first) and their
@@ -113,6 +115,8 @@ class RunSetup:
     source: Scene | None = None
     """The scene to start from, given in memory (a room of a house run): the import stage takes
     it instead of reading ``input_path``."""
+    room_stages: tuple[Stage, ...] = ()
+    """A house run: the stages each of its rooms goes through (the plan's, ``pipeline/_plan.py``)."""
 
 
 @dataclass

@@ -13,12 +13,11 @@ import numpy as np
 import pytest
 
 from scenemosaic import GenerateConfig, generate
-from scenemosaic.pipeline import STAGES, SettingsError, room_stages
-from scenemosaic.pipeline._clutter import house_room_stages
-from scenemosaic.pipeline._stages import HOUSE_ROOM_STAGES
+from scenemosaic.pipeline import HOUSE_STAGE_NAMES, STAGES, SettingsError, plan
 from scenemosaic.scene import PROCTHOR_PRIORS_DIR, load_priors
 
 BEDROOM = "Bedroom-33922_bedroom.json"
+FOUR_ROOMS = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor" / "procthor_4room.json"
 
 
 @pytest.fixture(scope="module")
@@ -42,12 +41,14 @@ def _placements(data: dict[str, Any]) -> dict[str, str]:
     }
 
 
-def test_the_stage_runs_between_compose_and_validate_only_when_asked() -> None:
-    assert room_stages(GenerateConfig()) is STAGES
-    names = [s.name for s in room_stages(GenerateConfig(clutter="fill"))]
-    assert names[names.index("compose") + 1 : names.index("compose") + 3] == ["clutter", "validate"]
-    assert house_room_stages(GenerateConfig()) is HOUSE_ROOM_STAGES
-    assert [s.name for s in house_room_stages(GenerateConfig(clutter="fill"))][-2:] == ["compose", "clutter"]
+def test_the_stage_runs_between_compose_and_validate_only_when_asked(bedroom: Path) -> None:
+    assert plan(bedroom, GenerateConfig()).stages is STAGES
+    names = plan(bedroom, GenerateConfig(clutter="fill")).names
+    assert names[names.index("compose") + 1 : names.index("compose") + 3] == ("clutter", "validate")
+    house = plan(FOUR_ROOMS, GenerateConfig(clutter="fill"))
+    assert house.house and house.names == HOUSE_STAGE_NAMES
+    assert [s.name for s in house.room_stages][-2:] == ["compose", "clutter"]
+    assert [s.name for s in plan(FOUR_ROOMS, GenerateConfig()).room_stages][-1] == "compose"
 
 
 def test_variants_place_the_small_objects_on_other_receptacles(bedroom: Path) -> None:
