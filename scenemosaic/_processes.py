@@ -15,6 +15,7 @@ even while the worker's Python is busy in native code or still loading; everywhe
 
 from __future__ import annotations
 
+import atexit
 import concurrent.futures
 import contextlib
 import os
@@ -30,7 +31,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from multiprocessing.connection import wait
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 __all__ = [
     "STOP_GRACE_S",
@@ -419,12 +420,68 @@ class WorkerPool:
         with self._lock:
             self._close()
 
+    # -- kept between runs: one idle pool per module, owned by the class, closed at exit ------------
+
+    _kept: ClassVar[dict[str, tuple[WorkerPool, tuple[object, ...]]]] = {}
+    _kept_lock: ClassVar[threading.Lock] = threading.Lock()
+
+    @staticmethod
+    def _start_key() -> tuple[object, ...]:
+        """What a worker keeps from when it started, which a later run must share to take it (and
+        the process: a forked child's kept workers are not its own)."""
+        return os.getpid(), os.getcwd(), tuple(sorted(worker_environment().items()))
+
+    @classmethod
+    def take_kept(cls, module: str, *, orphan: Orphan = "stop") -> WorkerPool:
+        """The idle pool of ``module`` a run before kept (:meth:`keep`) when its workers were started
+        as they would be now and are all alive and idle, else a new pool (the kept one is closed)."""
+        with cls._kept_lock:
+            kept = cls._kept.pop(module, None)
+        if kept is not None:
+            pool, key = kept
+            if key == cls._start_key() and pool.orphan == orphan and pool.ready():
+                return pool
+            pool.close()
+        return cls(module, orphan=orphan)
+
+    @classmethod
+    def kept(cls, module: str) -> WorkerPool | None:
+        """The pool of ``module`` kept for the next run, if any."""
+        with cls._kept_lock:
+            kept = cls._kept.get(module)
+        return kept[0] if kept is not None else None
+
+    def keep(self, prepare: Callable[[WorkerPool], bool] | None = None) -> bool:
+        """Keep this pool for the next run of its module in this process when every worker is idle
+        and alive and ``prepare(pool)`` (the workers forget the run) succeeds; else close it. One
+        pool a module: one kept before is closed. Returns whether it was kept."""
+        if self.ready() and (prepare is None or prepare(self)) and self.ready():
+            with WorkerPool._kept_lock:
+                previous = WorkerPool._kept.get(self.module)
+                WorkerPool._kept[self.module] = (self, self._start_key())
+            if previous is not None and previous[0] is not self:
+                previous[0].close()
+            return True
+        self.close()
+        return False
+
+    @classmethod
+    def close_kept(cls) -> None:
+        """Close every kept pool (at the interpreter's exit; the kernel would stop their workers anyway)."""
+        with cls._kept_lock:
+            kept, cls._kept = dict(cls._kept), {}
+        for pool, _ in kept.values():
+            pool.close()
+
     def _close(self) -> None:
         try:
             _stop_all(self._running, True)
         finally:
             self._running.clear()
 
+
+
+atexit.register(WorkerPool.close_kept)
 
 def _serve(
     queue: JobQueue,

@@ -30,7 +30,6 @@ usage, checkpoint, interruption) over the same :class:`PipelineRun`, whose ``hou
 from __future__ import annotations
 
 import asyncio
-import atexit
 import errno
 import functools
 import gc
@@ -46,9 +45,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import structlog
+from pydantic import BaseModel
 
 from scenemosaic._memo import forget_memos
-from scenemosaic._processes import STOP_GRACE_S, JobEnd, JobQueue, WorkerJob, WorkerPool, worker_environment
+from scenemosaic._processes import STOP_GRACE_S, JobEnd, JobQueue, WorkerJob, WorkerPool
 from scenemosaic.assets import HullCache, open_house
 from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
@@ -74,6 +74,14 @@ from scenemosaic.pipeline._checkpoint import (
 from scenemosaic.pipeline._clutter import vary_house_repeats
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record
 from scenemosaic.pipeline._driver import run_stages
+from scenemosaic.pipeline._house_jobs import (
+    HOUSE_JOB,
+    ExportJob,
+    ExportReply,
+    ForgetJob,
+    ForgetReply,
+    RoomJob,
+)
 from scenemosaic.pipeline._stages import (
     judge_scenes,
     note_import_warnings,
@@ -154,47 +162,50 @@ RoomStages = Callable[[GenerateConfig], tuple[Stage, ...]]
 
 def room_worker(reply_fd: int, room_stages: RoomStages) -> None:
     """A worker process's loop (``python -m scenemosaic.pipeline._house_worker``): one job a line
-    on stdin (JSON), one reply a line on the pipe ``reply_fd`` when it ends (the package's worker
-    pool, ``scenemosaic._processes.WorkerPool``). ``{"kind": "room", ...}`` runs a room (its scene,
-    the run's input, output folder, base folder and settings) and replies with its
-    :class:`RoomOutcome`; ``{"kind": "export", ...}`` writes some parts of a house whose native
-    files are saved in a folder (``exchange.export_house_folder``) and replies with ``{"files"}``
-    or ``{"error"}``. ``room_stages`` gives a room its stages (the worker's entry point passes the
-    plan's: a lower layer does not import the plan)."""
+    on stdin, one reply a line on the pipe ``reply_fd`` when it ends (the package's worker pool,
+    ``scenemosaic._processes.WorkerPool``), each a typed message of ``pipeline/_house_jobs.py``:
+    a :class:`RoomJob` runs a room and replies with its :class:`RoomOutcome`; an
+    :class:`ExportJob` writes some parts of a house whose native files are saved in a folder
+    (``exchange.export_house_folder``) and replies with an :class:`ExportReply`; a
+    :class:`ForgetJob` drops the memos. ``room_stages`` gives a room its stages (the worker's entry
+    point passes the plan's: a lower layer does not import the plan)."""
     with os.fdopen(reply_fd, "wb") as replies:
         for line in sys.stdin.buffer:
             if line.strip():
-                replies.write(json.dumps(asyncio.run(_work(json.loads(line), room_stages))).encode() + b"\n")
+                replies.write(_encode(asyncio.run(_work(HOUSE_JOB.validate_python(json.loads(line)), room_stages))))
                 replies.flush()
 
 
-async def _work(job: dict[str, Any], room_stages: RoomStages) -> dict[str, Any]:
+def _encode(message: BaseModel) -> bytes:
+    """One line of a message (the standard library's JSON of its JSON-ready dump: a float that is
+    not finite, in a stage's figures, travels as ``Infinity`` and comes back a float)."""
+    return json.dumps(message.model_dump(mode="json")).encode() + b"\n"
+
+
+async def _work(job: RoomJob | ExportJob | ForgetJob, room_stages: RoomStages) -> BaseModel:
     """One job of a worker process (see :func:`room_worker`); its reply."""
-    if job["kind"] == "forget":  # the run is over and this worker is kept for the next one
+    if isinstance(job, ForgetJob):  # the run is over and this worker is kept for the next one
         dropped = forget_memos()
         gc.collect()
-        return {"forgotten": dropped}
-    config = config_from_record(job["config"], resume=bool(job.get("resume")), restart_stale=bool(job.get("restart_stale")))
-    if job["kind"] == "room":
-        room = Scene.model_validate(job["room"])
+        return ForgetReply(forgotten=dropped)
+    if isinstance(job, RoomJob):
+        config = config_from_record(job.config, resume=job.resume, restart_stale=job.restart_stale)
         try:
-            outcome = await _run_room(
-                room, Path(job["input"]), Path(job["root"]), config, Path(job["base_dir"]), None, room_stages(config)
-            )
+            return await _run_room(job.room, job.input, job.root, config, job.base_dir, None, room_stages(config))
         except Exception as exc:  # reported to the parent, which fails the stage
-            outcome = RoomOutcome(room_id=room.id, error=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
-        return outcome.model_dump(mode="json")
+            return RoomOutcome(room_id=job.room.id, error=f"{type(exc).__name__}: {exc}", error_type=type(exc).__name__)
+    config = config_from_record(job.config)
     with HullCache(config.hull_cache_dir) as cache:
-        export = functools.partial(export_house_folder, Path(job["folder"]), hull_cache=cache, parts=job["parts"])
+        export = functools.partial(export_house_folder, job.folder, hull_cache=cache, parts=job.parts)
         try:
-            return {"files": await asyncio.to_thread(export)}
+            return ExportReply(files=await asyncio.to_thread(export))
         except Exception as exc:  # reported to the parent, which fails the stage
-            return {"error": f"{type(exc).__name__}: {exc}"}
+            return ExportReply(error=f"{type(exc).__name__}: {exc}")
 
 
 async def _in_workers(
     run: PipelineRun,
-    jobs: Sequence[tuple[str, dict[str, Any]]] | JobQueue,
+    jobs: Sequence[tuple[str, RoomJob | ExportJob]] | JobQueue,
     count: int,
     on_reply: Callable[[str, dict[str, Any]], None] | None = None,
 ) -> dict[str, dict[str, Any]]:
@@ -219,7 +230,7 @@ async def _in_workers(
     if run.workers is None:  # in a thread: closing kept workers that do not fit waits for them
         run.workers = await asyncio.to_thread(_take_workers)
     stop = threading.Event()
-    queue = jobs if isinstance(jobs, JobQueue) else JobQueue([WorkerJob(name, json.dumps(job).encode()) for name, job in jobs], closed=True)
+    queue = jobs if isinstance(jobs, JobQueue) else JobQueue([WorkerJob(name, _encode(job)) for name, job in jobs], closed=True)
     pool = functools.partial(run.workers.run, queue, workers=count, on_end=ended, stop=stop)
     running = asyncio.ensure_future(asyncio.to_thread(pool))
     try:
@@ -233,65 +244,32 @@ async def _in_workers(
     return replies
 
 
-_KEPT: tuple[WorkerPool, tuple[object, ...]] | None = None
-"""The workers of the last house run that ended well, idle, with what they were started in (the
-process, its working folder and environment, :func:`_workers_key`): the next run in this process
-takes them instead of starting its own, so its rooms begin without the seconds each worker spends
-importing the package. They hold that import only (a few hundred MB each) until then."""
-_KEPT_LOCK = threading.Lock()
-
-
-def _workers_key() -> tuple[object, ...]:
-    """What a worker keeps from when it started and a later run must share to take it (and the
-    process: a forked child's kept workers are not its own)."""
-    return os.getpid(), os.getcwd(), tuple(sorted(worker_environment().items()))
-
-
 def _take_workers() -> WorkerPool:
-    """The kept workers (:data:`_KEPT`) when they were started as this run would start them and
-    are all still alive and idle, else a new pool (the kept one, if any, is closed)."""
-    global _KEPT
-    with _KEPT_LOCK:
-        kept, _KEPT = _KEPT, None
-    if kept is not None:
-        pool, key = kept
-        if key == _workers_key() and pool.ready():
-            return pool
-        pool.close()
-    return WorkerPool(WORKER_MODULE, orphan="kill")
+    """The room workers a house run before kept (``WorkerPool.take_kept``: started as this run
+    would start them, alive and idle), else a new pool."""
+    return WorkerPool.take_kept(WORKER_MODULE, orphan="kill")
 
 
 def release_workers(pool: WorkerPool, *, keep: bool) -> None:
     """The end of a house run's workers: with ``keep`` (the run ended well) and every worker idle
     and alive, each forgets what the run derived (its memos: a pool kept holds the package's
-    imports only) and the pool is kept for the next run in this process (:data:`_KEPT`, one at a
-    time: any other is closed); else, or when a worker fails to forget, the workers leave."""
-    global _KEPT
-    if keep and pool.ready():
-        failed: list[str] = []
-        forget = [WorkerJob(f"forget#{k}", b'{"kind": "forget"}', limit_s=STOP_GRACE_S, slot=k) for k in range(pool.size)]
-        try:
-            pool.run(forget, workers=pool.size, on_end=lambda job, end: failed.extend([] if end.reply else [job.name]))
-        except Exception:  # a pool that cannot forget is not kept (run() has closed it)
-            failed.append("forget")
-        if not failed and pool.ready():
-            with _KEPT_LOCK:
-                previous, _KEPT = _KEPT, (pool, _workers_key())
-            if previous is not None:
-                previous[0].close()
-            return
-    pool.close()
+    imports only) and the pool is kept for the next house run in this process
+    (``WorkerPool.keep``); else, or when a worker fails to forget, the workers leave."""
+    if keep:
+        pool.keep(_forget)
+    else:
+        pool.close()
 
 
-def _close_kept() -> None:
-    global _KEPT
-    with _KEPT_LOCK:
-        kept, _KEPT = _KEPT, None
-    if kept is not None:
-        kept[0].close()
-
-
-atexit.register(_close_kept)
+def _forget(pool: WorkerPool) -> bool:
+    """Every worker of ``pool`` drops its memos (:class:`ForgetJob`); whether all did."""
+    failed: list[str] = []
+    forget = [WorkerJob(f"forget#{k}", _encode(ForgetJob()), limit_s=STOP_GRACE_S, slot=k) for k in range(pool.size)]
+    try:
+        pool.run(forget, workers=pool.size, on_end=lambda job, end: failed.extend([] if end.reply else [job.name]))
+    except Exception:  # a pool that cannot forget is not kept (run() has closed it)
+        return False
+    return not failed
 
 
 def _in_processes(config: GenerateConfig, rooms: int) -> int:
@@ -324,11 +302,13 @@ async def _stage_rooms(run: PipelineRun, rec: StageRecord) -> None:
     rec.detail["workers"] = workers or 1
     rec.detail["processes"] = bool(workers)
     if workers:
-        common = {
-            "kind": "room", "input": str(run.input_path), "root": str(run.folder.root), "base_dir": str(run.base_dir),
-            "config": config_record(run.config), "resume": run.config.resume, "restart_stale": run.config.restart_stale,
-        }  # fmt: skip
-        replies = await _in_workers(run, [(f"room {s.id!r}", {**common, "room": s.model_dump(mode="json")}) for s in rooms], workers)
+        cfg = run.config
+        jobs = [
+            (f"room {s.id!r}", RoomJob(room=s, input=run.input_path, root=run.folder.root, base_dir=run.base_dir,
+                                       config=config_record(cfg), resume=cfg.resume, restart_stale=cfg.restart_stale))
+            for s in rooms
+        ]  # fmt: skip
+        replies = await _in_workers(run, jobs, workers)
         by_id = {s.id: RoomOutcome.model_validate(replies[f"room {s.id!r}"]) for s in rooms}
     else:
         model = await run.asking(rec)  # the run's one model stack, shared by the rooms
@@ -526,7 +506,7 @@ class HouseDeliveries:
         both its halves are written."""
         self._loop = asyncio.get_running_loop()
         self._left: dict[str, set[int]] = {}
-        self._common = {"kind": "export", "config": config_record(run.config)}
+        self._config = config_record(run.config)
         self.call = asyncio.ensure_future(_in_workers(run, self.queue, workers, self._replied))
         self.call.add_done_callback(self._call_ended)
 
@@ -541,7 +521,7 @@ class HouseDeliveries:
         self._left[folder.name] = set(range(len(_lanes())))
         place = len(self.houses) - 1
         self.queue.put([
-            WorkerJob(f"{folder.name}#{k}", json.dumps({**self._common, "folder": str(staged), "parts": list(parts)}).encode(),
+            WorkerJob(f"{folder.name}#{k}", _encode(ExportJob(folder=staged, parts=list(parts), config=self._config)),
                       slot=place * len(_lanes()) + k)
             for k, parts in enumerate(_lanes())
         ])  # fmt: skip
@@ -554,8 +534,9 @@ class HouseDeliveries:
         future = self.houses.get(name)
         if future is None or future.done():
             return
-        if "error" in reply:
-            future.set_exception(SceneMosaicError(f"house export failed: {name}: {reply['error']}"))
+        answer = ExportReply.model_validate(reply)  # a worker that died: {"error": why}
+        if answer.error is not None:
+            future.set_exception(SceneMosaicError(f"house export failed: {name}: {answer.error}"))
             return
         left = self._left[name]
         left.discard(int(lane))

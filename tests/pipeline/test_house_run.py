@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from scenemosaic._processes import WorkerPool
 from scenemosaic.cli import app
 from scenemosaic.exceptions import SceneMosaicError
 from scenemosaic.exchange import load_scene
@@ -131,7 +132,7 @@ def test_a_run_failing_after_the_houses_went_ahead_keeps_only_its_partial_base(
     assert not (out / "base" / "scene.xml").exists()  # no simulator file of a house not delivered
     assert not (out / "variant_1").exists()
     assert not (out / ".checkpoint" / "staged").exists()
-    assert house_stages._KEPT is None  # a failed run's workers leave
+    assert WorkerPool.kept(house_stages.WORKER_MODULE) is None  # a failed run's workers leave
 
 
 def test_a_house_half_failing_in_its_worker_fails_the_export_and_keeps_the_partial_base(
@@ -161,9 +162,8 @@ def test_a_house_run_keeps_its_idle_workers_for_the_next_run_in_the_process(
     from scenemosaic._processes import JobEnd, WorkerJob
 
     def kept_pids() -> list[int]:
-        assert house_stages._KEPT is not None
-        pool = house_stages._KEPT[0]
-        assert pool.ready()
+        pool = WorkerPool.kept(house_stages.WORKER_MODULE)
+        assert pool is not None and pool.ready()
         return [w.process.pid for w in pool._running]
 
     config = GenerateConfig(variants=0, room_workers=2)
@@ -176,7 +176,9 @@ def test_a_house_run_keeps_its_idle_workers_for_the_next_run_in_the_process(
     assert _room_files(tmp_path / "first") == _room_files(tmp_path / "second")
     replies: dict[str, JobEnd] = {}
     forget = [WorkerJob(f"forget#{k}", b'{"kind": "forget"}', slot=k) for k in range(2)]
-    house_stages._KEPT[0].run(forget, workers=2, on_end=lambda job, end: replies.__setitem__(job.name, end))  # type: ignore[index]
+    kept = WorkerPool.kept(house_stages.WORKER_MODULE)
+    assert kept is not None
+    kept.run(forget, workers=2, on_end=lambda job, end: replies.__setitem__(job.name, end))
     assert [json.loads(replies[f"forget#{k}"].reply or b"{}") for k in range(2)] == [{"forgotten": 0}] * 2
 
     monkeypatch.setenv("SCENEMOSAIC_TEST_OTHER_ENVIRONMENT", "1")  # what a worker would not see

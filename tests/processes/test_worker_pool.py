@@ -222,3 +222,51 @@ def test_a_call_with_fewer_workers_than_the_pool_holds_runs_that_many_at_once() 
     finally:
         pool.close()
     assert not pool.ready()
+
+
+# -- the executor: one job at a time from any thread (CoACD's workers) ------------------------------
+
+
+def test_an_executor_answers_jobs_from_many_threads_on_reused_workers() -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
+    from scenemosaic._processes import WorkerExecutor
+
+    executor = WorkerExecutor("process_echo_worker", workers=2)
+    try:
+        with ThreadPoolExecutor(4) as threads:
+            futures = list(threads.map(lambda k: executor.submit(f"job {k}".encode()), range(8)))
+        replies = [f.result(timeout=60) for f in futures]
+        assert [r.split(b" ", 1)[1] for r in replies] == [f"job {k}".encode() for k in range(8)]
+        assert len({r.split()[0] for r in replies}) <= 2  # two processes, each taking job after job
+        assert executor.started
+    finally:
+        executor.close()
+    assert not executor.started
+    with pytest.raises(RuntimeError, match="closed"):
+        executor.submit(b"job late")
+
+
+def test_an_executor_fails_the_job_of_a_worker_that_died_and_goes_on() -> None:
+    from scenemosaic._processes import WorkerError, WorkerExecutor
+
+    executor = WorkerExecutor("process_echo_worker", workers=1)
+    try:
+        with pytest.raises(WorkerError, match="exit code 3"):
+            executor.submit(b"die 3").result(timeout=60)
+        assert executor.submit(b"job after").result(timeout=60).endswith(b"job after")  # a new worker
+    finally:
+        executor.close()
+
+
+def test_closing_an_executor_with_cancel_stops_a_busy_worker_and_fails_its_job() -> None:
+    from scenemosaic._processes import WorkerError, WorkerExecutor
+
+    executor = WorkerExecutor("process_echo_worker", workers=1)
+    busy = executor.submit(b"sleep 30")
+    time.sleep(1.0)
+    started = time.monotonic()
+    executor.close(cancel=True)
+    assert time.monotonic() - started < STOP_GRACE_S + 2
+    with pytest.raises(WorkerError):
+        busy.result(timeout=1)
