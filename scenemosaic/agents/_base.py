@@ -81,6 +81,7 @@ __all__ = [
     "AgentResult",
     "AppliesOutput",
     "FallbackRecord",
+    "Need",
     "SceneState",
     "TaskAgent",
     "calls_of",
@@ -100,6 +101,25 @@ class AgentOutput(BaseModel):
     """Base of agent outputs: unknown keys are rejected, so a model's extra fields fail validation."""
 
     model_config = ConfigDict(extra="forbid")
+
+
+@dataclass(frozen=True)
+class Need:
+    """What an agent says about running on a scene a scheduler looked at (:meth:`TaskAgent.needed`):
+    whether to run it and why, and whether a plan that leaves it out is refused."""
+
+    run: bool
+    """Whether the scheduler's rules run the agent here."""
+    reason: str
+    """Why (or why not), in words: the plan shows it."""
+    required: bool = False
+    """Every plan must schedule the agent, whatever the scene (a tree needs a room, parents and a
+    final check)."""
+    evidence: tuple[str, ...] = ()
+    """What in the scene calls for the agent; a plan that leaves it out while there is some is
+    refused, naming it (``insist``)."""
+    insist: str = ""
+    """The refusal's words when ``evidence`` is left unserved."""
 
 
 _log = structlog.get_logger(__name__)
@@ -518,6 +538,14 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
             cls._output_variable = None
 
     # -- what a subclass provides ------------------------------------------------------------
+    def needed(self, summary: Any) -> Need:
+        """Whether a scheduler should run this agent on the scene it summarized (the structuring
+        manager hands its ``SceneSummary``), and why. The built-in agents say when they have work
+        (containment only over containers, ...); a plugin runs whenever it is given, unless it
+        says otherwise here: built-ins and plugins go through this one seam."""
+        del summary
+        return Need(True, "plugin agent given by the caller")
+
     @abc.abstractmethod
     def gather(self, state: StateT) -> EvidenceT:
         """Collect this agent's structured evidence from the scene state."""

@@ -13,13 +13,16 @@ they hang (``scenemosaic.physics.is_fixed``), as their hooks and cords would hol
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 from pydantic import Field
 
-from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, Need, SceneState, TaskAgent
 from scenemosaic.scene import CEILING, FLOOR, SimAttributes, normalize_category, traits
 from scenemosaic.structure._facts import CHUNK_OBJECTS, ObjectFacts, chunk_ids, object_facts, replace_scene
+
+if TYPE_CHECKING:
+    from scenemosaic.structure._manager import SceneSummary
 
 __all__ = [
     "ATTRIBUTE_TABLE",
@@ -241,6 +244,11 @@ class AttributesAgent(TaskAgent[SceneState, AttributesEvidence, AttributesOutput
     items_field: ClassVar[str | None] = "objects"
     object_id_fields: ClassVar[tuple[str, ...]] = ("objects.object_id",)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"center", "yaw_deg", "bottom", "top", "relation"})
+
+    def needed(self, summary: SceneSummary) -> Need:
+        """Always (a plan may leave it out)."""
+        del summary
+        return Need(True, "mass, friction, static flags")
 
     def gather(self, state: SceneState) -> AttributesEvidence:
         return AttributesEvidence(objects=object_facts(state.scene))

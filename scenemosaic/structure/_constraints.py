@@ -25,12 +25,12 @@ from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import ClassVar, Literal
+from typing import TYPE_CHECKING, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
 
-from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent, evidence_text
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, Need, SceneState, TaskAgent, evidence_text
 from scenemosaic.scene import (
     PROCTHOR_PRIORS_DIR,
     ConstraintClause,
@@ -42,6 +42,9 @@ from scenemosaic.scene import (
 from scenemosaic.structure._facts import ObjectFacts, object_facts, replace_scene, room_facts
 from scenemosaic.structure._views import FloorPlanImages
 from scenemosaic.structure._walls import flush_walls
+
+if TYPE_CHECKING:
+    from scenemosaic.structure._manager import SceneSummary
 
 __all__ = [
     "FUNCTIONAL_PAIRS",
@@ -501,6 +504,12 @@ class ConstraintsAgent(FloorPlanImages, TaskAgent[SceneState, ConstraintEvidence
         "within_unit.object_id",
         "within_unit.reference_id",
     )
+
+    def needed(self, summary: SceneSummary) -> Need:
+        """When a functional pair (seats and a table, a bed and nightstands, ...) is present."""
+        pairs = tuple(summary.functional_pairs)
+        why = "functional pairs: " + ", ".join(pairs) if pairs else "no functional pair in the scene"
+        return Need(bool(pairs), why, evidence=pairs, insist="functional pairs are present")
 
     def __init__(self, priors_dir: str | Path | None = None) -> None:
         """``priors_dir``: ProcTHOR folder with ``asset_groups/`` (default: the priors shipped with the package)."""

@@ -8,15 +8,18 @@ shelves, cabinets, wardrobes open to the front; boxes, baskets and bins open at 
 
 from __future__ import annotations
 
-from typing import ClassVar, Literal
+from typing import TYPE_CHECKING, ClassVar, Literal
 
 from pydantic import Field
 
-from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent, evidence_text
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, Need, SceneState, TaskAgent, evidence_text
 from scenemosaic.scene import Relation, SupportPriors, load_priors, traits
 from scenemosaic.structure._facts import ObjectFacts, object_facts, replace_scene
 from scenemosaic.structure._support import check_parents, floor_only
 from scenemosaic.structure._views import FloorPlanImages
+
+if TYPE_CHECKING:
+    from scenemosaic.structure._manager import SceneSummary
 
 __all__ = ["ContainedItem", "ContainerFacts", "ContainmentAgent", "ContainmentEvidence", "ContainmentOutput"]
 
@@ -96,6 +99,12 @@ class ContainmentAgent(FloorPlanImages, TaskAgent[SceneState, ContainmentEvidenc
     prompt: ClassVar[str] = "containment"
     reply_tokens: ClassVar[tuple[int, int] | None] = (200, 40)
     object_id_fields: ClassVar[tuple[str, ...]] = ("items.object_id",)
+
+    def needed(self, summary: SceneSummary) -> Need:
+        """When some object stands over a container's footprint (it may be inside)."""
+        found = tuple(summary.container_candidates)
+        why = f"{len(found)} objects over containers" if found else "nothing could be inside a container"
+        return Need(bool(found), why, evidence=found, insist="objects stand over a container")
 
     def __init__(self, priors: SupportPriors | None = None) -> None:
         self.priors = priors if priors is not None else load_priors()

@@ -1,10 +1,13 @@
 """The manager agent: looks at the scene and decides which structuring agents to schedule.
 
-Rule solver: room, support, semantics, attributes and verification always run; containment
-only when some object could contain another (a container with a non-furniture object over its
-footprint); wall attachment only when something could stand against or hang on a wall;
-cross-unit constraints only when a functional pair (seat + table, bed + nightstand, sofa +
-coffee table / TV stand, screen on a desk, TV) is present; plugin agents whenever given. The
+Rule solver: every agent says when it is needed (``TaskAgent.needed`` over the manager's
+:class:`SceneSummary`), built-ins and plugins through the same seam: room, support, semantics,
+attributes and verification always run; containment only when some object could contain another
+(a container with a non-furniture object over its footprint); wall attachment only when
+something could stand against or hang on a wall; cross-unit constraints only when a functional
+pair (seat + table, bed + nightstand, sofa + coffee table / TV stand, screen on a desk, TV) is
+present; a plugin agent whenever given, unless it says otherwise. A plan (a model's too) that
+leaves out a required agent, or one the scene calls for, is refused. The
 scheduler trims each agent's dependencies to the agents present, so skipping one never leaves
 a dangling edge.
 """
@@ -55,7 +58,9 @@ DEFAULT_AGENTS: tuple[TaskAgent[SceneState, Any, Any], ...] = (
 """The built-in structuring agents, in a valid order. A value to extend, not a registry:
 ``GenerateConfig(agents=[*DEFAULT_AGENTS, MyAgent()])`` adds a plugin beside them."""
 REQUIRED_AGENTS = frozenset({"room", "support", "verify"})
-"""Agents every plan must contain when they are available (a tree needs a room, parents and a final check)."""
+"""The built-in agents every plan must contain when they are available (a tree needs a room,
+parents and a final check): those whose :meth:`~scenemosaic.agents.TaskAgent.needed` says
+``required``."""
 
 
 class PlannedAgent(AgentOutput):
@@ -128,50 +133,15 @@ def summarize(scene: Scene, priors: SupportPriors, available: Sequence[str] = ()
     )
 
 
-def solve_plan(summary: SceneSummary) -> StructuringPlan:
-    """The manager's rule solver (see the module docstring)."""
+def solve_plan(summary: SceneSummary, agents: AgentList = ()) -> StructuringPlan:
+    """The manager's rule solver (see the module docstring): each agent that may run (``agents``,
+    default :data:`DEFAULT_AGENTS`), in its given order, scheduled when it says it is needed here
+    (:meth:`~scenemosaic.agents.TaskAgent.needed`), built-ins and plugins alike."""
     run: list[PlannedAgent] = []
     skip: list[PlannedAgent] = []
-
-    def decide(name: str, yes: bool, why_yes: str, why_no: str) -> None:
-        (run if yes else skip).append(PlannedAgent(name=name, reason=why_yes if yes else why_no))
-
-    decide(
-        "room",
-        True,
-        "complete the input room's walls" if summary.has_room else "recover the room boundary",
-        "",
-    )
-    decide("support", True, f"parent each of {summary.object_count} objects", "")
-    decide(
-        "containment",
-        bool(summary.container_candidates),
-        f"{len(summary.container_candidates)} objects over containers",
-        "nothing could be inside a container",
-    )
-    decide(
-        "walls",
-        bool(summary.wall_candidates) or summary.has_walls,
-        "wall-type furniture or input walls present",
-        "nothing stands against or hangs on a wall",
-    )
-    decide("semantics", True, "normalize categories and check fronts", "")
-    decide("attributes", True, "mass, friction, static flags", "")
-    decide(
-        "constraints",
-        bool(summary.functional_pairs),
-        "functional pairs: " + ", ".join(summary.functional_pairs),
-        "no functional pair in the scene",
-    )
-    decide("verify", True, "final completeness check and scene tree", "")
-    builtin = {p.name for p in (*run, *skip)}
-    for name in summary.available:  # plugins: the caller asked for them, so they run
-        if name not in builtin:
-            run.append(PlannedAgent(name=name, reason="plugin agent given by the caller"))
-    if summary.available:  # keep only agents that can run, in their given order
-        order = {n: i for i, n in enumerate(summary.available)}
-        run = sorted((p for p in run if p.name in order), key=lambda p: order[p.name])
-        skip = [p for p in skip if p.name in order]
+    for agent in agents or DEFAULT_AGENTS:
+        need = agent.needed(summary)
+        (run if need.run else skip).append(PlannedAgent(name=agent.name, reason=need.reason))
     return StructuringPlan(agents=run, skipped=skip)
 
 
@@ -200,7 +170,7 @@ class ManagerAgent(TaskAgent[SceneState, SceneSummary, StructuringPlan]):
         return summarize(state.scene, self.priors, [a.name for a in self.agents])
 
     def solve(self, evidence: SceneSummary) -> StructuringPlan:
-        return solve_plan(evidence)
+        return solve_plan(evidence, self.agents)
 
     def check(self, output: StructuringPlan, state: SceneState) -> list[str]:
         names = [a.name for a in output.agents]
@@ -216,18 +186,14 @@ class ManagerAgent(TaskAgent[SceneState, SceneSummary, StructuringPlan]):
         both = sorted(set(names) & {a.name for a in output.skipped})
         if both:
             problems.append("agents both scheduled and skipped: " + ", ".join(both) + "; list each once")
-        missing = sorted((REQUIRED_AGENTS & set(available)) - set(names))
+        summary = self.gather(state)
+        needs = [(a.name, a.needed(summary)) for a in self.agents]
+        missing = sorted(name for name, need in needs if need.required and name not in names)
         if missing:
             problems.append("the plan must schedule: " + ", ".join(missing))
-        summary = self.gather(state)
-        needed = {
-            "containment": (summary.container_candidates, "objects stand over a container"),
-            "walls": (summary.wall_candidates, "wall furniture is present"),
-            "constraints": (summary.functional_pairs, "functional pairs are present"),
-        }
-        for name, (evidence, why) in needed.items():
-            if evidence and name in available and name not in names:
-                problems.append(f"schedule {name!r}: {why} ({', '.join(evidence[:5])})")
+        for name, need in needs:  # what the scene calls for, left out
+            if need.evidence and not need.required and name not in names:
+                problems.append(f"schedule {name!r}: {need.insist} ({', '.join(need.evidence[:5])})")
         return problems
 
     def select(self, plan: StructuringPlan) -> list[TaskAgent[SceneState, Any, Any]]:
@@ -250,5 +216,5 @@ def plan_structuring(
 ) -> tuple[StructuringPlan, list[TaskAgent[SceneState, Any, Any]]]:
     """The rule manager's plan for ``scene`` and the agents it schedules (no model involved)."""
     manager = ManagerAgent(agents, priors)
-    plan = solve_plan(summarize(scene, manager.priors, [a.name for a in manager.agents]))
+    plan = solve_plan(summarize(scene, manager.priors, [a.name for a in manager.agents]), manager.agents)
     return plan, manager.select(plan)

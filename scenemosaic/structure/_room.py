@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -22,7 +22,7 @@ from shapely.affinity import translate
 from shapely.geometry import Point, Polygon
 from shapely.ops import nearest_points
 
-from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, Need, SceneState, TaskAgent
 from scenemosaic.scene import (
     MAX_FLOOR_POINTS,
     ROOM_MARGIN,
@@ -44,6 +44,9 @@ from scenemosaic.structure._facts import (
     translate_objects,
 )
 from scenemosaic.structure._views import FloorPlanImages
+
+if TYPE_CHECKING:
+    from scenemosaic.structure._manager import SceneSummary
 
 __all__ = ["MIN_WALL_LENGTH", "ObjectShift", "RoomAgent", "RoomEvidence", "RoomOutput", "WallSpec"]
 
@@ -372,6 +375,10 @@ class RoomAgent(FloorPlanImages, TaskAgent[SceneState, RoomEvidence, RoomOutput]
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"center", "size", "parent", "relation", "bottom"})
     prompt_extra: ClassVar[frozenset[str]] = frozenset({"extent"})
     object_id_fields: ClassVar[tuple[str, ...]] = ("shifts.object_id",)
+
+    def needed(self, summary: SceneSummary) -> Need:
+        """Always, and every plan must have it: a tree needs a room."""
+        return Need(True, "complete the input room's walls" if summary.has_room else "recover the room boundary", required=True)
 
     def gather(self, state: SceneState) -> RoomEvidence:
         return RoomEvidence(objects=object_facts(state.scene), room=room_facts(state.scene))

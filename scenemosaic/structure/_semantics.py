@@ -15,13 +15,13 @@ Rule solver:
 from __future__ import annotations
 
 import math
-from typing import Any, ClassVar, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
 from shapely.geometry import Point
 
-from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, Need, SceneState, TaskAgent
 from scenemosaic.scene import (
     Pose,
     Scene,
@@ -43,6 +43,9 @@ from scenemosaic.structure._facts import (
 )
 from scenemosaic.structure._views import FloorPlanImages
 from scenemosaic.structure._walls import facing_side, flush_walls
+
+if TYPE_CHECKING:
+    from scenemosaic.structure._manager import SceneSummary
 
 __all__ = [
     "SemanticItem",
@@ -272,6 +275,11 @@ class SemanticsAgent(FloorPlanImages, TaskAgent[SceneState, SemanticsEvidence, S
     items_field: ClassVar[str | None] = "objects"
     object_id_fields: ClassVar[tuple[str, ...]] = ("objects.object_id",)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation"})
+
+    def needed(self, summary: SceneSummary) -> Need:
+        """Always (a plan may leave it out)."""
+        del summary
+        return Need(True, "normalize categories and check fronts")
 
     def gather(self, state: SceneState) -> SemanticsEvidence:
         objs = object_facts(state.scene)

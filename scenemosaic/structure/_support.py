@@ -23,13 +23,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import ClassVar, Literal
+from typing import TYPE_CHECKING, ClassVar, Literal
 
 import numpy as np
 import trimesh
 from pydantic import Field
 
-from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, Need, SceneState, TaskAgent
 from scenemosaic.assets import object_mesh
 from scenemosaic.exceptions import SceneMosaicError
 from scenemosaic.scene import (
@@ -55,6 +55,9 @@ from scenemosaic.structure._facts import (
     wall_gap,
 )
 from scenemosaic.structure._views import FloorPlanImages
+
+if TYPE_CHECKING:
+    from scenemosaic.structure._manager import SceneSummary
 
 __all__ = [
     "PlacementHints",
@@ -434,6 +437,10 @@ class SupportAgent(FloorPlanImages, TaskAgent[SceneState, SupportEvidence, Suppo
     chunk_size: ClassVar[int | None] = CHUNK_OBJECTS
     items_field: ClassVar[str | None] = "assignments"
     object_id_fields: ClassVar[tuple[str, ...]] = ("assignments.object_id",)
+
+    def needed(self, summary: SceneSummary) -> Need:
+        """Always, and every plan must have it: every object needs a parent."""
+        return Need(True, f"parent each of {summary.object_count} objects", required=True)
 
     def __init__(self, priors: SupportPriors | None = None) -> None:
         self.priors = priors if priors is not None else load_priors()

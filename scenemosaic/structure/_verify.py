@@ -24,14 +24,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import ClassVar, Literal
+from typing import TYPE_CHECKING, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
 from shapely.affinity import translate
 from shapely.geometry import Polygon
 
-from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, Need, SceneState, TaskAgent
 from scenemosaic.assets import compartment_fits, interior_boards
 from scenemosaic.scene import (
     CEILING,
@@ -58,6 +58,9 @@ from scenemosaic.structure._facts import (
     translate_objects,
 )
 from scenemosaic.structure._room import MAX_PULL_IN, ObjectShift
+
+if TYPE_CHECKING:
+    from scenemosaic.structure._manager import SceneSummary
 
 __all__ = [
     "MAX_PROBLEMS",
@@ -535,6 +538,11 @@ class VerificationAgent(TaskAgent[SceneState, VerificationEvidence, Verification
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"top", "relation", "label", "description", "yaw_deg"})
     nested_rows: ClassVar[bool] = True
     object_id_fields: ClassVar[tuple[str, ...]] = ("fixes.object_id", "moves.object_id", "lay_down")
+
+    def needed(self, summary: SceneSummary) -> Need:
+        """Always, and every plan must have it: the final check builds the scene tree."""
+        del summary
+        return Need(True, "final completeness check and scene tree", required=True)
 
     def __init__(self, priors: SupportPriors | None = None) -> None:
         self.priors = priors if priors is not None else load_priors()

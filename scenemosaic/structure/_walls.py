@@ -12,12 +12,12 @@ is *mounted* when its support parent already is that wall.
 from __future__ import annotations
 
 import math
-from typing import ClassVar, Literal
+from typing import TYPE_CHECKING, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
 
-from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
+from scenemosaic.agents import MAX_ITEMS, AgentOutput, Need, SceneState, TaskAgent
 from scenemosaic.scene import FLOOR, Relation, traits
 from scenemosaic.structure._facts import (
     CHUNK_OBJECTS,
@@ -33,6 +33,9 @@ from scenemosaic.structure._facts import (
     wall_length,
 )
 from scenemosaic.structure._views import FloorPlanImages
+
+if TYPE_CHECKING:
+    from scenemosaic.structure._manager import SceneSummary
 
 __all__ = [
     "FLUSH_GAP",
@@ -142,6 +145,12 @@ class WallAttachmentAgent(FloorPlanImages, TaskAgent[SceneState, WallEvidence, W
     items_field: ClassVar[str | None] = "items"
     object_id_fields: ClassVar[tuple[str, ...]] = ("items.object_id",)
     prompt_omit: ClassVar[frozenset[str]] = frozenset({"bottom", "top", "relation"})
+
+    def needed(self, summary: SceneSummary) -> Need:
+        """When something could stand against or hang on a wall, or the input has walls."""
+        run = bool(summary.wall_candidates) or summary.has_walls
+        why = "wall-type furniture or input walls present" if run else "nothing stands against or hangs on a wall"
+        return Need(run, why, evidence=tuple(summary.wall_candidates), insist="wall furniture is present")
 
     def gather(self, state: SceneState) -> WallEvidence:
         return WallEvidence(objects=object_facts(state.scene), room=room_facts(state.scene))

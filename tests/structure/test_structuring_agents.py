@@ -367,6 +367,41 @@ async def test_manager_plans_by_scene_content(priors: Any) -> None:
     assert "constraints" not in [a.name for a in agents2]
 
 
+async def test_built_ins_and_plugins_say_when_they_are_needed_through_one_seam(priors: Any) -> None:
+    """The manager has no table of built-in names: every agent answers ``needed`` on the scene's
+    summary, and a plugin that says it has nothing to do here is skipped like a built-in."""
+    from scenemosaic.agents import Need
+    from scenemosaic.structure import DEFAULT_AGENTS, REQUIRED_AGENTS
+
+    class OnlyWithPlants(TaskAgent[SceneState, Any, Any]):  # a plugin that knows when it has work
+        name = "plants"
+        prompt = "unused"
+
+        def needed(self, summary: Any) -> Need:
+            found = tuple(c for c in summary.categories if "plant" in c)
+            return Need(bool(found), "plants to water" if found else "no plant in the scene", evidence=found, insist="plants are present")
+
+        def gather(self, state: SceneState) -> Any:
+            return None
+
+        def solve(self, evidence: Any) -> Any:
+            return None
+
+    plan, agents = plan_structuring(desk_scene(), agents=[*DEFAULT_AGENTS, OnlyWithPlants()], priors=priors)
+    assert "plants" not in [a.name for a in agents]
+    assert {s.name: s.reason for s in plan.skipped}["plants"] == "no plant in the scene"
+    plant = Scene(objects=[*desk_scene().objects, box("fern", "house_plant", (0.3, 0.3, 0.6), (1.5, 1.5, 0))])
+    plan, agents = plan_structuring(plant, agents=[*DEFAULT_AGENTS, OnlyWithPlants()], priors=priors)
+    assert "plants" in [a.name for a in agents]
+    # a model's plan leaving it out while the scene holds a plant is refused, naming what called for it
+    manager = ManagerAgent([*DEFAULT_AGENTS, OnlyWithPlants()], priors=priors)
+    without = plan.model_copy(update={"agents": [p for p in plan.agents if p.name != "plants"]})
+    assert any("schedule 'plants': plants are present (plant)" in p for p in manager.check(without, SceneState(plant)))
+    # the names every plan must hold are those the built-ins call required
+    summary = manager.gather(SceneState(plant))
+    assert {a.name for a in DEFAULT_AGENTS if a.needed(summary).required} == REQUIRED_AGENTS
+
+
 async def test_manager_rejects_a_plan_without_support(priors: Any) -> None:
     state = SceneState(desk_scene())
     bad = {"agents": [{"name": "room"}, {"name": "verify"}]}
