@@ -42,7 +42,7 @@ import time
 import traceback
 from collections.abc import AsyncIterator, Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import structlog
 from pydantic import BaseModel
@@ -174,6 +174,14 @@ def room_worker(reply_fd: int, room_stages: RoomStages) -> None:
             if line.strip():
                 replies.write(_encode(asyncio.run(_work(HOUSE_JOB.validate_python(json.loads(line)), room_stages))))
                 replies.flush()
+
+
+_M = TypeVar("_M", bound=BaseModel)
+
+
+def _sent(message: _M) -> _M:
+    """``message`` as the other end of a worker's pipe reads it (:func:`_encode`, then validated)."""
+    return type(message).model_validate(json.loads(_encode(message)))
 
 
 def _encode(message: BaseModel) -> bytes:
@@ -313,8 +321,15 @@ async def _stage_rooms(run: PipelineRun, rec: StageRecord) -> None:
     else:
         model = await run.asking(rec)  # the run's one model stack, shared by the rooms
         stages = run.setup.room_stages
-        tasks = [_run_room(s, run.input_path, run.folder.root, run.config, run.base_dir, model, stages) for s in rooms]
-        by_id = {o.room_id: o for o in await asyncio.gather(*tasks)}
+
+        async def here(room: Scene) -> RoomOutcome:
+            # a room's scene and outcome cross the same boundary as a worker's (a JSON line each
+            # way, validated again), so one process and many give the same bytes: validating a
+            # pose again divides its quaternion by its norm, which may move its last bit
+            outcome = await _run_room(_sent(room), run.input_path, run.folder.root, run.config, run.base_dir, model, stages)
+            return _sent(outcome)
+
+        by_id = {o.room_id: o for o in await asyncio.gather(*(here(s) for s in rooms))}
     run.rooms = {rid: by_id[rid] for rid in house.room_ids}
     done: list[Scene] = []
     failed = []

@@ -95,12 +95,6 @@ def _plan_png(model: Scene | House) -> bytes | None:
 QUAT_NORM_TOLERANCE = 1e-6
 """Largest accepted deviation of a quaternion's norm from 1 before it is normalized (with a warning)."""
 
-_UNIT_NORM_ULPS = 8 * 2.0**-52
-"""A quaternion whose computed norm is this close to 1 (a few units in the last place: what
-dividing by the norm leaves) is kept as it is. Dividing it by its norm again would move its last
-bits, so a pose validated twice (a scene sent to a worker process and back) would differ from one
-validated once (the same scene kept in memory): validation is the identity on valid poses."""
-
 ObjectId = Annotated[str, Field(min_length=1, max_length=MAX_ID_LENGTH, pattern=OBJECT_ID_PATTERN)]
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
@@ -167,8 +161,6 @@ class Pose(BaseModel):
             raise ValueError("quaternion has zero norm")
         if abs(norm - 1.0) > QUAT_NORM_TOLERANCE:
             log.warning("quaternion_normalized", norm=norm, quaternion=list(v))
-        if abs(norm - 1.0) <= _UNIT_NORM_ULPS:  # unit already: validating a valid pose changes no bit
-            norm = 1.0
         if w / norm < 0:  # canonical sign: w >= 0, so equal rotations serialize equally
             return (-(w / norm), -(x / norm), -(y / norm), -(z / norm))
         return (w / norm, x / norm, y / norm, z / norm)

@@ -13,12 +13,12 @@ import asyncio
 import sys
 import time
 
-from scenemosaic.pipeline import PipelineRun, Stage, StageRecord, _run
+from scenemosaic.pipeline import PipelineRun, Stage, StageRecord, _plan
 
 
 def _patched(stage_name: str, action: str) -> tuple[Stage, ...]:
     out = []
-    for stage in _run.STAGES:
+    for stage in _plan.STAGES:
         if stage.name != stage_name:
             out.append(stage)
             continue
@@ -41,7 +41,7 @@ def main() -> None:
     stage, action, sep, *args = sys.argv[1:]
     assert sep == "--"
     if stage != "-":
-        _run.STAGES = _patched(stage, action)  # type: ignore[misc]
+        _plan.STAGES = _patched(stage, action)  # type: ignore[misc]  # what the run's plan is made of
     from scenemosaic.cli import app
 
     sys.argv = ["scenemosaic", *args]

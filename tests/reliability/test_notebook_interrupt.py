@@ -30,8 +30,8 @@ CELL = textwrap.dedent(
         print("EVOLVE-STARTED", flush=True)
         await asyncio.sleep(600)
 
-    from scenemosaic.pipeline import Stage, _run
-    _run.STAGES = tuple(Stage(s.name, slow_evolve) if s.name == "evolve" else s for s in _stages.STAGES)
+    from scenemosaic.pipeline import Stage, _plan
+    _plan.STAGES = tuple(Stage(s.name, slow_evolve) if s.name == "evolve" else s for s in _stages.STAGES)
 
     async def cell():  # a notebook cell: a loop runs, and generate() is called synchronously
         sm.generate(sys.argv[1], sys.argv[2], sm.GenerateConfig(variants=2))
