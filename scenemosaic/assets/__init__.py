@@ -17,6 +17,7 @@ from scenemosaic.assets._articulation import (
     OPEN_STATES,
     ROOM_DOOR_OPEN_DEG,
     TOILET_LID_OPEN_DEG,
+    Box6,
     HingeSide,
     JointType,
     OpenState,
@@ -30,6 +31,13 @@ from scenemosaic.assets._articulation import (
 )
 from scenemosaic.assets._canonical import CanonicalMesh, load_mesh, mesh_hash
 from scenemosaic.assets._files import MESH_SUFFIXES, PARTS_FILE_SUFFIX, referenced_files
+from scenemosaic.assets._furniture import (
+    ROOM_DOOR_CATEGORIES,
+    ROOM_DOOR_HANDLE_PROUD_M,
+    ROOM_DOOR_JAMB_M,
+    ROOM_DOOR_LEAF_M,
+    SHELF_PITCH,
+)
 from scenemosaic.assets._hulls import CoacdParams, HullCache, default_cache_dir, shutdown_workers
 from scenemosaic.assets._objects import (
     PART_TAG,
@@ -45,12 +53,6 @@ from scenemosaic.assets._objects import (
 from scenemosaic.assets._opening import OPEN_STATE_KEY, open_house, open_scene, part_openings
 from scenemosaic.assets._procedural import (
     MAX_PARTS,
-    ROOM_DOOR_CATEGORIES,
-    ROOM_DOOR_HANDLE_PROUD_M,
-    ROOM_DOOR_JAMB_M,
-    ROOM_DOOR_LEAF_M,
-    SHELF_PITCH,
-    Box6,
     compartment_fits,
     interior_boards,
     known_categories,

@@ -43,14 +43,9 @@ from shapely.geometry.base import BaseGeometry
 
 from scenemosaic._memo import Memo
 from scenemosaic.assets._articulation import HingeSide, PartSpec, opening
+from scenemosaic.assets._furniture import ROOM_DOOR_CATEGORIES, ROOM_DOOR_HANDLE_PROUD_M, ROOM_DOOR_LEAF_M
 from scenemosaic.assets._opening import OPEN_STATE_KEY, part_openings
-from scenemosaic.assets._procedural import (
-    ROOM_DOOR_CATEGORIES,
-    ROOM_DOOR_HANDLE_PROUD_M,
-    ROOM_DOOR_LEAF_M,
-    procedural_articulation,
-    procedural_parts,
-)
+from scenemosaic.assets._procedural import procedural_articulation, procedural_parts
 from scenemosaic.scene import (
     AssetRef,
     FloatArray,
