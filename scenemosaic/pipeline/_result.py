@@ -17,7 +17,8 @@ __all__ = ["GenerateResult"]
 @dataclass
 class GenerateResult:
     """What ``generate`` produced: the final base scene (a :class:`~scenemosaic.scene.House` for a
-    whole-house run: ``scene.rooms``, and one room's scene by :meth:`room`), the output folder and
+    whole-house run), the base as a house whatever the run (:attr:`house`: a one-room run is a
+    house of one room; its rooms by :attr:`rooms` and :meth:`room`), the output folder and
     the report; its variants and metrics on demand. In Jupyter it displays as a summary table (a
     house's: its house figures and each room's) and the contact sheet of the base and its
     variants."""
@@ -68,30 +69,30 @@ class GenerateResult:
         return list(self._variants)
 
     @property
+    def house(self) -> House:
+        """The base as a house, whatever the run: a whole-house run's house, or a one-room run's
+        scene as a house of that one room (so a notebook reads ``result.house.rooms`` without
+        asking which kind of run it was)."""
+        return self.scene if isinstance(self.scene, House) else _one_room_house(self.scene)
+
+    @property
     def rooms(self) -> list[str]:
-        """The ids of a whole-house run's rooms, in the house's order (empty for a one-room run)."""
-        return self.scene.room_ids if isinstance(self.scene, House) else []
+        """The ids of the run's rooms, in the house's order (a one-room run: its scene's id)."""
+        return self.house.room_ids
 
     def room(self, room_id: str, *, variant: int | None = None) -> Scene:
-        """One room's scene of a whole-house run: of the delivered base house, or of whole-house
-        variant ``variant`` (1 ... n). ``room_id`` is the room's id (``result.rooms``) or its
-        source id (ProcTHOR's ``room|4``). Raises ``KeyError`` naming the rooms for an unknown
-        room, and :class:`~scenemosaic.exceptions.UsageError` for a one-room run (whose
-        ``scene`` is the room) or a variant that was not written."""
-        if not isinstance(self.scene, House):
-            raise UsageError(
-                f"result.room({room_id!r}): this is a one-room run (its scene {self.scene.id!r} is the room); "
-                "rooms belong to a whole-house run"
-            )
-        house = self.scene
+        """One room's scene: of the delivered base, or of variant ``variant`` (1 ... n). ``room_id``
+        is the room's id (``result.rooms``) or its source id (ProcTHOR's ``room|4``); a one-room
+        run's room is its scene. Raises ``KeyError`` naming the rooms for an unknown room, and
+        :class:`~scenemosaic.exceptions.UsageError` for a variant that was not written."""
+        house = self.house
         if variant is not None:
             written = self.variants
             if not 1 <= variant <= len(written):
                 wrote = f"variant_1 ... variant_{len(written)}" if written else "no variants"
                 raise UsageError(f"no variant {variant}: the run wrote {wrote}")
             chosen = written[variant - 1]
-            assert isinstance(chosen, House)  # a house run's variants are houses
-            house = chosen
+            house = chosen if isinstance(chosen, House) else _one_room_house(chosen)
         return house.room(room_id)
 
     @property
@@ -191,3 +192,8 @@ def _diversity(div: Any, label: str) -> str:
     if not isinstance(div, dict):
         return ""
     return f"<p>{label} {html.escape(str(div.get('Div-IoU')))}, Div-N {html.escape(str(div.get('Div-N')))}</p>"
+
+
+def _one_room_house(scene: Scene) -> House:
+    """``scene`` as a house of one room (its id and provenance)."""
+    return House(id=scene.id, rooms=[scene], provenance=scene.provenance.model_copy())

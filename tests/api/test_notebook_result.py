@@ -142,7 +142,14 @@ def test_a_house_result_displays_the_house_figures(house_result: sm.GenerateResu
     assert f"<td>room_3</td><td>{room['base']['COL']} / {room['base']['OOB']}</td>" in rooms
 
 
-def test_a_room_run_has_no_rooms_to_pick(result: sm.GenerateResult) -> None:
-    assert result.rooms == []
-    with pytest.raises(sm.UsageError, match="one-room run"):
+def test_a_room_run_is_a_house_of_one_room(result: sm.GenerateResult) -> None:
+    """Rooms and houses read alike: ``result.house``, ``result.rooms`` and ``result.room(id)``
+    answer for a one-room run too, its room being its scene."""
+    assert isinstance(result.scene, Scene) and not isinstance(result.scene, House)
+    house = result.house
+    assert isinstance(house, House) and house.room_ids == result.rooms == [result.scene.id]
+    assert result.room(result.scene.id).model_dump_json() == result.scene.model_dump_json()
+    if result.variants:
+        assert result.room(result.scene.id, variant=1).model_dump_json() == result.variants[0].model_dump_json()
+    with pytest.raises(KeyError, match=result.scene.id):
         result.room("floor")
