@@ -1,6 +1,7 @@
 """Runs the ``scenemosaic`` CLI in this process with one stage made slow or broken, for tests.
 
-Usage: ``python cli_driver.py <stage|-> <sleep|block|raise|-> -- <scenemosaic arguments>``.
+Usage: ``python cli_driver.py <stage|-> <sleep|block|raise|-> -- <scenemosaic arguments>`` (a stage
+of a room's run or of a whole house's).
 ``sleep`` makes the named stage wait (10 minutes) before doing its work, so a test can send a
 signal while that stage runs; ``block`` makes it wait the same in a worker thread (CPU work a
 cancel cannot interrupt, like a long compose); ``raise`` makes it fail with an unexpected
@@ -16,9 +17,9 @@ import time
 from scenemosaic.pipeline import PipelineRun, Stage, StageRecord, _plan
 
 
-def _patched(stage_name: str, action: str) -> tuple[Stage, ...]:
+def _patched(stages: tuple[Stage, ...], stage_name: str, action: str) -> tuple[Stage, ...]:
     out = []
-    for stage in _plan.STAGES:
+    for stage in stages:
         if stage.name != stage_name:
             out.append(stage)
             continue
@@ -41,7 +42,9 @@ def main() -> None:
     stage, action, sep, *args = sys.argv[1:]
     assert sep == "--"
     if stage != "-":
-        _plan.STAGES = _patched(stage, action)  # type: ignore[misc]  # what the run's plan is made of
+        # what the run's plan is made of: a room's stages and a house's (its rooms' workers run unpatched)
+        _plan.STAGES = _patched(_plan.STAGES, stage, action)  # type: ignore[misc]
+        _plan.HOUSE_STAGES = _patched(_plan.HOUSE_STAGES, stage, action)  # type: ignore[misc]
     from scenemosaic.cli import app
 
     sys.argv = ["scenemosaic", *args]

@@ -158,3 +158,34 @@ def test_a_house_run_stopped_in_its_rooms_leaves_no_process_behind(tmp_path: Pat
         run.kill()
         for pid, _ in _marked(mark):
             os.kill(pid, signal.SIGKILL)
+
+
+@pytest.mark.house
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
+def test_a_house_run_stopped_while_its_houses_are_delivered_ahead_leaves_no_process_behind(
+    tmp_path: Path, sig: signal.Signals
+) -> None:
+    """Held in its validate stage, a house run has its workers delivering the composed houses (or
+    idle, kept): a signal then still leaves nothing of the run alive 2 s later."""
+    house = REPO / "data" / "houses" / "procthor" / "procthor_4room.json"
+    mark = uuid.uuid4().hex
+    env = {**os.environ, MARK: mark, "SCENEMOSAIC_CACHE": str(tmp_path / "cold-cache"), "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    driver = Path(__file__).resolve().parent / "cli_driver.py"
+    args = ["generate", str(house), "--out", str(tmp_path / "run"), "--variants", "2", "--room-workers", "2"]
+    run = subprocess.Popen([sys.executable, str(driver), "validate", "sleep", "--", *args], env=env, stderr=subprocess.PIPE, text=True)
+    try:
+        assert run.stderr is not None
+        deadline = time.monotonic() + 240
+        for line in run.stderr:
+            if "STAGE-STARTED validate" in line:
+                break
+            assert time.monotonic() < deadline, "the house never reached its validate stage"
+        assert [p for p in _marked(mark) if "_house_worker" in p[1]], "no house worker alive at validate"
+        run.send_signal(sig)
+        run.communicate(timeout=30)
+        left = _wait_for(lambda: not _marked(mark), timeout=2.0)
+        assert left, f"still alive 2 s after {sig.name}: {_marked(mark)}"
+    finally:
+        run.kill()
+        for pid, _ in _marked(mark):
+            os.kill(pid, signal.SIGKILL)
