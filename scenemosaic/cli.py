@@ -932,12 +932,12 @@ def export(
     for name, folder in _scene_folders(path):
         scene, base_dir = _load_any(folder, room=room, allow_partial=allow_partial)
         if open_state is not None:
-            from scenemosaic.assets import open_house, open_scene
+            from scenemosaic.assets import open_scene
 
             state: OpenState = open_state.value
             drawn = seed if seed is not None else _run_seed(folder)
             if isinstance(scene, House):
-                scene = open_house(scene, state, drawn, base_dir)
+                scene = open_scene(scene, state, drawn, base_dir)
             else:
                 scene = open_scene(scene, state, drawn, base_dir)
         target = out if single else out / name

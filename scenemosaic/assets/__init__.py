@@ -50,7 +50,7 @@ from scenemosaic.assets._objects import (
     object_part_arrays,
     object_part_meshes,
 )
-from scenemosaic.assets._opening import OPEN_STATE_KEY, open_house, open_scene, part_openings
+from scenemosaic.assets._opening import OPEN_STATE_KEY, open_scene, part_openings
 from scenemosaic.assets._procedural import (
     MAX_PARTS,
     compartment_fits,
@@ -116,7 +116,6 @@ __all__ = [
     "object_mesh_arrays",
     "object_part_arrays",
     "object_part_meshes",
-    "open_house",
     "open_scene",
     "opening",
     "part_openings",

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from scenemosaic.assets._articulation import OPEN_STATES, OpenState, PartSpec, o
 from scenemosaic.assets._objects import object_articulation
 from scenemosaic.scene import House, Scene, SceneObject
 
-__all__ = ["OPEN_STATE_KEY", "open_house", "open_scene", "part_openings"]
+__all__ = ["OPEN_STATE_KEY", "open_scene", "part_openings"]
 
 OPEN_STATE_KEY = "open_state"
 """The key of a scene's (and a house's) metadata holding the delivered pose of its parts."""
@@ -92,9 +92,17 @@ def _recorded(state: OpenState | None, scene: Scene) -> bool:
     return state is not None and (state != "closed" or _hangs_doors(scene))
 
 
+@overload
+def open_scene(scene: Scene, state: OpenState | None, seed: int = 0, base_dir: str | Path | None = None) -> Scene: ...
+
+
+@overload
+def open_scene(scene: House, state: OpenState | None, seed: int = 0, base_dir: str | Path | None = None) -> House: ...
+
+
 def open_scene(
-    scene: Scene, state: OpenState | None, seed: int = 0, base_dir: str | Path | None = None
-) -> Scene:
+    scene: Scene | House, state: OpenState | None, seed: int = 0, base_dir: str | Path | None = None
+) -> Scene | House:
     """``scene`` with its parts in ``state`` (``random`` drawn from ``seed``, see
     :func:`~scenemosaic.assets.opening`): the metadata key :data:`OPEN_STATE_KEY` set and what
     stands in each drawer moved with it, from the pose the scene held before. ``None`` is the
@@ -102,7 +110,10 @@ def open_scene(
     (``with_room_doors``); ``closed`` closes those too, so it records the key in a room with doors
     and drops it elsewhere. ``base_dir`` resolves mesh assets' relative uris (their declared
     parts). A scene that is closed and stays so, its key unchanged, is returned as it is (the same
-    object)."""
+    object). A :class:`~scenemosaic.scene.House` has every room opened, its own metadata recording
+    the state too (its ``parts`` every room's together) when a room records it."""
+    if isinstance(scene, House):  # every room, the house recording the state too
+        return _open_house(scene, state, seed, base_dir)
     if state is not None and state not in OPEN_STATES:
         raise ValueError(f"open state must be one of {', '.join(OPEN_STATES)}, not {state!r}")
     furniture: OpenState = state if state is not None else "closed"
@@ -126,11 +137,8 @@ def open_scene(
     return scene.model_copy(update={"objects": objects, "metadata": metadata})
 
 
-def open_house(
-    house: House, state: OpenState | None, seed: int = 0, base_dir: str | Path | None = None
-) -> House:
-    """:func:`open_scene` of every room of ``house``, the house's own metadata recording the
-    state too (its ``parts`` every room's together) when a room records it."""
+def _open_house(house: House, state: OpenState | None, seed: int, base_dir: str | Path | None) -> House:
+    """:func:`open_scene` of a whole house."""
     rooms = [open_scene(room, state, seed, base_dir) for room in house.rooms]
     metadata: dict[str, Any] = {k: v for k, v in house.metadata.items() if k != OPEN_STATE_KEY}
     if any(_recorded(state, room) for room in house.rooms):

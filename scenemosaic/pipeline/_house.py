@@ -49,7 +49,7 @@ from pydantic import BaseModel
 
 from scenemosaic._memo import forget_memos
 from scenemosaic._processes import STOP_GRACE_S, JobEnd, JobQueue, WorkerJob, WorkerPool
-from scenemosaic.assets import HullCache, open_house
+from scenemosaic.assets import HullCache, open_scene
 from scenemosaic.compose import compose_house
 from scenemosaic.dag import FileRunStore
 from scenemosaic.exceptions import OutputSpaceError, SceneMosaicError
@@ -486,9 +486,9 @@ async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
 
 def _houses(run: PipelineRun) -> list[tuple[Path, House]]:
     """The houses the export delivers, by folder (``base/``, ``variant_<i>/``), each as delivered
-    (``--open-state``: ``assets.open_house``)."""
+    (``--open-state``: ``assets.open_scene``)."""
     houses = [(run.folder.base, run.need_house()), *((run.folder.variant(i), v) for i, v in enumerate(run.house_variants, start=1))]
-    return [(folder, open_house(h, run.config.open_state, run.config.seed, run.base_dir)) for folder, h in houses]
+    return [(folder, open_scene(h, run.config.open_state, run.config.seed, run.base_dir)) for folder, h in houses]
 
 
 _FIRST_LANE = ("mjcf", "usd", "glb", "sceneeval")

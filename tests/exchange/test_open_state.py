@@ -23,7 +23,6 @@ from scenemosaic.assets import (
     PartSpec,
     interior_boards,
     object_articulation,
-    open_house,
     open_scene,
     opening,
     part_openings,
@@ -124,8 +123,8 @@ def test_random_is_reproducible_for_a_seed_and_differs_between_seeds(closed: Sce
 
 def test_a_house_records_the_state_in_every_room(closed: Scene) -> None:
     house = House(id="h", rooms=[closed])
-    assert open_house(house, "closed") is house
-    opened = open_house(house, "open", seed=2)
+    assert open_scene(house, "closed") is house
+    opened = open_scene(house, "open", seed=2)
     assert (
         part_openings(opened)
         == part_openings(opened.rooms[0])

@@ -78,8 +78,8 @@ def test_door_blockers_are_what_a_robot_would_walk_into() -> None:
 
 
 def test_a_room_behind_a_blocked_door_is_unreachable() -> None:
-    open_house = two_rooms([box("table", 1.5, 1.5, (1.0, 0.8, 0.75))], [box("bed", 6.5, 1.5, (1.4, 2.0, 0.5))])
-    walk = house_walkable(open_house)
+    open_scene = two_rooms([box("table", 1.5, 1.5, (1.0, 0.8, 0.75))], [box("bed", 6.5, 1.5, (1.4, 2.0, 0.5))])
+    walk = house_walkable(open_scene)
     assert walk.unreachable_rooms() == [] and walk.nav == pytest.approx(1.0)
     wardrobe = box("wardrobe", 3.65, 1.5, (0.6, 1.6, 2.0))  # across the doorway on a's side
     closed = house_walkable(two_rooms([wardrobe], [box("bed", 6.5, 1.5, (1.4, 2.0, 0.5))]))
