@@ -53,6 +53,5 @@ if __name__ == "__main__":
     room = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parents[1] / "data/layouts/physcene/DiningRoom-19325_diningroom.json"
     out = Path(sys.argv[2]) if len(sys.argv) > 2 else Path("out/custom_agent")
     result = sm.generate(room, out, sm.GenerateConfig(agents=[*sm.DEFAULT_AGENTS, CrowdingAgent()]))
-    rooms = [result.room(r) for r in result.rooms] or [result.scene]  # a house: the agent ran in each room
-    for scene in rooms:
+    for scene in result.house.rooms:  # a house: the agent ran in each room; a room run is a house of one
         print(f"crowding of {scene.id}:", scene.metadata["crowding"])

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import scenemosaic as sm
 from scenemosaic.evolve import Finding, Target, UnitContext
-from scenemosaic.scene import House, UnitLayout
+from scenemosaic.scene import UnitLayout
 
 ROOM = Path(__file__).resolve().parents[1] / "data/layouts/physcene/LivingDiningRoom-8714_livingroom.json"
 GAP = 0.30  # metres of legroom between the sofa's front and the table
@@ -56,15 +56,9 @@ def coffee_table_in_front(layout: UnitLayout, ctx: UnitContext) -> list[Finding]
 
 
 # %%
-def rooms(result: sm.GenerateResult) -> dict[str, sm.Scene]:
-    """A whole house's rooms by id, or the one room of a room run."""
-    scene = result.scene
-    return {room.id: room for room in scene.rooms} if isinstance(scene, House) else {scene.id: scene}
-
-
 def evolved_layouts(result: sm.GenerateResult, room_id: str) -> list[tuple[str, str, bool]]:
     """What the evolve stage made of each unit: its anchor, the layout chosen, whether valid."""
-    stages = result.report["rooms"][room_id]["stages"] if result.rooms else result.report["stages"]
+    stages = result.room_report(room_id)["stages"]  # a room of a house or a room run alike
     layouts = next(s for s in stages if s["name"] == "evolve")["detail"]["layouts"]
     return [(lay["anchor"], lay["layout_id"], lay["valid"]) for lay in layouts]
 
@@ -76,20 +70,19 @@ def main() -> None:
     ruled = sm.generate(source, out / "ruled", sm.GenerateConfig(layout_rules=[coffee_table_in_front], overwrite=True))
     for name, result in (("built-in rules", plain), ("with the plugin", ruled)):
         measured = 0
-        for room_id, scene in rooms(result).items():
+        for room_id in result.rooms:  # a whole house's rooms, or the one room of a room run
+            scene = result.room(room_id)
             sofa = next((o for o in scene.objects if "sofa" in o.category), None)
             table = next((o for o in scene.objects if o.category == "coffee_table"), None)
             if sofa is None or table is None:
                 continue
             gap = math.dist(sofa.pose.position[:2], table.pose.position[:2])
-            where = f" ({room_id})" if result.rooms else ""
-            print(f"{name}{where}: coffee table {gap:.2f} m from the sofa's centre, status {result.status}")
+            print(f"{name} ({room_id}): coffee table {gap:.2f} m from the sofa's centre, status {result.status}")
             measured += 1
         if not measured:
             print(f"{name}: no room with both a sofa and a coffee table (the rule finds nothing), status {result.status}")
-    for room_id in rooms(ruled):
-        where = f" of {room_id}" if ruled.rooms else ""
-        print(f"evolved layouts{where}: {evolved_layouts(ruled, room_id)}")
+    for room_id in ruled.rooms:
+        print(f"evolved layouts of {room_id}: {evolved_layouts(ruled, room_id)}")
 
 
 if __name__ == "__main__":

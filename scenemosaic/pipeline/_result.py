@@ -95,6 +95,17 @@ class GenerateResult:
             house = chosen if isinstance(chosen, House) else _one_room_house(chosen)
         return house.room(room_id)
 
+    def room_report(self, room_id: str) -> dict[str, Any]:
+        """One room's part of the report (its ``stages``, ``warnings``, ``validation``...): a
+        whole-house run's ``report["rooms"][room_id]``, a one-room run's report itself. Raises
+        ``KeyError`` naming the rooms for an unknown room."""
+        room = self.room(room_id)  # by its id or its source's
+        rooms = self.report.get("rooms")
+        if isinstance(rooms, dict):
+            part: dict[str, Any] = rooms[room.id]
+            return part
+        return self.report
+
     @property
     def metrics(self) -> dict[str, Any] | None:
         """COL, OOB, NAV of the base and each variant, RelKeep and the diversity (``None`` when
