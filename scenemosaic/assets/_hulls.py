@@ -387,6 +387,7 @@ class HullCache:
         self._lock = threading.Lock()
         self._inflight: dict[str, Future[list[RawPiece]]] = {}
         self._workers: WorkerExecutor | None = None
+        self._workers_pid = 0
         self._finalizer: weakref.finalize[Any, HullCache] | None = None
         _open_caches.add(self)
 
@@ -394,8 +395,8 @@ class HullCache:
     def _submit(self, vertices: FloatArray, faces: npt.NDArray[np.int64], options: dict[str, Any]) -> Future[list[RawPiece]]:
         """Hand one decomposition to this cache's CoACD workers (started on the first miss)."""
         with self._lock:
-            if self._workers is None:
-                self._workers = WorkerExecutor(MODULE, workers=_worker_count(), orphan="kill")
+            if self._workers is None or self._workers_pid != os.getpid():  # a forked child starts its own
+                self._workers, self._workers_pid = WorkerExecutor(MODULE, workers=_worker_count(), orphan="kill"), os.getpid()
                 # a cache dropped without close() still lets its processes go
                 self._finalizer = weakref.finalize(self, self._workers.close, cancel=True)
             workers = self._workers

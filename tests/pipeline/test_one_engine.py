@@ -195,10 +195,9 @@ def test_a_failed_house_keeps_a_partial_house_that_loaders_refuse(tmp_path: Path
         raise RuntimeError("validation blew up")
 
     stages = tuple(s if s.name != "validate" else type(s)("validate", broken) for s in _house.HOUSE_STAGES)
-    monkeypatch.setattr(_house, "HOUSE_STAGES", stages)
-    from scenemosaic.pipeline import _run
+    from scenemosaic.pipeline import _plan
 
-    monkeypatch.setattr(_run, "HOUSE_STAGES", stages)
+    monkeypatch.setattr(_plan, "HOUSE_STAGES", stages)  # what the run's plan is made of
     out = tmp_path / "h"
     with pytest.raises(RuntimeError):
         generate(TWO_ROOMS, out, GenerateConfig(variants=1, room_workers=1))
