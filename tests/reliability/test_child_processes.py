@@ -113,74 +113,19 @@ def test_a_failed_decomposition_is_a_warning_and_the_run_is_degraded(tmp_path: P
     assert any(e["event"] == "run_degraded" for e in logs)  # and in the run's closing summary
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
-def test_a_run_stopped_while_coacd_works_leaves_no_process_behind(tmp_path: Path, sig: signal.Signals) -> None:
-    poses = _office(tmp_path / "input")  # the whole office: the desk keeps CoACD busy for many seconds
-    mark = uuid.uuid4().hex
-    env = {**os.environ, MARK: mark, "SCENEMOSAIC_CACHE": str(tmp_path / "cold-cache")}
-    cli = Path(sys.executable).with_name("scenemosaic")
-    run = subprocess.Popen(
-        [str(cli), "generate", str(poses), "--out", str(tmp_path / "run")],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    try:
-        busy = _wait_for(lambda: [p for p in _marked(mark) if "_coacd_worker" in p[1]], timeout=120)
-        assert busy, "no CoACD worker started"
-        run.send_signal(sig)
-        run.wait(timeout=30)
-        left = _wait_for(lambda: not _marked(mark), timeout=2.0)
-        assert left, f"still alive 2 s after {sig.name}: {_marked(mark)}"
-    finally:
-        run.kill()
-        for pid, _ in _marked(mark):  # never leave one behind for the rest of the suite
-            os.kill(pid, signal.SIGKILL)
+HOUSE = REPO / "data" / "houses" / "procthor" / "procthor_4room.json"
+DRIVER = Path(__file__).resolve().parent / "cli_driver.py"
 
 
-@pytest.mark.house
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
-def test_a_house_run_stopped_in_its_rooms_leaves_no_process_behind(tmp_path: Path, sig: signal.Signals) -> None:
-    house = REPO / "data" / "houses" / "procthor" / "procthor_4room.json"
-    mark = uuid.uuid4().hex
-    env = {**os.environ, MARK: mark, "SCENEMOSAIC_CACHE": str(tmp_path / "cold-cache")}
-    cli = Path(sys.executable).with_name("scenemosaic")
-    run = subprocess.Popen(
-        [str(cli), "generate", str(house), "--out", str(tmp_path / "run"), "--variants", "2", "--room-workers", "2"],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    try:
-        busy = _wait_for(lambda: [p for p in _marked(mark) if "_house_worker" in p[1]], timeout=120)
-        assert busy, "no room worker started"
-        run.send_signal(sig)
-        run.wait(timeout=30)
-        left = _wait_for(lambda: not _marked(mark), timeout=2.0)
-        assert left, f"still alive 2 s after {sig.name}: {_marked(mark)}"
-    finally:
-        run.kill()
-        for pid, _ in _marked(mark):
-            os.kill(pid, signal.SIGKILL)
-
-
-@pytest.mark.house
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
-def test_a_house_run_stopped_while_its_houses_are_delivered_ahead_leaves_no_process_behind(
-    tmp_path: Path, sig: signal.Signals
-) -> None:
-    """Held in its validate stage, a house run has its workers delivering the composed houses (or
-    idle, kept): a signal then still leaves nothing of the run alive 2 s later."""
-    house = REPO / "data" / "houses" / "procthor" / "procthor_4room.json"
+def _stop_when(args: list[str], ready: Callable[[subprocess.Popen[str], str], bool], sig: signal.Signals, tmp_path: Path) -> None:
+    """Start ``scenemosaic`` (or the test driver) with ``args`` under a fresh environment marker and a
+    cold hull cache, wait until ``ready(process, mark)``, send ``sig``, and check that no process
+    carrying the marker is alive 2 s after the run ended (none is left for the rest of the suite)."""
     mark = uuid.uuid4().hex
     env = {**os.environ, MARK: mark, "SCENEMOSAIC_CACHE": str(tmp_path / "cold-cache"), "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
-    driver = Path(__file__).resolve().parent / "cli_driver.py"
-    args = ["generate", str(house), "--out", str(tmp_path / "run"), "--variants", "2", "--room-workers", "2"]
-    run = subprocess.Popen([sys.executable, str(driver), "validate", "sleep", "--", *args], env=env, stderr=subprocess.PIPE, text=True)
+    run = subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
-        assert run.stderr is not None
-        deadline = time.monotonic() + 240
-        for line in run.stderr:
-            if "STAGE-STARTED validate" in line:
-                break
-            assert time.monotonic() < deadline, "the house never reached its validate stage"
-        assert [p for p in _marked(mark) if "_house_worker" in p[1]], "no house worker alive at validate"
+        assert ready(run, mark), "the run never reached the moment to stop it"
         run.send_signal(sig)
         run.communicate(timeout=30)
         left = _wait_for(lambda: not _marked(mark), timeout=2.0)
@@ -189,3 +134,50 @@ def test_a_house_run_stopped_while_its_houses_are_delivered_ahead_leaves_no_proc
         run.kill()
         for pid, _ in _marked(mark):
             os.kill(pid, signal.SIGKILL)
+
+
+def _worker_alive(module: str) -> Callable[[subprocess.Popen[str], str], bool]:
+    return lambda _run, mark: bool(_wait_for(lambda: [p for p in _marked(mark) if module in p[1]], timeout=120))
+
+
+def _stage_started(stage: str, module: str) -> Callable[[subprocess.Popen[str], str], bool]:
+    def ready(run: subprocess.Popen[str], mark: str) -> bool:
+        assert run.stderr is not None
+        deadline = time.monotonic() + 240
+        for line in run.stderr:
+            if f"STAGE-STARTED {stage}" in line:
+                return any(module in p[1] for p in _marked(mark))
+            if time.monotonic() > deadline:
+                return False
+        return False
+
+    return ready
+
+
+CLI = str(Path(sys.executable).with_name("scenemosaic"))
+SIGNALS = pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
+
+
+@SIGNALS
+def test_a_run_stopped_while_coacd_works_leaves_no_process_behind(tmp_path: Path, sig: signal.Signals) -> None:
+    poses = _office(tmp_path / "input")  # the whole office: the desk keeps CoACD busy for many seconds
+    _stop_when([CLI, "generate", str(poses), "--out", str(tmp_path / "run")], _worker_alive("_coacd_worker"), sig, tmp_path)
+
+
+@pytest.mark.house
+@SIGNALS
+def test_a_house_run_stopped_in_its_rooms_leaves_no_process_behind(tmp_path: Path, sig: signal.Signals) -> None:
+    args = [CLI, "generate", str(HOUSE), "--out", str(tmp_path / "run"), "--variants", "2", "--room-workers", "2"]
+    _stop_when(args, _worker_alive("_house_worker"), sig, tmp_path)
+
+
+@pytest.mark.house
+@SIGNALS
+def test_a_house_run_stopped_while_its_houses_are_delivered_ahead_leaves_no_process_behind(
+    tmp_path: Path, sig: signal.Signals
+) -> None:
+    """Held in its validate stage, a house run has its workers delivering the composed houses (or
+    idle, kept): a signal then still leaves nothing of the run alive 2 s later."""
+    held = [sys.executable, str(DRIVER), "validate", "sleep", "--"]
+    args = [*held, "generate", str(HOUSE), "--out", str(tmp_path / "run"), "--variants", "2", "--room-workers", "2"]
+    _stop_when(args, _stage_started("validate", "_house_worker"), sig, tmp_path)
