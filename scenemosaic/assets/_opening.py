@@ -17,7 +17,9 @@ open states; ``closed`` in a room with doors is recorded, for it shuts the doors
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, overload
 
@@ -25,7 +27,7 @@ import numpy as np
 
 from scenemosaic.assets._articulation import OPEN_STATES, OpenState, PartSpec, opening
 from scenemosaic.assets._objects import object_articulation
-from scenemosaic.scene import House, Scene, SceneObject
+from scenemosaic.scene import FloatArray, House, Scene, SceneObject
 
 __all__ = ["OPEN_STATE_KEY", "open_scene", "part_openings"]
 
@@ -34,6 +36,16 @@ OPEN_STATE_KEY = "open_state"
 
 CONTENT_DROP_TOLERANCE_M = 0.02
 """How far below a drawer's box an object's base may lie and still count as standing in it, m."""
+
+OPEN_CLEARANCE_M = 0.003
+"""How much deeper than in its closed pose an opening part may reach into another object's box
+(or its room's wall) and still count as free, m: under validation's 5 mm contact tolerance."""
+
+SWEEP_STEP_RAD = math.radians(5.0)
+"""Steps in which a hinge's path from closed to its delivered angle is checked for free space."""
+
+SWEEP_STEP_M = 0.02
+"""Steps in which a slide's path from closed to its delivered travel is checked for free space."""
 
 
 def part_openings(scene: Scene | House) -> dict[str, dict[str, float]]:
@@ -81,6 +93,165 @@ def _moved_contents(
     return out
 
 
+@dataclass(frozen=True)
+class _Box:
+    """An oriented box in the world: centre, axes (columns of ``rotation``) and half sizes."""
+
+    centre: FloatArray
+    rotation: FloatArray
+    half: FloatArray
+
+    def corners(self) -> FloatArray:
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
+        out: FloatArray = self.centre + (signs * self.half) @ self.rotation.T
+        return out
+
+
+def _object_box(obj: SceneObject) -> _Box:
+    """``obj``'s oriented bounding box (its asset's extents at its pose)."""
+    m = obj.pose.matrix(with_scale=False)
+    size = np.abs(obj.size)
+    return _Box(m[:3, :3] @ np.array([0.0, 0.0, size[2] / 2]) + m[:3, 3], m[:3, :3], size / 2)
+
+
+def _part_box(holder: SceneObject, part: PartSpec, value: float) -> _Box:
+    """The box of ``part``'s pieces with its joint at ``value``, in the world."""
+    x0, x1, y0, y1, z0, z1 = part.box
+    m = holder.pose.matrix(with_scale=False) @ part.transform(value)
+    centre = m[:3, :3] @ np.array([(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2]) + m[:3, 3]
+    return _Box(centre, m[:3, :3], np.array([(x1 - x0) / 2, (y1 - y0) / 2, (z1 - z0) / 2]))
+
+
+RESTING_GAP_M = 0.02
+"""How far above a closed part's top an object's base may lie and still count as lying on it, m."""
+
+
+def _rests_on(box: _Box, part: _Box) -> bool:
+    """Whether what ``box`` bounds lies on the closed part ``part``: its base within
+    :data:`RESTING_GAP_M` of the part's top, and the two overlapping seen from above."""
+    lo, hi = box.corners().min(axis=0), box.corners().max(axis=0)
+    plo, phi = part.corners().min(axis=0), part.corners().max(axis=0)
+    if not -RESTING_GAP_M <= lo[2] - phi[2] <= RESTING_GAP_M:
+        return False
+    return bool(np.all(np.minimum(hi[:2], phi[:2]) - np.maximum(lo[:2], plo[:2]) > 0.0))
+
+
+def _reach(holder: SceneObject, part: PartSpec, target: float) -> tuple[FloatArray, float]:
+    """A ball (centre, radius) holding every pose of ``part`` from closed to ``target``."""
+    closed = _part_box(holder, part, 0.0)
+    if part.joint == "hinge":  # every pose turns about the hinge line: a ball about a point on it
+        m = holder.pose.matrix(with_scale=False)
+        centre = m[:3, :3] @ np.asarray(part.anchor, dtype=np.float64) + m[:3, 3]
+        return centre, float(np.max(np.linalg.norm(closed.corners() - centre, axis=1)))
+    far = _part_box(holder, part, target)
+    return (closed.centre + far.centre) / 2, float(np.linalg.norm(closed.half)) + target / 2
+
+
+def _depth(a: _Box, b: _Box) -> float:
+    """How deep two oriented boxes overlap: the least overlap over the separating-axis candidates
+    (negative: the gap between them along the best axis)."""
+    axes = [a.rotation[:, i] for i in range(3)] + [b.rotation[:, i] for i in range(3)]
+    for i in range(3):
+        for j in range(3):
+            cross = np.cross(a.rotation[:, i], b.rotation[:, j])
+            norm = float(np.linalg.norm(cross))
+            if norm > 1e-9:
+                axes.append(cross / norm)
+    offset = b.centre - a.centre
+    least = math.inf
+    for axis in axes:
+        reach = float(np.sum(np.abs(a.rotation.T @ axis) * a.half) + np.sum(np.abs(b.rotation.T @ axis) * b.half))
+        least = min(least, reach - abs(float(offset @ axis)))
+    return least
+
+
+def _outside(floor: FloatArray | None, box: _Box) -> float:
+    """How far the box's farthest corner lies outside the room's floor polygon, m (0: inside or no room)."""
+    if floor is None:
+        return 0.0
+    worst = 0.0
+    n = len(floor)
+    for x, y in box.corners()[:, :2]:
+        inside, nearest = False, math.inf
+        for k in range(n):
+            (ax, ay), (bx, by) = floor[k], floor[(k + 1) % n]
+            if (ay > y) != (by > y) and x < (bx - ax) * (y - ay) / (by - ay) + ax:
+                inside = not inside
+            ex, ey = bx - ax, by - ay
+            t = min(max(((x - ax) * ex + (y - ay) * ey) / (ex * ex + ey * ey or 1.0), 0.0), 1.0)
+            nearest = min(nearest, math.hypot(x - ax - t * ex, y - ay - t * ey))
+        if not inside:
+            worst = max(worst, nearest)
+    return worst
+
+
+class _FreeSpace:
+    """What an opening part of a scene may not reach into: every other object's box and the room's
+    walls (its floor polygon), plus the parts already opened; a part's closed pose sets how much
+    it overlaps them to begin with (a nightstand touching a wardrobe), so only going deeper counts."""
+
+    def __init__(self, scene: Scene) -> None:
+        self.objects = {o.id: _object_box(o) for o in scene.objects}
+        self.bases = {o.id: np.asarray(o.pose.position, dtype=np.float64) for o in scene.objects}
+        self.floor = np.asarray(scene.room.floor, dtype=np.float64) if scene.room is not None else None
+        self.opened: list[tuple[str, _Box]] = []
+
+    def obstacles(self, holder: SceneObject, part: PartSpec) -> list[_Box]:
+        """What ``part`` of ``holder`` may not reach into: every other object's box (but a drawer's
+        contents, which move with it) and the parts of other objects opened before."""
+        m = holder.pose.matrix(with_scale=False)
+        x0, x1, y0, y1, z0, z1 = part.box
+        lo, hi = np.array([x0, y0, z0 - CONTENT_DROP_TOLERANCE_M]), np.array([x1, y1, z1])
+        out = []
+        for oid, box in self.objects.items():
+            if oid == holder.id:
+                continue
+            if part.joint == "slide":  # standing in the drawer (as ``_moved_contents`` finds them)
+                base = m[:3, :3].T @ (self.bases[oid] - m[:3, 3])
+                if bool(np.all(base >= lo - 1e-6)) and bool(np.all(base <= hi + 1e-6)):
+                    continue
+            out.append(box)
+        return out + [b for oid, b in self.opened if oid != holder.id]
+
+    def largest_free(self, holder: SceneObject, part: PartSpec, target: float) -> float:
+        """The largest joint value up to ``target`` that ``part`` reaches on its path from closed
+        without going deeper into anything than it was closed (0: it cannot open at all)."""
+        if target <= 0.0:
+            return target
+        closed = _part_box(holder, part, 0.0)
+        obstacles = self.obstacles(holder, part)
+        if part.joint == "hinge" and any(_rests_on(box, closed) for box in obstacles):
+            return 0.0  # a lid or door with something lying on it stays shut
+        reach = _reach(holder, part, target)
+        obstacles = [b for b in obstacles if np.linalg.norm(b.centre - reach[0]) < reach[1] + np.linalg.norm(b.half)]
+        start = [max(_depth(closed, b), 0.0) for b in obstacles]
+        wall0 = _outside(self.floor, closed)
+
+        def free(value: float) -> bool:
+            box = _part_box(holder, part, value)
+            if _outside(self.floor, box) > wall0 + OPEN_CLEARANCE_M:
+                return False
+            return all(_depth(box, b) <= d + OPEN_CLEARANCE_M for b, d in zip(obstacles, start, strict=True))
+
+        step = SWEEP_STEP_RAD if part.joint == "hinge" else SWEEP_STEP_M
+        samples = [*(k * step for k in range(1, int(target / step) + 1)), target]
+        good = 0.0
+        for value in samples:
+            if not free(value):
+                low, high = good, value
+                for _ in range(4):  # narrowed to 1/16 of a step
+                    mid = (low + high) / 2
+                    low, high = (mid, high) if free(mid) else (low, mid)
+                return low
+            good = value
+        return target
+
+    def open(self, holder: SceneObject, part: PartSpec, value: float) -> None:
+        """Count ``part`` opened to ``value`` among what later parts may not reach into."""
+        if value > 0.0:
+            self.opened.append((holder.id, _part_box(holder, part, value)))
+
+
 def _hangs_doors(scene: Scene) -> bool:
     """Whether a door leaf hangs in one of the room's walls (``docs/articulation.md``)."""
     return scene.room is not None and any(op.leaf_count > 0 for w in scene.room.walls for op in w.openings)
@@ -120,9 +291,13 @@ def open_scene(
     before = part_openings(scene)
     objects = list(scene.objects)
     values: dict[str, dict[str, float]] = {}
+    space = _FreeSpace(scene) if furniture != "closed" else None
     for holder in scene.objects:
         for part in object_articulation(holder, base_dir):
             value = part.clamped(opening(part, furniture, seed=seed, key=holder.id))
+            if space is not None:  # only as far as its path is free (else it stays closed)
+                value = space.largest_free(holder, part, value)
+                space.open(holder, part, value)
             old = part.clamped(before.get(holder.id, {}).get(part.name, 0.0))
             if value != 0.0:
                 values.setdefault(holder.id, {})[part.name] = value

@@ -33,15 +33,14 @@ from scenemosaic.pipeline._state import PipelineRun, RunSetup, Stage, StageCallb
 if TYPE_CHECKING:
     from scenemosaic.pipeline._checkpoint import checkpoint_config
     from scenemosaic.pipeline._demo import demo_scene
-    from scenemosaic.pipeline._house import HOUSE_STAGE_NAMES, HOUSE_STAGES
-    from scenemosaic.pipeline._plan import Plan, plan
+    from scenemosaic.pipeline._plan import HOUSE_STAGE_NAMES, HOUSE_STAGES, Plan, plan
     from scenemosaic.pipeline._report import RunReport
     from scenemosaic.pipeline._run import REPORT_FILE, agenerate, generate, run_sync
     from scenemosaic.pipeline._stages import STAGE_NAMES, STAGES
 
 _LAZY = {
-    "HOUSE_STAGES": "_house",
-    "HOUSE_STAGE_NAMES": "_house",
+    "HOUSE_STAGES": "_plan",
+    "HOUSE_STAGE_NAMES": "_plan",
     "RunReport": "_report",
     "REPORT_FILE": "_run",
     "STAGES": "_stages",

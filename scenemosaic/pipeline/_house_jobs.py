@@ -1,5 +1,6 @@
 """What a house run sends its worker processes and what they answer: typed messages, one JSON line
-each way (``scenemosaic._processes`` carries the lines; ``pipeline/_house.py`` runs the jobs).
+each way (``scenemosaic._processes`` carries the lines; ``pipeline/_workers.py`` sends the jobs,
+``pipeline/_house.py`` runs them).
 
 A job is one of :data:`HouseJob` (told apart by ``kind``): a room to run (:class:`RoomJob`, answered
 by the room's :class:`~scenemosaic.pipeline.RoomOutcome`), some parts of a house's delivery to

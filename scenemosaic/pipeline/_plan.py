@@ -5,9 +5,11 @@ it before the first stage), and a house's rooms run the room plan it names.
 * a room: :data:`~scenemosaic.pipeline.STAGES` (import → assets → structure → stabilize → doors →
   evolve → compose → validate → evaluate → export), with the clutter stage after compose when
   ``clutter`` is not ``keep``;
-* a whole house (``exchange.is_house_source``): :data:`~scenemosaic.pipeline.HOUSE_STAGES` (import →
-  rooms → compose → validate → evaluate → export), each room running the room stages up to its own
-  variants (compose, then clutter when asked for) in the ``rooms`` stage.
+* a whole house (``exchange.is_house_source``): :data:`HOUSE_STAGES` (import → rooms → compose →
+  validate → evaluate → export): the room's own import, compose, validate, evaluate and export
+  (they work on the run's world, a house here), with the ``rooms`` stage in place of assets ...
+  evolve, each room running the room stages up to its own variants (compose, then clutter when
+  asked for).
 """
 
 from __future__ import annotations
@@ -17,11 +19,24 @@ from pathlib import Path
 
 from scenemosaic.pipeline._clutter import CLUTTER_STAGE
 from scenemosaic.pipeline._config import GenerateConfig
-from scenemosaic.pipeline._house import HOUSE_STAGES, is_house_input
+from scenemosaic.pipeline._house import ROOMS_STAGE, is_house_input
 from scenemosaic.pipeline._stages import STAGES
 from scenemosaic.pipeline._state import Stage
 
-__all__ = ["Plan", "plan", "room_plan"]
+__all__ = ["HOUSE_STAGES", "HOUSE_STAGE_NAMES", "Plan", "plan", "room_plan"]
+
+_BY_NAME = {stage.name: stage for stage in STAGES}
+
+HOUSE_STAGES: tuple[Stage, ...] = (
+    _BY_NAME["import"],
+    ROOMS_STAGE,
+    *(_BY_NAME[name] for name in ("compose", "validate", "evaluate", "export")),
+)
+"""The stages of a whole-house run, in order: the room's stages (:data:`STAGES`) with ``rooms`` in
+place of assets ... evolve (``rooms`` runs the plan's room stages in every room)."""
+
+HOUSE_STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in HOUSE_STAGES)
+"""The names of :data:`HOUSE_STAGES`, in order."""
 
 
 @dataclass(frozen=True)

@@ -42,12 +42,12 @@ from scenemosaic.pipeline._checkpoint import (
 )
 from scenemosaic.pipeline._config import INPUT_SIZE_LIMITS_MB, GenerateConfig, check_config
 from scenemosaic.pipeline._driver import run_stages
-from scenemosaic.pipeline._house import release_workers
 from scenemosaic.pipeline._plan import plan
 from scenemosaic.pipeline._report import RunReport, run_report
 from scenemosaic.pipeline._result import GenerateResult
 from scenemosaic.pipeline._stages import STAGES, is_image_input
 from scenemosaic.pipeline._state import PipelineRun, RunSetup, StageCallback
+from scenemosaic.pipeline._workers import release_workers
 from scenemosaic.scene import RunFolder, not_a_regular_file
 
 __all__ = ["REPORT_FILE", "agenerate", "generate", "run_sync", "stage_progress"]

@@ -1,5 +1,13 @@
 """The stages of ``generate``, in order: import → assets → structure → stabilize → doors → evolve → compose → validate → evaluate → export.
 
+One set of stages for a room and a whole house: a house run goes through the same import, compose,
+validate, evaluate and export, with its ``rooms`` stage (``pipeline/_house.py``: every room through
+the room stages up to its own variants) in place of assets ... evolve. What a stage works on is the
+run's world (:meth:`~scenemosaic.pipeline.PipelineRun.need_world`: the room's scene, or the house),
+through the one entry point each package has for both (``exchange.load_scene``/``deliver_scene``,
+``physics.validate_scene``, ``metrics.evaluate``); compose combines a room's local units or a
+house's rooms, the only step that differs in what it combines.
+
 Each stage is one async function over the :class:`~scenemosaic.pipeline.PipelineRun`: it reads
 what the stages before it left there, leaves its own result, and records its figures. The model
 stack, the output folder's paths, the delivered formats and the contact sheet live in the
@@ -12,6 +20,7 @@ from __future__ import annotations
 import asyncio
 import functools
 import json
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -19,12 +28,12 @@ from typing import Any
 import structlog
 
 from scenemosaic.agents import AgentLog
-from scenemosaic.assets import object_hulls, open_scene
-from scenemosaic.compose import compose_variants, kept_layouts
+from scenemosaic.assets import object_hulls, open_scene, part_openings
+from scenemosaic.compose import compose_house, compose_variants, kept_layouts
 from scenemosaic.evolve import EvolutionReport, evolve_scene
 from scenemosaic.exceptions import UsageError
-from scenemosaic.exchange import deliver_scene, formats_left_out, load_scene
-from scenemosaic.metrics import evaluate, judge_scene, nav, plausibility
+from scenemosaic.exchange import deliver_scene, formats_left_out, load_house, load_scene
+from scenemosaic.metrics import evaluate, furniture, house_checks, judge_scene, nav, plausibility
 from scenemosaic.perception import PERCEPTION_INSTALL, is_image_path, perceive
 from scenemosaic.physics import (
     ValidationReport,
@@ -35,11 +44,15 @@ from scenemosaic.physics import (
     stabilize_scene,
     validate_scene,
 )
-from scenemosaic.pipeline._state import PipelineRun, Stage, StageRecord
-from scenemosaic.render import contact_sheet
+from scenemosaic.pipeline._clutter import vary_house_repeats
+from scenemosaic.pipeline._config import GenerateConfig
+from scenemosaic.pipeline._deliveries import deliver_ahead, delivered_worlds, house_deliveries, put_in_place
+from scenemosaic.pipeline._state import PipelineRun, Stage, StageRecord, rooms_of
+from scenemosaic.render import ContactSheet
 from scenemosaic.scene import (
     WALK_MIN_SHARE,
     House,
+    HouseFloor,
     RunFolder,
     Scene,
     cut_off_doors,
@@ -60,12 +73,12 @@ __all__ = [
     "NAV_SLACK",
     "STAGES",
     "STAGE_NAMES",
-    "deliver_run",
     "floor_share",
     "is_image_input",
     "judge_scenes",
     "note_import_warnings",
     "note_shortfall",
+    "planned_room",
     "validation_warnings",
 ]
 
@@ -85,18 +98,24 @@ def is_image_input(run_input: Path, format: str) -> bool:
 
 
 async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
+    """What the run works on: a house's room as the house import gave it (in memory), the scene or
+    whole house the input holds (``exchange.load_scene``; ``load_house`` when the plan runs the
+    input as a house), or the scene the image front end reconstructs from a photograph."""
     cfg = run.config
     if run.source is not None:  # a room of a house: the house import gave it
         run.scene = run.source
         rec.detail["source_format"] = run.scene.provenance.source_format
         return
     if not is_image_input(run.input_path, cfg.format):
-        read = functools.partial(
-            _read_one, run.input_path, cfg.format, room=cfg.room, asset_dir=cfg.asset_dir, allow_orphans=cfg.allow_orphans
-        )
-        run.scene = await asyncio.to_thread(read)
-        rec.detail["source_format"] = run.scene.provenance.source_format
-        note_import_warnings(run, [run.scene])
+        world = await asyncio.to_thread(_read_input, run.input_path, cfg, house=run.setup.is_house)
+        rooms = rooms_of(world)
+        rec.detail["source_format"] = rooms[0].provenance.source_format
+        if isinstance(world, House):
+            run.house = world
+            rec.detail["rooms"] = world.room_ids
+        else:
+            run.scene = world
+        note_import_warnings(run, rooms)
         return
     model = await run.asking(rec)
     if cfg.prompt is not None:
@@ -114,10 +133,13 @@ async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
         run.warnings.append(f"no segmenter installed: the objects' boxes stood in for their masks ({PERCEPTION_INSTALL})")
 
 
-def _read_one(path: Path, format: str, *, room: str | None, asset_dir: Path | None, allow_orphans: bool) -> Scene:
-    """The one scene a run's input holds (a house reaches here only with ``room``: ``pipeline/_house.py``)."""
-    loaded = load_scene(path, format, room=room, asset_dir=asset_dir, allow_orphans=allow_orphans)
-    if isinstance(loaded, House):  # pragma: no cover - the driver sends whole houses to the house run
+def _read_input(path: Path, cfg: GenerateConfig, *, house: bool) -> Scene | House:
+    """The one scene a run's input holds, or (``house``: the plan runs the input as a whole house,
+    ``pipeline/_plan.py``) its whole house."""
+    if house:
+        return load_house(path, cfg.format, allow_orphans=cfg.allow_orphans)
+    loaded = load_scene(path, cfg.format, room=cfg.room, asset_dir=cfg.asset_dir, allow_orphans=cfg.allow_orphans)
+    if isinstance(loaded, House):  # pragma: no cover - the plan runs whole houses as houses
         raise UsageError(f"{path} is a house; generate it whole, or pick a room with --room ({', '.join(loaded.room_ids)})")
     return loaded
 
@@ -341,14 +363,53 @@ def floor_share(base_nav: float) -> float:
 
 
 async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
-    """Select ``variants`` diverse whole scenes from evolve's unit layouts (held by the run)."""
+    """Select ``variants`` diverse whole variants from the valid variants of the world's units
+    (max-min greedy selection over their product, ``compose``): a room's units are its local units
+    (evolve's kept layouts, :func:`_combine_units`), a house's are its rooms (each room's own
+    variants, as its compose left them: :func:`_combine_rooms`). Every variant is then checked as
+    the base was (collisions and bounds in every room; a house's own checks), and a house's
+    final ones are delivered ahead while the later stages run (``pipeline/_deliveries.py``)."""
+    world, m = run.need_world(), run.config.variants
+    house = isinstance(world, House)
+    if house and run.config.clutter == "keep":  # nothing here changes the base: it is delivered meanwhile
+        await deliver_ahead(run, {RunFolder.BASE})
+    combined = "no variants asked for" if m <= 0 else await (_combine_rooms if house else _combine_units)(run, rec)
+    if isinstance(combined, str):
+        rec.status = "skipped"
+        rec.detail["reason"] = combined
+        await deliver_ahead(run, {RunFolder.BASE})
+        return
+    found, pool = combined
+    variants: list[Scene | House] = list(found)
+    checked: list[dict[str, Any]] = []
+    checks_of: list[dict[str, Any]] = []
+    for i, variant in enumerate(variants, start=1):
+        name = run.folder.variant(i).name
+        cols, oob, checks = await _variant_checks(run, variant)
+        checks_of.append(checks)
+        checked.append({"folder": name, "collision_pairs": cols, "out_of_bounds": oob, **checks})
+        problems = _house_problems(checks) + ([f"{cols} colliding pair(s), {oob} object(s) out of bounds"] if cols or oob else [])
+        if problems:
+            run.warnings.append(f"{name}: " + "; ".join(problems))
+    if house:
+        run.house_variants, run.variant_checks = [v for v in variants if isinstance(v, House)], checks_of
+    else:
+        run.variants = [v for v in variants if isinstance(v, Scene)]
+    rec.detail["variants"] = checked
+    note_shortfall(run, rec, len(variants), pool)
+    # every variant is final now: a house's are delivered while validate and evaluate run here
+    await deliver_ahead(run, {RunFolder.BASE, *(run.folder.variant(i).name for i in range(1, len(variants) + 1))})
+
+
+async def _combine_units(run: PipelineRun, rec: StageRecord) -> tuple[list[Scene], int] | str:
+    """A room's variants: whole scenes from evolve's kept unit layouts (``compose_variants``), each
+    as walkable as the base, no door blocked and no functional relation or plausibility rule of the
+    base broken; with the candidate pool's size (or why there is nothing to combine)."""
     from scenemosaic.compose import UnitLayouts
 
+    if not run.layouts:
+        return "no evolved unit layouts"
     scene, m = run.need_scene(), run.config.variants
-    if m <= 0 or not run.layouts:
-        rec.status = "skipped"
-        rec.detail["reason"] = "no variants asked for" if m <= 0 else "no evolved unit layouts"
-        return
     layouts = {unit: UnitLayouts(unit, ids, poses) for unit, (ids, poses) in run.layouts.items()}
     shapes = await asyncio.to_thread(run.shapes, scene)
     share = floor_share(await asyncio.to_thread(nav, scene))
@@ -377,20 +438,87 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     variants, report = await asyncio.to_thread(compose)
     report.dropped = run.dropped_layouts + report.dropped
     rec.detail.update(report.summary())
-    checked = []
     for i, (variant, picked) in enumerate(zip(variants, report.picked, strict=True), start=1):
         variant.provenance.steps.append("compose")
         variant.provenance.notes.append(f"variant {i}: " + ", ".join(f"{k} {v}" for k, v in picked.items()))
-        check = functools.partial(check_collisions, variant, run.base_dir, hull_cache=run.cache())
-        bounds = functools.partial(check_out_of_bounds, variant, shapes=shapes)
-        cols, oob = await asyncio.to_thread(check), await asyncio.to_thread(bounds)
-        name = run.folder.variant(i).name
-        checked.append({"folder": name, "collision_pairs": len(cols.pairs), "out_of_bounds": len(oob.objects)})
-        if cols.pairs or oob.objects:
-            run.warnings.append(f"{name}: {len(cols.pairs)} colliding pair(s), {len(oob.objects)} object(s) out of bounds")
-    run.variants = list(variants)
-    rec.detail["variants"] = checked
-    note_shortfall(run, rec, len(variants), report.pool_size)
+    return list(variants), report.pool_size
+
+
+async def _combine_rooms(run: PipelineRun, rec: StageRecord) -> tuple[list[House], int] | str:
+    """A house's variants: whole houses from one candidate pool over every room's own valid
+    variants (``compose_house``), each with every room as reachable as in the base; with clutter,
+    a room two houses show in the same arrangement gets its small objects varied anew
+    (``pipeline._clutter.vary_house_repeats``). With the pool's size (or why there is nothing to
+    combine)."""
+    house, m = run.need_house(), run.config.variants
+    room_variants = [_room_variants(run, s.id) for s in house.rooms]
+    if not any(room_variants):
+        return "no room has a variant"
+    unplanned = [s.id for s in house.rooms if furniture(s) and not planned_room(run, s.id)]
+    if unplanned:  # said, not hidden: their variants differ in smaller pieces only
+        rec.detail["rooms_without_plan"] = unplanned
+        run.notes.append(f"room(s) whose free floor holds no other arrangement of their furniture groups: {', '.join(unplanned)}")
+    floor = HouseFloor(house)  # the floors and doorways rasterized once, each room arrangement once
+    base_unreachable = set(floor.walkable(house.rooms).unreachable_rooms())
+
+    def reachable(rooms: list[Scene]) -> bool:
+        return set(floor.walkable(rooms).unreachable_rooms()) <= base_unreachable
+
+    compose = functools.partial(compose_house, house.rooms, room_variants, m=m, seed=run.config.seed, accept=reachable)
+    variants, report = await asyncio.to_thread(compose)
+    repeats = await vary_house_repeats(run, house.rooms, variants, report.picked)  # --clutter: no room's clutter shown twice
+    varied: dict[str, list[str]] = repeats.get("varied", {})
+    rec.detail.update(report.summary())
+    if varied:
+        rec.detail["clutter_varied_anew"] = varied
+    if repeats.get("dropped"):
+        rec.detail["clutter_dropped"] = repeats["dropped"]
+        run.notes.append(f"clutter: small object(s) dropped at house compose (why: report.json, stage compose): {repeats['dropped']}")
+    rec.detail["room_variants"] = {s.id: len(v) for s, v in zip(house.rooms, room_variants, strict=True)}
+    houses = []
+    for i, rooms in enumerate(variants, start=1):
+        for s in rooms:
+            anew = " (its small objects varied anew)" if s.id in varied.get(f"variant_{i}", ()) else ""
+            s.provenance.notes.append(f"house variant {i}: this room as {report.picked[i - 1][s.id]}{anew}")
+        houses.append(house.with_rooms(rooms))
+    return houses, report.pool_size
+
+
+def _room_variants(run: PipelineRun, room_id: str) -> list[Scene]:
+    outcome = run.rooms.get(room_id)
+    return list(outcome.state.variants) if outcome is not None and outcome.state is not None else []
+
+
+def planned_room(run: PipelineRun, room_id: str) -> bool:
+    """Whether a house's room kept a room plan among its floor's evolved layouts (``evolve/_plans.py``)."""
+    outcome = run.rooms.get(room_id)
+    layouts = outcome.state.layouts if outcome is not None and outcome.state is not None else None
+    floor = (layouts or {}).get("floor")
+    return floor is not None and any(lid.startswith("plan_") for lid in floor[0])
+
+
+async def _variant_checks(run: PipelineRun, variant: Scene | House) -> tuple[int, int, dict[str, Any]]:
+    """A variant's colliding pairs and objects out of bounds over its rooms, and a house's own
+    checks (``metrics.house_checks``; a room: none)."""
+    cols = oob = 0
+    for room in rooms_of(variant):
+        shapes = await asyncio.to_thread(run.shapes, room)  # hulls may be computed: off the event loop
+        cols += len((await asyncio.to_thread(check_collisions, room, run.base_dir, hull_cache=run.cache())).pairs)
+        oob += len((await asyncio.to_thread(functools.partial(check_out_of_bounds, room, shapes=shapes))).objects)
+    checks = await asyncio.to_thread(house_checks, variant) if isinstance(variant, House) else {}
+    return cols, oob, checks
+
+
+def _house_problems(checks: dict[str, Any]) -> list[str]:
+    """The house checks (``metrics.house_checks``) that fail, in words (a room's run has none)."""
+    out = []
+    if checks.get("unreachable_rooms"):
+        out.append(f"room(s) not reachable from the rest of the house: {', '.join(checks['unreachable_rooms'])}")
+    if checks.get("door_blockers"):
+        out.append(f"door(s) blocked by {', '.join(checks['door_blockers'][:6])}")
+    if checks.get("wall_crossings"):
+        out.append(f"object(s) across a wall: {', '.join(checks['wall_crossings'][:6])}")
+    return out
 
 
 def note_shortfall(run: PipelineRun, rec: StageRecord, written: int, pool: int) -> None:
@@ -409,10 +537,39 @@ def note_shortfall(run: PipelineRun, rec: StageRecord, written: int, pool: int) 
 
 
 async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
-    report = await asyncio.to_thread(functools.partial(validate_scene, run.need_scene(), run.base_dir, hull_cache=run.cache()))
-    rec.detail.update(report.model_dump(mode="json", include=_summary_fields(report)))
-    run.validation = report.model_dump(mode="json")
-    run.warnings += validation_warnings(report)
+    """The delivered world (its parts in the run's ``--open-state``, ``assets.open_scene``) settled in
+    MuJoCo with every room's checks (``physics.validate_scene``: a room's report, or a house's by
+    room with its whole world settled once); then a house's own checks (reachability from room to
+    room, door clearance, nothing across a wall)."""
+    world = run.need_world()
+    cfg = run.config  # what is delivered: its parts in the run's --open-state
+    delivered: Scene | House = await asyncio.to_thread(lambda: open_scene(world, cfg.open_state, cfg.seed, run.base_dir))
+    found = await asyncio.to_thread(functools.partial(validate_scene, delivered, run.base_dir, hull_cache=run.cache()))
+    if cfg.open_state is not None:  # how many parts stood open in what was simulated
+        rec.detail["open_parts"] = sum(len(v) for v in part_openings(delivered).values())
+    if isinstance(found, ValidationReport):  # a room's run: the room's report is the run's
+        rec.detail.update(found.model_dump(mode="json", include=_summary_fields(found)))
+        run.validation = found.model_dump(mode="json")
+        run.warnings += validation_warnings(found)
+        return
+    per_room: dict[str, Any] = {}
+    for rid, report in found.items():
+        per_room[rid] = report.model_dump(mode="json")
+        state = run.rooms[rid].state if rid in run.rooms else None
+        if state is not None:  # each room's report shows its own
+            state.validation = per_room[rid]
+        run.warnings += [f"{rid}: {w}" for w in validation_warnings(report)]
+    checks = await asyncio.to_thread(house_checks, world)
+    run.warnings += [f"base: {p}" for p in _house_problems(checks)]
+    run.validation = {
+        "collision_pairs": sum(len(v["collisions"]["pairs"]) for v in per_room.values()),
+        "out_of_bounds": sum(len(v["out_of_bounds"]["objects"]) for v in per_room.values()),
+        "fell": sum(len(v["fell"]) for v in per_room.values()),
+        "tipped": sum(len(v["tipped"]) for v in per_room.values()),
+        "max_displacement_m": max((v["max_displacement_m"] for v in per_room.values()), default=0.0),
+        **checks,
+    }
+    rec.detail.update({k: v for k, v in run.validation.items() if not isinstance(v, dict | list) or len(v) <= 20})
 
 
 def validation_warnings(report: ValidationReport) -> list[str]:
@@ -432,19 +589,30 @@ def validation_warnings(report: ValidationReport) -> list[str]:
 
 
 async def _stage_evaluate(run: PipelineRun, rec: StageRecord) -> None:
-    """The field's metrics of the base scene and of every variant, into ``report.json``."""
-    scene = run.need_scene()
-    scenes = [scene, *run.variants]
+    """The field's metrics of the base and of every variant (``metrics.evaluate``: a room's, or each
+    room's and the house's with the house checks validate and compose measured), into
+    ``report.json``; with a model, each room's POS and ROT (the semantic judge)."""
+    world, variants = run.need_world(), run.world_variants
+    house = isinstance(world, House)
+    checks = {"base_checks": run.validation, "variant_checks": run.variant_checks} if house else {}
     measure = functools.partial(
-        evaluate, scene, run.variants, base_dir=run.base_dir, variant_dirs=[run.base_dir] * len(run.variants),
-        hull_cache=run.cache(),
+        evaluate, world, variants, base_dir=run.base_dir, variant_dirs=[run.base_dir] * len(variants),
+        hull_cache=run.cache(), **checks,
     )  # fmt: skip
-    result = await asyncio.to_thread(measure)
-    judged = await judge_scenes(run, rec, scenes)
-    if judged is not None:
-        result["semantic_judge"] = {"base": judged[0], "variants": judged[1:]}
-    rec.detail.update(result)
-    run.metrics = result
+    metrics: dict[str, Any] = await asyncio.to_thread(measure)
+    if house:
+        frozen = [rid for rid in metrics["house"].get("rooms_not_rearranged") or [] if planned_room(run, rid)]
+        if frozen:  # had room plans, none selected (rooms without any were said at compose)
+            run.notes.append(f"room(s) whose furniture no selected variant moves: {', '.join(frozen)}")
+    for k, room in enumerate(rooms_of(world)):  # POS and ROT per room, from the run's model
+        judged = await judge_scenes(run, rec, [room, *(rooms_of(v)[k] for v in variants)])
+        if judged is not None:
+            (metrics["rooms"][room.id] if house else metrics)["semantic_judge"] = {"base": judged[0], "variants": judged[1:]}
+    if house:
+        rec.detail["house"] = metrics["house"]
+    else:
+        rec.detail.update(metrics)
+    run.metrics = metrics
 
 
 async def judge_scenes(run: PipelineRun, rec: StageRecord, scenes: list[Scene]) -> list[dict[str, Any]] | None:
@@ -461,27 +629,39 @@ async def judge_scenes(run: PipelineRun, rec: StageRecord, scenes: list[Scene]) 
 
 
 async def _stage_export(run: PipelineRun, rec: StageRecord) -> None:
-    rec.detail["files"] = await asyncio.to_thread(deliver_run, run)
+    """``base/`` and every ``variant_<i>/``, each a scene or a whole house (``exchange.deliver_scene``,
+    in the run's ``--open-state``), and the contact sheet of their plans. What was delivered ahead (a
+    house run's worker processes, ``pipeline/_deliveries.py``) is waited for and moved into place;
+    the rest is delivered here."""
+    worlds = await asyncio.to_thread(delivered_worlds, run)
+    await deliver_ahead(run, {folder.name for folder, _ in worlds}, worlds)
+    files: dict[str, list[str]] = {}
+    sheet = ContactSheet(len(worlds)) if len(worlds) > 1 else None  # each plan placed as its world lands
+    ahead = house_deliveries(run)
+    if ahead is not None:
+        async for name, written in ahead.landed():
+            final = run.folder.root / name
+            await asyncio.to_thread(put_in_place, run.folder.staged / name, final)
+            files[str(final)] = written
+            if sheet is not None:
+                await asyncio.to_thread(sheet.add, name, final / RunFolder.TOPDOWN)
+        rec.detail["delivered_ahead"] = sorted(ahead.houses)
+        # how long the houses took to deliver, from the first one begun: mostly while other stages ran
+        rec.detail["deliveries_s"] = round(time.perf_counter() - ahead.started, 3)
+    else:
+        cache = run.cache()
+        for folder, world in worlds:
+            files[str(folder)] = await asyncio.to_thread(functools.partial(deliver_scene, world, folder, run.base_dir, hull_cache=cache))
+            if sheet is not None:
+                await asyncio.to_thread(sheet.add, folder.name, folder / RunFolder.TOPDOWN)
+    rec.detail["files"] = files[str(run.folder.base)]
+    if sheet is not None:
+        await asyncio.to_thread(sheet.save, run.folder.contact_sheet)
+        rec.detail["contact_sheet"] = RunFolder.CONTACT_SHEET
     missing = formats_left_out()
     if missing:
         rec.detail["formats_left_out"] = missing
         log.warning("formats_left_out", formats=sorted(missing), install=sorted(missing.values()))
-    if run.variants:
-        rec.detail["contact_sheet"] = RunFolder.CONTACT_SHEET
-
-
-def deliver_run(run: PipelineRun) -> list[str]:
-    """Write the base scene to ``base/`` and every variant to ``variant_<i>/`` in the delivered
-    layout, their parts in the run's ``open_state``, then the contact sheet; returns the base
-    folder's files."""
-    state, seed = run.config.open_state, run.config.seed
-    files = deliver_scene(open_scene(run.need_scene(), state, seed, run.base_dir), run.folder.base, run.base_dir, hull_cache=run.cache())
-    for i, variant in enumerate(run.variants, start=1):
-        deliver_scene(open_scene(variant, state, seed, run.base_dir), run.folder.variant(i), run.base_dir, hull_cache=run.cache())
-    if run.variants:
-        folders = [run.folder.base, *(run.folder.variant(i) for i in range(1, len(run.variants) + 1))]
-        contact_sheet([(f.name, f / RunFolder.TOPDOWN) for f in folders], run.folder.contact_sheet)
-    return files
 
 
 STAGES: tuple[Stage, ...] = (
@@ -497,7 +677,8 @@ STAGES: tuple[Stage, ...] = (
     Stage("export", _stage_export),
 )
 """A room's stages, in order (the run's plan, ``pipeline/_plan.py``, adds the clutter stage after
-compose when asked for, and gives a house's rooms those up to compose)."""
+compose when asked for, gives a house's rooms those up to compose, and runs a whole house through
+import, its ``rooms`` stage, then compose, validate, evaluate and export: the same stages)."""
 
 STAGE_NAMES: tuple[str, ...] = tuple(stage.name for stage in STAGES)
 """The names of :data:`STAGES`, in order."""

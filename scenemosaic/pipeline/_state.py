@@ -34,6 +34,7 @@ __all__ = [
     "StageRecord",
     "UnitLayoutRecord",
     "open_model",
+    "rooms_of",
 ]
 
 StageCallback = Callable[[str, str], None]
@@ -83,7 +84,7 @@ RunCheckpoint.model_rebuild()
 
 
 class DeliveriesAhead(Protocol):
-    """Deliveries a run started before its export stage (a house run's, ``pipeline/_house.py``):
+    """Deliveries a run started before its export stage (a house run's, ``pipeline/_deliveries.py``):
     the driver stops those the export stage did not wait for."""
 
     async def stop(self) -> None:
@@ -118,6 +119,11 @@ class RunSetup:
     room_stages: tuple[Stage, ...] = ()
     """A house run: the stages each of its rooms goes through (the plan's, ``pipeline/_plan.py``)."""
 
+    @property
+    def is_house(self) -> bool:
+        """Whether the run's plan runs its input as a whole house (its rooms have stages of their own)."""
+        return bool(self.room_stages)
+
 
 @dataclass
 class PipelineRun:
@@ -131,7 +137,7 @@ class PipelineRun:
     scene: Scene | None = None
     """The scene as the last finished stage left it."""
     house: House | None = None
-    """A whole-house run: the house as the last finished house stage left it (``pipeline/_house.py``)."""
+    """A whole-house run: the house as the last finished stage left it (its rooms: ``pipeline/_house.py``)."""
     rooms: dict[str, RoomOutcome] = field(default_factory=dict)
     """A whole-house run: each room's run, by room id, as the ``rooms`` stage left it."""
     house_variants: list[House] = field(default_factory=list)
@@ -170,10 +176,10 @@ class PipelineRun:
     started: float = field(default_factory=time.monotonic)
     """``time.monotonic()`` when the run began: the run deadline counts from here."""
     workers: WorkerPool | None = None
-    """A house run's worker processes (``pipeline/_house.py``), started by the first stage that
+    """A house run's worker processes (``pipeline/_workers.py``), started by the first stage that
     needs them and kept for the next (the rooms' workers deliver the houses); closed when the run ends."""
     deliveries: DeliveriesAhead | None = None
-    """A house run's deliveries started ahead of its export stage (``pipeline/_house.py``, into
+    """A house run's deliveries started ahead of its export stage (``pipeline/_deliveries.py``, into
     :attr:`RunFolder.staged`), in its worker processes; the export stage waits for them."""
 
     @property
@@ -224,10 +230,23 @@ class PipelineRun:
         """What the run has made so far: the house of a whole-house run, else the scene."""
         return self.house if self.house is not None else self.scene
 
+    def need_world(self) -> Scene | House:
+        """What the run works on as a whole, as the stages before this one left it: the house of a
+        whole-house run, else the scene (raises :class:`StageOrderError` when no stage made one)."""
+        world = self.result
+        if world is None:
+            raise StageOrderError("this stage needs the scene or house an earlier stage makes (import); none did")
+        return world
+
+    @property
+    def world_variants(self) -> list[Scene] | list[House]:
+        """Compose's whole variants, in selection order: whole houses for a house run, else scenes."""
+        return self.house_variants if self.house is not None else self.variants
+
     @property
     def delivered_variants(self) -> int:
         """How many variants the run has (whole houses for a house run)."""
-        return len(self.house_variants) if self.house is not None else len(self.variants)
+        return len(self.world_variants)
 
     @property
     def out_dir(self) -> Path:
@@ -312,6 +331,11 @@ async def open_model(config: GenerateConfig, started: float) -> RunModel:
         tokens_per_minute=config.tokens_per_minute, rate_limit_dir=config.rate_limit_dir, reply_cache=config.reply_cache,
     )  # fmt: skip
     return await open_run_model(config.model, settings, started=started)
+
+
+def rooms_of(world: Scene | House) -> list[Scene]:
+    """The rooms of what a run works on: a house's rooms, or the one scene of a room's run."""
+    return list(world.rooms) if isinstance(world, House) else [world]
 
 
 StageFn = Callable[[PipelineRun, StageRecord], Awaitable[None]]

@@ -23,13 +23,13 @@ def _scene() -> Scene:
         id="dresser",
         category="dresser",
         asset=AssetRef(kind="procedural", extents=(1.19, 0.59, 1.09)),
-        pose=Pose.from_yaw((2.0, 3.5, 0.0), math.radians(180.0)),
+        pose=Pose.from_yaw((2.0, 3.5, 0.0), 0.0),  # backed to a wall, its drawers free to pull out
     )
     cabinet = SceneObject(
         id="cabinet",
         category="cabinet",
         asset=AssetRef(kind="procedural", extents=(0.9, 0.5, 0.9)),
-        pose=Pose.from_yaw((2.0, 0.6, 0.0), 0.0),
+        pose=Pose.from_yaw((2.0, 0.6, 0.0), math.radians(180.0)),  # its doors free to open into the room
     )
     relations = [Relation(kind="attach", child=o.id, parent="floor") for o in (chest, cabinet)]
     return Scene(

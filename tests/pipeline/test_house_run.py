@@ -117,12 +117,13 @@ def test_a_run_failing_after_the_houses_went_ahead_keeps_only_its_partial_base(
 ) -> None:
     """evaluate fails while the houses are being delivered ahead: they are stopped and dropped,
     and the folder holds what any failed run keeps (the base's native files, marked partial)."""
-    import scenemosaic.pipeline._house as house_stages
+    import scenemosaic.pipeline._stages as stages
+    from scenemosaic.pipeline._workers import WORKER_MODULE
 
     def broken(*args: object, **kwargs: object) -> None:
         raise RuntimeError("evaluation broke")
 
-    monkeypatch.setattr(house_stages, "evaluate", broken)
+    monkeypatch.setattr(stages, "evaluate", broken)
     out = tmp_path / "failed"
     with pytest.raises(RuntimeError, match="evaluation broke"):
         generate(TWO_ROOMS, out, GenerateConfig(variants=1, room_workers=2))
@@ -132,7 +133,7 @@ def test_a_run_failing_after_the_houses_went_ahead_keeps_only_its_partial_base(
     assert not (out / "base" / "scene.xml").exists()  # no simulator file of a house not delivered
     assert not (out / "variant_1").exists()
     assert not (out / ".checkpoint" / "staged").exists()
-    assert WorkerPool.kept(house_stages.WORKER_MODULE) is None  # a failed run's workers leave
+    assert WorkerPool.kept(WORKER_MODULE) is None  # a failed run's workers leave
 
 
 def test_a_house_half_failing_in_its_worker_fails_the_export_and_keeps_the_partial_base(
@@ -140,9 +141,9 @@ def test_a_house_half_failing_in_its_worker_fails_the_export_and_keeps_the_parti
 ) -> None:
     """One half of each house's delivery names a part no exporter knows: the worker's error ends
     the run at its export stage, said with the house and the part, and nothing half written stays."""
-    import scenemosaic.pipeline._house as house_stages
+    import scenemosaic.pipeline._deliveries as deliveries
 
-    monkeypatch.setattr(house_stages, "_lanes", lambda: (("mjcf", "usd", "glb"), ("urdf", "no_such_part")))
+    monkeypatch.setattr(deliveries, "_lanes", lambda: (("mjcf", "usd", "glb"), ("urdf", "no_such_part")))
     out = tmp_path / "failed"
     with pytest.raises(SceneMosaicError, match=r"house export failed: base: .*no such delivery part: no_such_part"):
         generate(TWO_ROOMS, out, GenerateConfig(variants=1, room_workers=2))
@@ -158,11 +159,11 @@ def test_a_house_run_keeps_its_idle_workers_for_the_next_run_in_the_process(
 ) -> None:
     """The next run takes them (no start-up) and gives the same files; they hold no memo between
     runs; a run started in another environment starts its own."""
-    import scenemosaic.pipeline._house as house_stages
     from scenemosaic._processes import JobEnd, WorkerJob
+    from scenemosaic.pipeline._workers import WORKER_MODULE
 
     def kept_pids() -> list[int]:
-        pool = WorkerPool.kept(house_stages.WORKER_MODULE)
+        pool = WorkerPool.kept(WORKER_MODULE)
         assert pool is not None and pool.ready()
         return [w.process.pid for w in pool._running]
 
@@ -176,7 +177,7 @@ def test_a_house_run_keeps_its_idle_workers_for_the_next_run_in_the_process(
     assert _room_files(tmp_path / "first") == _room_files(tmp_path / "second")
     replies: dict[str, JobEnd] = {}
     forget = [WorkerJob(f"forget#{k}", b'{"kind": "forget"}', slot=k) for k in range(2)]
-    kept = WorkerPool.kept(house_stages.WORKER_MODULE)
+    kept = WorkerPool.kept(WORKER_MODULE)
     assert kept is not None
     kept.run(forget, workers=2, on_end=lambda job, end: replies.__setitem__(job.name, end))
     assert [json.loads(replies[f"forget#{k}"].reply or b"{}") for k in range(2)] == [{"forgotten": 0}] * 2

@@ -189,13 +189,12 @@ def test_a_house_run_is_the_rooms_driver_with_house_stages(tmp_path: Path) -> No
 def test_a_failed_house_keeps_a_partial_house_that_loaders_refuse(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from scenemosaic.exceptions import PartialResultError
     from scenemosaic.exchange import load_scene
-    from scenemosaic.pipeline import _house
+    from scenemosaic.pipeline import _plan
 
     async def broken(run: PipelineRun, rec: StageRecord) -> None:
         raise RuntimeError("validation blew up")
 
-    stages = tuple(s if s.name != "validate" else type(s)("validate", broken) for s in _house.HOUSE_STAGES)
-    from scenemosaic.pipeline import _plan
+    stages = tuple(s if s.name != "validate" else type(s)("validate", broken) for s in _plan.HOUSE_STAGES)
 
     monkeypatch.setattr(_plan, "HOUSE_STAGES", stages)  # what the run's plan is made of
     out = tmp_path / "h"
