@@ -17,6 +17,8 @@ from scenemosaic.assets._articulation import (
     OPEN_STATES,
     ROOM_DOOR_OPEN_DEG,
     TOILET_LID_OPEN_DEG,
+    USABLE_HINGE_RAD,
+    USABLE_SLIDE_SHARE,
     Box6,
     HingeSide,
     JointType,
@@ -27,6 +29,7 @@ from scenemosaic.assets._articulation import (
     declared_tolerance,
     opening,
     pieces_in_box,
+    usable_value,
     with_pieces,
 )
 from scenemosaic.assets._canonical import CanonicalMesh, load_mesh, mesh_hash
@@ -50,7 +53,7 @@ from scenemosaic.assets._objects import (
     object_part_arrays,
     object_part_meshes,
 )
-from scenemosaic.assets._opening import OPEN_STATE_KEY, open_scene, part_openings
+from scenemosaic.assets._opening import OPEN_STATE_KEY, free_openings, open_scene, part_openings, short_parts
 from scenemosaic.assets._procedural import (
     MAX_PARTS,
     compartment_fits,
@@ -90,6 +93,8 @@ __all__ = [
     "ROOM_DOOR_OPEN_DEG",
     "SHELF_PITCH",
     "TOILET_LID_OPEN_DEG",
+    "USABLE_HINGE_RAD",
+    "USABLE_SLIDE_SHARE",
     "Box6",
     "CanonicalMesh",
     "CoacdParams",
@@ -106,6 +111,7 @@ __all__ = [
     "declared_tolerance",
     "default_cache_dir",
     "default_hull_cache",
+    "free_openings",
     "interior_boards",
     "known_categories",
     "load_mesh",
@@ -126,7 +132,9 @@ __all__ = [
     "procedural_parts",
     "referenced_files",
     "room_door_leaves",
+    "short_parts",
     "shutdown_workers",
+    "usable_value",
     "with_pieces",
     "with_room_doors",
 ]

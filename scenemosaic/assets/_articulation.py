@@ -36,6 +36,8 @@ __all__ = [
     "OPEN_STATES",
     "ROOM_DOOR_OPEN_DEG",
     "TOILET_LID_OPEN_DEG",
+    "USABLE_HINGE_RAD",
+    "USABLE_SLIDE_SHARE",
     "Box6",
     "HingeSide",
     "JointType",
@@ -50,6 +52,7 @@ __all__ = [
     "lid",
     "opening",
     "pieces_in_box",
+    "usable_value",
     "with_pieces",
 ]
 
@@ -70,6 +73,21 @@ OPEN_STATES: tuple[OpenState, ...] = get_args(OpenState)
 DRAWER_TRAVEL_FRACTION = 0.9
 """How far a drawer slides out, as a fraction of its depth (front face to back panel): it stays
 held by the last tenth, as on real runners."""
+USABLE_HINGE_RAD = math.radians(90.0)
+"""A hinged part is usable once it turns this far (or through its whole range, when shorter): a
+person or a gripper reaches past a door or lid standing square to its frame."""
+USABLE_SLIDE_SHARE = 0.8
+"""A drawer is usable once it slides out this share of its travel."""
+
+
+def usable_value(part: PartSpec) -> float:
+    """The joint value at which ``part`` counts as open for use (:data:`USABLE_HINGE_RAD`,
+    :data:`USABLE_SLIDE_SHARE`): what the pull test (``physics.pull_parts``) and the repairs of
+    what blocks a part (``physics.free_part_paths``) ask of it."""
+    upper = part.limits[1]
+    return min(USABLE_HINGE_RAD, upper) if part.joint == "hinge" else USABLE_SLIDE_SHARE * upper
+
+
 DOOR_OPEN_DEG = 110.0
 """How far a door turns from closed, degrees: past a right angle, as a kitchen cabinet's does."""
 DROP_DOOR_OPEN_DEG = 90.0

@@ -18,18 +18,19 @@ open states; ``closed`` in a room with doors is recorded, for it shuts the doors
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, overload
 
 import numpy as np
+import shapely
 
-from scenemosaic.assets._articulation import OPEN_STATES, OpenState, PartSpec, opening
+from scenemosaic.assets._articulation import OPEN_STATES, OpenState, PartSpec, opening, usable_value
 from scenemosaic.assets._objects import object_articulation
 from scenemosaic.scene import FloatArray, House, Scene, SceneObject
 
-__all__ = ["OPEN_STATE_KEY", "open_scene", "part_openings"]
+__all__ = ["OPEN_STATE_KEY", "free_openings", "open_scene", "part_openings", "short_parts"]
 
 OPEN_STATE_KEY = "open_state"
 """The key of a scene's (and a house's) metadata holding the delivered pose of its parts."""
@@ -150,39 +151,24 @@ def _reach(holder: SceneObject, part: PartSpec, target: float) -> tuple[FloatArr
 def _depth(a: _Box, b: _Box) -> float:
     """How deep two oriented boxes overlap: the least overlap over the separating-axis candidates
     (negative: the gap between them along the best axis)."""
-    axes = [a.rotation[:, i] for i in range(3)] + [b.rotation[:, i] for i in range(3)]
-    for i in range(3):
-        for j in range(3):
-            cross = np.cross(a.rotation[:, i], b.rotation[:, j])
-            norm = float(np.linalg.norm(cross))
-            if norm > 1e-9:
-                axes.append(cross / norm)
-    offset = b.centre - a.centre
-    least = math.inf
-    for axis in axes:
-        reach = float(np.sum(np.abs(a.rotation.T @ axis) * a.half) + np.sum(np.abs(b.rotation.T @ axis) * b.half))
-        least = min(least, reach - abs(float(offset @ axis)))
-    return least
+    u, v = a.rotation.T[:, None, :], b.rotation.T[None, :, :]  # every axis of one across every axis of the other
+    cross = np.stack(
+        [u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1], u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2], u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]],
+        axis=-1,
+    ).reshape(9, 3)
+    norms = np.linalg.norm(cross, axis=1)
+    axes = np.vstack([a.rotation.T, b.rotation.T, cross[norms > 1e-9] / norms[norms > 1e-9, None]])
+    reach = np.abs(axes @ a.rotation) @ a.half + np.abs(axes @ b.rotation) @ b.half
+    return float(np.min(reach - np.abs(axes @ (b.centre - a.centre))))
 
 
-def _outside(floor: FloatArray | None, box: _Box) -> float:
-    """How far the box's farthest corner lies outside the room's floor polygon, m (0: inside or no room)."""
+def _outside(floor: Any, box: _Box) -> float:
+    """How far the box's farthest corner lies outside the room's floor polygon (a shapely polygon),
+    m (0: inside, or no room)."""
     if floor is None:
         return 0.0
-    worst = 0.0
-    n = len(floor)
-    for x, y in box.corners()[:, :2]:
-        inside, nearest = False, math.inf
-        for k in range(n):
-            (ax, ay), (bx, by) = floor[k], floor[(k + 1) % n]
-            if (ay > y) != (by > y) and x < (bx - ax) * (y - ay) / (by - ay) + ax:
-                inside = not inside
-            ex, ey = bx - ax, by - ay
-            t = min(max(((x - ax) * ex + (y - ay) * ey) / (ex * ex + ey * ey or 1.0), 0.0), 1.0)
-            nearest = min(nearest, math.hypot(x - ax - t * ex, y - ay - t * ey))
-        if not inside:
-            worst = max(worst, nearest)
-    return worst
+    corners = box.corners()
+    return float(np.max(shapely.distance(floor, shapely.points(corners[:, :2]))))
 
 
 class _FreeSpace:
@@ -193,7 +179,7 @@ class _FreeSpace:
     def __init__(self, scene: Scene) -> None:
         self.objects = {o.id: _object_box(o) for o in scene.objects}
         self.bases = {o.id: np.asarray(o.pose.position, dtype=np.float64) for o in scene.objects}
-        self.floor = np.asarray(scene.room.floor, dtype=np.float64) if scene.room is not None else None
+        self.floor = shapely.Polygon(scene.room.floor) if scene.room is not None else None
         self.opened: list[tuple[str, _Box]] = []
 
     def obstacles(self, holder: SceneObject, part: PartSpec) -> list[_Box]:
@@ -250,6 +236,36 @@ class _FreeSpace:
         """Count ``part`` opened to ``value`` among what later parts may not reach into."""
         if value > 0.0:
             self.opened.append((holder.id, _part_box(holder, part, value)))
+
+
+def free_openings(scene: Scene, object_id: str, base_dir: str | Path | None = None) -> dict[str, float]:
+    """For each part of ``object_id`` (by name): how far it opens on its path from closed, up to its
+    upper limit, before it would reach into the room's walls or another object's box (every other
+    part closed; the same model as the delivered open states, :func:`open_scene`)."""
+    space = _FreeSpace(scene)
+    holder = scene.get(object_id)
+    return {p.name: space.largest_free(holder, p, p.limits[1]) for p in object_articulation(holder, base_dir)}
+
+
+def short_parts(
+    scene: Scene, base_dir: str | Path | None = None, object_ids: Collection[str] | None = None
+) -> dict[str, list[str]]:
+    """The parts that do not open as far as their use needs (:func:`usable_value`) on their path from
+    closed, by object id (of ``object_ids``, default every object), by the model of
+    :func:`free_openings`; objects whose parts all open are left out."""
+    space: _FreeSpace | None = None
+    out: dict[str, list[str]] = {}
+    for holder in scene.objects:
+        if object_ids is not None and holder.id not in object_ids:
+            continue
+        parts = object_articulation(holder, base_dir)
+        if not parts:
+            continue
+        space = space or _FreeSpace(scene)
+        short = [p.name for p in parts if space.largest_free(holder, p, usable_value(p)) < usable_value(p) - 1e-4]
+        if short:
+            out[holder.id] = sorted(short)
+    return out
 
 
 def _hangs_doors(scene: Scene) -> bool:

@@ -16,6 +16,8 @@ from scenemosaic.physics._checks import (
 )
 from scenemosaic.physics._doors import DOOR_PACK_CELL_M, DoorRepair, clear_doors
 from scenemosaic.physics._hulls import HullInput, HullPiece, ObjectShape, hull_mesh, object_shape
+from scenemosaic.physics._parts_free import PartRepair, blocked_parts, free_part_paths
+from scenemosaic.physics._pull import PartPull, pull_parts
 from scenemosaic.physics._reports import (
     CollisionPair,
     CollisionReport,
@@ -79,6 +81,8 @@ __all__ = [
     "ObjectShape",
     "OutOfBoundsObject",
     "OutOfBoundsReport",
+    "PartPull",
+    "PartRepair",
     "RoomSlab",
     "SettleSettings",
     "SimSettings",
@@ -86,10 +90,12 @@ __all__ = [
     "UnitPlan",
     "UnitReport",
     "ValidationReport",
+    "blocked_parts",
     "check_collisions",
     "check_out_of_bounds",
     "clear_doors",
     "collision_report_for",
+    "free_part_paths",
     "house_slabs",
     "house_world",
     "hull_mesh",
@@ -100,6 +106,7 @@ __all__ = [
     "object_shape",
     "part_inertials",
     "plan_units",
+    "pull_parts",
     "rehang_screens",
     "require_finite_poses",
     "resting_footprint",

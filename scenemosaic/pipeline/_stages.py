@@ -37,9 +37,11 @@ from scenemosaic.metrics import evaluate, furniture, house_checks, judge_scene, 
 from scenemosaic.perception import PERCEPTION_INSTALL, is_image_path, perceive
 from scenemosaic.physics import (
     ValidationReport,
+    blocked_parts,
     check_collisions,
     check_out_of_bounds,
     clear_doors,
+    free_part_paths,
     rehang_screens,
     stabilize_scene,
     validate_scene,
@@ -327,15 +329,18 @@ def _write_layouts(report: EvolutionReport, folder: RunFolder) -> list[str]:
 
 async def _stage_doors(run: PipelineRun, rec: StageRecord) -> None:
     """A TV hung on the wall behind a bed's head or a sofa's back moves to the wall it faces
-    (``physics.rehang_screens``); a room with doors (a room of a house): furniture moves out of
+    (``physics.rehang_screens``); furniture whose own drawers, doors or lids cannot open where it
+    stands (a fridge flush to a wall on its hinge side) slides sideways the least that lets them
+    (``physics.free_part_paths``); a room with doors (a room of a house): furniture moves out of
     their clearance zones and out of the way from them into the room (``physics.clear_doors``,
     ``docs/houses.md``), before the evolution, whose variants then keep the doors clear by
     construction (``evolve/_plans.py``)."""
     scene = run.need_scene()
     hung_wrong = any(on_backing_wall(scene, o.id) for o in scene.objects if is_screen(o.category))
-    if not door_zones(scene) and not hung_wrong:
+    blocked = await asyncio.to_thread(blocked_parts, scene, run.base_dir)
+    if not door_zones(scene) and not hung_wrong and not blocked:
         rec.status = "skipped"
-        rec.detail["reason"] = "no doors"
+        rec.detail["reason"] = "no doors, and nothing in the way of a part"
         return
     shapes = await asyncio.to_thread(run.shapes, scene)
     if hung_wrong:  # a TV behind a bed's head or a sofa's back: to the wall it faces
@@ -343,6 +348,15 @@ async def _stage_doors(run: PipelineRun, rec: StageRecord) -> None:
         rec.detail["screens_moved"] = rehung
         if stuck:
             run.warnings.append(f"screens: {', '.join(stuck)} still hang(s) behind a bed's head or a sofa's back")
+    if blocked:  # what cannot open where it stands: the least sideways move that lets it
+        scene, parts = await asyncio.to_thread(free_part_paths, scene, shapes, run.base_dir)
+        if parts.moved:
+            rec.detail["parts_freed"] = {k: round(v, 3) for k, v in parts.moved.items()}
+        if parts.stuck:
+            rec.detail["parts_blocked"] = parts.stuck
+            run.notes.append("parts that cannot open where their furniture stands: " + "; ".join(
+                f"{oid} ({', '.join(names)})" for oid, names in sorted(parts.stuck.items())
+            ))  # fmt: skip
     if not door_zones(scene):
         run.scene = scene
         return
@@ -418,11 +432,13 @@ async def _combine_units(run: PipelineRun, rec: StageRecord) -> tuple[list[Scene
     crossing = {oid for _, oid, _ in await asyncio.to_thread(wall_crossings, scene)}
     relations = await asyncio.to_thread(functional_relations, scene)
     plausible = await asyncio.to_thread(plausibility, scene)
+    short = _short_parts(await asyncio.to_thread(blocked_parts, scene, run.base_dir))
 
     def walkable(candidate: Scene) -> bool:
         """As connected a walkable floor as the base; no door blocked, no object across a wall anew;
         every functional relation of the base kept (a sofa still facing its TV, a lamp over its table);
-        no plausibility rule broken that the base keeps (``metrics.plausibility``: a TV on the headboard wall)."""
+        no plausibility rule broken that the base keeps (``metrics.plausibility``: a TV on the headboard wall);
+        no drawer, door or lid kept from opening that opens in the base (``physics.blocked_parts``)."""
         if not all(functional_holds(candidate, r) for r in relations):
             return False
         now = plausibility(candidate)
@@ -432,7 +448,9 @@ async def _combine_units(run: PipelineRun, rec: StageRecord) -> tuple[list[Scene
             return False
         if not {oid for _, oid, _ in wall_crossings(candidate)} <= crossing:
             return False
-        return set(cut_off_doors(candidate)) <= cut
+        if not set(cut_off_doors(candidate)) <= cut:
+            return False
+        return _short_parts(blocked_parts(candidate, run.base_dir)) <= short
 
     compose = functools.partial(compose_variants, scene, layouts, shapes, m=m, seed=run.config.seed, accept=walkable)
     variants, report = await asyncio.to_thread(compose)
@@ -482,6 +500,10 @@ async def _combine_rooms(run: PipelineRun, rec: StageRecord) -> tuple[list[House
             s.provenance.notes.append(f"house variant {i}: this room as {report.picked[i - 1][s.id]}{anew}")
         houses.append(house.with_rooms(rooms))
     return houses, report.pool_size
+
+
+def _short_parts(blocked: dict[str, list[str]]) -> set[tuple[str, str]]:
+    return {(oid, part) for oid, parts in blocked.items() for part in parts}
 
 
 def _room_variants(run: PipelineRun, room_id: str) -> list[Scene]:
@@ -537,15 +559,20 @@ def note_shortfall(run: PipelineRun, rec: StageRecord, written: int, pool: int) 
 
 
 async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
-    """The delivered world (its parts in the run's ``--open-state``, ``assets.open_scene``) settled in
-    MuJoCo with every room's checks (``physics.validate_scene``: a room's report, or a house's by
-    room with its whole world settled once); then a house's own checks (reachability from room to
-    room, door clearance, nothing across a wall)."""
+    """The world settled in MuJoCo with every room's checks (``physics.validate_scene``: a room's
+    report, or a house's by room with its whole world settled once; with ``--open-state`` the
+    settling is the delivered world's, its parts open, the layout's checks the closed one's); then
+    a house's own checks (reachability from room to room, door clearance, nothing across a wall)."""
     world = run.need_world()
-    cfg = run.config  # what is delivered: its parts in the run's --open-state
+    cfg = run.config
+    found: ValidationReport | dict[str, ValidationReport] = await asyncio.to_thread(
+        functools.partial(validate_scene, world, run.base_dir, hull_cache=run.cache())
+    )
+    # what is delivered, its parts in the run's --open-state: how it moves is what the run reports
     delivered: Scene | House = await asyncio.to_thread(lambda: open_scene(world, cfg.open_state, cfg.seed, run.base_dir))
-    found = await asyncio.to_thread(functools.partial(validate_scene, delivered, run.base_dir, hull_cache=run.cache()))
-    if cfg.open_state is not None:  # how many parts stood open in what was simulated
+    if delivered is not world:
+        opened = await asyncio.to_thread(functools.partial(validate_scene, delivered, run.base_dir, hull_cache=run.cache()))
+        found = _moved_as_delivered(found, opened)
         rec.detail["open_parts"] = sum(len(v) for v in part_openings(delivered).values())
     if isinstance(found, ValidationReport):  # a room's run: the room's report is the run's
         rec.detail.update(found.model_dump(mode="json", include=_summary_fields(found)))
@@ -559,6 +586,7 @@ async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
         if state is not None:  # each room's report shows its own
             state.validation = per_room[rid]
         run.warnings += [f"{rid}: {w}" for w in validation_warnings(report)]
+    assert isinstance(world, House)  # a house's reports come by room
     checks = await asyncio.to_thread(house_checks, world)
     run.warnings += [f"base: {p}" for p in _house_problems(checks)]
     run.validation = {
@@ -570,6 +598,28 @@ async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
         **checks,
     }
     rec.detail.update({k: v for k, v in run.validation.items() if not isinstance(v, dict | list) or len(v) <= 20})
+
+
+_MOTION_FIELDS = ("tipped", "fell", "motions", "max_displacement_m", "simulated_s")
+"""The fields of a ``ValidationReport`` the settling simulation fills (the rest are checks of the
+layout as it stands)."""
+
+
+def _moved_as_delivered(
+    closed: ValidationReport | dict[str, ValidationReport], opened: ValidationReport | dict[str, ValidationReport]
+) -> ValidationReport | dict[str, ValidationReport]:
+    """The checks of the layout (collisions, bounds, support gaps, nesting) from the closed world's
+    validation, which holds every part on its carcass; how the world moves (tipped, fell,
+    motions) from the delivered world's, its parts open."""
+
+    def one(c: ValidationReport, o: ValidationReport) -> ValidationReport:
+        return c.model_copy(update={name: getattr(o, name) for name in _MOTION_FIELDS})
+
+    if isinstance(closed, ValidationReport):
+        assert isinstance(opened, ValidationReport)
+        return one(closed, opened)
+    assert isinstance(opened, dict)
+    return {rid: one(report, opened[rid]) for rid, report in closed.items()}
 
 
 def validation_warnings(report: ValidationReport) -> list[str]:

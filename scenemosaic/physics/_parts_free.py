@@ -1,0 +1,133 @@
+"""Furniture whose own drawers, doors or lids cannot open where it stands: moved the least that lets them.
+
+A fridge flush to a side wall on its hinge side opens 88° and stops; a wardrobe whose door meets the
+nightstand placed beside it opens 24°. For each floor-standing piece with a part that does not open
+as far as a person or a robot needs (``assets.usable_value``: 90° for a hinge, or its whole range;
+80 % of a drawer's travel), measured with the free-space model of the delivered open states
+(``assets.free_openings``: the part's box swept from closed against the room's walls and every
+other object's box), the piece slides sideways along its own width (parallel to the wall it backs
+to) by the smallest step of :data:`SHIFT_STEP_M` up to :data:`SHIFT_MOST_M`, either way, that lets
+every one of its parts open that far without closing any part it left open, stays within the
+room and makes no new collision; what rests on it moves with it. A piece with no such place stays
+where it is and is reported (``PartRepair.stuck``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from scenemosaic.assets import object_articulation, short_parts
+from scenemosaic.physics._checks import collision_report_for
+from scenemosaic.physics._hulls import ObjectShape
+from scenemosaic.scene import FLOOR, Scene, rigid_moves
+
+__all__ = ["SHIFT_MOST_M", "SHIFT_STEP_M", "PartRepair", "blocked_parts", "free_part_paths"]
+
+SHIFT_STEP_M = 0.01
+"""Step of the sideways shifts tried, m."""
+SHIFT_MOST_M = 0.30
+"""The farthest a piece is shifted to let its parts open, m."""
+_SLACK = 1e-4
+
+
+@dataclass
+class PartRepair:
+    """What :func:`free_part_paths` did: the pieces moved (id -> metres) and those whose parts still
+    do not open (id -> the parts)."""
+
+    moved: dict[str, float] = field(default_factory=dict)
+    stuck: dict[str, list[str]] = field(default_factory=dict)
+
+    def notes(self) -> list[str]:
+        """One provenance note per piece moved or left with a part that does not open."""
+        out = [f"parts: moved {oid} {d:.2f} m sideways so its parts open" for oid, d in sorted(self.moved.items())]
+        return out + [f"parts: {oid}'s {', '.join(parts)} cannot open where it stands" for oid, parts in sorted(self.stuck.items())]
+
+
+def _short(scene: Scene, oid: str, base_dir: str | Path | None) -> set[str]:
+    """The parts of ``oid`` that do not open as far as their use needs."""
+    return set(short_parts(scene, base_dir, [oid]).get(oid, []))
+
+
+def blocked_parts(scene: Scene, base_dir: str | Path | None = None) -> dict[str, list[str]]:
+    """The floor-standing pieces of ``scene`` with parts that do not open as far as their use needs
+    where they stand (``assets.short_parts``): id -> those parts (what :func:`free_part_paths`
+    would try to move)."""
+    if scene.room is None:
+        return {}
+    standing = [o.id for o in scene.objects if (rel := scene.support_of(o.id)) is None or rel.parent == FLOOR]
+    return short_parts(scene, base_dir, standing)
+
+
+def free_part_paths(
+    scene: Scene, shapes: Mapping[str, ObjectShape], base_dir: str | Path | None = None
+) -> tuple[Scene, PartRepair]:
+    """Move each floor-standing piece whose parts cannot open where it stands the least way
+    sideways that lets them (see the module docstring); returns the repaired scene (a copy; the
+    input is kept) and what moved. A scene whose parts all open comes back unchanged."""
+    repair = PartRepair()
+    if scene.room is None:
+        return scene, repair
+    repaired = scene
+    for oid in blocked_parts(scene, base_dir):
+        short = _short(repaired, oid, base_dir)
+        if not short:  # an earlier move freed it
+            continue
+        moved = _shifted(repaired, shapes, oid, short, base_dir)
+        if moved is None:
+            repair.stuck[oid] = sorted(short)
+            continue
+        repaired, repair.moved[oid] = moved
+    if repair.moved or repair.stuck:
+        repaired = repaired if repaired is not scene else scene.model_copy(deep=True)
+        repaired.provenance.notes.extend(repair.notes())
+    return repaired, repair
+
+
+def _shifted(
+    scene: Scene, shapes: Mapping[str, ObjectShape], oid: str, short: set[str], base_dir: str | Path | None
+) -> tuple[Scene, float] | None:
+    """``scene`` with ``oid`` shifted the least along its width that lets every part of it open
+    (none of the others closing), within the room and with no new collision; ``None`` if none does."""
+    obj = scene.get(oid)
+    side = obj.pose.matrix(with_scale=False)[:3, 0]
+    others = {o.id for o in scene.objects if o.id != oid}
+    steps = np.arange(SHIFT_STEP_M, SHIFT_MOST_M + 1e-9, SHIFT_STEP_M)
+    for d in sorted([*steps, *(-steps)], key=lambda x: (abs(x), x)):
+        x, y, z = obj.pose.position
+        pose = obj.pose.model_copy(update={"position": (x + float(side[0] * d), y + float(side[1] * d), z)})
+        candidate = rigid_moves(scene, {oid: pose})
+        trial = scene.model_copy(
+            update={"objects": [o.model_copy(update={"pose": candidate[o.id]}) if o.id in candidate else o for o in scene.objects]}
+        )
+        if _short(trial, oid, base_dir) or not _inside(trial, oid):
+            continue
+        moved_ids = set(candidate)
+        if any((p.a in moved_ids) != (p.b in moved_ids) for p in collision_report_for(trial, shapes).pairs):
+            continue
+        if any(_short(trial, other, base_dir) - _short(scene, other, base_dir) for other in _near(trial, oid, others, base_dir)):
+            continue  # it would close a neighbour's part
+        return trial, abs(float(d))
+    return None
+
+
+def _inside(scene: Scene, oid: str) -> bool:
+    """Whether ``oid``'s footprint stays within the room's floor polygon."""
+    from shapely.geometry import Point, Polygon
+
+    assert scene.room is not None
+    floor = Polygon(scene.room.floor).buffer(1e-3)
+    return all(floor.covers(Point(float(x), float(y))) for x, y in scene.get(oid).footprint())
+
+
+def _near(scene: Scene, oid: str, others: set[str], base_dir: str | Path | None, reach: float = 1.5) -> list[str]:
+    """The articulated objects within ``reach`` metres of ``oid`` (whose parts a move of it may close)."""
+    here = np.asarray(scene.get(oid).pose.position[:2])
+    return [
+        o.id for o in scene.objects
+        if o.id in others and np.linalg.norm(np.asarray(o.pose.position[:2]) - here) < reach and object_articulation(o, base_dir)
+    ]  # fmt: skip

@@ -1,0 +1,69 @@
+"""What opens can open (issue 53): the pull test in plain MuJoCo finds a fridge flush to the wall on
+its hinge side blocked by the wall, and the repair slides it the least way that lets its doors open."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from scenemosaic.exchange import export_mjcf
+from scenemosaic.physics import free_part_paths, object_shape, pull_parts
+from scenemosaic.scene import AssetRef, Pose, Relation, Room, Scene, SceneObject
+
+
+def _room(*objects: SceneObject) -> Scene:
+    relations = [Relation(kind="attach", child=o.id, parent="floor") for o in objects]
+    return Scene(id="kitchen", room=Room.rectangle(0, 0, 4.0, 4.0), objects=list(objects), relations=relations)
+
+
+def _fridge(x: float) -> SceneObject:
+    """A fridge facing into the room (front -Y) whose left side, where its doors hang, is ``x``
+    metres from the wall at x = 0."""
+    return SceneObject(
+        id="fridge", category="fridge", asset=AssetRef(kind="procedural", extents=(0.7, 0.7, 1.8)),
+        pose=Pose.from_yaw((0.35 + x, 3.6, 0.0), 0.0),
+    )  # fmt: skip
+
+
+def _pulled(scene: Scene, out: Path) -> dict[str, tuple[bool, float, str | None]]:
+    xml = export_mjcf(scene, out)
+    return {p.joint: (p.passed, p.reached, p.blocked_by) for p in pull_parts(xml)}
+
+
+def test_a_fridge_flush_to_the_wall_on_its_hinge_side_cannot_open(tmp_path: Path) -> None:
+    pulled = _pulled(_room(_fridge(0.0)), tmp_path / "flush")
+    assert set(pulled) == {"fridge/door_fridge", "fridge/door_freezer"}
+    for joint, (passed, reached, blocker) in pulled.items():
+        assert not passed and reached < math.radians(90), joint
+        assert blocker is not None and "wall" in blocker, (joint, blocker)
+
+
+def test_a_fridge_away_from_the_wall_opens_in_plain_mujoco(tmp_path: Path) -> None:
+    pulled = _pulled(_room(_fridge(0.1)), tmp_path / "free")
+    assert all(passed for passed, _, _ in pulled.values()), pulled
+
+
+def test_the_repair_slides_the_fridge_off_the_wall_the_least_way_and_its_doors_open(tmp_path: Path) -> None:
+    scene = _room(_fridge(0.0))
+    shapes = {o.id: object_shape(o) for o in scene.objects}
+    repaired, repair = free_part_paths(scene, shapes)
+    assert set(repair.moved) == {"fridge"} and 0.0 < repair.moved["fridge"] <= 0.05
+    assert repaired.get("fridge").pose.position[0] > scene.get("fridge").pose.position[0]  # away from the wall
+    assert any("parts: moved fridge" in n for n in repaired.provenance.notes)
+    pulled = _pulled(repaired, tmp_path / "repaired")
+    assert all(passed for passed, _, _ in pulled.values()), pulled
+    again, nothing = free_part_paths(repaired, shapes)  # nothing left to do
+    assert not nothing.moved and not nothing.stuck and again is repaired
+
+
+def test_a_piece_with_no_room_to_move_is_reported_not_moved() -> None:
+    """A fridge in a niche exactly its width: no sideways move frees its doors."""
+    fridge = _fridge(0.0)
+    niche = SceneObject(
+        id="tall_cabinet", category="cabinet", asset=AssetRef(kind="box", extents=(0.6, 0.6, 2.0)),
+        pose=Pose.from_yaw((1.0, 3.6, 0.0), 0.0),
+    )  # fmt: skip
+    scene = _room(fridge, niche)
+    shapes = {o.id: object_shape(o) for o in scene.objects}
+    _, repair = free_part_paths(scene, shapes)
+    assert "fridge" not in repair.moved and repair.stuck.get("fridge") == ["door_freezer", "door_fridge"]
