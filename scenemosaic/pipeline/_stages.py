@@ -432,13 +432,11 @@ async def _combine_units(run: PipelineRun, rec: StageRecord) -> tuple[list[Scene
     crossing = {oid for _, oid, _ in await asyncio.to_thread(wall_crossings, scene)}
     relations = await asyncio.to_thread(functional_relations, scene)
     plausible = await asyncio.to_thread(plausibility, scene)
-    short = _short_parts(await asyncio.to_thread(blocked_parts, scene, run.base_dir))
 
     def walkable(candidate: Scene) -> bool:
         """As connected a walkable floor as the base; no door blocked, no object across a wall anew;
         every functional relation of the base kept (a sofa still facing its TV, a lamp over its table);
-        no plausibility rule broken that the base keeps (``metrics.plausibility``: a TV on the headboard wall);
-        no drawer, door or lid kept from opening that opens in the base (``physics.blocked_parts``)."""
+        no plausibility rule broken that the base keeps (``metrics.plausibility``: a TV on the headboard wall)."""
         if not all(functional_holds(candidate, r) for r in relations):
             return False
         now = plausibility(candidate)
@@ -448,9 +446,7 @@ async def _combine_units(run: PipelineRun, rec: StageRecord) -> tuple[list[Scene
             return False
         if not {oid for _, oid, _ in wall_crossings(candidate)} <= crossing:
             return False
-        if not set(cut_off_doors(candidate)) <= cut:
-            return False
-        return _short_parts(blocked_parts(candidate, run.base_dir)) <= short
+        return set(cut_off_doors(candidate)) <= cut
 
     compose = functools.partial(compose_variants, scene, layouts, shapes, m=m, seed=run.config.seed, accept=walkable)
     variants, report = await asyncio.to_thread(compose)
@@ -500,10 +496,6 @@ async def _combine_rooms(run: PipelineRun, rec: StageRecord) -> tuple[list[House
             s.provenance.notes.append(f"house variant {i}: this room as {report.picked[i - 1][s.id]}{anew}")
         houses.append(house.with_rooms(rooms))
     return houses, report.pool_size
-
-
-def _short_parts(blocked: dict[str, list[str]]) -> set[tuple[str, str]]:
-    return {(oid, part) for oid, parts in blocked.items() for part in parts}
 
 
 def _room_variants(run: PipelineRun, room_id: str) -> list[Scene]:
