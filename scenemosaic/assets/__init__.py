@@ -53,7 +53,14 @@ from scenemosaic.assets._objects import (
     object_part_arrays,
     object_part_meshes,
 )
-from scenemosaic.assets._opening import OPEN_STATE_KEY, free_openings, open_scene, part_openings, short_parts
+from scenemosaic.assets._opening import (
+    OPEN_STATE_KEY,
+    free_openings,
+    open_scene,
+    part_blockers,
+    part_openings,
+    short_parts,
+)
 from scenemosaic.assets._procedural import (
     MAX_PARTS,
     compartment_fits,
@@ -124,6 +131,7 @@ __all__ = [
     "object_part_meshes",
     "open_scene",
     "opening",
+    "part_blockers",
     "part_openings",
     "pieces_in_box",
     "procedural_articulation",

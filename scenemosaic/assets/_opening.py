@@ -30,7 +30,7 @@ from scenemosaic.assets._articulation import OPEN_STATES, OpenState, PartSpec, o
 from scenemosaic.assets._objects import object_articulation
 from scenemosaic.scene import FloatArray, House, Scene, SceneObject
 
-__all__ = ["OPEN_STATE_KEY", "free_openings", "open_scene", "part_openings", "short_parts"]
+__all__ = ["OPEN_STATE_KEY", "free_openings", "open_scene", "part_blockers", "part_openings", "short_parts"]
 
 OPEN_STATE_KEY = "open_state"
 """The key of a scene's (and a house's) metadata holding the delivered pose of its parts."""
@@ -182,9 +182,9 @@ class _FreeSpace:
         self.floor = shapely.Polygon(scene.room.floor) if scene.room is not None else None
         self.opened: list[tuple[str, _Box]] = []
 
-    def obstacles(self, holder: SceneObject, part: PartSpec) -> list[_Box]:
-        """What ``part`` of ``holder`` may not reach into: every other object's box (but a drawer's
-        contents, which move with it) and the parts of other objects opened before."""
+    def obstacles(self, holder: SceneObject, part: PartSpec) -> list[tuple[str, _Box]]:
+        """What ``part`` of ``holder`` may not reach into, by object id: every other object's box
+        (but a drawer's contents, which move with it) and the parts of other objects opened before."""
         m = holder.pose.matrix(with_scale=False)
         x0, x1, y0, y1, z0, z1 = part.box
         lo, hi = np.array([x0, y0, z0 - CONTENT_DROP_TOLERANCE_M]), np.array([x1, y1, z1])
@@ -196,41 +196,51 @@ class _FreeSpace:
                 base = m[:3, :3].T @ (self.bases[oid] - m[:3, 3])
                 if bool(np.all(base >= lo - 1e-6)) and bool(np.all(base <= hi + 1e-6)):
                     continue
-            out.append(box)
-        return out + [b for oid, b in self.opened if oid != holder.id]
+            out.append((oid, box))
+        return out + [(oid, b) for oid, b in self.opened if oid != holder.id]
 
-    def largest_free(self, holder: SceneObject, part: PartSpec, target: float) -> float:
-        """The largest joint value up to ``target`` that ``part`` reaches on its path from closed
-        without going deeper into anything than it was closed (0: it cannot open at all)."""
+    def _sweep(self, holder: SceneObject, part: PartSpec, target: float) -> tuple[float, set[str]]:
+        """The largest free joint value up to ``target`` and what stops the part there (object ids,
+        ``"wall"``; empty when nothing does)."""
         if target <= 0.0:
-            return target
+            return target, set()
         closed = _part_box(holder, part, 0.0)
         obstacles = self.obstacles(holder, part)
-        if part.joint == "hinge" and any(_rests_on(box, closed) for box in obstacles):
-            return 0.0  # a lid or door with something lying on it stays shut
-        reach = _reach(holder, part, target)
-        obstacles = [b for b in obstacles if np.linalg.norm(b.centre - reach[0]) < reach[1] + np.linalg.norm(b.half)]
-        start = [max(_depth(closed, b), 0.0) for b in obstacles]
+        lying = {oid for oid, box in obstacles if _rests_on(box, closed)} if part.joint == "hinge" else set()
+        if lying:
+            return 0.0, lying  # a lid or door with something lying on it stays shut
+        centre, radius = _reach(holder, part, target)
+        obstacles = [(oid, b) for oid, b in obstacles if np.linalg.norm(b.centre - centre) < radius + np.linalg.norm(b.half)]
+        start = [max(_depth(closed, b), 0.0) for _, b in obstacles]
         wall0 = _outside(self.floor, closed)
 
-        def free(value: float) -> bool:
+        def hits(value: float) -> set[str]:
             box = _part_box(holder, part, value)
-            if _outside(self.floor, box) > wall0 + OPEN_CLEARANCE_M:
-                return False
-            return all(_depth(box, b) <= d + OPEN_CLEARANCE_M for b, d in zip(obstacles, start, strict=True))
+            out = {"wall"} if _outside(self.floor, box) > wall0 + OPEN_CLEARANCE_M else set()
+            return out | {oid for (oid, b), d in zip(obstacles, start, strict=True) if _depth(box, b) > d + OPEN_CLEARANCE_M}
 
         step = SWEEP_STEP_RAD if part.joint == "hinge" else SWEEP_STEP_M
         samples = [*(k * step for k in range(1, int(target / step) + 1)), target]
         good = 0.0
         for value in samples:
-            if not free(value):
+            stoppers = hits(value)
+            if stoppers:
                 low, high = good, value
                 for _ in range(4):  # narrowed to 1/16 of a step
                     mid = (low + high) / 2
-                    low, high = (mid, high) if free(mid) else (low, mid)
-                return low
+                    low, high = (mid, high) if not hits(mid) else (low, mid)
+                return low, stoppers
             good = value
-        return target
+        return target, set()
+
+    def largest_free(self, holder: SceneObject, part: PartSpec, target: float) -> float:
+        """The largest joint value up to ``target`` that ``part`` reaches on its path from closed
+        without going deeper into anything than it was closed (0: it cannot open at all)."""
+        return self._sweep(holder, part, target)[0]
+
+    def stoppers(self, holder: SceneObject, part: PartSpec, target: float) -> set[str]:
+        """What stops ``part`` before ``target``: object ids, ``"wall"`` (empty: nothing does)."""
+        return self._sweep(holder, part, target)[1]
 
     def open(self, holder: SceneObject, part: PartSpec, value: float) -> None:
         """Count ``part`` opened to ``value`` among what later parts may not reach into."""
@@ -265,6 +275,20 @@ def short_parts(
         short = [p.name for p in parts if space.largest_free(holder, p, usable_value(p)) < usable_value(p) - 1e-4]
         if short:
             out[holder.id] = sorted(short)
+    return out
+
+
+def part_blockers(scene: Scene, object_id: str, base_dir: str | Path | None = None) -> dict[str, list[str]]:
+    """For each part of ``object_id`` that does not open as far as its use needs
+    (:func:`usable_value`): what stops it (object ids, ``"wall"`` for the room's walls), by the model
+    of :func:`free_openings`."""
+    space = _FreeSpace(scene)
+    holder = scene.get(object_id)
+    out = {}
+    for part in object_articulation(holder, base_dir):
+        stoppers = space.stoppers(holder, part, usable_value(part))
+        if stoppers:
+            out[part.name] = sorted(stoppers)
     return out
 
 

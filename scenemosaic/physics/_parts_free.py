@@ -8,8 +8,10 @@ as far as a person or a robot needs (``assets.usable_value``: 90° for a hinge, 
 other object's box), the piece slides sideways along its own width (parallel to the wall it backs
 to) by the smallest step of :data:`SHIFT_STEP_M` up to :data:`SHIFT_MOST_M`, either way, that lets
 every one of its parts open that far without closing any part it left open, stays within the
-room and makes no new collision; what rests on it moves with it. A piece with no such place stays
-where it is and is reported (``PartRepair.stuck``).
+room and makes no new collision; what rests on it moves with it. When it has no such place, the
+floor-standing piece that stops its part (``assets.part_blockers``: the nightstand beside a
+wardrobe) is shifted the same way instead, keeping its functional relations (beside its bed's
+head). A part with neither stays blocked and is reported (``PartRepair.stuck``).
 """
 
 from __future__ import annotations
@@ -20,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from scenemosaic.assets import object_articulation, short_parts
+from scenemosaic.assets import object_articulation, part_blockers, short_parts
 from scenemosaic.physics._checks import collision_report_for
 from scenemosaic.physics._hulls import ObjectShape
-from scenemosaic.scene import FLOOR, Scene, rigid_moves
+from scenemosaic.scene import FLOOR, Scene, functional_holds, functional_relations, rigid_moves
 
 __all__ = ["SHIFT_MOST_M", "SHIFT_STEP_M", "PartRepair", "blocked_parts", "free_part_paths"]
 
@@ -77,7 +79,13 @@ def free_part_paths(
         short = _short(repaired, oid, base_dir)
         if not short:  # an earlier move freed it
             continue
-        moved = _shifted(repaired, shapes, oid, short, base_dir)
+        moved = _shifted(repaired, shapes, oid, oid, base_dir)
+        # else the furniture that stops it, each the least way along its own width
+        for blocker in [] if moved is not None else _furniture_blockers(repaired, oid, base_dir):
+            moved = _shifted(repaired, shapes, blocker, oid, base_dir)
+            if moved is not None:
+                oid = blocker  # what moved
+                break
         if moved is None:
             repair.stuck[oid] = sorted(short)
             continue
@@ -88,29 +96,43 @@ def free_part_paths(
     return repaired, repair
 
 
+def _furniture_blockers(scene: Scene, oid: str, base_dir: str | Path | None) -> list[str]:
+    """The floor-standing pieces that stop a part of ``oid`` (``assets.part_blockers``; not walls,
+    not what stands on furniture), nearest first."""
+    found = {b for stoppers in part_blockers(scene, oid, base_dir).values() for b in stoppers if b != "wall"}
+    standing = [b for b in found if (rel := scene.support_of(b)) is None or rel.parent == FLOOR]
+    here = np.asarray(scene.get(oid).pose.position[:2])
+    return sorted(standing, key=lambda b: (float(np.linalg.norm(np.asarray(scene.get(b).pose.position[:2]) - here)), b))
+
+
 def _shifted(
-    scene: Scene, shapes: Mapping[str, ObjectShape], oid: str, short: set[str], base_dir: str | Path | None
+    scene: Scene, shapes: Mapping[str, ObjectShape], mover: str, holder: str, base_dir: str | Path | None
 ) -> tuple[Scene, float] | None:
-    """``scene`` with ``oid`` shifted the least along its width that lets every part of it open
-    (none of the others closing), within the room and with no new collision; ``None`` if none does."""
-    obj = scene.get(oid)
+    """``scene`` with ``mover`` (``holder`` itself, or what stops its parts) shifted the least along
+    its width that lets every part of ``holder`` open, within the room, with no new collision, no
+    part of another piece closed that opened and, for a piece moved out of the way, every functional
+    relation of it kept (a nightstand beside its bed's head); ``None`` if no shift does."""
+    obj = scene.get(mover)
     side = obj.pose.matrix(with_scale=False)[:3, 0]
-    others = {o.id for o in scene.objects if o.id != oid}
+    others = {o.id for o in scene.objects if o.id != holder}
+    relations = [r for r in functional_relations(scene) if mover == r.subject or mover in r.group] if mover != holder else []
     steps = np.arange(SHIFT_STEP_M, SHIFT_MOST_M + 1e-9, SHIFT_STEP_M)
     for d in sorted([*steps, *(-steps)], key=lambda x: (abs(x), x)):
         x, y, z = obj.pose.position
         pose = obj.pose.model_copy(update={"position": (x + float(side[0] * d), y + float(side[1] * d), z)})
-        candidate = rigid_moves(scene, {oid: pose})
+        candidate = rigid_moves(scene, {mover: pose})
         trial = scene.model_copy(
             update={"objects": [o.model_copy(update={"pose": candidate[o.id]}) if o.id in candidate else o for o in scene.objects]}
         )
-        if _short(trial, oid, base_dir) or not _inside(trial, oid):
+        if _short(trial, holder, base_dir) or not _inside(trial, mover):
             continue
         moved_ids = set(candidate)
         if any((p.a in moved_ids) != (p.b in moved_ids) for p in collision_report_for(trial, shapes).pairs):
             continue
-        if any(_short(trial, other, base_dir) - _short(scene, other, base_dir) for other in _near(trial, oid, others, base_dir)):
-            continue  # it would close a neighbour's part
+        if any(_short(trial, other, base_dir) - _short(scene, other, base_dir) for other in _near(trial, mover, others, base_dir)):
+            continue  # it would close a part that opened
+        if not all(functional_holds(trial, r) for r in relations):
+            continue
         return trial, abs(float(d))
     return None
 

@@ -67,3 +67,23 @@ def test_a_piece_with_no_room_to_move_is_reported_not_moved() -> None:
     shapes = {o.id: object_shape(o) for o in scene.objects}
     _, repair = free_part_paths(scene, shapes)
     assert "fridge" not in repair.moved and repair.stuck.get("fridge") == ["door_freezer", "door_fridge"]
+
+
+def test_a_nightstand_in_a_wardrobe_doors_way_moves_aside_and_stays_beside_its_bed() -> None:
+    """PhyScene Bedroom-11659: the wardrobe's door meets the nightstand placed beside it and the
+    wardrobe has no room to move, so the nightstand slides along its width (staying beside the
+    bed's head) until the door opens."""
+    from scenemosaic.assets import part_blockers, short_parts
+    from scenemosaic.exchange import load_scene
+    from scenemosaic.scene import functional_holds, functional_relations
+    from tests.conftest import PHYSCENE_DIR
+
+    scene = load_scene(PHYSCENE_DIR / "Bedroom-11659_bedroom.json")
+    assert isinstance(scene, Scene)
+    assert part_blockers(scene, "wardrobe_0") == {"door_3": ["nightstand_1"]}
+    shapes = {o.id: object_shape(o) for o in scene.objects}
+    repaired, repair = free_part_paths(scene, shapes)
+    assert list(repair.moved) == ["nightstand_1"] and repair.moved["nightstand_1"] <= 0.3
+    assert "wardrobe_0" not in short_parts(repaired)
+    kept = [r for r in functional_relations(scene) if r.subject == "nightstand_1" or "nightstand_1" in r.group]
+    assert kept and all(functional_holds(repaired, r) for r in kept)
