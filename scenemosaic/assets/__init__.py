@@ -60,6 +60,7 @@ from scenemosaic.assets._opening import (
     part_blockers,
     part_openings,
     short_parts,
+    swept_footprints,
 )
 from scenemosaic.assets._procedural import (
     MAX_PARTS,
@@ -142,6 +143,7 @@ __all__ = [
     "room_door_leaves",
     "short_parts",
     "shutdown_workers",
+    "swept_footprints",
     "usable_value",
     "with_pieces",
     "with_room_doors",

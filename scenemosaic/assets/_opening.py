@@ -30,7 +30,16 @@ from scenemosaic.assets._articulation import OPEN_STATES, OpenState, PartSpec, o
 from scenemosaic.assets._objects import object_articulation
 from scenemosaic.scene import FloatArray, House, Scene, SceneObject
 
-__all__ = ["OPEN_STATE_KEY", "free_openings", "open_scene", "part_blockers", "part_openings", "short_parts"]
+__all__ = [
+    "OPEN_STATE_KEY",
+    "SWEPT_SAMPLES",
+    "free_openings",
+    "open_scene",
+    "part_blockers",
+    "part_openings",
+    "short_parts",
+    "swept_footprints",
+]
 
 OPEN_STATE_KEY = "open_state"
 """The key of a scene's (and a house's) metadata holding the delivered pose of its parts."""
@@ -289,6 +298,46 @@ def part_blockers(scene: Scene, object_id: str, base_dir: str | Path | None = No
         stoppers = space.stoppers(holder, part, usable_value(part))
         if stoppers:
             out[part.name] = sorted(stoppers)
+    return out
+
+
+SWEPT_SAMPLES = 7
+"""Poses of a part (closed to its usable opening, evenly) whose boxes stand for its swept space."""
+
+
+def swept_footprints(
+    scene: Scene,
+    low: float,
+    high: float,
+    near: tuple[float, float, float, float] | None = None,
+    base_dir: str | Path | None = None,
+    *,
+    skip: str | None = None,
+) -> list[FloatArray]:
+    """Seen from above, where the parts of ``scene`` pass on their way from closed to open for use
+    (:func:`usable_value`) between the heights ``low`` and ``high``: one convex footprint (its XY
+    corners) per sampled pose of each part whose box reaches into that band. ``near``
+    (``minx, miny, maxx, maxy``) leaves out the parts that never come near that rectangle, ``skip``
+    the parts of one object (the drawer a surface lies in). What clutter keeps free on a surface (a
+    microwave's door on a counter, a toilet's lid over its tank)."""
+    out: list[FloatArray] = []
+    for holder in scene.objects:
+        if holder.id == skip:
+            continue
+        for part in object_articulation(holder, base_dir):
+            upper = usable_value(part)
+            if near is not None:
+                centre, radius = _reach(holder, part, upper)
+                minx, miny, maxx, maxy = near
+                dx = max(minx - centre[0], 0.0, centre[0] - maxx)
+                dy = max(miny - centre[1], 0.0, centre[1] - maxy)
+                if math.hypot(dx, dy) > radius:
+                    continue
+            for k in range(SWEPT_SAMPLES):
+                corners = _part_box(holder, part, upper * k / (SWEPT_SAMPLES - 1)).corners()
+                if corners[:, 2].max() <= low + 0.01 or corners[:, 2].min() >= high:
+                    continue
+                out.append(np.asarray(shapely.MultiPoint(corners[:, :2]).convex_hull.exterior.coords)[:-1])
     return out
 
 

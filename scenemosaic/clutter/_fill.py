@@ -36,7 +36,7 @@ import numpy as np
 import structlog
 from shapely.geometry import Point, Polygon
 
-from scenemosaic.assets import HullCache
+from scenemosaic.assets import HullCache, swept_footprints
 from scenemosaic.clutter._priors import ClutterAsset, ClutterPriors, room_kind
 from scenemosaic.clutter._rest import REST_SECONDS, REST_TOLERANCE_M, rest_check
 from scenemosaic.clutter._surfaces import Surface, receptacle_surfaces
@@ -210,8 +210,10 @@ def place_on_surface(
     rng: np.random.Generator,
     taken: list[np.ndarray],
 ) -> tuple[tuple[float, float], float] | None:
-    """A free place for ``asset`` on ``surface`` beside the footprints ``taken`` (which it joins):
-    ``scene.pack_surface`` from a drawn point and heading; ``None`` when there is none."""
+    """A free place for ``asset`` on ``surface`` beside the footprints ``taken`` (which it joins) and
+    out of the way of every part that opens through the surface's height band
+    (``assets.swept_footprints``): ``scene.pack_surface`` from a drawn point and heading; ``None``
+    when there is none."""
     if asset.size[2] + 0.01 > surface.headroom:
         return None
     start = _random_point(surface.polygon, rng)
@@ -223,6 +225,10 @@ def place_on_surface(
     )
     corners = _footprint(asset, start, yaw)
     items = [PackItem(f"taken_{k}", c, movable=False) for k, c in enumerate(taken)]
+    # where a drawer, door or lid passes on its way open (the microwave's door, the toilet's lid)
+    inside = surface.receptacle if surface.placement == "in" else None  # a drawer's or cupboard's own parts close over it
+    swept = swept_footprints(scene, surface.height, surface.height + asset.size[2], surface.polygon.bounds, skip=inside)
+    items += [PackItem(f"swept_{k}", c, movable=False) for k, c in enumerate(swept)]
     items.append(PackItem("new", corners, movable=True, may_turn=surface.placement == "in"))
     result = pack_surface(surface.polygon, items)
     if "new" in result.unplaced or "new" not in result.shifts:

@@ -56,13 +56,9 @@ def _short(scene: Scene, oid: str, base_dir: str | Path | None) -> set[str]:
 
 
 def blocked_parts(scene: Scene, base_dir: str | Path | None = None) -> dict[str, list[str]]:
-    """The floor-standing pieces of ``scene`` with parts that do not open as far as their use needs
-    where they stand (``assets.short_parts``): id -> those parts (what :func:`free_part_paths`
-    would try to move)."""
-    if scene.room is None:
-        return {}
-    standing = [o.id for o in scene.objects if (rel := scene.support_of(o.id)) is None or rel.parent == FLOOR]
-    return short_parts(scene, base_dir, standing)
+    """The pieces of ``scene`` with parts that do not open as far as their use needs where they
+    stand (``assets.short_parts``): id -> those parts (what :func:`free_part_paths` works on)."""
+    return short_parts(scene, base_dir) if scene.room is not None else {}
 
 
 def free_part_paths(
@@ -79,9 +75,9 @@ def free_part_paths(
         short = _short(repaired, oid, base_dir)
         if not short:  # an earlier move freed it
             continue
-        moved = _shifted(repaired, shapes, oid, oid, base_dir)
-        # else the furniture that stops it, each the least way along its own width
-        for blocker in [] if moved is not None else _furniture_blockers(repaired, oid, base_dir):
+        moved = _shifted(repaired, shapes, oid, oid, base_dir) if _standing(repaired, oid) else None
+        # else what stops it (furniture, or a small object beside it), each the least way aside
+        for blocker in [] if moved is not None else _blockers(repaired, oid, base_dir):
             moved = _shifted(repaired, shapes, blocker, oid, base_dir)
             if moved is not None:
                 oid = blocker  # what moved
@@ -96,13 +92,18 @@ def free_part_paths(
     return repaired, repair
 
 
-def _furniture_blockers(scene: Scene, oid: str, base_dir: str | Path | None) -> list[str]:
-    """The floor-standing pieces that stop a part of ``oid`` (``assets.part_blockers``; not walls,
-    not what stands on furniture), nearest first."""
+def _standing(scene: Scene, oid: str) -> bool:
+    rel = scene.support_of(oid)
+    return rel is None or rel.parent == FLOOR
+
+
+def _blockers(scene: Scene, oid: str, base_dir: str | Path | None) -> list[str]:
+    """What stops a part of ``oid`` (``assets.part_blockers``; not the walls), nearest first: pieces
+    standing on the floor, and small objects standing on furniture (beside a microwave on a counter)."""
     found = {b for stoppers in part_blockers(scene, oid, base_dir).values() for b in stoppers if b != "wall"}
-    standing = [b for b in found if (rel := scene.support_of(b)) is None or rel.parent == FLOOR]
+    movable = [b for b in found if _standing(scene, b) or scene.anchor_kind(scene.support_of(b).parent) == "object"]  # type: ignore[union-attr]
     here = np.asarray(scene.get(oid).pose.position[:2])
-    return sorted(standing, key=lambda b: (float(np.linalg.norm(np.asarray(scene.get(b).pose.position[:2]) - here)), b))
+    return sorted(movable, key=lambda b: (float(np.linalg.norm(np.asarray(scene.get(b).pose.position[:2]) - here)), b))
 
 
 def _shifted(
@@ -113,18 +114,23 @@ def _shifted(
     part of another piece closed that opened and, for a piece moved out of the way, every functional
     relation of it kept (a nightstand beside its bed's head); ``None`` if no shift does."""
     obj = scene.get(mover)
-    side = obj.pose.matrix(with_scale=False)[:3, 0]
+    frame = obj.pose.matrix(with_scale=False)[:3, :3]
+    standing = _standing(scene, mover)
+    # a piece on the floor slides along its width (along its wall); a small object anywhere on its support
+    ways = [frame[:, 0]] if standing else [frame[:, 0], frame[:, 1]]
     others = {o.id for o in scene.objects if o.id != holder}
     relations = [r for r in functional_relations(scene) if mover == r.subject or mover in r.group] if mover != holder else []
     steps = np.arange(SHIFT_STEP_M, SHIFT_MOST_M + 1e-9, SHIFT_STEP_M)
-    for d in sorted([*steps, *(-steps)], key=lambda x: (abs(x), x)):
+    shifts = sorted(((float(s * sign), k) for s in steps for sign in (1, -1) for k in range(len(ways))), key=lambda t: (abs(t[0]), t[1], t[0]))
+    for d, k in shifts:
         x, y, z = obj.pose.position
-        pose = obj.pose.model_copy(update={"position": (x + float(side[0] * d), y + float(side[1] * d), z)})
+        way = ways[k]
+        pose = obj.pose.model_copy(update={"position": (x + float(way[0] * d), y + float(way[1] * d), z)})
         candidate = rigid_moves(scene, {mover: pose})
         trial = scene.model_copy(
             update={"objects": [o.model_copy(update={"pose": candidate[o.id]}) if o.id in candidate else o for o in scene.objects]}
         )
-        if _short(trial, holder, base_dir) or not _inside(trial, mover):
+        if _short(trial, holder, base_dir) or not _inside(trial, mover) or not (standing or _on_support(trial, mover)):
             continue
         moved_ids = set(candidate)
         if any((p.a in moved_ids) != (p.b in moved_ids) for p in collision_report_for(trial, shapes).pairs):
@@ -144,6 +150,17 @@ def _inside(scene: Scene, oid: str) -> bool:
     assert scene.room is not None
     floor = Polygon(scene.room.floor).buffer(1e-3)
     return all(floor.covers(Point(float(x), float(y))) for x, y in scene.get(oid).footprint())
+
+
+def _on_support(scene: Scene, oid: str) -> bool:
+    """Whether a small object still stands on its support: its centre over the support's footprint."""
+    from shapely.geometry import Point, Polygon
+
+    rel = scene.support_of(oid)
+    if rel is None or scene.anchor_kind(rel.parent) != "object":
+        return False
+    x, y, _ = scene.get(oid).pose.position
+    return bool(Polygon(scene.get(rel.parent).footprint()).covers(Point(float(x), float(y))))
 
 
 def _near(scene: Scene, oid: str, others: set[str], base_dir: str | Path | None, reach: float = 1.5) -> list[str]:
