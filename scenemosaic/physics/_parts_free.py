@@ -43,10 +43,15 @@ class PartRepair:
 
     moved: dict[str, float] = field(default_factory=dict)
     stuck: dict[str, list[str]] = field(default_factory=dict)
+    freed: dict[str, str] = field(default_factory=dict)
+    """Each piece moved -> the piece whose parts its move lets open (itself, or what it stood before)."""
 
     def notes(self) -> list[str]:
         """One provenance note per piece moved or left with a part that does not open."""
-        out = [f"parts: moved {oid} {d:.2f} m sideways so its parts open" for oid, d in sorted(self.moved.items())]
+        out = [
+            f"parts: moved {oid} {d:.2f} m aside so " + ("its parts open" if self.freed.get(oid, oid) == oid else f"{self.freed[oid]}'s parts open")
+            for oid, d in sorted(self.moved.items())
+        ]  # fmt: skip
         return out + [f"parts: {oid}'s {', '.join(parts)} cannot open where it stands" for oid, parts in sorted(self.stuck.items())]
 
 
@@ -75,17 +80,19 @@ def free_part_paths(
         short = _short(repaired, oid, base_dir)
         if not short:  # an earlier move freed it
             continue
+        mover = oid
         moved = _shifted(repaired, shapes, oid, oid, base_dir) if _standing(repaired, oid) else None
         # else what stops it (furniture, or a small object beside it), each the least way aside
         for blocker in [] if moved is not None else _blockers(repaired, oid, base_dir):
             moved = _shifted(repaired, shapes, blocker, oid, base_dir)
             if moved is not None:
-                oid = blocker  # what moved
+                mover = blocker
                 break
         if moved is None:
             repair.stuck[oid] = sorted(short)
             continue
-        repaired, repair.moved[oid] = moved
+        repaired, repair.moved[mover] = moved
+        repair.freed[mover] = oid
     if repair.moved or repair.stuck:
         repaired = repaired if repaired is not scene else scene.model_copy(deep=True)
         repaired.provenance.notes.extend(repair.notes())

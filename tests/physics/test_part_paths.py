@@ -84,6 +84,8 @@ def test_a_nightstand_in_a_wardrobe_doors_way_moves_aside_and_stays_beside_its_b
     shapes = {o.id: object_shape(o) for o in scene.objects}
     repaired, repair = free_part_paths(scene, shapes)
     assert list(repair.moved) == ["nightstand_1"] and repair.moved["nightstand_1"] <= 0.3
+    assert repair.freed == {"nightstand_1": "wardrobe_0"}
+    assert any("moved nightstand_1" in n and "wardrobe_0's parts open" in n for n in repaired.provenance.notes)
     assert "wardrobe_0" not in short_parts(repaired)
     kept = [r for r in functional_relations(scene) if r.subject == "nightstand_1" or "nightstand_1" in r.group]
     assert kept and all(functional_holds(repaired, r) for r in kept)
