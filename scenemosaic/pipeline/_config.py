@@ -385,9 +385,10 @@ class GenerateConfig(BaseModel):
     """The pose drawers, doors and lids are delivered in: ``closed``, ``open`` or ``random`` (drawn
     from ``seed``). Unset (default), the furniture is closed and the rooms' doors stand open (the
     doorways passable); ``closed`` shuts the rooms' doors too; ``open`` puts each part at its upper
-    joint limit (a room's door as far as it swings clear), ``random`` somewhere in its range. Every
-    export places the parts so and what stands in a drawer comes out with it; the joints' limits
-    stay 0 (closed) to open, and validation simulates the scene closed (``docs/articulation.md``)."""
+    joint limit (a room's door as far as it swings clear), ``random`` somewhere in its range, each
+    only as far as its path is free of other objects and walls. Every export places the parts so
+    and what stands in a drawer comes out with it; the joints' limits stay 0 (closed) to open, and
+    validation settles the world as delivered, its parts open (``docs/articulation.md``)."""
     stabilize: Annotated[bool, Setting("run", decides=True, flag="--stabilize")] = True
     """Run the physics stabilization (default on); off skips evolve too."""
     strict: Annotated[bool, Setting("run", flag="--strict")] = False
