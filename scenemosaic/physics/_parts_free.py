@@ -69,9 +69,10 @@ def blocked_parts(scene: Scene, base_dir: str | Path | None = None) -> dict[str,
 def free_part_paths(
     scene: Scene, shapes: Mapping[str, ObjectShape], base_dir: str | Path | None = None
 ) -> tuple[Scene, PartRepair]:
-    """Move each floor-standing piece whose parts cannot open where it stands the least way
-    sideways that lets them (see the module docstring); returns the repaired scene (a copy; the
-    input is kept) and what moved. A scene whose parts all open comes back unchanged."""
+    """Let every part of ``scene`` that cannot open where its piece stands open, the smallest way:
+    the piece slid sideways, else what stops its part moved aside (see the module docstring);
+    returns the repaired scene (a copy; the input is kept) and what moved. A scene whose parts all
+    open comes back unchanged."""
     repair = PartRepair()
     if scene.room is None:
         return scene, repair
