@@ -29,6 +29,7 @@ from scenemosaic.assets._articulation import (
     declared_tolerance,
     opening,
     pieces_in_box,
+    usable_opening,
     usable_value,
     with_pieces,
 )
@@ -55,7 +56,6 @@ from scenemosaic.assets._objects import (
 )
 from scenemosaic.assets._opening import (
     OPEN_STATE_KEY,
-    free_openings,
     open_scene,
     part_blockers,
     part_openings,
@@ -119,7 +119,6 @@ __all__ = [
     "declared_tolerance",
     "default_cache_dir",
     "default_hull_cache",
-    "free_openings",
     "interior_boards",
     "known_categories",
     "load_mesh",
@@ -144,6 +143,7 @@ __all__ = [
     "short_parts",
     "shutdown_workers",
     "swept_footprints",
+    "usable_opening",
     "usable_value",
     "with_pieces",
     "with_room_doors",

@@ -52,6 +52,7 @@ __all__ = [
     "lid",
     "opening",
     "pieces_in_box",
+    "usable_opening",
     "usable_value",
     "with_pieces",
 ]
@@ -81,11 +82,17 @@ USABLE_SLIDE_SHARE = 0.8
 
 
 def usable_value(part: PartSpec) -> float:
-    """The joint value at which ``part`` counts as open for use (:data:`USABLE_HINGE_RAD`,
-    :data:`USABLE_SLIDE_SHARE`): what the pull test (``physics.pull_parts``) and the repairs of
-    what blocks a part (``physics.free_part_paths``) ask of it."""
-    upper = part.limits[1]
-    return min(USABLE_HINGE_RAD, upper) if part.joint == "hinge" else USABLE_SLIDE_SHARE * upper
+    """The joint value at which ``part`` counts as open for use (:func:`usable_opening` of its joint
+    and upper limit): what the repairs of what blocks a part (``physics.free_part_paths``) and
+    clutter (``assets.swept_footprints``) ask of it."""
+    return usable_opening(part.joint, part.limits[1])
+
+
+def usable_opening(joint: str, upper: float) -> float:
+    """The value at which a ``hinge`` or ``slide`` joint opening to ``upper`` counts as open for use:
+    :data:`USABLE_HINGE_RAD` (or ``upper`` when smaller) for a hinge, :data:`USABLE_SLIDE_SHARE` of
+    ``upper`` for a slide. The pull test (``physics.pull_parts``) reads joints from an MJCF with it."""
+    return min(USABLE_HINGE_RAD, upper) if joint == "hinge" else USABLE_SLIDE_SHARE * upper
 
 
 DOOR_OPEN_DEG = 110.0

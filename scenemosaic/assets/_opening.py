@@ -33,7 +33,6 @@ from scenemosaic.scene import FloatArray, House, Scene, SceneObject
 __all__ = [
     "OPEN_STATE_KEY",
     "SWEPT_SAMPLES",
-    "free_openings",
     "open_scene",
     "part_blockers",
     "part_openings",
@@ -257,21 +256,14 @@ class _FreeSpace:
             self.opened.append((holder.id, _part_box(holder, part, value)))
 
 
-def free_openings(scene: Scene, object_id: str, base_dir: str | Path | None = None) -> dict[str, float]:
-    """For each part of ``object_id`` (by name): how far it opens on its path from closed, up to its
-    upper limit, before it would reach into the room's walls or another object's box (every other
-    part closed; the same model as the delivered open states, :func:`open_scene`)."""
-    space = _FreeSpace(scene)
-    holder = scene.get(object_id)
-    return {p.name: space.largest_free(holder, p, p.limits[1]) for p in object_articulation(holder, base_dir)}
-
-
 def short_parts(
     scene: Scene, base_dir: str | Path | None = None, object_ids: Collection[str] | None = None
 ) -> dict[str, list[str]]:
     """The parts that do not open as far as their use needs (:func:`usable_value`) on their path from
-    closed, by object id (of ``object_ids``, default every object), by the model of
-    :func:`free_openings`; objects whose parts all open are left out."""
+    closed, by object id (of ``object_ids``, default every object): each part's box swept from
+    closed against the room's walls and every other object's box, every other part closed (the
+    model of the delivered open states, :func:`open_scene`); objects whose parts all open are left
+    out."""
     space: _FreeSpace | None = None
     out: dict[str, list[str]] = {}
     for holder in scene.objects:
@@ -290,7 +282,7 @@ def short_parts(
 def part_blockers(scene: Scene, object_id: str, base_dir: str | Path | None = None) -> dict[str, list[str]]:
     """For each part of ``object_id`` that does not open as far as its use needs
     (:func:`usable_value`): what stops it (object ids, ``"wall"`` for the room's walls), by the model
-    of :func:`free_openings`."""
+    of :func:`short_parts`."""
     space = _FreeSpace(scene)
     holder = scene.get(object_id)
     out = {}

@@ -16,7 +16,7 @@ from scenemosaic.physics._checks import (
 )
 from scenemosaic.physics._doors import DOOR_PACK_CELL_M, DoorRepair, clear_doors
 from scenemosaic.physics._hulls import HullInput, HullPiece, ObjectShape, hull_mesh, object_shape
-from scenemosaic.physics._parts_free import PartRepair, blocked_parts, free_part_paths
+from scenemosaic.physics._parts_free import PartRepair, free_part_paths
 from scenemosaic.physics._pull import PartPull, pull_parts
 from scenemosaic.physics._reports import (
     CollisionPair,
@@ -90,7 +90,6 @@ __all__ = [
     "UnitPlan",
     "UnitReport",
     "ValidationReport",
-    "blocked_parts",
     "check_collisions",
     "check_out_of_bounds",
     "clear_doors",

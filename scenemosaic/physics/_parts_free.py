@@ -4,14 +4,15 @@ A fridge flush to a side wall on its hinge side opens 88° and stops; a wardrobe
 nightstand placed beside it opens 24°. For each floor-standing piece with a part that does not open
 as far as a person or a robot needs (``assets.usable_value``: 90° for a hinge, or its whole range;
 80 % of a drawer's travel), measured with the free-space model of the delivered open states
-(``assets.free_openings``: the part's box swept from closed against the room's walls and every
+(``assets.short_parts``: the part's box swept from closed against the room's walls and every
 other object's box), the piece slides sideways along its own width (parallel to the wall it backs
 to) by the smallest step of :data:`SHIFT_STEP_M` up to :data:`SHIFT_MOST_M`, either way, that lets
 every one of its parts open that far without closing any part it left open, stays within the
 room and makes no new collision; what rests on it moves with it. When it has no such place, the
 floor-standing piece that stops its part (``assets.part_blockers``: the nightstand beside a
 wardrobe) is shifted the same way instead, keeping its functional relations (beside its bed's
-head). A part with neither stays blocked and is reported (``PartRepair.stuck``).
+head), or a small object that stops it (beside a microwave on a counter) along its support,
+staying on it. A part with neither stays blocked and is reported (``PartRepair.stuck``).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from scenemosaic.physics._checks import collision_report_for
 from scenemosaic.physics._hulls import ObjectShape
 from scenemosaic.scene import FLOOR, Scene, functional_holds, functional_relations, rigid_moves
 
-__all__ = ["SHIFT_MOST_M", "SHIFT_STEP_M", "PartRepair", "blocked_parts", "free_part_paths"]
+__all__ = ["SHIFT_MOST_M", "SHIFT_STEP_M", "PartRepair", "free_part_paths"]
 
 SHIFT_STEP_M = 0.01
 """Step of the sideways shifts tried, m."""
@@ -60,12 +61,6 @@ def _short(scene: Scene, oid: str, base_dir: str | Path | None) -> set[str]:
     return set(short_parts(scene, base_dir, [oid]).get(oid, []))
 
 
-def blocked_parts(scene: Scene, base_dir: str | Path | None = None) -> dict[str, list[str]]:
-    """The pieces of ``scene`` with parts that do not open as far as their use needs where they
-    stand (``assets.short_parts``): id -> those parts (what :func:`free_part_paths` works on)."""
-    return short_parts(scene, base_dir) if scene.room is not None else {}
-
-
 def free_part_paths(
     scene: Scene, shapes: Mapping[str, ObjectShape], base_dir: str | Path | None = None
 ) -> tuple[Scene, PartRepair]:
@@ -77,7 +72,7 @@ def free_part_paths(
     if scene.room is None:
         return scene, repair
     repaired = scene
-    for oid in blocked_parts(scene, base_dir):
+    for oid in short_parts(scene, base_dir):
         short = _short(repaired, oid, base_dir)
         if not short:  # an earlier move freed it
             continue
@@ -94,9 +89,9 @@ def free_part_paths(
             continue
         repaired, repair.moved[mover] = moved
         repair.freed[mover] = oid
-    if repair.moved or repair.stuck:
-        repaired = repaired if repaired is not scene else scene.model_copy(deep=True)
-        repaired.provenance.notes.extend(repair.notes())
+    if repair.moved or repair.stuck:  # a moved scene shares its provenance with the input: a new one
+        notes = [*repaired.provenance.notes, *repair.notes()]
+        repaired = repaired.model_copy(update={"provenance": repaired.provenance.model_copy(update={"notes": notes})})
     return repaired, repair
 
 
@@ -126,7 +121,8 @@ def _shifted(
     standing = _standing(scene, mover)
     # a piece on the floor slides along its width (along its wall); a small object anywhere on its support
     ways = [frame[:, 0]] if standing else [frame[:, 0], frame[:, 1]]
-    others = {o.id for o in scene.objects if o.id != holder}
+    near = _near(scene, mover, holder, base_dir)
+    short_before = short_parts(scene, base_dir, near)
     relations = [r for r in functional_relations(scene) if mover == r.subject or mover in r.group] if mover != holder else []
     steps = np.arange(SHIFT_STEP_M, SHIFT_MOST_M + 1e-9, SHIFT_STEP_M)
     shifts = sorted(((float(s * sign), k) for s in steps for sign in (1, -1) for k in range(len(ways))), key=lambda t: (abs(t[0]), t[1], t[0]))
@@ -143,7 +139,8 @@ def _shifted(
         moved_ids = set(candidate)
         if any((p.a in moved_ids) != (p.b in moved_ids) for p in collision_report_for(trial, shapes).pairs):
             continue
-        if any(_short(trial, other, base_dir) - _short(scene, other, base_dir) for other in _near(trial, mover, others, base_dir)):
+        short_now = short_parts(trial, base_dir, near)
+        if any(set(parts) - set(short_before.get(oid, [])) for oid, parts in short_now.items()):
             continue  # it would close a part that opened
         if not all(functional_holds(trial, r) for r in relations):
             continue
@@ -171,10 +168,11 @@ def _on_support(scene: Scene, oid: str) -> bool:
     return bool(Polygon(scene.get(rel.parent).footprint()).covers(Point(float(x), float(y))))
 
 
-def _near(scene: Scene, oid: str, others: set[str], base_dir: str | Path | None, reach: float = 1.5) -> list[str]:
-    """The articulated objects within ``reach`` metres of ``oid`` (whose parts a move of it may close)."""
+def _near(scene: Scene, oid: str, holder: str, base_dir: str | Path | None, reach: float = 1.5) -> list[str]:
+    """The articulated objects (but ``holder``) within ``reach`` metres of ``oid``, whose parts a
+    shift of it (at most :data:`SHIFT_MOST_M`) may close."""
     here = np.asarray(scene.get(oid).pose.position[:2])
     return [
         o.id for o in scene.objects
-        if o.id in others and np.linalg.norm(np.asarray(o.pose.position[:2]) - here) < reach and object_articulation(o, base_dir)
+        if o.id != holder and np.linalg.norm(np.asarray(o.pose.position[:2]) - here) < reach and object_articulation(o, base_dir)
     ]  # fmt: skip

@@ -7,8 +7,8 @@ part closed and the part's own weight cancelled (a lid is neither helped nor hel
 of the world keeps its weight, so furniture stands and what it carries rests): a drive on its joint
 turns or slides it towards its upper limit at a steady pace (about its range a second), with at most
 :data:`PULL_WEIGHTS` times its weight at its centre of mass, for :data:`PULL_SECONDS`. A hinge
-passes once it stands at 90° (or its whole range, when shorter; :data:`HINGE_PASS_RAD`), a slide
-at :data:`SLIDE_PASS_FRACTION` of its travel; a part that did not, or that moved another body more
+passes once it stands at 90° (or its whole range, when shorter), a slide at 80 % of its travel
+(``assets.usable_opening``); a part that did not, or that moved another body more
 than :data:`PUSHED_M` on its way, is blocked, by what its body touches at the end (another object,
 or a wall) or by what it pushed; what a drawer carries (the objects touching it closed) rides with
 it and is not counted as pushed, while something lying on a lid or a door is (a hinged part lifts
@@ -24,14 +24,12 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from scenemosaic.assets import USABLE_HINGE_RAD, USABLE_SLIDE_SHARE
+from scenemosaic.assets import usable_opening
 
 __all__ = [
-    "HINGE_PASS_RAD",
     "PULL_SECONDS",
     "PULL_WEIGHTS",
     "PUSHED_M",
-    "SLIDE_PASS_FRACTION",
     "PartPull",
     "pull_parts",
 ]
@@ -41,17 +39,12 @@ PULL_SECONDS = 2.0
 PULL_WEIGHTS = 2.0
 """The most the drive pulls with, in the part's weights at its centre of mass (plus what its joint's
 friction and damping take at the drive's pace)."""
-HINGE_PASS_RAD = USABLE_HINGE_RAD
-"""A hinge passes at this angle, or at its upper limit when that is smaller (``assets.usable_value``)."""
-SLIDE_PASS_FRACTION = USABLE_SLIDE_SHARE
-"""A slide passes at this share of its travel."""
 PUSHED_M = 0.02
 """A pull that moves another body further than this is blocked by it, m."""
 FASTEST_M_S = 5.0
 """No body may move faster than this during a pull (a world that explodes), m/s."""
 _SLACK_RAD = math.radians(0.5)
 _FREE, _SLIDE, _HINGE = (int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_SLIDE), int(mujoco.mjtJoint.mjJNT_HINGE))
-_GRAVITY = 9.81
 
 
 @dataclass(frozen=True)
@@ -122,7 +115,7 @@ def _pull(model: mujoco.MjModel, data: mujoco.MjData, j: int, closed: np.ndarray
     q, dof, body = int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]), int(model.jnt_bodyid[j])
     hinge = int(model.jnt_type[j]) == _HINGE
     upper = float(model.jnt_range[j][1])
-    needed = min(HINGE_PASS_RAD, upper) - _SLACK_RAD if hinge else SLIDE_PASS_FRACTION * upper
+    needed = usable_opening("hinge" if hinge else "slide", upper) - (_SLACK_RAD if hinge else 0.0)
     mass = float(model.body_subtreemass[body])
     if hinge:  # the lever of its weight: its centre of mass from the hinge line
         axis, anchor = data.xaxis[j], data.xanchor[j]
@@ -131,7 +124,7 @@ def _pull(model: mujoco.MjModel, data: mujoco.MjData, j: int, closed: np.ndarray
     else:
         lever = 1.0
     pace = max(upper, 1e-3) / 1.0  # its range in about a second
-    most = PULL_WEIGHTS * mass * _GRAVITY * lever + float(model.dof_frictionloss[dof]) + float(model.dof_damping[dof]) * pace
+    most = PULL_WEIGHTS * mass * float(np.linalg.norm(model.opt.gravity)) * lever + float(model.dof_frictionloss[dof]) + float(model.dof_damping[dof]) * pace
     gain = 4.0 * most / pace
     root = int(model.body_rootid[body])
     # what a drawer holds (touching it as loaded) rides with it: not pushed out of its way
@@ -143,8 +136,7 @@ def _pull(model: mujoco.MjModel, data: mujoco.MjData, j: int, closed: np.ndarray
     for step in range(steps):
         data.qfrc_applied[dof] = float(np.clip(gain * (pace - data.qvel[dof]), -most, most))
         mujoco.mj_step(model, data)
-        if others:
-            fastest = max(fastest, float(np.max(np.linalg.norm(data.cvel[:, 3:], axis=1))))
+        fastest = max(fastest, float(np.max(np.linalg.norm(data.cvel[:, 3:], axis=1))))
         if done_at is None and data.qpos[q] >= needed:
             done_at = step
         if done_at is not None and step - done_at > int(0.1 / model.opt.timestep):

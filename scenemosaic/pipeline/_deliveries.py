@@ -12,7 +12,7 @@ import functools
 import os
 import shutil
 import time
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Collection
 from pathlib import Path
 from typing import Any
 
@@ -28,13 +28,17 @@ from scenemosaic.scene import House, Scene
 
 __all__ = ["HouseDeliveries", "deliver_ahead", "delivered_worlds", "house_deliveries", "put_in_place"]
 
-def delivered_worlds(run: PipelineRun) -> list[tuple[Path, Scene | House]]:
+def delivered_worlds(run: PipelineRun, names: Collection[str] | None = None) -> list[tuple[Path, Scene | House]]:
     """What the export delivers, by folder: the base (``base/``) and each variant
     (``variant_<i>/``), a scene or a whole house as the run is, each as delivered (``--open-state``:
-    ``assets.open_scene``)."""
+    ``assets.open_scene``); with ``names``, those folders only."""
     variants: list[Scene | House] = list(run.world_variants)
     worlds = [(run.folder.base, run.need_world()), *((run.folder.variant(i), v) for i, v in enumerate(variants, start=1))]
-    return [(folder, open_scene(w, run.config.open_state, run.config.seed, run.base_dir)) for folder, w in worlds]
+    return [
+        (folder, open_scene(w, run.config.open_state, run.config.seed, run.base_dir))
+        for folder, w in worlds
+        if names is None or folder.name in names
+    ]
 
 
 _FIRST_LANE = ("mjcf", "usd", "glb", "sceneeval")
@@ -140,7 +144,10 @@ async def deliver_ahead(run: PipelineRun, names: set[str], worlds: list[tuple[Pa
         run.deliveries = HouseDeliveries(run, workers)
     deliveries = house_deliveries(run)
     assert deliveries is not None
-    for folder, house in delivered_worlds(run) if worlds is None else worlds:
+    if worlds is None:  # opening a house's parts is CPU work: off the event loop, only those named
+        todo = names - set(deliveries.houses)
+        worlds = await asyncio.to_thread(delivered_worlds, run, todo) if todo else []
+    for folder, house in worlds:
         if folder.name in names and folder.name not in deliveries.houses:
             assert isinstance(house, House)  # worker processes run the rooms of a house only
             await deliveries.add(folder, house)

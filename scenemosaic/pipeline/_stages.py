@@ -28,7 +28,7 @@ from typing import Any
 import structlog
 
 from scenemosaic.agents import AgentLog
-from scenemosaic.assets import object_hulls, open_scene, part_openings
+from scenemosaic.assets import object_hulls, open_scene, part_openings, short_parts
 from scenemosaic.compose import compose_house, compose_variants, kept_layouts
 from scenemosaic.evolve import EvolutionReport, evolve_scene
 from scenemosaic.exceptions import UsageError
@@ -37,7 +37,6 @@ from scenemosaic.metrics import evaluate, furniture, house_checks, judge_scene, 
 from scenemosaic.perception import PERCEPTION_INSTALL, is_image_path, perceive
 from scenemosaic.physics import (
     ValidationReport,
-    blocked_parts,
     check_collisions,
     check_out_of_bounds,
     clear_doors,
@@ -337,7 +336,7 @@ async def _stage_doors(run: PipelineRun, rec: StageRecord) -> None:
     construction (``evolve/_plans.py``)."""
     scene = run.need_scene()
     hung_wrong = any(on_backing_wall(scene, o.id) for o in scene.objects if is_screen(o.category))
-    blocked = await asyncio.to_thread(blocked_parts, scene, run.base_dir)
+    blocked = await asyncio.to_thread(short_parts, scene, run.base_dir) if scene.room is not None else {}
     if not door_zones(scene) and not hung_wrong and not blocked:
         rec.status = "skipped"
         rec.detail["reason"] = "no doors, and nothing in the way of a part"

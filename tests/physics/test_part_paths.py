@@ -6,6 +6,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import pytest
+
 from scenemosaic.exchange import export_mjcf
 from scenemosaic.physics import free_part_paths, object_shape, pull_parts
 from scenemosaic.scene import AssetRef, Pose, Relation, Room, Scene, SceneObject
@@ -45,8 +47,10 @@ def test_a_fridge_away_from_the_wall_opens_in_plain_mujoco(tmp_path: Path) -> No
 
 def test_the_repair_slides_the_fridge_off_the_wall_the_least_way_and_its_doors_open(tmp_path: Path) -> None:
     scene = _room(_fridge(0.0))
+    before = scene.model_dump_json()
     shapes = {o.id: object_shape(o) for o in scene.objects}
     repaired, repair = free_part_paths(scene, shapes)
+    assert scene.model_dump_json() == before  # the input is kept, its provenance notes too
     assert set(repair.moved) == {"fridge"} and 0.0 < repair.moved["fridge"] <= 0.05
     assert repaired.get("fridge").pose.position[0] > scene.get("fridge").pose.position[0]  # away from the wall
     assert any("parts: moved fridge" in n for n in repaired.provenance.notes)
@@ -109,3 +113,21 @@ def test_a_small_object_beside_a_microwave_moves_along_the_counter_so_its_door_o
     counter = kitchen.support_of("small_6_16")
     assert counter is not None and repaired.support_of("small_6_16") == counter
     assert repaired.get("small_6_16").pose.position[2] == kitchen.get("small_6_16").pose.position[2]
+
+
+@pytest.mark.house
+def test_the_delivered_4_room_house_opens_its_fridge_and_microwave_in_plain_mujoco(tmp_path: Path) -> None:
+    """A house folder, pulled as a user loads it (``base/scene.xml`` of the whole house): the fridge
+    the source puts flush to a wall and the microwave the source boxes in both open; each failure
+    names what blocks it, and every room-door leaf swings."""
+    from scenemosaic.pipeline import GenerateConfig, generate
+    from tests.conftest import DATA
+
+    out = tmp_path / "house"
+    generate(DATA / "houses" / "procthor" / "procthor_4room.json", out, GenerateConfig(variants=0, room_workers=1))
+    pulled = {p.joint: p for p in pull_parts(out / "base" / "scene.xml")}
+    for joint in ("6_0/door_fridge", "6_0/door_freezer", "small_6_23/door"):
+        assert pulled[joint].passed, (joint, pulled[joint])
+    leaves = [p for p in pulled.values() if p.room_door]
+    assert leaves and all(p.passed for p in leaves)
+    assert all(p.blocked_by for p in pulled.values() if not p.passed)
