@@ -78,6 +78,7 @@ from scenemosaic.assets._room_doors import (
     ROOM_DOOR_KG_PER_M2,
     RoomDoor,
     room_door_leaves,
+    room_door_values,
     with_room_doors,
 )
 
@@ -140,6 +141,7 @@ __all__ = [
     "procedural_parts",
     "referenced_files",
     "room_door_leaves",
+    "room_door_values",
     "short_parts",
     "shutdown_workers",
     "swept_footprints",

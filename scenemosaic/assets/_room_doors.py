@@ -313,6 +313,17 @@ def _delivered(door: RoomDoor, record: Mapping[str, Any], explicit: Mapping[str,
     return out
 
 
+def room_door_values(scene: Scene | House, doors: Sequence[RoomDoor]) -> dict[str, dict[str, float]]:
+    """The joint value (radians) each leaf of ``doors`` (:func:`room_door_leaves` of ``scene``) is
+    delivered at, by door object id and part name, as the scene's ``open_state`` record delivers
+    it (open when it records none, shut for ``closed``, a drawn fraction for ``random``, a value it
+    sets wins); a shut leaf is left out."""
+    record = scene.metadata.get(OPEN_STATE_KEY)
+    record = record if isinstance(record, Mapping) else {}
+    explicit = part_openings(scene)
+    return {d.object.id: _delivered(d, record, explicit.get(d.object.id, {})) for d in doors}
+
+
 def _with_values(metadata: Mapping[str, Any], values: Mapping[str, dict[str, float]]) -> dict[str, Any]:
     """``metadata`` with ``values`` added to its ``open_state`` record's parts (the record made
     when there is none: the exports read the parts from there)."""
@@ -339,10 +350,7 @@ def with_room_doors(scene: Scene | House) -> Scene | House:
     doors = room_door_leaves(scene)
     if not doors:
         return scene
-    record = scene.metadata.get(OPEN_STATE_KEY)
-    record = record if isinstance(record, Mapping) else {}
-    explicit = part_openings(scene)
-    values = {d.object.id: _delivered(d, record, explicit.get(d.object.id, {})) for d in doors}
+    values = room_door_values(scene, doors)
     if isinstance(scene, Scene):
         objects = [*scene.objects, *(d.object for d in doors)]
         return scene.model_copy(update={"objects": objects, "metadata": _with_values(scene.metadata, values)})

@@ -110,7 +110,6 @@ _builtin_format(
         read=lambda data, path, o: [_module("_sceneeval_read").import_sceneeval(data, path, asset_dir=o.asset_dir)],
         write=_write_sceneeval,
         writes_houses=True,
-        room_doors=True,
         delivered="sceneeval",
     )
 )

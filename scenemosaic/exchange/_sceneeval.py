@@ -22,6 +22,12 @@ A whole house (:func:`export_sceneeval` of a house) is one sceneState: the forma
 of elements each naming its ``roomId`` (SceneEval builds one floor per ``roomId`` and every wall
 with its holes), so every room's floor, walls and ceiling go into the one ``arch`` and every
 object of every room into ``object``.
+
+A room's door is architecture, as SceneEval reads it: its hole in the wall (``"type": "Door"``),
+never an object (an evaluator would count a leaf standing in its own doorway as an object out of
+bounds that blocks the door). The door the simulator exports hang there rides on the hole as
+``"leaf"``: how many leaves, the room they swing into, each hinge's world ``[x, y]``, the angle each
+is delivered at and its limit (degrees); SceneEval ignores the key.
 """
 
 from __future__ import annotations
@@ -29,7 +35,9 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, cast
 
@@ -38,7 +46,15 @@ import structlog
 import trimesh
 
 from scenemosaic._memo import Memo
-from scenemosaic.assets import PartSpec, asset_fingerprint, object_articulation, part_openings
+from scenemosaic.assets import (
+    PartSpec,
+    asset_fingerprint,
+    object_articulation,
+    part_openings,
+    procedural_articulation,
+    room_door_leaves,
+    room_door_values,
+)
 from scenemosaic.exchange._glb import with_visual
 from scenemosaic.render import object_local_mesh
 from scenemosaic.scene import CEILING, FLOOR, FloatArray, House, Room, Scene, SceneObject, write_atomic
@@ -121,14 +137,16 @@ def _asset_id(category: str, digest: str, budget: int) -> str:
     return f"{slug[:room]}_{digest[:ASSET_HASH_CHARS]}"
 
 
-def _arch(room: Room) -> dict[str, Any]:
-    return _arch_of(room.id, [(room.id, room)])
+def _arch(scene: Scene) -> dict[str, Any] | None:
+    if scene.room is None:
+        return None
+    return _arch_of(scene.room.id, [(scene.room.id, scene.room)], _door_records(scene))
 
 
-def _arch_of(arch_id: str, rooms: list[tuple[str, Room]]) -> dict[str, Any]:
+def _arch_of(arch_id: str, rooms: list[tuple[str, Room]], doors: list[_DoorRecord]) -> dict[str, Any]:
     elements: list[dict[str, Any]] = []
     for room_id, room in rooms:
-        elements += _room_elements(room_id, room)
+        elements += _room_elements(room_id, room, doors)
     return {
         "version": "arch@1.0.2",
         "id": arch_id,
@@ -140,8 +158,47 @@ def _arch_of(arch_id: str, rooms: list[tuple[str, Room]]) -> dict[str, Any]:
     }
 
 
-def _room_elements(room_id: str, room: Room) -> list[dict[str, Any]]:
-    """A room's ``Floor``, ``Wall`` (holes and all) and ``Ceiling`` elements, ids ``<room id>|...``."""
+@dataclass(frozen=True)
+class _DoorRecord:
+    """A room door as a hole of the arch carries it: where its leaves hang, and the record."""
+
+    centre: FloatArray
+    """The door's position in the world, XY (the middle of its doorway)."""
+    record: dict[str, Any]
+
+
+DOOR_MATCH_M = 0.2
+"""How near a door hole's middle (on one room's wall) a hung door must stand to be that hole's."""
+
+
+def _door_records(scene: Scene | House) -> list[_DoorRecord]:
+    """The doors the simulator exports hang (:func:`~scenemosaic.assets.room_door_leaves`), as the
+    sceneState writes them on their holes: ``leaves`` (1 or 2), ``swingsInto`` (a room id),
+    ``hinges`` (each leaf's hinge line as a world ``[x, y]``), ``openDeg`` (the angle each leaf is
+    delivered at, degrees) and ``limitDeg`` (how far it turns)."""
+    doors = room_door_leaves(scene)
+    values = room_door_values(scene, doors)
+    out = []
+    for door in doors:
+        obj = door.object
+        m = obj.pose.matrix(with_scale=False)
+        parts = procedural_articulation(obj.category, obj.asset.extents)
+        hinges = [[round(float(v), 6) + 0.0 for v in (m[:3, :3] @ np.asarray(p.anchor) + m[:3, 3])[:2]] for p in parts]
+        record = {
+            "leaves": len(parts),
+            "swingsInto": door.room_id,
+            "hinges": hinges,
+            "openDeg": [round(math.degrees(values.get(obj.id, {}).get(p.name, 0.0)), 3) + 0.0 for p in parts],
+            "limitDeg": [round(math.degrees(p.limits[1]), 3) for p in parts],
+        }
+        out.append(_DoorRecord(np.asarray(obj.pose.position[:2], dtype=np.float64), record))
+    return out
+
+
+def _room_elements(room_id: str, room: Room, doors: list[_DoorRecord]) -> list[dict[str, Any]]:
+    """A room's ``Floor``, ``Wall`` (holes and all) and ``Ceiling`` elements, ids ``<room id>|...``;
+    a door hole whose doorway has a door hung carries it as ``leaf`` (:func:`_door_records`): the
+    door is part of the architecture, not an object."""
     floor3 = [[float(x), float(y), 0.0] for x, y in room.floor]
     elements: list[dict[str, Any]] = [
         {"id": f"{room_id}|floor", "type": "Floor", "roomId": room_id, "points": floor3}
@@ -155,11 +212,17 @@ def _room_elements(room_id: str, room: Room) -> list[dict[str, Any]]:
             if b <= a or top <= op.bottom:
                 log.warning("opening_outside_wall", wall=wall.id, opening=k)
                 continue
-            holes.append({
+            hole: dict[str, Any] = {
                 "id": f"{room_id}|{wall.id}|{op.kind}_{k}",
                 "type": _HOLE_TYPES[op.kind],
                 "box": {"min": [a, op.bottom], "max": [b, top]},
-            })  # fmt: skip
+            }
+            if op.kind == "door" and op.leaf_count > 0:
+                middle = np.asarray(wall.start, dtype=np.float64) + wall.direction * op.center
+                near = [d for d in doors if float(np.linalg.norm(d.centre - middle)) <= DOOR_MATCH_M]
+                if near:
+                    hole["leaf"] = min(near, key=lambda d: float(np.linalg.norm(d.centre - middle))).record
+            holes.append(hole)
         elements.append({
             "id": f"{room_id}|{wall.id}",
             "type": "Wall",
@@ -286,8 +349,7 @@ def sceneeval_state(
     Objects whose baked meshes (vertices to 1 µm, faces) and categories are equal share one
     asset. Asset meshes keep their own UV texture, else carry a PBR material of the category colour.
     """
-    arch = _arch(scene.room) if scene.room is not None else None
-    return _state(scene.id, [scene], arch, base_dir)
+    return _state(scene.id, [scene], _arch(scene), base_dir)
 
 
 def house_sceneeval_state(
@@ -311,7 +373,7 @@ def _house_state(
     house: House, base_dir: Path | None
 ) -> tuple[dict[str, Any], dict[str, trimesh.Trimesh], GlbKeys]:
     rooms = [(scene.id, scene.room) for scene in house.rooms if scene.room is not None]
-    return _keyed_state(house.id, list(house.rooms), _arch_of(house.id, rooms), base_dir)
+    return _keyed_state(house.id, list(house.rooms), _arch_of(house.id, rooms, _door_records(house)), base_dir)
 
 
 def _write(
@@ -353,8 +415,7 @@ def export_sceneeval(scene: Scene | House, out_dir: str | Path, base_dir: Path |
     """
     if isinstance(scene, House):  # a whole house: every room in one world
         return _export_house_sceneeval(scene, out_dir, base_dir)
-    arch = _arch(scene.room) if scene.room is not None else None
-    state, assets, glb_keys = _keyed_state(scene.id, [scene], arch, base_dir)
+    state, assets, glb_keys = _keyed_state(scene.id, [scene], _arch(scene), base_dir)
     return _write(out_dir, state, assets, len(scene.objects), glb_keys)
 
 

@@ -23,7 +23,7 @@ import trimesh
 from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import unary_union
 
-from scenemosaic.assets import object_articulation, with_room_doors
+from scenemosaic.assets import object_articulation, room_door_leaves, with_room_doors
 from scenemosaic.exceptions import UsageError
 from scenemosaic.exchange import (
     GLB_ROOT_NODE,
@@ -39,6 +39,7 @@ from scenemosaic.exchange import (
     formats_left_out,
     load_scenes,
     read_house,
+    write_scene,
 )
 from scenemosaic.physics import check_collisions, stabilize_scene, validate_scene, write_house_mjcf
 from scenemosaic.render import house_wall_pieces
@@ -293,7 +294,14 @@ def test_house_sceneeval_holds_every_room_and_object(house: House, tmp_path: Pat
     assert sorted(e["roomId"] for e in elements if e["type"] == "Floor") == sorted(ROOMS)
     door_holes = [h for e in elements if e["type"] == "Wall" for h in e["holes"] if h["type"] == "Door"]
     assert len(door_holes) >= 2  # the shared door, seen from both rooms
+    # a door hung in a doorway rides on the hole of each room it joins, never as an object
+    hung = [h["leaf"] for h in door_holes if "leaf" in h]
+    doors = room_door_leaves(house)
+    assert doors and len(hung) == sum(len(d.rooms) for d in doors)
+    assert {r["swingsInto"] for r in hung} == {d.room_id for d in doors}
     assert [o["id"] for o in state["object"]] == [o.id for o in house.objects]
+    written = json.loads(write_scene(house, "sceneeval", tmp_path / "written").read_text())["scene"]
+    assert [o["id"] for o in written["object"]] == [o.id for o in house.objects]
     assert [o["index"] for o in state["object"]] == list(range(len(house.objects)))
 
 

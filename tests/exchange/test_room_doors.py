@@ -245,7 +245,9 @@ def test_usd_the_leaf_is_a_revolute_joint_with_its_axis_and_limits(tmp_path: Pat
     assert [str(t) for t in joint.GetBody0Rel().GetTargets()] == [f"/World/Objects/{DOOR}"]
 
 
-def test_glb_node_and_scene_state_list_the_leaf(tmp_path: Path) -> None:
+def test_glb_hangs_the_leaf_and_scene_state_keeps_it_on_the_hole_not_among_objects(tmp_path: Path) -> None:
+    """SceneEval reads a room's doors from the arch's holes: a leaf listed as an object is counted
+    out of bounds and occluding its own doorway (issue 53), so the sceneState keeps it on the hole."""
     import trimesh
 
     scene = _room()
@@ -253,12 +255,22 @@ def test_glb_node_and_scene_state_list_the_leaf(tmp_path: Path) -> None:
     assert f"{DOOR}/leaf" in glb.graph.nodes and DOOR in glb.graph.nodes
     state = json.loads(write_scene(scene, "sceneeval", tmp_path / "sceneeval").read_text())
     listed = {o["id"]: o.get("parts", []) for o in state["scene"]["object"]}
-    (leaf,) = listed[DOOR]
-    assert leaf["name"] == "leaf" and leaf["joint"] == "hinge"
-    assert leaf["value"] == pytest.approx(math.radians(ROOM_DOOR_OPEN_DEG))
+    assert DOOR not in listed and sorted(listed) == ["dresser", "wardrobe"]
     assert [p["name"] for p in listed["dresser"]] == [
         p.name for p in procedural_articulation("dresser", (1.19, 0.59, 1.09))
     ]
+    holes = [h for e in state["scene"]["arch"]["elements"] if e["type"] == "Wall" for h in e["holes"]]
+    (hole,) = holes
+    (door,) = room_door_leaves(scene)
+    hinge = door.object.pose.matrix(with_scale=False) @ np.array([*_leaf(door.object).anchor, 1.0])
+    assert hole["type"] == "Door" and hole["leaf"]["leaves"] == 1 and hole["leaf"]["swingsInto"] == "hall"
+    np.testing.assert_allclose(hole["leaf"]["hinges"], [hinge[:2]], atol=1e-6)
+    assert hole["leaf"]["openDeg"] == [pytest.approx(math.degrees(door.open_values["leaf"]), abs=1e-3)]
+    assert hole["leaf"]["limitDeg"] == [pytest.approx(ROOM_DOOR_OPEN_DEG)]
+    shut = scene.model_copy(update={"metadata": {"open_state": {"state": "closed", "seed": 0}}})
+    state = json.loads(write_scene(shut, "sceneeval", tmp_path / "shut").read_text())
+    (hole,) = [h for e in state["scene"]["arch"]["elements"] if e["type"] == "Wall" for h in e["holes"]]
+    assert hole["leaf"]["openDeg"] == [0.0]
 
 
 # ---------------------------------------------------------------------------------------------
