@@ -56,9 +56,12 @@ from scenemosaic.assets._objects import (
 )
 from scenemosaic.assets._opening import (
     OPEN_STATE_KEY,
+    kept_free,
     open_scene,
     part_blockers,
     part_openings,
+    part_reach,
+    parts_clear_of,
     short_parts,
     swept_footprints,
 )
@@ -121,6 +124,7 @@ __all__ = [
     "default_cache_dir",
     "default_hull_cache",
     "interior_boards",
+    "kept_free",
     "known_categories",
     "load_mesh",
     "mesh_hash",
@@ -134,6 +138,8 @@ __all__ = [
     "opening",
     "part_blockers",
     "part_openings",
+    "part_reach",
+    "parts_clear_of",
     "pieces_in_box",
     "procedural_articulation",
     "procedural_key",

@@ -31,11 +31,15 @@ from scenemosaic.assets._objects import object_articulation
 from scenemosaic.scene import FloatArray, House, Scene, SceneObject
 
 __all__ = [
+    "LEVEL_AXIS_Z",
     "OPEN_STATE_KEY",
     "SWEPT_SAMPLES",
+    "kept_free",
     "open_scene",
     "part_blockers",
     "part_openings",
+    "part_reach",
+    "parts_clear_of",
     "short_parts",
     "swept_footprints",
 ]
@@ -207,9 +211,12 @@ class _FreeSpace:
             out.append((oid, box))
         return out + [(oid, b) for oid, b in self.opened if oid != holder.id]
 
-    def _sweep(self, holder: SceneObject, part: PartSpec, target: float) -> tuple[float, set[str]]:
+    def _sweep(
+        self, holder: SceneObject, part: PartSpec, target: float, walls_until: float | None = None
+    ) -> tuple[float, set[str]]:
         """The largest free joint value up to ``target`` and what stops the part there (object ids,
-        ``"wall"``; empty when nothing does)."""
+        ``"wall"``; empty when nothing does). ``walls_until``: past this value the room's walls no
+        longer count (a lid may lean on the wall behind once it stands open)."""
         if target <= 0.0:
             return target, set()
         closed = _part_box(holder, part, 0.0)
@@ -218,14 +225,23 @@ class _FreeSpace:
         if lying:
             return 0.0, lying  # a lid or door with something lying on it stays shut
         centre, radius = _reach(holder, part, target)
-        obstacles = [(oid, b) for oid, b in obstacles if np.linalg.norm(b.centre - centre) < radius + np.linalg.norm(b.half)]
+        obstacles = [
+            (oid, b)
+            for oid, b in obstacles
+            if np.linalg.norm(b.centre - centre) < radius + np.linalg.norm(b.half)
+        ]
         start = [max(_depth(closed, b), 0.0) for _, b in obstacles]
         wall0 = _outside(self.floor, closed)
 
         def hits(value: float) -> set[str]:
             box = _part_box(holder, part, value)
-            out = {"wall"} if _outside(self.floor, box) > wall0 + OPEN_CLEARANCE_M else set()
-            return out | {oid for (oid, b), d in zip(obstacles, start, strict=True) if _depth(box, b) > d + OPEN_CLEARANCE_M}
+            walls = walls_until is None or value <= walls_until + 1e-9
+            out = {"wall"} if walls and _outside(self.floor, box) > wall0 + OPEN_CLEARANCE_M else set()
+            return out | {
+                oid
+                for (oid, b), d in zip(obstacles, start, strict=True)
+                if _depth(box, b) > d + OPEN_CLEARANCE_M
+            }
 
         step = SWEEP_STEP_RAD if part.joint == "hinge" else SWEEP_STEP_M
         samples = [*(k * step for k in range(1, int(target / step) + 1)), target]
@@ -250,6 +266,11 @@ class _FreeSpace:
         """What stops ``part`` before ``target``: object ids, ``"wall"`` (empty: nothing does)."""
         return self._sweep(holder, part, target)[1]
 
+    def in_use(self, holder: SceneObject, part: PartSpec) -> set[str]:
+        """What stands in the way ``part`` takes when it is used (:func:`kept_free`): object ids,
+        ``"wall"`` (empty: nothing does)."""
+        return self._sweep(holder, part, kept_free(part), usable_value(part))[1]
+
     def open(self, holder: SceneObject, part: PartSpec, value: float) -> None:
         """Count ``part`` opened to ``value`` among what later parts may not reach into."""
         if value > 0.0:
@@ -257,40 +278,105 @@ class _FreeSpace:
 
 
 def short_parts(
-    scene: Scene, base_dir: str | Path | None = None, object_ids: Collection[str] | None = None
+    scene: Scene,
+    base_dir: str | Path | None = None,
+    object_ids: Collection[str] | None = None,
+    *,
+    near: Collection[str] | None = None,
 ) -> dict[str, list[str]]:
-    """The parts that do not open as far as their use needs (:func:`usable_value`) on their path from
-    closed, by object id (of ``object_ids``, default every object): each part's box swept from
+    """The parts whose path from closed is not free as far as their use needs (:func:`kept_free`), by
+    object id (of ``object_ids``, default every object): each part's box swept from
     closed against the room's walls and every other object's box, every other part closed (the
     model of the delivered open states, :func:`open_scene`); objects whose parts all open are left
-    out."""
+    out. ``near`` (object ids) keeps only the parts whose path may come near one of those objects
+    (the parts a move of those objects can block or free: what a layout that moves them is checked
+    for)."""
     space: _FreeSpace | None = None
     out: dict[str, list[str]] = {}
+    movers = [_object_box(scene.get(oid)) for oid in near or ()]
     for holder in scene.objects:
         if object_ids is not None and holder.id not in object_ids:
             continue
         parts = object_articulation(holder, base_dir)
         if not parts:
             continue
+        if near is not None:
+            parts = [p for p in parts if holder.id in near or _comes_near(holder, p, movers)]
+            if not parts:
+                continue
         space = space or _FreeSpace(scene)
-        short = [p.name for p in parts if space.largest_free(holder, p, usable_value(p)) < usable_value(p) - 1e-4]
+        short = [p.name for p in parts if space.in_use(holder, p)]
         if short:
             out[holder.id] = sorted(short)
     return out
 
 
+LEVEL_AXIS_Z = 0.7
+"""A hinge line with less than this upward share lies level: a lid's, a drop-down door's."""
+
+
+def kept_free(part: PartSpec) -> float:
+    """How far ``part``'s path must be free of other objects for it to be used: open for use
+    (:func:`usable_value`), and for a hinge whose line lies level (a lid) its whole range, for a
+    lid is left open at its stop, past upright, where it would knock over what stands behind it
+    (soap on a toilet's cistern); the room's walls count up to open for use only (a lid may lean
+    on the wall behind)."""
+    level = part.joint == "hinge" and abs(float(np.asarray(part.axis, dtype=np.float64)[2])) < LEVEL_AXIS_Z
+    return float(part.limits[1]) if level else usable_value(part)
+
+
+def _comes_near(holder: SceneObject, part: PartSpec, boxes: list[_Box]) -> bool:
+    """Whether ``part``'s path from closed to open for use may reach one of ``boxes``."""
+    centre, radius = _reach(holder, part, kept_free(part))
+    return any(
+        float(np.linalg.norm(b.centre - centre)) < radius + float(np.linalg.norm(b.half)) for b in boxes
+    )
+
+
 def part_blockers(scene: Scene, object_id: str, base_dir: str | Path | None = None) -> dict[str, list[str]]:
     """For each part of ``object_id`` that does not open as far as its use needs
-    (:func:`usable_value`): what stops it (object ids, ``"wall"`` for the room's walls), by the model
+    (:func:`kept_free`): what stops it (object ids, ``"wall"`` for the room's walls), by the model
     of :func:`short_parts`."""
     space = _FreeSpace(scene)
     holder = scene.get(object_id)
     out = {}
     for part in object_articulation(holder, base_dir):
-        stoppers = space.stoppers(holder, part, usable_value(part))
+        stoppers = space.in_use(holder, part)
         if stoppers:
             out[part.name] = sorted(stoppers)
     return out
+
+
+def parts_clear_of(
+    scene: Scene, object_id: str, other_id: str, base_dir: str | Path | None = None, margin: float = 0.0
+) -> bool:
+    """Whether every part of ``object_id`` passes ``other_id`` on its way open for use
+    (:func:`kept_free`) with ``margin`` metres to spare sideways (the other object's box grown by it
+    across, not in height): what a repair that moves ``other_id`` out of a part's way asks, with a
+    margin so that the object's settling cannot bring it back."""
+    holder, other = scene.get(object_id), _object_box(scene.get(other_id))
+    grown = _Box(other.centre, other.rotation, other.half + np.array([margin, margin, 0.0]))
+    space = _FreeSpace(scene)
+    space.objects = {other_id: grown}
+    space.floor = None
+    return not any(space.in_use(holder, part) for part in object_articulation(holder, base_dir))
+
+
+def part_reach(obj: SceneObject, base_dir: str | Path | None = None) -> tuple[float, float]:
+    """How far the parts of ``obj`` reach out of its box on their way open for use (:func:`kept_free`),
+    in its own frame: ``(front, side)``, metres past its front face (a door as wide as it swings
+    out) and past either of its sides (a door's edge at its hinge); ``(0, 0)`` for an object
+    without parts. What the space kept in front of a piece must hold."""
+    half = np.abs(np.asarray(obj.size, dtype=np.float64)) / 2
+    front = side = 0.0
+    for part in object_articulation(obj, base_dir):
+        x0, x1, y0, y1, z0, z1 = part.box
+        local = np.array([[x, y, z, 1.0] for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)])
+        for k in range(SWEPT_SAMPLES):
+            pts = (part.transform(kept_free(part) * k / (SWEPT_SAMPLES - 1)) @ local.T).T
+            front = max(front, float(-pts[:, 1].min()) - half[1])
+            side = max(side, float(np.abs(pts[:, 0]).max()) - half[0])
+    return max(front, 0.0), max(side, 0.0)
 
 
 SWEPT_SAMPLES = 7
@@ -307,7 +393,7 @@ def swept_footprints(
     skip: str | None = None,
 ) -> list[FloatArray]:
     """Seen from above, where the parts of ``scene`` pass on their way from closed to open for use
-    (:func:`usable_value`) between the heights ``low`` and ``high``: one convex footprint (its XY
+    (:func:`kept_free`) between the heights ``low`` and ``high``: one convex footprint (its XY
     corners) per sampled pose of each part whose box reaches into that band. ``near``
     (``minx, miny, maxx, maxy``) leaves out the parts that never come near that rectangle, ``skip``
     the parts of one object (the drawer a surface lies in). What clutter keeps free on a surface (a
@@ -317,7 +403,7 @@ def swept_footprints(
         if holder.id == skip:
             continue
         for part in object_articulation(holder, base_dir):
-            upper = usable_value(part)
+            upper = kept_free(part)
             if near is not None:
                 centre, radius = _reach(holder, part, upper)
                 minx, miny, maxx, maxy = near

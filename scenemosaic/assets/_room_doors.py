@@ -19,8 +19,9 @@ The rules (``docs/articulation.md``):
 * **Which way.** The candidates, in this order: into the room that owns the door (a single
   room; in a house, the doorway's first room in the house's order), hung on its left jamb (seen
   from that room), then on its right one; then the same into the room on the other side. The
-  first whose leaf swings to its limit staying on its room's floor and clear of the furniture all
-  the way (checked every :data:`FIT_STEP_DEG`) is taken; when none does, the one that swings
+  first whose leaf swings to its limit staying on its room's floor and clear of the furniture and
+  of the doors hung before it in that room (where their leaves swing) all the way (checked every
+  :data:`FIT_STEP_DEG`) is taken; when none does, the one that swings
   furthest clear.
 * **How far.** The leaf is delivered at that angle (its *open* pose: open by default, so the
   doorway stays passable), shut under ``--open-state closed``, a drawn fraction of it under
@@ -30,6 +31,7 @@ The rules (``docs/articulation.md``):
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -219,16 +221,19 @@ def _obstacles(room: Scene, door: SceneObject) -> list[Polygon]:
     return out
 
 
-def _clear_angle(side: _Side, door: SceneObject, parts: Sequence[PartSpec]) -> float:
+def _clear_angle(
+    side: _Side, door: SceneObject, parts: Sequence[PartSpec], others: Sequence[Polygon] = ()
+) -> float:
     """The largest angle (radians, a multiple of :data:`FIT_STEP_DEG`, or the limit) to which
     every leaf of ``door`` swings from shut staying on its room's floor and clear of the room's
-    objects at every step on the way (so a robot can shut it again)."""
+    objects and of ``others`` (where the doors hung before swing in that room) at every step on the
+    way (so a robot can shut it again)."""
     room = side.room.room
     floor: BaseGeometry = Polygon(room.floor) if room is not None else Polygon()
     closed = Polygon([tuple(p) for p in door.footprint()])
     allowed = floor.union(closed).buffer(FIT_TOLERANCE_M)
     shapely.prepare(allowed)  # asked once per leaf and step: the same answers, sooner
-    obstacles = np.array(_obstacles(side.room, door), dtype=object)
+    obstacles = np.array([*_obstacles(side.room, door), *others], dtype=object)
     limit = min(p.limits[1] for p in parts)
     steps = math.floor(math.degrees(limit) / FIT_STEP_DEG - 1e-9)
     reached = 0.0
@@ -242,15 +247,35 @@ def _clear_angle(side: _Side, door: SceneObject, parts: Sequence[PartSpec]) -> f
     return reached
 
 
-def _fitted(hole: _Hole, object_id: str) -> tuple[_Side, SceneObject, float]:
-    """The first candidate (room, hinge jamb) whose leaves turn to their limit clear, else the
-    one that turns furthest."""
+def _swept(door: SceneObject, parts: Sequence[PartSpec], angle: float) -> list[Polygon]:
+    """Where the leaves of ``door`` pass, seen from above, from shut to ``angle``: each leaf's
+    outlines every :data:`FIT_STEP_DEG`, one convex hull per leaf and step pair."""
+    steps = [
+        *(math.radians(FIT_STEP_DEG * k) for k in range(math.floor(math.degrees(angle) / FIT_STEP_DEG) + 1)),
+        angle,
+    ]
+    out = []
+    for part in parts:
+        outlines = [_outline(door, part, a) for a in steps]
+        for a, b in itertools.pairwise(outlines):
+            hull = a.union(b).convex_hull
+            if isinstance(hull, Polygon) and hull.area > 0:
+                out.append(hull)
+    return out
+
+
+def _fitted(
+    hole: _Hole, object_id: str, swept: Mapping[str, Sequence[Polygon]]
+) -> tuple[_Side, SceneObject, float]:
+    """The first candidate (room, hinge jamb) whose leaves turn to their limit clear (of the room's
+    furniture and of ``swept``, by room id: where the doors fitted before swing), else the one that
+    turns furthest."""
     best: tuple[_Side, SceneObject, float] | None = None
     for side in hole.sides:
         for hinges in _HINGE_CHOICES[hole.opening.leaf_count]:
             door = _door_object(hole, side, hinges, object_id)
             parts = procedural_articulation(door.category, door.asset.extents)
-            angle = _clear_angle(side, door, parts)
+            angle = _clear_angle(side, door, parts, swept.get(side.room.id, ()))
             if best is None or angle > best[2] + 1e-9:
                 best = (side, door, angle)
             if angle >= min(p.limits[1] for p in parts) - 1e-9:
@@ -283,10 +308,12 @@ def room_door_leaves(scene: Scene | House) -> list[RoomDoor]:
     holes = _holes_of_house(scene) if isinstance(scene, House) else _holes_of_scene(scene)
     taken = {o.id for o in scene.objects}
     out: list[RoomDoor] = []
+    swept: dict[str, list[Polygon]] = {}
     for hole in holes:
         object_id = _unique_id(hole.id, taken)
-        side, door, angle = _fitted(hole, object_id)
+        side, door, angle = _fitted(hole, object_id, swept)
         parts = procedural_articulation(door.category, door.asset.extents)
+        swept.setdefault(side.room.id, []).extend(_swept(door, parts, angle))
         rooms = tuple(s.room.id for s in hole.sides)
         out.append(RoomDoor(side.room.id, door, {p.name: p.clamped(angle) for p in parts}, rooms))
     return out

@@ -51,7 +51,7 @@ from scenemosaic.evolve._analysis import (
     seating_breaches,
 )
 from scenemosaic.evolve._archetypes import RuleArchetype, instantiate, max_alternatives, rule_archetypes
-from scenemosaic.evolve._context import UnitContext, WallLine, unit_context
+from scenemosaic.evolve._context import UnitContext, WallLine, parts_in_the_way, unit_context
 from scenemosaic.evolve._evolve import (
     MAX_ALTERNATIVES,
     EvolutionReport,
@@ -120,6 +120,7 @@ __all__ = [
     "max_alternatives",
     "merged_fixes",
     "named_objects",
+    "parts_in_the_way",
     "physical_check",
     "rule_archetypes",
     "rule_violations",

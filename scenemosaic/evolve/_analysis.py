@@ -53,6 +53,7 @@ from scenemosaic.scene import (
 __all__ = [
     "BESIDE_GAP_MAX",
     "FACING_TABLE_DEG",
+    "FRONT_CLEARANCE",
     "HEAD_ZONE",
     "SEAT_GAP_MAX",
     "SEAT_SQUARE_DEG",
@@ -64,6 +65,7 @@ __all__ = [
     "SeatSlot",
     "Target",
     "find_problems",
+    "front_strip",
     "merged_fixes",
     "physical_check",
     "rule_violations",
@@ -748,20 +750,28 @@ def _obstacle_poly(ctx: UnitContext, oid: str) -> FloatArray | None:
 # -- room to use things -----------------------------------------------------------------------------------
 
 
-def front_strip(poly: FloatArray, center: FloatArray, rotation: float, depth: float = FRONT_CLEARANCE) -> Polygon:
-    """The strip in front of an object's front: its width, ``depth`` deep (the object's outline
-    ``poly``, its centre and its rotation in the view)."""
+def front_strip(
+    poly: FloatArray, center: FloatArray, rotation: float, depth: float = FRONT_CLEARANCE, flank: float = 0.0
+) -> Polygon:
+    """The strip in front of an object's front: its width (and ``flank`` more on either side),
+    ``depth`` deep (the object's outline ``poly``, its centre and its rotation in the view)."""
     c = np.asarray(center, dtype=np.float64)
     f = _facing(rotation)
     side = np.array([f[1], -f[0]])
     reach = float(((poly - c) @ f).max())
-    half = float(np.ptp((poly - c) @ side)) / 2
+    half = float(np.ptp((poly - c) @ side)) / 2 + flank
     a = c + f * reach
     return outline_polygon(np.array([a - side * half, a + side * half, a + side * half + f * depth, a - side * half + f * depth]))
 
 
-def _front_zone(layout: UnitLayout, oid: str) -> Polygon:
-    return front_strip(layout.polygon(oid), np.asarray(layout.center(oid)), layout.rotation(oid))
+def _front_zone(layout: UnitLayout, oid: str, ctx: UnitContext | None = None) -> Polygon:
+    """The space in front of ``oid`` kept for using it: :data:`FRONT_CLEARANCE` deep, or as far as its
+    parts swing out when further (``ctx.part_reach``: a wardrobe's door as wide as it is)."""
+    front, flank = ctx.part_reach.get(oid, (0.0, 0.0)) if ctx is not None else (0.0, 0.0)
+    depth = max(FRONT_CLEARANCE, front + SEPARATION_MARGIN)
+    return front_strip(
+        layout.polygon(oid), np.asarray(layout.center(oid)), layout.rotation(oid), depth, flank
+    )
 
 
 def _clearance(layout: UnitLayout, ctx: UnitContext) -> list[Finding]:
@@ -769,10 +779,12 @@ def _clearance(layout: UnitLayout, ctx: UnitContext) -> list[Finding]:
     the strip when that move is clean, else the problem is only remarked."""
     out: list[Finding] = []
     fronts = sorted(
-        k for k in ctx.against_wall if traits(layout.object(k).category).opening == "front"
+        k
+        for k in ctx.against_wall
+        if traits(layout.object(k).category).opening == "front" or k in ctx.part_reach
     )
     for k in fronts:
-        zone = _front_zone(layout, k)
+        zone = _front_zone(layout, k, ctx)
         for j in layout.ids:
             if j in (k, *ctx.thin) or ctx.seat_table.get(j) == k or ctx.nightstand_bed.get(j) == k:
                 continue

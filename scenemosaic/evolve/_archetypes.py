@@ -43,6 +43,7 @@ import numpy as np
 from shapely.geometry import Polygon
 
 from scenemosaic.evolve._analysis import (
+    FRONT_CLEARANCE,
     SEAT_GAP_MAX,
     WALL_FLUSH_GAP,
     beside_target,
@@ -53,7 +54,7 @@ from scenemosaic.evolve._analysis import (
     seating_breaches,
     wall_status,
 )
-from scenemosaic.evolve._context import UnitContext, WallLine
+from scenemosaic.evolve._context import UnitContext, WallLine, parts_in_the_way
 from scenemosaic.evolve._plans import (
     MAX_PLANS,
     Placement,
@@ -264,6 +265,13 @@ class _Room:
         return self.region.covers(zone) and not self.blocked.intersects(zone)
 
 
+def _use_strip(layout: UnitLayout, ctx: UnitContext, piece: str, to: np.ndarray, facing: float) -> Polygon:
+    """The strip kept in front of ``piece`` placed at ``to`` facing ``facing``: ``FRONT_CLEARANCE``
+    deep, or as far as its parts swing out (``ctx.part_reach``)."""
+    front, flank = ctx.part_reach.get(piece, (0.0, 0.0))
+    return front_strip(layout.polygon(piece), to, facing, max(FRONT_CLEARANCE, front + MOVE_MARGIN), flank)
+
+
 def _wall_positions(layout: UnitLayout, piece: str, wall: WallLine) -> tuple[float, list[np.ndarray]]:
     """The turn that backs ``piece`` against ``wall`` and the centres it may take along it, every
     ``MOVE_STEP``, its back flush and its span within the wall."""
@@ -283,7 +291,7 @@ def _spot(layout: UnitLayout, ctx: UnitContext, piece: str, wall: WallLine) -> P
         if dist < MOVE_MIN_M or (best is not None and dist <= best[0]):
             continue
         found = room.placed(here, to, turn)
-        if found is None or not room.clear(front_strip(found[1].polygon(piece), to, wall.facing)):
+        if found is None or not room.clear(_use_strip(found[1], ctx, piece, to, wall.facing)):
             continue
         best = (dist, found[0])
     return None if best is None else {**_current(layout), **best[1]}
@@ -376,14 +384,25 @@ def _wall_place(
                 moved.set_rotation(k, tk.rotation)
                 moved.set_center(k, tk.u, tk.v)
         shapes = [moved.outline(k) for k in members]
-        strip = front_strip(moved.polygon(piece), to, wall.facing)
-        if all(region.covers(sh) and not blocked.intersects(sh) for sh in shapes) and region.covers(strip) and not blocked.intersects(strip):
+        strip = _use_strip(moved, ctx, piece, to, wall.facing)
+        if (
+            all(region.covers(sh) and not blocked.intersects(sh) for sh in shapes)
+            and region.covers(strip)
+            and not blocked.intersects(strip)
+        ):
             best = (key, place, [*shapes, strip])
     return None if best is None else (best[1], best[2])
 
 
 def _rearranged(
-    layout: UnitLayout, ctx: UnitContext, piece: str, wall: WallLine, own: WallLine, near: np.ndarray, wall_pieces: list[str], fixed: list[Polygon]
+    layout: UnitLayout,
+    ctx: UnitContext,
+    piece: str,
+    wall: WallLine,
+    own: WallLine,
+    near: np.ndarray,
+    wall_pieces: list[str],
+    fixed: list[Polygon],
 ) -> Placement | None:
     """``piece``'s group on ``wall`` nearest ``near``, the wall pieces it lands on re-placed
     (largest first: where ``piece`` stood, else on the first other wall with room); ``None``
@@ -725,6 +744,16 @@ def _seated_all(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> Plac
     return out
 
 
+def _blocks_parts(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:
+    """Whether a placement puts a piece in the way of a drawer, door or lid the stabilized scene lets
+    open (:func:`~scenemosaic.evolve.parts_in_the_way`)."""
+    trial = layout.copy()
+    for k, (u, v, r) in placed.items():
+        trial.set_rotation(k, r)
+        trial.set_center(k, u, v)
+    return bool(parts_in_the_way(trial, ctx))
+
+
 def _plausible(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:
     """Whether the loop can make a placement right, judged before it runs: wall pieces that
     faced each other (a sofa and its TV) still do (the loop does not carry wall pieces across
@@ -816,7 +845,11 @@ def rule_archetypes(layout: UnitLayout, ctx: UnitContext, limit: int | None = No
         if any(_same(p, looks, layout) for p in seen):
             continue
         seen.append(looks)
-        if not _plausible(layout, ctx, placed) or not doors_kept(layout, ctx, placed):
+        if (
+            not _plausible(layout, ctx, placed)
+            or not doors_kept(layout, ctx, placed)
+            or _blocks_parts(layout, ctx, placed)
+        ):
             continue
         kept.append((cand, placed))
         plans_kept += plan

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from scenemosaic.assets import part_blockers, part_reach, short_parts
 from scenemosaic.scene import (
     ConstraintClause,
     LocalUnit,
@@ -23,7 +26,7 @@ from scenemosaic.scene import (
     traits,
 )
 
-__all__ = ["UnitContext", "WallLine", "facing_degrees", "unit_context"]
+__all__ = ["UnitContext", "WallLine", "facing_degrees", "parts_in_the_way", "unit_context"]
 
 TABLE_REACH = 0.8
 """A seat with no ``faces`` relation belongs to a table or desk whose box is this close, metres..."""
@@ -130,6 +133,18 @@ class UnitContext:
     passages: list[Any] = field(default_factory=list)
     """The same zones in front of the room's open stretches of wall (open-plan rooms of a house):
     a variant keeps them reachable (floor units)."""
+    part_reach: dict[str, tuple[float, float]] = field(default_factory=dict)
+    """Children whose drawers, doors or lids reach out of their box on the way open for use: id ->
+    (metres past the front face, past either side) (``assets.part_reach``); the space kept in front
+    of them holds it."""
+    scene: Scene | None = field(default=None, repr=False)
+    """The stabilized scene the unit stands in (what a layout's parts are checked in)."""
+    base_dir: Path | None = None
+    """Resolves the scene's mesh assets and their part declarations."""
+    short_parts: Mapping[str, list[str]] = field(default_factory=dict)
+    """The drawers, doors and lids that cannot open as far as their use needs in the stabilized
+    scene, by object id (``assets.short_parts``): a layout may leave these as they are, and must
+    not add to them (:func:`~scenemosaic.evolve.parts_in_the_way`)."""
     clauses: list[ConstraintClause] = field(default_factory=list)
     pinned: dict[str, tuple[str, tuple[float, float], float]] = field(default_factory=dict)
     """Children a cross-unit clause ties down: id -> (constraint kind, centre, rotation) to keep."""
@@ -186,10 +201,25 @@ def _box_distance(a: SceneObject, b: SceneObject) -> float:
     return float(Polygon(a.footprint()).distance(Polygon(b.footprint())))
 
 
-def unit_context(scene: Scene, unit: LocalUnit, obstacles: list[SceneObject], thin: set[str]) -> UnitContext:
-    """The context of ``unit`` in ``scene`` (its stabilized state)."""
+def unit_context(
+    scene: Scene,
+    unit: LocalUnit,
+    obstacles: list[SceneObject],
+    thin: set[str],
+    short: Mapping[str, list[str]] | None = None,
+    base_dir: Path | None = None,
+) -> UnitContext:
+    """The context of ``unit`` in ``scene`` (its stabilized state); ``short``: the scene's parts that
+    cannot open as far as their use needs (``assets.short_parts``; default: worked out here);
+    ``base_dir`` resolves mesh assets' part declarations."""
     surface = surface_for(scene, unit.anchor_id)
     ctx = UnitContext(unit=unit, surface=surface, obstacles=obstacles, thin=set(thin) & set(unit.children))
+    ctx.scene, ctx.base_dir = scene, base_dir
+    ctx.short_parts = dict(short_parts(scene, base_dir) if short is None else short)
+    for oid in unit.children:
+        swing = part_reach(scene.get(oid), base_dir)
+        if swing != (0.0, 0.0):
+            ctx.part_reach[oid] = swing
     ctx.clauses = list(unit.clauses)
     kids = [scene.get(c) for c in unit.children]
     faces = {(r.child, r.parent) for r in scene.relations if r.kind == "faces"}
@@ -280,3 +310,38 @@ def unit_context(scene: Scene, unit: LocalUnit, obstacles: list[SceneObject], th
             if oid in by_id and oid not in covered:
                 ctx.pinned[oid] = (kind, layout.center(oid), layout.rotation(oid))
     return ctx
+
+
+def parts_in_the_way(layout: UnitLayout, ctx: UnitContext) -> list[str]:
+    """The drawers, doors and lids that the unit's pieces, posed as ``layout`` says in the unit's
+    stabilized scene (``ctx.scene``), newly keep from opening as far as their use needs, as
+    sentences (empty when none): a part the stabilized scene lets open (``ctx.short_parts``) that
+    the layout blocks (a dresser moved before a wardrobe's door, soap stood in a toilet lid's
+    path). The model is ``assets.short_parts``, each part's box swept from closed against the other
+    objects' boxes and the walls; only the parts whose path comes near a piece of the unit are
+    swept. A seat at its own table or desk (``ctx.seat_table``) is not in the way of that table's
+    drawers: it is pulled back first, as a person does.
+
+    Held for the units of what stands on furniture (a toilet's, a counter's) only: on the floor,
+    refusing the layouts that block a part cost the variants their diversity (``docs/articulation.md``);
+    there the space in front of pieces that open is kept by the critic's clearance and the room
+    plans' strips."""
+    if ctx.scene is None or ctx.unit.anchor_kind != "object":
+        return []
+    from scenemosaic.evolve._views import scene_with
+
+    posed = scene_with(ctx.scene, layout)
+    moved = set(layout.ids) | {d for k in layout.ids for d in descendants(posed, k)}
+    now = short_parts(posed, ctx.base_dir, near=moved)
+    out = []
+    for oid, names in sorted(now.items()):
+        new = [n for n in names if n not in ctx.short_parts.get(oid, ())]
+        if not new:
+            continue
+        stoppers = part_blockers(posed, oid, ctx.base_dir)
+        for name in new:
+            found = stoppers.get(name, ["something"])
+            if all(ctx.seat_table.get(b) == oid for b in found):
+                continue  # a chair at its own desk: pulled back before a drawer is opened
+            out.append(f"{oid}'s {name} cannot open: {', '.join(found)} in its way")
+    return out

@@ -21,6 +21,7 @@ from typing import Any
 import structlog
 
 from scenemosaic.agents import AgentLog, AgentPolicy, run_agent
+from scenemosaic.assets import short_parts
 from scenemosaic.dag import Node, NodeContext, Runner
 from scenemosaic.evolve._agents import ArchetypeAgent, EvolveState
 from scenemosaic.evolve._analysis import LayoutRule
@@ -203,8 +204,12 @@ async def evolve_scene(
     structure = scene.structure or build_structure(scene)
     units = list(structure.units)
     thin = {o.id for o in scene.objects if is_thin(o)}
+    short = await asyncio.to_thread(short_parts, scene, base_dir)
     contexts: dict[str, UnitContext] = await asyncio.to_thread(
-        lambda: {u.anchor_id: unit_context(scene, u, unit_obstacles(scene, u, units), thin) for u in units}
+        lambda: {
+            u.anchor_id: unit_context(scene, u, unit_obstacles(scene, u, units), thin, short, base_dir)
+            for u in units
+        }
     )
     policy = policy or AgentPolicy()
     followers = {r.subject for r in functional_relations(scene) if r.follows}

@@ -50,7 +50,7 @@ from scenemosaic.evolve._analysis import (
     physical_check,
     rule_violations,
 )
-from scenemosaic.evolve._context import UnitContext
+from scenemosaic.evolve._context import UnitContext, parts_in_the_way
 from scenemosaic.evolve._memory import LayoutMemory, RoundRecord
 from scenemosaic.evolve._views import scene_with, unit_view_png
 from scenemosaic.models import Model, ModelSettings
@@ -287,6 +287,14 @@ async def evolve_layout(
         result.settle_moves_m = moves
         result.check = physical_check(settled, ctx, shapes)
         result.violations = rule_violations(settled, ctx, result.check)
+        result.violations += parts_in_the_way(settled, ctx)
+        if archetype is None and result.violations and not parts_in_the_way(layout, ctx):
+            # the refined original blocks a part the stabilized layout kept free (settling slid soap
+            # back into a lid's way): the stabilized layout, as it stood, if it breaks nothing
+            check = physical_check(layout, ctx, shapes)
+            kept = rule_violations(layout, ctx, check)
+            if check.clean and not kept:
+                settled, result.check, result.violations, result.settle_moves_m = layout.copy(), check, kept, 0.0
         result.state = settled.state()
         local = unit_layout(scene_with(scene, settled), anchor)
         result.local_poses = {k: p for k, p in local.items() if k in set(layout.ids)}
