@@ -21,7 +21,8 @@ The rules (``docs/articulation.md``):
   from that room), then on its right one; then the same into the room on the other side. The
   first whose leaf swings to its limit staying on its room's floor and clear of the furniture and
   of the doors hung before it in that room (where their leaves swing) all the way (checked every
-  :data:`FIT_STEP_DEG`) is taken; when none does, the one that swings
+  :data:`FIT_STEP_DEG`) is taken; when none does, a door hung before it is hung another way if
+  that lets this one swing to its limit and the earlier one no less far; else the one that swings
   furthest clear.
 * **How far.** The leaf is delivered at that angle (its *open* pose: open by default, so the
   doorway stays passable), shut under ``--open-state closed``, a drawn fraction of it under
@@ -281,13 +282,6 @@ def _fitted(
             if angle >= min(p.limits[1] for p in parts) - 1e-9:
                 return best
     assert best is not None
-    log.info(
-        "room_door_fitted",
-        door=object_id,
-        room=best[0].room.id,
-        open_deg=round(math.degrees(best[2]), 1),
-        why="furniture or a wall stands where the leaf would open to its limit",
-    )
     return best
 
 
@@ -307,16 +301,47 @@ def room_door_leaves(scene: Scene | House) -> list[RoomDoor]:
     doors."""
     holes = _holes_of_house(scene) if isinstance(scene, House) else _holes_of_scene(scene)
     taken = {o.id for o in scene.objects}
+    ids = [_unique_id(hole.id, taken) for hole in holes]
+    fits: list[tuple[_Side, SceneObject, float]] = []
+
+    def swept(skip: int | None = None, extra: tuple[_Side, SceneObject, float] | None = None) -> dict[str, list[Polygon]]:
+        """Where the leaves of the doors fitted so far swing (but door ``skip``, and with ``extra``), by room."""
+        out: dict[str, list[Polygon]] = {}
+        for k, (side, door, angle) in enumerate([*fits, *([extra] if extra else [])]):
+            if k != skip:
+                out.setdefault(side.room.id, []).extend(_swept(door, procedural_articulation(door.category, door.asset.extents), angle))
+        return out
+
+    for hole, object_id in zip(holes, ids, strict=True):
+        fit = _fitted(hole, object_id, swept())
+        if fit[2] < _limit(fit[1]) - 1e-9:  # a door hung before may give way: hung otherwise, no worse
+            for k, (earlier, earlier_id) in enumerate(zip(holes, ids, strict=False)):
+                if k >= len(fits):
+                    break
+                mine = _fitted(hole, object_id, swept(skip=k))
+                if mine[2] < _limit(mine[1]) - 1e-9:
+                    continue
+                theirs = _fitted(earlier, earlier_id, swept(skip=k, extra=mine))
+                if theirs[2] >= fits[k][2] - 1e-9:
+                    fits[k], fit = theirs, mine
+                    break
+        fits.append(fit)
     out: list[RoomDoor] = []
-    swept: dict[str, list[Polygon]] = {}
-    for hole in holes:
-        object_id = _unique_id(hole.id, taken)
-        side, door, angle = _fitted(hole, object_id, swept)
+    for hole, (side, door, angle) in zip(holes, fits, strict=True):
         parts = procedural_articulation(door.category, door.asset.extents)
-        swept.setdefault(side.room.id, []).extend(_swept(door, parts, angle))
+        if angle < _limit(door) - 1e-9:
+            log.info(
+                "room_door_fitted", door=door.id, room=side.room.id, open_deg=round(math.degrees(angle), 1),
+                why="furniture, a wall or another door's leaf stands where the leaf would open to its limit",
+            )  # fmt: skip
         rooms = tuple(s.room.id for s in hole.sides)
         out.append(RoomDoor(side.room.id, door, {p.name: p.clamped(angle) for p in parts}, rooms))
     return out
+
+
+def _limit(door: SceneObject) -> float:
+    """How far the leaves of ``door`` turn: the least of their upper limits."""
+    return min(p.limits[1] for p in procedural_articulation(door.category, door.asset.extents))
 
 
 def _delivered(door: RoomDoor, record: Mapping[str, Any], explicit: Mapping[str, float]) -> dict[str, float]:

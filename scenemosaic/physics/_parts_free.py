@@ -30,6 +30,7 @@ import numpy as np
 from scenemosaic.assets import object_articulation, part_blockers, parts_clear_of, short_parts
 from scenemosaic.physics._checks import collision_report_for
 from scenemosaic.physics._hulls import ObjectShape
+from scenemosaic.physics._settings import OOB_MIN_INSIDE_FRACTION
 from scenemosaic.scene import FLOOR, Scene, SceneObject, functional_holds, functional_relations, rigid_moves
 
 __all__ = ["SHIFT_MOST_M", "SHIFT_STEP_M", "PartRepair", "free_part_paths"]
@@ -266,14 +267,18 @@ def _inside(scene: Scene, oid: str) -> bool:
 
 
 def _on_support(scene: Scene, oid: str) -> bool:
-    """Whether a small object still stands on its support: its centre over the support's footprint."""
-    from shapely.geometry import Point, Polygon
+    """Whether a small object still stands on its support: its footprint over the support's as
+    validation asks (``OOB_MIN_INSIDE_FRACTION`` of it, :func:`check_out_of_bounds`)."""
+    from shapely.geometry import Polygon
 
     rel = scene.support_of(oid)
     if rel is None or scene.anchor_kind(rel.parent) != "object":
         return False
-    x, y, _ = scene.get(oid).pose.position
-    return bool(Polygon(scene.get(rel.parent).footprint()).covers(Point(float(x), float(y))))
+    own = Polygon(scene.get(oid).footprint())
+    if own.area <= 0.0:
+        return False
+    inside = own.intersection(Polygon(scene.get(rel.parent).footprint())).area / own.area
+    return bool(inside >= OOB_MIN_INSIDE_FRACTION)
 
 
 def _near(scene: Scene, oid: str, holder: str, base_dir: str | Path | None, reach: float = 1.5) -> list[str]:

@@ -33,6 +33,7 @@ from scenemosaic.assets import (
     with_room_doors,
 )
 from scenemosaic.exchange import load_pybullet, write_scene
+from scenemosaic.physics import pull_parts
 from scenemosaic.scene import AssetRef, Opening, Pose, Relation, Room, Scene, SceneObject
 
 PUSH_N = 20.0
@@ -319,3 +320,35 @@ def test_a_delivered_house_hangs_its_doors_and_its_navigation_is_unchanged(tmp_p
     for c in data.contact[: data.ncon]:
         bodies = {int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])}
         assert not (bodies & leaves) or c.dist > -0.005, [model.body(b).name for b in bodies]
+
+
+def _corner_room() -> Scene:
+    """A 4 x 3 m room with two doors near its south-east corner, one in the south wall and one in
+    the east wall, whose leaves, hung on the jambs nearest the corner, would swing into each other."""
+    room = Room.rectangle(0, 0, 4.0, 3.0)
+    walls = list(room.walls)
+    for k, wall in enumerate(walls):
+        ends = np.array([wall.start, wall.end])
+        if np.allclose(ends[:, 1], 0.0):  # the south wall: its door 0.75 m from the corner
+            corner = 4.0 - 0.75 - 0.45
+            walls[k] = wall.model_copy(update={"openings": [Opening(kind="door", center=abs(corner - wall.start[0]), width=0.9, height=2.1)]})
+        if np.allclose(ends[:, 0], 4.0):  # the east wall: its door 0.45 m from the corner
+            walls[k] = wall.model_copy(update={"openings": [Opening(kind="door", center=abs(0.9 - wall.start[1]), width=0.9, height=2.1)]})
+    return Scene(id="corner", room=room.model_copy(update={"walls": walls}), objects=[])
+
+
+def test_two_doors_by_one_corner_swing_clear_of_each_other(tmp_path: Path) -> None:
+    """The later door is hung where its leaf does not sweep through the earlier one's (the 10-room
+    house had two leaves meeting at 77 degrees); in MuJoCo every leaf swings from shut to its stop."""
+    scene = _corner_room()
+    doors = room_door_leaves(scene)
+    assert len(doors) == 2
+    sweeps = []
+    for door in doors:
+        part = _leaf(door.object)
+        angles = np.linspace(0.0, door.open_values[part.name], 21)
+        sweeps.append(MultiPoint(np.vstack([np.asarray(_outline(door.object, part, a).exterior.coords) for a in angles])).convex_hull)
+        assert door.open_values[part.name] == pytest.approx(math.radians(ROOM_DOOR_OPEN_DEG))
+    assert sweeps[0].intersection(sweeps[1]).area < 1e-4
+    pulled = pull_parts(write_scene(scene, "mjcf", tmp_path))
+    assert len(pulled) == 2 and all(p.room_door and p.passed for p in pulled), pulled
