@@ -66,6 +66,7 @@ __all__ = [
     "Target",
     "find_problems",
     "front_strip",
+    "front_zone",
     "merged_fixes",
     "physical_check",
     "rule_violations",
@@ -764,7 +765,7 @@ def front_strip(
     return outline_polygon(np.array([a - side * half, a + side * half, a + side * half + f * depth, a - side * half + f * depth]))
 
 
-def _front_zone(layout: UnitLayout, oid: str, ctx: UnitContext | None = None) -> Polygon:
+def front_zone(layout: UnitLayout, oid: str, ctx: UnitContext | None = None) -> Polygon:
     """The space in front of ``oid`` kept for using it: :data:`FRONT_CLEARANCE` deep, or as far as its
     parts swing out when further (``ctx.part_reach``: a wardrobe's door as wide as it is)."""
     front, flank = ctx.part_reach.get(oid, (0.0, 0.0)) if ctx is not None else (0.0, 0.0)
@@ -784,7 +785,7 @@ def _clearance(layout: UnitLayout, ctx: UnitContext) -> list[Finding]:
         if traits(layout.object(k).category).opening == "front" or k in ctx.part_reach
     )
     for k in fronts:
-        zone = _front_zone(layout, k, ctx)
+        zone = front_zone(layout, k, ctx)
         for j in layout.ids:
             if j in (k, *ctx.thin) or ctx.seat_table.get(j) == k or ctx.nightstand_bed.get(j) == k:
                 continue

@@ -48,6 +48,7 @@ from scenemosaic.evolve._analysis import (
     WALL_FLUSH_GAP,
     beside_target,
     front_strip,
+    front_zone,
     layout_faces,
     obstacle_polygons,
     seat_slots,
@@ -239,6 +240,8 @@ class _Room:
         top = max(layout.span(k)[1] for k in members)
         others = [layout.outline(k) for k in layout.ids if k not in members and k not in ctx.thin]
         others += [poly for o, poly in obstacle_polygons(ctx) if float(o.aabb()[0][2]) < top]
+        # where the drawers and doors of the pieces that stay swing out (a TV stand's drawers)
+        others += [front_zone(layout, k, ctx) for k in layout.ids if k not in members and k in ctx.part_reach]
         self.blocked = unary_union([p.buffer(MOVE_MARGIN, join_style="mitre") for p in others]) if others else Polygon()
         self.region = _inner_region(ctx)
         prepare(self.blocked)
@@ -751,7 +754,7 @@ def _blocks_parts(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bo
     for k, (u, v, r) in placed.items():
         trial.set_rotation(k, r)
         trial.set_center(k, u, v)
-    return bool(parts_in_the_way(trial, ctx))
+    return bool(parts_in_the_way(trial, ctx, floor=True))
 
 
 def _plausible(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:
@@ -848,8 +851,9 @@ def rule_archetypes(layout: UnitLayout, ctx: UnitContext, limit: int | None = No
         if (
             not _plausible(layout, ctx, placed)
             or not doors_kept(layout, ctx, placed)
-            or _blocks_parts(layout, ctx, placed)
         ):
+            continue
+        if _blocks_parts(layout, ctx, placed):
             continue
         kept.append((cand, placed))
         plans_kept += plan

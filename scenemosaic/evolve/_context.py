@@ -312,7 +312,7 @@ def unit_context(
     return ctx
 
 
-def parts_in_the_way(layout: UnitLayout, ctx: UnitContext) -> list[str]:
+def parts_in_the_way(layout: UnitLayout, ctx: UnitContext, *, floor: bool = False) -> list[str]:
     """The drawers, doors and lids that the unit's pieces, posed as ``layout`` says in the unit's
     stabilized scene (``ctx.scene``), newly keep from opening as far as their use needs, as
     sentences (empty when none): a part the stabilized scene lets open (``ctx.short_parts``) that
@@ -320,13 +320,14 @@ def parts_in_the_way(layout: UnitLayout, ctx: UnitContext) -> list[str]:
     path). The model is ``assets.short_parts``, each part's box swept from closed against the other
     objects' boxes and the walls; only the parts whose path comes near a piece of the unit are
     swept. A seat at its own table or desk (``ctx.seat_table``) is not in the way of that table's
-    drawers: it is pulled back first, as a person does.
+    drawers: it is pulled back first, as a person does. An object with no more parts blocked than
+    in the stabilized scene counts as kept (a mirrored room blocks the door on the other side).
 
-    Held for the units of what stands on furniture (a toilet's, a counter's) only: on the floor,
-    refusing the layouts that block a part cost the variants their diversity (``docs/articulation.md``);
-    there the space in front of pieces that open is kept by the critic's clearance and the room
-    plans' strips."""
-    if ctx.scene is None or ctx.unit.anchor_kind != "object":
+    A finished layout is held to it for the units of what stands on furniture (a toilet's, a
+    counter's); ``floor=True`` holds a floor unit too, as the rule patterns are held before their
+    loop runs (``evolve/_archetypes.py``): refusing finished floor layouts left two PhyScene rooms
+    with too few different variants (``docs/articulation.md``)."""
+    if ctx.scene is None or (ctx.unit.anchor_kind != "object" and not floor):
         return []
     from scenemosaic.evolve._views import scene_with
 
@@ -335,8 +336,9 @@ def parts_in_the_way(layout: UnitLayout, ctx: UnitContext) -> list[str]:
     now = short_parts(posed, ctx.base_dir, near=moved)
     out = []
     for oid, names in sorted(now.items()):
-        new = [n for n in names if n not in ctx.short_parts.get(oid, ())]
-        if not new:
+        before = ctx.short_parts.get(oid, ())
+        new = [n for n in names if n not in before]
+        if not new or len(names) <= len(before):  # as many blocked as before (a mirrored room's other door)
             continue
         stoppers = part_blockers(posed, oid, ctx.base_dir)
         for name in new:

@@ -76,8 +76,9 @@ def _evaluate_house(
       room of every variant (COL, OOB, NAV, RelKeep, Div-IoU, Div-N of that room);
     * ``house``: ``base`` (:data:`HOUSE_BASE_FIGURES` of :func:`house_checks`), ``variants`` (per
       variant: ``house_nav``, ``unreachable_rooms``, how many ``door_blockers`` and
-      ``wall_crossings``, and ``RelKeep``, the smallest over its rooms, 1.0 for a house without
-      rooms to compare) and, with variants, ``diversity`` (:func:`house_diversity`),
+      ``wall_crossings``, ``RelKeep``, the smallest over its rooms, 1.0 for a house without
+      rooms to compare, ``parts_blocked``, how many drawers, doors and lids of its rooms cannot
+      open, and ``windows_blocked``, how many windows furniture stands before, as the base's) and, with variants, ``diversity`` (:func:`house_diversity`),
       ``rooms_rearranged`` (rooms with furniture some variant moves: :func:`moved_furniture`) and
       ``rooms_not_rearranged`` (the ids of rooms with furniture no variant moves).
 
@@ -96,7 +97,9 @@ def _evaluate_house(
     base_figures = base_checks if base_checks is not None else house_checks(base)
     checks = list(variant_checks) if variant_checks is not None else [house_checks(v) for v in variants]
     house: dict[str, Any] = {"base": {k: base_figures[k] for k in HOUSE_BASE_FIGURES}, "variants": []}
-    for v, c in zip(variants, checks, strict=True):
+    house["base"]["parts_blocked"] = sum(len(r["base"]["parts_blocked"]) for r in rooms.values())
+    house["base"]["windows_blocked"] = sum(len(r["base"]["windows_blocked"]) for r in rooms.values())
+    for i, (v, c) in enumerate(zip(variants, checks, strict=True)):
         keep = [relkeep(b, s) for b, s in zip(base.rooms, v.rooms, strict=True)]
         house["variants"].append(
             {
@@ -105,6 +108,8 @@ def _evaluate_house(
                 "door_blockers": len(c["door_blockers"]),
                 "wall_crossings": len(c["wall_crossings"]),
                 "RelKeep": round(min(keep), 4) if keep else 1.0,
+                "parts_blocked": sum(len(r["variants"][i]["parts_blocked"]) for r in rooms.values()),
+                "windows_blocked": sum(len(r["variants"][i]["windows_blocked"]) for r in rooms.values()),
             }
         )
     if variants:

@@ -38,7 +38,7 @@ from shapely import contains_xy, prepare
 from shapely.geometry import Polygon, box
 
 from scenemosaic._memo import Memo
-from scenemosaic.assets import HullCache, asset_fingerprint
+from scenemosaic.assets import HullCache, asset_fingerprint, object_articulation, part_blockers, short_parts
 from scenemosaic.compose import Arrangement, novelty_distance
 from scenemosaic.metrics._plausibility import plausibility
 from scenemosaic.physics import check_collisions, is_thin
@@ -73,6 +73,7 @@ __all__ = [
     "OOB_INSIDE",
     "OOB_SAMPLES",
     "RELATION_TOLERANCE_M",
+    "blocked_parts",
     "col",
     "div_iou",
     "div_n",
@@ -82,6 +83,7 @@ __all__ = [
     "nav",
     "occupancy",
     "oob",
+    "parts_free",
     "relation_holds",
     "relkeep",
     "relkeep_by_kind",
@@ -331,14 +333,66 @@ def relkeep_summary(rows: Sequence[dict[str, float | None]]) -> dict[str, float 
     return out
 
 
+def blocked_parts(scene: Scene, base_dir: str | Path | None = None) -> dict[str, list[str]]:
+    """The drawers, doors and lids of ``scene`` whose way open for use is not free, by
+    ``<object id>/<part>``, each with what stops it (object ids, ``"wall"``): the free-space model
+    of ``assets.short_parts`` (``docs/articulation.md``; ``physics.pull_parts`` measures the same in
+    MuJoCo on a delivered world)."""
+    out: dict[str, list[str]] = {}
+    for oid, names in sorted(short_parts(scene, base_dir).items()):
+        stoppers = part_blockers(scene, oid, base_dir)
+        for name in names:
+            out[f"{oid}/{name}"] = stoppers.get(name, [])
+    return out
+
+
+def parts_free(scene: Scene, base_dir: str | Path | None = None) -> float:
+    """PARTS: the share of the scene's drawers, doors and lids whose way open for use is free
+    (:func:`blocked_parts`); 1.0 for a scene with none."""
+    total = sum(len(object_articulation(o, base_dir)) for o in scene.objects)
+    return 1.0 if total == 0 else 1.0 - len(blocked_parts(scene, base_dir)) / total
+
+
+WINDOW_REACH_M = 0.3
+"""A piece whose footprint comes this near a window's stretch of wall stands before it."""
+
+
+def blocked_windows(scene: Scene) -> dict[str, list[str]]:
+    """The windows of ``scene``'s walls that furniture stands before, by ``<wall id>/window_<k>`` (``k``
+    counting the wall's openings), each with the pieces (object ids): a piece on the floor whose top
+    rises above the window's sill and whose footprint comes within :data:`WINDOW_REACH_M` of the
+    window's stretch of wall (a wardrobe backed against it; a low bench beneath it does not block)."""
+    from shapely.geometry import LineString, Polygon
+
+    if scene.room is None:
+        return {}
+    out: dict[str, list[str]] = {}
+    standing = [o for o in scene.objects if (rel := scene.support_of(o.id)) is None or rel.parent == FLOOR]
+    for wall in scene.room.walls:
+        start, direction = np.asarray(wall.start, dtype=np.float64), np.asarray(wall.direction, dtype=np.float64)
+        for k, op in enumerate(wall.openings):
+            if op.kind != "window":
+                continue
+            span = LineString([start + direction * (op.center - op.width / 2), start + direction * (op.center + op.width / 2)])
+            found = sorted(
+                o.id for o in standing
+                if float(o.aabb()[1][2]) > op.bottom + 1e-3 and Polygon(o.footprint()).distance(span) <= WINDOW_REACH_M
+            )  # fmt: skip
+            if found:
+                out[f"{wall.id}/window_{k}"] = found
+    return out
+
+
 def scene_metrics(scene: Scene, base_dir: str | Path | None = None, *, hull_cache: HullCache | None = None) -> dict[str, float]:
-    """COL, OOB and NAV of one scene (fractions; NAV 1.0 is one connected walkable floor) and
-    PLAUS, the lowest of its plausibility figures (``metrics.plausibility``; 1.0: every rule met)."""
+    """COL, OOB and NAV of one scene (fractions; NAV 1.0 is one connected walkable floor), PLAUS,
+    the lowest of its plausibility figures (``metrics.plausibility``; 1.0: every rule met), and PARTS,
+    the share of its parts free to open (:func:`parts_free`)."""
     return {
         "COL": round(col(scene, base_dir, hull_cache=hull_cache), 4),
         "OOB": round(oob(scene, base_dir), 4),
         "NAV": round(nav(scene), 4),
         "PLAUS": min(plausibility(scene).values()),
+        "PARTS": round(parts_free(scene, base_dir), 4),
     }
 
 
@@ -350,12 +404,20 @@ def evaluate_scenes(base: Scene, variants: Sequence[Scene] = (), *, base_dir: st
     The semantic judge (POS, ROT) needs a vision model and is reported as not measured here.
     """
     dirs = list(variant_dirs) or [None] * len(variants)
-    out: dict[str, object] = {"base": scene_metrics(base, base_dir, hull_cache=hull_cache)}
+    out: dict[str, object] = {
+        "base": {
+            **scene_metrics(base, base_dir, hull_cache=hull_cache), "parts_blocked": blocked_parts(base, base_dir),
+            "windows_blocked": blocked_windows(base),
+        }
+    }  # fmt: skip
     kinds = [relkeep_by_kind(base, v) for v in variants]
     out["variants"] = [
-        {**scene_metrics(v, d, hull_cache=hull_cache), "RelKeep": round(relkeep(base, v), 4), "RelKeep_by_kind": k}
+        {
+            **scene_metrics(v, d, hull_cache=hull_cache), "RelKeep": round(relkeep(base, v), 4), "RelKeep_by_kind": k,
+            "parts_blocked": blocked_parts(v, d), "windows_blocked": blocked_windows(v),
+        }
         for v, d, k in zip(variants, dirs, kinds, strict=True)
-    ]
+    ]  # fmt: skip
     if variants:
         out["RelKeep_by_kind"] = relkeep_summary(kinds)
         iou, n = div_iou(list(variants)), div_n(list(variants))
