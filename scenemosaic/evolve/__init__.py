@@ -51,7 +51,13 @@ from scenemosaic.evolve._analysis import (
     seating_breaches,
 )
 from scenemosaic.evolve._archetypes import RuleArchetype, instantiate, max_alternatives, rule_archetypes
-from scenemosaic.evolve._context import UnitContext, WallLine, parts_in_the_way, unit_context
+from scenemosaic.evolve._context import (
+    UnitContext,
+    WallLine,
+    parts_in_the_way,
+    unit_context,
+    windows_in_the_way,
+)
 from scenemosaic.evolve._evolve import (
     MAX_ALTERNATIVES,
     EvolutionReport,
@@ -130,4 +136,5 @@ __all__ = [
     "unit_obstacles",
     "unit_view",
     "unit_view_png",
+    "windows_in_the_way",
 ]

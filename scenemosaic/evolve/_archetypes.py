@@ -55,7 +55,7 @@ from scenemosaic.evolve._analysis import (
     seating_breaches,
     wall_status,
 )
-from scenemosaic.evolve._context import UnitContext, WallLine, parts_in_the_way
+from scenemosaic.evolve._context import UnitContext, WallLine, parts_in_the_way, windows_in_the_way
 from scenemosaic.evolve._plans import (
     MAX_PLANS,
     Placement,
@@ -747,14 +747,15 @@ def _seated_all(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> Plac
     return out
 
 
-def _blocks_parts(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:
+def _blocks_use(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:
     """Whether a placement puts a piece in the way of a drawer, door or lid the stabilized scene lets
-    open (:func:`~scenemosaic.evolve.parts_in_the_way`)."""
+    open (:func:`~scenemosaic.evolve.parts_in_the_way`), or tall furniture before more windows than
+    it stood before (:func:`~scenemosaic.evolve.windows_in_the_way`)."""
     trial = layout.copy()
     for k, (u, v, r) in placed.items():
         trial.set_rotation(k, r)
         trial.set_center(k, u, v)
-    return bool(parts_in_the_way(trial, ctx, floor=True))
+    return bool(parts_in_the_way(trial, ctx, floor=True) or windows_in_the_way(trial, ctx))
 
 
 def _plausible(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:
@@ -853,7 +854,7 @@ def rule_archetypes(layout: UnitLayout, ctx: UnitContext, limit: int | None = No
             or not doors_kept(layout, ctx, placed)
         ):
             continue
-        if _blocks_parts(layout, ctx, placed):
+        if _blocks_use(layout, ctx, placed):
             continue
         kept.append((cand, placed))
         plans_kept += plan

@@ -18,6 +18,7 @@ from scenemosaic.scene import (
     SceneObject,
     UnitLayout,
     UnitSurface,
+    blocked_windows,
     convex_hull_2d,
     descendants,
     door_zones,
@@ -26,7 +27,7 @@ from scenemosaic.scene import (
     traits,
 )
 
-__all__ = ["UnitContext", "WallLine", "facing_degrees", "parts_in_the_way", "unit_context"]
+__all__ = ["UnitContext", "WallLine", "facing_degrees", "parts_in_the_way", "unit_context", "windows_in_the_way"]
 
 TABLE_REACH = 0.8
 """A seat with no ``faces`` relation belongs to a table or desk whose box is this close, metres..."""
@@ -141,6 +142,9 @@ class UnitContext:
     """The stabilized scene the unit stands in (what a layout's parts are checked in)."""
     base_dir: Path | None = None
     """Resolves the scene's mesh assets and their part declarations."""
+    windows_blocked: Mapping[str, list[str]] = field(default_factory=dict)
+    """The windows furniture stands before in the stabilized scene (``scene.blocked_windows``): a
+    floor layout may leave these as they are, and must not add to them (:func:`windows_in_the_way`)."""
     short_parts: Mapping[str, list[str]] = field(default_factory=dict)
     """The drawers, doors and lids that cannot open as far as their use needs in the stabilized
     scene, by object id (``assets.short_parts``): a layout may leave these as they are, and must
@@ -215,6 +219,8 @@ def unit_context(
     surface = surface_for(scene, unit.anchor_id)
     ctx = UnitContext(unit=unit, surface=surface, obstacles=obstacles, thin=set(thin) & set(unit.children))
     ctx.scene, ctx.base_dir = scene, base_dir
+    if unit.anchor_kind == "floor":
+        ctx.windows_blocked = blocked_windows(scene)
     ctx.short_parts = dict(short_parts(scene, base_dir) if short is None else short)
     for oid in unit.children:
         swing = part_reach(scene.get(oid), base_dir)
@@ -347,3 +353,17 @@ def parts_in_the_way(layout: UnitLayout, ctx: UnitContext, *, floor: bool = Fals
                 continue  # a chair at its own desk: pulled back before a drawer is opened
             out.append(f"{oid}'s {name} cannot open: {', '.join(found)} in its way")
     return out
+
+
+def windows_in_the_way(layout: UnitLayout, ctx: UnitContext) -> list[str]:
+    """The windows a floor unit's pieces, posed as ``layout`` says in its stabilized scene, newly stand
+    before (``scene.blocked_windows``: a tall piece backed against a window's stretch of wall), as
+    sentences (empty when none, or when no more windows are blocked than in the stabilized scene)."""
+    if ctx.scene is None or not ctx.floor:
+        return []
+    from scenemosaic.evolve._views import scene_with
+
+    now = blocked_windows(scene_with(ctx.scene, layout))
+    if len(now) <= len(ctx.windows_blocked):
+        return []
+    return [f"{', '.join(ids)} before window {w}" for w, ids in sorted(now.items()) if w not in ctx.windows_blocked]

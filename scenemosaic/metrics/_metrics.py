@@ -57,6 +57,7 @@ from scenemosaic.scene import (
     Relation,
     Scene,
     SceneObject,
+    blocked_windows,
     convex_hull_2d,
     functional_holds,
     functional_relations,
@@ -351,36 +352,6 @@ def parts_free(scene: Scene, base_dir: str | Path | None = None) -> float:
     (:func:`blocked_parts`); 1.0 for a scene with none."""
     total = sum(len(object_articulation(o, base_dir)) for o in scene.objects)
     return 1.0 if total == 0 else 1.0 - len(blocked_parts(scene, base_dir)) / total
-
-
-WINDOW_REACH_M = 0.3
-"""A piece whose footprint comes this near a window's stretch of wall stands before it."""
-
-
-def blocked_windows(scene: Scene) -> dict[str, list[str]]:
-    """The windows of ``scene``'s walls that furniture stands before, by ``<wall id>/window_<k>`` (``k``
-    counting the wall's openings), each with the pieces (object ids): a piece on the floor whose top
-    rises above the window's sill and whose footprint comes within :data:`WINDOW_REACH_M` of the
-    window's stretch of wall (a wardrobe backed against it; a low bench beneath it does not block)."""
-    from shapely.geometry import LineString, Polygon
-
-    if scene.room is None:
-        return {}
-    out: dict[str, list[str]] = {}
-    standing = [o for o in scene.objects if (rel := scene.support_of(o.id)) is None or rel.parent == FLOOR]
-    for wall in scene.room.walls:
-        start, direction = np.asarray(wall.start, dtype=np.float64), np.asarray(wall.direction, dtype=np.float64)
-        for k, op in enumerate(wall.openings):
-            if op.kind != "window":
-                continue
-            span = LineString([start + direction * (op.center - op.width / 2), start + direction * (op.center + op.width / 2)])
-            found = sorted(
-                o.id for o in standing
-                if float(o.aabb()[1][2]) > op.bottom + 1e-3 and Polygon(o.footprint()).distance(span) <= WINDOW_REACH_M
-            )  # fmt: skip
-            if found:
-                out[f"{wall.id}/window_{k}"] = found
-    return out
 
 
 def scene_metrics(scene: Scene, base_dir: str | Path | None = None, *, hull_cache: HullCache | None = None) -> dict[str, float]:

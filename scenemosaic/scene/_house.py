@@ -30,6 +30,7 @@ from shapely.ops import unary_union
 
 from scenemosaic._memo import Memo
 from scenemosaic.scene._geometry import FloatArray
+from scenemosaic.scene._ids import FLOOR
 from scenemosaic.scene._limits import house_problem
 from scenemosaic.scene._model import Opening, Provenance, Scene, SceneObject, Wall, _Model, _plan_png
 from scenemosaic.scene._planar import convex_hull_2d
@@ -41,12 +42,14 @@ __all__ = [
     "HOUSE_CELL_M",
     "MIN_PASSAGE_M",
     "WALL_CROSSING_TOLERANCE_M",
+    "WINDOW_REACH_M",
     "DoorBlock",
     "DoorZone",
     "Doorway",
     "House",
     "HouseFloor",
     "HouseWalkable",
+    "blocked_windows",
     "cut_off_doors",
     "door_blockers",
     "door_zones",
@@ -495,4 +498,34 @@ def _seams(owner: np.ndarray, through: np.ndarray) -> np.ndarray:
         meet = (a > 0) & (b > 0) & (a != b) & ~through[tuple(lo)] & ~through[tuple(hi)]
         out[tuple(lo)] |= meet
         out[tuple(hi)] |= meet
+    return out
+
+
+WINDOW_REACH_M = 0.3
+"""A piece whose footprint comes this near a window's stretch of wall stands before it."""
+
+
+def blocked_windows(scene: Scene) -> dict[str, list[str]]:
+    """The windows of ``scene``'s walls that furniture stands before, by ``<wall id>/window_<k>`` (``k``
+    counting the wall's openings), each with the pieces (object ids): a piece on the floor whose top
+    rises above the window's sill and whose footprint comes within :data:`WINDOW_REACH_M` of the
+    window's stretch of wall (a wardrobe backed against it; a low bench beneath it does not block)."""
+    from shapely.geometry import LineString
+
+    if scene.room is None:
+        return {}
+    out: dict[str, list[str]] = {}
+    standing = [o for o in scene.objects if (rel := scene.support_of(o.id)) is None or rel.parent == FLOOR]
+    for wall in scene.room.walls:
+        start, direction = np.asarray(wall.start, dtype=np.float64), np.asarray(wall.direction, dtype=np.float64)
+        for k, op in enumerate(wall.openings):
+            if op.kind != "window":
+                continue
+            span = LineString([start + direction * (op.center - op.width / 2), start + direction * (op.center + op.width / 2)])
+            found = sorted(
+                o.id for o in standing
+                if float(o.aabb()[1][2]) > op.bottom + 1e-3 and Polygon(o.footprint()).distance(span) <= WINDOW_REACH_M
+            )  # fmt: skip
+            if found:
+                out[f"{wall.id}/window_{k}"] = found
     return out

@@ -3,8 +3,18 @@ way open for use is free, and per scene what blocks each that is not, for a room
 
 from __future__ import annotations
 
-from scenemosaic.metrics import blocked_parts, blocked_windows, evaluate, parts_free
-from scenemosaic.scene import AssetRef, House, Opening, Pose, Relation, Room, Scene, SceneObject
+from scenemosaic.metrics import blocked_parts, evaluate, parts_free
+from scenemosaic.scene import (
+    AssetRef,
+    House,
+    Opening,
+    Pose,
+    Relation,
+    Room,
+    Scene,
+    SceneObject,
+    blocked_windows,
+)
 
 
 def _kitchen(gap: float, room_id: str = "kitchen") -> Scene:
