@@ -119,11 +119,14 @@ def _blockers_moved(
     holder: str,
     base_dir: str | Path | None,
     moved: frozenset[str] = frozenset(),
+    budget: list[int] | None = None,
 ) -> tuple[Scene, dict[str, float]]:
     """``scene`` with what stops ``holder``'s parts moved aside so that they open, one piece after
     another (each out of every part's way), and the moves; ``scene`` and no moves when no such
     sequence is found. A small search: each piece's :data:`MOVES_TRIED` least moves are tried in
-    turn (the least move of a sponge off a lid may take the one place the soap beside it needs)."""
+    turn (the least move of a sponge off a lid may take the one place the soap beside it needs),
+    :data:`SEARCH_MOST` moves in all (a part boxed in by many things gives up in bounded time)."""
+    budget = [SEARCH_MOST] if budget is None else budget
     if not _short(scene, holder, base_dir):
         return scene, {}
     if len(moved) >= MOST_BLOCKERS:
@@ -132,16 +135,21 @@ def _blockers_moved(
         if blocker in moved:
             continue
         for k, (trial, d) in enumerate(_shifts(scene, shapes, blocker, holder, base_dir)):
-            if k >= MOVES_TRIED:
+            if k >= MOVES_TRIED or budget[0] <= 0:
                 break
-            done, more = _blockers_moved(trial, shapes, holder, base_dir, moved | {blocker})
+            budget[0] -= 1
+            done, more = _blockers_moved(trial, shapes, holder, base_dir, moved | {blocker}, budget)
             if not _short(done, holder, base_dir):
                 return done, {blocker: d, **more}
+        if budget[0] <= 0:
+            break
     return scene, {}
 
 
 MOVES_TRIED = 3
 """How many of a piece's least moves out of a part's way the repair tries before giving up on it."""
+SEARCH_MOST = 24
+"""How many moves the search for one part's repair tries in all."""
 
 
 def _standing(scene: Scene, oid: str) -> bool:
