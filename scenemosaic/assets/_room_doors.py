@@ -315,13 +315,11 @@ def room_door_leaves(scene: Scene | House) -> list[RoomDoor]:
     for hole, object_id in zip(holes, ids, strict=True):
         fit = _fitted(hole, object_id, swept())
         if fit[2] < _limit(fit[1]) - 1e-9:  # a door hung before may give way: hung otherwise, no worse
-            for k, (earlier, earlier_id) in enumerate(zip(holes, ids, strict=False)):
-                if k >= len(fits):
-                    break
+            for k in range(len(fits)):
                 mine = _fitted(hole, object_id, swept(skip=k))
                 if mine[2] < _limit(mine[1]) - 1e-9:
                     continue
-                theirs = _fitted(earlier, earlier_id, swept(skip=k, extra=mine))
+                theirs = _fitted(holes[k], ids[k], swept(skip=k, extra=mine))
                 if theirs[2] >= fits[k][2] - 1e-9:
                     fits[k], fit = theirs, mine
                     break
