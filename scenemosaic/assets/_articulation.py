@@ -32,6 +32,7 @@ __all__ = [
     "DOOR_OPEN_DEG",
     "DRAWER_TRAVEL_FRACTION",
     "DROP_DOOR_OPEN_DEG",
+    "LEVEL_AXIS_Z",
     "LID_OPEN_DEG",
     "OPEN_STATES",
     "ROOM_DOOR_OPEN_DEG",
@@ -122,6 +123,8 @@ LID_FRICTION_N_M = 0.05
 """Dry friction of a lid's hinge, N m."""
 JOINT_ARMATURE = 0.01
 """Rotor inertia added to every part joint (kg m^2 or kg): steadies the stepping of light parts."""
+LEVEL_AXIS_Z = 0.7
+"""A hinge line with less than this upward share lies level: a lid's, a drop-down door's."""
 
 
 @dataclass(frozen=True)
@@ -181,6 +184,12 @@ class PartSpec:
         out[:3, :3] = rotation
         out[:3, 3] = anchor - rotation @ anchor
         return out
+
+    @property
+    def level(self) -> bool:
+        """Whether it turns about a hinge line lying level (a lid, a drop-down door): its weight
+        turns it, so it rests only shut or against its stop (:data:`LEVEL_AXIS_Z`)."""
+        return self.joint == "hinge" and abs(float(self.axis[2])) < LEVEL_AXIS_Z
 
     def clamped(self, value: float) -> float:
         """``value`` held within :attr:`limits` (a delivered pose never lies outside them)."""
@@ -329,8 +338,10 @@ def lid(
 def opening(part: PartSpec, state: OpenState, *, seed: int = 0, key: str = "") -> float:
     """The joint value ``part`` is delivered at in ``state``: 0, its upper limit, or for ``random``
     a value drawn uniformly within its limits from ``seed``, ``key`` (the object's id) and the
-    part's name. The draw hashes those three (SHA-256), so it is the same in every process and
-    does not depend on which other parts or objects a scene holds."""
+    part's name; a part whose hinge line lies level (:attr:`PartSpec.level`: a lid) is drawn shut
+    or at its limit, half and half, for its weight would swing it from anywhere between. The draw
+    hashes those three (SHA-256), so it is the same in every process and does not depend on which
+    other parts or objects a scene holds."""
     lower, upper = part.limits
     if state == "closed":
         return 0.0
@@ -338,6 +349,8 @@ def opening(part: PartSpec, state: OpenState, *, seed: int = 0, key: str = "") -
         return upper
     digest = hashlib.sha256(f"{seed}\x00{key}\x00{part.name}".encode()).digest()
     fraction = int.from_bytes(digest[:8], "big") / 2.0**64
+    if part.level:
+        return upper if fraction >= 0.5 else lower
     return lower + fraction * (upper - lower)
 
 

@@ -31,7 +31,6 @@ from scenemosaic.assets._objects import object_articulation
 from scenemosaic.scene import FloatArray, House, Scene, SceneObject
 
 __all__ = [
-    "LEVEL_AXIS_Z",
     "OPEN_STATE_KEY",
     "SWEPT_SAMPLES",
     "kept_free",
@@ -311,18 +310,13 @@ def short_parts(
     return out
 
 
-LEVEL_AXIS_Z = 0.7
-"""A hinge line with less than this upward share lies level: a lid's, a drop-down door's."""
-
-
 def kept_free(part: PartSpec) -> float:
     """How far ``part``'s path must be free of other objects for it to be used: open for use
     (:func:`usable_value`), and for a hinge whose line lies level (a lid) its whole range, for a
     lid is left open at its stop, past upright, where it would knock over what stands behind it
     (soap on a toilet's cistern); the room's walls count up to open for use only (a lid may lean
     on the wall behind)."""
-    level = part.joint == "hinge" and abs(float(np.asarray(part.axis, dtype=np.float64)[2])) < LEVEL_AXIS_Z
-    return float(part.limits[1]) if level else usable_value(part)
+    return float(part.limits[1]) if part.level else usable_value(part)
 
 
 def _comes_near(holder: SceneObject, part: PartSpec, boxes: list[_Box]) -> bool:

@@ -12,7 +12,8 @@ The rules (``docs/articulation.md``):
 * **Which holes.** A door's hole gets :attr:`Opening.leaf_count` leaves: one unless the source
   says otherwise (AI2-THOR's ``Doorframe_*`` none, ``Doorway_Double_*`` two); an open stretch of
   wall (``opening``) and a window none.
-* **Where.** The door fills the hole: its frame's two jambs against the hole's sides, the leaf
+* **Where.** The door fills the hole (only as wide as the wall it is cut in,
+  :meth:`~scenemosaic.scene.Wall.span`): its frame's two jambs against the hole's sides, the leaf
   between them, closed, with its front face in the face of the wall of the room it swings into;
   it hangs on the front edge of one jamb and turns into that room, up to
   :data:`ROOM_DOOR_OPEN_DEG`.
@@ -129,8 +130,11 @@ def _holes_of_scene(scene: Scene) -> list[_Hole]:
     for wall in scene.room.walls:
         for op in wall.openings:
             if op.leaf_count > 0:
-                side = _Side(scene, wall, _wall_point(wall, op.center))
-                out.append(_Hole(f"room_door_{len(out)}", (side,), op, op.width))
+                lo, hi = wall.span(op)  # a hole drawn past its wall's end is only as wide as the wall
+                if hi - lo <= 0.0:
+                    continue
+                side = _Side(scene, wall, _wall_point(wall, (lo + hi) / 2))
+                out.append(_Hole(f"room_door_{len(out)}", (side,), op, hi - lo))
     return out
 
 

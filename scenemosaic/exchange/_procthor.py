@@ -83,6 +83,11 @@ DEFAULT_CEILING_HEIGHT = 2.5
 """Ceiling height (metres) of a room none of whose walls gives a height."""
 IMPORTER = "scenemosaic.exchange.procthor"
 _WALL_MATCH_TOL = 1e-3  # metres: an opening's point must lie this close to one of our walls
+OPENING_CLIP_NOTE_M = 0.005
+"""A door or window drawn further than this (metres) past the end of the wall it is cut in is
+named in the import notes; every hole is cut only as wide as its wall goes (a door beside a corner
+whose wall was cut back by half a shared wall runs past it; a hole wider than its wall is a
+source error). One lying mostly past the wall's ends is dropped, named."""
 MIN_SHARED_M = 0.05
 """An edge of a room's floor counts as shared with another room when at least this much of it (metres) is."""
 SHARED_WALL_THICKNESS_M = 0.1
@@ -619,9 +624,21 @@ def _add_opening(
             build.notes.append(f"{f} does not lie on any wall of room {build.source_id!r}; dropped")
             continue
         along = float(np.dot(centre - np.asarray(target.start), target.direction))
+        lo, hi = max(along - width / 2, 0.0), min(along + width / 2, target.length)
+        if hi - lo < width / 2:
+            build.notes.append(
+                f"{f} lies mostly past the ends of {build.source_id!r}'s wall {target.id} "
+                f"({hi - lo:.3f} of its {width:.3f} m on it); dropped"
+            )
+            continue
+        if hi - lo < width - OPENING_CLIP_NOTE_M:
+            build.notes.append(
+                f"{f} runs {width - (hi - lo):.3f} m past the end of {build.source_id!r}'s wall {target.id}; "
+                f"cut {hi - lo:.3f} m wide, as far as the wall goes"
+            )
         target.openings = [
             *target.openings,
-            Opening(kind=kind, center=along, width=width, bottom=max(0.0, y0), height=height, leaves=leaves),
+            Opening(kind=kind, center=(lo + hi) / 2, width=hi - lo, bottom=max(0.0, y0), height=height, leaves=leaves),
         ]
 
 

@@ -206,8 +206,7 @@ def _room_elements(room_id: str, room: Room, doors: list[_DoorRecord]) -> list[d
     for wall in room.walls:
         holes = []
         for k, op in enumerate(wall.openings):
-            a = max(op.center - op.width / 2.0, 0.0)
-            b = min(op.center + op.width / 2.0, wall.length)
+            a, b = wall.span(op)
             top = min(op.bottom + op.height, wall.height)
             if b <= a or top <= op.bottom:
                 log.warning("opening_outside_wall", wall=wall.id, opening=k)

@@ -151,6 +151,14 @@ class ValidationReport(_Report):
         description="Per object: distance from its support along gravity (negative = sunk into it), metres.",
     )
     simulated_s: float = 0.0
+    parts_moved: dict[str, float] = Field(
+        default_factory=dict,
+        description=(
+            "Per movable part (``<object id>/<part>``, a room door's leaves among them) that moved "
+            "from where it is delivered while the world settled, more than PART_DRIFT_DEG or "
+            "PART_DRIFT_M: how far (degrees for a hinge, metres for a slide)."
+        ),
+    )
     nested: list[str] = Field(
         default_factory=list,
         description="Pairs of floor furniture (not containers, not a seat under a table) standing inside each other's boxes.",
@@ -158,5 +166,6 @@ class ValidationReport(_Report):
 
     @property
     def ok(self) -> bool:
-        """True when nothing collides, nothing is out of bounds, and nothing fell or tipped."""
-        return not (self.collisions.pairs or self.out_of_bounds.objects or self.tipped or self.fell)
+        """True when nothing collides, nothing is out of bounds, nothing fell or tipped, and no
+        part moved from where it is delivered."""
+        return not (self.collisions.pairs or self.out_of_bounds.objects or self.tipped or self.fell or self.parts_moved)

@@ -13,6 +13,8 @@ __all__ = [
     "DEFAULT_DENSITY_KG_M3",
     "FELL_DROP_M",
     "OOB_MIN_INSIDE_FRACTION",
+    "PART_DRIFT_DEG",
+    "PART_DRIFT_M",
     "ROOM_FRICTION",
     "SEPARATION_GAP_M",
     "TIPPED_TILT_DEG",
@@ -37,6 +39,15 @@ counts as tipped."""
 
 FELL_DROP_M = 0.05
 """An object that moves more than this distance along gravity during validation counts as fallen."""
+
+PART_DRIFT_DEG = 2.0
+"""A hinged part (a door, a lid, a room door's leaf) that turns more than this many degrees from
+where it is delivered while validation settles the world counts as moved: something pushes it, or
+it does not hold its pose."""
+
+PART_DRIFT_M = 0.01
+"""A sliding part (a drawer) that slides more than this from where it is delivered while
+validation settles the world counts as moved."""
 
 SEPARATION_GAP_M = 0.003
 """Clearance left between siblings when deep initial interpenetrations are resolved geometrically.

@@ -12,7 +12,13 @@ import mujoco
 import numpy as np
 import structlog
 
-from scenemosaic.assets import HullCache, object_mesh_arrays, object_part_arrays, part_openings
+from scenemosaic.assets import (
+    HullCache,
+    object_mesh_arrays,
+    object_part_arrays,
+    part_openings,
+    with_room_doors,
+)
 from scenemosaic.physics._checks import (
     check_out_of_bounds,
     collision_report_for,
@@ -22,7 +28,14 @@ from scenemosaic.physics._checks import (
 )
 from scenemosaic.physics._hulls import HullInput, ObjectShape, object_shape
 from scenemosaic.physics._reports import ObjectMotion, ValidationReport
-from scenemosaic.physics._settings import FELL_DROP_M, TIPPED_TILT_DEG, SettleSettings, SimSettings
+from scenemosaic.physics._settings import (
+    FELL_DROP_M,
+    PART_DRIFT_DEG,
+    PART_DRIFT_M,
+    TIPPED_TILT_DEG,
+    SettleSettings,
+    SimSettings,
+)
 from scenemosaic.physics._simulate import run_until_settled
 from scenemosaic.physics._world import WorldBuilder, house_slabs
 from scenemosaic.scene import (
@@ -51,6 +64,7 @@ __all__ = [
 log = structlog.get_logger(__name__)
 
 _VALIDATION_SETTLE = SettleSettings(max_time_s=1.0)
+_HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
 _VALIDATION_MIN_S = 0.3
 
 
@@ -252,6 +266,8 @@ class _Settled:
     tipped: set[str] = field(default_factory=set)
     fell: set[str] = field(default_factory=set)
     simulated_s: float = 0.0
+    parts_moved: dict[str, float] = field(default_factory=dict)
+    """Joint name (``<object id>/<part>``) -> how far it moved (degrees or metres), past the drift allowed."""
 
 
 def _settle_world(builder: WorldBuilder, objects: Mapping[str, SceneObject]) -> _Settled:
@@ -278,14 +294,27 @@ def _settle_world(builder: WorldBuilder, objects: Mapping[str, SceneObject]) -> 
         if before.position[2] - after.position[2] > FELL_DROP_M:
             settled.fell.add(wb.object_id)
     settled.fell.update(outcome.blown_up)
+    model, data = world.model, world.data
+    for j in range(model.njnt):
+        kind = int(model.jnt_type[j])
+        if "/" not in model.joint(j).name or kind not in (_HINGE, _SLIDE):
+            continue
+        adr = int(model.jnt_qposadr[j])
+        drift = abs(float(data.qpos[adr]) - float(model.qpos0[adr]))
+        moved = math.degrees(drift) if kind == _HINGE else drift
+        if not math.isfinite(moved) or moved > (PART_DRIFT_DEG if kind == _HINGE else PART_DRIFT_M):
+            settled.parts_moved[model.joint(j).name] = round(moved, 4) if math.isfinite(moved) else math.inf
     return settled
 
 
 def _with_motion(static: ValidationReport, scene: Scene, settled: _Settled) -> ValidationReport:
     """``static`` completed with how ``scene``'s objects moved in a settled world (in the
-    scene's object order; an object that blew up counts as fallen)."""
+    scene's object order; an object that blew up counts as fallen), and which of its parts (its
+    room doors' leaves among them: ``scene`` as :func:`~scenemosaic.assets.with_room_doors`
+    hangs them) moved from where they are delivered."""
     ids = [o.id for o in scene.objects]
     motions = [settled.motions[i] for i in ids if i in settled.motions]
+    mine = set(ids)
     return static.model_copy(
         update={
             "tipped": [i for i in ids if i in settled.tipped],
@@ -293,6 +322,7 @@ def _with_motion(static: ValidationReport, scene: Scene, settled: _Settled) -> V
             "motions": motions,
             "max_displacement_m": max((m.displacement_m for m in motions), default=0.0),
             "simulated_s": settled.simulated_s,
+            "parts_moved": {k: v for k, v in settled.parts_moved.items() if k.rsplit("/", 1)[0] in mine},
         }
     )
 
@@ -333,10 +363,12 @@ def validate_scene(
     if isinstance(scene, House):
         return _validate_house(scene, base_dir, hull_cache=hull_cache, hulls=hulls, sim=sim)
     require_finite_poses(scene, "validate the scene")
-    shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in scene.objects}
-    static = _static_report(scene, shapes, shared=hulls is None)
-    settled = _settle_world(scene_world(scene, shapes, sim), {o.id: o for o in scene.objects})
-    return _with_motion(static, scene, settled)
+    hung = with_room_doors(scene)  # the world as the simulator exports deliver it, its doors hung
+    assert isinstance(hung, Scene)
+    shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in hung.objects}
+    static = _static_report(scene, {o.id: shapes[o.id] for o in scene.objects}, shared=hulls is None)
+    settled = _settle_world(scene_world(hung, shapes, sim), {o.id: o for o in hung.objects})
+    return _with_motion(static, hung, settled)
 
 
 def _validate_house(
@@ -350,9 +382,11 @@ def _validate_house(
     """:func:`validate_scene` of a whole house: each room's report by room id."""
     for scene in house.rooms:
         require_finite_poses(scene, "validate the house")
-    shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in house.objects}
-    settled = _settle_world(house_world(house, shapes, sim), {o.id: o for o in house.objects})
+    hung = with_room_doors(house)  # the world as the simulator exports deliver it, its doors hung
+    assert isinstance(hung, House)
+    shapes = {o.id: object_shape(o, base_dir, cache=hull_cache, hulls=hulls) for o in hung.objects}
+    settled = _settle_world(house_world(hung, shapes, sim), {o.id: o for o in hung.objects})
     return {
-        scene.id: _with_motion(_static_report(scene, {o.id: shapes[o.id] for o in scene.objects}, shared=hulls is None), scene, settled)
-        for scene in house.rooms
+        scene.id: _with_motion(_static_report(scene, {o.id: shapes[o.id] for o in scene.objects}, shared=hulls is None), with_doors, settled)
+        for scene, with_doors in zip(house.rooms, hung.rooms, strict=True)
     }

@@ -108,6 +108,7 @@ class RunReport(BaseModel):
                 "out of bounds": v.get("out_of_bounds", 0),
                 "tipped": v.get("tipped", 0),
                 "fell": v.get("fell", 0),
+                "parts moved": v.get("parts_moved", 0),
                 "blocked doors": len(v.get("door_blockers") or []),
                 "unreachable rooms": len(v.get("unreachable_rooms") or []),
                 "across walls": len(v.get("wall_crossings") or []),
@@ -118,6 +119,7 @@ class RunReport(BaseModel):
             "out of bounds": len(v.get("out_of_bounds", {}).get("objects", [])),
             "tipped": len(v.get("tipped", [])),
             "fell": len(v.get("fell", [])),
+            "parts moved": len(v.get("parts_moved") or {}),
         }
 
     def to_json(self) -> dict[str, Any]:

@@ -567,6 +567,7 @@ async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
         rec.detail["open_parts"] = sum(len(v) for v in part_openings(delivered).values())
     if isinstance(found, ValidationReport):  # a room's run: the room's report is the run's
         rec.detail.update(found.model_dump(mode="json", include=_summary_fields(found)))
+        rec.detail["parts_moved"] = len(found.parts_moved)
         run.validation = found.model_dump(mode="json")
         run.warnings += validation_warnings(found)
         return
@@ -585,13 +586,14 @@ async def _stage_validate(run: PipelineRun, rec: StageRecord) -> None:
         "out_of_bounds": sum(len(v["out_of_bounds"]["objects"]) for v in per_room.values()),
         "fell": sum(len(v["fell"]) for v in per_room.values()),
         "tipped": sum(len(v["tipped"]) for v in per_room.values()),
+        "parts_moved": sum(len(v["parts_moved"]) for v in per_room.values()),
         "max_displacement_m": max((v["max_displacement_m"] for v in per_room.values()), default=0.0),
         **checks,
     }
     rec.detail.update({k: v for k, v in run.validation.items() if not isinstance(v, dict | list) or len(v) <= 20})
 
 
-_MOTION_FIELDS = ("tipped", "fell", "motions", "max_displacement_m", "simulated_s")
+_MOTION_FIELDS = ("tipped", "fell", "motions", "max_displacement_m", "simulated_s", "parts_moved")
 """The fields of a ``ValidationReport`` the settling simulation fills (the rest are checks of the
 layout as it stands)."""
 
@@ -625,6 +627,9 @@ def validation_warnings(report: ValidationReport) -> list[str]:
         out.append("object(s) fell in the validation run: " + ", ".join(report.fell[:10]))
     if report.tipped:
         out.append("object(s) tipped in the validation run: " + ", ".join(report.tipped[:10]))
+    if report.parts_moved:
+        moved = [f"{k} ({v:g})" for k, v in list(report.parts_moved.items())[:10]]
+        out.append("part(s) moved from where they are delivered in the validation run: " + ", ".join(moved))
     out += [f"furniture nested inside each other's boxes: {pair}" for pair in report.nested]
     return out
 

@@ -182,10 +182,12 @@ def ceiling_mesh(room: Room) -> trimesh.Trimesh:
 def wall_ends(room: Room, wall: Wall) -> tuple[float, float]:
     """How far (metres) the slab of ``wall`` reaches past its start and past its end.
 
-    Its thickness where the floor turns away from the wall (a convex corner, or the wall simply
-    continues): the slab then closes the corner with its neighbour's. Nothing where the floor
-    goes on past the end (a reflex corner): there the neighbour's slab already covers the
-    corner, and reaching on would put wall inside the room.
+    Its thickness where the floor turns away from the wall (a convex corner): the slab then
+    closes the corner with its neighbour's. Nothing where the floor goes on past the end: a
+    reflex corner, where the neighbour's slab already covers the corner and reaching on would put
+    wall inside the room, or a straight one (the floor's edge runs on along the wall's line: the
+    next wall continues this one), where reaching on would fill the next wall's door or window
+    beside the seam.
     """
     floor = shapely.Polygon(room.floor)
     t = wall.thickness
@@ -193,8 +195,10 @@ def wall_ends(room: Room, wall: Wall) -> tuple[float, float]:
     start, end = np.asarray(wall.start, dtype=np.float64), np.asarray(wall.end, dtype=np.float64)
 
     def reach(corner: np.ndarray, away: np.ndarray) -> float:
-        probe = corner + away * (t / 2.0) + out * (t / 2.0)
-        return 0.0 if floor.contains(shapely.Point(probe)) else t
+        behind = corner + away * (t / 2.0) + out * (t / 2.0)  # past the corner, behind the wall
+        before = corner + away * (t / 2.0) - out * (t / 2.0)  # past the corner, in front of it
+        runs_on = floor.contains(shapely.Point(behind)) or floor.contains(shapely.Point(before))
+        return 0.0 if runs_on else t
 
     return reach(start, -d), reach(end, d)
 
@@ -212,8 +216,7 @@ def wall_panels(wall: Wall, ends: tuple[float, float] | None = None) -> list[Wal
     s_lo, s_hi = -before, wall.length + after
     holes: list[tuple[float, float, float, float]] = []
     for op in wall.openings:
-        a = max(op.center - op.width / 2.0, 0.0)
-        b = min(op.center + op.width / 2.0, wall.length)
+        a, b = wall.span(op)
         lo, hi = op.bottom, min(op.bottom + op.height, wall.height)
         if b - a > 1e-9 and hi - lo > 1e-9:
             holes.append((a, b, lo, hi))

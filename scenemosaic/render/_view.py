@@ -325,8 +325,7 @@ def _draw_plan_walls(
                 draw.polygon(_poly(rect(wall, piece.s0, piece.s1, piece.w0, piece.w1)), fill=WALL_COLOR)
     for wall, _ in walls:
         for op in wall.openings:
-            a = max(op.center - op.width / 2.0, 0.0)
-            b = min(op.center + op.width / 2.0, wall.length)
+            a, b = wall.span(op)
             if b <= a:
                 continue
             color = WINDOW_COLOR if op.kind == "window" else DOOR_COLOR

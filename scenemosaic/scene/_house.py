@@ -152,7 +152,7 @@ class House(_Model):
         A door (or ``opening``) cut into two rooms' walls at the same place — the walls' faces
         run opposite ways, lie at most a wall's thickness (plus :data:`DOOR_MATCH_TOLERANCE_M`)
         apart, and the two cuts overlap along the wall — is one doorway joining the rooms, as
-        wide as the overlap; a cut into a single room's wall leads outside (``rooms`` has one id).
+        wide as the overlap (each cut only as wide as its wall: :meth:`Wall.span`); a cut into a single room's wall leads outside (``rooms`` has one id).
         """
         cuts = [(s.id, w, op) for s in self.rooms for w in _walls(s) for op in w.openings if op.kind != "window"]
         used: set[int] = set()
@@ -161,7 +161,8 @@ class House(_Model):
             if i in used:
                 continue
             used.add(i)
-            lo, hi = op.center - op.width / 2, op.center + op.width / 2
+            lo, hi = wall.span(op)
+            width = hi - lo
             sides = [(rid, wall)]
             for j in range(i + 1, len(cuts)):
                 rj, wj, oj = cuts[j]
@@ -173,9 +174,12 @@ class House(_Model):
                 through = float(np.dot(cj - np.asarray(wall.start), wall.outward_normal))
                 if not -DOOR_MATCH_TOLERANCE_M <= through <= wall.thickness + DOOR_MATCH_TOLERANCE_M:
                     continue
-                along = float(np.dot(cj - np.asarray(wall.start), wall.direction))
-                olo, ohi = max(lo, along - oj.width / 2), min(hi, along + oj.width / 2)
-                if ohi - olo < min(op.width, oj.width) - 2 * DOOR_MATCH_TOLERANCE_M and ohi - olo < MIN_PASSAGE_M:
+                jlo, jhi = sorted(  # its span, clipped to its wall, measured along this wall
+                    float(np.dot(np.asarray(wj.start) + wj.direction * t - np.asarray(wall.start), wall.direction))
+                    for t in wj.span(oj)
+                )
+                olo, ohi = max(lo, jlo), min(hi, jhi)
+                if ohi - olo < min(width, jhi - jlo) - 2 * DOOR_MATCH_TOLERANCE_M and ohi - olo < MIN_PASSAGE_M:
                     continue
                 lo, hi = olo, ohi
                 sides.append((rj, wj))

@@ -381,6 +381,13 @@ class Wall(_Model):
     def outward_normal(self) -> FloatArray:
         return -self.inward_normal
 
+    def span(self, op: Opening) -> tuple[float, float]:
+        """Where ``op`` (one of its openings) runs along the wall, clipped to the wall's length:
+        ``(start, end)``, metres from the wall's start. A hole drawn past a wall's end (a source's
+        door beside a corner whose wall was cut back) is only as wide as the wall it is cut in;
+        the walls, the doorways and the doors hung in them all read it from here."""
+        return max(op.center - op.width / 2.0, 0.0), min(op.center + op.width / 2.0, self.length)
+
     def gap(self, points: FloatArray) -> float:
         """Distance (metres) from the wall's line into the room to the nearest of ``points``
         (``(n, 2)`` XY, e.g. an object's footprint); negative when one lies behind the wall."""
