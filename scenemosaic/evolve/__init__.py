@@ -55,6 +55,7 @@ from scenemosaic.evolve._context import (
     UnitContext,
     WallLine,
     parts_in_the_way,
+    screens_put_behind,
     unit_context,
     windows_in_the_way,
 )
@@ -130,6 +131,7 @@ __all__ = [
     "physical_check",
     "rule_archetypes",
     "rule_violations",
+    "screens_put_behind",
     "seat_slots",
     "seating_breaches",
     "unit_context",

@@ -55,7 +55,13 @@ from scenemosaic.evolve._analysis import (
     seating_breaches,
     wall_status,
 )
-from scenemosaic.evolve._context import UnitContext, WallLine, parts_in_the_way, windows_in_the_way
+from scenemosaic.evolve._context import (
+    UnitContext,
+    WallLine,
+    parts_in_the_way,
+    screens_put_behind,
+    windows_in_the_way,
+)
 from scenemosaic.evolve._plans import (
     MAX_PLANS,
     Placement,
@@ -749,13 +755,14 @@ def _seated_all(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> Plac
 
 def _blocks_use(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:
     """Whether a placement puts a piece in the way of a drawer, door or lid the stabilized scene lets
-    open (:func:`~scenemosaic.evolve.parts_in_the_way`), or tall furniture before more windows than
-    it stood before (:func:`~scenemosaic.evolve.windows_in_the_way`)."""
+    open (:func:`~scenemosaic.evolve.parts_in_the_way`), tall furniture before more windows than
+    it stood before (:func:`~scenemosaic.evolve.windows_in_the_way`), or a bed or sofa with its back
+    to a screen (:func:`~scenemosaic.evolve.screens_put_behind`)."""
     trial = layout.copy()
     for k, (u, v, r) in placed.items():
         trial.set_rotation(k, r)
         trial.set_center(k, u, v)
-    return bool(parts_in_the_way(trial, ctx, floor=True) or windows_in_the_way(trial, ctx))
+    return bool(parts_in_the_way(trial, ctx, floor=True) or windows_in_the_way(trial, ctx) or screens_put_behind(trial, ctx))
 
 
 def _plausible(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:

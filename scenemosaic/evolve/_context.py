@@ -23,6 +23,7 @@ from scenemosaic.scene import (
     descendants,
     door_zones,
     functional_relations,
+    screens_behind,
     surface_for,
     traits,
 )
@@ -145,6 +146,10 @@ class UnitContext:
     windows_blocked: Mapping[str, list[str]] = field(default_factory=dict)
     """The windows furniture stands before in the stabilized scene (``scene.blocked_windows``): a
     floor layout may leave these as they are, and must not add to them (:func:`windows_in_the_way`)."""
+    screens_behind: list[tuple[str, str]] = field(default_factory=list)
+    """The beds and lounge seats with a screen behind their backs in the stabilized scene
+    (``scene.screens_behind``): a floor layout may leave these as they are, and must not add to
+    them (:func:`screens_put_behind`)."""
     short_parts: Mapping[str, list[str]] = field(default_factory=dict)
     """The drawers, doors and lids that cannot open as far as their use needs in the stabilized
     scene, by object id (``assets.short_parts``): a layout may leave these as they are, and must
@@ -221,6 +226,7 @@ def unit_context(
     ctx.scene, ctx.base_dir = scene, base_dir
     if unit.anchor_kind == "floor":
         ctx.windows_blocked = blocked_windows(scene)
+        ctx.screens_behind = screens_behind(scene)
     ctx.short_parts = dict(short_parts(scene, base_dir) if short is None else short)
     for oid in unit.children:
         swing = part_reach(scene.get(oid), base_dir)
@@ -367,3 +373,15 @@ def windows_in_the_way(layout: UnitLayout, ctx: UnitContext) -> list[str]:
     if len(now) <= len(ctx.windows_blocked):
         return []
     return [f"{', '.join(ids)} before window {w}" for w, ids in sorted(now.items()) if w not in ctx.windows_blocked]
+
+
+def screens_put_behind(layout: UnitLayout, ctx: UnitContext) -> list[str]:
+    """The beds and lounge seats a floor unit's pieces, posed as ``layout`` says in its stabilized
+    scene, newly turn their backs on a screen (``scene.screens_behind``: a bed's head against the
+    TV's wall, a sofa backed onto its TV), as sentences (empty when none)."""
+    if ctx.scene is None or not ctx.floor:
+        return []
+    from scenemosaic.evolve._views import scene_with
+
+    now = screens_behind(scene_with(ctx.scene, layout))
+    return [f"{piece} turns its back on {screen}" for piece, screen in now if (piece, screen) not in ctx.screens_behind]

@@ -78,7 +78,8 @@ def _evaluate_house(
       variant: ``house_nav``, ``unreachable_rooms``, how many ``door_blockers`` and
       ``wall_crossings``, ``RelKeep``, the smallest over its rooms, 1.0 for a house without
       rooms to compare, ``parts_blocked``, how many drawers, doors and lids of its rooms cannot
-      open, and ``windows_blocked``, how many windows furniture stands before, as the base's) and, with variants, ``diversity`` (:func:`house_diversity`),
+      open, ``windows_blocked``, how many windows furniture stands before, and ``screens_behind``, how
+      many beds and sofas have a screen behind their backs, as the base's) and, with variants, ``diversity`` (:func:`house_diversity`),
       ``rooms_rearranged`` (rooms with furniture some variant moves: :func:`moved_furniture`) and
       ``rooms_not_rearranged`` (the ids of rooms with furniture no variant moves).
 
@@ -99,6 +100,7 @@ def _evaluate_house(
     house: dict[str, Any] = {"base": {k: base_figures[k] for k in HOUSE_BASE_FIGURES}, "variants": []}
     house["base"]["parts_blocked"] = sum(len(r["base"]["parts_blocked"]) for r in rooms.values())
     house["base"]["windows_blocked"] = sum(len(r["base"]["windows_blocked"]) for r in rooms.values())
+    house["base"]["screens_behind"] = sum(len(r["base"]["screens_behind"]) for r in rooms.values())
     for i, (v, c) in enumerate(zip(variants, checks, strict=True)):
         keep = [relkeep(b, s) for b, s in zip(base.rooms, v.rooms, strict=True)]
         house["variants"].append(
@@ -110,6 +112,7 @@ def _evaluate_house(
                 "RelKeep": round(min(keep), 4) if keep else 1.0,
                 "parts_blocked": sum(len(r["variants"][i]["parts_blocked"]) for r in rooms.values()),
                 "windows_blocked": sum(len(r["variants"][i]["windows_blocked"]) for r in rooms.values()),
+                "screens_behind": sum(len(r["variants"][i]["screens_behind"]) for r in rooms.values()),
             }
         )
     if variants:

@@ -62,6 +62,7 @@ from scenemosaic.scene import (
     functional_holds,
     functional_relations,
     mask_iou,
+    screens_behind,
 )
 
 __all__ = [
@@ -378,7 +379,7 @@ def evaluate_scenes(base: Scene, variants: Sequence[Scene] = (), *, base_dir: st
     out: dict[str, object] = {
         "base": {
             **scene_metrics(base, base_dir, hull_cache=hull_cache), "parts_blocked": blocked_parts(base, base_dir),
-            "windows_blocked": blocked_windows(base),
+            "windows_blocked": blocked_windows(base), "screens_behind": [list(p) for p in screens_behind(base)],
         }
     }  # fmt: skip
     kinds = [relkeep_by_kind(base, v) for v in variants]
@@ -386,6 +387,7 @@ def evaluate_scenes(base: Scene, variants: Sequence[Scene] = (), *, base_dir: st
         {
             **scene_metrics(v, d, hull_cache=hull_cache), "RelKeep": round(relkeep(base, v), 4), "RelKeep_by_kind": k,
             "parts_blocked": blocked_parts(v, d), "windows_blocked": blocked_windows(v),
+            "screens_behind": [list(p) for p in screens_behind(v)],
         }
         for v, d, k in zip(variants, dirs, kinds, strict=True)
     ]  # fmt: skip

@@ -40,6 +40,7 @@ from scenemosaic.scene._expressions import (
 )
 from scenemosaic.scene._files import confined_path, missing_file, not_a_regular_file, real_path, write_atomic
 from scenemosaic.scene._functional import (
+    BEHIND_DEG,
     FACES_DEG,
     FUNCTIONAL_KINDS,
     OPENING_CLEAR_M,
@@ -54,6 +55,7 @@ from scenemosaic.scene._functional import (
     functional_relations,
     on_backing_wall,
     points_at,
+    screens_behind,
 )
 from scenemosaic.scene._geometry import (
     FloatArray,
@@ -195,6 +197,7 @@ from scenemosaic.scene._walkable import (
 )
 
 __all__ = [
+    "BEHIND_DEG",
     "CEILING",
     "CEILING_LAMP_CATEGORIES",
     "CLUTTER_METADATA",
@@ -342,6 +345,7 @@ __all__ = [
     "sanitize_id",
     "sat_overlap",
     "scale_problem",
+    "screens_behind",
     "size_problem",
     "split_expressions",
     "surface_for",

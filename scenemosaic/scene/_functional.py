@@ -34,6 +34,7 @@ from scenemosaic.scene._tree import build_structure, with_world_poses
 from scenemosaic.scene._walkable import is_thin
 
 __all__ = [
+    "BEHIND_DEG",
     "FACES_DEG",
     "FACES_REACH_M",
     "FUNCTIONAL_KINDS",
@@ -51,6 +52,7 @@ __all__ = [
     "functional_relations",
     "on_backing_wall",
     "points_at",
+    "screens_behind",
 ]
 
 FunctionalKind = Literal["faces", "over", "under", "beside", "flanks"]
@@ -269,6 +271,45 @@ def functional_relations(scene: Scene) -> list[Functional]:
         if len(sides) == 2:
             out.append(Functional("flanks", bed.id, tuple(sorted(sides.values())), bed.id))
     return sorted(out, key=lambda f: (FUNCTIONAL_KINDS.index(f.kind), f.subject, f.group))
+
+
+BEHIND_DEG = 60.0
+"""A screen stands behind a bed or a lounge seat when the direction from the piece to the screen
+lies within this many degrees of the piece's back (its front turned round): the sleeper's head or
+the sitter's back is to it."""
+
+
+def _watchers(scene: Scene) -> list[SceneObject]:
+    """The pieces one watches a screen from: beds and lounge seats (sofas, armchairs) on the floor."""
+    return [o for o in scene.objects if _on_floor(scene, o) and (_is_bed(o) or _lounge(o))]
+
+
+def _screens(scene: Scene) -> list[SceneObject]:
+    """The room's screens: its televisions, else (a room whose TV is part of its stand) its TV stands."""
+    tvs = [o for o in scene.objects if _cat(o) == "television"]
+    return tvs or [o for o in scene.objects if _cat(o) == "tv_stand"]
+
+
+def screens_behind(scene: Scene) -> list[tuple[str, str]]:
+    """``(piece id, screen id)`` for every bed or lounge seat with a screen behind its back: the
+    screen within :data:`SCREEN_REACH_M` of it, in the direction of its back (within
+    :data:`BEHIND_DEG`) and turned to the piece's side of it (its front leads towards the piece):
+    a TV on the wall a bed's head stands against, a sofa backed onto the TV it was grouped to
+    watch. A screen at the foot of the bed, or on a side wall, is not behind; nor is one whose
+    back is to the piece too (two pieces back to back)."""
+    out = []
+    screens = _screens(scene)
+    for piece in _watchers(scene):
+        centre, front, outline = _xy(piece), _front(piece), _foot(piece)
+        for screen in screens:
+            d = _xy(screen) - centre
+            n = float(np.linalg.norm(d))
+            if n < 1e-9 or float(outline.distance(_foot(screen))) > SCREEN_REACH_M:
+                continue
+            behind = math.degrees(math.acos(max(-1.0, min(1.0, float(d @ -front) / n)))) <= BEHIND_DEG
+            if behind and float(_front(screen) @ -d) > 0.0:
+                out.append((piece.id, screen.id))
+    return sorted(out)
 
 
 def backing_walls(scene: Scene) -> list[tuple[str, str]]:

@@ -84,7 +84,7 @@ def test_evaluate_prints_the_metrics_of_an_output_folder(run: Path) -> None:
     result = CliRunner().invoke(app, ["evaluate", str(run)])
     assert result.exit_code == 0, result.output
     data = json.loads(result.output)
-    assert set(data["base"]) == {"COL", "OOB", "NAV", "PLAUS", "PARTS", "parts_blocked", "windows_blocked"}
+    assert set(data["base"]) == {"COL", "OOB", "NAV", "PLAUS", "PARTS", "parts_blocked", "windows_blocked", "screens_behind"}
     assert len(data["variants"]) == 3
     assert data["diversity"]["pairs"] == 3 and data["semantic_judge"]["POS"] is None
     report = json.loads((run / "report.json").read_text())
