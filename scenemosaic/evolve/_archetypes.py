@@ -861,7 +861,7 @@ def rule_archetypes(layout: UnitLayout, ctx: UnitContext, limit: int | None = No
             or not doors_kept(layout, ctx, placed)
         ):
             continue
-        if _blocks_use(layout, ctx, placed):
+        if _blocks_use(layout, ctx, looks):  # the seats as the loop will seat them: a chair may stand before a window
             continue
         kept.append((cand, placed))
         plans_kept += plan

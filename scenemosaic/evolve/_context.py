@@ -121,8 +121,9 @@ class UnitContext:
     context was made). They are not obstacles; the passage rule sees them where they will hang."""
     keep_clear: list[Any] = field(default_factory=list)
     """What a variant must not newly put a piece in, as (u, v) shapely polygons: on a floor unit
-    the clearance zone in front of each door (``scene.door_zones``: no seat slot, no plan, no
-    archetype takes it); on a wall unit the stretch of each door and window in the wall, from the
+    the clearance zone in front of each door, as deep as the door is wide (``scene.door_zones``
+    with ``depth=None``: where its leaves swing, and what SceneEval's Opening Clearance looks at;
+    no seat slot, no plan, no archetype takes it); on a wall unit the stretch of each door and window in the wall, from the
     floor to the opening's top (a picture hung there blocks the door or covers the window)."""
     faces_outside: list[tuple[str, Any, tuple[float, float]]] = field(default_factory=list)
     """Floor units: children that face a piece of another unit which stays put for them (a sofa
@@ -283,9 +284,11 @@ def unit_context(
     if unit.anchor_kind == "floor":
         from shapely.geometry import Polygon
 
-        for zone in door_zones(scene):
-            pts = np.asarray(zone.polygon.exterior.coords)[:, :2]
-            ctx.keep_clear.append(Polygon([surface.to_uv(np.array([x, y, 0.0])) for x, y in pts]))
+        for zone in door_zones(scene, depth=None):  # as deep as each door is wide: where its leaves swing
+            for piece in getattr(zone.polygon, "geoms", [zone.polygon]):
+                if piece.geom_type == "Polygon":
+                    pts = np.asarray(piece.exterior.coords)[:, :2]
+                    ctx.keep_clear.append(Polygon([surface.to_uv(np.array([x, y, 0.0])) for x, y in pts]))
         for o in kids:
             ctx.riders[o.id] = [ctx.surface.project(scene.get(d).corners()) for d in sorted(descendants(scene, o.id))]
         for zone in door_zones(scene, kinds=("opening",)):
@@ -363,15 +366,15 @@ def parts_in_the_way(layout: UnitLayout, ctx: UnitContext, *, floor: bool = Fals
 
 def windows_in_the_way(layout: UnitLayout, ctx: UnitContext) -> list[str]:
     """The windows a floor unit's pieces, posed as ``layout`` says in its stabilized scene, newly stand
-    before (``scene.blocked_windows``: a tall piece backed against a window's stretch of wall), as
-    sentences (empty when none, or when no more windows are blocked than in the stabilized scene)."""
+    before (``scene.blocked_windows``: a tall piece backed against a window's stretch of wall, or a
+    low one carrying something that rises above the sill), as sentences (empty when none): a window
+    the stabilized scene keeps clear stays clear, whatever the layout clears elsewhere (SceneEval's
+    Opening Clearance compares window by window)."""
     if ctx.scene is None or not ctx.floor:
         return []
     from scenemosaic.evolve._views import scene_with
 
     now = blocked_windows(scene_with(ctx.scene, layout))
-    if len(now) <= len(ctx.windows_blocked):
-        return []
     return [f"{', '.join(ids)} before window {w}" for w, ids in sorted(now.items()) if w not in ctx.windows_blocked]
 
 

@@ -50,7 +50,7 @@ from scenemosaic.evolve._analysis import (
     physical_check,
     rule_violations,
 )
-from scenemosaic.evolve._context import UnitContext, parts_in_the_way
+from scenemosaic.evolve._context import UnitContext, parts_in_the_way, screens_put_behind, windows_in_the_way
 from scenemosaic.evolve._memory import LayoutMemory, RoundRecord
 from scenemosaic.evolve._views import scene_with, unit_view_png
 from scenemosaic.models import Model, ModelSettings
@@ -287,10 +287,11 @@ async def evolve_layout(
         result.settle_moves_m = moves
         result.check = physical_check(settled, ctx, shapes)
         result.violations = rule_violations(settled, ctx, result.check)
-        result.violations += parts_in_the_way(settled, ctx)
-        if archetype is None and result.violations and not parts_in_the_way(layout, ctx):
-            # the refined original blocks a part the stabilized layout kept free (settling slid soap
-            # back into a lid's way): the stabilized layout, as it stood, if it breaks nothing
+        result.violations += _use_violations(settled, ctx)
+        if archetype is None and result.violations and not _use_violations(layout, ctx):
+            # the refined original blocks a part, a window or a screen the stabilized layout kept
+            # (settling slid soap back into a lid's way): the stabilized layout, as it stood, if it
+            # breaks nothing
             check = physical_check(layout, ctx, shapes)
             kept = rule_violations(layout, ctx, check)
             if check.clean and not kept:
@@ -328,3 +329,13 @@ def _settle(
     moves = max((math.dist(out.pose(k).position, layout.pose(k).position) for k in layout.ids), default=0.0)
     return out, moves
 
+
+
+def _use_violations(layout: UnitLayout, ctx: UnitContext) -> list[str]:
+    """What a finished layout takes from the use of the room that its stabilized layout kept: a
+    part it keeps from opening (a unit of what stands on furniture:
+    :func:`~scenemosaic.evolve.parts_in_the_way`), a window a floor piece newly stands before
+    (:func:`~scenemosaic.evolve.windows_in_the_way`: the loop may move a chair there after its
+    pattern was checked) and a bed or sofa newly turned from its screen
+    (:func:`~scenemosaic.evolve.screens_put_behind`)."""
+    return [*parts_in_the_way(layout, ctx), *windows_in_the_way(layout, ctx), *screens_put_behind(layout, ctx)]

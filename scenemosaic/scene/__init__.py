@@ -69,6 +69,7 @@ from scenemosaic.scene._geometry import (
 from scenemosaic.scene._house import (
     DOOR_CLEARANCE_DEPTH_M,
     DOOR_MATCH_TOLERANCE_M,
+    DOOR_ZONE_ROOM_LEFT_M,
     HOUSE_CELL_M,
     MIN_PASSAGE_M,
     WALL_CROSSING_TOLERANCE_M,
@@ -205,6 +206,7 @@ __all__ = [
     "CONCAVE_FOOTPRINTS",
     "DOOR_CLEARANCE_DEPTH_M",
     "DOOR_MATCH_TOLERANCE_M",
+    "DOOR_ZONE_ROOM_LEFT_M",
     "FACES_DEG",
     "FIXTURE_CATEGORIES",
     "FLOOR",

@@ -39,6 +39,7 @@ from scenemosaic.scene._walkable import ROBOT_RADIUS, WALK_MAX_HEIGHT, FloorRast
 __all__ = [
     "DOOR_CLEARANCE_DEPTH_M",
     "DOOR_MATCH_TOLERANCE_M",
+    "DOOR_ZONE_ROOM_LEFT_M",
     "HOUSE_CELL_M",
     "MIN_PASSAGE_M",
     "WALL_CROSSING_TOLERANCE_M",
@@ -267,11 +268,33 @@ class DoorZone:
     height: float
 
 
+DOOR_ZONE_ROOM_LEFT_M = 1.2
+"""A door's zone as deep as the door is wide (``door_zones(..., depth=None)``) leaves at least this
+much of the room beyond it (metres, along the door's normal to the far wall): a narrow room (a
+1.8 m wide living room with a double door along it) keeps :data:`DOOR_CLEARANCE_DEPTH_M`, else its
+furniture would have nowhere to go."""
+
+
+def _swing_depth(floor: Polygon, centre: FloatArray, inward: FloatArray, width: float) -> float:
+    """How deep the zone of a door ``width`` wide is when it reaches as deep as the door is wide:
+    that, but no deeper than leaves :data:`DOOR_ZONE_ROOM_LEFT_M` of the room before the far wall,
+    and never shallower than :data:`DOOR_CLEARANCE_DEPTH_M`."""
+    from shapely.geometry import LineString
+
+    ray = LineString([tuple(centre + inward * 1e-3), tuple(centre + inward * 100.0)]).intersection(floor)
+    parts = getattr(ray, "geoms", [ray])
+    room = min((float(p.length) for p in parts if not p.is_empty), default=0.0) + 1e-3
+    return max(DOOR_CLEARANCE_DEPTH_M, min(width, room - DOOR_ZONE_ROOM_LEFT_M))
+
+
 def door_zones(
-    house: House | Scene, depth: float = DOOR_CLEARANCE_DEPTH_M, kinds: tuple[str, ...] = ("door",)
+    house: House | Scene, depth: float | None = DOOR_CLEARANCE_DEPTH_M, kinds: tuple[str, ...] = ("door",)
 ) -> list[DoorZone]:
     """The clearance zone of every door on every side it opens onto: a rectangle as wide as the
-    door, ``depth`` deep from the wall's face into the room, clipped to the room's floor. An open
+    door, ``depth`` deep from the wall's face into the room (``None``: as deep as the door is wide,
+    where its leaves swing and how far SceneEval's Opening Clearance looks, but leaving
+    :data:`DOOR_ZONE_ROOM_LEFT_M` of the room beyond it, and at least :data:`DOOR_CLEARANCE_DEPTH_M`),
+    clipped to the room's floor. An open
     stretch of wall (kind ``opening``: open-plan rooms) is no door and has no zone; reachability
     (:func:`house_walkable`) covers it. ``kinds=("opening",)`` gives the same rectangles in front
     of the open stretches instead (the evolution keeps them reachable).
@@ -290,7 +313,8 @@ def door_zones(
                 if op.kind not in kinds:
                     continue
                 c = _opening_centre(wall, op)
-                half, inward = wall.direction * (op.width / 2), wall.inward_normal * depth
+                deep = _swing_depth(floor, c, wall.inward_normal, op.width) if depth is None else depth
+                half, inward = wall.direction * (op.width / 2), wall.inward_normal * deep
                 rect = Polygon([tuple(c - half), tuple(c + half), tuple(c + half + inward), tuple(c - half + inward)])
                 zone = rect.intersection(floor)
                 if not zone.is_empty:
@@ -505,31 +529,51 @@ def _seams(owner: np.ndarray, through: np.ndarray) -> np.ndarray:
     return out
 
 
-WINDOW_REACH_M = 0.3
-"""A piece whose footprint comes this near a window's stretch of wall stands before it."""
+WINDOW_REACH_M = 0.5
+"""A piece whose footprint comes this near a window's stretch of wall stands before it (SceneEval's
+Opening Clearance looks as far in front of a window: its ``window_front_extrude_distance``)."""
 
 
 def blocked_windows(scene: Scene) -> dict[str, list[str]]:
     """The windows of ``scene``'s walls that furniture stands before, by ``<wall id>/window_<k>`` (``k``
-    counting the wall's openings), each with the pieces (object ids): a piece on the floor whose top
-    rises above the window's sill and whose footprint comes within :data:`WINDOW_REACH_M` of the
-    window's stretch of wall (a wardrobe backed against it; a low bench beneath it does not block)."""
+    counting the wall's openings), each with the pieces (object ids of floor pieces): a piece on the
+    floor, or something it carries (a TV on its stand, a plant on a table), whose top rises above
+    the window's sill and whose footprint comes within :data:`WINDOW_REACH_M` of the window's
+    stretch of wall (a wardrobe backed against it, a TV on a low stand before it; a low bench
+    beneath it, with nothing tall on it, does not block)."""
     from shapely.geometry import LineString
 
     if scene.room is None:
         return {}
+    ids = {o.id for o in scene.objects}
+
+    def standing(oid: str) -> str | None:
+        """The floor piece ``oid`` stands on, itself included (``None``: hung from a wall or the ceiling)."""
+        seen: set[str] = set()
+        while oid not in seen:
+            seen.add(oid)
+            rel = scene.support_of(oid)
+            if rel is None or rel.parent == FLOOR:
+                return oid
+            if rel.parent not in ids:
+                return None
+            oid = rel.parent
+        return None
+
+    tall = [(o, standing(o.id)) for o in scene.objects]
     out: dict[str, list[str]] = {}
-    standing = [o for o in scene.objects if (rel := scene.support_of(o.id)) is None or rel.parent == FLOOR]
     for wall in scene.room.walls:
         start, direction = np.asarray(wall.start, dtype=np.float64), np.asarray(wall.direction, dtype=np.float64)
         for k, op in enumerate(wall.openings):
             if op.kind != "window":
                 continue
-            span = LineString([start + direction * (op.center - op.width / 2), start + direction * (op.center + op.width / 2)])
-            found = sorted(
-                o.id for o in standing
-                if float(o.aabb()[1][2]) > op.bottom + 1e-3 and Polygon(o.footprint()).distance(span) <= WINDOW_REACH_M
-            )  # fmt: skip
+            lo, hi = wall.span(op)
+            span = LineString([start + direction * lo, start + direction * hi])
+            found = sorted({
+                root for o, root in tall
+                if root is not None and float(o.aabb()[1][2]) > op.bottom + 1e-3
+                and Polygon(o.footprint()).distance(span) <= WINDOW_REACH_M
+            })  # fmt: skip
             if found:
                 out[f"{wall.id}/window_{k}"] = found
     return out

@@ -82,3 +82,26 @@ def test_a_tall_piece_before_a_window_blocks_it_and_a_low_one_does_not() -> None
     assert report["base"]["windows_blocked"] == {} and report["variants"][0]["windows_blocked"] == {window: ["wardrobe"]}
     house = evaluate(House(id="h", rooms=[low]), [House(id="h", rooms=[tall])])
     assert house["house"]["base"]["windows_blocked"] == 0 and house["house"]["variants"][0]["windows_blocked"] == 1
+
+
+def test_a_low_table_carrying_a_tall_plant_before_a_window_blocks_it() -> None:
+    """SceneEval's window clearance sees what stands on furniture too: a table below the sill with a
+    plant rising above it, 0.4 m from the window, blocks it (by the table, the piece a layout moves)."""
+    room = Room.rectangle(0, 0, 4.0, 4.0)
+    north = room.walls[2].model_copy(update={"openings": [Opening(kind="window", center=2.0, width=1.2, bottom=1.0, height=1.0)]})
+    room = room.model_copy(update={"walls": [*room.walls[:2], north, *room.walls[3:]]})
+    table = SceneObject(
+        id="table", category="side_table", asset=AssetRef(kind="procedural", extents=(0.6, 0.5, 0.75)),
+        pose=Pose.from_yaw((2.0, 4.0 - 0.25 - 0.4, 0.0), 0.0),
+    )  # fmt: skip
+    plant = SceneObject(
+        id="plant", category="plant", asset=AssetRef(kind="procedural", extents=(0.3, 0.3, 0.5)),
+        pose=Pose.from_yaw((2.0, 4.0 - 0.25 - 0.4, 0.75), 0.0),
+    )  # fmt: skip
+    bare = Scene(id="r", room=room, objects=[table], relations=[Relation(kind="attach", child="table", parent="floor")])
+    assert blocked_windows(bare) == {}
+    dressed = bare.model_copy(update={
+        "objects": [table, plant],
+        "relations": [*bare.relations, Relation(kind="attach", child="plant", parent="table")],
+    })  # fmt: skip
+    assert blocked_windows(dressed) == {"wall_2/window_0": ["table"]}

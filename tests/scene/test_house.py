@@ -68,6 +68,13 @@ def test_a_door_zone_is_the_door_wide_and_the_depth_deep_on_each_side() -> None:
     assert zones["b"].bounds == pytest.approx((4.0 + HALF, 1.05, 4.0 + HALF + DOOR_CLEARANCE_DEPTH_M, 1.95))
 
 
+def test_a_door_zone_as_deep_as_the_door_is_wide_holds_where_its_leaf_swings() -> None:
+    """``depth=None``: the variants' zone (and SceneEval's Opening Clearance box) is the door's width deep."""
+    zones = {z.room_id: z.polygon for z in door_zones(two_rooms(), depth=None)}
+    assert zones["a"].bounds == pytest.approx((4.0 - HALF - 0.9, 1.05, 4.0 - HALF, 1.95))
+    assert zones["b"].bounds == pytest.approx((4.0 + HALF, 1.05, 4.0 + HALF + 0.9, 1.95))
+
+
 def test_door_blockers_are_what_a_robot_would_walk_into() -> None:
     in_front = box("cabinet", 3.6, 1.5, (0.4, 0.4, 0.8))
     lamp_above = box("lamp", 3.6, 1.2, (0.3, 0.3, 0.2), z=2.2)  # hung above the zone: walked under
