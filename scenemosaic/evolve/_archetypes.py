@@ -755,9 +755,9 @@ def _seated_all(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> Plac
 
 def _blocks_use(layout: UnitLayout, ctx: UnitContext, placed: Placement) -> bool:
     """Whether a placement puts a piece in the way of a drawer, door or lid the stabilized scene lets
-    open (:func:`~scenemosaic.evolve.parts_in_the_way`), tall furniture before more windows than
-    it stood before (:func:`~scenemosaic.evolve.windows_in_the_way`), or a bed or sofa with its back
-    to a screen (:func:`~scenemosaic.evolve.screens_put_behind`)."""
+    open (:func:`~scenemosaic.evolve.parts_in_the_way`), furniture before a window the stabilized
+    scene keeps clear (:func:`~scenemosaic.evolve.windows_in_the_way`), or a bed or sofa with its
+    back to a screen (:func:`~scenemosaic.evolve.screens_put_behind`)."""
     trial = layout.copy()
     for k, (u, v, r) in placed.items():
         trial.set_rotation(k, r)

@@ -123,8 +123,9 @@ class UnitContext:
     """What a variant must not newly put a piece in, as (u, v) shapely polygons: on a floor unit
     the clearance zone in front of each door, as deep as the door is wide (``scene.door_zones``
     with ``depth=None``: where its leaves swing, and what SceneEval's Opening Clearance looks at;
-    no seat slot, no plan, no archetype takes it); on a wall unit the stretch of each door and window in the wall, from the
-    floor to the opening's top (a picture hung there blocks the door or covers the window)."""
+    no seat slot, no plan, no archetype takes it); on a wall unit the stretch of each door and
+    window in the wall, from the floor to the opening's top (a picture hung there blocks the door
+    or covers the window)."""
     faces_outside: list[tuple[str, Any, tuple[float, float]]] = field(default_factory=list)
     """Floor units: children that face a piece of another unit which stays put for them (a sofa
     facing the TV hung on the wall across the room; not a TV standing on one of the unit's own

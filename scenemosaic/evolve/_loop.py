@@ -330,7 +330,6 @@ def _settle(
     return out, moves
 
 
-
 def _use_violations(layout: UnitLayout, ctx: UnitContext) -> list[str]:
     """What a finished layout takes from the use of the room that its stabilized layout kept: a
     part it keeps from opening (a unit of what stands on furniture:

@@ -64,8 +64,8 @@ __all__ = [
 log = structlog.get_logger(__name__)
 
 _VALIDATION_SETTLE = SettleSettings(max_time_s=1.0)
-_HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
 _VALIDATION_MIN_S = 0.3
+_HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
 
 
 def scene_world(

@@ -153,7 +153,8 @@ class House(_Model):
         A door (or ``opening``) cut into two rooms' walls at the same place — the walls' faces
         run opposite ways, lie at most a wall's thickness (plus :data:`DOOR_MATCH_TOLERANCE_M`)
         apart, and the two cuts overlap along the wall — is one doorway joining the rooms, as
-        wide as the overlap (each cut only as wide as its wall: :meth:`Wall.span`); a cut into a single room's wall leads outside (``rooms`` has one id).
+        wide as the overlap (each cut only as wide as its wall: :meth:`Wall.span`); a cut into a
+        single room's wall leads outside (``rooms`` has one id).
         """
         cuts = [(s.id, w, op) for s in self.rooms for w in _walls(s) for op in w.openings if op.kind != "window"]
         used: set[int] = set()
