@@ -382,10 +382,15 @@ def windows_in_the_way(layout: UnitLayout, ctx: UnitContext) -> list[str]:
 def screens_put_behind(layout: UnitLayout, ctx: UnitContext) -> list[str]:
     """The beds and lounge seats a floor unit's pieces, posed as ``layout`` says in its stabilized
     scene, newly turn their backs on a screen (``scene.screens_behind``: a bed's head against the
-    TV's wall, a sofa backed onto its TV), as sentences (empty when none)."""
+    TV's wall, a sofa backed onto its TV), as sentences (empty when none). A seat of a table or
+    desk (``ctx.seat_table``: an armchair at the dining table) faces its table, not the screen."""
     if ctx.scene is None or not ctx.floor:
         return []
     from scenemosaic.evolve._views import scene_with
 
     now = screens_behind(scene_with(ctx.scene, layout))
-    return [f"{piece} turns its back on {screen}" for piece, screen in now if (piece, screen) not in ctx.screens_behind]
+    return [
+        f"{piece} turns its back on {screen}"
+        for piece, screen in now
+        if (piece, screen) not in ctx.screens_behind and piece not in ctx.seat_table
+    ]
