@@ -57,6 +57,7 @@ from scenemosaic.assets._objects import (
 from scenemosaic.assets._opening import (
     OPEN_STATE_KEY,
     kept_free,
+    open_part_footprints,
     open_scene,
     part_blockers,
     part_openings,
@@ -134,6 +135,7 @@ __all__ = [
     "object_mesh_arrays",
     "object_part_arrays",
     "object_part_meshes",
+    "open_part_footprints",
     "open_scene",
     "opening",
     "part_blockers",

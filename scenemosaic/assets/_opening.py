@@ -34,6 +34,7 @@ __all__ = [
     "OPEN_STATE_KEY",
     "SWEPT_SAMPLES",
     "kept_free",
+    "open_part_footprints",
     "open_scene",
     "part_blockers",
     "part_openings",
@@ -410,6 +411,27 @@ def swept_footprints(
                 if corners[:, 2].max() <= low + 0.01 or corners[:, 2].min() >= high:
                     continue
                 out.append(np.asarray(shapely.MultiPoint(corners[:, :2]).convex_hull.exterior.coords)[:-1])
+    return out
+
+
+def open_part_footprints(scene: Scene, low: float, high: float, base_dir: str | Path | None = None) -> list[FloatArray]:
+    """Seen from above, where the parts ``scene`` delivers open stand (:func:`part_openings`, each
+    value held within its part's limits) between the heights ``low`` and ``high``: one convex
+    footprint (its XY corners) per open part whose box reaches into that band. What a room's door
+    is hung clear of besides the furniture's closed boxes (a drawer delivered open)."""
+    opened = part_openings(scene)
+    out: list[FloatArray] = []
+    for holder in scene.objects:
+        values = opened.get(holder.id)
+        if not values:
+            continue
+        for part in object_articulation(holder, base_dir):
+            if part.name not in values or part.clamped(values[part.name]) == 0.0:
+                continue
+            corners = _part_box(holder, part, part.clamped(values[part.name])).corners()
+            if corners[:, 2].max() <= low + 0.01 or corners[:, 2].min() >= high:
+                continue
+            out.append(np.asarray(shapely.MultiPoint(corners[:, :2]).convex_hull.exterior.coords)[:-1])
     return out
 
 

@@ -20,8 +20,9 @@ The rules (``docs/articulation.md``):
 * **Which way.** The candidates, in this order: into the room that owns the door (a single
   room; in a house, the doorway's first room in the house's order), hung on its left jamb (seen
   from that room), then on its right one; then the same into the room on the other side. The
-  first whose leaf swings to its limit staying on its room's floor and clear of the furniture and
-  of the doors hung before it in that room (where their leaves swing) all the way (checked every
+  first whose leaf swings to its limit staying on its room's floor and clear of the furniture (and
+  of the parts it delivers open) and of the doors hung before it in that room (where their leaves
+  swing) all the way (checked every
   :data:`FIT_STEP_DEG`) is taken; when none does, a door hung before it is hung another way if
   that lets this one swing to its limit and the earlier one no less far; else the one that swings
   furthest clear.
@@ -48,7 +49,7 @@ from shapely.geometry.base import BaseGeometry
 from scenemosaic._memo import Memo
 from scenemosaic.assets._articulation import HingeSide, PartSpec, opening
 from scenemosaic.assets._furniture import ROOM_DOOR_CATEGORIES, ROOM_DOOR_HANDLE_PROUD_M, ROOM_DOOR_LEAF_M
-from scenemosaic.assets._opening import OPEN_STATE_KEY, part_openings
+from scenemosaic.assets._opening import OPEN_STATE_KEY, open_part_footprints, part_openings
 from scenemosaic.assets._procedural import procedural_articulation, procedural_parts
 from scenemosaic.scene import (
     AssetRef,
@@ -213,7 +214,8 @@ def _outline(obj: SceneObject, part: PartSpec, value: float) -> Polygon:
 
 
 def _obstacles(room: Scene, door: SceneObject) -> list[Polygon]:
-    """The footprints of the room's objects that reach the height of the door's leaves."""
+    """The footprints of the room's objects that reach the height of the door's leaves, and of the
+    parts the room delivers open there (a drawer left out: a leaf swung into it starts inside it)."""
     bottom = door.pose.position[2]
     top = bottom + door.asset.extents[2]
     out: list[Polygon] = []
@@ -223,6 +225,10 @@ def _obstacles(room: Scene, door: SceneObject) -> list[Polygon]:
             poly = Polygon([tuple(p) for p in obj.footprint()])
             if poly.is_valid and poly.area > 0:
                 out.append(poly)
+    for corners in open_part_footprints(room, float(bottom) + 0.02, float(top)):
+        poly = Polygon([tuple(p) for p in corners])
+        if poly.is_valid and poly.area > 0:
+            out.append(poly)
     return out
 
 
