@@ -195,7 +195,7 @@ def _opening_zones(scene: Scene, wall_id: str, surface: UnitSurface) -> list[Any
     for op in wall.openings:
         if op.kind == "opening":
             continue
-        lo, hi = op.center - op.width / 2, op.center + op.width / 2
+        lo, hi = wall.span(op)
         bottom = -1.0 if op.kind == "door" else op.bottom
         top = op.bottom + op.height
         corners = []
@@ -244,7 +244,7 @@ def unit_context(
             b = surface.to_uv(np.array([w.end[0], w.end[1], 0.0]))
             n = np.array([w.inward_normal[0], w.inward_normal[1], 0.0])
             inward = (float(n @ surface.u_axis), float(n @ surface.v_axis))
-            cuts = tuple((o.center - o.width / 2, o.center + o.width / 2, o.bottom, o.bottom + o.height) for o in w.openings)
+            cuts = tuple((*w.span(o), o.bottom, o.bottom + o.height) for o in w.openings)
             ctx.walls.append(WallLine(w.id, a, b, inward, cuts))
         for o in kids:
             t = traits(o.category)

@@ -87,21 +87,6 @@ class DoorRepair:
         return out
 
 
-def _floor_root(scene: Scene, object_id: str) -> str | None:
-    """The floor-standing piece ``object_id`` rests on (itself when on the floor), else ``None``."""
-    seen: set[str] = set()
-    oid = object_id
-    while oid not in seen:
-        seen.add(oid)
-        rel = scene.support_of(oid)
-        if rel is None or rel.parent == FLOOR:
-            return oid
-        if scene.anchor_kind(rel.parent) != "object":
-            return None  # on a wall or the ceiling: not in the way of walking
-        oid = rel.parent
-    return None
-
-
 def clear_doors(
     scene: Scene, shapes: Mapping[str, ObjectShape], *, depth: float = DOOR_CLEARANCE_DEPTH_M
 ) -> tuple[Scene, DoorRepair]:
@@ -114,7 +99,7 @@ def clear_doors(
         return scene, repair
     hung = sorted({b.object_id for b in door_blockers(scene, depth=depth) if _wall_of(scene, b.object_id) is not None})
     repaired = _slide_along_walls(scene, shapes, hung, door_zones(scene, depth), repair) if hung else scene
-    blockers = sorted({r for b in door_blockers(repaired, depth=depth) if (r := _floor_root(repaired, b.object_id)) is not None})
+    blockers = sorted({r for b in door_blockers(repaired, depth=depth) if (r := repaired.floor_root(b.object_id)) is not None})
     repaired = _move_out(repaired, shapes, blockers, door_zones(repaired, depth), 0.01, repair) if blockers else repaired
     repaired = _reconnect(repaired, shapes, depth, repair)
     repair.stuck = sorted({b.object_id for b in door_blockers(repaired, depth=depth)})
@@ -135,7 +120,7 @@ def _reconnect(scene: Scene, shapes: Mapping[str, ObjectShape], depth: float, re
             return scene
         zones = [z for z in door_zones(scene, depth) if z.door_id in cut]
         near = unary_union([z.polygon for z in zones]).buffer(RECONNECT_REACH_M)
-        roots = [o for o in scene.objects if _floor_root(scene, o.id) == o.id and not o.sim.static and not is_thin(o)]
+        roots = [o for o in scene.objects if scene.floor_root(o.id) == o.id and not o.sim.static and not is_thin(o)]
         candidates = sorted(
             (o for o in roots if _foot(o).intersects(near)),
             key=lambda o: _foot(o).area,
@@ -281,7 +266,7 @@ def _move_out(
         surface = max(getattr(surface, "geoms", []), key=lambda g: g.area, default=Polygon())
     items = []
     for obj in scene.objects:
-        if _floor_root(scene, obj.id) != obj.id or (obj.id not in movers and is_thin(obj)):
+        if scene.floor_root(obj.id) != obj.id or (obj.id not in movers and is_thin(obj)):
             continue  # things on furniture move with it; a rug is stood on
         items.append(PackItem(obj.id, convex_hull_2d(obj.corners()[:, :2]), movable=obj.id in movers))
     result = pack_surface(surface, items, cell=DOOR_PACK_CELL_M)

@@ -30,7 +30,6 @@ from shapely.ops import unary_union
 
 from scenemosaic._memo import Memo
 from scenemosaic.scene._geometry import FloatArray
-from scenemosaic.scene._ids import FLOOR
 from scenemosaic.scene._limits import house_problem
 from scenemosaic.scene._model import Opening, Provenance, Scene, SceneObject, Wall, _Model, _plan_png
 from scenemosaic.scene._planar import convex_hull_2d
@@ -546,22 +545,7 @@ def blocked_windows(scene: Scene) -> dict[str, list[str]]:
 
     if scene.room is None:
         return {}
-    ids = {o.id for o in scene.objects}
-
-    def standing(oid: str) -> str | None:
-        """The floor piece ``oid`` stands on, itself included (``None``: hung from a wall or the ceiling)."""
-        seen: set[str] = set()
-        while oid not in seen:
-            seen.add(oid)
-            rel = scene.support_of(oid)
-            if rel is None or rel.parent == FLOOR:
-                return oid
-            if rel.parent not in ids:
-                return None
-            oid = rel.parent
-        return None
-
-    tall = [(o, standing(o.id)) for o in scene.objects]
+    tall = [(o, scene.floor_root(o.id)) for o in scene.objects]
     out: dict[str, list[str]] = {}
     for wall in scene.room.walls:
         start, direction = np.asarray(wall.start, dtype=np.float64), np.asarray(wall.direction, dtype=np.float64)

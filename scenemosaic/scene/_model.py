@@ -626,6 +626,25 @@ class Scene(_Model):
             return "object"
         raise KeyError(anchor_id)
 
+    def floor_root(self, object_id: str) -> str | None:
+        """The floor-standing piece ``object_id`` rests on (itself when on the floor; a TV on its
+        stand gives the stand), else ``None``: hung from a wall or the ceiling, resting on an id
+        the scene does not hold, or a support cycle."""
+        seen: set[str] = set()
+        oid = object_id
+        while oid not in seen:
+            seen.add(oid)
+            rel = self.support_of(oid)
+            if rel is None or rel.parent == FLOOR:
+                return oid
+            try:
+                if self.anchor_kind(rel.parent) != "object":
+                    return None
+            except KeyError:
+                return None
+            oid = rel.parent
+        return None
+
     def get(self, object_id: str) -> SceneObject:
         """The object with this id; raises ``KeyError`` naming it."""
         for o in self.objects:
