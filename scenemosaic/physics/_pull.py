@@ -4,8 +4,10 @@ Measured on the model a user loads (``base/scene.xml``, or any MJCF the exports 
 nothing of ours but the joint names (``<object id>/<part>``; a room door's leaves are the parts
 named ``leaf``/``leaf_<k>``). Each part is tried on its own, from the world as loaded with every
 part closed and the part's own weight cancelled (a lid is neither helped nor held by it; the rest
-of the world keeps its weight, so furniture stands and what it carries rests): a drive on its joint
-turns or slides it towards its upper limit at a steady pace (about its range a second), with at most
+of the world keeps its weight, so furniture stands and what it carries rests): a hand's pull on the
+part alone (a force along a slide, a torque about a hinge, applied to the part's body, so the
+carcass is not shoved back by the test itself as a drive between the two would) turns or slides it
+towards its upper limit at a steady pace (about its range a second), with at most
 :data:`PULL_WEIGHTS` times its weight at its centre of mass, for :data:`PULL_SECONDS`. A hinge
 passes once it stands at 90° (or its whole range, when shorter), a slide at 80 % of its travel
 (``assets.usable_opening``); a part that did not, or that moved another body more
@@ -131,10 +133,14 @@ def _pull(model: mujoco.MjModel, data: mujoco.MjData, j: int, closed: np.ndarray
     load = _touching_roots(model, data, body, root) if not hinge else set()
     others = [f for f in free if int(model.body_rootid[model.jnt_bodyid[f]]) not in {root, *load}]
     start = {f: data.qpos[model.jnt_qposadr[f] : model.jnt_qposadr[f] + 3].copy() for f in others}
-    data.xfrc_applied[body, :3] = -model.opt.gravity * float(model.body_mass[body])  # its own weight cancelled
+    weight = -model.opt.gravity * float(model.body_mass[body])  # its own weight cancelled
     fastest, steps, done_at = 0.0, int(PULL_SECONDS / model.opt.timestep), None
     for step in range(steps):
-        data.qfrc_applied[dof] = float(np.clip(gain * (pace - data.qvel[dof]), -most, most))
+        # a hand's pull on the part alone (a force along a slide, a torque about a hinge): its
+        # reaction is the hand's, so the carcass is not shoved back by the test itself
+        push = float(np.clip(gain * (pace - data.qvel[dof]), -most, most))
+        data.xfrc_applied[body, :3] = weight + (0.0 if hinge else push) * data.xaxis[j]
+        data.xfrc_applied[body, 3:] = (push if hinge else 0.0) * data.xaxis[j]
         mujoco.mj_step(model, data)
         fastest = max(fastest, float(np.max(np.linalg.norm(data.cvel[:, 3:], axis=1))))
         if done_at is None and data.qpos[q] >= needed:
@@ -159,15 +165,23 @@ def _pull(model: mujoco.MjModel, data: mujoco.MjData, j: int, closed: np.ndarray
 
 
 def _touching_roots(model: mujoco.MjModel, data: mujoco.MjData, body: int, root: int) -> set[int]:
-    """The objects (root bodies) the part's body touches now, its own excepted."""
-    out = set()
+    """The objects (root bodies) the part's body carries now: those it touches, its own excepted,
+    and what rests on them in turn (a bowl on a box in a drawer)."""
+    pairs = []
     for k in range(data.ncon):
         c = data.contact[k]
         b1, b2 = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
-        if body in (b1, b2):
-            other = int(model.body_rootid[b2 if b1 == body else b1])
-            if other not in (root, 0):
-                out.add(other)
+        pairs.append((b1, b2))
+    out: set[int] = set()
+    reached, grew = {body}, True
+    while grew:
+        grew = False
+        for b1, b2 in pairs:
+            for here, there in ((b1, b2), (b2, b1)):
+                other = int(model.body_rootid[there])
+                if (here in reached or int(model.body_rootid[here]) in out) and other not in (root, 0) and other not in out:
+                    out.add(other)
+                    grew = True
     return out
 
 
