@@ -693,9 +693,19 @@ def batch(
         float | None,
         typer.Option("--timeout", min=0.001, help="Seconds one job may run; then it is stopped and recorded as timeout."),
     ] = None,
+    index: Annotated[
+        str | None,
+        typer.Option(
+            "--index",
+            metavar="A:B",
+            help="With a dataset of houses as MANIFEST: the houses A to B-1 only (N: house N; A: from A on).",
+        ),
+    ] = None,
     log_level: LogLevelOpt = "warning",
 ) -> None:
     """Run every job of MANIFEST (see docs/batch.md); jobs already finished in OUT are skipped.
+    MANIFEST may be a dataset of houses (.jsonl or .jsonl.gz, one house a line): one job a house,
+    each in OUT/<file stem>-<index>.
 
     Exit codes: 0 every job ok, degraded or skipped, 1 a job failed or timed out, 2 bad manifest
     or settings, 130 stopped by Ctrl-C, 143 stopped by SIGTERM (finished jobs stay recorded in
@@ -705,10 +715,11 @@ def batch(
 
     from scenemosaic.batch import SUMMARY_FILE, load_manifest, run_batch
 
+    houses = _index_range(index)
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _raise_terminated) if in_main_thread else None
     try:
-        total = len(load_manifest(manifest))  # a bad line is reported before the progress bar starts
+        total = len(load_manifest(manifest, houses))  # a bad line is reported before the progress bar starts
         with Progress(
             SpinnerColumn(),
             TextColumn("[bold]{task.description}"),
@@ -740,6 +751,7 @@ def batch(
                 timeout_s=timeout,
                 on_progress=on_progress,
                 log_level=log_level,
+                index=houses,
             )
     except SceneMosaicError as exc:
         _err.print(f"[red]error:[/red] {escape(str(exc))}", highlight=False)
@@ -756,6 +768,22 @@ def batch(
     _print_batch_summary(summary)
     if not summary.ok:
         raise typer.Exit(code=EXIT_UNEXPECTED)
+
+
+def _index_range(text: str | None) -> slice | None:
+    """``--index`` of ``batch``: ``A:B`` (B excluded), ``A:`` or ``N``; anything else exits 2."""
+    if text is None:
+        return None
+    first, colon, last = text.partition(":")
+    try:
+        start = int(first) if first.strip() else 0
+        stop = (int(last) if last.strip() else None) if colon else start + 1
+    except ValueError:
+        start, stop = -1, None
+    if start < 0 or (stop is not None and stop <= start):
+        _err.print(f"[red]error:[/red] --index {escape(text)}: give A:B (houses A to B-1), A: or N, counting from 0")
+        raise typer.Exit(code=EXIT_BAD_INPUT)
+    return slice(start, stop)
 
 
 def _scene_folders(path: Path) -> list[tuple[str, Path]]:

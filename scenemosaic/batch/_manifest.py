@@ -6,6 +6,10 @@ and the same validation (the manifest takes the settings in :data:`JOB_SETTINGS`
 plus the job's own keys (:data:`LINE_KEYS`): its ``input`` (relative to the manifest's folder;
 a line with a ``prompt`` has none), an optional ``id`` and ``timeout_s``. Every line is checked
 before any job runs; all bad lines are reported at once, each with its line number.
+
+A dataset of houses (``.jsonl``/``.jsonl.gz``, one house a line: ``exchange.is_dataset``) is a
+manifest too: one job a house, named ``<file stem>-<index>``, with the default settings
+(:func:`dataset_jobs`); a manifest line names one house of a dataset by its ``index`` setting.
 """
 
 from __future__ import annotations
@@ -20,7 +24,8 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from scenemosaic.exceptions import ImportFormatError
+from scenemosaic.exceptions import ImportFormatError, UsageError
+from scenemosaic.exchange import dataset_entries, dataset_stem, is_dataset
 from scenemosaic.pipeline import SETTINGS, GenerateConfig, SettingsError
 from scenemosaic.scene import sanitize_id as scene_sanitize_id
 
@@ -31,6 +36,8 @@ __all__ = [
     "BatchJob",
     "ManifestError",
     "ManifestLine",
+    "dataset_jobs",
+    "holds_houses",
     "load_manifest",
     "sanitize_id",
 ]
@@ -134,6 +141,10 @@ class ManifestLine(BaseModel):
             path = (folder / Path(keys.input).expanduser()).resolve()
             if not path.exists():
                 problems.append(f"input not found: {path}")
+            elif is_dataset(path) and settings.get("index") is None:
+                problems.append(f"input {path.name} is a dataset of houses: give the house's 'index' (from 0)")
+        if settings.get("index") is not None and (path is None or not is_dataset(path)):
+            problems.append("'index' picks a house of a dataset input (.jsonl, .jsonl.gz)")
         if problems or config is None:
             raise ValueError("; ".join(problems))
         return cls(input=path, id=keys.id, timeout_s=keys.timeout_s, settings=config)
@@ -247,7 +258,11 @@ def _parse_line(text: str, folder: Path) -> ManifestLine:
 
 
 def _stem(line: ManifestLine) -> str:
-    return sanitize_id(line.input.stem if line.input is not None else _PROMPT_STEM)
+    if line.input is None:
+        return _PROMPT_STEM
+    if line.settings.index is not None:
+        return sanitize_id(f"{dataset_stem(line.input)}-{line.settings.index}")
+    return sanitize_id(line.input.stem)
 
 
 def _assign_ids(parsed: list[tuple[int, ManifestLine]], source: str) -> list[str]:
@@ -294,7 +309,56 @@ def _bad_lines(source: str, problems: list[tuple[int, str]]) -> ManifestError:
     return ManifestError(message, path=source, problems=lines, line=problems[0][0])
 
 
-def load_manifest(path: str | Path) -> list[BatchJob]:
+def holds_houses(path: str | Path) -> bool:
+    """Whether ``path`` is a dataset of houses rather than a manifest of jobs: a ``.jsonl`` or
+    ``.jsonl.gz`` file whose first line is a JSON object with neither ``input`` nor ``prompt``
+    (only that line is read)."""
+    p = Path(path).expanduser()
+    if not is_dataset(p) or not p.is_file():
+        return False
+    try:
+        first = next(dataset_entries(p), None)
+    except ImportFormatError:
+        return p.name.lower().endswith(".gz")  # a manifest is plain text; load_manifest names the damage
+    if first is None:
+        return False
+    try:
+        data = json.loads(first.text)
+    except ValueError:
+        return False
+    return isinstance(data, dict) and "input" not in data and "prompt" not in data
+
+
+def dataset_jobs(path: str | Path, index: slice | None = None) -> list[BatchJob]:
+    """One job a house of the dataset ``path`` (``index``: those of that range of indices, a
+    :class:`slice` of non-negative bounds), each ``<file stem>-<index>`` with the default settings
+    (a manifest line ``{"input": FILE, "index": N, ...}`` gives one house other settings). The
+    file is streamed and no house is parsed: a job holds its index, and its run reads its line."""
+    dataset = Path(path).expanduser().resolve()
+    start, stop = (index.start or 0, index.stop) if index is not None else (0, None)
+    if start < 0 or (stop is not None and stop < start) or (index is not None and index.step not in (None, 1)):
+        raise UsageError(f"index {start}:{stop if stop is not None else ''}: a range of house indices counts up from 0")
+    stem = dataset_stem(dataset)
+    defaults = GenerateConfig()
+    jobs: list[BatchJob] = []
+    seen = 0
+    for entry in dataset_entries(dataset):
+        seen += 1
+        if entry.index < start:
+            continue
+        if stop is not None and entry.index >= stop:
+            break
+        settings = {name: _json_value(getattr(defaults, name)) for name in JOB_SETTINGS}
+        settings["index"] = entry.index
+        jobs.append(BatchJob(id=sanitize_id(f"{stem}-{entry.index}"), line=entry.line, input=dataset, settings=settings))
+    if not jobs:
+        raise ManifestError(
+            f"the dataset holds {seen} houses; none in the range asked for", path=str(dataset), problems=["no job"]
+        )
+    return jobs
+
+
+def load_manifest(path: str | Path, index: slice | None = None) -> list[BatchJob]:
     """Read and check a JSONL manifest; returns its jobs in file order.
 
     Blank lines are skipped. Raises :class:`ManifestError` naming every bad line (not JSON, not
@@ -304,7 +368,13 @@ def load_manifest(path: str | Path) -> list[BatchJob]:
     paths in ``model`` strings (``replay:``, ``record:``, ``record_missing:``) are relative to the
     manifest's folder; they come back absolute (symlinks resolved), so the same manifest gives
     the same paths, and the same ``provenance.source_path`` in the scenes, from any working folder.
+    A dataset of houses (:func:`holds_houses`) gives :func:`dataset_jobs` (``index``: a range of its
+    houses); ``index`` on a manifest of jobs raises :class:`~scenemosaic.exceptions.UsageError`.
     """
+    if holds_houses(path):
+        return dataset_jobs(path, index)
+    if index is not None:
+        raise UsageError(f"an index range picks houses of a dataset (.jsonl, .jsonl.gz of houses); {path} is a manifest of jobs")
     manifest = Path(path).expanduser().resolve()
     source = str(manifest)
     try:

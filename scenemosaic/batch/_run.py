@@ -93,8 +93,12 @@ def run_batch(
     cache_dir: str | Path | None = None,
     on_progress: ProgressCallback | None = None,
     log_level: str = "warning",
+    index: slice | None = None,
 ) -> BatchSummary:
     """Run every job of ``manifest``, each writing ``generate``'s output layout into ``out/<id>``.
+
+    ``manifest`` may be a dataset of houses (``.jsonl``/``.jsonl.gz``, one house a line): one job a
+    house, ``out/<file stem>-<index>`` (``index``: a range of them; ``batch.dataset_jobs``).
 
     * The manifest is read and checked first (:func:`~scenemosaic.batch.load_manifest`); a bad
       line raises :class:`~scenemosaic.batch.ManifestError` before any job runs.
@@ -122,7 +126,7 @@ def run_batch(
         raise UsageError(f"workers must be at least 1, got {workers}")
     if timeout_s is not None and not timeout_s > 0:
         raise UsageError(f"timeout_s must be a positive number of seconds, got {timeout_s}")
-    jobs = load_manifest(manifest)
+    jobs = load_manifest(manifest, index)
     if executor == "ray":
         require_ray()
     _check_cassettes(jobs, workers)

@@ -8,6 +8,8 @@ scenes into files a simulator or an evaluator loads. A format is one module plus
 * ``front3d`` — 3D-FRONT / ATISS / PhyScene layouts (``{"ThreedFront": ...}``);
 * ``procthor`` — AI2-THOR / ProcTHOR / Holodeck houses (one scene per room);
 * ``sam3d`` — image-to-3D object sets: ``poses.json`` + mesh files;
+* datasets of houses (``.jsonl``/``.jsonl.gz``, one house a line, as ProcTHOR-10k ships): read
+  lazily, a house picked by its index (``load_scene(path, index=3)``; ``_dataset.py``);
 * exports: GLB (:func:`export_glb`), SceneEval sceneState (:func:`export_sceneeval`),
   MJCF (:func:`export_mjcf`), USD with UsdPhysics (:func:`export_usd`, needs the ``usd`` extra)
   and URDF (:func:`export_urdf`, with ``scene.sdf`` beside it for PyBullet: :func:`load_pybullet`);
@@ -35,6 +37,15 @@ from typing import TYPE_CHECKING, Any
 from scenemosaic.exchange import _builtin  # noqa: F401 - registers the built-in formats (light: see there)
 
 if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
+    from scenemosaic.exchange._dataset import (
+        DATASET_SUFFIXES,
+        DatasetEntry,
+        dataset_entries,
+        dataset_entry,
+        dataset_size,
+        dataset_stem,
+        is_dataset,
+    )
     from scenemosaic.exchange._deliver import (
         HOUSE_INDEX_FILE,
         HOUSE_ROOMS_DIR,
@@ -72,6 +83,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
         detect_format,
         get_format,
         house_formats,
+        house_name,
         is_house_source,
         load_house,
         load_scene,
@@ -96,6 +108,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
     from scenemosaic.exchange._usd import export_usd
 
 __all__ = [
+    "DATASET_SUFFIXES",
     "FORMATS",
     "GLB_ROOT_NODE",
     "HOUSE_FILE",
@@ -109,12 +122,17 @@ __all__ = [
     "Y_UP_TO_Z_UP",
     "Z_UP_TO_Y_UP",
     "AssetDatabase",
+    "DatasetEntry",
     "ImportFormat",
     "ReadOptions",
     "SceneFormat",
     "SupportType",
     "build_glb_scene",
     "build_house_glb_scene",
+    "dataset_entries",
+    "dataset_entry",
+    "dataset_size",
+    "dataset_stem",
     "deliver_scene",
     "delivered_files",
     "delivered_formats",
@@ -131,7 +149,9 @@ __all__ = [
     "get_format",
     "gltf_to_world",
     "house_formats",
+    "house_name",
     "house_sceneeval_state",
+    "is_dataset",
     "is_house_source",
     "load_asset_database",
     "load_house",
@@ -154,6 +174,13 @@ __all__ = [
 ]
 
 _EXPORTS: dict[str, str] = {
+    "DATASET_SUFFIXES": "_dataset",
+    "DatasetEntry": "_dataset",
+    "dataset_entries": "_dataset",
+    "dataset_entry": "_dataset",
+    "dataset_size": "_dataset",
+    "dataset_stem": "_dataset",
+    "is_dataset": "_dataset",
     "HOUSE_INDEX_FILE": "_deliver",
     "HOUSE_ROOMS_DIR": "_deliver",
     "deliver_scene": "_deliver",
@@ -188,6 +215,7 @@ _EXPORTS: dict[str, str] = {
     "detect_format": "_registry",
     "get_format": "_registry",
     "house_formats": "_registry",
+    "house_name": "_registry",
     "is_house_source": "_registry",
     "load_house": "_registry",
     "load_scene": "_registry",

@@ -40,6 +40,7 @@ from shapely.ops import unary_union
 
 from scenemosaic.exceptions import ImportFormatError, UsageError
 from scenemosaic.exchange._common import FieldReader, read_json
+from scenemosaic.exchange._dataset import dataset_entry
 from scenemosaic.scene import (
     CLUTTER_METADATA,
     PROCTHOR_PRIORS_DIR,
@@ -822,10 +823,14 @@ def _clutter_items(scene: Scene, raw_ids: Mapping[str, str]) -> list[tuple[str |
     return out
 
 
+def _source_name(path: str, index: int | None) -> str:
+    return path if index is None else f"{path} house {index}"
+
+
 def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) -> Path:
     """Write ``folder/house.json``: the house file the ``scenes`` (rooms of one house) came from,
     with every object of theirs at its scene's pose; everything else as the house had it."""
-    sources: set[str] = set()
+    sources: set[tuple[str, int | None]] = set()
     placed: dict[str, SceneObject] = {}
     added: list[tuple[str | None, dict[str, Any]]] = []  # (the receptacle's id in the file, item)
     rooms: list[str] = []
@@ -837,7 +842,7 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
                 f"scene {scene.id!r} was not imported from an AI2-THOR/ProcTHOR house "
                 f"(source format {scene.provenance.source_format!r}); only such a scene can be written back as one"
             )
-        sources.add(source)
+        sources.add((source, origin.source_index))
         known = {o.id for o in scene.objects}
         raw_ids = dict(origin.source_ids)
         placed.update({raw: scene.get(oid) for oid, raw in raw_ids.items() if oid in known})
@@ -845,10 +850,12 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
         rooms.append(origin.source_room_id)
     if len(sources) != 1:
         raise UsageError(
-            f"the {what} comes from several house files ({', '.join(sorted(sources))}); write one at a time"
+            f"the {what} comes from several houses ({', '.join(_source_name(*s) for s in sorted(sources, key=str))}); "
+            "write one at a time"
         )
-    path = Path(sources.pop())
-    house = read_json(path)
+    source, index = sources.pop()
+    path = Path(source)
+    house = read_json(path) if index is None else dataset_entry(path, index).parse(path)
     if not isinstance(house, dict) or not isinstance(house.get("objects"), list):
         raise ImportFormatError(
             "the house the scene came from has no objects list", path=str(path), field="objects"

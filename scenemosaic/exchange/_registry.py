@@ -23,6 +23,13 @@ import structlog
 
 from scenemosaic.exceptions import ImportFormatError, SceneMosaicError, UsageError
 from scenemosaic.exchange._common import read_json
+from scenemosaic.exchange._dataset import (
+    dataset_entries,
+    dataset_entry,
+    dataset_size,
+    dataset_stem,
+    is_dataset,
+)
 from scenemosaic.exchange._native import check_not_partial, read_house
 from scenemosaic.scene import House, Provenance, Room, RunFolder, Scene, safe_name
 
@@ -37,6 +44,7 @@ __all__ = [
     "detect_format",
     "get_format",
     "house_formats",
+    "house_name",
     "is_house_source",
     "load_house",
     "load_scene",
@@ -66,6 +74,8 @@ class ReadOptions:
     allow_orphans: bool = False
     """A house whose objects lie outside every room, or whose doors open onto rooms it does not
     hold, is read (each put in the nearest room, the rooms' metadata saying so) instead of refused."""
+    index: int | None = None
+    """Which house of a dataset file (``.jsonl``/``.jsonl.gz``, one house a line) is read, from 0."""
 
 
 Reader = Callable[[Any, Path, ReadOptions], list[Scene]]
@@ -150,12 +160,13 @@ def _readers() -> list[SceneFormat]:
     return [f for f in FORMATS.values() if f.read is not None]
 
 
-def detect_format(path: str | os.PathLike[str]) -> str:
+def detect_format(path: str | os.PathLike[str], *, index: int | None = None) -> str:
     """Name the format of ``path`` by looking at its content (rules in ``docs/importers.md``).
 
     A folder is the format whose ``folder_file`` it holds (``scene.json`` -> native,
     ``poses.json`` -> sam3d). A JSON file is the first registered reader whose ``detect``
-    accepts it. Anything else raises :class:`ImportFormatError`.
+    accepts it; a dataset of houses (``.jsonl``/``.jsonl.gz``) the format of its house ``index``
+    (default: its first). Anything else raises :class:`ImportFormatError`.
     """
     p = Path(path)
     if p.is_dir():
@@ -164,7 +175,12 @@ def detect_format(path: str | os.PathLike[str]) -> str:
             wanted = " nor ".join(f.folder_file for f in _readers() if f.folder_file)
             raise ImportFormatError(f"folder holds neither {wanted}", path=str(p))
         return fmt.name
-    return _detect_data(read_json(p), p).name
+    if is_dataset(p) and index is None:
+        first = next(dataset_entries(p), None)
+        if first is None:
+            raise ImportFormatError("the dataset holds no house", path=str(p))
+        return _detect_data(first.parse(p), p).name
+    return _detect_data(_input_data(p, index), p).name
 
 
 def load_scenes(
@@ -177,6 +193,7 @@ def load_scenes(
     variant: int | str | None = None,
     allow_partial: bool = False,
     allow_orphans: bool = False,
+    index: int | None = None,
 ) -> list[Scene]:
     """Import every scene ``path`` holds, in a stable order.
 
@@ -192,7 +209,9 @@ def load_scenes(
     (``partial.json`` beside it) raises :class:`~scenemosaic.exceptions.PartialResultError`
     unless ``allow_partial``. A house with objects outside every room or doors onto rooms it
     does not hold raises :class:`~scenemosaic.exceptions.ImportFormatError` naming them, unless
-    ``allow_orphans`` (each then goes to the nearest room; ``docs/importers.md``).
+    ``allow_orphans`` (each then goes to the nearest room; ``docs/importers.md``). A dataset of
+    houses (``.jsonl``/``.jsonl.gz``, one house a line) needs ``index``, the house's, from 0; it
+    is read lazily (``docs/importers.md``).
     """
     fmt = _check_format(format, path)
     p = Path(path)
@@ -207,7 +226,10 @@ def load_scenes(
         asset_database=asset_database,
         asset_dir=Path(asset_dir) if asset_dir is not None else None,
         allow_orphans=allow_orphans,
+        index=index,
     )
+    if index is not None and not is_dataset(p):
+        raise UsageError(f"index={index} picks a house of a dataset (.jsonl, .jsonl.gz); {os.fspath(path)} is not one")
     scenes: list[Scene] = []
     if p.is_dir() and RunFolder.holds_house(p):
         scenes = read_house(p, allow_partial=True).rooms  # checked above
@@ -241,6 +263,7 @@ def load_scene(
     variant: int | str | None = None,
     allow_partial: bool = False,
     allow_orphans: bool = False,
+    index: int | None = None,
 ) -> Scene | House:
     """Import the one scene ``path`` holds (see :func:`load_scenes`), or the whole house.
 
@@ -251,14 +274,14 @@ def load_scene(
     """
     scenes = load_scenes(
         path, format, room=room, asset_database=asset_database, asset_dir=asset_dir, variant=variant,
-        allow_partial=allow_partial, allow_orphans=allow_orphans,
+        allow_partial=allow_partial, allow_orphans=allow_orphans, index=index,
     )  # fmt: skip
     if len(scenes) == 1:
         return scenes[0]
     if room is None and _one_house(scenes):
         return load_house(
             path, format, asset_database=asset_database, variant=variant, allow_partial=allow_partial,
-            allow_orphans=allow_orphans,
+            allow_orphans=allow_orphans, index=index,
         )
     ids = ", ".join(s.id for s in scenes[:8])
     raise UsageError(
@@ -281,7 +304,9 @@ def _one_house(scenes: list[Scene]) -> bool:
     return len(sources) == 1 and next(iter(sources))[0] in house_formats()
 
 
-def is_house_source(path: str | os.PathLike[str], format: ImportFormat | str = "auto", *, allow_orphans: bool = False) -> bool:
+def is_house_source(
+    path: str | os.PathLike[str], format: ImportFormat | str = "auto", *, allow_orphans: bool = False, index: int | None = None
+) -> bool:
     """Whether ``path`` is one file of a format that holds houses (``holds_houses``) holding more
     than one room: an input a run works on as a whole house. A file that cannot be read as one is
     no house (the one-scene import then says what is wrong with it)."""
@@ -289,10 +314,10 @@ def is_house_source(path: str | os.PathLike[str], format: ImportFormat | str = "
     if not p.is_file():
         return False
     try:
-        name = detect_format(p) if format == "auto" else format
+        name = detect_format(p, index=index) if format == "auto" else format
         if name not in house_formats():
             return False
-        return len(load_house(p, name, allow_orphans=allow_orphans).rooms) > 1
+        return len(load_house(p, name, allow_orphans=allow_orphans, index=index).rooms) > 1
     except SceneMosaicError:
         return False
 
@@ -305,11 +330,13 @@ def load_house(
     variant: int | str | None = None,
     allow_partial: bool = False,
     allow_orphans: bool = False,
+    index: int | None = None,
 ) -> House:
     """Import a whole house: every room of an AI2-THOR / ProcTHOR house file, in its room order,
     or a delivered house (the ``base/`` or ``variant_<i>/`` of a house run; ``variant`` picks one
-    of a run folder). Raises :class:`~scenemosaic.exceptions.UsageError` for a source that is
-    not a house; ``allow_orphans`` as for :func:`load_scenes`."""
+    of a run folder; ``index`` a house of a dataset, which is named ``<file stem>-<index>``). Raises
+    :class:`~scenemosaic.exceptions.UsageError` for a source that is not a house;
+    ``allow_orphans`` as for :func:`load_scenes`."""
     p = Path(path)
     if RunFolder.is_run(p):
         p = RunFolder(p).scene_folder(variant)
@@ -318,15 +345,17 @@ def load_house(
     if p.is_dir() and RunFolder.holds_house(p):
         return read_house(p, allow_partial=allow_partial)
     scenes = load_scenes(
-        p, format, asset_database=asset_database, allow_partial=allow_partial, allow_orphans=allow_orphans
+        p, format, asset_database=asset_database, allow_partial=allow_partial, allow_orphans=allow_orphans, index=index
     )
     if not _one_house(scenes):
         raise UsageError(f"{os.fspath(path)} is not a house (a multi-room AI2-THOR / ProcTHOR house file or a delivered house)")
     first = scenes[0].provenance
     return House(
-        id=safe_name(p.stem) if p.is_file() else safe_name(p.name),
+        id=house_name(p, index),
         rooms=scenes,
-        provenance=Provenance(source_format=first.source_format, source_path=first.source_path, importer=first.importer),
+        provenance=Provenance(
+            source_format=first.source_format, source_path=first.source_path, importer=first.importer, source_index=index
+        ),
     )
 
 
@@ -457,13 +486,38 @@ def _detect_data(data: Any, path: Path) -> SceneFormat:
     raise ImportFormatError(f"unknown format (top-level {keys}); expected one of: {kinds}", path=str(path))
 
 
+def house_name(path: str | os.PathLike[str], index: int | None = None) -> str:
+    """The id a house read from ``path`` gets: the file's stem, ``<stem>-<index>`` for a house
+    of a dataset, the folder's name for a folder."""
+    p = Path(path)
+    if index is not None:
+        return safe_name(f"{dataset_stem(p)}-{index}")
+    return safe_name(p.stem) if p.is_file() else safe_name(p.name)
+
+
+def _input_data(path: Path, index: int | None) -> Any:
+    """The parsed JSON of a file, or of house ``index`` of a dataset (which needs one)."""
+    if not is_dataset(path):
+        return read_json(path)
+    if index is None:
+        raise UsageError(
+            f"{path} is a dataset of {dataset_size(path)} houses: pick one with index= (generate --index N), "
+            "or run them all with batch"
+        )
+    return dataset_entry(path, index).parse(path)
+
+
 def _load_file(path: Path, name: str, options: ReadOptions) -> list[Scene]:
-    data = read_json(path)
+    data = _input_data(path, options.index)
     fmt = _detect_data(data, path) if name == "auto" else FORMATS[name]
     if options.room is not None and not fmt.takes_room:
         takers = ", ".join(f.name for f in _readers() if f.takes_room)
         raise UsageError(f"room= only applies to {takers} inputs; {path} is {fmt.name}")
     log.debug("import", path=str(path), format=fmt.name)
     assert fmt.read is not None
-    return fmt.read(data, path, options)
+    scenes = fmt.read(data, path, options)
+    if options.index is not None:  # which line of the dataset: what is written back, and where to read it again
+        for scene in scenes:
+            scene.provenance.source_index = options.index
+    return scenes
 

@@ -25,6 +25,7 @@ import structlog
 
 from scenemosaic.dag import StoredOutput
 from scenemosaic.exceptions import UnsafePathError, UsageError
+from scenemosaic.exchange import dataset_entry, is_dataset
 from scenemosaic.pipeline._config import GenerateConfig, config_from_record, config_record, deciding_settings
 from scenemosaic.pipeline._state import PipelineRun, RunCheckpoint, StageRecord
 from scenemosaic.scene import RunFolder, confined_path, write_atomic
@@ -48,10 +49,13 @@ PIPELINE_NODE = "pipeline"
 
 
 def input_digest(path: Path, config: GenerateConfig) -> str | None:
-    """SHA-256 of the input's bytes (a folder: of its files' relative paths and bytes); ``None``
-    for a text prompt (the prompt is a setting) or an input that is not there."""
+    """SHA-256 of the input's bytes (a folder: of its files' relative paths and bytes; a house of
+    a dataset: of its line, not of the whole file); ``None`` for a text prompt (the prompt is a
+    setting) or an input that is not there."""
     if config.prompt is not None or not path.exists():
         return None
+    if config.index is not None and is_dataset(path):
+        return dataset_entry(path, config.index).digest
     h = hashlib.sha256()
     # regular files only (is_file follows symlinks and is false for FIFOs and devices: never opened)
     files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]

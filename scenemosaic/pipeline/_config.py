@@ -227,6 +227,9 @@ class GenerateConfig(BaseModel):
     ] = None
     """Folder of the ``<assetId>.glb`` meshes a SceneEval input names (default: ``assets/`` beside
     the input)."""
+    index: Annotated[int | None, Field(ge=0), Setting("input", decides=True, flag="--index")] = None
+    """Which house of a dataset input (a ``.jsonl``/``.jsonl.gz`` file, one house a line, as
+    ProcTHOR-10k ships) is generated, counting from 0 (``docs/batch.md`` runs a whole dataset)."""
     max_input_mb: Annotated[Number | None, Field(gt=0), Setting("input", flag="--max-input-mb")] = None
     """Largest input file the run reads, in MB (default: 256 for a scene file, 64 for a
     photograph). A larger file is refused before it is read (exit 2); ``None`` takes the limit of

@@ -75,7 +75,7 @@ def is_house_input(input_path: Path, config: GenerateConfig) -> bool:
     its rooms."""
     if config.room is not None or config.prompt is not None:
         return False
-    return is_house_source(input_path, config.format, allow_orphans=config.allow_orphans)
+    return is_house_source(input_path, config.format, allow_orphans=config.allow_orphans, index=config.index)
 
 
 # -- one room ---------------------------------------------------------------------------------------

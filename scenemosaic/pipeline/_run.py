@@ -32,7 +32,7 @@ import structlog
 
 from scenemosaic.dag import FileRunStore
 from scenemosaic.exceptions import OutputSpaceError, UsageError
-from scenemosaic.exchange import save_partial
+from scenemosaic.exchange import is_dataset, save_partial
 from scenemosaic.pipeline._checkpoint import (
     input_digest,
     load_checkpoint,
@@ -164,6 +164,8 @@ def _check_input_file(input_path: Path, config: GenerateConfig) -> None:
     if special is not None and special != "a directory":
         raise UsageError(f"the input {input_path} is {special}, not a regular file: give a scene file, a folder or a photograph")
     if special is not None:
+        return
+    if is_dataset(input_path):  # streamed a line at a time (exchange/_dataset.py): no whole-file limit
         return
     kind = "image" if is_image_input(input_path, config.format) else "scene"
     limit_mb = config.max_input_mb or INPUT_SIZE_LIMITS_MB[kind]

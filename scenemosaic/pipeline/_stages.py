@@ -138,8 +138,10 @@ def _read_input(path: Path, cfg: GenerateConfig, *, house: bool) -> Scene | Hous
     """The one scene a run's input holds, or (``house``: the plan runs the input as a whole house,
     ``pipeline/_plan.py``) its whole house."""
     if house:
-        return load_house(path, cfg.format, allow_orphans=cfg.allow_orphans)
-    loaded = load_scene(path, cfg.format, room=cfg.room, asset_dir=cfg.asset_dir, allow_orphans=cfg.allow_orphans)
+        return load_house(path, cfg.format, allow_orphans=cfg.allow_orphans, index=cfg.index)
+    loaded = load_scene(
+        path, cfg.format, room=cfg.room, asset_dir=cfg.asset_dir, allow_orphans=cfg.allow_orphans, index=cfg.index
+    )
     if isinstance(loaded, House):  # pragma: no cover - the plan runs whole houses as houses
         raise UsageError(f"{path} is a house; generate it whole, or pick a room with --room ({', '.join(loaded.room_ids)})")
     return loaded

@@ -550,6 +550,9 @@ class Provenance(_Model):
     source_room_id: str | None = Field(
         default=None, exclude_if=_unset, description="The room's id in the source file (ProcTHOR's 'room|4')."
     )
+    source_index: int | None = Field(
+        default=None, exclude_if=_unset, description="The house's index in a dataset file (one house a line), from 0."
+    )
     source_ids: dict[str, str] = Field(
         default_factory=dict, exclude_if=_unset, description="Each object's id in the source file, by object id."
     )
