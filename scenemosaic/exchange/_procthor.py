@@ -22,6 +22,7 @@ and colour fields, which changed shape between the two, are not read.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -128,6 +129,21 @@ class AssetDatabase:
     """AI2-THOR object type (``"DiningTable"``...)."""
     source: str = ""
 
+    @functools.cached_property
+    def type_boxes(self) -> dict[str, tuple[float, float, float]]:
+        """Each object type's median box over the database's assets of that type: what an asset
+        it does not hold is sized by (:func:`_estimated_box`)."""
+        by_type: dict[str, list[tuple[float, float, float]]] = {}
+        for asset, kind in self.types.items():
+            if asset in self.boxes:
+                by_type.setdefault(kind, []).append(self.boxes[asset])
+        return {kind: _median_box(rows) for kind, rows in by_type.items()}
+
+
+def _median_box(rows: list[tuple[float, float, float]]) -> tuple[float, float, float]:
+    x, y, z = (float(v) for v in np.median(np.array(rows, dtype=np.float64), axis=0))
+    return x, y, z
+
 
 _DB_CACHE: dict[tuple[str, float], AssetDatabase] = {}
 
@@ -208,6 +224,10 @@ class _RoomBuild:
     asset_ids: dict[str, str] = field(default_factory=dict)
     source_ids: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    faults: list[str] = field(default_factory=list)
+    """What the file got wrong and the reader mended (``Provenance.source_faults``)."""
+    size_estimates: dict[str, str] = field(default_factory=dict)
+    """Objects whose asset the database does not hold, by id: how their stand-in was sized."""
     cut: list[tuple[FloatArray, FloatArray, FloatArray]] = field(default_factory=list)
     """The stretches of boundary given up to shared walls: (start, end, inward unit normal)."""
 
@@ -258,6 +278,7 @@ def import_procthor(
 
     taken: set[str] = set()
     orphans: list[_Orphan] = []
+    renamed = _distinct_ids(top.get("objects"))
     for i, raw in enumerate(r.array(r.get(top, "objects", ""), "objects")):
         field_name = f"objects[{i}]"
         item = r.mapping(raw, field_name)
@@ -277,7 +298,7 @@ def import_procthor(
             )
         elif distance > 0.0:
             build.notes.append(f"{field_name} lies outside every floor polygon; assigned to the nearest room")
-        _add_object(r, item, field_name, None, build, db, taken)
+        _add_object(r, item, field_name, None, build, db, taken, renamed)
     problems = _orphan_problems(orphans, strays, by_source)
     if problems and not allow_orphans:
         r.fail(
@@ -303,6 +324,7 @@ def import_procthor(
                 relations=b.relations,
                 provenance=Provenance(
                     source_format="procthor", source_path=path.as_posix(), importer=IMPORTER, notes=b.notes,
+                    source_faults=b.faults, size_estimates=dict(b.size_estimates),
                     room_type=b.room_type, source_room_id=str(b.source_id), asset_ids=dict(b.asset_ids),
                     source_ids={oid: str(raw) for oid, raw in b.source_ids.items()}, asset_database=db.source,
                     # the house's, on every room: whichever is worked on, the house it came from is incomplete
@@ -622,18 +644,18 @@ def _add_opening(
             continue
         target = _wall_through(build.room.walls, centre, SHARED_WALL_THICKNESS_M / 2 + _WALL_MATCH_TOL)
         if target is None:
-            build.notes.append(f"{f} does not lie on any wall of room {build.source_id!r}; dropped")
+            build.faults.append(f"{f} does not lie on any wall of room {build.source_id!r}; dropped")
             continue
         along = float(np.dot(centre - np.asarray(target.start), target.direction))
         lo, hi = max(along - width / 2, 0.0), min(along + width / 2, target.length)
         if hi - lo < width / 2:
-            build.notes.append(
+            build.faults.append(
                 f"{f} lies mostly past the ends of {build.source_id!r}'s wall {target.id} "
                 f"({hi - lo:.3f} of its {width:.3f} m on it); dropped"
             )
             continue
         if hi - lo < width - OPENING_CLIP_NOTE_M:
-            build.notes.append(
+            build.faults.append(
                 f"{f} runs {width - (hi - lo):.3f} m past the end of {build.source_id!r}'s wall {target.id}; "
                 f"cut {hi - lo:.3f} m wide, as far as the wall goes"
             )
@@ -734,16 +756,23 @@ def _add_object(
     build: _RoomBuild,
     db: AssetDatabase,
     taken: set[str],
+    renamed: Mapping[str, tuple[str, str]],
 ) -> None:
     asset_id = r.text(r.get(item, "assetId", f), f"{f}.assetId")
-    if asset_id not in db.boxes:
-        r.fail(f"{f}.assetId", f"asset {asset_id!r} is not in the asset database {db.source or ''}".rstrip())
-    bx, by, bz = db.boxes[asset_id]
     raw_id = item.get("id")
+    if f in renamed:  # an id the file gave an object before: this one is read (and written back) by another
+        raw_id, first = renamed[f]
+        build.faults.append(f"{f}: its id {item.get('id')!r} is the id of {first} too; read as {raw_id!r}")
     who = f"object {raw_id!r}" if isinstance(raw_id, str) else f"asset {asset_id!r}"
-    r.check(size_problem((bx, bz, by)), f"{f}.assetId", what=f"{who}: asset database box")
     cx, cy, cz = r.xyz(r.get(item, "position", f), f"{f}.position")
     r.check(coordinate_problem((cx, cy, cz)), f"{f}.position", what=who)
+    estimate: str | None = None
+    if asset_id in db.boxes:
+        bx, by, bz = db.boxes[asset_id]
+        otype = db.types.get(asset_id, "Object")
+    else:  # an Objaverse asset, a fork's own: a stand-in sized from what is known of it
+        otype, (bx, by, bz), estimate = _estimated_box(item, asset_id, top_level=parent is None, centre_y=cy, db=db)
+    r.check(size_problem((bx, bz, by)), f"{f}.assetId", what=f"{who}: {estimate or 'asset database box'}")
     rot_raw = item.get("rotation", {"x": 0.0, "y": 0.0, "z": 0.0})
     rx, ry, rz = r.xyz(rot_raw, f"{f}.rotation")
     rotation = _SWAP @ _unity_rotation(rx, ry, rz) @ _SWAP @ _HALF_TURN
@@ -754,9 +783,10 @@ def _add_object(
         pose = Pose.from_yaw(tuple(origin.tolist()), math.pi - math.radians(ry))  # exact for upright objects
     else:
         pose = Pose(position=tuple(origin.tolist()), quaternion=(qw, qx, qy, qz))
-    otype = db.types.get(asset_id, "Object")
     category = _camel_to_snake(otype)
     oid = unique_id(sanitize_id(raw_id) if isinstance(raw_id, str) else category, taken)
+    if estimate is not None:
+        build.size_estimates[oid] = f"{f} (asset {asset_id!r}): {estimate}"
     words = category.replace("_", " ")
     build.objects.append(
         r.scene_object(
@@ -776,7 +806,104 @@ def _add_object(
         build.relations.append(Relation(kind="attach", child=oid, parent=parent, source=IMPORTER))
     for j, child in enumerate(r.array(item.get("children") or [], f"{f}.children")):
         cf = f"{f}.children[{j}]"
-        _add_object(r, r.mapping(child, cf), cf, oid, build, db, taken)
+        _add_object(r, r.mapping(child, cf), cf, oid, build, db, taken, renamed)
+
+
+STAND_IN_BOX_M = (0.4, 0.4, 0.4)
+"""The box (x, height, z; m) of an unknown asset whose type says nothing the asset database knows."""
+_OBJA_PREFIX = "Obja"  # ProcTHOR-Objaverse's types: ObjaGarbageCan is a GarbageCan
+
+
+_TYPE_WORDS = {
+    "bookcase": "ShelvingUnit", "bookshelf": "ShelvingUnit", "shelf": "ShelvingUnit", "shelves": "ShelvingUnit",
+    "cabinet": "Dresser", "wardrobe": "Dresser", "closet": "Dresser", "chest": "Dresser", "couch": "Sofa",
+    "nightstand": "SideTable", "table": "SideTable", "plant": "HousePlant", "tv": "Television",
+    "lamp": "FloorLamp", "trashcan": "GarbageCan", "bin": "GarbageCan", "mirror": "Painting",
+    "picture": "Painting", "poster": "Painting", "clock": "AlarmClock", "speaker": "Television",
+}  # fmt: skip
+"""Words of types the AI2-THOR database has no asset of, read as a database type of like size."""
+
+
+def _nearest_type(kind: str, known: Mapping[str, Any]) -> str | None:
+    """The database type a type it does not hold reads as (``ObjaGarbageCan`` as ``GarbageCan``):
+    the same name in any case, or a word of :data:`_TYPE_WORDS`; else the longest known type or
+    word the name ends with (its head noun: a ``DiningChair`` is a ``Chair``), then the longest
+    known type it contains; ``None`` when nothing matches."""
+    plain = kind[len(_OBJA_PREFIX) :] if kind.startswith(_OBJA_PREFIX) and len(kind) > len(_OBJA_PREFIX) else kind
+    lowered = {k.lower(): k for k in known}
+    words = {w: t for w, t in _TYPE_WORDS.items() if t in known}
+    key = re.sub(r"[^a-z0-9]", "", plain.lower())
+    if key in lowered:
+        return lowered[key]
+    if key in words:
+        return words[key]
+    ends = [(low, k) for low, k in (*lowered.items(), *words.items()) if len(low) >= 2 and key.endswith(low)]
+    if ends:
+        return max(ends, key=lambda e: (len(e[0]), e[1]))[1]
+    inside = [k for low, k in lowered.items() if len(low) >= 3 and low in key]
+    return max(inside, key=lambda k: (len(k), k)) if inside else None
+
+
+def _estimated_box(
+    item: Mapping[str, Any], asset_id: str, *, top_level: bool, centre_y: float, db: AssetDatabase
+) -> tuple[str, tuple[float, float, float], str]:
+    """The type, box (x, height, z) and how it was found of an asset the database does not hold:
+    the median box of its type among the database's assets (``objectType``, ``ObjaX`` read as
+    ``X``, else the nearest type by name), else :data:`STAND_IN_BOX_M`; a top-level object standing
+    on the floor (its centre's height within half to twice its type's height over two) takes twice
+    its centre's height, the file's own cue."""
+    raw = item.get("objectType")
+    kind = raw if isinstance(raw, str) and raw.strip() else "Object"
+    boxes = db.type_boxes
+    match = _nearest_type(kind, boxes)
+    if match is not None:
+        bx, by, bz = boxes[match]
+        how = f"the median {match} of the asset database" + ("" if match == kind else f" (its type {kind!r})")
+        otype = match
+    else:
+        bx, by, bz = STAND_IN_BOX_M
+        how = f"a {STAND_IN_BOX_M[0]:g} m stand-in box (its type {kind!r} is not one the asset database knows)"
+        otype = kind[len(_OBJA_PREFIX) :] if kind.startswith(_OBJA_PREFIX) and len(kind) > len(_OBJA_PREFIX) else kind
+    standing = 2.0 * centre_y
+    if top_level and 0.5 * by <= standing <= 2.0 * by and standing > 0.02:
+        by = standing
+        how += f", {standing:.2f} m tall (twice its centre's height)"
+    return otype, (bx, by, bz), how
+
+
+def _distinct_ids(objects: Any) -> dict[str, tuple[str, str]]:
+    """The objects (children included, in file order) whose ``id`` an object before them holds
+    already (a hand edit, a merge of two files): by field (``objects[4].children[0]``), the id each
+    is read and written back by, ``<id>#<k>`` (the k-th of that id, a number no other id of the
+    file takes), and the field of the first object with the id. The reader and the writer walk
+    the file alike, so a house written back puts each object where its own scene object stands."""
+    fields: list[tuple[str, str]] = []
+
+    def walk(items: Any, prefix: str) -> None:
+        if not isinstance(items, list):
+            return
+        for i, item in enumerate(items):
+            if not isinstance(item, dict):
+                continue
+            f = f"{prefix}[{i}]"
+            if isinstance(item.get("id"), str):
+                fields.append((f, item["id"]))
+            walk(item.get("children"), f"{f}.children")
+
+    walk(objects, "objects")
+    used = {raw for _, raw in fields}
+    first: dict[str, str] = {}
+    out: dict[str, tuple[str, str]] = {}
+    for f, raw in fields:
+        if raw not in first:
+            first[raw] = f
+            continue
+        k = 2
+        while f"{raw}#{k}" in used:
+            k += 1
+        used.add(f"{raw}#{k}")
+        out[f] = (f"{raw}#{k}", first[raw])
+    return out
 
 
 # -- writing a house back ---------------------------------------------------------------------------
@@ -862,12 +989,16 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
         )
     moved = 0
     by_id: dict[str, dict[str, Any]] = {}
+    renamed = _distinct_ids(house["objects"])  # as the reader named them: each by its own object
 
-    def visit(items: list[Any]) -> None:
+    def visit(items: list[Any], prefix: str) -> None:
         nonlocal moved
-        for item in items:
+        for i, item in enumerate(items):
             if not isinstance(item, dict):
                 continue
+            f = f"{prefix}[{i}]"
+            if f in renamed:
+                item["id"] = renamed[f][0]
             by_id[str(item.get("id"))] = item
             obj = placed.get(str(item.get("id")))
             if obj is not None:
@@ -875,9 +1006,9 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
                 moved += 1
             children = item.get("children")
             if isinstance(children, list):
-                visit(children)
+                visit(children, f"{f}.children")
 
-    visit(house["objects"])
+    visit(house["objects"], "objects")
     for holder, item in added:
         parent = by_id.get(holder) if holder is not None else None
         if parent is None:

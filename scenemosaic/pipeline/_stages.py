@@ -79,6 +79,7 @@ __all__ = [
     "judge_scenes",
     "note_import_warnings",
     "note_shortfall",
+    "note_source_faults",
     "planned_room",
     "validation_warnings",
 ]
@@ -117,6 +118,7 @@ async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
         else:
             run.scene = world
         note_import_warnings(run, rooms)
+        note_source_faults(run, rec, rooms)
         return
     model = await run.asking(rec)
     if cfg.prompt is not None:
@@ -158,6 +160,31 @@ def note_import_warnings(run: PipelineRun, scenes: Sequence[Scene]) -> None:
     fresh = [f"input: {w}" for w in found if f"input: {w}" not in run.warnings]
     if fresh:
         run.warnings[:0] = fresh
+
+
+SOURCE_FAULTS_SHOWN = 3
+"""How many of the input's mended faults the run's note quotes (the import stage's detail lists all)."""
+
+
+def note_source_faults(run: PipelineRun, rec: StageRecord, scenes: Sequence[Scene]) -> None:
+    """Say once what the input file got wrong and its reader mended (``provenance.source_faults``:
+    an object id given twice, a door hole past its wall), and which objects stand in for assets
+    the asset database does not hold (``provenance.size_estimates``): every one in the import
+    stage's detail, a count (and the first few faults) in the run's notes. The run is not degraded
+    by them: what it delivers is whole; the source file is what a user may want to mend."""
+    estimated = {oid: how for scene in scenes for oid, how in scene.provenance.size_estimates.items()}
+    if estimated:  # assets the database does not hold (Objaverse ids, a fork's own): stand-ins
+        rec.detail["size_estimates"] = estimated
+        run.notes.append(
+            f"input: {len(estimated)} object(s) whose asset the asset database does not hold stand in as boxes "
+            "sized from estimates (each: report.json, stage import)"
+        )
+    found = list(dict.fromkeys(text for scene in scenes for text in scene.provenance.source_faults))
+    if not found:
+        return
+    rec.detail["source_faults"] = found
+    shown = "; ".join(found[:SOURCE_FAULTS_SHOWN]) + ("; ..." if len(found) > SOURCE_FAULTS_SHOWN else "")
+    run.notes.append(f"input: {len(found)} fault(s) of the source file mended on import (all: report.json, stage import): {shown}")
 
 
 async def _draw_prompt(run: PipelineRun, rec: StageRecord) -> None:
@@ -464,11 +491,21 @@ async def _combine_rooms(run: PipelineRun, rec: StageRecord) -> tuple[list[House
     variants (``compose_house``), each with every room as reachable as in the base; with clutter,
     a room two houses show in the same arrangement gets its small objects varied anew
     (``pipeline._clutter.vary_house_repeats``). With the pool's size (or why there is nothing to
-    combine)."""
+    combine). A house gives at most as many variants as its rooms hold arrangements besides their
+    bases (``capped``): asked for more, it composes that many and says why."""
     house, m = run.need_house(), run.config.variants
     room_variants = [_room_variants(run, s.id) for s in house.rooms]
     if not any(room_variants):
         return "no room has a variant"
+    arrangements = sum(len(v) for v in room_variants)
+    if m > arrangements:  # past it, a house variant only recombines room arrangements others show
+        given = ", ".join(f"{s.id} {len(v)}" for s, v in zip(house.rooms, room_variants, strict=True) if v)
+        rec.detail["capped"] = (
+            f"{m} house variants asked for, {arrangements} given: its rooms hold {arrangements} arrangements "
+            f"besides their bases ({given}), and a house variant past that many would only recombine rooms "
+            "the others already show"
+        )
+        rec.detail["capped_at"] = m = arrangements
     unplanned = [s.id for s in house.rooms if furniture(s) and not planned_room(run, s.id)]
     if unplanned:  # said, not hidden: their variants differ in smaller pieces only
         rec.detail["rooms_without_plan"] = unplanned
@@ -538,12 +575,16 @@ def _house_problems(checks: dict[str, Any]) -> list[str]:
 
 def note_shortfall(run: PipelineRun, rec: StageRecord, written: int, pool: int) -> None:
     """Fewer distinct valid variants than asked for: not a fault of the scenes composed, so said
-    in the report's ``notes`` (the console prints them), not a warning that degrades the run. A
+    in the report's ``notes`` (the console prints them), not a warning that degrades the run; a
+    house asked for more than its rooms can give says so (``capped``, :func:`_combine_rooms`). A
     room of a house only records it: the house composes its own variants from every room's."""
     m = run.config.variants
     if written >= m:
         return
-    rec.detail["shortfall"] = f"{m} variants asked for, {written} distinct valid ones in a pool of {pool}"
+    if written >= rec.detail.get("capped_at", m):  # a house asked for more than its rooms can give
+        rec.detail["shortfall"] = rec.detail["capped"]
+    else:
+        rec.detail["shortfall"] = f"{m} variants asked for, {written} distinct valid ones in a pool of {pool}"
     if run.source is None:
         run.notes.append(f"fewer variants than asked for: {rec.detail['shortfall']}")
 

@@ -550,6 +550,16 @@ class Provenance(_Model):
     source_room_id: str | None = Field(
         default=None, exclude_if=_unset, description="The room's id in the source file (ProcTHOR's 'room|4')."
     )
+    source_faults: list[str] = Field(
+        default_factory=list,
+        exclude_if=_unset,
+        description="What the source file got wrong and the reader mended, each said once (an id given twice, a hole past its wall).",
+    )
+    size_estimates: dict[str, str] = Field(
+        default_factory=dict,
+        exclude_if=_unset,
+        description="Objects whose asset the source's database does not hold, by id: how the reader sized their stand-ins.",
+    )
     source_index: int | None = Field(
         default=None, exclude_if=_unset, description="The house's index in a dataset file (one house a line), from 0."
     )

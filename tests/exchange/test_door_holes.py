@@ -70,8 +70,8 @@ def test_in_mujoco_no_leaf_starts_in_a_wall_and_every_leaf_swings(tmp_path: Path
 def test_the_import_cuts_a_hole_past_its_wall_to_the_wall_and_says_so() -> None:
     """AI2-THOR's house 143 draws a door beside a corner that the shared wall's cut-back moved."""
     scenes = load_scenes(AI2THOR_143)
-    clipped = [(s.id, n) for s in scenes for n in s.provenance.notes if "past the end of" in n]
-    assert clipped, [s.provenance.notes for s in scenes]
+    clipped = [(s.id, n) for s in scenes for n in s.provenance.source_faults if "past the end of" in n]
+    assert clipped, [s.provenance.source_faults for s in scenes]
     for scene in scenes:
         assert scene.room is not None
         for wall in scene.room.walls:
