@@ -311,8 +311,8 @@ def _bad_lines(source: str, problems: list[tuple[int, str]]) -> ManifestError:
 
 def holds_houses(path: str | Path) -> bool:
     """Whether ``path`` is a dataset of houses rather than a manifest of jobs: a ``.jsonl`` or
-    ``.jsonl.gz`` file whose first line is a JSON object with neither ``input`` nor ``prompt``
-    (only that line is read)."""
+    ``.jsonl.gz`` file whose first line is a house (a JSON object with ``rooms``, and neither
+    ``input`` nor ``prompt``; only that line is read)."""
     p = Path(path).expanduser()
     if not is_dataset(p) or not p.is_file():
         return False
@@ -326,7 +326,7 @@ def holds_houses(path: str | Path) -> bool:
         data = json.loads(first.text)
     except ValueError:
         return False
-    return isinstance(data, dict) and "input" not in data and "prompt" not in data
+    return isinstance(data, dict) and "rooms" in data and "input" not in data and "prompt" not in data
 
 
 def dataset_jobs(path: str | Path, index: slice | None = None) -> list[BatchJob]:

@@ -116,9 +116,12 @@ _builtin_format(
 _builtin_format(  # before procthor: a Holodeck room also has rooms + objects
     SceneFormat(
         "holodeck",
-        "Holodeck single-room output (flat object list, parents named in the ids)",
+        "Holodeck output, one room or a whole house (flat object list, parents and rooms named in the ids)",
         detect=lambda data: _module("_holodeck").looks_like_holodeck(data),
-        read=lambda data, path, o: [_module("_holodeck").import_holodeck(data, path, asset_database=o.asset_database)],
+        read=lambda data, path, o: _module("_holodeck").import_holodeck(
+            data, path, asset_database=o.asset_database, allow_orphans=o.allow_orphans
+        ),
+        holds_houses=True,
     )
 )
 _builtin_format(

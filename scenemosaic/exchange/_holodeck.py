@@ -1,4 +1,4 @@
-"""Holodeck output: one AI2-THOR-style room with a flat object list and the LLM's plan.
+"""Holodeck output: an AI2-THOR-style house (one room or several) with a flat object list and the LLM's plan.
 
 A Holodeck file is a ProcTHOR house (``rooms``, ``walls``, ``doors``, ``windows``, ``objects``)
 plus the generator's working state (``object_selection_plan``, ``floor_objects``,
@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
@@ -45,12 +45,13 @@ from scenemosaic.exchange._procthor import (
     _HALF_TURN,
     _SWAP,
     AssetDatabase,
-    _add_opening,
-    _build_room,
     _RoomBuild,
     _unity_rotation,
-    _walls_by_id,
+    clear_shared_walls,
+    house_rooms,
     load_asset_database,
+    orphan_problems,
+    room_for,
 )
 from scenemosaic.scene import (
     AssetRef,
@@ -100,32 +101,41 @@ def looks_like_holodeck(data: Any) -> bool:
     return isinstance(data.get("objects"), list) and any(k in data for k in HOLODECK_KEYS)
 
 
-def import_holodeck(data: Any, path: Path, *, asset_database: Any = None) -> Scene:
-    """Build a :class:`Scene` of procedural objects from a parsed single-room Holodeck output.
+def import_holodeck(data: Any, path: Path, *, asset_database: Any = None, allow_orphans: bool = False) -> list[Scene]:
+    """One :class:`Scene` of procedural objects per room of a parsed Holodeck output, in its room
+    order: a single-room output (its scene named after the file, as Holodeck names its runs) or a
+    whole house (each room named after its id: ``"living room"`` -> ``living_room``).
 
-    The room is the file's only entry of ``rooms`` (floor polygon, walls of the ProcTHOR wall
-    height, doors and windows cut into them). Object sizes follow the rules of the module
-    docstring; ids are Holodeck's without the room suffix (``throw pillow-0|sofa-0 (living
-    room)`` -> ``throw_pillow-0_sofa-0``). Objects that share one position (the generator's
-    failed small-object placement) are kept as given and listed in ``provenance.notes``.
+    The rooms, walls, doors and windows are read as a ProcTHOR house's are (``house_rooms``: shared
+    edges cut back to one wall, every door and window cut into the rooms it joins). Each object
+    goes to the room its id names (Holodeck ids end with `` (<room id>)``), else to the room its
+    centre stands in. Object sizes follow the rules of the module docstring, each room reading its
+    own part of the plan; ids are Holodeck's without the room suffix (``throw pillow-0|sofa-0
+    (living room)`` -> ``throw_pillow-0_sofa-0``). Objects that share one position (the
+    generator's failed small-object placement) are kept as given and listed in
+    ``provenance.notes``; every size not taken from the asset database is listed in
+    ``provenance.size_estimates``. A door or window onto a room the file does not hold is refused
+    unless ``allow_orphans`` (as for ProcTHOR).
 
     Raises:
-        ImportFormatError: naming the file and field for malformed input, several rooms, or an
-            object whose size none of the rules gives.
+        ImportFormatError: naming the file and field for malformed input, or an object whose
+            size none of the rules gives.
     """
     db = load_asset_database(asset_database)
     r = FieldReader(path)
     top = r.mapping(data, "")
-    rooms = r.array(r.get(top, "rooms", ""), "rooms")
-    if len(rooms) != 1:
-        r.fail("rooms", f"the file holds {len(rooms)} rooms; the Holodeck importer reads single-room outputs")
-    walls_by_id = _walls_by_id(r, top)
-    build = _build_room(r, rooms[0], "rooms[0]", walls_by_id, set())
-    for key in ("doors", "windows"):
-        for i, raw in enumerate(r.array(top.get(key) or [], key)):
-            _add_opening(r, raw, f"{key}[{i}]", key, walls_by_id, {build.source_id: build})
-
-    context = _Context.read(r, top, build)
+    builds, strays = house_rooms(r, top)
+    by_source = {b.source_id: b for b in builds}
+    problems = orphan_problems([], strays, by_source)
+    if problems and not allow_orphans:
+        r.fail(
+            "doors" if strays[0].startswith("doors") else "windows",
+            "; ".join(text for text, _ in problems) + f" (is a room missing from {path.name}'s rooms?). "
+            "To cut them into the rooms the house holds instead, allow orphans (generate --allow-orphans, "
+            "load_scene(..., allow_orphans=True)); the run is then reported degraded",
+        )
+    warnings = [f"{text}: {done} (allow_orphans)" for text, done in problems]
+    contexts = {b.source_id: _Context.read(r, top, b) for b in builds}
     items = r.objects(r.get(top, "objects", ""), "objects")
     raw_ids: list[str] = []
     for i, raw in enumerate(items):
@@ -140,19 +150,23 @@ def import_holodeck(data: Any, path: Path, *, asset_database: Any = None) -> Sce
             )
         oid_of[raw_id] = unique_id(sanitize_id(_ROOM_SUFFIX.sub("", raw_id)), taken)
 
-    placements: dict[str, Placement] = {}
-    size_sources: dict[str, str] = {}
-    asset_ids: dict[str, str] = {}
-    centres: dict[str, tuple[float, float, float]] = {}
+    per_room: dict[str, _RoomObjects] = {b.source_id: _RoomObjects() for b in builds}
+    room_of: dict[str, _RoomBuild] = {}
     for i, raw in enumerate(items):
         f = f"objects[{i}]"
-        built = _object(r, r.mapping(raw, f), f, oid_of[raw_ids[i]], context, db, build)
+        item = r.mapping(raw, f)
+        build = _room_of(item, raw_ids[i], by_source, builds, r, f)
+        room_of[raw_ids[i]] = build
+        built = _object(r, item, f, oid_of[raw_ids[i]], contexts[build.source_id], db, build)
         obj = built.obj
         build.objects.append(obj)
-        placements[obj.id] = built.placement
-        size_sources[obj.id] = built.size_source
-        asset_ids[obj.id] = built.asset_id
-        centres[obj.id] = built.centre
+        here = per_room[build.source_id]
+        here.placements[obj.id] = built.placement
+        here.size_sources[obj.id] = built.size_source
+        here.asset_ids[obj.id] = built.asset_id
+        here.centres[obj.id] = built.centre
+        if built.size_source != "asset_database":
+            build.size_estimates[obj.id] = f"{f} (asset {built.asset_id!r}): {_SIZE_SOURCES[built.size_source]}"
         if built.placement == "small":
             parent_raw = raw_ids[i].split("|", 1)[1]
             parent = oid_of.get(parent_raw)
@@ -160,31 +174,76 @@ def import_holodeck(data: Any, path: Path, *, asset_database: Any = None) -> Sce
                 build.notes.append(
                     f"{f}: parent {parent_raw!r} named in its id is not in the file; no relation"
                 )
+            elif room_of.get(parent_raw, build) is not build:
+                build.notes.append(f"{f}: parent {parent_raw!r} named in its id stands in another room; no relation")
             else:
                 build.relations.append(Relation(kind="attach", child=obj.id, parent=parent, source=IMPORTER))
 
-    _note_shared_positions(centres, placements, build.notes)
-    log.debug("holodeck_imported", path=str(path), objects=len(build.objects), notes=len(build.notes))
     query = top.get("query")
-    return Scene(
-        id=sanitize_id(path.stem, fallback="scene"),
-        room=build.room,
-        objects=build.objects,
-        relations=build.relations,
-        metadata={
-            "holodeck": {
-                "query": query if isinstance(query, str) else None,
-                "placement": placements,
-                "size_source": size_sources,
-            }
-        },
-        provenance=Provenance(
-            source_format="holodeck", source_path=path.as_posix(), importer=IMPORTER, notes=build.notes,
-            room_type=build.room_type, source_room_id=None if build.source_id is None else str(build.source_id),
-            asset_ids={oid: str(a) for oid, a in asset_ids.items()},
-            source_ids={oid: str(raw) for raw, oid in oid_of.items()}, asset_database=db.source,
-        ),
-    )
+    scenes = []
+    for b in builds:
+        here = per_room[b.source_id]
+        _note_shared_positions(here.centres, here.placements, b.notes)
+        clear_shared_walls(b)
+        scenes.append(
+            Scene(
+                id=sanitize_id(path.stem, fallback="scene") if len(builds) == 1 else b.room.id,
+                room=b.room,
+                objects=b.objects,
+                relations=b.relations,
+                metadata={
+                    "holodeck": {
+                        "query": query if isinstance(query, str) else None,
+                        "placement": here.placements,
+                        "size_source": here.size_sources,
+                    }
+                },
+                provenance=Provenance(
+                    source_format="holodeck", source_path=path.as_posix(), importer=IMPORTER, notes=b.notes,
+                    source_faults=b.faults, size_estimates=dict(b.size_estimates), room_type=b.room_type,
+                    source_room_id=str(b.source_id), asset_ids={oid: str(a) for oid, a in here.asset_ids.items()},
+                    source_ids={oid: raw for raw, oid in oid_of.items() if oid in here.asset_ids},
+                    asset_database=db.source, import_warnings=list(warnings),
+                ),
+            )
+        )  # fmt: skip
+    log.debug("holodeck_imported", path=str(path), rooms=len(scenes), objects=sum(len(s.objects) for s in scenes))
+    return scenes
+
+
+_SIZE_SOURCES = {
+    "small_object_extent": "a cube of the largest extent receptacle2small_objects records",
+    "vertices": "its footprint vertices, twice its centre's height tall",
+    "vertices+plan_height": "its footprint vertices, the height the plan asked for",
+}
+"""How each of the module's size rules (beside the asset database) reads in a size estimate."""
+
+
+@dataclass
+class _RoomObjects:
+    """What the reader keeps about one room's objects besides the objects themselves."""
+
+    placements: dict[str, Placement] = field(default_factory=dict)
+    size_sources: dict[str, str] = field(default_factory=dict)
+    asset_ids: dict[str, str] = field(default_factory=dict)
+    centres: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+
+
+def _room_of(
+    item: Mapping[str, Any], raw_id: str, by_source: Mapping[str, _RoomBuild], builds: list[_RoomBuild], r: FieldReader, f: str
+) -> _RoomBuild:
+    """The room an object belongs to: the one its id names (``... (living room)``), else the one
+    its centre stands in (the nearest, with a note, when it stands in none)."""
+    named = _ROOM_SUFFIX.search(raw_id)
+    if named is not None:
+        room = named.group(0).strip()[1:-1]
+        if room in by_source:
+            return by_source[room]
+    x, _, z = r.xyz(r.get(item, "position", f), f"{f}.position")
+    build, distance = room_for(builds, x, z)
+    if distance > 0.0:
+        build.notes.append(f"{f} lies outside every floor polygon; assigned to the nearest room")
+    return build
 
 
 # -- what the generator's working state tells about objects ----------------------------------------

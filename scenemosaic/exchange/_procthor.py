@@ -252,29 +252,8 @@ def import_procthor(
     db = load_asset_database(asset_database)
     r = FieldReader(path)
     top = r.mapping(data, "")
-    _check_schema(r, top)
-    rooms_raw = r.array(r.get(top, "rooms", ""), "rooms")
-    if not rooms_raw:
-        r.fail("rooms", "the house has no rooms")
-    _check_house_size(r, rooms_raw)
-    walls_by_id = _walls_by_id(r, top)
-    builds: list[_RoomBuild] = []
-    room_ids: set[str] = set()
-    for i, raw in enumerate(rooms_raw):
-        builds.append(_build_room(r, raw, f"rooms[{i}]", walls_by_id, room_ids))
-    _cut_back_shared_walls(builds)
+    builds, strays = house_rooms(r, top)
     by_source = {b.source_id: b for b in builds}
-    _open_empty_walls(walls_by_id, by_source)
-    strays: list[str] = []  # doors and windows onto rooms the house does not hold
-    for key in ("doors", "windows"):
-        for i, raw in enumerate(r.array(top.get(key) or [], key)):
-            f = f"{key}[{i}]"
-            missing = _rooms_not_held(r, raw, f, by_source)
-            if missing:
-                item_id = raw.get("id") if isinstance(raw, dict) else None
-                named = f" ({item_id!r})" if isinstance(item_id, str) else ""
-                strays.append(f"{f}{named} opens onto {' and '.join(repr(m) for m in missing)}")
-            _add_opening(r, raw, f, key, walls_by_id, by_source)
 
     taken: set[str] = set()
     orphans: list[_Orphan] = []
@@ -283,7 +262,7 @@ def import_procthor(
         field_name = f"objects[{i}]"
         item = r.mapping(raw, field_name)
         centre = r.xyz(r.get(item, "position", field_name), f"{field_name}.position")
-        build, distance = _room_for(builds, centre[0], centre[2])
+        build, distance = room_for(builds, centre[0], centre[2])
         raw_id = item.get("id")
         if distance > OUTSIDE_ROOM_TOLERANCE_M:
             asset = item.get("assetId")
@@ -299,7 +278,7 @@ def import_procthor(
         elif distance > 0.0:
             build.notes.append(f"{field_name} lies outside every floor polygon; assigned to the nearest room")
         _add_object(r, item, field_name, None, build, db, taken, renamed)
-    problems = _orphan_problems(orphans, strays, by_source)
+    problems = orphan_problems(orphans, strays, by_source)
     if problems and not allow_orphans:
         r.fail(
             "objects" if orphans else "doors" if strays[0].startswith("doors") else "windows",
@@ -312,7 +291,7 @@ def import_procthor(
         log.warning("procthor_orphans_allowed", path=str(path), problems=warnings)
 
     for b in builds:
-        _clear_shared_walls(b)
+        clear_shared_walls(b)
     scenes = []
     for i, b in enumerate(builds):
         r.check(object_count_problem(len(b.objects)), "objects", what=f"room {b.source_id!r} (rooms[{i}])")
@@ -338,6 +317,38 @@ def import_procthor(
     return scenes
 
 
+def house_rooms(r: FieldReader, top: Mapping[str, Any]) -> tuple[list[_RoomBuild], list[str]]:
+    """A house's rooms, in file order, with their walls and openings (the ProcTHOR and Holodeck
+    readers' one home for them): each room's floor and walls, the edges rooms share cut back to
+    one wall between them, empty walls opened, every door and window cut into the rooms it joins.
+    With the doors and windows that open onto a room the file does not hold, in words (what
+    ``allow_orphans`` lets through)."""
+    _check_schema(r, top)
+    rooms_raw = r.array(r.get(top, "rooms", ""), "rooms")
+    if not rooms_raw:
+        r.fail("rooms", "the house has no rooms")
+    _check_house_size(r, rooms_raw)
+    walls_by_id = _walls_by_id(r, top)
+    builds: list[_RoomBuild] = []
+    room_ids: set[str] = set()
+    for i, raw in enumerate(rooms_raw):
+        builds.append(_build_room(r, raw, f"rooms[{i}]", walls_by_id, room_ids))
+    _cut_back_shared_walls(builds)
+    by_source = {b.source_id: b for b in builds}
+    _open_empty_walls(walls_by_id, by_source)
+    strays: list[str] = []  # doors and windows onto rooms the house does not hold
+    for key in ("doors", "windows"):
+        for i, raw in enumerate(r.array(top.get(key) or [], key)):
+            f = f"{key}[{i}]"
+            missing = _rooms_not_held(r, raw, f, by_source)
+            if missing:
+                item_id = raw.get("id") if isinstance(raw, dict) else None
+                named = f" ({item_id!r})" if isinstance(item_id, str) else ""
+                strays.append(f"{f}{named} opens onto {' and '.join(repr(m) for m in missing)}")
+            _add_opening(r, raw, f, key, walls_by_id, by_source)
+    return builds, strays
+
+
 _LISTED = 8
 """How many orphans an error names one by one (the rest are counted)."""
 
@@ -351,7 +362,7 @@ class _Orphan:
     distance: float
 
 
-def _orphan_problems(
+def orphan_problems(
     orphans: list[_Orphan], strays: list[str], by_source: Mapping[str, _RoomBuild]
 ) -> list[tuple[str, str]]:
     """What the house holds outside its rooms, in words: the orphans (how many, their ids, the
@@ -547,7 +558,7 @@ def _cut_back_shared_walls(builds: list[_RoomBuild], thickness: float = SHARED_W
             w.thickness = thickness
 
 
-def _clear_shared_walls(b: _RoomBuild, thickness: float = SHARED_WALL_THICKNESS_M) -> None:
+def clear_shared_walls(b: _RoomBuild, thickness: float = SHARED_WALL_THICKNESS_M) -> None:
     """Move each top-level object (with what it carries) off the half of a shared wall its room
     gave up: by as much as its footprint reaches into it, plus 5 mm, along the wall's inward
     normal (ProcTHOR stands furniture and hangs pictures on the line the rooms meet on)."""
@@ -722,7 +733,7 @@ def _wall_through(walls: list[Wall], point: FloatArray, reach: float) -> Wall | 
     return None if best is None else best[1]
 
 
-def _room_for(builds: list[_RoomBuild], x: float, z: float) -> tuple[_RoomBuild, float]:
+def room_for(builds: list[_RoomBuild], x: float, z: float) -> tuple[_RoomBuild, float]:
     """The room whose floor polygon (as the house draws it) covers ``(x, z)``, else the nearest
     one; with the distance to it (0 when covered)."""
     p = Point(x, z)

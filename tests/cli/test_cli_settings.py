@@ -92,6 +92,7 @@ def test_every_flag_reaches_its_setting(tmp_path: Path, monkeypatch: pytest.Monk
         "room_workers": (["3"], 3),
         "fallback": (["rules"], "rules"),
         "max_input_mb": (["50"], 50.0),
+        "index": (["2"], 2),
         "restart_stale": ([], True),
     }
     switches = {"vision": "--no-vision", "solver_fallback": "--no-solver-fallback", "stabilize": "--no-stabilize"}
