@@ -54,6 +54,7 @@ from scenemosaic.scene import (
     UnitLayout,
     is_fixture,
     is_screen,
+    kept_floor_share,
     normalize_degrees,
     points_at,
 )
@@ -645,8 +646,8 @@ id while the entry is kept."""
 
 def doors_kept(layout: UnitLayout, ctx: UnitContext, place: Placement) -> bool:
     """Whether a placement is valid for the house as the base is. A floor unit with doors: no
-    solid piece in a door zone that the base kept clear, the floor as connected (within half a
-    percent, at least :data:`WALK_MIN_SHARE` where the base reaches it) and every door reachable
+    solid piece in a door zone that the base kept clear, the floor as connected
+    (``scene.kept_floor_share`` of the base's) and every door reachable
     where the base's is. A wall unit: no piece newly across one of its doors or windows."""
     if not ctx.keep_clear and not ctx.in_house:
         return True
@@ -666,7 +667,7 @@ def doors_kept(layout: UnitLayout, ctx: UnitContext, place: Placement) -> bool:
         return True  # a wall unit: its doors and windows are all it must keep
     base_share, base_doors = _BASE_WALKS.get((id(ctx), tuple(sorted(base.items()))), lambda: (ctx, *walk_check(layout, ctx, base)))[1:]
     share, doors = walk_check(layout, ctx, place)
-    return share >= min(WALK_MIN_SHARE, base_share - 0.005) and (doors or not base_doors)
+    return share >= kept_floor_share(base_share) and (doors or not base_doors)
 
 
 _BASE_WALKS: Memo[tuple[int, tuple[tuple[str, tuple[float, float, float]], ...]], tuple[UnitContext, float, bool]] = Memo(256)
@@ -834,7 +835,7 @@ class _PlanSearch:
             self.done = True
             return
         base_share, _ = planner.walkable({k: (*layout.center(k), layout.rotation(k)) for k in layout.ids})
-        self.need = planner.need = min(WALK_MIN_SHARE, base_share - 0.005)
+        self.need = planner.need = kept_floor_share(base_share)
         self.history = {g.lead: [np.asarray(layout.center(g.lead))] for g in planner.groups}
 
     def _step(self) -> None:

@@ -38,7 +38,6 @@ from scenemosaic.exchange import _builtin  # noqa: F401 - registers the built-in
 
 if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
     from scenemosaic.exchange._dataset import (
-        DATASET_SUFFIXES,
         DatasetEntry,
         dataset_entries,
         dataset_entry,
@@ -83,7 +82,6 @@ if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
         detect_format,
         get_format,
         house_formats,
-        house_name,
         is_house_source,
         load_house,
         load_scene,
@@ -108,7 +106,6 @@ if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
     from scenemosaic.exchange._usd import export_usd
 
 __all__ = [
-    "DATASET_SUFFIXES",
     "FORMATS",
     "GLB_ROOT_NODE",
     "HOUSE_FILE",
@@ -149,7 +146,6 @@ __all__ = [
     "get_format",
     "gltf_to_world",
     "house_formats",
-    "house_name",
     "house_sceneeval_state",
     "is_dataset",
     "is_house_source",
@@ -174,7 +170,6 @@ __all__ = [
 ]
 
 _EXPORTS: dict[str, str] = {
-    "DATASET_SUFFIXES": "_dataset",
     "DatasetEntry": "_dataset",
     "dataset_entries": "_dataset",
     "dataset_entry": "_dataset",
@@ -215,7 +210,6 @@ _EXPORTS: dict[str, str] = {
     "detect_format": "_registry",
     "get_format": "_registry",
     "house_formats": "_registry",
-    "house_name": "_registry",
     "is_house_source": "_registry",
     "load_house": "_registry",
     "load_scene": "_registry",

@@ -258,6 +258,13 @@ def import_procthor(
     taken: set[str] = set()
     orphans: list[_Orphan] = []
     renamed = _distinct_ids(top.get("objects"))
+    at_base = positions_at_base(top, db)
+    if at_base:  # said once, on every room: the file's convention, not ProcTHOR's
+        for b in builds:
+            b.faults.append(
+                "the file puts each object's position at the bottom of its box (y = 0 on the floor), "
+                "not at its centre as ProcTHOR does; read (and written back) so"
+            )
     for i, raw in enumerate(r.array(r.get(top, "objects", ""), "objects")):
         field_name = f"objects[{i}]"
         item = r.mapping(raw, field_name)
@@ -277,7 +284,7 @@ def import_procthor(
             )
         elif distance > 0.0:
             build.notes.append(f"{field_name} lies outside every floor polygon; assigned to the nearest room")
-        _add_object(r, item, field_name, None, build, db, taken, renamed)
+        _add_object(r, item, field_name, None, build, db, taken, renamed, at_base)
     problems = orphan_problems(orphans, strays, by_source)
     if problems and not allow_orphans:
         r.fail(
@@ -768,6 +775,7 @@ def _add_object(
     db: AssetDatabase,
     taken: set[str],
     renamed: Mapping[str, tuple[str, str]],
+    at_base: bool = False,
 ) -> None:
     asset_id = r.text(r.get(item, "assetId", f), f"{f}.assetId")
     raw_id = item.get("id")
@@ -782,12 +790,14 @@ def _add_object(
         bx, by, bz = db.boxes[asset_id]
         otype = db.types.get(asset_id, "Object")
     else:  # an Objaverse asset, a fork's own: a stand-in sized from what is known of it
-        otype, (bx, by, bz), estimate = _estimated_box(item, asset_id, top_level=parent is None, centre_y=cy, db=db)
+        otype, (bx, by, bz), estimate = _estimated_box(
+            item, asset_id, top_level=parent is None, centre_y=None if at_base else cy, db=db
+        )
     r.check(size_problem((bx, bz, by)), f"{f}.assetId", what=f"{who}: {estimate or 'asset database box'}")
     rot_raw = item.get("rotation", {"x": 0.0, "y": 0.0, "z": 0.0})
     rx, ry, rz = r.xyz(rot_raw, f"{f}.rotation")
     rotation = _SWAP @ _unity_rotation(rx, ry, rz) @ _SWAP @ _HALF_TURN
-    centre = np.array([cx, cz, cy])
+    centre = np.array([cx, cz, cy + (by / 2.0 if at_base else 0.0)])
     origin = centre - rotation @ np.array([0.0, 0.0, by / 2.0])
     qx, qy, qz, qw = Rotation.from_matrix(rotation).as_quat()
     if abs(rx) < 1e-9 and abs(rz) < 1e-9:
@@ -817,7 +827,7 @@ def _add_object(
         build.relations.append(Relation(kind="attach", child=oid, parent=parent, source=IMPORTER))
     for j, child in enumerate(r.array(item.get("children") or [], f"{f}.children")):
         cf = f"{f}.children[{j}]"
-        _add_object(r, r.mapping(child, cf), cf, oid, build, db, taken, renamed)
+        _add_object(r, r.mapping(child, cf), cf, oid, build, db, taken, renamed, at_base)
 
 
 STAND_IN_BOX_M = (0.4, 0.4, 0.4)
@@ -856,7 +866,7 @@ def _nearest_type(kind: str, known: Mapping[str, Any]) -> str | None:
 
 
 def _estimated_box(
-    item: Mapping[str, Any], asset_id: str, *, top_level: bool, centre_y: float, db: AssetDatabase
+    item: Mapping[str, Any], asset_id: str, *, top_level: bool, centre_y: float | None, db: AssetDatabase
 ) -> tuple[str, tuple[float, float, float], str]:
     """The type, box (x, height, z) and how it was found of an asset the database does not hold:
     the median box of its type among the database's assets (``objectType``, ``ObjaX`` read as
@@ -875,11 +885,38 @@ def _estimated_box(
         bx, by, bz = STAND_IN_BOX_M
         how = f"a {STAND_IN_BOX_M[0]:g} m stand-in box (its type {kind!r} is not one the asset database knows)"
         otype = kind[len(_OBJA_PREFIX) :] if kind.startswith(_OBJA_PREFIX) and len(kind) > len(_OBJA_PREFIX) else kind
-    standing = 2.0 * centre_y
+    standing = 2.0 * centre_y if centre_y is not None else 0.0  # a file of base positions gives no height
     if top_level and 0.5 * by <= standing <= 2.0 * by and standing > 0.02:
         by = standing
         how += f", {standing:.2f} m tall (twice its centre's height)"
     return otype, (bx, by, bz), how
+
+
+BASE_Y_TOLERANCE_M = 0.02
+"""How near ``y = 0`` (or half its height) a floor object's ``y`` must be to say where the file
+puts positions (:func:`positions_at_base`), m."""
+
+
+def positions_at_base(top: Mapping[str, Any], db: AssetDatabase) -> bool:
+    """Whether a house file writes an object's ``position`` at the bottom of its box (``y = 0`` for
+    what stands on the floor, as some forks do) instead of ProcTHOR's box centre. Decided per file
+    from its top-level objects whose box the database knows and that are not flat: those whose
+    ``y`` lies within :data:`BASE_Y_TOLERANCE_M` of 0 against those within it of half their height
+    (a picture on a wall counts for neither); ties read as ProcTHOR's centres."""
+    base = centre = 0
+    for item in top.get("objects") or []:
+        if not isinstance(item, Mapping):
+            continue
+        box = db.boxes.get(str(item.get("assetId")))
+        pos = item.get("position")
+        y = pos.get("y") if isinstance(pos, Mapping) else None
+        if box is None or not isinstance(y, int | float) or box[1] / 2 <= 2 * BASE_Y_TOLERANCE_M:
+            continue
+        if abs(y) <= BASE_Y_TOLERANCE_M:
+            base += 1
+        elif abs(y - box[1] / 2) <= BASE_Y_TOLERANCE_M:
+            centre += 1
+    return base > centre
 
 
 def _distinct_ids(objects: Any) -> dict[str, tuple[str, str]]:
@@ -923,9 +960,9 @@ HOUSE_FILE = "house.json"
 """The file :func:`export_procthor` writes in its folder."""
 
 
-def _unity_pose(obj: SceneObject) -> tuple[dict[str, float], dict[str, float]]:
-    """``position`` (the box centre) and ``rotation`` (Euler degrees) of an object, in Unity's
-    frame: :func:`_add_object` run backwards."""
+def _unity_pose(obj: SceneObject, at_base: bool = False) -> tuple[dict[str, float], dict[str, float]]:
+    """``position`` (the box centre; ``at_base``: the bottom of its box, :func:`positions_at_base`)
+    and ``rotation`` (Euler degrees) of an object, in Unity's frame: :func:`_add_object` run backwards."""
     rotation = quat_to_matrix(obj.pose.quaternion)
     unity = _SWAP @ rotation @ _HALF_TURN @ _SWAP
     ry, rx, rz = Rotation.from_matrix(unity).as_euler("YXZ", degrees=True)
@@ -935,13 +972,14 @@ def _unity_pose(obj: SceneObject) -> tuple[dict[str, float], dict[str, float]]:
     def tidy(v: float) -> float:
         return round(float(v), 6) + 0.0  # + 0.0: no "-0.0" in the file
 
+    y = centre[2] - (height / 2.0 if at_base else 0.0)
     return (
-        {"x": tidy(centre[0]), "y": tidy(centre[2]), "z": tidy(centre[1])},
+        {"x": tidy(centre[0]), "y": tidy(y), "z": tidy(centre[1])},
         {"x": tidy(rx), "y": tidy(ry % 360.0), "z": tidy(rz)},
     )
 
 
-def _clutter_items(scene: Scene, raw_ids: Mapping[str, str]) -> list[tuple[str | None, dict[str, Any]]]:
+def _clutter_items(scene: Scene, raw_ids: Mapping[str, str], at_base: bool = False) -> list[tuple[str | None, dict[str, Any]]]:
     """The objects a clutter pass drew from the asset database into ``scene`` (``docs/clutter.md``)
     as house-file items, each with the file's id of the receptacle it rests on (``None`` when that
     is no object of the file): a child of the receptacle there, as ProcTHOR lists the small
@@ -953,7 +991,7 @@ def _clutter_items(scene: Scene, raw_ids: Mapping[str, str]) -> list[tuple[str |
         if oid in raw_ids or oid not in known or not isinstance(entry, dict) or not entry.get("asset_id"):
             continue  # the file's own objects are moved in place; what left the scene is not written
         obj = scene.get(oid)
-        position, rotation = _unity_pose(obj)
+        position, rotation = _unity_pose(obj, at_base)
         support = scene.support_of(oid)
         holder = raw_ids.get(support.parent) if support is not None else None
         item = {"assetId": str(entry["asset_id"]), "id": oid, "kinematic": False, "position": position, "rotation": rotation}
@@ -971,6 +1009,7 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
     sources: set[tuple[str, int | None]] = set()
     placed: dict[str, SceneObject] = {}
     added: list[tuple[str | None, dict[str, Any]]] = []  # (the receptacle's id in the file, item)
+    drawn: list[tuple[Scene, dict[str, str]]] = []  # each room with its objects' ids in the file
     rooms: list[str] = []
     for scene in scenes:
         origin = scene.provenance
@@ -984,7 +1023,7 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
         known = {o.id for o in scene.objects}
         raw_ids = dict(origin.source_ids)
         placed.update({raw: scene.get(oid) for oid, raw in raw_ids.items() if oid in known})
-        added.extend(_clutter_items(scene, raw_ids))
+        drawn.append((scene, raw_ids))
         rooms.append(origin.source_room_id)
     if len(sources) != 1:
         raise UsageError(
@@ -998,6 +1037,10 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
         raise ImportFormatError(
             "the house the scene came from has no objects list", path=str(path), field="objects"
         )
+    database = scenes[0].provenance.asset_database
+    at_base = positions_at_base(house, load_asset_database(database if database and Path(database).is_file() else None))
+    for scene, raw_ids in drawn:
+        added.extend(_clutter_items(scene, raw_ids, at_base))
     moved = 0
     by_id: dict[str, dict[str, Any]] = {}
     renamed = _distinct_ids(house["objects"])  # as the reader named them: each by its own object
@@ -1013,7 +1056,7 @@ def _write_back(scenes: list[Scene], folder: str | os.PathLike[str], what: str) 
             by_id[str(item.get("id"))] = item
             obj = placed.get(str(item.get("id")))
             if obj is not None:
-                item["position"], item["rotation"] = _unity_pose(obj)
+                item["position"], item["rotation"] = _unity_pose(obj, at_base)
                 moved += 1
             children = item.get("children")
             if isinstance(children, list):

@@ -44,7 +44,6 @@ __all__ = [
     "detect_format",
     "get_format",
     "house_formats",
-    "house_name",
     "is_house_source",
     "load_house",
     "load_scene",
@@ -351,7 +350,7 @@ def load_house(
         raise UsageError(f"{os.fspath(path)} is not a house (a multi-room AI2-THOR / ProcTHOR house file or a delivered house)")
     first = scenes[0].provenance
     return House(
-        id=house_name(p, index),
+        id=_house_name(p, index),
         rooms=scenes,
         provenance=Provenance(
             source_format=first.source_format, source_path=first.source_path, importer=first.importer, source_index=index
@@ -486,7 +485,7 @@ def _detect_data(data: Any, path: Path) -> SceneFormat:
     raise ImportFormatError(f"unknown format (top-level {keys}); expected one of: {kinds}", path=str(path))
 
 
-def house_name(path: str | os.PathLike[str], index: int | None = None) -> str:
+def _house_name(path: str | os.PathLike[str], index: int | None = None) -> str:
     """The id a house read from ``path`` gets: the file's stem, ``<stem>-<index>`` for a house
     of a dataset, the folder's name for a folder."""
     p = Path(path)

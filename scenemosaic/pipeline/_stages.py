@@ -51,7 +51,6 @@ from scenemosaic.pipeline._deliveries import deliver_ahead, delivered_worlds, ho
 from scenemosaic.pipeline._state import PipelineRun, Stage, StageRecord, rooms_of
 from scenemosaic.render import ContactSheet
 from scenemosaic.scene import (
-    WALK_MIN_SHARE,
     House,
     HouseFloor,
     RunFolder,
@@ -62,6 +61,7 @@ from scenemosaic.scene import (
     functional_holds,
     functional_relations,
     is_screen,
+    kept_floor_share,
     on_backing_wall,
     wall_crossings,
     write_atomic,
@@ -71,10 +71,8 @@ from scenemosaic.structure import structure_scene
 log = structlog.get_logger(__name__)
 
 __all__ = [
-    "NAV_SLACK",
     "STAGES",
     "STAGE_NAMES",
-    "floor_share",
     "is_image_input",
     "judge_scenes",
     "note_import_warnings",
@@ -83,12 +81,6 @@ __all__ = [
     "planned_room",
     "validation_warnings",
 ]
-
-NAV_SLACK = 0.005
-"""A variant's NAV must reach ``scene.WALK_MIN_SHARE`` (0.99); where the base scene's own NAV is
-lower (a room whose furniture cuts the floor and the critic found no clean move that reopens
-it), the base's NAV less this much (one raster cell's worth of noise)."""
-
 
 def is_image_input(run_input: Path, format: str) -> bool:
     """Whether a run's input is a photograph for the image front end (``format`` ``image``, or
@@ -398,12 +390,6 @@ async def _stage_doors(run: PipelineRun, rec: StageRecord) -> None:
         run.warnings.append(f"door clearance: door(s) {', '.join(repair.cut_off)} open onto a pocket cut off from the room")
 
 
-def floor_share(base_nav: float) -> float:
-    """The NAV a variant must keep: ``WALK_MIN_SHARE``, or where the base's own NAV is lower, the
-    base's less :data:`NAV_SLACK`."""
-    return WALK_MIN_SHARE if base_nav >= WALK_MIN_SHARE else base_nav - NAV_SLACK
-
-
 async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
     """Select ``variants`` diverse whole variants from the valid variants of the world's units
     (max-min greedy selection over their product, ``compose``): a room's units are its local units
@@ -454,7 +440,7 @@ async def _combine_units(run: PipelineRun, rec: StageRecord) -> tuple[list[Scene
     scene, m = run.need_scene(), run.config.variants
     layouts = {unit: UnitLayouts(unit, ids, poses) for unit, (ids, poses) in run.layouts.items()}
     shapes = await asyncio.to_thread(run.shapes, scene)
-    share = floor_share(await asyncio.to_thread(nav, scene))
+    share = kept_floor_share(await asyncio.to_thread(nav, scene))
     blocked = {b.object_id for b in await asyncio.to_thread(door_blockers, scene)}
     cut = set(await asyncio.to_thread(cut_off_doors, scene))
     crossing = {oid for _, oid, _ in await asyncio.to_thread(wall_crossings, scene)}
@@ -488,7 +474,7 @@ async def _combine_units(run: PipelineRun, rec: StageRecord) -> tuple[list[Scene
 
 async def _combine_rooms(run: PipelineRun, rec: StageRecord) -> tuple[list[House], int] | str:
     """A house's variants: whole houses from one candidate pool over every room's own valid
-    variants (``compose_house``), each with every room as reachable as in the base; with clutter,
+    variants (``compose_house``), each with every room as reachable as in the base and no floor cut off (``HouseFloor.keeps``); with clutter,
     a room two houses show in the same arrangement gets its small objects varied anew
     (``pipeline._clutter.vary_house_repeats``). With the pool's size (or why there is nothing to
     combine). A house gives at most as many variants as its rooms hold arrangements besides their
@@ -511,12 +497,8 @@ async def _combine_rooms(run: PipelineRun, rec: StageRecord) -> tuple[list[House
         rec.detail["rooms_without_plan"] = unplanned
         run.notes.append(f"room(s) whose free floor holds no other arrangement of their furniture groups: {', '.join(unplanned)}")
     floor = HouseFloor(house)  # the floors and doorways rasterized once, each room arrangement once
-    base_unreachable = set(floor.walkable(house.rooms).unreachable_rooms())
-
-    def reachable(rooms: list[Scene]) -> bool:
-        return set(floor.walkable(rooms).unreachable_rooms()) <= base_unreachable
-
-    compose = functools.partial(compose_house, house.rooms, room_variants, m=m, seed=run.config.seed, accept=reachable)
+    keeps = floor.keeps(house.rooms)  # every room as reachable, no floor of the house cut off
+    compose = functools.partial(compose_house, house.rooms, room_variants, m=m, seed=run.config.seed, accept=keeps)
     variants, report = await asyncio.to_thread(compose)
     repeats = await vary_house_repeats(run, house.rooms, variants, report.picked)  # --clutter: no room's clutter shown twice
     varied: dict[str, list[str]] = repeats.get("varied", {})

@@ -186,6 +186,7 @@ from scenemosaic.scene._tree import (
     with_world_poses,
 )
 from scenemosaic.scene._walkable import (
+    NAV_SLACK,
     ROBOT_RADIUS,
     THIN_RATIO,
     WALK_GRID,
@@ -194,6 +195,7 @@ from scenemosaic.scene._walkable import (
     FloorRaster,
     Walkable,
     is_thin,
+    kept_floor_share,
     mask_iou,
 )
 
@@ -233,6 +235,7 @@ __all__ = [
     "MIN_OBJECT_SIZE",
     "MIN_PASSAGE_M",
     "MIN_SCALE",
+    "NAV_SLACK",
     "NESTED_FRACTION",
     "OBJECT_ID_PATTERN",
     "OPENING_CLEAR_M",
@@ -318,6 +321,7 @@ __all__ = [
     "is_known",
     "is_screen",
     "is_thin",
+    "kept_floor_share",
     "load_priors",
     "mask_iou",
     "may_share_floor",

@@ -19,7 +19,7 @@ scene is exactly what a one-room run works on. What a room alone cannot see is b
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,7 +33,14 @@ from scenemosaic.scene._geometry import FloatArray
 from scenemosaic.scene._limits import house_problem
 from scenemosaic.scene._model import Opening, Provenance, Scene, SceneObject, Wall, _Model, _plan_png
 from scenemosaic.scene._planar import convex_hull_2d
-from scenemosaic.scene._walkable import ROBOT_RADIUS, WALK_MAX_HEIGHT, FloorRaster, Walkable, is_thin
+from scenemosaic.scene._walkable import (
+    ROBOT_RADIUS,
+    WALK_MAX_HEIGHT,
+    FloorRaster,
+    Walkable,
+    is_thin,
+    kept_floor_share,
+)
 
 __all__ = [
     "DOOR_CLEARANCE_DEPTH_M",
@@ -486,6 +493,21 @@ class HouseFloor:
         for room in rooms:
             blocked |= self._room_blocked(room)
         return HouseWalkable(self.raster.walkable(blocked, self.radius), self.raster, self.room_cells)
+
+    def keeps(self, base: Sequence[Scene]) -> Callable[[Sequence[Scene]], bool]:
+        """A test of other arrangements of the house's rooms against the ``base`` arrangement:
+        every room the base reaches still reached, and the house's largest walkable piece (its NAV
+        over every floor and doorway) holding :func:`~scenemosaic.scene.kept_floor_share` of the
+        base's, so a variant never cuts off floor the base leaves open (a wardrobe turned across
+        a room's corner keeps every door reachable and still walls off a strip of floor)."""
+        walk = self.walkable(base)
+        unreachable, least = set(walk.unreachable_rooms()), kept_floor_share(walk.nav)
+
+        def test(rooms: Sequence[Scene]) -> bool:
+            now = self.walkable(rooms)
+            return set(now.unreachable_rooms()) <= unreachable and now.nav >= least
+
+        return test
 
 
 def _house_raster(house: House, cell: float) -> tuple[FloorRaster, dict[str, np.ndarray]]:

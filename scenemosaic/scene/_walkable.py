@@ -24,7 +24,19 @@ from shapely.geometry import Polygon
 from scenemosaic.scene._geometry import FloatArray
 from scenemosaic.scene._model import SceneObject
 
-__all__ = ["ROBOT_RADIUS", "THIN_RATIO", "WALK_GRID", "WALK_MAX_HEIGHT", "WALK_MIN_SHARE", "FloorRaster", "Walkable", "is_thin", "mask_iou"]
+__all__ = [
+    "NAV_SLACK",
+    "ROBOT_RADIUS",
+    "THIN_RATIO",
+    "WALK_GRID",
+    "WALK_MAX_HEIGHT",
+    "WALK_MIN_SHARE",
+    "FloorRaster",
+    "Walkable",
+    "is_thin",
+    "kept_floor_share",
+    "mask_iou",
+]
 
 WALK_GRID = 256
 """Raster cells along the longer side of the floor's bounding box (SceneEval's NAV grid)."""
@@ -38,6 +50,20 @@ its larger planar extent: it is walked over, and left out of collision counting,
 WALK_MIN_SHARE = 0.99
 """The share of free floor the largest connected piece should hold for the floor to count as
 one piece (the variants' NAV bar; a room whose own layout cannot reach it keeps its own)."""
+NAV_SLACK = 0.005
+"""How much less connected floor than its base a variant may show: one raster cell's worth of noise."""
+
+
+def kept_floor_share(base_share: float) -> float:
+    """The share of its floor a variant's largest walkable piece must hold, given its base's (a
+    room's NAV, or a house's over every room and doorway): :data:`WALK_MIN_SHARE` and its base's
+    less :data:`NAV_SLACK`; where the base itself stays below :data:`WALK_MIN_SHARE` (its own
+    furniture cuts the floor), the base's less :data:`NAV_SLACK`. The one rule of the room plans,
+    the evolution and the composition of rooms and houses alike: a variant never cuts off floor
+    its base leaves open."""
+    if base_share >= WALK_MIN_SHARE:
+        return max(WALK_MIN_SHARE, base_share - NAV_SLACK)
+    return base_share - NAV_SLACK
 
 
 def mask_iou(a: np.ndarray, b: np.ndarray) -> float:

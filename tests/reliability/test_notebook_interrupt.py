@@ -65,6 +65,7 @@ def test_an_interrupt_stops_a_synchronous_generate_in_a_running_loop(tmp_path: P
         if proc.poll() is None:  # a run that went on: not left behind
             proc.kill()
             proc.wait()
+        proc.stdout.close()  # closed here, not by the garbage collector during another test
     assert "INTERRUPTED" in rest
     assert time.monotonic() - t0 < 20, "the run went on after the interrupt"
     report = json.loads((out / "report.json").read_text())
