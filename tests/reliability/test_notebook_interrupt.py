@@ -44,12 +44,19 @@ CELL = textwrap.dedent(
 )
 
 
+def _ctrl_c_as_in_a_kernel() -> None:
+    """The cell's process starts with Ctrl-C at its default, as a notebook's kernel does: a
+    pytest-xdist worker ignores SIGINT, and a child inherits an ignored signal (Python then never
+    raises KeyboardInterrupt), so the test passed or hung by which tests its worker ran before."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="sends SIGINT")
 def test_an_interrupt_stops_a_synchronous_generate_in_a_running_loop(tmp_path: Path) -> None:
     out = tmp_path / "o"
     proc = subprocess.Popen(
         [sys.executable, "-c", CELL, str(ROOM), str(out)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
-        env={**os.environ, "MUJOCO_GL": "egl"},
+        env={**os.environ, "MUJOCO_GL": "egl"}, preexec_fn=_ctrl_c_as_in_a_kernel,
     )  # fmt: skip
     assert proc.stdout is not None
     try:
