@@ -1,5 +1,5 @@
-"""Helpers of the dataset tests: datasets of houses (``.jsonl``/``.jsonl.gz``) written from the
-shipped ProcTHOR houses."""
+"""Helpers of the house-file tests: datasets of houses (``.jsonl``/``.jsonl.gz``) written from the
+shipped ProcTHOR houses, and a house file's objects in file order."""
 
 from __future__ import annotations
 
@@ -28,3 +28,12 @@ def write_dataset(path: Path, houses: list[Path], *, blank_after: int | None = N
     else:
         path.write_text(text, encoding="utf-8")
     return path
+
+
+def house_items(objects: list[dict]) -> list[dict]:
+    """An AI2-THOR house file's objects and their children, in file order (as its readers walk it)."""
+    out = []
+    for item in objects:
+        out.append(item)
+        out.extend(house_items(item.get("children") or []))
+    return out

@@ -18,6 +18,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from scenemosaic._memo import Memo
 from scenemosaic.exceptions import ImportFormatError, UsageError
 from scenemosaic.exchange._common import parse_json
 
@@ -95,10 +96,25 @@ def dataset_entries(path: str | os.PathLike[str]) -> Iterator[DatasetEntry]:
             raise ImportFormatError(f"cannot read the dataset after house {index}: {exc}", path=str(p)) from exc
 
 
+_ENTRIES: Memo[tuple[str, int, int, int], DatasetEntry] = Memo(8)
+"""The houses read lately, by the file (its path, modification time and size) and the index: a run
+asks for its house several times (is it a house, its checkpoint digest, the import), and each
+time would stream the file up to it."""
+
+
 def dataset_entry(path: str | os.PathLike[str], index: int) -> DatasetEntry:
     """House ``index`` (0-based) of a dataset; an index past its end raises ``UsageError`` saying how many it holds."""
     if index < 0:
         raise UsageError(f"index {index}: a house's index in a dataset counts from 0")
+    p = Path(path)
+    try:
+        stat = p.stat()
+    except OSError:
+        return _find_entry(p, index)  # the reader names what is wrong with the file
+    return _ENTRIES.get((str(p.resolve()), stat.st_mtime_ns, stat.st_size, index), lambda: _find_entry(p, index))
+
+
+def _find_entry(path: Path, index: int) -> DatasetEntry:
     count = 0
     for entry in dataset_entries(path):
         if entry.index == index:

@@ -840,7 +840,7 @@ _TYPE_WORDS = {
     "cabinet": "Dresser", "wardrobe": "Dresser", "closet": "Dresser", "chest": "Dresser", "couch": "Sofa",
     "nightstand": "SideTable", "table": "SideTable", "plant": "HousePlant", "tv": "Television",
     "lamp": "FloorLamp", "trashcan": "GarbageCan", "bin": "GarbageCan", "mirror": "Painting",
-    "picture": "Painting", "poster": "Painting", "clock": "AlarmClock", "speaker": "Television",
+    "picture": "Painting", "poster": "Painting", "clock": "AlarmClock",
 }  # fmt: skip
 """Words of types the AI2-THOR database has no asset of, read as a database type of like size."""
 

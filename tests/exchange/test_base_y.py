@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from dataset_helpers import house_items
 
 from scenemosaic.exchange import export_procthor, load_asset_database, load_house
 from scenemosaic.exchange._procthor import positions_at_base
@@ -16,19 +17,11 @@ from scenemosaic.exchange._procthor import positions_at_base
 FOUR_ROOMS = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor" / "procthor_4room.json"
 
 
-def _items(objects: list[dict]) -> list[dict]:
-    out = []
-    for item in objects:
-        out.append(item)
-        out.extend(_items(item.get("children") or []))
-    return out
-
-
 def base_form(path: Path) -> Path:
     """The 4-room house as the fork writes it: every position at the bottom of its box."""
     db = load_asset_database(None)
     house = json.loads(FOUR_ROOMS.read_text(encoding="utf-8"))
-    for item in _items(house["objects"]):
+    for item in house_items(house["objects"]):
         item["position"]["y"] -= db.boxes[item["assetId"]][1] / 2
     path.write_text(json.dumps(house), encoding="utf-8")
     return path
@@ -52,7 +45,7 @@ def test_a_fork_house_is_written_back_at_base(tmp_path: Path) -> None:
     fork = base_form(tmp_path / "fork.json")
     house = load_house(fork)
     written = json.loads(export_procthor(house, tmp_path / "back").read_text(encoding="utf-8"))
-    before = _items(json.loads(fork.read_text())["objects"])
-    after = _items(written["objects"])
+    before = house_items(json.loads(fork.read_text())["objects"])
+    after = house_items(written["objects"])
     for a, b in zip(before, after, strict=True):
         assert b["position"]["y"] == pytest.approx(a["position"]["y"], abs=1e-4), a["id"]

@@ -78,3 +78,14 @@ def test_a_broken_line_is_named_by_its_house_and_line(tmp_path: Path) -> None:
     truncated.write_bytes(truncated.read_bytes()[:-40])  # a download cut short
     with pytest.raises(ImportFormatError, match="cannot read the dataset"):
         dataset_size(truncated)
+
+
+def test_a_house_read_again_comes_from_memory_until_the_file_changes(tmp_path: Path) -> None:
+    from scenemosaic.exchange import dataset_entry
+
+    dataset = write_dataset(tmp_path / "houses.jsonl", [ONE_ROOM, TWO_ROOMS])
+    first = dataset_entry(dataset, 1)
+    assert dataset_entry(dataset, 1) is first  # a run asks several times: the file is streamed once
+    write_dataset(dataset, [TWO_ROOMS, ONE_ROOM, FOUR_ROOMS])  # rewritten: another size
+    again = dataset_entry(dataset, 1)
+    assert again is not first and json.loads(again.text) == json.loads(ONE_ROOM.read_text(encoding="utf-8"))

@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 
 import pytest
+from dataset_helpers import house_items
 from typer.testing import CliRunner
 
 from scenemosaic.cli import app
@@ -17,17 +18,9 @@ from scenemosaic.scene import Scene
 BEDROOM = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor" / "procthor_1room_bedroom.json"
 
 
-def _items(objects: list[dict]) -> list[dict]:
-    out = []
-    for item in objects:
-        out.append(item)
-        out.extend(_items(item.get("children") or []))
-    return out
-
-
 def _with_ids(tmp_path: Path, rename) -> Path:
     house = json.loads(BEDROOM.read_text(encoding="utf-8"))
-    for i, item in enumerate(_items(house["objects"])):
+    for i, item in enumerate(house_items(house["objects"])):
         item["id"] = rename(i, item["id"])
     path = tmp_path / "house.json"
     path.write_text(json.dumps(house), encoding="utf-8")
@@ -58,9 +51,9 @@ def test_a_house_whose_every_id_is_the_same_keeps_every_object_where_it_was(tmp_
     path = _with_ids(tmp_path, lambda i, raw: "same")
     scene = load_scene(path)
     assert isinstance(scene, Scene)
-    items = _items(json.loads(path.read_text(encoding="utf-8"))["objects"])
+    items = house_items(json.loads(path.read_text(encoding="utf-8"))["objects"])
     assert len(scene.objects) == len(items) and len(scene.provenance.source_faults) == len(items) - 1
-    written = _items(json.loads(export_procthor(scene, tmp_path / "back").read_text(encoding="utf-8"))["objects"])
+    written = house_items(json.loads(export_procthor(scene, tmp_path / "back").read_text(encoding="utf-8"))["objects"])
     assert len({w["id"] for w in written}) == len(items)  # every id its own now
     for before, after in zip(items, written, strict=True):
         for axis in ("x", "y", "z"):
