@@ -9,7 +9,7 @@ folders given with ``--extra`` (group ``extra``), runs
 * ``div_iou`` / ``div_n`` — the house's diversity over its five variants (``metrics.house_diversity``);
 * ``rooms_moved`` / ``rooms_movable`` — rooms in which some variant moves a piece of furniture
   (``metrics.moved_furniture``: a non-fixture floor piece with at least 0.15 m² of footprint, by
-  0.3 m or 20 degrees) / rooms that have such a piece;
+  0.3 m or 20 degrees) / rooms that have such a piece; ``rooms_still`` names the others;
 * ``room_div_iou_max`` — the highest per-room Div-IoU among the bedrooms, living rooms and dining
   rooms with at least 4 m² of free floor: floor that neither furniture nor a door's or passage's
   clearance zone takes (``room_div_iou`` lists them; ``free_floor`` gives every such room's);
@@ -73,6 +73,7 @@ def _house(path: Path, out: Path, group: str) -> dict[str, Any]:
     metrics = report.get("metrics", {})
     rooms_metrics = metrics.get("rooms", {})
     moved = movable = 0
+    still: list[str] = []
     room_div: dict[str, float] = {}
     free: dict[str, float] = {}
     plaus, cols, oobs, navs, relkeeps = [], [], [], [], []
@@ -81,6 +82,8 @@ def _house(path: Path, out: Path, group: str) -> dict[str, Any]:
             movable += 1
             if moved_furniture(room, [v.rooms[k] for v in variants if isinstance(v, House)]):
                 moved += 1
+            else:
+                still.append(room.id)
         rm = rooms_metrics.get(room.id, {})
         rows = [rm.get("base", {}), *rm.get("variants", [])]
         plaus += [r.get("PLAUS", 1.0) for r in rows]
@@ -108,6 +111,7 @@ def _house(path: Path, out: Path, group: str) -> dict[str, Any]:
         "div_n": (house.get("diversity") or {}).get("Div-N"),
         "rooms_moved": moved,
         "rooms_movable": movable,
+        "rooms_still": still,
         "room_div_iou_max": max(room_div.values()) if room_div else None,
         "room_div_iou": room_div,
         "free_floor": free,
@@ -168,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
         "door_blockers": sum(r["door_blockers"] for r in rows),
         "unreachable": sum(r["unreachable"] for r in rows),
         "relkeep_min": min((r["relkeep_min"] for r in rows), default=1.0),
-        "per_house": {r["house"]: {k: r[k] for k in ("group", "rooms", "div_iou", "div_n", "rooms_moved", "rooms_movable", "room_div_iou_max", "plausibility_min", "status", "seconds")} for r in rows},
+        "per_house": {r["house"]: {k: r[k] for k in ("group", "rooms", "div_iou", "div_n", "rooms_moved", "rooms_movable", "rooms_still", "room_div_iou_max", "plausibility_min", "status", "seconds")} for r in rows},
         "seconds": round(time.perf_counter() - t0, 1),
     }
     print(json.dumps(figures))

@@ -71,6 +71,7 @@ if TYPE_CHECKING:  # what type checkers see; at run time the names load lazily
         SHARED_WALL_THICKNESS_M,
         AssetDatabase,
         export_procthor,
+        load_asset_annotations,
         load_asset_database,
     )
     from scenemosaic.exchange._pybullet import PYBULLET_INSTALL_HINT, load_pybullet
@@ -149,6 +150,7 @@ __all__ = [
     "house_sceneeval_state",
     "is_dataset",
     "is_house_source",
+    "load_asset_annotations",
     "load_asset_database",
     "load_house",
     "load_pybullet",
@@ -200,6 +202,7 @@ _EXPORTS: dict[str, str] = {
     "SHARED_WALL_THICKNESS_M": "_procthor",
     "AssetDatabase": "_procthor",
     "export_procthor": "_procthor",
+    "load_asset_annotations": "_procthor",
     "load_asset_database": "_procthor",
     "PYBULLET_INSTALL_HINT": "_pybullet",
     "load_pybullet": "_pybullet",

@@ -3,6 +3,7 @@ the scene limits and of file references in the file's own terms."""
 
 from __future__ import annotations
 
+import gzip
 import json
 import math
 import re
@@ -25,15 +26,19 @@ _LABEL_RE = re.compile(r"^[a-z][a-z0-9_]{0,47}$")
 
 
 def read_json(path: Path) -> Any:
-    """Parse a JSON file; unreadable, non-UTF-8 or malformed text raises ``ImportFormatError`` naming it."""
+    """Parse a JSON file (gzip-compressed when its name ends ``.gz``, as Objaverse's annotation
+    files ship); unreadable, non-UTF-8 or malformed text raises ``ImportFormatError`` naming it."""
     try:
-        text = path.read_text(encoding="utf-8")
+        if path.name.lower().endswith(".gz"):
+            text = gzip.decompress(path.read_bytes()).decode("utf-8")
+        else:
+            text = path.read_text(encoding="utf-8")
     except FileNotFoundError as exc:
         raise ImportFormatError("file not found", path=str(path)) from exc
     except UnicodeDecodeError as exc:
         raise ImportFormatError(f"not UTF-8 text ({exc.reason})", path=str(path)) from exc
-    except OSError as exc:
-        raise ImportFormatError(f"cannot read: {exc.strerror}", path=str(path)) from exc
+    except (OSError, EOFError) as exc:  # gzip: BadGzipFile is an OSError, a cut-off file an EOFError
+        raise ImportFormatError(f"cannot read: {getattr(exc, 'strerror', None) or exc}", path=str(path)) from exc
     return parse_json(text, path)
 
 

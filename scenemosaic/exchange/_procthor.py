@@ -75,6 +75,7 @@ __all__ = [
     "AssetDatabase",
     "export_procthor",
     "import_procthor",
+    "load_asset_annotations",
     "load_asset_database",
     "looks_like_procthor",
 ]
@@ -172,6 +173,68 @@ def load_asset_database(
     if key not in _DB_CACHE:
         _DB_CACHE[key] = _index_database(read_json(path), str(path))
     return _DB_CACHE[key]
+
+
+_ANNOTATIONS_CACHE: dict[tuple[str, float, str], AssetDatabase] = {}
+
+
+def load_asset_annotations(
+    path: str | os.PathLike[str], base: str | os.PathLike[str] | Mapping[str, Any] | AssetDatabase | None = None
+) -> AssetDatabase:
+    """The asset database ``base`` (default: the shipped one) with the sizes of an annotations
+    file laid over it: what a user knows of assets the database does not hold (Objaverse ids, a
+    fork's own), or knows better. An annotated asset takes the file's box and the type its
+    ``objectType`` or ``category`` reads as (``"coffee table"`` as ``CoffeeTable``; the nearest
+    database type by name, as for unknown assets).
+
+    The file (``.json``, or ``.json.gz`` as Objaverse's ship) maps each asset id to an entry whose
+    box is objathor's ``thor_metadata.assetMetadata.boundingBox`` (``{min: {x, y, z}, max: {x, y,
+    z}}`` or a size ``{x, y, z}``), else ``assetMetadata.boundingBox``, else ``boundingBox``, in
+    metres with ``y`` up. An entry without a box, or a box that is not a positive size, raises
+    ``ImportFormatError`` naming it; so does a file that is not such a mapping.
+    """
+    p = Path(path)
+    db = load_asset_database(base)
+    try:
+        key = (str(p.resolve()), p.stat().st_mtime, db.source)
+    except OSError as exc:
+        raise ImportFormatError("asset annotations not found", path=str(p)) from exc
+    if key not in _ANNOTATIONS_CACHE:
+        _ANNOTATIONS_CACHE.clear()  # one annotations file a process at a time: they are large
+        _ANNOTATIONS_CACHE[key] = _overlay_annotations(read_json(p), p, db)
+    return _ANNOTATIONS_CACHE[key]
+
+
+def _overlay_annotations(data: Any, path: Path, db: AssetDatabase) -> AssetDatabase:
+    r = FieldReader(path)
+    if not isinstance(data, Mapping) or not data:
+        r.fail("", "asset annotations are a JSON object of entries by asset id")
+    boxes, types = dict(db.boxes), dict(db.types)
+    known = db.type_boxes
+    for uid, raw in data.items():
+        entry = r.mapping(raw, str(uid))
+        box: Any = None
+        for where in (("thor_metadata", "assetMetadata", "boundingBox"), ("assetMetadata", "boundingBox"), ("boundingBox",)):
+            node: Any = entry
+            for k in where:
+                node = node.get(k) if isinstance(node, Mapping) else None
+            if node is not None:
+                box, named_at = node, f"{uid}." + ".".join(where)
+                break
+        if box is None:
+            r.fail(str(uid), "no boundingBox (thor_metadata.assetMetadata.boundingBox, assetMetadata.boundingBox or boundingBox)")
+        if isinstance(box, Mapping) and "min" in box and "max" in box:
+            lo, hi = r.xyz(box["min"], f"{named_at}.min"), r.xyz(box["max"], f"{named_at}.max")
+            size = (hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2])
+        else:
+            size = r.xyz(box, named_at)
+        if not all(math.isfinite(v) and v > 0 for v in size):
+            r.fail(named_at, f"sizes must be positive, got {[round(v, 4) for v in size]}")
+        boxes[str(uid)] = size
+        named = entry.get("objectType") or entry.get("category")
+        kind = "".join(w[:1].upper() + w[1:] for w in re.split(r"[^A-Za-z0-9]+", named) if w) if isinstance(named, str) else ""
+        types[str(uid)] = (_nearest_type(kind, known) or kind) if kind else types.get(str(uid), "Object")
+    return AssetDatabase(boxes=boxes, types=types, source=f"{path} over {db.source}")
 
 
 def _index_database(data: Any, source: str) -> AssetDatabase:

@@ -123,6 +123,19 @@ def _priors(value: Path | None) -> Path | None:
     return value
 
 
+def _annotations(value: Path | None) -> Path | None:
+    """An annotations file must be readable now: a configuration error fails before the run starts."""
+    if value is not None:
+        from scenemosaic.exceptions import ImportFormatError
+        from scenemosaic.exchange import load_asset_annotations
+
+        try:
+            load_asset_annotations(value)
+        except ImportFormatError as exc:
+            raise ValueError(f"not usable asset annotations ({str(exc)[:200]})") from exc
+    return value
+
+
 def _segmenter(value: Any) -> Any:
     if isinstance(value, str):
         return value
@@ -247,6 +260,16 @@ class GenerateConfig(BaseModel):
     ] = None
     """ProcTHOR priors folder (receptacles, placement annotations, asset groups) replacing the
     priors shipped with the package."""
+    asset_annotations: Annotated[
+        Path | None,
+        Field(strict=False),
+        AfterValidator(_annotations),
+        Setting("input", recorded=True, path=True, flag="--asset-annotations"),
+    ] = None
+    """Sizes, by asset id, of assets the asset database lacks (Objaverse's annotations JSON).
+    Laid over the database for the Objaverse ids of a Holodeck or ProcTHOR-Objaverse house, or a
+    fork's own assets: objathor's ``thor_metadata.assetMetadata.boundingBox`` entries (``.json``
+    or ``.json.gz``), or any JSON of ``boundingBox`` entries by asset id (``docs/importers.md``)."""
 
     # -- perception (a photograph or a text prompt) ----------------------------------------
     detections: Annotated[

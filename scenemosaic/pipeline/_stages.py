@@ -32,7 +32,13 @@ from scenemosaic.assets import object_hulls, open_scene, part_openings, short_pa
 from scenemosaic.compose import compose_house, compose_variants, kept_layouts
 from scenemosaic.evolve import EvolutionReport, evolve_scene
 from scenemosaic.exceptions import UsageError
-from scenemosaic.exchange import deliver_scene, formats_left_out, load_house, load_scene
+from scenemosaic.exchange import (
+    deliver_scene,
+    formats_left_out,
+    load_asset_annotations,
+    load_house,
+    load_scene,
+)
 from scenemosaic.metrics import evaluate, furniture, house_checks, judge_scene, nav, plausibility
 from scenemosaic.perception import PERCEPTION_INSTALL, is_image_path, perceive
 from scenemosaic.physics import (
@@ -131,11 +137,13 @@ async def _stage_import(run: PipelineRun, rec: StageRecord) -> None:
 def _read_input(path: Path, cfg: GenerateConfig, *, house: bool) -> Scene | House:
     """The one scene a run's input holds, or (``house``: the plan runs the input as a whole house,
     ``pipeline/_plan.py``) its whole house."""
+    database = load_asset_annotations(cfg.asset_annotations) if cfg.asset_annotations is not None else None
     if house:
-        return load_house(path, cfg.format, allow_orphans=cfg.allow_orphans, index=cfg.index)
+        return load_house(path, cfg.format, asset_database=database, allow_orphans=cfg.allow_orphans, index=cfg.index)
     loaded = load_scene(
-        path, cfg.format, room=cfg.room, asset_dir=cfg.asset_dir, allow_orphans=cfg.allow_orphans, index=cfg.index
-    )
+        path, cfg.format, room=cfg.room, asset_database=database, asset_dir=cfg.asset_dir,
+        allow_orphans=cfg.allow_orphans, index=cfg.index,
+    )  # fmt: skip
     if isinstance(loaded, House):  # pragma: no cover - the plan runs whole houses as houses
         raise UsageError(f"{path} is a house; generate it whole, or pick a room with --room ({', '.join(loaded.room_ids)})")
     return loaded

@@ -144,8 +144,9 @@ def test_a_line_carries_every_generate_setting(tmp_path: Path) -> None:
     input); each reaches the job's GenerateConfig, paths taken relative to the manifest."""
     folder = tmp_path / "lists"
     shutil.copytree(PROCTHOR_PRIORS_DIR, tmp_path / "priors")  # a usable priors folder
+    (tmp_path / "sizes.json").write_text('{"abc": {"boundingBox": {"x": 1, "y": 1, "z": 1}}}', encoding="utf-8")
     line: dict[str, Any] = {
-        "format": "image", "room": "room|3", "asset_dir": "assets", "priors_dir": "../priors",
+        "format": "image", "room": "room|3", "asset_dir": "assets", "priors_dir": "../priors", "asset_annotations": "../sizes.json",
         "detections": "boxes.json", "segmenter": "grabcut", "reconstructor": "box-lifter", "hfov_deg": 55.0, "camera_height_m": 1.5,
         "prompt": "a small bedroom", "image_model": "gpt-image-1", "image_size": "512x512",
         "model": "replay:tapes/bedroom.json", "vision": False, "solver_fallback": False, "variants": 2,
@@ -158,7 +159,7 @@ def test_a_line_carries_every_generate_setting(tmp_path: Path) -> None:
     (job,) = load_manifest(write_manifest(folder / "jobs.jsonl", [line]))
     assert job.input is None and job.id == "prompt" and job.label == "prompt: a small bedroom"
     config = job.config()
-    paths = {"asset_dir": folder / "assets", "priors_dir": tmp_path / "priors", "detections": folder / "boxes.json"}
+    paths = {"asset_dir": folder / "assets", "priors_dir": tmp_path / "priors", "asset_annotations": tmp_path / "sizes.json", "detections": folder / "boxes.json"}
     expected = {**line, **{k: v.resolve() for k, v in paths.items()}}
     expected["model"] = f"replay:{(folder / 'tapes' / 'bedroom.json').resolve()}"
     assert {name: getattr(config, name) for name in JOB_SETTINGS} == expected

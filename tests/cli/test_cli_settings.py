@@ -54,12 +54,14 @@ def _capture(monkeypatch: pytest.MonkeyPatch) -> list[tuple[Path | None, Path, G
 def test_every_flag_reaches_its_setting(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """One run with every flag set away from its default (but --resume, which takes a stopped run's folder)."""
     shutil.copytree(PROCTHOR_PRIORS_DIR, tmp_path / "priors")  # --priors must name usable priors
+    (tmp_path / "sizes.json").write_text('{"abc": {"boundingBox": {"x": 1, "y": 1, "z": 1}}}', encoding="utf-8")
     values: dict[str, tuple[list[str], Any]] = {
         "format": (["image"], "image"),
         "room": (["room|3"], "room|3"),
         "allow_orphans": ([], True),
         "asset_dir": ([str(tmp_path / "assets")], tmp_path / "assets"),
         "priors_dir": ([str(tmp_path / "priors")], tmp_path / "priors"),
+        "asset_annotations": ([str(tmp_path / "sizes.json")], tmp_path / "sizes.json"),
         "detections": ([str(tmp_path / "boxes.json")], tmp_path / "boxes.json"),
         "segmenter": (["grabcut"], "grabcut"),
         "reconstructor": (["box-lifter"], "box-lifter"),

@@ -29,7 +29,7 @@ RECORD_KEYS = {
     "format", "model", "seed", "room", "stabilize", "solver_fallback", "fallback", "vision", "request_timeout_s", "deadline_s",
     "variants", "evolve", "evolve_rounds", "save_views", "segmenter", "reconstructor", "hfov_deg", "camera_height_m",
     "prompt", "image_model", "image_size", "clutter", "clutter_density",
-    "asset_dir", "cache_dir", "priors_dir", "detections", "allow_orphans", "open_state", "index",
+    "asset_dir", "cache_dir", "priors_dir", "asset_annotations", "detections", "allow_orphans", "open_state", "index",
 }  # fmt: skip
 
 
