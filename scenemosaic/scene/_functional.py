@@ -378,8 +378,9 @@ def follow_leaders(base: Scene, scene: Scene, relations: Sequence[Functional]) -
     a hanging lamp or a rug turns and shifts with its group; a wall piece slides along its wall
     as far as the group slid along it, or, when the group turned or left that wall, is re-hung on
     the wall the leader now backs onto (same height, same distance from the wall, the same offset
-    beside the leader, facing into the room, clear of that wall's doors and windows; its support
-    relation names the new wall). The follower keeps its offset in the leader's frame, or that
+    beside the leader, else that offset mirrored, else centred on the leader (:data:`_SIDES`),
+    facing into the room, clear of that wall's doors and windows; its support relation names the
+    new wall). The follower keeps its offset in the leader's frame, or that
     offset mirrored across the leader's axes (a table reads the same mirrored either way, a bed
     only left to right: a mirrored variant mirrors the lamp too), or, last, its heading and world
     offset: the first that keeps it over its group and inside the room is taken. ``None``
@@ -443,11 +444,15 @@ def _follow(
             return _rehang(base, wall, lead0, lead1, sub0, group)
         t = np.asarray(wall.end, dtype=np.float64)[:2] - np.asarray(wall.start, dtype=np.float64)[:2]
         t = t / float(np.linalg.norm(t))
-        pos[:2] += t * float(shift @ t)
-        slid = Pose(position=(float(pos[0]), float(pos[1]), float(pos[2])), quaternion=sub0.pose.quaternion, scale=sub0.pose.scale)
-        if not fits_wall(sub0.model_copy(update={"pose": slid}), wall, sub0):
-            return None
-        return slid, wall.id
+        beside = float((_xy(sub0) - _xy(lead0)) @ t)  # how far along the wall from the leader's centre
+        area = unary_union([_foot(g).buffer(OVER_MARGIN_M) for g in group])
+        for side in _SIDES:
+            step = float(shift @ t) + (side - 1.0) * beside
+            xy = pos[:2] + t * step
+            slid = Pose(position=(float(xy[0]), float(xy[1]), float(pos[2])), quaternion=sub0.pose.quaternion, scale=sub0.pose.scale)
+            if fits_wall(sub0.model_copy(update={"pose": slid}), wall, sub0) and (side == 1.0 or area.contains(Point(xy))):
+                return slid, wall.id
+        return None
     area = unary_union([_foot(g).buffer(OVER_MARGIN_M) for g in group])
     y0, y1 = _yaw(lead0), _yaw(lead1)
     offset = _rot(-y0) @ (_xy(sub0) - _xy(lead0))  # in the leader's own frame
@@ -500,9 +505,10 @@ def _rehang(
 ) -> tuple[Pose, str] | None:
     """A wall piece carried to the wall its leader backs onto now (:data:`REHANG_GAP_M`,
     :data:`REHANG_FACING_DEG`): as far from that wall and as high as it hung, as far beside the
-    leader's centre (turned with the leader), facing into the room; ``None`` when no wall is
-    behind the leader, or the piece would not fit on it, cover one of its openings or leave the
-    group it hangs over."""
+    leader's centre (turned with the leader), else mirrored, else centred (:data:`_SIDES`), on the
+    nearest wall behind it that takes it, facing into the room; ``None`` when no wall is behind
+    the leader, or the piece would not fit on any, cover one of its openings or leave the group it
+    hangs over."""
     assert base.room is not None
     front = _front(lead1)
     corners = lead1.corners()
@@ -511,35 +517,36 @@ def _rehang(
         (w.gap(corners), w.id, w) for w in base.room.walls
         if float(front @ w.inward_normal) >= cos_max and -0.02 <= w.gap(corners) <= REHANG_GAP_M
     ]  # fmt: skip
-    if not behind:
-        return None
-    _, _, wall = min(behind, key=lambda b: (b[0], b[1]))
-    n0, n1 = old.inward_normal, wall.inward_normal
-    t0, t1 = old.direction, wall.direction
+    n0, t0 = old.inward_normal, old.direction
     p0 = _xy(sub0)
     depth = float((p0 - np.asarray(old.start)) @ n0)
     turn = _yaw(lead1) - _yaw(lead0)
     lateral = _rot(turn) @ (t0 * float((p0 - _xy(lead0)) @ t0))
-    start = np.asarray(wall.start, dtype=np.float64)
-    along = float((_xy(lead1) - start) @ t1) + float(lateral @ t1)
-    xy = start + t1 * along + n1 * depth
-    spin = math.atan2(float(n1[1]), float(n1[0])) - math.atan2(float(n0[1]), float(n0[0]))
     z = float(sub0.pose.position[2])
-    pose = Pose(
-        position=(float(xy[0]), float(xy[1]), z),
-        quaternion=_turned(sub0.pose.quaternion, spin),
-        scale=sub0.pose.scale,
-    )
-    moved = sub0.model_copy(update={"pose": pose})
-    if not fits_wall(moved, wall, None):
-        return None
     area = unary_union([_foot(g).buffer(OVER_MARGIN_M) for g in group])
-    if not area.contains(Point(xy)):
-        return None
     floor = Polygon(base.room.floor).buffer(0.02)
-    if not floor.covers(Polygon(moved.footprint())):
-        return None
-    return pose, wall.id
+    for _, _, wall in sorted(behind, key=lambda b: (b[0], b[1])):  # the nearest wall first (a corner has two)
+        n1, t1 = wall.inward_normal, wall.direction
+        start = np.asarray(wall.start, dtype=np.float64)
+        spin = math.atan2(float(n1[1]), float(n1[0])) - math.atan2(float(n0[1]), float(n0[0]))
+        for side in _SIDES:
+            along = float((_xy(lead1) - start) @ t1) + side * float(lateral @ t1)
+            xy = start + t1 * along + n1 * depth
+            pose = Pose(
+                position=(float(xy[0]), float(xy[1]), z),
+                quaternion=_turned(sub0.pose.quaternion, spin),
+                scale=sub0.pose.scale,
+            )
+            moved = sub0.model_copy(update={"pose": pose})
+            if fits_wall(moved, wall, None) and area.contains(Point(xy)) and floor.covers(Polygon(moved.footprint())):
+                return pose, wall.id
+    return None
+
+
+_SIDES = (1.0, -1.0, 0.0)
+"""Where a wall piece goes beside its leader when it follows it: as far to the same side as it
+hung, else mirrored to the other side, else centred on the leader (a picture over a sofa moved
+to a shorter wall, or beside a door, that the first two would run off or onto)."""
 
 
 def _rot(a: float) -> FloatArray:

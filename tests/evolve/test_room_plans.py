@@ -263,3 +263,49 @@ async def test_plans_asked_a_few_at_a_time_are_those_of_one_search(tmp_path: Pat
     assert [len(p) for p in stepwise[:3]] == [1, 2, 4]
     assert all(p == whole[: len(p)] for p in stepwise) and stepwise[-1] == whole
     assert len(fresh.plan_cache) == 1  # one search, resumed: not one per limit
+
+
+async def test_a_wall_piece_beside_its_group_goes_to_the_other_side_when_its_side_runs_off_the_wall(tmp_path: Path) -> None:
+    """A painting hung beside a dresser's end (not centred over it) follows the dresser into a
+    corner of another wall, where its own side would run past the wall's end: it is hung on the
+    dresser's other side instead (before: no wall took it, and every plan moving the dresser was
+    refused in composition, so the room never varied)."""
+    from scenemosaic.scene import Pose, follow_leaders, functional_holds, functional_relations, quat_from_yaw, with_world_poses
+
+    scene = (await agenerate(HOUSES / "procthor_4room.json", tmp_path, GenerateConfig(evolve=False, room="room|4"))).scene
+    assert isinstance(scene, Scene) and scene.room is not None
+    rels = [r for r in functional_relations(scene) if r.follows and r.kind == "over"]
+    over = next(r for r in rels if scene.get(r.subject).category == "painting" and scene.get(r.leader).category == "dresser")
+    painting, dresser = scene.get(over.subject), scene.get(over.leader)
+    wall = scene.room.wall(scene.support_of(painting.id).parent)  # type: ignore[union-attr]
+    t = np.asarray(wall.direction)
+    # slide the painting along its wall to just past the dresser's end (still over it, by the margin)
+    ends = (dresser.corners()[:, :2] - np.asarray(wall.start)) @ t
+    width = float(painting.size[0])
+    along = float(ends.max()) + 0.25 - width / 2
+    shift = along - float((np.asarray(painting.pose.position[:2]) - np.asarray(wall.start)) @ t)
+    p = np.asarray(painting.pose.position, dtype=np.float64).copy()
+    p[:2] += t * shift
+    scene = with_world_poses(scene, {painting.id: painting.pose.model_copy(update={"position": tuple(float(v) for v in p)})})
+    rels = [r for r in functional_relations(scene) if r.follows and r.kind == "over"]
+    over = next(r for r in rels if r.subject == painting.id)
+    # the dresser to another long bare wall, its end in that wall's corner on the painting's side
+    target = next(w for w in scene.room.walls if w.id != wall.id and not w.openings and w.length > 3.0)
+    n, t1 = np.asarray(target.inward_normal), np.asarray(target.direction)
+    yaw = math.atan2(float(n[0]), float(-n[1]))
+    half = float(dresser.size[0]) / 2
+    trial = dresser.model_copy(update={"pose": Pose(position=(0.0, 0.0, dresser.pose.position[2]), quaternion=quat_from_yaw(yaw), scale=dresser.pose.scale)})
+    for end in (half + 0.05, target.length - half - 0.05):  # one of the two corners is on the painting's side
+        centre = np.asarray(target.start) + t1 * end
+        probe = trial.model_copy(update={"pose": trial.pose.model_copy(update={"position": (float(centre[0]), float(centre[1]), dresser.pose.position[2])})})
+        centre = centre + n * (0.01 - target.gap(probe.corners()))
+        pose = probe.pose.model_copy(update={"position": (float(centre[0]), float(centre[1]), dresser.pose.position[2])})
+        moved = with_world_poses(scene, {dresser.id: pose})
+        side = float((np.asarray(centre) - np.asarray(target.start)) @ t1)
+        followed = follow_leaders(scene, moved, [over])
+        assert followed is not None, f"the painting found no place beside the dresser at {side:.2f} m along {target.id}"
+        hung = followed.get(painting.id)
+        assert followed.support_of(painting.id).parent == target.id  # type: ignore[union-attr]
+        a = (hung.corners()[:, :2] - np.asarray(target.start)) @ t1
+        assert a.min() >= -1e-3 and a.max() <= target.length + 1e-3  # on the wall, not past its end
+        assert functional_holds(followed, over)
