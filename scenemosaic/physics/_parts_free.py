@@ -14,7 +14,8 @@ the way instead, one piece after another (at most :data:`MOST_BLOCKERS`), each t
 takes it out of every part's path: a floor-standing piece (the nightstand beside a wardrobe) along
 its width, keeping its functional relations (beside its bed's head); a small object (beside a
 microwave on a counter, on a toilet's lid) anywhere on its support, onto the support's top where it
-lands (from the lid to the cistern). The moves are kept only when the parts then open. A part
+lands (from the lid to the cistern), only where a piece of its support bears it (``_borne``: never
+off the support's pieces to the floor beside a toilet's pedestal, nor half over an edge). The moves are kept only when the parts then open. A part
 with no such repair stays blocked and is reported (``PartRepair.stuck``).
 """
 
@@ -44,7 +45,7 @@ CLEAR_MARGIN_M = 0.02
 moves a small object by a centimetre or so (a floor-standing piece stays where it is put)."""
 RESTING_M = 0.02
 """A small object whose base is this near its support's top under it rests there, m."""
-SMALL_STEP_M = 0.03
+SMALL_STEP_M = 0.02
 """Spacing of the grid of places a small object is tried at on its support, m."""
 _SLACK = 1e-4
 
@@ -222,7 +223,10 @@ def _shifts(
             x0, y0, _ = obj.pose.position
             below = _top_under(base, shapes[support.parent], x0, y0)
             if abs(z - below) <= RESTING_M:
-                z += _top_under(base, shapes[support.parent], x, y) - below
+                top = _top_under(base, shapes[support.parent], x, y)
+                if not _borne(base, shapes[support.parent], obj, offset, top):
+                    continue  # off its support's pieces (down beside a toilet's pedestal), or half over an edge
+                z += top - below
         pose = obj.pose.model_copy(update={"position": (x, y, z)})
         candidate = rigid_moves(scene, {mover: pose})
         trial = scene.model_copy(
@@ -250,6 +254,20 @@ def _shifts(
         if not all(functional_holds(trial, r) for r in relations):
             continue
         yield trial, d
+
+
+def _borne(support: SceneObject, shape: ObjectShape, obj: SceneObject, offset: np.ndarray, top: float) -> bool:
+    """Whether a small object moved by ``offset`` would stand on a piece of its support: one lies
+    under its centre (top ``top``), and under the points halfway from its centre to each corner of
+    its footprint a piece as high (within :data:`RESTING_M`): not off the support's pieces onto
+    the floor, nor tipping over an edge."""
+    if top <= RESTING_M:
+        return False
+    centre = np.asarray(obj.pose.position[:2], dtype=np.float64) + offset
+    corners = np.asarray(obj.footprint(), dtype=np.float64) + offset
+    return all(
+        _top_under(support, shape, float(p[0]), float(p[1])) >= top - RESTING_M for p in (centre + corners) / 2.0
+    )
 
 
 def _top_under(support: SceneObject, shape: ObjectShape, x: float, y: float) -> float:

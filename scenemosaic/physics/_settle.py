@@ -198,6 +198,12 @@ def _resting_surface(
         below = [round(max((p.hi for p in anchor_pieces), default=bottom), 2)]
     elif any(p.lo > below[0] + 0.01 for p in under):  # a board over it: it was inside, it goes on top
         below = [round(max(p.hi for p in under), 2)]
+    elif below[0] < bottom - LEVEL_BAND_M:
+        # standing at the height of a top it only overhangs (a roll at the front edge of a toilet's
+        # tank, narrower than the asset it stands in for): that top, not the lid far below it
+        level = [p.hi for p in anchor_pieces if len(p.uv) >= 3 and abs(p.hi - bottom) <= LEVEL_BAND_M]
+        if level:
+            below = [round(max(level), 2), *below]
     for level in below:
         surface = _surface_at(level, anchor_pieces, region)
         if surface is not region:

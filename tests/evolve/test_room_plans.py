@@ -270,7 +270,14 @@ async def test_a_wall_piece_beside_its_group_goes_to_the_other_side_when_its_sid
     corner of another wall, where its own side would run past the wall's end: it is hung on the
     dresser's other side instead (before: no wall took it, and every plan moving the dresser was
     refused in composition, so the room never varied)."""
-    from scenemosaic.scene import Pose, follow_leaders, functional_holds, functional_relations, quat_from_yaw, with_world_poses
+    from scenemosaic.scene import (
+        Pose,
+        follow_leaders,
+        functional_holds,
+        functional_relations,
+        quat_from_yaw,
+        with_world_poses,
+    )
 
     scene = (await agenerate(HOUSES / "procthor_4room.json", tmp_path, GenerateConfig(evolve=False, room="room|4"))).scene
     assert isinstance(scene, Scene) and scene.room is not None
