@@ -41,7 +41,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from shapely import prepare
-from shapely.geometry import MultiPoint, Point, Polygon
+from shapely.affinity import rotate, translate
+from shapely.geometry import LineString, MultiPoint, Point, Polygon
 from shapely.ops import unary_union
 
 from scenemosaic._memo import Memo
@@ -50,8 +51,10 @@ from scenemosaic.scene import (
     ROBOT_RADIUS,
     WALK_MAX_HEIGHT,
     WALK_MIN_SHARE,
+    WINDOW_REACH_M,
     FloorRaster,
     UnitLayout,
+    is_bed,
     is_fixture,
     is_screen,
     kept_floor_share,
@@ -278,6 +281,7 @@ class _Planner:
         the thousands of places tried for a group share a handful of turns (:meth:`_placed`)."""
         self._riders: dict[tuple[str, float], list[np.ndarray]] = {}
         """What rests on a piece, turned with it, about its centre, by ``(piece, rotation)``."""
+        self.windows, self.tops = self._windows()
         self.options = {g.lead: self._options(g) for g in self.groups}
         self.facing: list[tuple[str, str]] = [
             (a, b)
@@ -426,9 +430,53 @@ class _Planner:
         if not self._backed(g, place) or not self._faces_kept(g, place):
             return None
         found = self._placed(g, place)
-        if found is None or not self._followers_fit(g, place, turn, wall):
+        if found is None or not self._followers_fit(g, place, turn, wall) or self._before_window(g, place):
             return None
         return _Option(place, found[1], found[0], to, turn)
+
+    def _windows(self) -> tuple[list[tuple[LineString, float]], dict[str, float]]:
+        """The windows a plan keeps clear (those the base keeps clear: ``ctx.windows_blocked``
+        names the others), each as its stretch of wall in the unit's plane and its sill height;
+        and how high each piece of the unit rises with what it carries."""
+        scene = self.ctx.scene
+        if scene is None or scene.room is None:
+            return [], {}
+        out = []
+        for wall in scene.room.walls:
+            start, direction = np.asarray(wall.start, dtype=np.float64), np.asarray(wall.direction, dtype=np.float64)
+            for k, op in enumerate(wall.openings):
+                if op.kind != "window" or f"{wall.id}/window_{k}" in self.ctx.windows_blocked:
+                    continue
+                lo, hi = wall.span(op)
+                ends = np.array([[*(start + direction * lo)[:2], 0.0], [*(start + direction * hi)[:2], 0.0]])
+                out.append((LineString(self.ctx.surface.project(ends)), float(op.bottom)))
+        tops: dict[str, float] = {}
+        if out:
+            for o in scene.objects:
+                root = scene.floor_root(o.id)
+                if root is not None:
+                    tops[root] = max(tops.get(root, 0.0), float(o.aabb()[1][2]))
+        return out, tops
+
+    def _before_window(self, g: _Group, place: Placement) -> bool:
+        """Whether a piece of ``g`` placed as ``place`` says, or what it carries, rises above a
+        window's sill within ``WINDOW_REACH_M`` of its stretch of wall (``scene.blocked_windows``,
+        the definition the scene's checks use): a bookcase or a wardrobe is never put before a
+        window the base keeps clear."""
+        if not self.windows:
+            return False
+        layout = self.layout
+        for k in g.members:
+            top = self.tops.get(k, 0.0)
+            near = [line for line, sill in self.windows if top > sill + 1e-3]
+            if not near or k not in place:
+                continue
+            u, v, r = place[k]
+            cu, cv = layout.center(k)
+            outline = translate(rotate(layout.outline(k), -(r - layout.rotation(k)), origin=(cu, cv)), u - cu, v - cv)
+            if any(outline.distance(line) <= WINDOW_REACH_M for line in near):
+                return True
+        return False
 
     def _wall_behind(self, outline: np.ndarray, rotation: float, reach: float) -> tuple[WallLine, float] | None:
         """The wall a piece facing ``rotation`` has behind it (its inward normal within
@@ -545,7 +593,7 @@ class _Planner:
             out.append(stay)
         mirrors = (False, True) if len(g.members) > 1 else (False,)
         screens = [self.ctx.surface.project(o.corners()) for o in self.ctx.obstacles if is_screen(o.category)]
-        bed = "bed" in layout.object(g.lead).category and "dog" not in layout.object(g.lead).category
+        bed = is_bed(layout.object(g.lead).category)
         if g.on_wall:
             for wall in self.ctx.walls:
                 if wall.length < 0.5:

@@ -39,12 +39,14 @@ from typing import Any, Literal
 import numpy as np
 import structlog
 from scipy.spatial.transform import Rotation
+from shapely.geometry import Point, Polygon
 
 from scenemosaic.exchange._common import FieldReader
 from scenemosaic.exchange._procthor import (
     _HALF_TURN,
     _SWAP,
     AssetDatabase,
+    _nearest_type,
     _RoomBuild,
     _unity_rotation,
     clear_shared_walls,
@@ -179,6 +181,8 @@ def import_holodeck(data: Any, path: Path, *, asset_database: Any = None, allow_
             else:
                 build.relations.append(Relation(kind="attach", child=obj.id, parent=parent, source=IMPORTER))
 
+    for b in builds:
+        _onto_receptacles(b, per_room[b.source_id])
     query = top.get("query")
     scenes = []
     for b in builds:
@@ -212,9 +216,15 @@ def import_holodeck(data: Any, path: Path, *, asset_database: Any = None, allow_
 
 
 _SIZE_SOURCES = {
+    "small_object_type": "the proportions of its type's median box in the asset database, as wide as "
+    "receptacle2small_objects records",
     "small_object_extent": "a cube of the largest extent receptacle2small_objects records",
+    "small_object_receptacle": "as wide as receptacle2small_objects records, twice its centre's height over its "
+    "receptacle's top tall",
     "vertices": "its footprint vertices, twice its centre's height tall",
     "vertices+plan_height": "its footprint vertices, the height the plan asked for",
+    "plan": "the box its plan asked for (width the largest size, height the middle one, depth the least): "
+    "its footprint vertices drew far less",
 }
 """How each of the module's size rules (beside the asset database) reads in a size estimate."""
 
@@ -346,6 +356,13 @@ def _object(
     r.check(size_problem((bx, bz, by)), f, what=f"{who}: size from {source}")
     rotation = _SWAP @ unity @ _SWAP @ _HALF_TURN
     centre = np.array([cx, cz, cy])
+    if source == "plan":  # deeper than its footprint: its back stays where the footprint's was, on the wall
+        _, drawn, _ = _footprint(r, item["vertices"], f"{f}.vertices", unity)
+        centre = centre + rotation @ np.array([0.0, -1.0, 0.0]) * (bz - drawn) / 2.0
+        build.faults.append(
+            f"{f} ({name}): its footprint vertices draw {_footprint(r, item['vertices'], f'{f}.vertices', unity)[0]:.2f} x "
+            f"{drawn:.2f} m, far below the {bx:.2f} x {bz:.2f} m its plan asked for; sized as planned"
+        )
     origin = centre - rotation @ np.array([0.0, 0.0, by / 2.0])
     if abs(rx) < 1e-9 and abs(rz) < 1e-9:
         pose = Pose.from_yaw(_vec3(origin), math.pi - math.radians(ry))  # exact for upright objects
@@ -394,6 +411,11 @@ def _size(
                 f"small object {raw_id!r} has no size: asset {asset_id!r} is not in the asset database and "
                 f"receptacle2small_objects[{parent!r}] does not list {child!r}",
             )
+        match = _nearest_type(_type_name(child), db.type_boxes)
+        if match is not None:  # its type's proportions (a book lies flat), as wide as recorded
+            tx, ty, tz = db.type_boxes[match]
+            k = side / max(tx, tz)
+            return (tx * k, ty * k, tz * k), "small_object_type"
         return (side, side, side), "small_object_extent"
     if "vertices" not in item:
         r.fail(
@@ -420,6 +442,8 @@ def _size(
                 f"object_selection_plan.{_INSTANCE.sub('', name)}.size",
                 f"sizes must be positive, got {planned}",
             )
+        if max(bx, bz) < PLAN_TRUST * dims[2] / 100.0:  # a footprint far smaller than what was asked: the plan's box
+            return (dims[2] / 100.0, dims[1] / 100.0, dims[0] / 100.0), "plan"
         return (bx, dims[1] / 100.0, bz), "vertices+plan_height"
     if centre[1] <= 0:
         r.fail(f"{f}.position.y", f"a floor object's centre must be above the floor, got {centre[1]}")
@@ -473,6 +497,58 @@ def _note_shared_positions(
         f"{head} (the generator stacked them); imported as given for later stages to separate. "
         f"Objects at one position: {listed}"
     )
+
+
+PLAN_TRUST = 0.25
+"""A wall object whose footprint vertices draw less than this share of the width its plan asked
+for (a wall cabinet drawn 5 cm wide, planned 150) is sized by the plan instead."""
+RECEPTACLE_REACH_M = 0.05
+"""How far (m) outside its receptacle's footprint a small object's centre may stand and still be
+on it; one farther off was not placed by the generator (:func:`_onto_receptacles`)."""
+
+
+def _type_name(name: str) -> str:
+    """A Holodeck object name as a type name: ``bedside reading book`` -> ``BedsideReadingBook``."""
+    return "".join(w[:1].upper() + w[1:] for w in re.split(r"[^A-Za-z0-9]+", _INSTANCE.sub("", name)) if w)
+
+
+def _onto_receptacles(build: _RoomBuild, here: _RoomObjects) -> None:
+    """Each small object on the receptacle its id names. One whose centre stands off that
+    receptacle (Holodeck leaves a small object it failed to place at another one's position, so
+    several stack at one point) is put on it, centred on its top, for the stabilizer to lay out
+    among the others there: a source fault, named. One standing on it whose size is only the
+    cube of its recorded extent takes twice its centre's height over the receptacle's top as its
+    height (the file's own cue) when that is a plausible height."""
+    by_id = {o.id: o for o in build.objects}
+    for rel in build.relations:
+        if rel.kind != "attach" or here.placements.get(rel.child) != "small" or rel.parent not in by_id:
+            continue
+        child, parent = by_id[rel.child], by_id[rel.parent]
+        top = float(parent.aabb()[1][2])
+        foot = Polygon(parent.footprint())
+        cx, cy = (float(v) for v in here.centres[child.id][::2])  # Unity x, z -> our x, y
+        if not foot.buffer(RECEPTACLE_REACH_M).contains(Point(cx, cy)):
+            px, py = (float(v) for v in foot.centroid.coords[0])
+            lift = top - float(child.aabb()[0][2])
+            x, y, z = child.pose.position
+            child.pose = child.pose.model_copy(update={"position": (x + px - cx, y + py - cy, z + lift)})
+            build.faults.append(
+                f"{child.id}: stood {foot.distance(Point(cx, cy)):.2f} m off {parent.id}, the receptacle its id "
+                "names (the generator did not place it); put on its top"
+            )
+            continue
+        if here.size_sources.get(child.id) != "small_object_extent":
+            continue
+        height = 2.0 * (here.centres[child.id][1] - top)
+        side = float(child.size[0])
+        if 0.01 <= height <= 2.0 * side:
+            x, y, z = child.pose.position
+            child.asset = child.asset.model_copy(update={"extents": (side, side, height)})
+            child.pose = child.pose.model_copy(update={"position": (x, y, top)})
+            here.size_sources[child.id] = "small_object_receptacle"
+            for oid, how in list(build.size_estimates.items()):
+                if oid == child.id:
+                    build.size_estimates[oid] = how.split(": ", 1)[0] + ": " + _SIZE_SOURCES["small_object_receptacle"]
 
 
 def _vec3(v: Any) -> tuple[float, float, float]:

@@ -903,7 +903,9 @@ _TYPE_WORDS = {
     "cabinet": "Dresser", "wardrobe": "Dresser", "closet": "Dresser", "chest": "Dresser", "couch": "Sofa",
     "nightstand": "SideTable", "table": "SideTable", "plant": "HousePlant", "tv": "Television",
     "lamp": "FloorLamp", "trashcan": "GarbageCan", "bin": "GarbageCan", "mirror": "Painting",
-    "picture": "Painting", "poster": "Painting", "clock": "AlarmClock",
+    "picture": "Painting", "poster": "Painting", "clock": "AlarmClock", "tablelamp": "DeskLamp",
+    "blanket": "Cloth", "cushion": "Pillow", "album": "Book", "binder": "Book", "notepad": "Book",
+    "notebook": "Book", "tray": "Plate", "board": "Plate", "pitcher": "Vase", "frame": "Painting",
 }  # fmt: skip
 """Words of types the AI2-THOR database has no asset of, read as a database type of like size."""
 

@@ -15,6 +15,7 @@ shape may be given instead.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from dataclasses import dataclass, field
@@ -139,6 +140,7 @@ _TRAITS: dict[str, CategoryTraits] = {
     "mirror": _F("wall"),
     "wall_clock": _F("wall"),
     "wall_shelf": _F("wall", supports=True),
+    "wall_cabinet": _F("wall", supports=True, contains=True, opening="front"),
     # electronics and small things
     "television": _F("surface"),
     "monitor": _F("surface"),
@@ -319,11 +321,20 @@ def normalize_category(label: str) -> str:
 
 
 def _known(category: str) -> str | None:
+    """The traits entry a category reads as: itself; else its head noun, the longest known tail
+    of its words (``bedside_reading_book`` is a ``book``); else a keyword of its last word that
+    holds one (``desk_lamp`` is a lamp, not a desk; ``bookshelf`` a shelf)."""
     if category in _TRAITS:
         return category
-    for key, target in _KEYWORDS:
-        if key in category:
-            return target
+    words = category.split("_")
+    for i in range(1, len(words)):
+        tail = "_".join(words[i:])
+        if tail in _TRAITS:
+            return tail
+    for word in reversed(words):
+        for key, target in _KEYWORDS:
+            if key in word:
+                return target
     return None
 
 
@@ -357,10 +368,29 @@ def is_screen(category: str) -> bool:
     return normalize_category(category) in SCREEN_CATEGORIES
 
 
+_PET_WORDS = frozenset({"dog", "cat", "pet"})
+
+
+def is_bed(category: str) -> bool:
+    """Whether ``category`` is a bed a person sleeps in: its traits entry is the bed's (its head
+    noun is ``bed``: a ``king_bed``, a ``bed_frame``), not a pet's (``dog_bed``), and not a thing
+    whose name only holds the letters (``bedside_reading_book``, ``flower_bed``... read by their
+    head noun)."""
+    c = normalize_category(category)
+    known = _known(c)
+    return known is not None and known.split("_")[-1] == "bed" and not _PET_WORDS & set(c.split("_"))
+
+
 def traits(category: str) -> CategoryTraits:
     """Traits of a (normalized or raw) category; unknown categories count as small surface objects."""
-    known = _known(normalize_category(category))
-    return _TRAITS[known] if known else CategoryTraits()
+    c = normalize_category(category)
+    known = _known(c)
+    if known is None:
+        return CategoryTraits()
+    found = _TRAITS[known]
+    if c.startswith("wall_") and found.placement == "floor":  # a wall-mounted piece of a floor kind: hung
+        return dataclasses.replace(found, placement="wall", against_wall=True)
+    return found
 
 
 def is_known(category: str) -> bool:

@@ -26,7 +26,7 @@ import numpy as np
 from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import unary_union
 
-from scenemosaic.scene._categories import normalize_category, traits
+from scenemosaic.scene._categories import is_bed, normalize_category, traits
 from scenemosaic.scene._geometry import FloatArray, front_vector, quat_from_yaw, quat_multiply
 from scenemosaic.scene._ids import CEILING, FLOOR
 from scenemosaic.scene._model import Pose, Scene, SceneObject, Wall
@@ -87,7 +87,6 @@ HEADBOARD_WALL_M = 0.3
 OPENING_CLEAR_M = 0.05
 """A re-hung wall piece keeps this far, metres, from the doors and windows of its new wall."""
 
-_BEDS = ("bed",)
 _NIGHTSTANDS = frozenset({"nightstand"})
 _SCREENS = frozenset({"tv_stand", "television"})
 _HANGING = frozenset({"pendant_lamp", "ceiling_lamp", "chandelier"})
@@ -117,7 +116,7 @@ def _cat(o: SceneObject) -> str:
 
 
 def _is_bed(o: SceneObject) -> bool:
-    return any(b in _cat(o) for b in _BEDS)
+    return is_bed(o.category)
 
 
 def _foot(o: SceneObject) -> Polygon:

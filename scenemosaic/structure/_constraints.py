@@ -36,6 +36,7 @@ from scenemosaic.scene import (
     ConstraintClause,
     CrossUnitConstraint,
     Relation,
+    is_bed,
     normalize_category,
     traits,
 )
@@ -326,7 +327,7 @@ def find_functional_relations(evidence: ConstraintEvidence) -> list[_Found]:
             )
     if "nightstands_beside_bed" in allowed:
         for b in (
-            o for o in objs if "bed" in o.category and traits(o.category).placement == "floor" and o.parent
+            o for o in objs if is_bed(o.category) and traits(o.category).placement == "floor" and o.parent
         ):
             axis = -b.front  # toward the head end
             stands = [
@@ -480,7 +481,7 @@ def _functional(category: str) -> bool:
     return (
         t.seat
         or t.table
-        or "bed" in category
+        or is_bed(category)
         or "sofa" in category
         or category in {"nightstand", "coffee_table", "tea_table", "tv_stand", *MONITORS}
     )

@@ -21,7 +21,7 @@ from pydantic import Field
 
 from scenemosaic.agents import MAX_ITEMS, AgentOutput, SceneState, TaskAgent
 from scenemosaic.exceptions import UsageError
-from scenemosaic.scene import Scene, SupportPriors, load_priors, traits
+from scenemosaic.scene import Scene, SupportPriors, is_bed, load_priors, traits
 from scenemosaic.structure._attributes import AttributesAgent
 from scenemosaic.structure._constraints import ConstraintsAgent
 from scenemosaic.structure._containment import ContainmentAgent
@@ -110,7 +110,7 @@ def summarize(scene: Scene, priors: SupportPriors, available: Sequence[str] = ()
     pairs: list[str] = []
     if any(traits(c).seat for c in cats) and any(traits(c).table for c in cats):
         pairs.append("seats and a table or desk")
-    if any("bed" in c for c in cats) and "nightstand" in cats:
+    if any(is_bed(c) for c in cats) and "nightstand" in cats:
         pairs.append("bed and nightstands")
     if any("sofa" in c for c in cats) and cats & {"coffee_table", "tea_table", "tv_stand"}:
         pairs.append("sofa and coffee table / TV stand")

@@ -15,8 +15,14 @@ import pytest
 from shapely.geometry import Point, Polygon
 
 from scenemosaic.exceptions import ImportFormatError
-from scenemosaic.exchange._holodeck import import_holodeck, looks_like_holodeck
-from scenemosaic.exchange._procthor import looks_like_procthor
+from scenemosaic.exchange import load_asset_database
+from scenemosaic.exchange._holodeck import (
+    RECEPTACLE_REACH_M,
+    _type_name,
+    import_holodeck,
+    looks_like_holodeck,
+)
+from scenemosaic.exchange._procthor import _nearest_type, looks_like_procthor
 from scenemosaic.scene import PROCTHOR_PRIORS_DIR, Scene, front_vector
 
 
@@ -37,6 +43,9 @@ def raw(holodeck_path: Path) -> dict[str, Any]:
 def scene(raw: dict[str, Any], holodeck_path: Path) -> Scene:
     (scene,) = import_holodeck(copy.deepcopy(raw), holodeck_path)
     return scene
+
+
+DB = load_asset_database(None)
 
 
 def _source_ids(scene: Scene) -> dict[str, str]:
@@ -172,12 +181,24 @@ def test_sizes_of_wall_small_and_database_objects(raw: dict[str, Any], scene: Sc
             planned = sorted(plan[entry["object_name"].rsplit("-", 1)[0]]["size"])
             assert obj.asset.extents[2] == pytest.approx(planned[1] / 100.0)
             assert obj.pose.position[2] + obj.asset.extents[2] / 2 == pytest.approx(entry["position"]["y"])
+    kinds = DB.type_boxes
     for entry in raw["small_objects"]:
         obj = by_source[entry["id"]]
         name, parent = entry["id"].split("|", 1)
         side = next(row[2] for row in raw["receptacle2small_objects"][parent] if row[0] == name)
-        np.testing.assert_allclose(obj.asset.extents, (side, side, side))
-        assert sources[obj.id] == "small_object_extent"
+        ex = np.asarray(obj.asset.extents)
+        if sources[obj.id] == "small_object_type":  # its type's proportions, as wide as recorded
+            match = _nearest_type(_type_name(name), kinds)
+            assert match is not None
+            tx, ty, tz = kinds[match]
+            np.testing.assert_allclose(ex, np.array([tx, tz, ty]) * side / max(tx, tz), atol=1e-9)
+        elif sources[obj.id] == "small_object_receptacle":  # on its receptacle: twice its centre's height over the top
+            holder = by_source[parent]
+            assert ex[0] == ex[1] == pytest.approx(side)
+            assert ex[2] == pytest.approx(2 * (entry["position"]["y"] - float(holder.aabb()[1][2])))
+        else:
+            assert sources[obj.id] == "small_object_extent" and _nearest_type(_type_name(name), kinds) is None
+            np.testing.assert_allclose(ex, (side, side, side))
     assert sum(1 for s in sources.values() if s == "asset_database") == sum(
         1 for o in raw["objects"] if o["assetId"] in db_boxes
     )
@@ -191,14 +212,22 @@ def test_the_stacked_small_objects_are_noted(raw: dict[str, Any], scene: Scene) 
         f"{len(small)} small objects sit at only {len(distinct)} distinct positions" in n
         for n in scene.provenance.notes
     )
-    # kept as given: every one at its stated centre
+    # one standing on the receptacle its id names is kept at its stated centre; one standing off
+    # it (the generator left it at another one's place) is put on that receptacle, named
     by_source = _by_source(scene)
+    moved = 0
     for o in small:
         obj = by_source[o["id"]]
-        centre = np.asarray(obj.pose.position) + np.array([0.0, 0.0, obj.size[2] / 2])
-        np.testing.assert_allclose(
-            centre, (o["position"]["x"], o["position"]["z"], o["position"]["y"]), atol=1e-9
-        )
+        holder = by_source[o["id"].split("|", 1)[1]]
+        stated = Point(o["position"]["x"], o["position"]["z"])
+        if Polygon(holder.footprint()).buffer(RECEPTACLE_REACH_M).contains(stated):
+            np.testing.assert_allclose(obj.pose.position[:2], (stated.x, stated.y), atol=1e-9)
+            continue
+        moved += 1
+        np.testing.assert_allclose(obj.pose.position[:2], Polygon(holder.footprint()).centroid.coords[0], atol=1e-9)
+        assert float(obj.aabb()[0][2]) == pytest.approx(float(holder.aabb()[1][2]))
+        assert any(f"{obj.id}: stood" in f and holder.id in f for f in scene.provenance.source_faults)
+    assert moved == len(scene.provenance.source_faults) > 0
 
 
 def test_hand_added_assets_are_noted(raw: dict[str, Any], scene: Scene) -> None:
