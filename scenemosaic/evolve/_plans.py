@@ -20,7 +20,8 @@ repaired after:
   over the floor, turned by quarter turns. A place is kept only when every member lies on the
   floor clear of the fixed pieces, of the other units' low pieces, of the **door zones**
   (``scene.door_zones``) and of the groups already placed (by :data:`PLAN_MARGIN_M`), with the
-  strip in front of its main piece free. The finished plan must leave the floor's walkable
+  strip in front of its main piece free, and with nothing that rises above a window's sill
+  before a window the base keeps clear (``scene.blocked_windows``). The finished plan must leave the floor's walkable
   part as connected as the base's and every door reachable from it (the robot radius and the
   door test of ``scene.cut_off_doors``).
 * **Different from each other.** Groups are placed most constrained first (fewest valid places); each takes, among its valid
@@ -28,6 +29,10 @@ repaired after:
   seeded jitter breaks near ties), so successive plans spread the furniture over the walls.
   A plan in which no group of furniture (the largest, or any with :data:`PLAN_MIN_AREA_M2` of
   footprint) moved at least :data:`PLAN_MIN_MOVE_M` (or turned) is no plan.
+* **A full room still varies.** When the search finds no whole regrouping (a dining room of ten
+  chairs, a buffet, a sideboard and two bookcases), the groups of furniture are moved one by one
+  instead, largest first, each to its best place clear of the others where they stand now, the
+  rest staying put.
 
 Plans are deterministic for a given layout and context (seeded by :data:`PLAN_SEED`) and cached
 on the unit's context, so the archetype agent and the instantiation compute them once.
@@ -800,6 +805,8 @@ def _plan(
 
     found = search(0, [], [])
     if found is None:
+        found = _groups_moved_one_by_one(planner, order, scores, jitter, history)
+    if found is None:
         return None
     place: Placement = {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids}
     chosen: dict[str, _Option] = {}
@@ -812,6 +819,54 @@ def _plan(
     if not any(moved(g) for g in planner.groups if g.area >= PLAN_MIN_AREA_M2 or g is planner.groups[0]):
         return None  # only small pieces moved: no new arrangement of the room
     return place, chosen
+
+
+def _groups_moved_one_by_one(
+    planner: _Planner,
+    order: list[_Group],
+    scores: dict[tuple[str, int], float],
+    jitter: dict[str, np.ndarray],
+    history: dict[str, list[np.ndarray]],
+) -> list[_Option] | None:
+    """A plan for a room too full for the search to regroup it whole (a dining room of eight
+    chairs, a buffet, a sideboard and two bookcases): every group where it stands, then the groups
+    of furniture, largest first, each moved in turn to its best-scored place that clears the
+    others where they are now, keeps the floor open and the doors reachable, or left where it
+    stands when it has none (:data:`PLAN_EXPANSIONS` places tried in all). ``None`` when no group
+    moved, or a group has no place where it stands."""
+    now: dict[str, _Option] = {}
+    for g in order:
+        stay = next((o for o in planner.options[g.lead] if o.stays), None)
+        if stay is None:
+            return None
+        now[g.lead] = stay
+    budget = PLAN_EXPANSIONS
+    movers = sorted((g for g in order if g.area >= PLAN_MIN_AREA_M2 or g is planner.groups[0]), key=lambda g: (-g.area, g.lead))
+    everyone = {k for h in order for k in h.members}
+    moved = False
+    for g in movers:
+        rest = [now[h.lead] for h in order if h is not g]
+        blocked = unary_union([p.buffer(PLAN_MARGIN_M, join_style="mitre") for o in rest for p in o.shapes])
+        solid = [p for o in rest for p in o.solid]
+        kept: Placement = {k: v for o in rest for k, v in o.place.items()}
+        scored = []
+        for j, opt in enumerate(planner.options[g.lead]):
+            if opt.stays or not planner._moves(g, opt) or any(blocked.intersects(p) for p in opt.shapes):
+                continue
+            score = scores.get((g.lead, j))
+            if score is None:
+                score = scores[(g.lead, j)] = _farthest(planner, g.lead, j, opt, history[g.lead]) + float(jitter[g.lead][j])
+            scored.append((-score, j, opt))
+        for _, _, opt in sorted(scored, key=lambda x: (x[0], x[1])):
+            if budget <= 0:
+                break
+            budget -= 1
+            if planner.facing and not planner.facing_kept({**kept, **opt.place}, everyone):
+                continue
+            if planner.open_floor([*solid, *opt.solid]):
+                now[g.lead], moved = opt, True
+                break
+    return [now[h.lead] for h in order] if moved else None
 
 
 def _farthest(planner: _Planner, lead: str, j: int, opt: _Option, history: list[np.ndarray]) -> float:

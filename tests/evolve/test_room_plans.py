@@ -316,3 +316,31 @@ async def test_a_wall_piece_beside_its_group_goes_to_the_other_side_when_its_sid
         a = (hung.corners()[:, :2] - np.asarray(target.start)) @ t1
         assert a.min() >= -1e-3 and a.max() <= target.length + 1e-3  # on the wall, not past its end
         assert functional_holds(followed, over)
+
+
+async def test_a_room_too_full_to_regroup_whole_still_gets_plans(tmp_path: Path) -> None:
+    """The dining room of the Holodeck house (eight chairs at a 2.2 m table, a buffet with two
+    more, a sideboard, two bookcases, a bar cart in 24 m²): the whole-room search finds no
+    arrangement; plans then move its groups one by one, each where it clears the others, keeps
+    the floor as open as the base and every door reachable, and puts nothing tall before a window
+    the base keeps clear (before: no plan, and the room never varied)."""
+    from scenemosaic.evolve import windows_in_the_way
+    from scenemosaic.scene import kept_floor_share
+    from tests.holodeck_helpers import holodeck_house
+
+    house = holodeck_house(tmp_path / "house.json")
+    _, layout, ctx = await _floor(house, "depressed_dining_room", tmp_path / "run")
+    plans = room_plans(layout, ctx, 4)
+    assert len(plans) >= 3
+    planner = _Planner(layout, ctx)
+    base_share, _ = walk_check(layout, ctx, {k: (*layout.center(k), layout.rotation(k)) for k in layout.ids})
+    for place in plans:
+        share, doors = walk_check(layout, ctx, place)
+        assert doors and share >= kept_floor_share(base_share) - 1e-9
+        moved = [g for g in planner.groups if math.dist(place[g.lead][:2], layout.center(g.lead)) >= PLAN_MIN_MOVE_M]
+        assert any(g.area >= PLAN_MIN_AREA_M2 for g in moved)
+        trial = layout.copy()
+        for k, (u, v, r) in place.items():
+            trial.set_rotation(k, r)
+            trial.set_center(k, u, v)
+        assert not windows_in_the_way(trial, ctx)
