@@ -22,13 +22,20 @@ The last line is one JSON object: per house the figures above, and pooled ``hous
 ``div_iou_max`` over houses of 3+ rooms (shipped, held-out and extra apart), ``rooms_moved`` / ``rooms_movable``,
 ``plausibility_min``, ``seconds``.
 
-Run: ``.venv/bin/python benchmarks/house_diversity.py [--only NAME] [--extra DIR ...]``.
+With ``--forms`` it runs instead the houses of other generators' forms (group ``forms``; issue
+54), written from held-out houses: the Holodeck house joined from two real Holodeck rooms
+(``tests/holodeck_helpers.py``), two held-out houses in ProcTHOR-Objaverse's form and one in a
+fork's base-``y`` form (``tests/house_forms.py``), and a ``.jsonl.gz`` dataset of three held-out
+houses, each run by its index.
+
+Run: ``.venv/bin/python benchmarks/house_diversity.py [--only NAME] [--extra DIR ...] [--forms]``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -62,9 +69,31 @@ def _free_floor(room: Scene) -> float:
     return float(floor.difference(unary_union(feet)).area) if feet else float(floor.area)
 
 
-def _house(path: Path, out: Path, group: str) -> dict[str, Any]:
+def _forms(folder: Path) -> list[tuple[Path, str, int | None, str]]:
+    """The houses of other generators' forms (issue 54), written into ``folder`` from held-out
+    houses and the shipped Holodeck rooms: (path, name, dataset index, form)."""
+    sys.path.insert(0, str(REPO))
+    from tests.dataset_helpers import write_dataset
+    from tests.holodeck_helpers import holodeck_house
+    from tests.house_forms import base_form, objaverse_form
+
+    held = HOUSES / "held_out"
+    folder.mkdir(parents=True, exist_ok=True)
+    out: list[tuple[Path, str, int | None, str]] = [(holodeck_house(folder / "holodeck_house.json"), "holodeck_house", None, "holodeck")]
+    for name in ("zg_houses20_house_15", "mq_hallway_3"):
+        target = folder / f"objaverse_{name}.json"
+        objaverse_form(held / f"{name}.json", target)
+        out.append((target, target.stem, None, "procthor-objaverse"))
+    target = folder / "base_y_mq_temp.json"
+    out.append((base_form(held / "mq_temp.json", target), target.stem, None, "base-y fork"))
+    dataset = write_dataset(folder / "held_out.jsonl.gz", [held / f"{n}.json" for n in ("zg_houses20_house_0", "zg_houses20_house_6", "mq_hallway_0")])
+    out += [(dataset, f"held_out.jsonl.gz#{i}", i, "dataset") for i in range(3)]
+    return out
+
+
+def _house(path: Path, out: Path, group: str, index: int | None = None, name: str | None = None) -> dict[str, Any]:
     t0 = time.perf_counter()
-    result = generate(path, out, GenerateConfig(variants=5))
+    result = generate(path, out, GenerateConfig(variants=5, index=index))
     seconds = round(time.perf_counter() - t0, 1)
     report = result.report
     base = load_scene(out, allow_partial=False)
@@ -101,7 +130,7 @@ def _house(path: Path, out: Path, group: str) -> dict[str, Any]:
     rows = [house.get("base", {}), *house.get("variants", [])]
     compose: dict[str, Any] = next((s["detail"] for s in report.get("stages", []) if s["name"] == "compose"), {})
     return {
-        "house": path.stem,
+        "house": name or path.stem,
         "group": group,
         "rooms": len(base.rooms),
         "objects": len(base.objects),
@@ -132,6 +161,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", default=None, help="run only houses whose name contains this")
     parser.add_argument("--extra", type=Path, nargs="*", default=[], help="folders of house files not tuned on")
+    parser.add_argument("--forms", action="store_true", help="only the houses of other generators' forms (group forms)")
     args = parser.parse_args(argv)
     t0 = time.perf_counter()
     work = Path(tempfile.mkdtemp(prefix="house_diversity_"))
@@ -141,6 +171,14 @@ def main(argv: list[str] | None = None) -> int:
     for folder in args.extra:
         inputs += [(p, "extra") for p in sorted(folder.glob("*.json")) if p.name != "SOURCES.json"]
     rows = []
+    if args.forms:
+        inputs = []
+        for path, name, index, _ in _forms(work / "forms"):
+            if args.only and args.only not in name:
+                continue
+            row = _house(path, work / name.replace("#", "_"), "forms", index, name)
+            print(json.dumps(row), flush=True)
+            rows.append(row)
     for path, group in inputs:
         if args.only and args.only not in path.stem:
             continue
@@ -161,6 +199,8 @@ def main(argv: list[str] | None = None) -> int:
         "div_iou_max_shipped": worst("div_iou", "shipped"),
         "div_iou_max_held_out": worst("div_iou", "held_out"),
         "div_iou_max_extra": worst("div_iou", "extra"),
+        "div_iou_max_forms": max((r["div_iou"] for r in rows if r["group"] == "forms" and r["div_iou"] is not None), default=None),
+        "house_nav_min": min((r["house_nav_min"] for r in rows), default=1.0),
         "room_div_iou_max": max((r["room_div_iou_max"] for r in rows if r["room_div_iou_max"] is not None), default=None),
         "rooms_moved": sum(r["rooms_moved"] for r in rows),
         "rooms_movable": sum(r["rooms_movable"] for r in rows),

@@ -17,7 +17,7 @@ from scenemosaic.cli import app
 from scenemosaic.exceptions import ImportFormatError
 from scenemosaic.exchange import load_asset_annotations, load_asset_database, load_house
 from scenemosaic.pipeline import SettingsError
-from tests.objaverse_helpers import BEDROOM, FOUR_ROOMS, objaverse_form
+from tests.house_forms import BEDROOM, FOUR_ROOMS, objaverse_form
 
 
 def _objathor(house: Path, changed: dict[str, str], *, scale: float = 1.0) -> dict[str, dict]:

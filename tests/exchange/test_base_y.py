@@ -13,18 +13,14 @@ from dataset_helpers import house_items
 
 from scenemosaic.exchange import export_procthor, load_asset_database, load_house
 from scenemosaic.exchange._procthor import positions_at_base
+from tests.house_forms import base_form as fork_form
 
 FOUR_ROOMS = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor" / "procthor_4room.json"
 
 
 def base_form(path: Path) -> Path:
     """The 4-room house as the fork writes it: every position at the bottom of its box."""
-    db = load_asset_database(None)
-    house = json.loads(FOUR_ROOMS.read_text(encoding="utf-8"))
-    for item in house_items(house["objects"]):
-        item["position"]["y"] -= db.boxes[item["assetId"]][1] / 2
-    path.write_text(json.dumps(house), encoding="utf-8")
-    return path
+    return fork_form(FOUR_ROOMS, path)
 
 
 def test_both_conventions_are_told_apart_and_read_to_one_house(tmp_path: Path) -> None:

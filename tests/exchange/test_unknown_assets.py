@@ -16,7 +16,7 @@ from scenemosaic.cli import app
 from scenemosaic.exchange import load_asset_database, load_house, load_scene
 from scenemosaic.exchange._procthor import STAND_IN_BOX_M, _nearest_type
 from scenemosaic.scene import Scene
-from tests.objaverse_helpers import BEDROOM, FOUR_ROOMS, objaverse_form
+from tests.house_forms import BEDROOM, FOUR_ROOMS, objaverse_form
 
 
 def test_an_objaverse_asset_stands_in_as_its_types_median_box(tmp_path: Path) -> None:

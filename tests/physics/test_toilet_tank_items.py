@@ -13,7 +13,7 @@ import pytest
 from scenemosaic import GenerateConfig, generate
 from scenemosaic.exchange import load_scene
 from scenemosaic.scene import Scene
-from tests.objaverse_helpers import FOUR_ROOMS, objaverse_form
+from tests.house_forms import FOUR_ROOMS, objaverse_form
 
 
 @pytest.mark.parametrize("form", ["shipped", "objaverse"])

@@ -1,4 +1,6 @@
-"""A shipped ProcTHOR house rewritten as ProcTHOR-Objaverse writes its houses (issue 54's tests)."""
+"""A ProcTHOR house rewritten as other generators write theirs (issue 54's tests and
+``benchmarks/house_diversity.py --forms``): ProcTHOR-Objaverse's (Objaverse assets and an
+``objectType`` on every object), and a fork's that puts every position at the bottom of its box."""
 
 from __future__ import annotations
 
@@ -7,6 +9,7 @@ import json
 from pathlib import Path
 
 from scenemosaic.exchange import load_asset_database
+from tests.dataset_helpers import house_items
 
 HOUSES = Path(__file__).resolve().parents[1] / "data" / "houses" / "procthor"
 FOUR_ROOMS = HOUSES / "procthor_4room.json"
@@ -37,3 +40,14 @@ def objaverse_form(source: Path, path: Path, *, every: int = 2, unknown: str | N
     walk(house["objects"])
     path.write_text(json.dumps(house), encoding="utf-8")
     return changed
+
+
+def base_form(source: Path, path: Path) -> Path:
+    """``source`` as the fork writes it: every position at the bottom of its box, not its centre."""
+    db = load_asset_database(None)
+    house = json.loads(source.read_text(encoding="utf-8"))
+    for item in house_items(house["objects"]):
+        item["position"]["y"] -= db.boxes[item["assetId"]][1] / 2
+    path.write_text(json.dumps(house), encoding="utf-8")
+    return path
+
