@@ -90,3 +90,23 @@ def test_a_wall_object_drawn_far_smaller_than_planned_takes_the_planned_box() ->
         assert scene.metadata["holodeck"]["size_source"][oid] == "plan"
     assert sum("sized as planned" in f for f in scene.provenance.source_faults) == 2
     assert traits(scene.get("wall_cabinet-0").category).placement == "wall"
+
+
+def test_a_small_object_of_no_known_type_on_its_receptacle_takes_the_files_height() -> None:
+    """A small object whose name reads as no database type and that stands on the receptacle its
+    id names is as wide as ``receptacle2small_objects`` records and twice its centre's height over
+    the receptacle's top tall (the file's own cue), standing on that top; listed as an estimate."""
+    path = DINING.parent / "lmg_holodeck_conference_room.json"
+    (scene,) = load_scenes(path)
+    raw = {o["id"]: o for o in json.loads(path.read_text(encoding="utf-8"))["objects"]}
+    sources = scene.metadata["holodeck"]["size_source"]
+    found = [oid for oid, how in sources.items() if how == "small_object_receptacle"]
+    assert found
+    for oid in found:
+        obj = scene.get(oid)
+        item = raw[scene.provenance.source_ids[oid]]
+        holder = scene.get(next(r.parent for r in scene.relations if r.child == oid))
+        top = float(holder.aabb()[1][2])
+        assert obj.size[2] == pytest.approx(2 * (item["position"]["y"] - top))
+        assert float(obj.aabb()[0][2]) == pytest.approx(top)
+        assert "twice its centre's height over its receptacle's top" in scene.provenance.size_estimates[oid]
