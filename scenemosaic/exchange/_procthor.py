@@ -140,6 +140,22 @@ class AssetDatabase:
                 by_type.setdefault(kind, []).append(self.boxes[asset])
         return {kind: _median_box(rows) for kind, rows in by_type.items()}
 
+    @functools.cached_property
+    def type_footprints(self) -> dict[str, list[tuple[float, float]]]:
+        """Each object type's footprints (x, z) an unknown asset's stand-in may shrink to when its
+        median box does not fit where the file puts it (:func:`_fit_estimates`): the median's,
+        then the 25th percentile's, then the smallest of the database's assets of that type."""
+        by_type: dict[str, list[tuple[float, float, float]]] = {}
+        for asset, kind in self.types.items():
+            if asset in self.boxes:
+                by_type.setdefault(kind, []).append(self.boxes[asset])
+        out = {}
+        for kind, rows in by_type.items():
+            a = np.array(rows, dtype=np.float64)[:, [0, 2]]
+            steps = [np.median(a, axis=0), np.percentile(a, 25, axis=0), a.min(axis=0)]
+            out[kind] = [(float(x), float(z)) for x, z in steps]
+        return out
+
 
 def _median_box(rows: list[tuple[float, float, float]]) -> tuple[float, float, float]:
     x, y, z = (float(v) for v in np.median(np.array(rows, dtype=np.float64), axis=0))
@@ -225,9 +241,10 @@ def _overlay_annotations(data: Any, path: Path, db: AssetDatabase) -> AssetDatab
             r.fail(str(uid), "no boundingBox (thor_metadata.assetMetadata.boundingBox, assetMetadata.boundingBox or boundingBox)")
         if isinstance(box, Mapping) and "min" in box and "max" in box:
             lo, hi = r.xyz(box["min"], f"{named_at}.min"), r.xyz(box["max"], f"{named_at}.max")
-            size = (hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2])
+            size: tuple[float, float, float] = (hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2])
         else:
-            size = r.xyz(box, named_at)
+            x, y, z = r.xyz(box, named_at)
+            size = (x, y, z)
         if not all(math.isfinite(v) and v > 0 for v in size):
             r.fail(named_at, f"sizes must be positive, got {[round(v, 4) for v in size]}")
         boxes[str(uid)] = size
@@ -291,6 +308,8 @@ class _RoomBuild:
     """What the file got wrong and the reader mended (``Provenance.source_faults``)."""
     size_estimates: dict[str, str] = field(default_factory=dict)
     """Objects whose asset the database does not hold, by id: how their stand-in was sized."""
+    estimated_types: dict[str, str] = field(default_factory=dict)
+    """The database type each top-level stand-in of :attr:`size_estimates` was sized as."""
     cut: list[tuple[FloatArray, FloatArray, FloatArray]] = field(default_factory=list)
     """The stretches of boundary given up to shared walls: (start, end, inward unit normal)."""
 
@@ -362,6 +381,7 @@ def import_procthor(
 
     for b in builds:
         clear_shared_walls(b)
+        _fit_estimates(b, db)
     scenes = []
     for i, b in enumerate(builds):
         r.check(object_count_problem(len(b.objects)), "objects", what=f"room {b.source_id!r} (rooms[{i}])")
@@ -871,6 +891,8 @@ def _add_object(
     oid = unique_id(sanitize_id(raw_id) if isinstance(raw_id, str) else category, taken)
     if estimate is not None:
         build.size_estimates[oid] = f"{f} (asset {asset_id!r}): {estimate}"
+        if parent is None:
+            build.estimated_types[oid] = otype
     words = category.replace("_", " ")
     build.objects.append(
         r.scene_object(
@@ -955,6 +977,42 @@ def _estimated_box(
         by = standing
         how += f", {standing:.2f} m tall (twice its centre's height)"
     return otype, (bx, by, bz), how
+
+
+FLOOR_STANDING_M = 0.05
+"""A stand-in whose bottom is this high or lower (metres) stands on the floor and is fitted to it."""
+
+
+def _fit_estimates(build: _RoomBuild, db: AssetDatabase) -> None:
+    """Each top-level stand-in (an asset the database does not hold, sized as its type's median)
+    standing on the floor whose footprint, where the file puts it, runs through the room's walls
+    is shrunk to the first of its type's smaller footprints that fits
+    (``AssetDatabase.type_footprints``: the 25th percentile, then the smallest; the smallest when
+    none does), its height and centre kept: a corner counter's median box does not cut across a
+    kitchen where the file's own counter was a straight one along the wall. Said in its estimate."""
+    if not build.estimated_types:
+        return
+    floor = Polygon(build.room.floor).buffer(0.02)
+    by_id = {o.id: o for o in build.objects}
+    for oid, kind in build.estimated_types.items():
+        obj = by_id.get(oid)
+        steps = db.type_footprints.get(kind)
+        if obj is None or not steps or float(obj.aabb()[0][2]) > FLOOR_STANDING_M:
+            continue  # a picture or a TV on the wall hangs at its wall's face: not fitted to the floor
+        if _fits(obj, floor):
+            continue
+        _, _, height = obj.asset.extents
+        said = ""
+        for which, (x, z) in zip(("its type's 25th-percentile footprint", "its type's smallest footprint"), steps[1:], strict=True):
+            obj.asset, said = obj.asset.model_copy(update={"extents": (x, z, height)}), which
+            if _fits(obj, floor):
+                break
+        build.size_estimates[oid] += f"; the median ran through the room's walls where it stands: {said}"
+
+
+def _fits(obj: SceneObject, floor: Polygon) -> bool:
+    """Whether ``obj``'s footprint lies on ``floor`` (not through the room's walls)."""
+    return bool(floor.covers(Polygon(obj.footprint())))
 
 
 BASE_Y_TOLERANCE_M = 0.02

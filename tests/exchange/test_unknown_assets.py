@@ -37,7 +37,10 @@ def test_an_objaverse_asset_stands_in_as_its_types_median_box(tmp_path: Path) ->
             obj = room.get(oid)
             assert obj.category == category[source_id]  # the type's, as the AI2-THOR asset gave it
             bx, by, bz = db.type_boxes[kind]
-            assert obj.size[0] == pytest.approx(bx) and obj.size[1] == pytest.approx(bz)
+            if "ran through the room's walls" in estimates[oid]:  # fitted: a smaller footprint of its type
+                assert (obj.size[0], obj.size[1]) in [pytest.approx(f) for f in db.type_footprints[kind][1:]]
+            else:
+                assert obj.size[0] == pytest.approx(bx) and obj.size[1] == pytest.approx(bz)
             item = raw.get(json.dumps(source_id))
             if item is not None and 0.5 * by <= 2 * item["position"]["y"] <= 2 * by:  # a top-level piece standing on the floor
                 assert obj.size[2] == pytest.approx(2 * item["position"]["y"])
@@ -70,3 +73,38 @@ def test_a_run_of_an_objaverse_house_lists_every_estimate(tmp_path: Path) -> Non
     imported = next(s for s in report["stages"] if s["name"] == "import")
     assert len(imported["detail"]["size_estimates"]) == len(changed)
     assert sum("stand in as boxes sized from estimates" in n for n in report["notes"]) == 1
+
+
+def test_a_stand_in_whose_median_runs_through_a_wall_takes_a_smaller_footprint(tmp_path: Path) -> None:
+    """A counter of an Objaverse asset 45 cm from the kitchen's wall: its type's median box (a
+    2.4 x 1.8 m corner counter) would run through the wall where the file puts it, so it takes the
+    first smaller footprint of its type that stays on the floor, height and centre kept; said in its
+    estimate. A stand-in whose median fits keeps it."""
+    from shapely.geometry import Polygon
+
+    house = json.loads(FOUR_ROOMS.read_text(encoding="utf-8"))
+    kitchen = next(r for r in house["rooms"] if r["id"] == "room|6")
+    xs = [p["x"] for p in kitchen["floorPolygon"]]
+    zs = [p["z"] for p in kitchen["floorPolygon"]]
+    counter = next(o for o in house["objects"] if o["assetId"].startswith("Countertop"))
+    counter.update(assetId="c0ffee" * 5 + "00", objectType="CounterTop")
+    counter["position"].update(x=min(xs) + 0.45, z=(min(zs) + max(zs)) / 2)
+    counter["rotation"] = {"x": 0, "y": 0, "z": 0}
+    path = tmp_path / "house.json"
+    path.write_text(json.dumps(house), encoding="utf-8")
+    room = next(r for r in load_house(path).rooms if r.provenance.source_room_id == "room|6")
+    oid = next(k for k, raw in room.provenance.source_ids.items() if raw == counter["id"])
+    obj = room.get(oid)
+    db = load_asset_database(None)
+    median = db.type_boxes["CounterTop"]
+    assert (obj.size[0], obj.size[1]) != pytest.approx((median[0], median[2]))
+    assert (obj.size[0], obj.size[1]) in [pytest.approx(f) for f in db.type_footprints["CounterTop"][1:]]
+    assert obj.size[2] == pytest.approx(2 * counter["position"]["y"])  # its height still the file's cue
+    assert Polygon(room.room.floor).buffer(0.02).covers(Polygon(obj.footprint()))
+    assert "ran through the room's walls" in room.provenance.size_estimates[oid]
+    # the same counter in the middle of the kitchen keeps its type's median
+    counter["position"].update(x=(min(xs) + max(xs)) / 2)
+    path.write_text(json.dumps(house), encoding="utf-8")
+    room = next(r for r in load_house(path).rooms if r.provenance.source_room_id == "room|6")
+    obj = room.get(next(k for k, raw in room.provenance.source_ids.items() if raw == counter["id"]))
+    assert (obj.size[0], obj.size[1]) == pytest.approx((median[0], median[2]))
