@@ -357,11 +357,11 @@ def _object(
     rotation = _SWAP @ unity @ _SWAP @ _HALF_TURN
     centre = np.array([cx, cz, cy])
     if source == "plan":  # deeper than its footprint: its back stays where the footprint's was, on the wall
-        _, drawn, _ = _footprint(r, item["vertices"], f"{f}.vertices", unity)
+        wide, drawn, _ = _footprint(r, item["vertices"], f"{f}.vertices", unity)
         centre = centre + rotation @ np.array([0.0, -1.0, 0.0]) * (bz - drawn) / 2.0
         build.faults.append(
-            f"{f} ({name}): its footprint vertices draw {_footprint(r, item['vertices'], f'{f}.vertices', unity)[0]:.2f} x "
-            f"{drawn:.2f} m, far below the {bx:.2f} x {bz:.2f} m its plan asked for; sized as planned"
+            f"{f} ({name}): its footprint vertices draw {wide:.2f} x {drawn:.2f} m, far below the "
+            f"{bx:.2f} x {bz:.2f} m its plan asked for; sized as planned"
         )
     origin = centre - rotation @ np.array([0.0, 0.0, by / 2.0])
     if abs(rx) < 1e-9 and abs(rz) < 1e-9:
@@ -546,9 +546,9 @@ def _onto_receptacles(build: _RoomBuild, here: _RoomObjects) -> None:
             child.asset = child.asset.model_copy(update={"extents": (side, side, height)})
             child.pose = child.pose.model_copy(update={"position": (x, y, top)})
             here.size_sources[child.id] = "small_object_receptacle"
-            for oid, how in list(build.size_estimates.items()):
-                if oid == child.id:
-                    build.size_estimates[oid] = how.split(": ", 1)[0] + ": " + _SIZE_SOURCES["small_object_receptacle"]
+            if child.id in build.size_estimates:  # "<field> (asset ...): <how>": the how is now this
+                where = build.size_estimates[child.id].split(": ", 1)[0]
+                build.size_estimates[child.id] = f"{where}: {_SIZE_SOURCES['small_object_receptacle']}"
 
 
 def _vec3(v: Any) -> tuple[float, float, float]:
