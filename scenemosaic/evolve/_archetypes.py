@@ -562,12 +562,8 @@ def _plan_place(place: Placement) -> Callable[[UnitLayout, UnitContext], Placeme
 def _plans(layout: UnitLayout, ctx: UnitContext) -> Iterator[RuleArchetype]:
     """The room plans of a floor unit with doors (``evolve/_plans.py``), as archetypes, each
     worked out when it is asked for."""
-    def usable(place: Placement) -> bool:  # what rule_archetypes holds every candidate to, asked during the search
-        placed = _pinned(place, ctx, layout)
-        return not _blocks_use(layout, ctx, _seated_all(layout, ctx, placed)) and _plausible(layout, ctx, placed)
-
     for k in range(MAX_PLANS):
-        found = room_plans(layout, ctx, k + 1, accept=usable)
+        found = room_plans(layout, ctx, k + 1)
         if len(found) <= k:
             return
         moved = plan_summary(layout, found[k])

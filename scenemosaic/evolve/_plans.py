@@ -44,7 +44,6 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -896,22 +895,17 @@ def _same_plan(planner: _Planner, a: Placement, b: Placement) -> bool:
     return True
 
 
-def room_plans(
-    layout: UnitLayout, ctx: UnitContext, limit: int = MAX_PLANS, accept: Callable[[Placement], bool] | None = None
-) -> list[Placement]:
+def room_plans(layout: UnitLayout, ctx: UnitContext, limit: int = MAX_PLANS) -> list[Placement]:
     """Up to ``limit`` room plans of a floor unit with doors (module docstring), most different
     first; none for other units or when nothing can move. The plans come one after another (each
-    steered away from those before it), so a search is kept per layout (and ``accept``) and goes on
-    when more are asked for: the first ``k`` plans are the same whatever the limit. ``accept``, when
-    given, is asked of each plan found: one it refuses counts as a failed attempt and steers the
-    search away (the archetype agent's checks of use: no drawer, window or screen newly in the way)."""
-    key = (
-        tuple((k, round(layout.center(k)[0], 4), round(layout.center(k)[1], 4), round(layout.rotation(k), 2)) for k in layout.ids),
-        accept is not None,
+    steered away from those before it), so a search is kept per layout and goes on when more are
+    asked for: the first ``k`` plans are the same whatever the limit."""
+    key = tuple(
+        (k, round(layout.center(k)[0], 4), round(layout.center(k)[1], 4), round(layout.rotation(k), 2)) for k in layout.ids
     )
     search: _PlanSearch | None = ctx.plan_cache.get(key)
     if search is None:
-        search = ctx.plan_cache.setdefault(key, _PlanSearch(layout, ctx, accept))
+        search = ctx.plan_cache.setdefault(key, _PlanSearch(layout, ctx))
     assert search is not None
     return search.first(limit)
 
@@ -919,8 +913,8 @@ def room_plans(
 class _PlanSearch:
     """One layout's room plans, found as they are asked for (:func:`room_plans`)."""
 
-    def __init__(self, layout: UnitLayout, ctx: UnitContext, accept: Callable[[Placement], bool] | None = None) -> None:
-        self.layout, self.ctx, self.accept = layout, ctx, accept
+    def __init__(self, layout: UnitLayout, ctx: UnitContext) -> None:
+        self.layout, self.ctx = layout, ctx
         self.plans: list[Placement] = []
         self.done = not ctx.in_house
         self.planner: _Planner | None = None
@@ -962,7 +956,7 @@ class _PlanSearch:
             return
         place, chosen = found
         share, doors = planner.walkable(place)
-        if share < self.need or not doors or (self.accept is not None and not self.accept(place)):
+        if share < self.need or not doors:
             self.fails += 1
             for lead, opt in chosen.items():  # steer the next attempt elsewhere
                 history[lead].append(opt.centre)
