@@ -20,8 +20,7 @@ repaired after:
   over the floor, turned by quarter turns. A place is kept only when every member lies on the
   floor clear of the fixed pieces, of the other units' low pieces, of the **door zones**
   (``scene.door_zones``) and of the groups already placed (by :data:`PLAN_MARGIN_M`), with the
-  strip in front of its main piece free, and with nothing that rises above a window's sill
-  before a window the base keeps clear (``scene.blocked_windows``). The finished plan must leave
+  strip in front of its main piece free. The finished plan must leave
   the floor's walkable part as connected as the base's and every door reachable from it (the
   robot radius and the door test of ``scene.cut_off_doors``), and pass the archetype agent's
   checks of use when it asks (``room_plans(accept=)``: no drawer, window or screen newly in the
@@ -33,8 +32,9 @@ repaired after:
   footprint) moved at least :data:`PLAN_MIN_MOVE_M` (or turned) is no plan.
 * **A full room still varies.** When the search finds no whole regrouping (a dining room of ten
   chairs, a buffet, a sideboard and two bookcases), the groups of furniture are moved one by one
-  instead, largest first, each to its best place clear of the others where they stand now, the
-  rest staying put.
+  instead, largest first, each to its best place clear of the others where they stand now and
+  with nothing that rises above a window's sill before a window the base keeps clear
+  (``scene.blocked_windows``), the rest staying put.
 
 Plans are deterministic for a given layout and context (seeded by :data:`PLAN_SEED`) and cached
 on the unit's context, so the archetype agent and the instantiation compute them once.
@@ -437,7 +437,7 @@ class _Planner:
         if not self._backed(g, place) or not self._faces_kept(g, place):
             return None
         found = self._placed(g, place)
-        if found is None or not self._followers_fit(g, place, turn, wall) or self._before_window(g, place):
+        if found is None or not self._followers_fit(g, place, turn, wall):
             return None
         return _Option(place, found[1], found[0], to, turn)
 
@@ -854,6 +854,8 @@ def _groups_moved_one_by_one(
         scored = []
         for j, opt in enumerate(planner.options[g.lead]):
             if opt.stays or not planner._moves(g, opt) or any(blocked.intersects(p) for p in opt.shapes):
+                continue
+            if planner._before_window(g, opt.place):  # the patterns' check of use, asked up front here
                 continue
             score = scores.get((g.lead, j))
             if score is None:

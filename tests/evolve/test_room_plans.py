@@ -322,9 +322,8 @@ async def test_a_room_too_full_to_regroup_whole_still_gets_plans(tmp_path: Path)
     """The dining room of the Holodeck house (eight chairs at a 2.2 m table, a buffet with two
     more, a sideboard, two bookcases, a bar cart in 24 m²): the whole-room search finds no
     arrangement; plans then move its groups one by one, each where it clears the others, keeps
-    the floor as open as the base and every door reachable, and puts nothing tall before a window
-    the base keeps clear (before: no plan, and the room never varied)."""
-    from scenemosaic.evolve import windows_in_the_way
+    the floor as open as the base and every door reachable (before: no plan, and the room never
+    varied)."""
     from scenemosaic.scene import kept_floor_share
     from tests.holodeck_helpers import holodeck_house
 
@@ -339,8 +338,3 @@ async def test_a_room_too_full_to_regroup_whole_still_gets_plans(tmp_path: Path)
         assert doors and share >= kept_floor_share(base_share) - 1e-9
         moved = [g for g in planner.groups if math.dist(place[g.lead][:2], layout.center(g.lead)) >= PLAN_MIN_MOVE_M]
         assert any(g.area >= PLAN_MIN_AREA_M2 for g in moved)
-        trial = layout.copy()
-        for k, (u, v, r) in place.items():
-            trial.set_rotation(k, r)
-            trial.set_center(k, u, v)
-        assert not windows_in_the_way(trial, ctx)
