@@ -201,9 +201,9 @@ def _resting_surface(
     elif below[0] < bottom - LEVEL_BAND_M:
         # standing at the height of a top it only overhangs (a roll at the front edge of a toilet's
         # tank, narrower than the asset it stands in for): that top, not the lid far below it
-        level = [p.hi for p in anchor_pieces if len(p.uv) >= 3 and abs(p.hi - bottom) <= LEVEL_BAND_M]
-        if level:
-            below = [round(max(level), 2), *below]
+        tops = [p.hi for p in anchor_pieces if len(p.uv) >= 3 and abs(p.hi - bottom) <= LEVEL_BAND_M]
+        if tops:
+            below = [round(max(tops), 2), *below]
     for level in below:
         surface = _surface_at(level, anchor_pieces, region)
         if surface is not region:
