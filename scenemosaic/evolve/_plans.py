@@ -20,11 +20,9 @@ repaired after:
   over the floor, turned by quarter turns. A place is kept only when every member lies on the
   floor clear of the fixed pieces, of the other units' low pieces, of the **door zones**
   (``scene.door_zones``) and of the groups already placed (by :data:`PLAN_MARGIN_M`), with the
-  strip in front of its main piece free. The finished plan must leave
-  the floor's walkable part as connected as the base's and every door reachable from it (the
-  robot radius and the door test of ``scene.cut_off_doors``), and pass the archetype agent's
-  checks of use when it asks (``room_plans(accept=)``: no drawer, window or screen newly in the
-  way): a plan failing either is a failed attempt that steers the next one elsewhere.
+  strip in front of its main piece free. The finished plan must leave the floor's walkable
+  part as connected as the base's and every door reachable from it (the robot radius and the
+  door test of ``scene.cut_off_doors``).
 * **Different from each other.** Groups are placed most constrained first (fewest valid places); each takes, among its valid
   places, the one farthest from where it stood in the base and in the plans made before (a
   seeded jitter breaks near ties), so successive plans spread the furniture over the walls.
