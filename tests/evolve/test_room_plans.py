@@ -31,7 +31,7 @@ from scenemosaic.evolve._plans import (
     walk_check,
 )
 from scenemosaic.physics import is_thin
-from scenemosaic.scene import WALK_MIN_SHARE, Scene, UnitLayout, is_fixture
+from scenemosaic.scene import WALK_MIN_SHARE, Functional, Scene, UnitLayout, is_fixture
 
 HOUSES = Path(__file__).resolve().parents[2] / "data" / "houses" / "procthor"
 ROOMS = [("procthor10k_train4_4room.json", "room|4"), ("procthor10k_train4_4room.json", "room|7"), ("procthor10k_train1_10room.json", "room|3"), ("procthor_6room.json", "room|6")]
@@ -169,6 +169,18 @@ def test_fixture_table() -> None:
     assert is_fixture("bed", fixtures={"bed"})  # the table is overridable
 
 
+async def _painting_over_dresser(tmp_path: Path) -> tuple[Scene, list[Functional], Functional]:
+    """The shipped 4-room house's bedroom, its functional ``over`` relations, and the one of its
+    painting over its dresser."""
+    from scenemosaic.scene import functional_relations
+
+    scene = (await agenerate(HOUSES / "procthor_4room.json", tmp_path, GenerateConfig(evolve=False, room="room|4"))).scene
+    assert isinstance(scene, Scene) and scene.room is not None
+    rels = [r for r in functional_relations(scene) if r.follows and r.kind == "over"]
+    over = next(r for r in rels if scene.get(r.subject).category == "painting" and scene.get(r.leader).category == "dresser")
+    return scene, rels, over
+
+
 async def test_a_wall_piece_is_rehung_on_the_wall_its_group_moves_to(tmp_path: Path) -> None:
     """The painting over the dresser of a shipped bedroom follows the dresser to another wall:
     same height, flush on the new wall, facing the room, its support relation naming that wall,
@@ -178,15 +190,11 @@ async def test_a_wall_piece_is_rehung_on_the_wall_its_group_moves_to(tmp_path: P
         Pose,
         follow_leaders,
         functional_holds,
-        functional_relations,
         quat_from_yaw,
         with_world_poses,
     )
 
-    scene = (await agenerate(HOUSES / "procthor_4room.json", tmp_path, GenerateConfig(evolve=False, room="room|4"))).scene
-    assert isinstance(scene, Scene) and scene.room is not None
-    rels = [r for r in functional_relations(scene) if r.follows and r.kind == "over"]
-    over = next(r for r in rels if scene.get(r.subject).category == "painting" and scene.get(r.leader).category == "dresser")
+    scene, rels, over = await _painting_over_dresser(tmp_path)
     painting, dresser = scene.get(over.subject), scene.get(over.leader)
     old_wall = scene.support_of(painting.id)
     assert old_wall is not None
@@ -279,10 +287,7 @@ async def test_a_wall_piece_beside_its_group_goes_to_the_other_side_when_its_sid
         with_world_poses,
     )
 
-    scene = (await agenerate(HOUSES / "procthor_4room.json", tmp_path, GenerateConfig(evolve=False, room="room|4"))).scene
-    assert isinstance(scene, Scene) and scene.room is not None
-    rels = [r for r in functional_relations(scene) if r.follows and r.kind == "over"]
-    over = next(r for r in rels if scene.get(r.subject).category == "painting" and scene.get(r.leader).category == "dresser")
+    scene, rels, over = await _painting_over_dresser(tmp_path)
     painting, dresser = scene.get(over.subject), scene.get(over.leader)
     wall = scene.room.wall(scene.support_of(painting.id).parent)  # type: ignore[union-attr]
     t = np.asarray(wall.direction)
