@@ -6,7 +6,9 @@ a cassette (``<out>/<input>.cassette.json``), so it can be replayed with the ser
 input it reports the exit status, wall time, model requests and the agents' breakdown, and
 whether the model run validates at least as well as the rules run: no wall lost or collapsed
 (as many walls, none shorter than 0.3 m), no more colliding pairs, no more out-of-bounds
-objects, nothing more tipped or fallen.
+objects, nothing more tipped or fallen, the base's NAV within 0.01 of the rules'. Both runs ask for
+``--variants`` (2 by default); ``within_5_min`` says whether the model run took at most 300 s, and
+``model_summary`` / ``given_up`` are the report's account of the model (issue 57).
 
 Without ``--model`` (and without ``SCENEMOSAIC_LLM_URL``, which names the server as the integration
 tests do) it prints ``{"skipped": ...}``, so ``make bench`` runs on a machine with no server.
@@ -16,8 +18,9 @@ Run (server from ``../shared/tools/llm_server``, started with ``bash start.sh``)
     .venv/bin/python benchmarks/real_model.py \
         --model openai:qwen2.5-coder-0.5b-instruct@http://127.0.0.1:8089/v1 --out /tmp/real
 
-The last line is one JSON object: ``inputs``, ``exit_0``, ``at_least_as_valid``,
-``model_wall_s_total`` and ``per_input`` (status, wall time, requests, critical path, agents).
+The last line is one JSON object: ``inputs``, ``exit_0``, ``at_least_as_valid``, ``within_5_min``,
+``model_wall_s_total``, ``model_wall_s_max`` and ``per_input`` (status, wall time, requests, agents,
+the model's account).
 """
 
 from __future__ import annotations
@@ -39,10 +42,11 @@ PHYSCENE = sorted((REPO / "data" / "layouts" / "physcene").glob("*.json"))
 CLI = [sys.executable, "-m", "scenemosaic.cli"]
 
 
-def _generate(source: Path, out: Path, model: str) -> tuple[int, float]:
+def _generate(source: Path, out: Path, model: str, variants: int) -> tuple[int, float]:
     started = time.perf_counter()
     done = subprocess.run(
-        [*CLI, "generate", str(source), "--out", str(out), "--overwrite", "--no-vision", "--model", model],
+        [*CLI, "generate", str(source), "--out", str(out), "--overwrite", "--no-vision", "--model", model,
+         "--variants", str(variants)],
         capture_output=True,
         text=True,
         check=False,
@@ -64,6 +68,7 @@ def _validity(out: Path) -> dict[str, Any]:
         "collisions": len((v.get("collisions") or {}).get("pairs", [])),
         "out_of_bounds": len((v.get("out_of_bounds") or {}).get("objects", [])),
         "tipped_or_fell": len(v.get("tipped", [])) + len(v.get("fell", [])),
+        "nav": ((report.get("metrics") or {}).get("base") or {}).get("NAV"),
         "report": report,
     }
 
@@ -78,6 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", default=None, help="model spec, e.g. openai:<name>@http://127.0.0.1:8089/v1")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default: a temporary one)")
     parser.add_argument("--only", default=None, help="run only inputs whose name contains this")
+    parser.add_argument("--variants", type=int, default=2, help="variants per run (default 2, as issue 57 measures)")
     args = parser.parse_args(argv)
     url = os.environ.get("SCENEMOSAIC_LLM_URL")
     if args.model is None and url:
@@ -94,15 +100,18 @@ def main(argv: list[str] | None = None) -> int:
     for name, source in inputs.items():
         if args.only and args.only not in name:
             continue
-        rules_rc, rules_s = _generate(source, args.out / f"{name}.rules", "rules")
+        rules_rc, rules_s = _generate(source, args.out / f"{name}.rules", "rules", args.variants)
         cassette = args.out / f"{name}.cassette.json"
         cassette.unlink(missing_ok=True)
-        rc, wall_s = _generate(source, args.out / f"{name}.model", f"record:{cassette}={args.model}")
+        rc, wall_s = _generate(source, args.out / f"{name}.model", f"record:{cassette}={args.model}", args.variants)
         entry: dict[str, Any] = {"exit": rc, "rules_exit": rules_rc, "wall_s": wall_s, "rules_wall_s": rules_s}
         if rc in (0, 1) and rules_rc in (0, 1):
             ours, base = _validity(args.out / f"{name}.model"), _validity(args.out / f"{name}.rules")
-            detail = _structure(ours.pop("report"))
+            report = ours.pop("report")
+            detail = _structure(report)
             base.pop("report")
+            account = report.get("model") or {}
+            nav_ok = ours["nav"] is not None and base["nav"] is not None and ours["nav"] >= base["nav"] - 0.01
             entry.update(
                 model=ours,
                 rules=base,
@@ -112,7 +121,13 @@ def main(argv: list[str] | None = None) -> int:
                     and ours["collisions"] <= base["collisions"]
                     and ours["out_of_bounds"] <= base["out_of_bounds"]
                     and ours["tipped_or_fell"] <= base["tipped_or_fell"]
+                    and nav_ok
                 ),
+                within_5_min=wall_s <= 300,
+                model_summary=account.get("summary"),
+                given_up=account.get("given_up", []),
+                deadline=account.get("deadline"),
+                model_requests=sum(k.get("requests", 0) for k in account.get("kinds", {}).values()),
                 requests=detail.get("usage", {}).get("requests"),
                 agents={k: v["answered_by"] for k, v in detail.get("agents", {}).items()},
                 repairs={k: v["repairs"] for k, v in detail.get("agents", {}).items() if v["repairs"]},
@@ -123,7 +138,9 @@ def main(argv: list[str] | None = None) -> int:
         "inputs": len(per_input),
         "exit_0": sum(e["exit"] == 0 for e in per_input.values()),
         "at_least_as_valid": sum(bool(e.get("at_least_as_valid")) for e in per_input.values()),
+        "within_5_min": sum(bool(e.get("within_5_min")) for e in per_input.values()),
         "model_wall_s_total": round(sum(e["wall_s"] for e in per_input.values()), 1),
+        "model_wall_s_max": max((e["wall_s"] for e in per_input.values()), default=0.0),
         "per_input": per_input,
     }
     print(json.dumps(figures, sort_keys=True))

@@ -386,6 +386,8 @@ def _summarize(result: GenerateResult) -> None:
     if figures:
         label = "house" if report.is_house else "validation"
         _out.print(f"  {label}: " + ", ".join(f"{k} {v}" for k, v in figures.items()), highlight=False)
+    if report.model is not None:
+        _out.print(f"  model: {report.model['summary']}", markup=False, highlight=False)
 
 
 

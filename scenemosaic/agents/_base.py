@@ -60,10 +60,12 @@ from scenemosaic.exceptions import (
     UsageError,
 )
 from scenemosaic.models import (
+    GivenUp,
     ImagePart,
     Message,
     Model,
     ModelSettings,
+    QualityBreaker,
     RequestContext,
     TextPart,
     Usage,
@@ -224,10 +226,16 @@ class AgentPolicy:
     serve the run at all (:class:`~scenemosaic.exceptions.ModelEndpointError`: nothing listening,
     unknown host, key refused, no such model). Off by default: such a run stops at once with the
     fix, rather than quietly delivering rule answers (``--fallback rules`` turns it on)."""
+    quality: QualityBreaker | None = field(default=None, compare=False)
+    """The run's judge of replies per agent kind (``RunModel.quality``): every reply is reported to
+    it as usable or not, and an agent whose kind it has given up answers with its rule solver
+    without asking. Needs ``solver_fallback``. ``None``: every agent run asks."""
 
     def __post_init__(self) -> None:
         if self.max_attempts < 1:
             raise UsageError(f"max_attempts must be >= 1, got {self.max_attempts}")
+        if self.quality is not None and self.quality.threshold is not None and not self.solver_fallback:
+            raise UsageError("a quality breaker routes agents to their rule solvers: it needs solver_fallback on")
 
 
 @dataclass(frozen=True)
@@ -236,6 +244,9 @@ class FallbackRecord:
 
     agent: str
     reason: str
+    given_up: bool = False
+    """The run had given up asking the model for this agent's kind (``AgentPolicy.quality``): the
+    solver answered without a request, or after the reply that gave the kind up."""
 
 
 AnsweredBy = Literal["rules", "model", "solver_without_call", "solver_fallback"]
@@ -383,6 +394,14 @@ def _field_values(value: Any, path: list[str]) -> Iterator[str]:
     yield from _field_values(getattr(value, path[0]), path[1:])
 
 
+def _given_up_words(given: GivenUp) -> str:
+    """Why an agent of a kind the run gave up answers with its solver (the outcome's reason)."""
+    return (
+        f"the model's {given.kind} replies stayed unusable ({given.requests} asked, {given.usable} usable; "
+        f"last: {given.reason[:200]}); the run no longer asks it for {given.kind}"
+    )
+
+
 def _sent(exc: BaseException) -> bool:
     """Whether a request that raised ``exc`` reached the model: the run's circuit breaker and its
     deadline refuse before sending (a deadline that passed during the request did send it)."""
@@ -414,9 +433,18 @@ class _Tally:
         self.calls.append(UsageRecord(context.agent, context.node, model, charged, latency_s, error is None, None))
 
     def result(
-        self, agent: str, output: OutputT, answered_by: AnsweredBy, reason: str = "", notes: tuple[str, ...] = ()
+        self,
+        agent: str,
+        output: OutputT,
+        answered_by: AnsweredBy,
+        reason: str = "",
+        notes: tuple[str, ...] = (),
+        *,
+        given_up: bool = False,
     ) -> AgentResult[OutputT]:
-        fallback = FallbackRecord(agent=agent, reason=reason[:500]) if answered_by == "solver_fallback" else None
+        fallback = (
+            FallbackRecord(agent=agent, reason=reason[:500], given_up=given_up) if answered_by == "solver_fallback" else None
+        )
         outcome = AgentOutcome(agent, answered_by, self.requests, self.repairs, reason[:300])
         usage = sum((c.usage for c in self.calls), Usage())
         return AgentResult(output, outcome, usage, tuple(self.refused), fallback, tuple(self.calls), notes)
@@ -679,7 +707,11 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
         """
         tally = _Tally()
         try:
-            return await self._answer(state, model, settings, tally, node=node)
+            result = await self._answer(state, model, settings, tally, node=node)
+            if state.policy.quality is not None:  # the run's account of the model's work, per kind
+                o = result.outcome
+                state.policy.quality.answered(self.name, o.answered_by, o.repairs, o.reason)
+            return result
         except BaseException as exc:
             if tally.calls:
                 setattr(exc, _CALLS, (*calls_of(exc), *tally.calls))
@@ -699,6 +731,10 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
                 await run_blocking(self._require_usable, settled, state, [], offload=self.offload)
                 return tally.result(self.name, settled, "solver_without_call")
             chunks = self._chunks(evidence)
+        quality = state.policy.quality
+        given = quality.given_up(self.name) if quality is not None else None
+        if given is not None:  # the model cannot do this kind: the solver, without asking, quietly
+            return await self._fall_back(state, _given_up_words(given), [], tally, quiet=True)
         if len(chunks) > 1:
             return await self._run_chunked(state, model, settings, evidence, chunks, tally, node=node)
         compact = functools.partial(self.compact_messages, evidence, state, vision=model.vision)
@@ -711,7 +747,8 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
             if reply.schema_error is not None:  # the last reply was not even schema-valid: say so, with it
                 raise reply.schema_error
             raise AgentOutputError(f"agent {self.name!r} gave an {reason}", agent=self.name, problems=reply.problems)
-        return await self._fall_back(state, reason, reply.problems, tally)
+        quiet = quality is not None and quality.given_up(self.name) is not None  # the breaker said it
+        return await self._fall_back(state, reason, reply.problems, tally, quiet=quiet)
 
     async def _ask(
         self,
@@ -742,6 +779,10 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
         messages = prompt
         for attempt in range(policy.max_attempts):
             reply.schema_error = None
+            ticket = await policy.quality.admit(self.name) if policy.quality is not None else None
+            if ticket is not None and ticket.given_up is not None:  # given up meanwhile (by this run or another)
+                reply.error = _given_up_words(ticket.given_up)
+                return reply
             try:
                 tally.requests += 1
                 answer = await self._request(model, messages, settings, context, tally)
@@ -749,6 +790,9 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
                 reply.schema_error = exc
                 problems, text = exc.errors or [str(exc)], exc.raw_reply
                 intro = f"That reply is not a valid {self.output_type.__name__} JSON object:"
+                if ticket is not None and (given := ticket.unusable(problems[0])) is not None:
+                    reply.problems, reply.error = problems, _given_up_words(given)
+                    return reply
             except (ModelError, ModelEndpointError) as exc:
                 if isinstance(exc, ModelContextLengthError) and compact is not None:
                     # once: a shorter prompt, then (if it still does not fit) the solver
@@ -767,11 +811,19 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
                 async with state.lock:
                     problems = await run_blocking(accept, output, offload=self.offload)
                 if not problems:
+                    if ticket is not None:
+                        ticket.usable()
                     reply.output, reply.problems = output, []
                     return reply
                 tally.refused.append(tuple(problems))
                 text = output.model_dump_json()
                 intro = "That answer cannot be applied to this scene:"
+                if ticket is not None and (given := ticket.unusable(problems[0])) is not None:
+                    reply.problems, reply.error = problems, _given_up_words(given)
+                    return reply
+            finally:
+                if ticket is not None:
+                    ticket.close()  # no reply to judge (a time-out, a cancel): counts neither way
             reply.problems = problems
             if attempt + 1 < policy.max_attempts:
                 tally.repairs += 1
@@ -904,15 +956,21 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
                 problems=model_problems + solver_problems,
             )
 
-    async def _fall_back(self, state: StateT, reason: str, problems: list[str], tally: _Tally) -> AgentResult[OutputT]:
+    async def _fall_back(
+        self, state: StateT, reason: str, problems: list[str], tally: _Tally, *, quiet: bool = False
+    ) -> AgentResult[OutputT]:
+        """The rule solver's answer instead of the model's, with ``reason``; ``quiet``: no warning
+        (a kind the run has given up was said once, by the breaker)."""
+
         def fall_back() -> OutputT:
             # the scene as it is now: agents running beside this one may have changed it meanwhile
             output = self.solve(self.gather(state))
             self._require_usable(output, state, problems)
             return output
 
-        _log.warning("agent_fell_back_to_solver", agent=self.name, reason=reason[:200])
+        if not quiet:
+            _log.warning("agent_fell_back_to_solver", agent=self.name, reason=reason[:200])
         async with state.lock:
             output = await run_blocking(fall_back, offload=self.offload)
         note = f"{self.name}: model output unusable, used the rule solver"
-        return tally.result(self.name, output, "solver_fallback", reason, (note,))
+        return tally.result(self.name, output, "solver_fallback", reason, (note,), given_up=quiet)

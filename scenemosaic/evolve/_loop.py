@@ -9,7 +9,8 @@ the actor's and the pose agent's answers are applied to their state, the critic 
 records its result in the layout's :class:`~scenemosaic.agents.AgentLog`. The loop ends when the critic asks for no change, when the round cap
 (:data:`MAX_ROUNDS`) is reached, or early, when the last round moved nothing by more than
 :data:`EARLY_STOP_MOVE_M` nor turned anything by more than :data:`EARLY_STOP_TURN_DEG` and
-the layout is physically clean. The final round is kept if clean, else the round with the
+the layout is physically clean; with a model (not the rules) also when such a round left it
+unclean: the next round would ask the same of the same layout, a request that buys nothing. The final round is kept if clean, else the round with the
 fewest collisions + out-of-bounds objects (later rounds win ties); then the unit settles
 under gravity in MuJoCo with its anchor as the ground (:func:`scenemosaic.physics.settle_unit`).
 """
@@ -245,8 +246,12 @@ async def evolve_layout(
         current = state.layout
         check = await asyncio.to_thread(physical_check, current, ctx, shapes)
         candidates.append((rnd, current.copy(), check))
-        if last_move is not None and last_move[0] < EARLY_STOP_MOVE_M and last_move[1] < EARLY_STOP_TURN_DEG and check.clean:
+        still = last_move is not None and last_move[0] < EARLY_STOP_MOVE_M and last_move[1] < EARLY_STOP_TURN_DEG
+        if still and check.clean:
             stop = "early stop: converged"
+            break
+        if still and not model.uses_rule_solvers:  # a model's round that changed nothing: the next asks the same again
+            stop = "early stop: the last round changed nothing"
             break
         findings = tuple(await asyncio.to_thread(find_problems, current, ctx, check, memory.avoid(), rules))
         await asyncio.to_thread(save_view, f"round_{rnd}")

@@ -15,6 +15,9 @@ Wrappers that add behaviour around any model:
 * :class:`DeadlineModel` — one wall-clock budget for all requests of a run.
 * :class:`CircuitBreakerModel` — refuse requests at once while an endpoint keeps failing.
 
+:class:`QualityBreaker` stops asking for a kind of answer (an agent's) the model keeps getting
+wrong; the agents report to it.
+
 :func:`parse_model` builds any of these from a string; :func:`open_run_model` builds the one
 stack a ``generate`` run asks (wrappers, limits, breaker, deadline, usage) for its whole length.
 """
@@ -39,6 +42,7 @@ from scenemosaic.models._instrument import InstrumentedModel, ModelCall
 from scenemosaic.models._limit import FileTokenBucket, LimitedModel, RateLimiter, TokenBucket
 from scenemosaic.models._openai import DEFAULT_TIMEOUT_S, OpenAIChatModel, StructuredMode
 from scenemosaic.models._parse import MODEL_SPEC_HELP, parse_model
+from scenemosaic.models._quality import DEFAULT_UNUSABLE_REPLIES, GivenUp, QualityBreaker, Ticket
 from scenemosaic.models._replay import Cassette, ReplayMode, ReplayModel, canonical_request, request_key
 from scenemosaic.models._rules import RulesModel
 from scenemosaic.models._schema import STRICT_SCHEMA_KEYWORDS, SchemaBounds, extract_json, strict_json_schema
@@ -56,6 +60,7 @@ from scenemosaic.models._wrapper import WrapperModel
 
 __all__ = [
     "DEFAULT_TIMEOUT_S",
+    "DEFAULT_UNUSABLE_REPLIES",
     "MODEL_SPEC_HELP",
     "STRICT_SCHEMA_KEYWORDS",
     "AgentFunction",
@@ -70,6 +75,7 @@ __all__ = [
     "FileTokenBucket",
     "FunctionModel",
     "GiveUp",
+    "GivenUp",
     "HTTPRetryPolicy",
     "ImagePart",
     "InstrumentedModel",
@@ -81,6 +87,7 @@ __all__ = [
     "ModelPrice",
     "ModelSettings",
     "OpenAIChatModel",
+    "QualityBreaker",
     "RateLimiter",
     "ReplayMode",
     "ReplayModel",
@@ -91,6 +98,7 @@ __all__ = [
     "SchemaBounds",
     "StructuredMode",
     "TextPart",
+    "Ticket",
     "TokenBucket",
     "Usage",
     "UsageLimits",

@@ -10,6 +10,9 @@ every stage's agents ask::
       -> CircuitBreakerModel           an endpoint that keeps failing is refused at once
       -> DeadlineModel                 the run's wall-clock budget for all model requests
 
+beside it, a :class:`~scenemosaic.models.QualityBreaker` the agents report their replies to (a
+kind of answer the model keeps getting wrong is no longer asked for).
+
 It is entered once around the whole run, so the breaker, the deadline and the usage are the
 run's: a breaker that tripped during structuring stays open for evolution. The tracker holds
 every call of the run; a stage reads its own agents' usage from its agent log (the agents layer's
@@ -35,6 +38,7 @@ from scenemosaic.models._instrument import InstrumentedModel
 from scenemosaic.models._limit import LimitedModel, RateLimiter
 from scenemosaic.models._openai import OpenAIChatModel
 from scenemosaic.models._parse import parse_model
+from scenemosaic.models._quality import DEFAULT_UNUSABLE_REPLIES, QualityBreaker
 from scenemosaic.models._usage import UsageRecord, UsageTracker
 
 __all__ = ["RunModel", "RunModelSettings", "open_run_model", "server_slots", "usage_summary"]
@@ -60,6 +64,9 @@ class RunModelSettings:
     """Folder the rates are shared through (a batch's workers)."""
     reply_cache: Path | None = None
     """Folder of the on-disk reply cache."""
+    unusable_replies: int = DEFAULT_UNUSABLE_REPLIES
+    """Unusable replies of one agent kind in a row after which the run stops asking the model for
+    it (:class:`~scenemosaic.models.QualityBreaker`); 0: keep asking (the replies are still counted)."""
 
 
 @dataclass
@@ -78,12 +85,51 @@ class RunModel:
     clock: CallClock = field(default_factory=CallClock)
     """The run's one clock for every outbound call (the request time-out and the deadline): the
     model stack and the perception backends' HTTP clients read it."""
+    quality: QualityBreaker | None = None
+    """The run's judge of the model's replies per agent kind, and its account of them (``None``: the
+    rules model); the agents report to it through their policy."""
     _opened: Model | None = None
 
     @property
     def uses_rule_solvers(self) -> bool:
         """Whether the run's model is the offline rules model."""
         return self.model.uses_rule_solvers
+
+    def account(self) -> dict[str, Any] | None:
+        """The model's work over the whole run, per agent kind (``report.json``'s ``model``): its
+        requests, tokens and seconds (every call), its replies' verdicts and the agent runs by how
+        they were answered (:meth:`QualityBreaker.summary`); the kinds given up; one line of words.
+        ``None`` for the rules model."""
+        if self.quality is None:
+            return None
+        summary = self.quality.summary()
+        spent: dict[str, dict[str, float]] = {}
+        for c in self.tracker.calls:
+            row = spent.setdefault(c.agent, {"input_tokens": 0, "output_tokens": 0, "seconds": 0.0})
+            row["input_tokens"] += c.usage.input_tokens
+            row["output_tokens"] += c.usage.output_tokens
+            row["seconds"] += c.latency_s
+        kinds: dict[str, dict[str, Any]] = {}
+        for kind in sorted(set(summary["kinds"]) | set(spent)):
+            row = dict(summary["kinds"].get(kind, {}))
+            used = spent.get(kind, {})
+            row["input_tokens"] = int(used.get("input_tokens", 0))
+            row["output_tokens"] = int(used.get("output_tokens", 0))
+            row["seconds"] = round(used.get("seconds", 0.0), 3)
+            kinds[kind] = row
+        asked = [k for k, r in kinds.items() if r.get("requests") or r.get("given_up")]
+        solver = [k for k in asked if kinds[k].get("answers", {}).get("solver_fallback") or kinds[k].get("given_up")]
+        line = f"{len(asked) - len(solver)} of {len(asked)} agent kinds usable"
+        if solver:
+            line += "; solver for " + ", ".join(solver)
+        return {
+            "model": self.detail.get("model"),
+            "unusable_replies": summary["threshold"] or 0,
+            **{k: self.detail[k] for k in ("deadline_s", "deadline") if k in self.detail},
+            "summary": line,
+            "kinds": kinds,
+            "given_up": summary["given_up"],
+        }
 
     def mark(self) -> int:
         """A reading of the usage so far; :meth:`usage_since` takes it."""
@@ -200,4 +246,10 @@ async def open_run_model(
             elapsed = time.monotonic() - started if started is not None else 0.0
             model = DeadlineModel(model, max(cfg.deadline_s - elapsed, 0.001), shown_s=cfg.deadline_s)
     request = ModelSettings(timeout_s=cfg.request_timeout_s) if cfg.request_timeout_s else None
-    return RunModel(model=model, tracker=tracker, settings=request, detail=detail, clock=clock, _opened=opened)
+    quality = None
+    if not base.uses_rule_solvers:
+        quality = QualityBreaker(cfg.unusable_replies or None)
+        detail["unusable_replies"] = cfg.unusable_replies
+    return RunModel(
+        model=model, tracker=tracker, settings=request, detail=detail, clock=clock, quality=quality, _opened=opened
+    )

@@ -28,7 +28,14 @@ from scenemosaic.pipeline._config import (
     settings_table,
 )
 from scenemosaic.pipeline._result import GenerateResult
-from scenemosaic.pipeline._state import PipelineRun, RunSetup, Stage, StageCallback, StageRecord
+from scenemosaic.pipeline._state import (
+    PipelineRun,
+    RunSetup,
+    Stage,
+    StageCallback,
+    StageRecord,
+    default_deadline_s,
+)
 
 if TYPE_CHECKING:
     from scenemosaic.pipeline._checkpoint import checkpoint_config
@@ -88,6 +95,7 @@ __all__ = [
     "checkpoint_config",
     "config_from_record",
     "config_record",
+    "default_deadline_s",
     "demo_scene",
     "generate",
     "plan",

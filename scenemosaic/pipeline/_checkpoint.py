@@ -92,7 +92,7 @@ def checkpoint_state(run: PipelineRun) -> RunCheckpoint:
         metrics=run.metrics,
         warnings=run.warnings,
         notes=run.notes,
-        fallbacks=[{"agent": f.agent, "reason": f.reason} for f in run.fallbacks],
+        fallbacks=[{"agent": f.agent, "reason": f.reason, "given_up": f.given_up} for f in run.fallbacks],
         house=run.house,
         rooms=run.rooms,
         house_variants=run.house_variants,
@@ -161,7 +161,10 @@ def load_checkpoint(run: PipelineRun, digest: str | None) -> set[str]:
     run.metrics = state.metrics
     run.warnings = list(state.warnings)
     run.notes = list(state.notes)
-    run.fallbacks = [FallbackRecord(**f) for f in state.fallbacks]
+    run.fallbacks = [
+        FallbackRecord(agent=str(f["agent"]), reason=str(f["reason"]), given_up=bool(f.get("given_up", False)))
+        for f in state.fallbacks
+    ]
     run.house = state.house
     run.rooms = dict(state.rooms)
     run.house_variants = list(state.house_variants)

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias, Union, get
 from pydantic import (
     AfterValidator,
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
     ValidationError,
@@ -29,7 +30,7 @@ from pydantic import (
 )
 
 from scenemosaic.exceptions import UsageError
-from scenemosaic.models import Model
+from scenemosaic.models import DEFAULT_UNUSABLE_REPLIES, Model
 
 if TYPE_CHECKING:
     from pydantic import ModelWrapValidatorHandler
@@ -190,6 +191,16 @@ def _number_as_given(value: Any, handler: ValidatorFunctionWrapHandler, info: Va
 
 Number = Annotated[float, WrapValidator(_number_as_given)]
 
+
+def _seconds_or_word(value: Any) -> Any:
+    """A number written as text (the command line's ``--deadline 300``) as a number; a word as it is."""
+    if isinstance(value, str) and value.strip().lower() != "none":
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value.strip().lower() if isinstance(value, str) else value
+
 if TYPE_CHECKING:
     SegmenterChoice: TypeAlias = str | Segmenter
     ReconstructorChoice: TypeAlias = str | Reconstructor
@@ -317,6 +328,14 @@ class GenerateConfig(BaseModel):
     ``transient`` such a server (nothing listening, unknown host, key refused, no such model) stops
     the run at once with exit 2 and the fix; with ``rules`` the run completes ``degraded`` on the
     rule solvers (``docs/reliability.md``). Either needs ``solver_fallback`` on."""
+    unusable_replies: Annotated[int, Field(ge=0), Setting("model", decides=True, flag="--unusable-replies")] = (
+        DEFAULT_UNUSABLE_REPLIES
+    )
+    """Unusable replies of one agent kind in a row after which the run stops asking the model for it.
+    A reply is unusable when it is not JSON, breaks the schema, is cut off or is refused by the
+    agent's checks; the kind's agents then answer with their rule solvers, said once
+    (``models.QualityBreaker``). 0: keep asking whatever comes back. Needs ``solver_fallback``; the
+    rules model asks nothing."""
     reply_cache: Annotated[
         Path | None,
         Field(strict=False),
@@ -377,9 +396,13 @@ class GenerateConfig(BaseModel):
     ] = None
     """Seconds one model request may take (default: the model's own). See
     ``docs/reliability.md`` for the precedence of time-outs."""
-    deadline_s: Annotated[Number | None, Field(gt=0), Setting("limits", decides=True, flag="--deadline")] = None
-    """Seconds all model requests of the run may take; then agents use their rule solvers. Once
-    this wall-clock budget has passed, the run is ``degraded``."""
+    deadline_s: Annotated[
+        Number | Literal["none"] | None, BeforeValidator(_seconds_or_word), Setting("limits", decides=True, flag="--deadline")
+    ] = None
+    """Seconds all model requests of the run may take (above 0); then agents use their rule solvers.
+    Once this wall-clock budget has passed, the run is ``degraded``. Unset, a run with a model gets
+    60 s plus 10 s per object of its input (``pipeline.default_deadline_s``; the report's model
+    detail says which); ``none``: no deadline, wait for every reply. The rules model asks nothing."""
     max_concurrency: Annotated[int | None, Field(ge=1), Setting("limits", flag="--max-concurrency")] = None
     """Most model requests in flight at once (default: the server's slots when it says). More wait
     in the client, so a request's time-out measures the server's work, not a queue; a server that
@@ -470,6 +493,8 @@ class GenerateConfig(BaseModel):
             problems.append((None, "variants come from the evolve stage: drop --no-evolve (\"evolve\": false), or ask for 0 variants"))
         if config.prompt is not None and not config.prompt.strip():
             problems.append(("prompt", "the text prompt is empty"))
+        if isinstance(config.deadline_s, float | int) and not config.deadline_s > 0:
+            problems.append(("deadline_s", f"the deadline must be above 0 seconds (or none), got {config.deadline_s:g}"))
         if config.clutter == "vary" and config.variants == 0:
             problems.append(("clutter", "vary changes the variants' small objects: ask for variants (--variants N)"))
         if problems:
@@ -625,9 +650,11 @@ def setting_options() -> tuple[SettingOption, ...]:
         if setting.flag is None:
             continue
         info = GenerateConfig.model_fields[name]
-        (first, *_) = _members(info.annotation)
+        (first, *others) = _members(info.annotation)
         choices: tuple[str, ...] = get_args(first) if get_origin(first) is Literal else ()
         kind = first if first in (bool, int, float, str, Path) else str
+        if kind in (int, float) and any(get_origin(m) is Literal for m in others):
+            kind = str  # a number or a word (``--deadline none``): the settings parse it
         switch = kind is bool and info.default is not False
         decls = f"{setting.flag}/--no-{setting.flag.removeprefix('--')}" if switch else setting.flag
         summary = _rst(_first_sentence(info.description or ""), str).removesuffix(".")

@@ -89,6 +89,11 @@ class RunReport(BaseModel):
     partial_export_error: str | None = None
     house: HouseSummary | None = None
     rooms: dict[str, RoomReport] | None = None
+    model: dict[str, Any] | None = None
+    """A run that asked a model (not the rules): the model's work over the whole run, per agent
+    kind (requests, usable and unusable replies, agent runs by how they were answered, fallback
+    reasons, tokens, seconds), the kinds the run gave up, and ``summary``, one line of words
+    (``models.RunModel.account``)."""
 
     @property
     def is_house(self) -> bool:
@@ -127,7 +132,7 @@ class RunReport(BaseModel):
         return self.model_dump(mode="json", exclude_none=False, exclude={k for k in _OPTIONAL if getattr(self, k) is None})
 
 
-_OPTIONAL = ("partial_files", "partial_export_error", "house", "rooms")
+_OPTIONAL = ("partial_files", "partial_export_error", "house", "rooms", "model")
 """Fields ``report.json`` holds only when they apply."""
 
 
@@ -195,4 +200,5 @@ def run_report(run: PipelineRun, total_s: float, failure: BaseException | None) 
         metrics=run.metrics,
         house=HouseSummary(id=run.house.id, rooms=run.house.room_ids, doorways=len(run.house.doorways())) if run.house else None,
         rooms=_rooms(run) if run.house is not None else None,
+        model=run.model.account() if run.model is not None else None,
     )

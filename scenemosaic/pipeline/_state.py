@@ -33,6 +33,7 @@ __all__ = [
     "StageFn",
     "StageRecord",
     "UnitLayoutRecord",
+    "default_deadline_s",
     "open_model",
     "rooms_of",
 ]
@@ -62,7 +63,7 @@ class RunCheckpoint(BaseModel):
     metrics: dict[str, Any] | None = None
     warnings: list[str] = []
     notes: list[str] = []
-    fallbacks: list[dict[str, str]] = []
+    fallbacks: list[dict[str, str | bool]] = []
     house: House | None = None
     rooms: dict[str, RoomOutcome] = {}
     house_variants: list[House] = []
@@ -258,14 +259,18 @@ class PipelineRun:
         """How agents treat the model's answers in this run."""
         from scenemosaic.agents import AgentPolicy
 
-        return AgentPolicy(solver_fallback=self.config.solver_fallback, endpoint_fallback=self.config.fallback == "rules")
+        quality = self.model.quality if self.model is not None else None
+        return AgentPolicy(
+            solver_fallback=self.config.solver_fallback, endpoint_fallback=self.config.fallback == "rules", quality=quality
+        )
 
     async def asking(self, rec: StageRecord) -> RunModel:
         """The run's one model stack, for a stage that asks the model: opened by the first stage
         that needs it and kept for the rest of the run (the driver closes it). The stage's record
         gets the model's description now and its usage when the stage ends."""
         if self.model is None:
-            self.model = await open_model(self.config, self.started)
+            world = self.result
+            self.model = await open_model(self.config, self.started, len(world.objects) if world is not None else None)
         rec.detail.update(self.model.detail)
         rec.detail["usage"] = {}  # filled by the driver: the stage's agent log's usage (else between its marks)
         return self.model
@@ -314,23 +319,67 @@ class PipelineRun:
             )
 
     def note_fallbacks(self, fallbacks: list[FallbackRecord], where: str = "", width: int = 160) -> None:
-        """Record agents answered by their rule solvers (each a warning: the run is ``degraded``)."""
+        """Record agents answered by their rule solvers (each a warning: the run is ``degraded``); the
+        agents of a kind the run gave up asking for are said once, at the first."""
         self.fallbacks.extend(fallbacks)
         for f in fallbacks:
+            if f.given_up:
+                said = f"agent {f.agent!r} answered by its rule solver from {where.strip(' ()') or 'here'} on: "
+                if any(w.startswith(f"agent {f.agent!r}") and " on: " in w for w in self.warnings):
+                    continue
+                self.warnings.append(said + f.reason[:width])
+                continue
             self.warnings.append(f"agent {f.agent!r}{where} answered by its rule solver: {f.reason[:width]}")
 
 
-async def open_model(config: GenerateConfig, started: float) -> RunModel:
+DEADLINE_BASE_S = 60.0
+"""A model run's default deadline: this much for the requests every run makes (the manager, the
+first request of each kind) ..."""
+DEADLINE_PER_OBJECT_S = 10.0
+"""... plus this much per object of the input. The rules solvers spend well under a second per
+object on two cores (``benchmarks/real_model.py`` prints both), so the model is given an order of
+magnitude more than the rules need before the remaining agents use them."""
+DEADLINE_OBJECTS_UNKNOWN = 30
+"""Objects counted when the model is first asked before the input's objects are known (a photograph)."""
+
+
+def default_deadline_s(objects: int | None) -> float:
+    """The wall-clock budget of a model run's requests when ``--deadline`` is not given:
+    :data:`DEADLINE_BASE_S` plus :data:`DEADLINE_PER_OBJECT_S` per object (``None``: not known yet)."""
+    count = DEADLINE_OBJECTS_UNKNOWN if objects is None else objects
+    return DEADLINE_BASE_S + DEADLINE_PER_OBJECT_S * count
+
+
+def _deadline(config: GenerateConfig, objects: int | None) -> tuple[float | None, str]:
+    """The run's deadline for model requests, and where it came from (for the report)."""
+    if config.deadline_s == "none":
+        return None, "none (--deadline none)"
+    if config.deadline_s is not None:
+        return float(config.deadline_s), "given"
+    if config.model == "rules" or (not isinstance(config.model, str) and config.model.uses_rule_solvers):
+        return None, "none (the rules model asks nothing)"
+    count = "objects not known yet" if objects is None else f"{objects} objects"
+    return default_deadline_s(objects), f"default: {DEADLINE_BASE_S:g} s + {DEADLINE_PER_OBJECT_S:g} s x {count}"
+
+
+async def open_model(config: GenerateConfig, started: float, objects: int | None = None) -> RunModel:
     """The run's model stack (``models.open_run_model``) as the settings describe it; ``started``
-    is when the run began (``time.monotonic``: the deadline counts from it)."""
+    is when the run began (``time.monotonic``: the deadline counts from it); ``objects``: how many
+    the input holds, for the default deadline (``None``: not known yet)."""
     from scenemosaic.models import RunModelSettings, open_run_model
 
+    deadline, why = _deadline(config, objects)
     settings = RunModelSettings(
         vision=config.vision, max_concurrency=config.max_concurrency, request_timeout_s=config.request_timeout_s,
-        deadline_s=config.deadline_s, requests_per_minute=config.requests_per_minute,
+        deadline_s=deadline, requests_per_minute=config.requests_per_minute,
         tokens_per_minute=config.tokens_per_minute, rate_limit_dir=config.rate_limit_dir, reply_cache=config.reply_cache,
+        unusable_replies=config.unusable_replies if config.solver_fallback else 0,  # no solver: keep asking
     )  # fmt: skip
-    return await open_run_model(config.model, settings, started=started)
+    stack = await open_run_model(config.model, settings, started=started)
+    if not stack.uses_rule_solvers:
+        stack.detail["deadline_s"] = deadline
+        stack.detail["deadline"] = why
+    return stack
 
 
 def rooms_of(world: Scene | House) -> list[Scene]:

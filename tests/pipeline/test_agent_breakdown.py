@@ -26,7 +26,9 @@ def test_the_report_breaks_the_structuring_down_per_agent(tmp_path: Path) -> Non
             return '{"assignments": []}'  # schema-valid, but leaves every object without a parent
         return solver_answer(messages, context)
 
-    generate(BEDROOM, tmp_path, GenerateConfig(model=FunctionModel(reply, vision=False), stabilize=False))
+    # every attempt of each agent is asked (the run gives no kind up: tests/agents/test_quality_breaker.py)
+    config = GenerateConfig(model=FunctionModel(reply, vision=False), stabilize=False, unusable_replies=0)
+    generate(BEDROOM, tmp_path, config)
     report = json.loads((tmp_path / "report.json").read_text(encoding="utf-8"))
     [structure] = [s for s in report["stages"] if s["name"] == "structure"]
     agents = structure["detail"]["agents"]
@@ -44,3 +46,9 @@ def test_the_report_breaks_the_structuring_down_per_agent(tmp_path: Path) -> Non
     assert agents["manager"]["answered_by"] == "model"
     assert report["status"] == "degraded"  # a fallback is said loudly
     assert {name for name, n in asked.items() if n} == {k for k, v in agents.items() if v["requests"]}
+    # the run's account of the model, per kind, says the same
+    account = report["model"]["kinds"]
+    assert {k: v["requests"] for k, v in account.items() if v["requests"]} == asked
+    assert account["attributes"]["answers"] == {"solver_fallback": 1} and account["attributes"]["unusable"] == 3
+    assert account["support"]["answers"] == {"repaired": 1} and account["walls"]["answers"] == {"model": 1}
+    assert report["model"]["summary"] == f"{len(asked) - 1} of {len(asked)} agent kinds usable; solver for attributes"

@@ -4,7 +4,7 @@ The cassette in ``tests/fixtures/cassettes/`` was recorded by ``benchmarks/real_
 against the shared server (Qwen2.5-Coder-0.5B, 4,096-token context, text only); its companion
 ``*.expected.json`` holds what that live run wrote: the SHA-256 of every file of its ``base/``
 folder, how each agent was answered, and the extra ``generate`` arguments it ran with
-(``extra_args``: a recording made before the evolve stage existed replays with ``--no-evolve``). Replaying (``--model replay:<cassette>``) must reproduce
+(``extra_args``: a recording made before the evolve stage existed replays with ``--no-evolve``, one made before the run gave up kinds of answer with ``--unusable-replies 0``). Replaying (``--model replay:<cassette>``) must reproduce
 it: the same replies, the same repairs, the same fallbacks, the same ``scene.json`` bytes (and
 every file identical from one replay to the next). A change to a
 prompt or to the evidence changes the requests, and the replay then stops with a

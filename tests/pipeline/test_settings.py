@@ -27,6 +27,7 @@ DOCS = Path(__file__).resolve().parents[2] / "docs" / "settings.md"
 # setting whose default is None may join: an older record without it reads the same.
 RECORD_KEYS = {
     "format", "model", "seed", "room", "stabilize", "solver_fallback", "fallback", "vision", "request_timeout_s", "deadline_s",
+    "unusable_replies",
     "variants", "evolve", "evolve_rounds", "save_views", "segmenter", "reconstructor", "hfov_deg", "camera_height_m",
     "prompt", "image_model", "image_size", "clutter", "clutter_density",
     "asset_dir", "cache_dir", "priors_dir", "asset_annotations", "detections", "allow_orphans", "open_state", "index",
@@ -60,7 +61,8 @@ def test_every_field_declares_its_group_and_whether_it_decides() -> None:
         ({"evolve_rounds": 0}, r"'evolve_rounds': .*greater than or equal to 1"),
         ({"variants": 2, "evolve": False}, "variants come from the evolve stage"),
         ({"request_timeout_s": 0}, r"'request_timeout_s': .*greater than 0"),
-        ({"deadline_s": -5.0}, r"'deadline_s': .*greater than 0"),
+        ({"deadline_s": -5.0}, r"'deadline_s': .*above 0 seconds \(or none\)"),
+        ({"deadline_s": "soon"}, r"'deadline_s': .*should be 'none'"),
         ({"hfov_deg": 300}, r"'hfov_deg': .*less than or equal to 170"),
         ({"hfov_deg": 2}, r"'hfov_deg': .*greater than or equal to 5"),
         ({"camera_height_m": 0}, r"'camera_height_m': .*greater than 0.1"),
@@ -171,7 +173,7 @@ def test_every_flag_has_a_help_sentence_and_its_bounds() -> None:
         assert option.help.endswith((".", "]")) and 5 < len(option.help) < 200, (name, option.help)
         assert "``" not in option.help and ":class:" not in option.help, name
         assert option.default == GenerateConfig.model_fields[name].default, name
-    assert (setting_bounds("hfov_deg"), setting_bounds("variants"), setting_bounds("deadline_s")) == ("5 to 170", "0 or more", "above 0")
+    assert (setting_bounds("hfov_deg"), setting_bounds("variants"), setting_bounds("request_timeout_s")) == ("5 to 170", "0 or more", "above 0")
     assert options["evolve_rounds"].help.endswith("[1 or more]") and options["fallback"].choices == ("transient", "rules")
     assert {o.decls for o in options.values() if o.switch} == {
         "--vision/--no-vision", "--solver-fallback/--no-solver-fallback", "--evolve/--no-evolve", "--stabilize/--no-stabilize",
