@@ -396,6 +396,8 @@ def _field_values(value: Any, path: list[str]) -> Iterator[str]:
 
 def _given_up_words(given: GivenUp) -> str:
     """Why an agent of a kind the run gave up answers with its solver (the outcome's reason)."""
+    if given.cause == "deadline":
+        return given.reason
     return (
         f"the model's {given.kind} replies stayed unusable ({given.requests} asked, {given.usable} usable; "
         f"last: {given.reason[:200]}); the run no longer asks it for {given.kind}"
@@ -794,6 +796,10 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
                     reply.problems, reply.error = problems, _given_up_words(given)
                     return reply
             except (ModelError, ModelEndpointError) as exc:
+                if ticket is not None:
+                    ticket.close(sent=_sent(exc))
+                if isinstance(exc, ModelDeadlineExceeded) and policy.quality is not None:
+                    policy.quality.stop(str(exc).split(" (request by")[0])  # every later agent: the solver, quietly
                 if isinstance(exc, ModelContextLengthError) and compact is not None:
                     # once: a shorter prompt, then (if it still does not fit) the solver
                     _log.warning("agent_prompt_compacted", agent=self.name, reason=str(exc)[:200])

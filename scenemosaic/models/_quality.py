@@ -53,10 +53,15 @@ class GivenUp:
     usable: int
     """Usable replies of this kind before (an earlier run of the agent may have answered well)."""
     reason: str
-    """The last unusable reply's fault, in words."""
+    """The last unusable reply's fault, in words (or why the run stopped asking, for ``deadline``)."""
+    cause: str = "unusable"
+    """``unusable``: the kind's own replies; ``deadline``: the run's deadline for model requests
+    passed, which stops every kind (:meth:`QualityBreaker.stop`)."""
 
     def words(self) -> str:
         """One line: the kind, after how many requests, why."""
+        if self.cause == "deadline":
+            return f"{self.kind}: not asked after the deadline ({self.reason[:160]})"
         return f"{self.kind}: given up after {self.requests} requests ({self.reason[:160]})"
 
 
@@ -101,10 +106,14 @@ class Ticket:
         breaker = self._take()
         return breaker._settle(self.kind, fault) if breaker is not None else None
 
-    def close(self) -> None:
-        """No reply to judge (counts neither way); nothing when the ticket was settled already."""
+    def close(self, *, sent: bool = True) -> None:
+        """No reply to judge (counts neither way; ``sent=False``: the request never left, it is not
+        counted as one); nothing when the ticket was settled already."""
         breaker = self._take()
         if breaker is not None:
+            if not sent:
+                state = breaker._kind(self.kind)
+                state.requests = max(state.requests - 1, 0)
             breaker._release(self.kind)
 
 
@@ -117,6 +126,8 @@ class QualityBreaker:
     """
 
     threshold: int | None = DEFAULT_UNUSABLE_REPLIES
+    stopped: str | None = None
+    """Why the run asks no kind any more (its deadline passed), else ``None``."""
     _kinds: dict[str, _Kind] = field(default_factory=dict, repr=False)
     _changed: asyncio.Event | None = field(default=None, repr=False)
 
@@ -129,7 +140,20 @@ class QualityBreaker:
 
     def given_up(self, kind: str) -> GivenUp | None:
         """The record of ``kind`` when the run has stopped asking for it, else ``None``."""
-        return self._kind(kind).given_up
+        state = self._kind(kind)
+        if state.given_up is None and self.stopped is not None:
+            state.given_up = GivenUp(kind, state.requests, state.usable, self.stopped, "deadline")
+        return state.given_up
+
+    def stop(self, reason: str) -> None:
+        """Ask no kind any more (the run's deadline for model requests passed: ``reason``); every
+        later agent answers with its rule solver without trying, quietly (the caller says it once)."""
+        if self.stopped is None:
+            self.stopped = reason
+            log.warning("model_deadline_passed", reason=reason[:200], then="every agent uses its rule solver from now on")
+            if self._changed is not None:
+                self._changed.set()
+                self._changed = None
 
     async def admit(self, kind: str) -> Ticket:
         """Wait until a request of ``kind`` may be sent and count it out; the ticket's
@@ -137,14 +161,14 @@ class QualityBreaker:
         state = self._kind(kind)
         while (
             self.threshold is not None
-            and state.given_up is None
+            and self.given_up(kind) is None
             and state.usable == 0
             and state.streak + state.out >= self.threshold
         ):
             if self._changed is None:
                 self._changed = asyncio.Event()
             await self._changed.wait()
-        if state.given_up is not None:
+        if self.given_up(kind) is not None:
             return Ticket(kind, state.given_up)
         state.out += 1
         state.requests += 1
@@ -196,8 +220,9 @@ class QualityBreaker:
                 "usable": s.usable,
                 "unusable": s.unusable,
                 "answers": dict(sorted(s.answers.items())),
-                "given_up": s.given_up is not None,
+                "given_up": s.given_up is not None and s.given_up.cause == "unusable",
                 **({"reason": s.given_up.reason[:300]} if s.given_up is not None else {}),
+                **({"after_deadline": True} if s.given_up is not None and s.given_up.cause == "deadline" else {}),
                 **({"fallback_reasons": dict(s.reasons)} if s.reasons else {}),
             }
             for kind, s in sorted(self._kinds.items())
@@ -206,5 +231,8 @@ class QualityBreaker:
         return {
             "threshold": self.threshold,
             "kinds": kinds,
-            "given_up": [s.given_up.words() for _, s in sorted(self._kinds.items()) if s.given_up is not None],
+            "given_up": [
+                s.given_up.words() for _, s in sorted(self._kinds.items()) if s.given_up and s.given_up.cause == "unusable"
+            ],
+            "stopped": self.stopped,
         }

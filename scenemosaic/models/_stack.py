@@ -117,11 +117,15 @@ class RunModel:
             row["output_tokens"] = int(used.get("output_tokens", 0))
             row["seconds"] = round(used.get("seconds", 0.0), 3)
             kinds[kind] = row
-        asked = [k for k, r in kinds.items() if r.get("requests") or r.get("given_up")]
-        solver = [k for k in asked if kinds[k].get("answers", {}).get("solver_fallback") or kinds[k].get("given_up")]
+        asked = [k for k, r in kinds.items() if {"model", "repaired", "solver_fallback"} & set(r.get("answers", {}))]
+        solver = {
+            k: "given up" if kinds[k].get("given_up") else "deadline" if kinds[k].get("after_deadline") else "fell back"
+            for k in asked
+            if kinds[k].get("answers", {}).get("solver_fallback")
+        }
         line = f"{len(asked) - len(solver)} of {len(asked)} agent kinds usable"
         if solver:
-            line += "; solver for " + ", ".join(solver)
+            line += "; solver for " + ", ".join(f"{k} ({why})" for k, why in solver.items())
         return {
             "model": self.detail.get("model"),
             "unusable_replies": summary["threshold"] or 0,
@@ -129,6 +133,7 @@ class RunModel:
             "summary": line,
             "kinds": kinds,
             "given_up": summary["given_up"],
+            "stopped": summary["stopped"],
         }
 
     def mark(self) -> int:

@@ -114,7 +114,7 @@ def test_a_kind_answered_badly_is_asked_at_most_twice_and_the_others_every_time(
     quality = result.report["model"]
     assert quality["kinds"]["critic"]["given_up"] and quality["kinds"]["critic"]["requests"] == 2
     assert quality["kinds"]["critic"]["answers"]["solver_fallback"] > 2  # every later critic, by the solver
-    assert quality["summary"].endswith("; solver for critic")
+    assert quality["summary"].endswith("; solver for critic (given up)")
     assert not any(v["given_up"] for k, v in quality["kinds"].items() if k != "critic")
     assert result.report["status"] == "degraded"  # the critic's solver answered: said as a fallback
 
@@ -148,8 +148,32 @@ def test_a_model_run_gets_a_deadline_by_default_and_none_waits(tmp_path: Path, m
     model = FunctionModel(slow, name="slow", vision=False)
     late = generate(BEDROOM, tmp_path / "late", GenerateConfig(model=model, stabilize=False))
     assert late.report["model"]["deadline_s"] == 0.5 and late.report["model"]["deadline"].startswith("default: ")
-    assert late.report["status"] == "degraded"
-    assert any("deadline" in w for w in late.report["warnings"])
+    assert late.report["status"] == "degraded" and late.report["model"]["stopped"]
+    said = [w for w in late.report["warnings"] if "deadline" in w]
+    assert said and len(said) == len({w.split("'")[1] for w in said})  # once per agent kind, not per agent run
+    assert "(deadline)" in late.report["model"]["summary"]
     waited = generate(BEDROOM, tmp_path / "waited", GenerateConfig(model=model, stabilize=False, deadline_s="none"))
     assert waited.report["model"]["deadline_s"] is None and waited.report["status"] == "ok"
     assert waited.report["config"]["deadline_s"] == "none"
+
+
+def test_a_house_shares_one_account_and_gives_a_kind_up_once_for_every_room(tmp_path: Path) -> None:
+    house = Path(__file__).resolve().parents[1] / "fixtures" / "procthor_house.json"
+    asked: dict[str, int] = {}
+
+    def reply(messages: list[Message], context: RequestContext | None) -> Any:
+        assert context is not None
+        asked[context.agent] = asked.get(context.agent, 0) + 1
+        if context.agent == "critic":
+            return '{"should_modify": "maybe"}'  # JSON, off the schema
+        return solver_answer(messages, context)
+
+    result = generate(house, tmp_path / "house", GenerateConfig(model=FunctionModel(reply, name="bad-critic", vision=False)))
+    assert result.report["house"] is not None and len(result.report["house"]["rooms"]) == 2
+    assert asked["critic"] == 2  # two rooms' layouts, one model stack: twice in the whole house
+    account = result.report["model"]
+    assert account["kinds"]["critic"]["given_up"] and account["kinds"]["critic"]["answers"]["solver_fallback"] >= 2
+    assert {k: v["requests"] for k, v in account["kinds"].items() if v["requests"]} == asked
+    assert account["summary"].endswith("solver for critic (given up)")
+    said = [w for w in result.report["warnings"] if "'critic'" in w]
+    assert len(said) <= len(result.report["house"]["rooms"])  # once a room at most, not once a layout

@@ -51,4 +51,4 @@ def test_the_report_breaks_the_structuring_down_per_agent(tmp_path: Path) -> Non
     assert {k: v["requests"] for k, v in account.items() if v["requests"]} == asked
     assert account["attributes"]["answers"] == {"solver_fallback": 1} and account["attributes"]["unusable"] == 3
     assert account["support"]["answers"] == {"repaired": 1} and account["walls"]["answers"] == {"model": 1}
-    assert report["model"]["summary"] == f"{len(asked) - 1} of {len(asked)} agent kinds usable; solver for attributes"
+    assert report["model"]["summary"] == f"{len(asked) - 1} of {len(asked)} agent kinds usable; solver for attributes (fell back)"
