@@ -151,6 +151,7 @@ def test_a_line_carries_every_generate_setting(tmp_path: Path) -> None:
         "prompt": "a small bedroom", "image_model": "gpt-image-1", "image_size": "512x512",
         "model": "replay:tapes/bedroom.json", "vision": False, "solver_fallback": False, "variants": 2,
         "evolve": True, "evolve_rounds": 3, "save_views": True, "request_timeout_s": 12.5, "deadline_s": 600.0,
+        "unusable_replies": 3,
         "max_concurrency": 2, "requests_per_minute": 30.0, "tokens_per_minute": 9000.0, "seed": 7, "open_state": "random",
         "stabilize": True, "strict": True, "room_workers": 2, "fallback": "rules", "max_input_mb": 50.0,
         "allow_orphans": True, "clutter": "vary", "clutter_density": 6.5, "index": None,

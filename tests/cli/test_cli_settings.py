@@ -82,6 +82,7 @@ def test_every_flag_reaches_its_setting(tmp_path: Path, monkeypatch: pytest.Monk
         "clutter_density": (["6.5"], 6.5),
         "request_timeout_s": (["12.5"], 12.5),
         "deadline_s": (["600"], 600.0),
+        "unusable_replies": (["3"], 3),
         "max_concurrency": (["2"], 2),
         "requests_per_minute": (["30"], 30.0),
         "tokens_per_minute": (["9000"], 9000.0),
