@@ -734,8 +734,8 @@ class TaskAgent(abc.ABC, Generic[StateT, EvidenceT, OutputT]):
                 return tally.result(self.name, settled, "solver_without_call")
             chunks = self._chunks(evidence)
         quality = state.policy.quality
-        given = quality.given_up(self.name) if quality is not None else None
-        if given is not None:  # the model cannot do this kind: the solver, without asking, quietly
+        given = quality.given_up(self.name) if quality is not None and state.policy.solver_fallback else None
+        if given is not None:  # the model cannot do this kind (or the deadline passed): the solver, quietly
             return await self._fall_back(state, _given_up_words(given), [], tally, quiet=True)
         if len(chunks) > 1:
             return await self._run_chunked(state, model, settings, evidence, chunks, tally, node=node)
