@@ -439,8 +439,9 @@ async def _stage_compose(run: PipelineRun, rec: StageRecord) -> None:
 
 async def _combine_units(run: PipelineRun, rec: StageRecord) -> tuple[list[Scene], int] | str:
     """A room's variants: whole scenes from evolve's kept unit layouts (``compose_variants``), each
-    as walkable as the base, no door blocked and no functional relation or plausibility rule of the
-    base broken; with the candidate pool's size (or why there is nothing to combine)."""
+    as walkable as the base, no door blocked, no part kept from opening and no functional relation or
+    plausibility rule of the base broken; with the candidate pool's size (or why there is nothing to
+    combine)."""
     from scenemosaic.compose import UnitLayouts
 
     if not run.layouts:
@@ -454,12 +455,23 @@ async def _combine_units(run: PipelineRun, rec: StageRecord) -> tuple[list[Scene
     crossing = {oid for _, oid, _ in await asyncio.to_thread(wall_crossings, scene)}
     relations = await asyncio.to_thread(functional_relations, scene)
     plausible = await asyncio.to_thread(plausibility, scene)
+    short = await asyncio.to_thread(short_parts, scene, run.base_dir)
+    placed = {o.id: o.pose for o in scene.objects}
 
     def walkable(candidate: Scene) -> bool:
         """As connected a walkable floor as the base; no door blocked, no object across a wall anew;
         every functional relation of the base kept (a sofa still facing its TV, a lamp over its table);
-        no plausibility rule broken that the base keeps (``metrics.plausibility``: a TV on the headboard wall)."""
+        no plausibility rule broken that the base keeps (``metrics.plausibility``: a TV on the headboard wall);
+        no drawer, door or lid of a piece that stays where it stands kept from opening by one moved
+        into its way, when it opens in the base (``assets.short_parts``: a dining chair moved before
+        the fridge's door; a piece moved with its own arrangement is its plan's and its unit's to
+        keep free)."""
         if not all(functional_holds(candidate, r) for r in relations):
+            return False
+        moved = {o.id for o in candidate.objects if placed.get(o.id) != o.pose}
+        still = [oid for oid in placed if oid not in moved]
+        now = short_parts(candidate, run.base_dir, still, near=moved) if moved else {}
+        if any(len(names) > len(short.get(oid, ())) for oid, names in now.items()):
             return False
         now = plausibility(candidate)
         if any(now[k] < v for k, v in plausible.items()):
