@@ -227,3 +227,35 @@ async def test_rules_outrank_a_model_that_answers_no_change(stabilized: Scene) -
     assert first.enforced, "the rule fixes the actor left undone were applied"
     assert "rule fixes applied for" in LayoutMemory(lazy.rounds).text()
     assert lazy.valid and len(lazy.violations) <= len(rules.violations), lazy.violations
+
+
+async def test_a_model_round_that_changes_nothing_ends_the_loop(stabilized: Scene, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 57: with a model, a round that moved nothing ends the layout's loop even when the layout
+    is not clean (the next round would ask the same about the same layout); the critic is asked once,
+    not once per round up to the cap. The rules' own fixes of binding findings (which would move the
+    chair whatever the actor says) are switched off here, to leave a collision nothing fixes."""
+    from scenemosaic.evolve import _loop
+
+    monkeypatch.setattr(_loop, "_enforce", lambda before, after, findings: [])
+    asked: list[str] = []
+
+    def critic(messages: list[Message], context: RequestContext) -> dict[str, Any]:
+        asked.append("critic")
+        return {
+            "should_modify": True, "reasoning": "two chairs meet", "modification_notes": ["Move (dining_chair_2) apart."],
+            "quality_basis": "", "quality_score": 40,
+        }  # fmt: skip
+
+    def actor(messages: list[Message], context: RequestContext) -> dict[str, Any]:
+        asked.append("actor")
+        return {"reasoning": "nothing to do", "pose_expressions": []}
+
+    ctx = _floor(stabilized)
+    layout = UnitLayout.from_scene(stabilized, ctx.unit)
+    u, v = layout.center("dining_chair_3")
+    layout.set_center("dining_chair_2", u + 0.1, v)  # into its neighbour: not clean
+    model = FunctionModel({"critic": critic, "actor": actor}, vision=False)
+    shapes = {o.id: object_shape(o, None) for o in stabilized.objects}
+    result = await evolve_layout(stabilized, ctx, layout, shapes, model, max_rounds=8)
+    assert result.stop_reason == "early stop: the last round changed nothing", result.stop_reason
+    assert asked.count("critic") == 1 and len(result.rounds) == 1
