@@ -120,8 +120,11 @@ def test_a_kind_answered_badly_is_asked_at_most_twice_and_the_others_every_time(
 
 
 def test_a_good_model_is_never_routed_to_the_solver(tmp_path: Path) -> None:
-    model = FunctionModel(solver_answer, name="good", vision=False)
-    result = generate(BEDROOM, tmp_path / "model", GenerateConfig(model=model, variants=1, seed=3))
+    # a recorded cassette of a model that gives every agent the rule answer
+    # (tests/fixtures/make_good_model_cassette.py), replayed: a prompt or evidence that changed
+    # stops the replay with a ReplayMissError naming what differs
+    cassette = BEDROOM.parent / "cassettes" / "good_model_bedroom_22.cassette.json"
+    result = generate(BEDROOM, tmp_path / "model", GenerateConfig(model=f"replay:{cassette}", variants=1, seed=3))
     generate(BEDROOM, tmp_path / "rules", GenerateConfig(variants=1, seed=3))
     quality = result.report["model"]
     assert quality["given_up"] == [] and quality["kinds"] and "solver for" not in quality["summary"]
