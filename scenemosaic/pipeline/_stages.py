@@ -470,8 +470,8 @@ async def _combine_units(run: PipelineRun, rec: StageRecord) -> tuple[list[Scene
             return False
         moved = {o.id for o in candidate.objects if placed.get(o.id) != o.pose}
         still = [oid for oid in placed if oid not in moved]
-        now = short_parts(candidate, run.base_dir, still, near=moved) if moved else {}
-        if any(len(names) > len(short.get(oid, ())) for oid, names in now.items()):
+        stopped = short_parts(candidate, run.base_dir, still, near=moved) if moved else {}
+        if any(len(names) > len(short.get(oid, ())) for oid, names in stopped.items()):
             return False
         now = plausibility(candidate)
         if any(now[k] < v for k, v in plausible.items()):
