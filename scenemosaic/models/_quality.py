@@ -37,9 +37,9 @@ log = structlog.get_logger(__name__)
 
 DEFAULT_UNUSABLE_REPLIES = 2
 """Unusable replies of one kind, with no usable one between, after which a run stops asking for it.
-Two: one repair of a first bad reply is still tried (a repair that works is common with strong
-models); a model that fails the repair too has shown it cannot do the kind on this scene, and each
-further try of a small local model costs tens of seconds."""
+Two: one repair of a first bad reply is still tried; a model that fails the repair too is not asked
+again for that kind, since each further try of a small local model costs seconds to tens of seconds
+(the shared 0.5B server: 6 to 40 s a structure request on two cores, ``benchmarks/real_model.py``)."""
 
 
 @dataclass(frozen=True)

@@ -336,9 +336,9 @@ DEADLINE_BASE_S = 60.0
 """A model run's default deadline: this much for the requests every run makes (the manager, the
 first request of each kind) ..."""
 DEADLINE_PER_OBJECT_S = 10.0
-"""... plus this much per object of the input. The rules solvers spend well under a second per
-object on two cores (``benchmarks/real_model.py`` prints both), so the model is given an order of
-magnitude more than the rules need before the remaining agents use them."""
+"""... plus this much per object of the input. A whole rules run with two variants took 0.3 to 1.2 s
+per object of the shipped PhyScene rooms on two cores (``benchmarks/real_model.py`` prints both
+walls), so the model is given about ten times what the rules need before the remaining agents use them."""
 DEADLINE_OBJECTS_UNKNOWN = 30
 """Objects counted when the model is first asked before the input's objects are known (a photograph)."""
 
